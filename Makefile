@@ -1,0 +1,115 @@
+# raytracer: plain GNU make, no configure step (DESIGN.md 8).
+#   make          build ./raytracer and the tools
+#   make test     build and run every test (ends with "N passed, N failed")
+#   make asan     the same suite under AddressSanitizer + UndefinedBehaviorSanitizer
+#   make demo     render the showcase scene into demo/
+#   make bench    benchmarks (bench/README)
+#   make clean
+# Options: V=1 (show commands), WERROR=1 (warnings are errors; CI), PREVIEW=0|1 (force
+# the OpenGL preview off/on; default: on when pkg-config finds GL, GLUT and OSMesa),
+# PNG=0|1 (likewise for libpng).
+
+CC      ?= gcc
+BUILD   ?= build
+OPT     ?= -O2
+WARN    := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes \
+           -Wdouble-promotion -Wformat=2
+CFLAGS  ?= $(OPT) -g
+ALL_CFLAGS = -std=c11 -D_DEFAULT_SOURCE $(CFLAGS) $(WARN) -Iinclude -MMD -MP -pthread \
+           $(FEATURE_CFLAGS) $(SAN_FLAGS)
+LDLIBS_ALL = -lm -pthread $(FEATURE_LIBS) $(SAN_FLAGS)
+
+ifeq ($(WERROR),1)
+  WARN += -Werror
+endif
+ifeq ($(SAN),1)
+  SAN_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+endif
+
+ifeq ($(V),1)
+  Q :=
+  say = @true
+else
+  Q := @
+  say = @printf '  %-7s %s\n'
+endif
+
+FEATURE_CFLAGS :=
+FEATURE_LIBS   :=
+FEATURES       :=
+
+# Optional features register themselves here (PNG, preview, bench): each fragment may
+# add to FEATURE_CFLAGS, FEATURE_LIBS, FEATURES, EXTRA_SRCS and define its own targets.
+EXTRA_SRCS :=
+include $(sort $(wildcard mk/*.mk))
+
+LIB_SRCS := $(sort $(wildcard src/core/*.c src/scene/*.c src/geom/*.c src/accel/*.c \
+                              src/shade/*.c src/render/*.c src/io/*.c)) $(EXTRA_SRCS)
+LIB_OBJS := $(LIB_SRCS:%.c=$(BUILD)/%.o)
+MAIN_OBJ := $(BUILD)/src/main.o
+LIB      := $(BUILD)/librt.a
+
+TEST_SRCS := $(sort $(wildcard tests/unit/test_*.c tests/e2e/test_*.c))
+TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRCS))
+HARNESS_OBJ := $(BUILD)/tests/harness.o
+
+TOOL_SRCS := $(sort $(wildcard tools/*.c))
+TOOL_BINS := $(patsubst tools/%.c,$(BUILD)/tools/%,$(TOOL_SRCS))
+
+# The binary sits at the top of the tree so users run ./raytracer; ASan builds keep
+# theirs inside their build folder.
+ifeq ($(BUILD),build)
+  BIN := raytracer
+else
+  BIN := $(BUILD)/raytracer
+endif
+
+.PHONY: all test asan demo clean tools tests
+all: $(BIN) tools
+
+tools: $(TOOL_BINS)
+tests: $(TEST_BINS)
+
+$(BIN): $(MAIN_OBJ) $(LIB)
+	$(say) LINK $@
+	$(Q)$(CC) -o $@ $^ $(LDLIBS_ALL)
+
+$(LIB): $(LIB_OBJS)
+	$(say) AR $@
+	$(Q)rm -f $@ && ar rcs $@ $^
+
+$(BUILD)/%.o: %.c
+	@mkdir -p $(dir $@)
+	$(say) CC $<
+	$(Q)$(CC) $(ALL_CFLAGS) -c -o $@ $<
+
+$(BUILD)/tests/harness.o: tests/harness.c
+	@mkdir -p $(dir $@)
+	$(say) CC $<
+	$(Q)$(CC) $(ALL_CFLAGS) -c -o $@ $<
+
+$(BUILD)/tests/%: $(BUILD)/tests/%.o $(HARNESS_OBJ) $(LIB)
+	$(say) LINK $@
+	$(Q)$(CC) -o $@ $^ $(LDLIBS_ALL)
+
+$(BUILD)/tools/%: $(BUILD)/tools/%.o $(LIB)
+	$(say) LINK $@
+	$(Q)$(CC) -o $@ $^ $(LDLIBS_ALL)
+
+# The test command of README.txt. RT_BIN/RT_IMGDIFF point the end-to-end tests at
+# this build's binaries.
+test: $(BIN) tools $(TEST_BINS)
+	$(Q)RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
+	    sh tests/run_tests.sh $(TEST_BINS)
+
+asan:
+	$(Q)$(MAKE) --no-print-directory BUILD=build-asan SAN=1 OPT=-O1 test
+
+demo: $(BIN)
+	$(Q)sh scenes/demo.sh $(abspath $(BIN))
+
+clean:
+	rm -rf build build-asan raytracer demo
+
+-include $(LIB_OBJS:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_BINS:%=%.d) $(HARNESS_OBJ:.o=.d) \
+         $(TOOL_BINS:%=%.d)

@@ -1,0 +1,35 @@
+/* Cameras (A1, A2): screen point (u,v) in [0,1]^2, (0,0) bottom-left -> ray. */
+#ifndef RT_CAMERA_H
+#define RT_CAMERA_H
+
+#include <stdbool.h>
+#include "rt/ray.h"
+
+typedef enum CameraKind { CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE } CameraKind;
+
+typedef struct Camera {
+    CameraKind kind;
+    Vec3 center;        /* as given (image-plane centre / eye) */
+    Vec3 direction;     /* unit */
+    Vec3 up;            /* unit, orthogonal to direction */
+    Vec3 horizontal;    /* unit, direction x up: screen right */
+    float size;         /* orthographic: world width of the square screen */
+    float angle;        /* perspective: full field of view, radians */
+} Camera;
+
+/* Build the basis (semantics.md 2.2). False when direction is zero or up is parallel
+ * to it, or size/angle is out of range (size <= 0; angle not in (0, pi)). */
+bool camera_init_orthographic(Camera *c, Vec3 center, Vec3 direction, Vec3 up, float size);
+bool camera_init_perspective(Camera *c, Vec3 center, Vec3 direction, Vec3 up,
+                             float angle_radians);
+/* Re-derives horizontal/up from direction and up after an interactive change. */
+bool camera_rebasis(Camera *c);
+Ray camera_generate_ray(const Camera *c, float u, float v);
+/* -inf (a very large negative number) for orthographic cameras, 0 for perspective. */
+float camera_tmin(const Camera *c);
+
+/* Pixel centre (i, j), j from the bottom, of a W x H image -> screen (u, v):
+ * u = ((i + 0.5) - W/2) / S + 0.5, S = max(W, H) (semantics.md 2.1). */
+void camera_pixel_to_screen(int i, int j, int width, int height, float *u, float *v);
+
+#endif

@@ -1,0 +1,44 @@
+/* Constructors and read-only accessors of the concrete Object3D types. Objects are
+ * allocated from the scene's arena and never freed individually. Constructors return
+ * NULL only when the arena is out of memory. */
+#ifndef RT_GEOM_H
+#define RT_GEOM_H
+
+#include "rt/object3d.h"
+
+/* Group: children are set one by one (the parser knows numObjects up front). */
+Object3D *group_new(Arena *a, int capacity);
+void group_set_child(Object3D *group, int index, Object3D *child); /* index < capacity */
+/* Recomputes the box/bounded flag from the children; call after the last child. */
+void group_finish(Object3D *group);
+int group_count(const Object3D *group);
+const Object3D *group_child(const Object3D *group, int index);
+
+Object3D *sphere_new(Arena *a, Vec3 center, float radius, const Material *m);
+Vec3 sphere_center(const Object3D *sphere);
+float sphere_radius(const Object3D *sphere);
+
+/* Points P with dot(P, normal) = offset; normal used as given for the front side. */
+Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m);
+Vec3 plane_normal(const Object3D *plane);
+float plane_offset(const Object3D *plane);
+
+Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m);
+void triangle_vertices(const Object3D *tri, Vec3 out[3]);
+Vec3 triangle_normal(const Object3D *tri);  /* normalize((v1-v0) x (v2-v0)) */
+
+/* Transform with matrix m (object -> parent space). Returns NULL when m is singular. */
+Object3D *transform_new(Arena *a, const Mat4 *m, Object3D *child);
+const Mat4 *transform_matrix(const Object3D *xf);          /* object -> parent */
+const Mat4 *transform_inverse(const Object3D *xf);         /* parent -> object */
+const Object3D *transform_child(const Object3D *xf);
+
+/* The exact arithmetic of nested Transform::intersect, for a primitive reached through
+ * path (grid flattening): bit-identical t and normal to the tree walk. */
+bool xform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
+                          Hit *hit, float tmin, RenderCtx *ctx);
+
+/* Numbers every leaf primitive in depth-first order (0..n-1) and returns n. */
+uint32_t object_assign_ids(Object3D *root);
+
+#endif

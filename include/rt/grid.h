@@ -1,0 +1,46 @@
+/* Uniform grid over the scene's bounded primitives (A5/A6), stored flat (CSR: per-cell
+ * offsets + one entry array). Planes and other unbounded primitives are kept in a
+ * separate list tested for every ray. Built once, then read-only (shared by threads). */
+#ifndef RT_GRID_H
+#define RT_GRID_H
+
+#include <stdbool.h>
+#include "rt/diag.h"
+#include "rt/object3d.h"
+
+typedef struct Scene Scene;
+
+/* Builds an nx*ny*nz grid over scene->bounds and flattens the scene into it through
+ * the objects' insert_into_grid ops. Returns NULL and reports to diag on failure (out
+ * of memory, absurd resolution). Returns NULL WITHOUT an error when the scene has no
+ * bounded primitive (only planes): then there is simply no grid (cli.md). */
+Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag);
+void grid_free(Grid *g);
+
+BBox grid_bounds(const Grid *g);
+void grid_dims(const Grid *g, int n[3]);
+/* Number of entries in cell (i, j, k) (the visualisation "count"). */
+int grid_cell_count(const Grid *g, int i, int j, int k);
+/* Size the per-thread mailbox (RenderCtx.mailbox) must have. */
+uint32_t grid_mailbox_size(const Grid *g);
+
+/* RayCastFast: nearest hit with t > tmin, exactly the one the brute-force loop over
+ * the scene finds (same t, normal, material, id). Counts cells and intersections. */
+bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx);
+/* Shadow query: is anything hit with tmin < t < tmax? Stops at the first occluder. */
+bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx);
+/* -visualize_grid: the first non-empty cell along the ray, as a hit (t = cell entry,
+ * normal = entered face, material = palette colour of its count). Planes not drawn. */
+bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
+                              RenderCtx *ctx);
+
+/* -grid auto: a resolution chosen from the scene (README.txt explains the rule). */
+void grid_choose_auto(const Scene *scene, int n[3]);
+
+/* Insertion API used by the leaves' insert_into_grid ops. path lists the Transforms
+ * above the primitive (depth 0: none). */
+void grid_insert_sphere(Grid *g, const Object3D *sphere, const XformPath *path);
+void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path);
+void grid_insert_unbounded(Grid *g, const Object3D *prim, const XformPath *path);
+
+#endif

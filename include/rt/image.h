@@ -1,0 +1,41 @@
+/* Float RGB images and their files. Pixel (x, y): x left->right, y bottom->top,
+ * like the course Image class. */
+#ifndef RT_IMAGE_H
+#define RT_IMAGE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "rt/diag.h"
+#include "rt/vec.h"
+
+typedef struct Image {
+    int width, height;
+    Vec3 *pixels;       /* width*height, row y = 0 (bottom) first */
+} Image;
+
+/* Allocates a black image; false on bad size or out of memory. */
+bool image_init(Image *img, int width, int height);
+void image_free(Image *img);
+void image_fill(Image *img, Vec3 c);
+static inline void image_set(Image *img, int x, int y, Vec3 c) { img->pixels[(long)y * img->width + x] = c; }
+static inline Vec3 image_get(const Image *img, int x, int y) { return img->pixels[(long)y * img->width + x]; }
+
+/* The course quantisation: clamp(int(c * 255), 0, 255); NaN -> 0 (tga.md 3). */
+uint8_t color_to_byte(float c);
+
+/* Writes by file name extension: .tga (course layout), .ppm (P6), .png (when built
+ * with libpng). Writes to a temporary file in the same folder and renames it, so a
+ * failure leaves no file. Reports failures to diag. */
+bool image_write(const Image *img, const char *path, Diag *diag);
+/* Reads a .tga (uncompressed 24/32-bit, either row order) or .ppm (P6, 8-bit). */
+bool image_read(Image *img, const char *path, Diag *diag);
+
+/* Lower-level: encode into a malloc'd buffer (tests check the bytes). */
+bool tga_encode(const Image *img, uint8_t **out, size_t *out_len);
+bool tga_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
+bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len);
+bool ppm_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
+/* True when this build can write PNG. */
+bool image_png_supported(void);
+
+#endif

@@ -1,0 +1,69 @@
+/* Material interface (course class Material, with the A6 11/2 update): every accessor
+ * takes the world-space hit point so procedural materials can vary with position.
+ * Materials live in the scene's arena; children of procedural materials are borrowed. */
+#ifndef RT_MATERIAL_H
+#define RT_MATERIAL_H
+
+#include "rt/matrix.h"
+#include "rt/ray.h"
+
+typedef struct Arena Arena;
+
+typedef struct MaterialOps {
+    const char *type_name;
+    /* Contribution of one light: dir_to_light L (unit), light_color C (attenuated).
+     * hit->normal is the facing normal (flipped with -shade_back), hit->point world. */
+    Vec3 (*shade)(const Material *self, const Ray *ray, const Hit *hit, Vec3 dir_to_light,
+                  Vec3 light_color);
+    Vec3 (*diffuse_at)(const Material *self, Vec3 p);      /* ambient term colour */
+    Vec3 (*reflective_at)(const Material *self, Vec3 p);
+    Vec3 (*transparent_at)(const Material *self, Vec3 p);
+    float (*ior_at)(const Material *self, Vec3 p);
+    /* The PhongMaterial the GL preview shows: itself, or a procedural's first child's. */
+    const Material *(*preview_material)(const Material *self);
+} MaterialOps;
+
+struct Material {
+    const MaterialOps *ops;  /* always the first member */
+};
+
+static inline Vec3 mat_shade(const Material *m, const Ray *r, const Hit *h, Vec3 l, Vec3 c)
+{
+    return m->ops->shade(m, r, h, l, c);
+}
+static inline Vec3 mat_diffuse_at(const Material *m, Vec3 p) { return m->ops->diffuse_at(m, p); }
+static inline Vec3 mat_reflective_at(const Material *m, Vec3 p) { return m->ops->reflective_at(m, p); }
+static inline Vec3 mat_transparent_at(const Material *m, Vec3 p) { return m->ops->transparent_at(m, p); }
+static inline float mat_ior_at(const Material *m, Vec3 p) { return m->ops->ior_at(m, p); }
+static inline const Material *mat_preview(const Material *m) { return m->ops->preview_material(m); }
+
+/* PhongMaterial (A3/A4), Blinn-Phong with the course's n.L step (semantics.md 4.2). */
+typedef struct PhongParams {
+    Vec3 diffuse;       /* default (1,1,1) */
+    Vec3 specular;      /* default 0 */
+    float exponent;     /* default 1 */
+    Vec3 reflective;    /* default 0 */
+    Vec3 transparent;   /* default 0 */
+    float ior;          /* default 1 */
+} PhongParams;
+
+PhongParams phong_defaults(void);
+Material *phong_new(Arena *a, const PhongParams *p);
+/* Copies the parameters of a PhongMaterial; false for any other material type. */
+bool phong_params(const Material *m, PhongParams *out);
+
+/* Procedural solid textures (A6, semantics.md 5). texture_xf maps world points to
+ * texture space; NULL means identity. m1, m2 are borrowed and may be procedural. */
+Material *checkerboard_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
+                           const Material *m2);
+Material *noise_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
+                    const Material *m2, int octaves);
+Material *marble_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
+                     const Material *m2, int octaves, float frequency, float amplitude);
+Material *wood_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
+                   const Material *m2, int octaves, float frequency, float amplitude);
+
+/* Diffuse palette material of the grid visualisation (semantics.md 7.6). */
+const Material *grid_palette_material(int count);
+
+#endif

@@ -1,0 +1,64 @@
+/* Object3D: the polymorphic scene object (course class Object3D) as a C struct with a
+ * static const ops table per concrete type (SQLite's vtable shape, DESIGN.md 2). */
+#ifndef RT_OBJECT3D_H
+#define RT_OBJECT3D_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "rt/bbox.h"
+#include "rt/ray.h"
+#include "rt/render_ctx.h"
+
+typedef struct Grid Grid;
+typedef struct Arena Arena;
+
+typedef enum ObjKind {
+    OBJ_GROUP,
+    OBJ_SPHERE,
+    OBJ_PLANE,
+    OBJ_TRIANGLE,
+    OBJ_TRANSFORM
+} ObjKind;
+
+/* Maximum nesting of Groups/Transforms the parser accepts (and the grid flattens). */
+enum { RT_MAX_NESTING = 64 };
+
+/* The chain of Transform objects above a primitive, outermost first (grid flattening). */
+typedef struct XformPath {
+    const Object3D *xf[RT_MAX_NESTING];
+    int depth;
+} XformPath;
+
+typedef struct Object3DOps {
+    const char *type_name;   /* "Sphere", for diagnostics */
+    ObjKind kind;
+    /* Nearest hit with tmin < t that hit_accepts(hit, t, id); on success overwrites
+     * hit->t, normal, material, id and returns true. Leaves count one intersection in
+     * ctx->stats; groups and transforms do not count. Never writes to self. */
+    bool (*intersect)(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
+                      RenderCtx *ctx);
+    /* Flattening into the grid: leaves call grid_insert_*, groups recurse, transforms
+     * push themselves onto path. path is the caller's; it may be modified and restored. */
+    void (*insert_into_grid)(const Object3D *self, Grid *grid, XformPath *path);
+} Object3DOps;
+
+struct Object3D {
+    const Object3DOps *ops;      /* always the first member */
+    const Material *material;    /* leaves only; borrowed, the Scene owns it */
+    BBox bbox;                   /* in the space of this object's parent (before any enclosing Transform) */
+    bool bounded;                /* false for Plane (and groups of planes only) */
+    uint32_t id;                 /* leaves: depth-first index 0..n-1; RT_NO_ID otherwise */
+};
+
+static inline bool obj_intersect(const Object3D *o, const Ray *r, Hit *h, float tmin,
+                                 RenderCtx *ctx)
+{
+    return o->ops->intersect(o, r, h, tmin, ctx);
+}
+static inline void obj_insert_into_grid(const Object3D *o, Grid *g, XformPath *path)
+{
+    o->ops->insert_into_grid(o, g, path);
+}
+static inline ObjKind obj_kind(const Object3D *o) { return o->ops->kind; }
+
+#endif

@@ -1,0 +1,37 @@
+/* Command line (spec cli.md): the course's flags with their exact spelling, plus
+ * -threads, -h/--help, --version and the preview's -gui_snapshot/-gui_keys. */
+#ifndef RT_OPTIONS_H
+#define RT_OPTIONS_H
+
+#include <stdbool.h>
+#include <stdio.h>
+
+typedef struct Options {
+    const char *input;           /* required unless help/version */
+    const char *output;          /* NULL: no colour image */
+    int width, height;           /* default 100 100 */
+    const char *depth_file;      /* -depth dmin dmax file */
+    float depth_min, depth_max;
+    const char *normals_file;
+    bool shade_back, shadows, stats;
+    int bounces;                 /* default 0 */
+    float weight;                /* default 0 */
+    bool grid;                   /* -grid given */
+    bool grid_auto;              /* -grid auto */
+    int grid_n[3];
+    bool visualize_grid, visualize_grid_count;
+    bool gui, gouraud;
+    int tess_theta, tess_phi;    /* default 20 10 */
+    const char *gui_snapshot;    /* -gui_snapshot file.tga: headless preview frame */
+    const char *gui_keys;        /* -gui_keys "script" */
+    int threads;                 /* 0 = all cores */
+    bool help, version;
+} Options;
+
+void options_defaults(Options *o);
+/* Parses argv. On a usage error prints one line "raytracer: <why>" (and a hint to run
+ * -h) on err and returns false; the caller exits 2. */
+bool options_parse(Options *o, int argc, char **argv, FILE *err);
+void options_usage(FILE *out);
+
+#endif

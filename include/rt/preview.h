@@ -1,0 +1,35 @@
+/* The OpenGL preview (A3-A5 GLCanvas): a GLUT window (-gui) and the same drawing into
+ * an OSMesa offscreen buffer (-gui_snapshot). Built only when the libraries exist;
+ * otherwise the functions report how to enable them and return exit status 2. */
+#ifndef RT_PREVIEW_H
+#define RT_PREVIEW_H
+
+#include <stdbool.h>
+#include "rt/raytracer.h"
+
+/* Full render of the requested files with the (possibly moved) camera: the `r` key.
+ * Returns an exit status (0 ok). */
+typedef int (*PreviewRenderFn)(void *user, const Camera *camera);
+
+typedef struct PreviewConfig {
+    const Scene *scene;
+    const RayTracer *tracer;    /* its grid may be NULL */
+    int width, height;          /* -size: the ray-traced view */
+    int tess_theta, tess_phi;
+    bool gouraud;
+    bool visualize_grid;        /* start in grid view */
+    int threads;
+    PreviewRenderFn render;     /* may be NULL */
+    void *render_user;
+    const char *snapshot_path;  /* -gui_snapshot */
+    const char *keys;           /* -gui_keys script, may be NULL */
+} PreviewConfig;
+
+bool preview_window_built(void);
+bool preview_snapshot_built(void);
+/* Opens the window; returns the exit status when the user quits. */
+int preview_run_window(const PreviewConfig *cfg, Diag *diag);
+/* Draws one frame (after the scripted keys) offscreen and writes snapshot_path. */
+int preview_snapshot(const PreviewConfig *cfg, Diag *diag);
+
+#endif

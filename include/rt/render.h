@@ -1,0 +1,31 @@
+/* The image loop: one primary ray per pixel, rows handed out to worker threads. The
+ * result depends only on the pixel, never on the thread count. */
+#ifndef RT_RENDER_H
+#define RT_RENDER_H
+
+#include "rt/image.h"
+#include "rt/raytracer.h"
+
+typedef struct RenderTarget {
+    int width, height;
+    Image *color;              /* NULL: not requested */
+    Image *depth;              /* -depth */
+    float depth_min, depth_max;
+    Image *normals;            /* -normals */
+} RenderTarget;
+
+/* Called from a worker thread after row y (0 = bottom) is complete; may be NULL. */
+typedef void (*RenderRowFn)(void *user, int y);
+
+/* Renders every pixel of target with camera; images must be allocated at the target
+ * size. threads <= 0 means all cores. Merged counters go to stats_out (may be NULL).
+ * cancel, if non-NULL, is polled between rows: a non-zero value stops early (returns
+ * false). Returns false on failure to start threads or allocate contexts. */
+bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *target,
+                  int threads, RtStats *stats_out, RenderRowFn row_done, void *user,
+                  volatile int *cancel);
+
+/* Number of online cores (at least 1). */
+int render_default_threads(void);
+
+#endif

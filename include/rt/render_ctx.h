@@ -1,0 +1,18 @@
+/* Per-thread render context: everything a method may write while the scene is shared
+ * read-only between threads (statistics, grid marking stamps, ray-tree recording). */
+#ifndef RT_RENDER_CTX_H
+#define RT_RENDER_CTX_H
+
+#include <stdint.h>
+#include "rt/stats.h"
+#include "rt/ray_tree.h"
+
+typedef struct RenderCtx {
+    RtStats stats;
+    uint32_t *mailbox;     /* grid marking: one stamp per grid entry-primitive, or NULL */
+    uint32_t num_mailbox;  /* entries in mailbox */
+    uint32_t ray_stamp;    /* stamp of the ray being marched (0 is never a live stamp) */
+    RayTree *tree;         /* non-NULL only while the GUI records one ray tree */
+} RenderCtx;
+
+#endif

@@ -1,0 +1,43 @@
+/* Small 3-vector and colour math, header-only so the hot paths inline.
+ * Colours are Vec3 too (r,g,b in x,y,z); never clamped until written to a file. */
+#ifndef RT_VEC_H
+#define RT_VEC_H
+
+#include <math.h>
+#include <stdbool.h>
+
+typedef struct Vec3 {
+    float x, y, z;
+} Vec3;
+
+static inline Vec3 v3(float x, float y, float z) { Vec3 r = {x, y, z}; return r; }
+static inline Vec3 v3_add(Vec3 a, Vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline Vec3 v3_sub(Vec3 a, Vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline Vec3 v3_mul(Vec3 a, Vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+static inline Vec3 v3_scale(Vec3 a, float s) { return v3(a.x * s, a.y * s, a.z * s); }
+static inline Vec3 v3_neg(Vec3 a) { return v3(-a.x, -a.y, -a.z); }
+static inline float v3_dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline Vec3 v3_cross(Vec3 a, Vec3 b)
+{
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline float v3_length(Vec3 a) { return sqrtf(v3_dot(a, a)); }
+/* a + s*b, the ray-point form. */
+static inline Vec3 v3_madd(Vec3 a, Vec3 b, float s) { return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
+/* Unit vector; a zero vector stays zero (spec: semantics.md, notation). */
+static inline Vec3 v3_normalize(Vec3 a)
+{
+    float l = v3_length(a);
+    return l > 0.0f ? v3_scale(a, 1.0f / l) : a;
+}
+static inline bool v3_is_zero(Vec3 a) { return a.x == 0.0f && a.y == 0.0f && a.z == 0.0f; }
+static inline Vec3 v3_lerp(Vec3 a, Vec3 b, float t) /* t*a + (1-t)*b: weight on the FIRST */
+{
+    return v3_add(v3_scale(a, t), v3_scale(b, 1.0f - t));
+}
+static inline float v3_comp(Vec3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
+static inline Vec3 v3_min(Vec3 a, Vec3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
+static inline Vec3 v3_max(Vec3 a, Vec3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+static inline bool v3_isfinite(Vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+
+#endif
