@@ -1,0 +1,26 @@
+/* Marble (A6): veins from sin(frequency*x + amplitude*N(q)), blending the two children
+ * (semantics.md 5.4). */
+#include <math.h>
+
+#include "rt/perlin.h"
+#include "procedural.h"
+
+/* t = (sin(f x + a N(x,y,z)) + 1) / 2 on m1; already in [0,1]. The (M+1)/2 mapping is
+ * what reproduces the official scene6_15 (clamping M or |M| does not). Double precision
+ * like the noise itself. */
+static float marble_weight(const ProceduralBlend *b, Vec3 p)
+{
+    Vec3 q = procedural_texture_point(&b->proc, p);
+    double n = perlin_octaves(q.x, q.y, q.z, b->octaves);
+    double m = sin((double)b->frequency * (double)q.x + (double)b->amplitude * n);
+    return (float)((m + 1.0) * 0.5);
+}
+
+PROCEDURAL_BLEND_OPS(marble, "Marble", marble_weight);
+
+Material *marble_new(Arena *a, const Mat4 *texture_xf, const Material *m1, const Material *m2,
+                     int octaves, float frequency, float amplitude)
+{
+    return procedural_blend_new(a, &marble_ops, texture_xf, m1, m2, octaves, frequency,
+                                amplitude);
+}

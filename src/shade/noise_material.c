@@ -1,0 +1,21 @@
+/* Noise (A6): interpolates its two children with the clamped Perlin octave sum as the
+ * weight (semantics.md 5.3). */
+#include "rt/perlin.h"
+#include "procedural.h"
+
+/* t = clamp(N(q) + 0.5, 0, 1) on m1: the page only says "clamp and interpolate"; the
+ * +0.5 offset and the clamp are what reproduce the official scene6_15. */
+static float noise_weight(const ProceduralBlend *b, Vec3 p)
+{
+    Vec3 q = procedural_texture_point(&b->proc, p);
+    double t = perlin_octaves(q.x, q.y, q.z, b->octaves) + 0.5;
+    return t <= 0.0 ? 0.0f : t >= 1.0 ? 1.0f : (float)t;
+}
+
+PROCEDURAL_BLEND_OPS(noise, "Noise", noise_weight);
+
+Material *noise_new(Arena *a, const Mat4 *texture_xf, const Material *m1, const Material *m2,
+                    int octaves)
+{
+    return procedural_blend_new(a, &noise_ops, texture_xf, m1, m2, octaves, 0.0f, 0.0f);
+}

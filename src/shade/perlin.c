@@ -1,0 +1,88 @@
+/* Ken Perlin's improved noise (SIGGRAPH 2002, "Improving Noise"), in double precision as
+ * the course's perlin_noise.C, plus the A6 octave sum (semantics.md 5.2). */
+#include "rt/perlin.h"
+
+#include <math.h>
+
+/* Ken Perlin's published permutation of 0..255 (a constant of the algorithm). The
+ * algorithm indexes up to P[P[P[X+1]+Y+1]+Z+1] <= 511, so the table is stored twice;
+ * the second copy is filled once, see perm(). */
+static const unsigned char PERLIN_PERM[256] = {
+    151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225,
+    140, 36,  103, 30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148,
+    247, 120, 234, 75,  0,   26,  197, 62,  94,  252, 219, 203, 117, 35,  11,  32,
+    57,  177, 33,  88,  237, 149, 56,  87,  174, 20,  125, 136, 171, 168, 68,  175,
+    74,  165, 71,  134, 139, 48,  27,  166, 77,  146, 158, 231, 83,  111, 229, 122,
+    60,  211, 133, 230, 220, 105, 92,  41,  55,  46,  245, 40,  244, 102, 143, 54,
+    65,  25,  63,  161, 1,   216, 80,  73,  209, 76,  132, 187, 208, 89,  18,  169,
+    200, 196, 135, 130, 116, 188, 159, 86,  164, 100, 109, 198, 173, 186, 3,   64,
+    52,  217, 226, 250, 124, 123, 5,   202, 38,  147, 118, 126, 255, 82,  85,  212,
+    207, 206, 59,  227, 47,  16,  58,  17,  182, 189, 28,  42,  223, 183, 170, 213,
+    119, 248, 152, 2,   44,  154, 163, 70,  221, 153, 101, 155, 167, 43,  172, 9,
+    129, 22,  39,  253, 19,  98,  108, 110, 79,  113, 224, 232, 178, 185, 112, 104,
+    218, 246, 97,  228, 251, 34,  242, 193, 238, 210, 144, 12,  191, 179, 162, 241,
+    81,  51,  145, 235, 249, 14,  239, 107, 49,  192, 214, 31,  181, 199, 106, 157,
+    184, 84,  204, 176, 115, 121, 50,  45,  127, 4,   150, 254, 138, 236, 205, 93,
+    222, 114, 67,  29,  24,  72,  243, 141, 128, 195, 78,  66,  215, 61,  156, 180,
+};
+
+/* P[i] for i in 0..511: the doubled table without a mutable global (threads share it). */
+static inline int perm(int i) { return PERLIN_PERM[i & 255]; }
+
+/* 6t^5 - 15t^4 + 10t^3: the 2002 quintic, with zero first and second derivatives at 0
+ * and 1 (the reason the improved noise has no lattice artefacts). Horner form as in the
+ * reference code. */
+static inline double fade(double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
+
+static inline double lerp(double t, double a, double b) { return a + t * (b - a); }
+
+/* Dot product of (x,y,z) with one of the 12 cube-edge gradients (16 with 4 repeated),
+ * selected by the low four hash bits exactly as the reference does. */
+static inline double grad(int hash, double x, double y, double z)
+{
+    int h = hash & 15;
+    double u = h < 8 ? x : y;
+    double v = h < 4 ? y : (h == 12 || h == 14) ? x : z;
+    return ((h & 1) ? -u : u) + ((h & 2) ? -v : v);
+}
+
+double perlin_noise3(double x, double y, double z)
+{
+    double fx = floor(x), fy = floor(y), fz = floor(z);
+    /* The lattice cell modulo 256, also for negative coordinates: floor then AND with
+     * 255 on the two's-complement integer (semantics.md 5.2). Coordinates far beyond
+     * the int range are meaningless for a texture; clamp before converting so the
+     * conversion is defined (no UB on huge or non-finite input). */
+    if (!(fabs(fx) < 1e9) || !(fabs(fy) < 1e9) || !(fabs(fz) < 1e9))
+        return 0.0;
+    int X = (int)fx & 255, Y = (int)fy & 255, Z = (int)fz & 255;
+    x -= fx;
+    y -= fy;
+    z -= fz;
+    double u = fade(x), v = fade(y), w = fade(z);
+
+    /* Hashes of the eight cell corners: P[P[P[X+i]+Y+j]+Z+k]. */
+    int A = perm(X) + Y, AA = perm(A) + Z, AB = perm(A + 1) + Z;
+    int B = perm(X + 1) + Y, BA = perm(B) + Z, BB = perm(B + 1) + Z;
+
+    return lerp(w,
+                lerp(v, lerp(u, grad(perm(AA), x, y, z), grad(perm(BA), x - 1, y, z)),
+                     lerp(u, grad(perm(AB), x, y - 1, z), grad(perm(BB), x - 1, y - 1, z))),
+                lerp(v,
+                     lerp(u, grad(perm(AA + 1), x, y, z - 1),
+                          grad(perm(BA + 1), x - 1, y, z - 1)),
+                     lerp(u, grad(perm(AB + 1), x, y - 1, z - 1),
+                          grad(perm(BB + 1), x - 1, y - 1, z - 1))));
+}
+
+double perlin_octaves(double x, double y, double z, int octaves)
+{
+    /* N(p) = sum_{i<octaves} noise(2^i p) / 2^i (A6 page). Scaling by powers of two is
+     * exact in double, so this equals the course's loop bit for bit. */
+    double sum = 0.0, scale = 1.0;
+    for (int i = 0; i < octaves; i++) {
+        sum += perlin_noise3(x * scale, y * scale, z * scale) / scale;
+        scale *= 2.0;
+    }
+    return sum;
+}

@@ -1,0 +1,98 @@
+/* Private base of the procedural solid textures (A6, semantics.md 5): a texture-space
+ * matrix and two borrowed child materials, plus the shared "blend by weight t" ops
+ * that Noise, Marble and Wood generate with PROCEDURAL_BLEND_OPS. */
+#ifndef RT_SHADE_PROCEDURAL_H
+#define RT_SHADE_PROCEDURAL_H
+
+#include <stdbool.h>
+#include "rt/arena.h"
+#include "rt/material.h"
+#include "rt/matrix.h"
+
+/* Embedded as the first member of every procedural material (so a Material* to one of
+ * them is a Procedural*). The matrix is copied in (the caller's may be temporary). */
+typedef struct Procedural {
+    Material base;
+    const Material *m1;     /* "material 1": the first materialIndex, borrowed */
+    const Material *m2;     /* "material 2": the second materialIndex, borrowed */
+    bool has_xf;            /* false: identity (the course passes NULL) */
+    Mat4 xf;                /* world -> texture space: q = xf * p */
+} Procedural;
+
+/* Noise, Marble and Wood share one layout; Checkerboard ignores the three numbers. */
+typedef struct ProceduralBlend {
+    Procedural proc;
+    int octaves;            /* clamped to [0, PROCEDURAL_MAX_OCTAVES] */
+    float frequency;
+    float amplitude;
+} ProceduralBlend;
+
+/* More octaves add terms below 2^-64 of the first one; the cap keeps an absurd
+ * "octaves 2000000000" from turning every shading call into a near-hang. */
+#define PROCEDURAL_MAX_OCTAVES 64
+
+/* Allocates a ProceduralBlend-sized object from the arena with the given ops; NULL
+ * when out of memory or a child is NULL. */
+ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *texture_xf,
+                                  const Material *m1, const Material *m2);
+
+/* procedural_alloc plus the three numbers; octaves < 0 count as 0, and more than
+ * PROCEDURAL_MAX_OCTAVES as the maximum. */
+Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *texture_xf,
+                               const Material *m1, const Material *m2, int octaves,
+                               float frequency, float amplitude);
+
+/* The texture-space point of world point p (semantics.md 5: q = M p). */
+static inline Vec3 procedural_texture_point(const Procedural *pr, Vec3 p)
+{
+    return pr->has_xf ? mat4_point(&pr->xf, p) : p;
+}
+
+/* The GL preview shows the first child's material, recursively (semantics.md 5.6). */
+const Material *procedural_preview(const Material *self);
+
+/* Shading and accessors of a blend with weight t on m1 (semantics.md 5.6): the
+ * children's RESULTS are interpolated, t*m1 + (1-t)*m2, both evaluated at world p. */
+Vec3 procedural_blend_shade(const Procedural *pr, float t, const Ray *ray, const Hit *hit,
+                            Vec3 dir_to_light, Vec3 light_color);
+Vec3 procedural_blend_diffuse(const Procedural *pr, float t, Vec3 p);
+Vec3 procedural_blend_reflective(const Procedural *pr, float t, Vec3 p);
+Vec3 procedural_blend_transparent(const Procedural *pr, float t, Vec3 p);
+float procedural_blend_ior(const Procedural *pr, float t, Vec3 p);
+
+/* Defines the static ops functions and the one static const ops table NAME_ops of a
+ * blending material whose weight at world point p is WEIGHT(const ProceduralBlend *,
+ * Vec3 p) -> float in [0,1]. */
+#define PROCEDURAL_BLEND_OPS(NAME, TYPE_NAME, WEIGHT)                                      \
+    static Vec3 NAME##_shade(const Material *self, const Ray *ray, const Hit *hit,          \
+                             Vec3 l, Vec3 c)                                                \
+    {                                                                                      \
+        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
+        return procedural_blend_shade(&b->proc, WEIGHT(b, hit->point), ray, hit, l, c);    \
+    }                                                                                      \
+    static Vec3 NAME##_diffuse_at(const Material *self, Vec3 p)                            \
+    {                                                                                      \
+        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
+        return procedural_blend_diffuse(&b->proc, WEIGHT(b, p), p);                        \
+    }                                                                                      \
+    static Vec3 NAME##_reflective_at(const Material *self, Vec3 p)                         \
+    {                                                                                      \
+        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
+        return procedural_blend_reflective(&b->proc, WEIGHT(b, p), p);                     \
+    }                                                                                      \
+    static Vec3 NAME##_transparent_at(const Material *self, Vec3 p)                        \
+    {                                                                                      \
+        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
+        return procedural_blend_transparent(&b->proc, WEIGHT(b, p), p);                    \
+    }                                                                                      \
+    static float NAME##_ior_at(const Material *self, Vec3 p)                               \
+    {                                                                                      \
+        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
+        return procedural_blend_ior(&b->proc, WEIGHT(b, p), p);                            \
+    }                                                                                      \
+    static const MaterialOps NAME##_ops = {                                                \
+        TYPE_NAME,        NAME##_shade,   NAME##_diffuse_at,  NAME##_reflective_at,        \
+        NAME##_transparent_at, NAME##_ior_at, procedural_preview,                          \
+    }
+
+#endif

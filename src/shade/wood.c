@@ -1,0 +1,31 @@
+/* Wood (A6 extra credit): rings around the texture-space y axis, perturbed by noise,
+ * blending the two children (semantics.md 5.5). */
+#include <math.h>
+
+#include "rt/perlin.h"
+#include "procedural.h"
+
+/* The formula recovered from the official scene6_16 and scene6_18 images:
+ *   theta = f (sqrt(x^2 + z^2) + 0.05 y) + a N(x, 0.2 y, z)
+ *   v = clamp(sin theta + 0.5, 0, 1),   t = v^2 on m1.
+ * Rings around y, slightly slanted along y; the noise is stretched 5x along y (grain). */
+static float wood_weight(const ProceduralBlend *b, Vec3 p)
+{
+    Vec3 q = procedural_texture_point(&b->proc, p);
+    double x = q.x, y = q.y, z = q.z;
+    double n = perlin_octaves(x, 0.2 * y, z, b->octaves);
+    double theta = (double)b->frequency * (sqrt(x * x + z * z) + 0.05 * y) +
+                   (double)b->amplitude * n;
+    double v = sin(theta) + 0.5;
+    v = v <= 0.0 ? 0.0 : v >= 1.0 ? 1.0 : v;
+    return (float)(v * v);
+}
+
+PROCEDURAL_BLEND_OPS(wood, "Wood", wood_weight);
+
+Material *wood_new(Arena *a, const Mat4 *texture_xf, const Material *m1, const Material *m2,
+                   int octaves, float frequency, float amplitude)
+{
+    return procedural_blend_new(a, &wood_ops, texture_xf, m1, m2, octaves, frequency,
+                                amplitude);
+}
