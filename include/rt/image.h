@@ -4,6 +4,7 @@
 #define RT_IMAGE_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 #include "rt/diag.h"
 #include "rt/vec.h"
@@ -30,11 +31,18 @@ bool image_write(const Image *img, const char *path, Diag *diag);
 /* Reads a .tga (uncompressed 24/32-bit, either row order) or .ppm (P6, 8-bit). */
 bool image_read(Image *img, const char *path, Diag *diag);
 
-/* Lower-level: encode into a malloc'd buffer (tests check the bytes). */
+/* Lower-level: encode into a malloc'd buffer (tests check the bytes); the caller frees
+ * *out. False only when out of memory. Decoders fill a fresh image (the caller frees it
+ * with image_free) or return false with a one-line reason in err and img left empty;
+ * they never read past data + len. */
 bool tga_encode(const Image *img, uint8_t **out, size_t *out_len);
 bool tga_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
 bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len);
 bool ppm_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
+/* PNG (8-bit RGB). Only functional when built with libpng (RT_HAVE_PNG, mk/png.mk);
+ * otherwise they fail. Same contracts as the TGA pair. */
+bool png_encode(const Image *img, uint8_t **out, size_t *out_len);
+bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
 /* True when this build can write PNG. */
 bool image_png_supported(void);
 

@@ -1,0 +1,203 @@
+/* Optional PNG support through libpng (built when mk/png.mk defines RT_HAVE_PNG): 8-bit
+ * RGB out, 8/16-bit grey/RGB/palette (with or without alpha) in. Without libpng the
+ * functions exist but fail, and image_png_supported() says so. */
+#include "rt/image.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef RT_HAVE_PNG
+
+bool image_png_supported(void) { return false; }
+
+bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
+{
+    (void)img;
+    *out = NULL;
+    *out_len = 0;
+    return false;
+}
+
+bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
+{
+    (void)data;
+    (void)len;
+    img->width = img->height = 0;
+    img->pixels = NULL;
+    if (err && errlen)
+        snprintf(err, errlen, "PNG is not built in (install libpng-dev and rebuild)");
+    return false;
+}
+
+#else
+
+#include <png.h>
+#include <setjmp.h>
+
+bool image_png_supported(void) { return true; }
+
+/* Growable output buffer for libpng's write callback. */
+typedef struct PngBuf {
+    uint8_t *data;
+    size_t len, cap;
+    bool oom;
+} PngBuf;
+
+static void buf_write(png_structp png, png_bytep src, png_size_t n)
+{
+    PngBuf *b = png_get_io_ptr(png);
+    if (b->oom)
+        return;
+    if (b->len + n > b->cap) {
+        size_t cap = b->cap ? b->cap : 4096;
+        while (cap < b->len + n)
+            cap *= 2;
+        uint8_t *nd = realloc(b->data, cap);
+        if (!nd) {
+            b->oom = true;
+            png_error(png, "out of memory");
+        }
+        b->data = nd;
+        b->cap = cap;
+    }
+    memcpy(b->data + b->len, src, n);
+    b->len += n;
+}
+
+static void buf_flush(png_structp png) { (void)png; }
+
+/* libpng reports through longjmp; its default handler also prints to stderr, which we
+ * replace with silence because the caller reports the failure itself. */
+static void quiet_error(png_structp png, png_const_charp msg)
+{
+    (void)msg;
+    png_longjmp(png, 1);
+}
+
+static void quiet_warning(png_structp png, png_const_charp msg)
+{
+    (void)png;
+    (void)msg;
+}
+
+bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
+{
+    int w = img->width, h = img->height;
+    PngBuf buf = {NULL, 0, 0, false};
+    /* Allocated before setjmp so a longjmp cannot lose track of it. */
+    uint8_t *row = malloc((size_t)w * 3);
+    if (!row)
+        return false;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, quiet_error,
+                                              quiet_warning);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info) {
+        png_destroy_write_struct(&png, &info);
+        free(row);
+        return false;
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_write_struct(&png, &info);
+        free(row);
+        free(buf.data);
+        return false;
+    }
+    png_set_write_fn(png, &buf, buf_write, buf_flush);
+    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGB,
+                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_write_info(png, info);
+    for (int y = h - 1; y >= 0; y--) { /* PNG stores the top row first */
+        for (int x = 0; x < w; x++) {
+            Vec3 c = image_get(img, x, y);
+            row[3 * x + 0] = color_to_byte(c.x);
+            row[3 * x + 1] = color_to_byte(c.y);
+            row[3 * x + 2] = color_to_byte(c.z);
+        }
+        png_write_row(png, row);
+    }
+    png_write_end(png, info);
+    png_destroy_write_struct(&png, &info);
+    free(row);
+    *out = buf.data;
+    *out_len = buf.len;
+    return true;
+}
+
+typedef struct PngSrc {
+    const uint8_t *data;
+    size_t len, pos;
+} PngSrc;
+
+static void src_read(png_structp png, png_bytep dst, png_size_t n)
+{
+    PngSrc *s = png_get_io_ptr(png);
+    if (n > s->len - s->pos)
+        png_error(png, "truncated PNG file");
+    memcpy(dst, s->data + s->pos, n);
+    s->pos += n;
+}
+
+bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
+{
+    PngSrc src = {data, len, 0};
+    img->width = img->height = 0;
+    img->pixels = NULL;
+    /* volatile: these change between setjmp and a possible longjmp. */
+    uint8_t *volatile row = NULL;
+    png_bytep *volatile rows = NULL;
+
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, quiet_error,
+                                             quiet_warning);
+    png_infop info = png ? png_create_info_struct(png) : NULL;
+    if (!png || !info) {
+        png_destroy_read_struct(&png, &info, NULL);
+        if (err && errlen)
+            snprintf(err, errlen, "out of memory");
+        return false;
+    }
+    if (setjmp(png_jmpbuf(png))) {
+        png_destroy_read_struct(&png, &info, NULL);
+        free(row);
+        free(rows);
+        image_free(img);
+        if (err && errlen)
+            snprintf(err, errlen, "corrupt or truncated PNG file");
+        return false;
+    }
+    png_set_read_fn(png, &src, src_read);
+    /* Refuse absurd sizes before any pixel memory is allocated. */
+    png_set_user_limits(png, 65535, 65535);
+    png_read_info(png, info);
+    png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+    /* Normalise every colour type and depth to 8-bit RGB. */
+    png_set_expand(png);
+    png_set_strip_16(png);
+    png_set_strip_alpha(png);
+    png_set_gray_to_rgb(png);
+    png_set_interlace_handling(png);
+    png_read_update_info(png, info);
+    if (png_get_rowbytes(png, info) != (size_t)w * 3)
+        png_error(png, "unexpected row layout");
+    /* Interlaced files need every row in memory; read the whole picture at once. */
+    row = malloc((size_t)w * 3 * h);
+    rows = malloc(sizeof(png_bytep) * h);
+    if (!row || !rows || !image_init(img, (int)w, (int)h))
+        png_error(png, "out of memory");
+    for (png_uint_32 r = 0; r < h; r++)
+        rows[r] = row + (size_t)r * w * 3;
+    png_read_image(png, rows);
+    png_read_end(png, NULL);
+    for (png_uint_32 r = 0; r < h; r++) {
+        const uint8_t *p = row + (size_t)r * w * 3;
+        int y = (int)(h - 1 - r);
+        for (png_uint_32 x = 0; x < w; x++, p += 3)
+            image_set(img, (int)x, y, v3(p[0] / 255.0f, p[1] / 255.0f, p[2] / 255.0f));
+    }
+    png_destroy_read_struct(&png, &info, NULL);
+    free(rows);
+    free(row);
+    return true;
+}
+
+#endif

@@ -1,0 +1,123 @@
+/* Binary PPM (P6, 8 bits per channel) in memory: the course Image class's other format
+ * (spec tga.md 4). Rows top-down, R G B. The reader accepts '#' comments in the header. */
+#include "rt/image.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
+{
+    int w = img->width, h = img->height;
+    char head[64];
+    int n = snprintf(head, sizeof head, "P6\n%d %d\n255\n", w, h);
+    if (n < 0 || (size_t)n >= sizeof head)
+        return false;
+    size_t len = (size_t)n + (size_t)w * (size_t)h * 3;
+    uint8_t *b = malloc(len);
+    if (!b)
+        return false;
+    memcpy(b, head, (size_t)n);
+    uint8_t *p = b + n;
+    for (int y = h - 1; y >= 0; y--) {
+        for (int x = 0; x < w; x++) {
+            Vec3 c = image_get(img, x, y);
+            *p++ = color_to_byte(c.x);
+            *p++ = color_to_byte(c.y);
+            *p++ = color_to_byte(c.z);
+        }
+    }
+    *out = b;
+    *out_len = len;
+    return true;
+}
+
+static bool fail(char *err, size_t errlen, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static bool fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return false;
+}
+
+static bool is_space(uint8_t c)
+{
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
+}
+
+/* Skips whitespace and comments (a '#' runs to the end of its line), then reads one
+ * decimal number of at most 9 digits. */
+static bool read_header_int(const uint8_t *d, size_t len, size_t *pos, long *value)
+{
+    size_t i = *pos;
+    for (;;) {
+        while (i < len && is_space(d[i]))
+            i++;
+        if (i < len && d[i] == '#') {
+            while (i < len && d[i] != '\n' && d[i] != '\r')
+                i++;
+            continue;
+        }
+        break;
+    }
+    long v = 0;
+    int digits = 0;
+    while (i < len && d[i] >= '0' && d[i] <= '9') {
+        if (++digits > 9)
+            return false;
+        v = v * 10 + (d[i] - '0');
+        i++;
+    }
+    if (digits == 0)
+        return false;
+    *pos = i;
+    *value = v;
+    return true;
+}
+
+bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+{
+    img->width = img->height = 0;
+    img->pixels = NULL;
+    if (len < 2 || d[0] != 'P' || d[1] != '6')
+        return fail(err, errlen, "not a binary PPM file (expected \"P6\")");
+    size_t pos = 2;
+    long w, h, maxval;
+    if (!read_header_int(d, len, &pos, &w) || !read_header_int(d, len, &pos, &h) ||
+        !read_header_int(d, len, &pos, &maxval))
+        return fail(err, errlen, "malformed PPM header");
+    /* Exactly one whitespace character separates the header from the samples. */
+    if (pos >= len || !is_space(d[pos]))
+        return fail(err, errlen, "malformed PPM header");
+    pos++;
+    if (w <= 0 || h <= 0 || w > 65535 || h > 65535)
+        return fail(err, errlen, "unsupported PPM size %ldx%ld", w, h);
+    if (maxval <= 0 || maxval > 255)
+        return fail(err, errlen, "unsupported PPM maximum value %ld (only 8-bit, 1..255)",
+                    maxval);
+    size_t need = (size_t)w * (size_t)h * 3;
+    if (len - pos < need)
+        return fail(err, errlen, "truncated PPM file: %ldx%ld needs %zu pixel bytes, "
+                    "file has %zu", w, h, need, len - pos);
+    if (!image_init(img, (int)w, (int)h))
+        return fail(err, errlen, "out of memory for a %ldx%ld image", w, h);
+    const uint8_t *p = d + pos;
+    for (long r = 0; r < h; r++) {
+        int y = (int)(h - 1 - r);
+        for (int x = 0; x < (int)w; x++) {
+            /* A sample above maxval is invalid; clamp it rather than reject the file. */
+            float c[3];
+            for (int k = 0; k < 3; k++)
+                c[k] = (p[k] > maxval ? (float)maxval : (float)p[k]) / (float)maxval;
+            image_set(img, x, y, v3(c[0], c[1], c[2]));
+            p += 3;
+        }
+    }
+    return true;
+}
