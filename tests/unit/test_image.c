@@ -1,0 +1,533 @@
+/* Unit tests of src/io: the course TGA bytes (tga.md), PPM/PNG round trips, decoders on
+ * damaged input, the temp-file-and-rename writer, and image_compare's figures. */
+#define _POSIX_C_SOURCE 200809L
+#include "../harness.h"
+
+#include <dirent.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "rt/image.h"
+#include "rt/image_compare.h"
+
+/* A fresh temporary folder per test (the harness forks, so each test has its own). */
+static char *make_tmpdir(void)
+{
+    static char path[64];
+    snprintf(path, sizeof path, "/tmp/rt_test_image.XXXXXX");
+    return mkdtemp(path);
+}
+
+static int count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL)
+        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
+            n++;
+    closedir(d);
+    return n;
+}
+
+static void remove_tree(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    char p[512];
+    while ((e = readdir(d)) != NULL) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
+            continue;
+        snprintf(p, sizeof p, "%s/%s", dir, e->d_name);
+        unlink(p);
+    }
+    closedir(d);
+    rmdir(dir);
+}
+
+/* 3x2 test picture with distinct values per channel, exercising the quantisation. */
+static void make_small(Image *img)
+{
+    CHECK(image_init(img, 3, 2));
+    /* bottom row (y = 0) */
+    image_set(img, 0, 0, v3(0.7f, 0.2f, 1.0f));
+    image_set(img, 1, 0, v3(1.5f, -0.3f, NAN));
+    image_set(img, 2, 0, v3(0.5f, 0.0f, 0.999f));
+    /* top row (y = 1) */
+    image_set(img, 0, 1, v3(0.1f, 0.2f, 0.3f));
+    image_set(img, 1, 1, v3(INFINITY, -INFINITY, 1e30f));
+    image_set(img, 2, 1, v3(1.0f / 255.0f, 2.0f / 255.0f, 254.0f / 255.0f));
+}
+
+static void test_color_to_byte(void)
+{
+    CHECK_INT(color_to_byte(0.7f), 178);
+    CHECK_INT(color_to_byte(0.2f), 51);
+    CHECK_INT(color_to_byte(0.5f), 127);
+    CHECK_INT(color_to_byte(1.0f), 255);
+    CHECK_INT(color_to_byte(1.0001f), 255);
+    CHECK_INT(color_to_byte(7.0f), 255);
+    CHECK_INT(color_to_byte(0.0f), 0);
+    CHECK_INT(color_to_byte(-0.001f), 0);
+    CHECK_INT(color_to_byte(-5.0f), 0);
+    CHECK_INT(color_to_byte(NAN), 0);
+    CHECK_INT(color_to_byte(INFINITY), 255);
+    CHECK_INT(color_to_byte(-INFINITY), 0);
+    CHECK_INT(color_to_byte(1e30f), 255);
+    /* truncation, not rounding: 0.999 * 255 = 254.7 -> 254 */
+    CHECK_INT(color_to_byte(0.999f), 254);
+    /* every stored byte value survives byte -> b/255 -> byte */
+    for (int b = 0; b < 256; b++)
+        CHECK_INT(color_to_byte((float)b / 255.0f), b);
+}
+
+static void test_tga_exact_bytes(void)
+{
+    Image img;
+    make_small(&img);
+    uint8_t *buf = NULL;
+    size_t len = 0;
+    CHECK(tga_encode(&img, &buf, &len));
+    CHECK_INT(len, 18 + 3 * 2 * 3);
+    static const uint8_t want_header[18] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+                                            3, 0, 2, 0, 24, 0x20};
+    for (int i = 0; i < 18; i++)
+        CHECK_MSG(buf[i] == want_header[i], "header byte %d = %d, expected %d", i, buf[i],
+                  want_header[i]);
+    /* Top row (y = 1) first, then the bottom row; each pixel B, G, R. */
+    static const uint8_t want_pixels[18] = {
+        76, 51, 25,     /* (0,1): 0.1 0.2 0.3 -> R 25 G 51 B 76 */
+        255, 0, 255,    /* (1,1): inf -inf 1e30 */
+        254, 2, 1,      /* (2,1) */
+        255, 51, 178,   /* (0,0): 0.7 0.2 1.0 */
+        0, 0, 255,      /* (1,0): 1.5 -0.3 NaN */
+        254, 0, 127,    /* (2,0): 0.5 0 0.999 */
+    };
+    for (int i = 0; i < 18; i++)
+        CHECK_MSG(buf[18 + i] == want_pixels[i], "pixel byte %d = %d, expected %d", i,
+                  buf[18 + i], want_pixels[i]);
+    free(buf);
+    image_free(&img);
+}
+
+static void test_tga_size_fields_little_endian(void)
+{
+    Image img;
+    CHECK(image_init(&img, 300, 2));
+    uint8_t *buf = NULL;
+    size_t len = 0;
+    CHECK(tga_encode(&img, &buf, &len));
+    CHECK_INT(buf[12], 300 & 0xff);
+    CHECK_INT(buf[13], 300 >> 8);
+    CHECK_INT(buf[14], 2);
+    CHECK_INT(buf[15], 0);
+    CHECK_INT(len, 18 + 300 * 2 * 3);
+    free(buf);
+    image_free(&img);
+}
+
+/* Both images hold the same bytes after quantisation. */
+static void check_same_bytes(const Image *a, const Image *b)
+{
+    CHECK_INT(a->width, b->width);
+    CHECK_INT(a->height, b->height);
+    if (a->width != b->width || a->height != b->height)
+        return;
+    ImageDiff d = image_compare(a, b, 0);
+    CHECK_INT(d.identical, (long)a->width * a->height);
+    CHECK_INT(d.max_diff, 0);
+}
+
+static void test_tga_round_trip(void)
+{
+    Image img, back;
+    make_small(&img);
+    uint8_t *buf = NULL;
+    size_t len = 0;
+    char err[256] = "";
+    CHECK(tga_encode(&img, &buf, &len));
+    CHECK_MSG(tga_decode(buf, len, &back, err, sizeof err), "decode: %s", err);
+    check_same_bytes(&img, &back);
+    /* stored values are byte / 255 exactly, as the course's LoadTGA does */
+    CHECK_NEAR(image_get(&back, 0, 0).x, 178.0f / 255.0f, 0.0);
+    free(buf);
+    image_free(&back);
+    image_free(&img);
+}
+
+static void test_tga_decode_bottom_up_and_32bit(void)
+{
+    /* 2x2, 32 bits, bottom-up (descriptor 0x08: 8 alpha bits, bit 5 clear), with a
+     * 3-byte image ID to skip. Stored rows: bottom first. */
+    uint8_t f[18 + 3 + 16] = {3, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 32, 0x08};
+    uint8_t *p = f + 18;
+    *p++ = 'a'; *p++ = 'b'; *p++ = 'c';
+    const uint8_t px[16] = {
+        10, 20, 30, 255,   40, 50, 60, 255,     /* y = 0: (0,0) (1,0) as B G R A */
+        70, 80, 90, 0,     100, 110, 120, 128,  /* y = 1 */
+    };
+    memcpy(p, px, sizeof px);
+    Image img;
+    char err[256] = "";
+    CHECK_MSG(tga_decode(f, sizeof f, &img, err, sizeof err), "decode: %s", err);
+    CHECK_INT(img.width, 2);
+    CHECK_INT(img.height, 2);
+    if (img.pixels) {
+        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), 30);
+        CHECK_INT(color_to_byte(image_get(&img, 0, 0).z), 10);
+        CHECK_INT(color_to_byte(image_get(&img, 1, 0).y), 50);
+        CHECK_INT(color_to_byte(image_get(&img, 0, 1).x), 90);
+        CHECK_INT(color_to_byte(image_get(&img, 1, 1).z), 100);
+    }
+    image_free(&img);
+}
+
+static void test_tga_decode_rejects(void)
+{
+    Image img;
+    char err[256];
+    uint8_t good_header[18] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 4, 0, 4, 0, 24, 0x20};
+    uint8_t buf[18 + 48];
+    memset(buf, 7, sizeof buf);
+    memcpy(buf, good_header, 18);
+
+    /* truncated at every length short of complete */
+    for (size_t n = 0; n < sizeof buf; n++) {
+        err[0] = '\0';
+        CHECK_MSG(!tga_decode(buf, n, &img, err, sizeof err), "accepted %zu bytes", n);
+        CHECK(img.pixels == NULL);
+        CHECK(err[0] != '\0');
+    }
+    CHECK(tga_decode(buf, sizeof buf, &img, err, sizeof err));
+    image_free(&img);
+
+    buf[2] = 10; /* RLE */
+    CHECK(!tga_decode(buf, sizeof buf, &img, err, sizeof err));
+    CHECK_CONTAINS(err, "RLE");
+    buf[2] = 1; /* colour-mapped */
+    buf[1] = 1;
+    CHECK(!tga_decode(buf, sizeof buf, &img, err, sizeof err));
+    CHECK_CONTAINS(err, "colour-mapped");
+    buf[1] = 0;
+    buf[2] = 2;
+    buf[16] = 16; /* unsupported depth */
+    CHECK(!tga_decode(buf, sizeof buf, &img, err, sizeof err));
+    CHECK_CONTAINS(err, "16 bits");
+    buf[16] = 24;
+    buf[12] = 0; /* zero width */
+    CHECK(!tga_decode(buf, sizeof buf, &img, err, sizeof err));
+    buf[12] = 0xff; /* huge size, few bytes */
+    buf[13] = 0xff;
+    CHECK(!tga_decode(buf, sizeof buf, &img, err, sizeof err));
+    CHECK_CONTAINS(err, "truncated");
+
+    /* deterministic garbage: never crashes, and any accepted file is complete */
+    uint32_t s = 12345u;
+    uint8_t junk[200];
+    for (int round = 0; round < 2000; round++) {
+        size_t n = (size_t)(round % (int)sizeof junk);
+        for (size_t i = 0; i < n; i++) {
+            s = s * 1664525u + 1013904223u;
+            junk[i] = (uint8_t)(s >> 24);
+        }
+        if (round % 3 == 0 && n >= 18)
+            junk[2] = 2, junk[1] = 0, junk[16] = 24;
+        if (tga_decode(junk, n, &img, err, sizeof err)) {
+            CHECK((size_t)img.width * (size_t)img.height * 3 + 18 <= n);
+            image_free(&img);
+        }
+    }
+}
+
+static void test_ppm_round_trip_and_header(void)
+{
+    Image img, back;
+    make_small(&img);
+    uint8_t *buf = NULL;
+    size_t len = 0;
+    char err[256] = "";
+    CHECK(ppm_encode(&img, &buf, &len));
+    CHECK(len > 11 && memcmp(buf, "P6\n3 2\n255\n", 11) == 0);
+    CHECK_INT(len, 11 + 18);
+    /* first stored pixel is the top-left one, R G B */
+    CHECK_INT(buf[11], 25);
+    CHECK_INT(buf[12], 51);
+    CHECK_INT(buf[13], 76);
+    CHECK_MSG(ppm_decode(buf, len, &back, err, sizeof err), "decode: %s", err);
+    check_same_bytes(&img, &back);
+    image_free(&back);
+    free(buf);
+    image_free(&img);
+}
+
+static void test_ppm_comments_and_rejects(void)
+{
+    static const char text[] = "P6\n# made by hand\n2 # width\n1\n#maxval next\n255\n"
+                               "\x01\x02\x03\xfa\xfb\xfc";
+    Image img;
+    char err[256] = "";
+    CHECK_MSG(ppm_decode((const uint8_t *)text, sizeof text - 1, &img, err, sizeof err),
+              "decode: %s", err);
+    CHECK_INT(img.width, 2);
+    CHECK_INT(img.height, 1);
+    if (img.pixels) {
+        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), 1);
+        CHECK_INT(color_to_byte(image_get(&img, 1, 0).z), 0xfc);
+    }
+    image_free(&img);
+
+    for (size_t n = 0; n < sizeof text - 1; n++) {
+        CHECK_MSG(!ppm_decode((const uint8_t *)text, n, &img, err, sizeof err),
+                  "accepted %zu bytes", n);
+        CHECK(img.pixels == NULL);
+    }
+    static const char *bad[] = {"P5\n1 1\n255\n\x01", "P6\n1 1\n65535\n\x01\x02\x03",
+                                "P6\n-1 1\n255\n", "P6\n1 x\n255\n", "P6 1 1 255",
+                                "P6\n99999999999 1\n255\n"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        CHECK_MSG(!ppm_decode((const uint8_t *)bad[i], strlen(bad[i]), &img, err, sizeof err),
+                  "accepted bad PPM %zu", i);
+}
+
+static void test_png_round_trip(void)
+{
+    if (!image_png_supported()) {
+        Image img;
+        uint8_t *buf = NULL;
+        size_t len = 0;
+        CHECK(image_init(&img, 1, 1));
+        CHECK(!png_encode(&img, &buf, &len));
+        image_free(&img);
+        harness_skip("built without libpng (PNG=0 or libpng-dev missing)");
+    }
+    Image img, back;
+    make_small(&img);
+    uint8_t *buf = NULL;
+    size_t len = 0;
+    char err[256] = "";
+    CHECK(png_encode(&img, &buf, &len));
+    CHECK(len > 8 && memcmp(buf, "\x89PNG\r\n\x1a\n", 8) == 0);
+    CHECK_MSG(png_decode(buf, len, &back, err, sizeof err), "decode: %s", err);
+    check_same_bytes(&img, &back);
+    image_free(&back);
+    for (size_t n = 0; n < len; n += 7)
+        CHECK_MSG(!png_decode(buf, n, &back, err, sizeof err), "accepted %zu bytes", n);
+    free(buf);
+    image_free(&img);
+}
+
+static void test_write_read_by_extension(void)
+{
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    Image img, back;
+    make_small(&img);
+    Diag diag;
+    diag_init(&diag, NULL);
+    const char *exts[] = {"tga", "ppm", "png"};
+    for (int i = 0; i < 3; i++) {
+        if (i == 2 && !image_png_supported())
+            break;
+        char path[256];
+        snprintf(path, sizeof path, "%s/out.%s", dir, exts[i]);
+        CHECK_MSG(image_write(&img, path, &diag), "%s: %s", path, diag.last);
+        CHECK_MSG(image_read(&back, path, &diag), "%s: %s", path, diag.last);
+        check_same_bytes(&img, &back);
+        image_free(&back);
+        struct stat st;
+        CHECK(stat(path, &st) == 0);
+        if (i == 0)
+            CHECK_INT(st.st_size, 18 + 18);
+        CHECK(st.st_mode & S_IRUSR);
+    }
+    /* only the finished files are left: no temporary files */
+    CHECK_INT(count_entries(dir), image_png_supported() ? 3 : 2);
+
+    /* unknown extension: error naming the supported ones, nothing written */
+    char path[256];
+    snprintf(path, sizeof path, "%s/out.bmp", dir);
+    CHECK(!image_write(&img, path, &diag));
+    CHECK_CONTAINS(diag.last, ".tga");
+    CHECK_CONTAINS(diag.last, ".ppm");
+    CHECK_CONTAINS(diag.last, "out.bmp");
+    snprintf(path, sizeof path, "%s/noextension", dir);
+    CHECK(!image_write(&img, path, &diag));
+    CHECK_INT(count_entries(dir), image_png_supported() ? 3 : 2);
+    if (!image_png_supported()) {
+        snprintf(path, sizeof path, "%s/out.png", dir);
+        CHECK(!image_write(&img, path, &diag));
+        CHECK_CONTAINS(diag.last, "libpng");
+    }
+    /* overwriting an existing file replaces it */
+    snprintf(path, sizeof path, "%s/out.tga", dir);
+    image_set(&img, 0, 0, v3(0, 0, 0));
+    CHECK(image_write(&img, path, &diag));
+    CHECK(image_read(&back, path, &diag));
+    if (back.pixels)
+        CHECK_INT(color_to_byte(image_get(&back, 0, 0).x), 0);
+    image_free(&back);
+
+    image_free(&img);
+    remove_tree(dir);
+}
+
+static void test_write_failure_leaves_nothing(void)
+{
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    Image img;
+    make_small(&img);
+    Diag diag;
+    diag_init(&diag, NULL);
+    char path[256];
+    snprintf(path, sizeof path, "%s/missing/out.tga", dir);
+    CHECK(!image_write(&img, path, &diag));
+    CHECK_INT(diag.errors, 1);
+    char want[400];
+    snprintf(want, sizeof want, "%s: error: cannot write image: No such file or directory",
+             path);
+    CHECK_STR(diag.last, want);
+    CHECK_INT(count_entries(dir), 0);
+
+    /* a folder in the way of the rename: the temp file is cleaned up */
+    snprintf(path, sizeof path, "%s/adir.tga", dir);
+    CHECK(mkdir(path, 0755) == 0);
+    CHECK(!image_write(&img, path, &diag));
+    CHECK_CONTAINS(diag.last, "cannot write image: ");
+    CHECK_INT(count_entries(dir), 1);
+    rmdir(path);
+
+    /* reading a missing file reports its path */
+    Image back;
+    snprintf(path, sizeof path, "%s/nothere.tga", dir);
+    CHECK(!image_read(&back, path, &diag));
+    CHECK_CONTAINS(diag.last, "nothere.tga: error: cannot read image");
+    CHECK(back.pixels == NULL);
+
+    image_free(&img);
+    remove_tree(dir);
+}
+
+static void test_write_unwritable_folder(void)
+{
+    Image img;
+    make_small(&img);
+    Diag diag;
+    diag_init(&diag, NULL);
+    if (geteuid() == 0) {
+        /* Permissions do not stop root; sysfs refuses new files even to root. */
+        CHECK(!image_write(&img, "/sys/rt_test_out.tga", &diag));
+        CHECK_CONTAINS(diag.last, "/sys/rt_test_out.tga: error: cannot write image: ");
+        CHECK(access("/sys/rt_test_out.tga", F_OK) != 0);
+        image_free(&img);
+        return;
+    }
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    chmod(dir, 0555);
+    char path[256];
+    snprintf(path, sizeof path, "%s/out.tga", dir);
+    CHECK(!image_write(&img, path, &diag));
+    CHECK_CONTAINS(diag.last, "Permission denied");
+    chmod(dir, 0755);
+    CHECK_INT(count_entries(dir), 0);
+    image_free(&img);
+    remove_tree(dir);
+}
+
+static void test_image_init_bounds(void)
+{
+    Image img;
+    CHECK(!image_init(&img, 0, 5));
+    CHECK(img.pixels == NULL);
+    CHECK(!image_init(&img, 5, -1));
+    CHECK(!image_init(&img, 70000, 1));
+    CHECK(image_init(&img, 2, 3));
+    CHECK_INT(img.width, 2);
+    CHECK_INT(img.height, 3);
+    CHECK(v3_is_zero(image_get(&img, 1, 2)));
+    image_fill(&img, v3(0.25f, 0.5f, 1.0f));
+    CHECK_NEAR(image_get(&img, 1, 2).y, 0.5, 0.0);
+    CHECK_NEAR(image_get(&img, 0, 0).z, 1.0, 0.0);
+    image_free(&img);
+    CHECK(img.pixels == NULL);
+    image_free(&img); /* twice is harmless */
+}
+
+static void test_compare_figures(void)
+{
+    Image a, b;
+    CHECK(image_init(&a, 4, 1));
+    CHECK(image_init(&b, 4, 1));
+    /* pixel 0 identical; pixel 1 off by 1 in one channel; pixel 2 off by 8 in one and
+     * 3 in another; pixel 3 off by 100 in one channel. */
+    image_set(&a, 0, 0, v3(10 / 255.0f, 20 / 255.0f, 30 / 255.0f));
+    image_set(&b, 0, 0, v3(10 / 255.0f, 20 / 255.0f, 30 / 255.0f));
+    image_set(&a, 1, 0, v3(10 / 255.0f, 20 / 255.0f, 30 / 255.0f));
+    image_set(&b, 1, 0, v3(11 / 255.0f, 20 / 255.0f, 30 / 255.0f));
+    image_set(&a, 2, 0, v3(10 / 255.0f, 20 / 255.0f, 30 / 255.0f));
+    image_set(&b, 2, 0, v3(18 / 255.0f, 17 / 255.0f, 30 / 255.0f));
+    image_set(&a, 3, 0, v3(0, 0, 200 / 255.0f));
+    image_set(&b, 3, 0, v3(0, 0, 100 / 255.0f));
+    ImageDiff d = image_compare(&a, &b, 3);
+    CHECK(d.same_size);
+    CHECK_INT(d.pixels, 4);
+    CHECK_INT(d.identical, 1);
+    CHECK_INT(d.max_diff, 100);
+    CHECK_NEAR(d.mean_abs, (1 + 8 + 3 + 100) / 12.0, 1e-12);
+    CHECK_NEAR(d.pct_within_1, 50.0, 1e-12);
+    CHECK_NEAR(d.pct_within_8, 75.0, 1e-12);
+    CHECK_NEAR(d.pct_within_t, 50.0, 1e-12);
+    double mse = (1.0 + 64.0 + 9.0 + 10000.0) / 12.0;
+    CHECK_NEAR(d.psnr, 10.0 * log10(255.0 * 255.0 / mse), 1e-9);
+
+    ImageDiff same = image_compare(&a, &a, 0);
+    CHECK(isinf(same.psnr));
+    CHECK_INT(same.identical, 4);
+    CHECK_NEAR(same.pct_within_t, 100.0, 0.0);
+
+    /* values beyond 0..1 compare after quantisation: 2.0 and 1.0 are both 255 */
+    image_set(&b, 0, 0, v3(2.0f, 20 / 255.0f, 30 / 255.0f));
+    image_set(&a, 0, 0, v3(1.0f, 20 / 255.0f, 30 / 255.0f));
+    d = image_compare(&a, &b, 3);
+    CHECK_INT(d.identical, 1);
+
+    Image c;
+    CHECK(image_init(&c, 2, 2));
+    ImageDiff other = image_compare(&a, &c, 8);
+    CHECK(!other.same_size);
+    image_free(&c);
+    image_free(&a);
+    image_free(&b);
+}
+
+static const TestCase tests[] = {
+    {"image: color_to_byte truncates and clamps", test_color_to_byte},
+    {"image: TGA bytes of a 3x2 image", test_tga_exact_bytes},
+    {"image: TGA size fields little-endian", test_tga_size_fields_little_endian},
+    {"image: TGA round trip", test_tga_round_trip},
+    {"image: TGA decoder: bottom-up, 32-bit, image ID", test_tga_decode_bottom_up_and_32bit},
+    {"image: TGA decoder rejects bad files", test_tga_decode_rejects},
+    {"image: PPM round trip and header", test_ppm_round_trip_and_header},
+    {"image: PPM comments, truncation, bad headers", test_ppm_comments_and_rejects},
+    {"image: PNG round trip", test_png_round_trip},
+    {"image: write/read by extension", test_write_read_by_extension},
+    {"image: failed write leaves nothing", test_write_failure_leaves_nothing},
+    {"image: unwritable folder", test_write_unwritable_folder},
+    {"image: init bounds, fill, free", test_image_init_bounds},
+    {"image_compare: figures on hand-made images", test_compare_figures},
+};
+
+RT_TEST_MAIN(tests)
