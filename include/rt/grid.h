@@ -34,6 +34,10 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
 bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
                               RenderCtx *ctx);
 
+/* Marking (mailboxing) on or off for the whole process; on by default. main sets it
+ * once before rendering (-no_marking, for the analysis of what marking changes). */
+void grid_set_marking(bool on);
+
 /* -grid auto: a resolution chosen from the scene (README.txt explains the rule). */
 void grid_choose_auto(const Scene *scene, int n[3]);
 

@@ -14,12 +14,14 @@ typedef struct Options {
     float depth_min, depth_max;
     const char *normals_file;
     bool shade_back, shadows, stats;
+    bool timings;                /* -timings: phase times on stderr */
     int bounces;                 /* default 0 */
     float weight;                /* default 0 */
     bool grid;                   /* -grid given */
     bool grid_auto;              /* -grid auto */
     int grid_n[3];
     bool visualize_grid, visualize_grid_count;
+    bool no_marking;             /* -no_marking: grid without mailboxing (analysis) */
     bool gui, gouraud;
     int tess_theta, tess_phi;    /* default 20 10 */
     const char *gui_snapshot;    /* -gui_snapshot file.tga: headless preview frame */

@@ -1,0 +1,225 @@
+/* Command-line parsing (spec cli.md): one pass over argv, each flag followed by its
+ * fixed number of arguments; the later of two occurrences wins, like the course loop.
+ * Unlike the course (atoi/atof, assert), every value is validated. */
+#include "rt/options.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum {
+    MAX_IMAGE_SIDE = 32768,
+    MAX_GRID_SIDE = 2048,
+    MAX_BOUNCES = 1000,
+    MAX_THREADS = 1024,
+    MAX_TESSELLATION = 10000
+};
+
+void options_defaults(Options *o)
+{
+    memset(o, 0, sizeof *o);
+    o->width = 100; /* the course sample code's default */
+    o->height = 100;
+    o->depth_min = 0.0f;
+    o->depth_max = 1.0f;
+    o->tess_theta = 20;
+    o->tess_phi = 10;
+}
+
+void options_usage(FILE *out)
+{
+    fputs(
+        "usage: raytracer -input scene.txt [options]\n"
+        "\n"
+        "Output\n"
+        "  -output file             shaded image (.tga; .ppm; .png when built with libpng)\n"
+        "  -size w h                image size in pixels (default 100 100)\n"
+        "  -depth dmin dmax file    depth image: near dmin white, far dmax black\n"
+        "  -normals file            normal image: |nx| |ny| |nz| as RGB\n"
+        "  -stats                   print the RAY TRACING STATISTICS block on stdout\n"
+        "  -timings                 print parse/grid/render/write times on stderr\n"
+        "Shading\n"
+        "  -shadows                 cast shadow rays toward every light\n"
+        "  -shade_back              shade back faces (flipped normal); else they are black\n"
+        "  -bounces n               maximum reflection/refraction depth (default 0)\n"
+        "  -weight w                do not trace secondary rays weighing less than w (default 0)\n"
+        "Acceleration\n"
+        "  -grid nx ny nz           uniform grid with nx*ny*nz cells; every ray marches it\n"
+        "  -grid auto               grid resolution chosen from the scene\n"
+        "  -visualize_grid          render the occupied grid cells instead of the scene\n"
+        "  -visualize_grid_count    same as -visualize_grid (cells are coloured by count)\n"
+        "  -no_marking              grid: test an object again in every cell (for analysis)\n"
+        "  -threads n               render threads (default: all cores)\n"
+        "OpenGL preview (when built)\n"
+        "  -gui                     open the interactive preview window\n"
+        "  -tessellation th ph      sphere tessellation of the preview (default 20 10)\n"
+        "  -gouraud                 smooth sphere normals in the preview\n"
+        "  -gui_snapshot file       draw one preview frame offscreen (OSMesa) into file\n"
+        "  -gui_keys \"keys\"         key script for the preview (see README.txt)\n"
+        "Other\n"
+        "  -h, --help               this text\n"
+        "  --version                version and optional features\n"
+        "\n"
+        "Exit status: 0 image(s) written, 1 input or output error, 2 usage error,\n"
+        "130 interrupted.\n",
+        out);
+}
+
+typedef struct Cursor {
+    int argc, i;
+    char **argv;
+    FILE *err;
+} Cursor;
+
+static bool usage_error(Cursor *c, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+static bool usage_error(Cursor *c, const char *fmt, ...)
+{
+    va_list ap;
+    fputs("raytracer: ", c->err);
+    va_start(ap, fmt);
+    vfprintf(c->err, fmt, ap);
+    va_end(ap);
+    fputs(" (raytracer -h for help)\n", c->err);
+    return false;
+}
+
+static bool take(Cursor *c, const char *flag, const char **out)
+{
+    if (c->i + 1 >= c->argc)
+        return usage_error(c, "option %s needs more arguments", flag);
+    *out = c->argv[++c->i];
+    return true;
+}
+
+static bool take_int(Cursor *c, const char *flag, int lo, int hi, int *out)
+{
+    const char *s = NULL;
+    if (!take(c, flag, &s))
+        return false;
+    char *end;
+    errno = 0;
+    long v = strtol(s, &end, 10);
+    if (end == s || *end != '\0' || errno == ERANGE)
+        return usage_error(c, "option %s expects an integer, got '%s'", flag, s);
+    if (v < lo || v > hi) {
+        char range[64];
+        snprintf(range, sizeof range, "%d..%d", lo, hi);
+        fprintf(c->err, "raytracer: option %s: %ld is out of range %s (raytracer -h for help)\n",
+                flag, v, range);
+        return false;
+    }
+    *out = (int)v;
+    return true;
+}
+
+static bool take_float(Cursor *c, const char *flag, float *out)
+{
+    const char *s = NULL;
+    if (!take(c, flag, &s))
+        return false;
+    char *end;
+    errno = 0;
+    float v = strtof(s, &end);
+    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v))
+        return usage_error(c, "option %s expects a finite number, got '%s'", flag, s);
+    *out = v;
+    return true;
+}
+
+bool options_parse(Options *o, int argc, char **argv, FILE *err)
+{
+    Cursor c = {argc, 1, argv, err};
+    for (; c.i < argc; c.i++) {
+        const char *a = argv[c.i];
+        if (!strcmp(a, "-input")) {
+            if (!take(&c, a, &o->input))
+                return false;
+        } else if (!strcmp(a, "-output")) {
+            if (!take(&c, a, &o->output))
+                return false;
+        } else if (!strcmp(a, "-size")) {
+            if (!take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->width) ||
+                !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->height))
+                return false;
+        } else if (!strcmp(a, "-depth")) {
+            if (!take_float(&c, a, &o->depth_min) || !take_float(&c, a, &o->depth_max) ||
+                !take(&c, a, &o->depth_file))
+                return false;
+            if (o->depth_min == o->depth_max)
+                return usage_error(&c, "option -depth: dmin and dmax must differ");
+        } else if (!strcmp(a, "-normals")) {
+            if (!take(&c, a, &o->normals_file))
+                return false;
+        } else if (!strcmp(a, "-shade_back")) {
+            o->shade_back = true;
+        } else if (!strcmp(a, "-shadows")) {
+            o->shadows = true;
+        } else if (!strcmp(a, "-stats")) {
+            o->stats = true;
+        } else if (!strcmp(a, "-timings")) {
+            o->timings = true;
+        } else if (!strcmp(a, "-bounces")) {
+            if (!take_int(&c, a, 0, MAX_BOUNCES, &o->bounces))
+                return false;
+        } else if (!strcmp(a, "-weight")) {
+            if (!take_float(&c, a, &o->weight))
+                return false;
+            if (o->weight < 0.0f)
+                return usage_error(&c, "option -weight expects a number >= 0");
+        } else if (!strcmp(a, "-grid")) {
+            o->grid = true;
+            if (c.i + 1 < argc && !strcmp(argv[c.i + 1], "auto")) {
+                o->grid_auto = true;
+                c.i++;
+            } else {
+                o->grid_auto = false;
+                for (int k = 0; k < 3; k++)
+                    if (!take_int(&c, a, 1, MAX_GRID_SIDE, &o->grid_n[k]))
+                        return false;
+                if ((long long)o->grid_n[0] * o->grid_n[1] * o->grid_n[2] > 64LL * 1024 * 1024)
+                    return usage_error(&c, "option -grid: more than 64M cells");
+            }
+        } else if (!strcmp(a, "-visualize_grid")) {
+            o->visualize_grid = true;
+        } else if (!strcmp(a, "-visualize_grid_count")) {
+            o->visualize_grid = true;
+            o->visualize_grid_count = true;
+        } else if (!strcmp(a, "-no_marking")) {
+            o->no_marking = true;
+        } else if (!strcmp(a, "-gui")) {
+            o->gui = true;
+        } else if (!strcmp(a, "-gouraud")) {
+            o->gouraud = true;
+        } else if (!strcmp(a, "-tessellation")) {
+            if (!take_int(&c, a, 3, MAX_TESSELLATION, &o->tess_theta) ||
+                !take_int(&c, a, 2, MAX_TESSELLATION, &o->tess_phi))
+                return false;
+        } else if (!strcmp(a, "-gui_snapshot")) {
+            if (!take(&c, a, &o->gui_snapshot))
+                return false;
+        } else if (!strcmp(a, "-gui_keys")) {
+            if (!take(&c, a, &o->gui_keys))
+                return false;
+        } else if (!strcmp(a, "-threads")) {
+            if (!take_int(&c, a, 1, MAX_THREADS, &o->threads))
+                return false;
+        } else if (!strcmp(a, "-h") || !strcmp(a, "--help") || !strcmp(a, "-help")) {
+            o->help = true;
+        } else if (!strcmp(a, "--version") || !strcmp(a, "-version")) {
+            o->version = true;
+        } else {
+            return usage_error(&c, "unknown option '%s'", a);
+        }
+    }
+    if (o->help || o->version)
+        return true;
+    if (!o->input)
+        return usage_error(&c, "no scene given: -input scene.txt is required");
+    if (o->visualize_grid && !o->grid)
+        return usage_error(&c, "-visualize_grid needs -grid nx ny nz (or -grid auto)");
+    return true;
+}

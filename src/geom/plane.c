@@ -1,0 +1,55 @@
+/* Plane (A2): points P with P.n = offset; infinite, so never inside the grid. */
+#include "rt/geom.h"
+#include "rt/arena.h"
+#include "rt/grid.h"
+
+typedef struct Plane {
+    Object3D base;
+    Vec3 normal;       /* as given */
+    Vec3 unit_normal;
+    float offset;
+} Plane;
+
+static bool plane_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
+                            RenderCtx *ctx)
+{
+    const Plane *p = (const Plane *)self;
+    ctx->stats.intersections++;
+    float denom = v3_dot(p->normal, ray->dir);
+    if (denom == 0.0f)
+        return false;
+    float t = (p->offset - v3_dot(p->normal, ray->origin)) / denom;
+    if (!(t > tmin) || !hit_accepts(hit, t, self->id))
+        return false;
+    hit->t = t;
+    hit->normal = p->unit_normal;
+    hit->material = self->material;
+    hit->id = self->id;
+    return true;
+}
+
+static void plane_insert(const Object3D *self, Grid *grid, XformPath *path)
+{
+    grid_insert_unbounded(grid, self, path);
+}
+
+static const Object3DOps plane_ops = {"Plane", OBJ_PLANE, plane_intersect, plane_insert};
+
+Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m)
+{
+    Plane *p = arena_alloc(a, sizeof *p);
+    if (!p)
+        return NULL;
+    p->base.ops = &plane_ops;
+    p->base.material = m;
+    p->base.bounded = false;
+    p->base.bbox = bbox_empty();
+    p->base.id = RT_NO_ID;
+    p->normal = normal;
+    p->unit_normal = v3_normalize(normal);
+    p->offset = offset;
+    return &p->base;
+}
+
+Vec3 plane_normal(const Object3D *o) { return ((const Plane *)o)->normal; }
+float plane_offset(const Object3D *o) { return ((const Plane *)o)->offset; }

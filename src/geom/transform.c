@@ -1,0 +1,84 @@
+/* Transform (A2): intersects its child in object space. The ray direction is NOT
+ * renormalised, so the object-space t is the world t (semantics.md 3.4). */
+#include "rt/geom.h"
+#include "rt/arena.h"
+#include "rt/grid.h"
+
+typedef struct Transform {
+    Object3D base;
+    Mat4 m;        /* object -> parent */
+    Mat4 inv;      /* parent -> object */
+    Object3D *child;
+} Transform;
+
+/* The two steps shared by Transform::intersect and the grid's flattened paths, so
+ * both produce the same floats. */
+static inline Ray to_object(const Transform *x, const Ray *r)
+{
+    Ray o = {mat4_point(&x->inv, r->origin), mat4_dir(&x->inv, r->dir)};
+    return o;
+}
+
+static inline Vec3 normal_to_parent(const Transform *x, Vec3 n)
+{
+    return v3_normalize(mat4_dir_transposed(&x->inv, n));
+}
+
+static bool transform_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
+                                RenderCtx *ctx)
+{
+    const Transform *x = (const Transform *)self;
+    Ray local = to_object(x, ray);
+    if (!obj_intersect(x->child, &local, hit, tmin, ctx))
+        return false;
+    hit->normal = normal_to_parent(x, hit->normal);
+    return true;
+}
+
+static void transform_insert(const Object3D *self, Grid *grid, XformPath *path)
+{
+    const Transform *x = (const Transform *)self;
+    if (path->depth >= RT_MAX_NESTING)
+        return; /* the parser rejects deeper nesting */
+    path->xf[path->depth++] = self;
+    obj_insert_into_grid(x->child, grid, path);
+    path->depth--;
+}
+
+static const Object3DOps transform_ops = {"Transform", OBJ_TRANSFORM, transform_intersect,
+                                          transform_insert};
+
+Object3D *transform_new(Arena *a, const Mat4 *m, Object3D *child)
+{
+    Mat4 inv;
+    if (!child || !mat4_inverse(m, &inv))
+        return NULL;
+    Transform *x = arena_alloc(a, sizeof *x);
+    if (!x)
+        return NULL;
+    x->base.ops = &transform_ops;
+    x->base.id = RT_NO_ID;
+    x->base.bounded = child->bounded;
+    x->base.bbox = child->bounded ? bbox_transform(&child->bbox, m) : bbox_empty();
+    x->m = *m;
+    x->inv = inv;
+    x->child = child;
+    return &x->base;
+}
+
+const Mat4 *transform_matrix(const Object3D *o) { return &((const Transform *)o)->m; }
+const Mat4 *transform_inverse(const Object3D *o) { return &((const Transform *)o)->inv; }
+const Object3D *transform_child(const Object3D *o) { return ((const Transform *)o)->child; }
+
+bool xform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
+                          Hit *hit, float tmin, RenderCtx *ctx)
+{
+    Ray r = *ray;
+    for (int i = 0; i < path->depth; i++)
+        r = to_object((const Transform *)path->xf[i], &r);
+    if (!obj_intersect(prim, &r, hit, tmin, ctx))
+        return false;
+    for (int i = path->depth - 1; i >= 0; i--)
+        hit->normal = normal_to_parent((const Transform *)path->xf[i], hit->normal);
+    return true;
+}

@@ -1,0 +1,76 @@
+/* Triangle (A2): Moller-Trumbore with precomputed edges; normal from the winding. */
+#include "rt/geom.h"
+#include "rt/arena.h"
+#include "rt/grid.h"
+
+typedef struct Triangle {
+    Object3D base;
+    Vec3 v0, e1, e2;   /* v1 = v0 + e1, v2 = v0 + e2 */
+    Vec3 normal;       /* normalize(e1 x e2) */
+    Vec3 v1, v2;
+} Triangle;
+
+static bool triangle_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
+                               RenderCtx *ctx)
+{
+    const Triangle *tr = (const Triangle *)self;
+    ctx->stats.intersections++;
+    Vec3 p = v3_cross(ray->dir, tr->e2);
+    float det = v3_dot(tr->e1, p);
+    if (det == 0.0f)
+        return false;   /* parallel to the plane, or a degenerate triangle */
+    float inv = 1.0f / det;
+    Vec3 s = v3_sub(ray->origin, tr->v0);
+    float u = v3_dot(s, p) * inv;
+    if (u < 0.0f || u > 1.0f)
+        return false;
+    Vec3 q = v3_cross(s, tr->e1);
+    float v = v3_dot(ray->dir, q) * inv;
+    if (v < 0.0f || u + v > 1.0f)
+        return false;
+    float t = v3_dot(tr->e2, q) * inv;
+    if (!(t > tmin) || !hit_accepts(hit, t, self->id))
+        return false;
+    hit->t = t;
+    hit->normal = tr->normal;
+    hit->material = self->material;
+    hit->id = self->id;
+    return true;
+}
+
+static void triangle_insert(const Object3D *self, Grid *grid, XformPath *path)
+{
+    grid_insert_triangle(grid, self, path);
+}
+
+static const Object3DOps triangle_ops = {"Triangle", OBJ_TRIANGLE, triangle_intersect,
+                                         triangle_insert};
+
+Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m)
+{
+    Triangle *t = arena_alloc(a, sizeof *t);
+    if (!t)
+        return NULL;
+    t->base.ops = &triangle_ops;
+    t->base.material = m;
+    t->base.bounded = true;
+    t->base.id = RT_NO_ID;
+    t->base.bbox = bbox_add_point(bbox_add_point(bbox_add_point(bbox_empty(), v0), v1), v2);
+    t->v0 = v0;
+    t->v1 = v1;
+    t->v2 = v2;
+    t->e1 = v3_sub(v1, v0);
+    t->e2 = v3_sub(v2, v0);
+    t->normal = v3_normalize(v3_cross(t->e1, t->e2));
+    return &t->base;
+}
+
+void triangle_vertices(const Object3D *o, Vec3 out[3])
+{
+    const Triangle *t = (const Triangle *)o;
+    out[0] = t->v0;
+    out[1] = t->v1;
+    out[2] = t->v2;
+}
+
+Vec3 triangle_normal(const Object3D *o) { return ((const Triangle *)o)->normal; }
