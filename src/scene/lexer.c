@@ -1,0 +1,151 @@
+/* Scene-file tokenizer: whitespace-separated tokens with file:line:col locations and
+ * strict whole-token number conversion (scene-format.md 1). */
+#include "lexer.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void lex_init(Lexer *lx, const char *buf, size_t len, const char *file, Diag *diag)
+{
+    memset(lx, 0, sizeof *lx);
+    lx->buf = buf;
+    lx->len = len;
+    lx->file = file;
+    lx->diag = diag;
+    lx->line = 1;
+    lx->col = 1;
+}
+
+/* fscanf's %s stops at isspace() in the C locale; CR counts, so CRLF files read alike. */
+static bool is_space(unsigned char c)
+{
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
+}
+
+static bool lex_scan(Lexer *lx, Token *t)
+{
+    while (lx->pos < lx->len && is_space((unsigned char)lx->buf[lx->pos])) {
+        if (lx->buf[lx->pos] == '\n') {
+            lx->line++;
+            lx->col = 1;
+        } else {
+            lx->col++;
+        }
+        lx->pos++;
+    }
+    t->loc.file = lx->file;
+    t->loc.line = lx->line;
+    t->loc.col = lx->col;
+    t->text = lx->buf + lx->pos;
+    size_t start = lx->pos;
+    while (lx->pos < lx->len && !is_space((unsigned char)lx->buf[lx->pos]))
+        lx->pos++;
+    t->len = lx->pos - start;
+    /* Columns count bytes; a token never contains a newline. Saturate on absurd lines. */
+    size_t col = (size_t)lx->col + t->len;
+    lx->col = col > INT_MAX ? INT_MAX : (int)col;
+    if (t->len > LEX_MAX_TOKEN) {
+        diag_error(lx->diag, &t->loc, "token too long (%zu characters, the limit is %d)",
+                   t->len, LEX_MAX_TOKEN);
+        return false;
+    }
+    return true;
+}
+
+bool lex_next(Lexer *lx, Token *t)
+{
+    if (lx->has_peek) {
+        *t = lx->peeked;
+        lx->has_peek = false;
+        return true;
+    }
+    return lex_scan(lx, t);
+}
+
+bool lex_peek(Lexer *lx, Token *t)
+{
+    if (!lx->has_peek) {
+        if (!lex_scan(lx, &lx->peeked))
+            return false;
+        lx->has_peek = true;
+    }
+    *t = lx->peeked;
+    return true;
+}
+
+const char *tok_show(const Token *t, char *out, size_t size)
+{
+    enum { SHOW_MAX = 60 };
+    if (tok_eof(t)) {
+        snprintf(out, size, "end of file");
+        return out;
+    }
+    size_t o = 0;
+    for (size_t i = 0; i < t->len; i++) {
+        unsigned char c = (unsigned char)t->text[i];
+        if (i >= SHOW_MAX || o + 8 >= size) {
+            if (o + 4 <= size) {
+                memcpy(out + o, "...", 3);
+                o += 3;
+            }
+            break;
+        }
+        if (c >= 0x20 && c < 0x7f && c != '\\') {
+            out[o++] = (char)c;
+        } else {
+            snprintf(out + o, size - o, "\\x%02x", c);
+            o += 4;
+        }
+    }
+    out[o < size ? o : size - 1] = '\0';
+    return out;
+}
+
+/* Copies the token into buf as a C string; false if it holds a NUL byte. */
+static bool tok_cstr(const Token *t, char *buf, size_t size)
+{
+    if (t->len == 0 || t->len >= size || memchr(t->text, '\0', t->len))
+        return false;
+    memcpy(buf, t->text, t->len);
+    buf[t->len] = '\0';
+    return true;
+}
+
+NumResult tok_to_float(const Token *t, float *out)
+{
+    char buf[LEX_MAX_TOKEN + 1];
+    if (!tok_cstr(t, buf, sizeof buf))
+        return NUM_NOT_A_NUMBER;
+    char *end;
+    errno = 0;
+    /* strtof: the very conversion fscanf("%f") performs, so values are bit-identical. */
+    float v = strtof(buf, &end);
+    if (end == buf || *end != '\0')
+        return NUM_NOT_A_NUMBER;
+    if (!isfinite(v))
+        return NUM_RANGE; /* nan, inf, and overflow (HUGE_VALF) */
+    *out = v;             /* underflow to 0 or a subnormal is harmless: accepted */
+    return NUM_OK;
+}
+
+NumResult tok_to_int(const Token *t, int *out)
+{
+    char buf[LEX_MAX_TOKEN + 1];
+    if (!tok_cstr(t, buf, sizeof buf))
+        return NUM_NOT_A_NUMBER;
+    char *end;
+    errno = 0;
+    long v = strtol(buf, &end, 10);
+    if (end == buf || *end != '\0') {
+        float f;
+        return tok_to_float(t, &f) == NUM_NOT_A_NUMBER ? NUM_NOT_A_NUMBER : NUM_NOT_INTEGER;
+    }
+    if (errno == ERANGE || v > INT_MAX || v < INT_MIN)
+        return NUM_RANGE;
+    *out = (int)v;
+    return NUM_OK;
+}

@@ -1,0 +1,57 @@
+/* Private to src/scene: the scene-file tokenizer (scene-format.md 1). Tokens are maximal
+ * runs of non-whitespace bytes, each located file:line:col (1-based, col in bytes). */
+#ifndef RT_SCENE_LEXER_H
+#define RT_SCENE_LEXER_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include "rt/diag.h"
+
+/* Longer tokens are an error (the course's limit is 100; nothing legal comes close). */
+enum { LEX_MAX_TOKEN = 4096 };
+
+typedef struct Token {
+    const char *text;   /* points into the lexer's buffer; NOT NUL-terminated */
+    size_t len;         /* 0 at end of file */
+    SrcLoc loc;
+} Token;
+
+typedef struct Lexer {
+    const char *buf;    /* borrowed; len bytes (may contain NUL bytes: binary garbage) */
+    size_t len, pos;
+    int line, col;      /* of buf[pos] */
+    const char *file;   /* for locations */
+    Diag *diag;
+    bool has_peek;
+    Token peeked;
+} Lexer;
+
+void lex_init(Lexer *lx, const char *buf, size_t len, const char *file, Diag *diag);
+
+/* The next token (len 0 at end of file, located just past the last byte). False after
+ * reporting an over-long token. */
+bool lex_next(Lexer *lx, Token *t);
+/* The next token without consuming it. */
+bool lex_peek(Lexer *lx, Token *t);
+
+static inline bool tok_is(const Token *t, const char *kw)
+{
+    size_t i = 0;
+    for (; i < t->len; i++)
+        if (kw[i] != t->text[i])
+            return false;
+    return kw[i] == '\0';
+}
+static inline bool tok_eof(const Token *t) { return t->len == 0; }
+
+/* A printable, bounded rendering of a token for messages: non-printable bytes as \xNN,
+ * long tokens cut with "...". "end of file" for the EOF token. */
+const char *tok_show(const Token *t, char *out, size_t size);
+
+/* Number conversions of a whole token (scene-format.md 1: fscanf "%f" / "%d", but the
+ * entire token must be the number). They report located errors themselves. */
+typedef enum NumResult { NUM_OK, NUM_NOT_A_NUMBER, NUM_NOT_INTEGER, NUM_RANGE } NumResult;
+NumResult tok_to_float(const Token *t, float *out);
+NumResult tok_to_int(const Token *t, int *out);
+
+#endif

@@ -1,0 +1,393 @@
+/* OBJ reader for TriangleMesh (scene-format.md 7.4): one read of the whole file, then a
+ * single line-oriented pass over memory. Same triangles as the course reader on the
+ * official files; also slash forms, polygons (fanned), negative indices and CRLF. */
+#include "obj_loader.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "rt/arena.h"
+#include "rt/geom.h"
+
+bool file_read_all(const char *path, char **out, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return false;
+    struct stat st;
+    if (fstat(fileno(f), &st) != 0) {
+        int e = errno;
+        fclose(f);
+        errno = e;
+        return false;
+    }
+    if (S_ISDIR(st.st_mode)) {
+        fclose(f);
+        errno = EISDIR;
+        return false;
+    }
+    /* Regular files: one fread of the known size. Pipes and the like: grow as we go. */
+    size_t cap = S_ISREG(st.st_mode) && st.st_size > 0 ? (size_t)st.st_size + 1 : 65536;
+    char *buf = malloc(cap);
+    size_t n = 0;
+    if (!buf) {
+        fclose(f);
+        errno = ENOMEM;
+        return false;
+    }
+    for (;;) {
+        if (n + 1 >= cap) {
+            if (cap > SIZE_MAX / 2) {
+                free(buf);
+                fclose(f);
+                errno = EFBIG;
+                return false;
+            }
+            char *nb = realloc(buf, cap * 2);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                errno = ENOMEM;
+                return false;
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t got = fread(buf + n, 1, cap - 1 - n, f);
+        n += got;
+        if (got == 0) {
+            if (ferror(f)) {
+                int e = errno ? errno : EIO;
+                free(buf);
+                fclose(f);
+                errno = e;
+                return false;
+            }
+            break;
+        }
+    }
+    fclose(f);
+    buf[n] = '\0';
+    *out = buf;
+    *len = n;
+    return true;
+}
+
+void obj_mesh_free(ObjMesh *m)
+{
+    free(m->verts);
+    free(m->tris);
+    memset(m, 0, sizeof *m);
+}
+
+/* Powers of ten exactly representable as floats (5^10 < 2^24). */
+static const float k_pow10f[] = {1e0f, 1e1f, 1e2f, 1e3f, 1e4f, 1e5f,
+                                 1e6f, 1e7f, 1e8f, 1e9f, 1e10f};
+
+static bool is_digit(char c) { return c >= '0' && c <= '9'; }
+static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+bool obj_parse_float(const char **pp, const char *end, float *out)
+{
+    const char *p = *pp;
+    const char *s = p;
+    bool neg = false;
+    if (p < end && (*p == '+' || *p == '-'))
+        neg = *p++ == '-';
+    uint64_t mant = 0;
+    int sig = 0, digits = 0, exp10 = 0;
+    while (p < end && is_digit(*p)) {
+        if (mant || *p != '0') {
+            if (sig < 19)
+                mant = mant * 10 + (uint64_t)(*p - '0');
+            else
+                exp10++;
+            sig++;
+        }
+        digits++;
+        p++;
+    }
+    if (p < end && *p == '.') {
+        p++;
+        while (p < end && is_digit(*p)) {
+            if (mant || *p != '0') {
+                if (sig < 19) {
+                    mant = mant * 10 + (uint64_t)(*p - '0');
+                    exp10--;
+                }
+                sig++;
+            } else {
+                exp10--;
+            }
+            digits++;
+            p++;
+        }
+    }
+    bool fast = digits > 0;
+    if (fast && p < end && (*p == 'e' || *p == 'E')) {
+        const char *q = p + 1;
+        bool eneg = false;
+        if (q < end && (*q == '+' || *q == '-'))
+            eneg = *q++ == '-';
+        if (q < end && is_digit(*q)) {
+            int e = 0;
+            while (q < end && is_digit(*q)) {
+                if (e < 100000)
+                    e = e * 10 + (*q - '0');
+                q++;
+            }
+            exp10 += eneg ? -e : e;
+            p = q;
+        }
+    }
+    /* Clinger's fast path: an exact mantissa times/over an exact power of ten rounds
+     * once, so it is the correctly rounded value strtof returns too. */
+    if (fast && sig <= 19 && mant <= (1u << 24) && exp10 >= -10 && exp10 <= 10 &&
+        (p == end || !(*p == 'x' || *p == 'X' || *p == 'n' || *p == 'N'))) {
+        float v = (float)mant;
+        v = exp10 < 0 ? v / k_pow10f[-exp10] : v * k_pow10f[exp10];
+        *out = neg ? -v : v;
+        *pp = p;
+        return true;
+    }
+    /* Everything else (long mantissas, big exponents, hex, inf/nan): strtof itself on a
+     * bounded NUL-terminated copy of the run of non-blank bytes. */
+    char tmp[128];
+    size_t n = 0;
+    while (s + n < end && n + 1 < sizeof tmp && !is_blank(s[n]) && s[n] != '\n' && s[n] != '\0')
+        n++;
+    memcpy(tmp, s, n);
+    tmp[n] = '\0';
+    char *e;
+    float v = strtof(tmp, &e);
+    if (e == tmp)
+        return false;
+    *out = v;
+    *pp = s + (e - tmp);
+    return true;
+}
+
+typedef struct ObjReader {
+    const char *buf, *end, *p;
+    const char *line_start;
+    int line;
+    const char *name;
+    Diag *diag;
+    ObjMesh *m;
+    int cap_v, cap_t;
+} ObjReader;
+
+static SrcLoc obj_loc(const ObjReader *r, const char *at)
+{
+    SrcLoc l = {r->name, r->line, (int)(at - r->line_start) + 1};
+    return l;
+}
+
+static void skip_blanks(ObjReader *r)
+{
+    while (r->p < r->end && is_blank(*r->p))
+        r->p++;
+}
+
+static bool at_eol(const ObjReader *r) { return r->p >= r->end || *r->p == '\n'; }
+static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p); }
+
+static bool grow(void **arr, int *cap, int need, size_t elem)
+{
+    if (need <= *cap)
+        return true;
+    int nc = *cap ? *cap : 1024;
+    while (nc < need)
+        nc = nc > INT_MAX / 2 ? INT_MAX : nc * 2;
+    if ((size_t)nc > SIZE_MAX / elem)
+        return false;
+    void *na = realloc(*arr, (size_t)nc * elem);
+    if (!na)
+        return false;
+    *arr = na;
+    *cap = nc;
+    return true;
+}
+
+static bool read_vertex(ObjReader *r)
+{
+    float c[3];
+    for (int i = 0; i < 3; i++) {
+        skip_blanks(r);
+        const char *at = r->p;
+        SrcLoc l = obj_loc(r, at);
+        if (at_eol(r)) {
+            diag_error(r->diag, &l, "vertex needs 3 coordinates, found %d", i);
+            return false;
+        }
+        if (!obj_parse_float(&r->p, r->end, &c[i]) || !at_sep(r)) {
+            const char *e = at;
+            while (e < r->end && !is_blank(*e) && *e != '\n' && e - at < 60)
+                e++;
+            diag_error(r->diag, &l, "malformed number '%.*s'", (int)(e - at), at);
+            return false;
+        }
+        if (!isfinite(c[i])) {
+            diag_error(r->diag, &l, "number out of range: '%.*s'", (int)(r->p - at), at);
+            return false;
+        }
+    }
+    /* A fourth (w) coordinate or vertex colours may follow: ignored. */
+    if (r->m->nverts == INT_MAX || !grow((void **)&r->m->verts, &r->cap_v, r->m->nverts + 1,
+                                          sizeof(Vec3))) {
+        SrcLoc l = obj_loc(r, r->line_start);
+        diag_error(r->diag, &l, "out of memory (too many vertices)");
+        return false;
+    }
+    r->m->verts[r->m->nverts++] = v3(c[0], c[1], c[2]);
+    return true;
+}
+
+/* One integer of a face vertex ("12", "-3"); false if no digits. */
+static bool read_index(ObjReader *r, long *out)
+{
+    const char *p = r->p;
+    bool neg = false;
+    if (p < r->end && (*p == '+' || *p == '-'))
+        neg = *p++ == '-';
+    if (p >= r->end || !is_digit(*p))
+        return false;
+    long v = 0;
+    while (p < r->end && is_digit(*p)) {
+        if (v < 100000000000L)
+            v = v * 10 + (*p - '0');
+        p++;
+    }
+    *out = neg ? -v : v;
+    r->p = p;
+    return true;
+}
+
+static bool read_face(ObjReader *r, const char *f_at)
+{
+    int first = -1, prev = -1, count = 0;
+    for (;;) {
+        skip_blanks(r);
+        if (at_eol(r))
+            break;
+        const char *at = r->p;
+        SrcLoc l = obj_loc(r, at);
+        long idx, ignored;
+        bool ok = read_index(r, &idx);
+        /* v, v/vt, v/vt/vn, v//vn: only the vertex index matters here. */
+        if (ok && r->p < r->end && *r->p == '/') {
+            r->p++;
+            if (r->p < r->end && *r->p != '/')
+                ok = read_index(r, &ignored) || at_sep(r);
+            if (ok && r->p < r->end && *r->p == '/') {
+                r->p++;
+                ok = read_index(r, &ignored);
+            }
+        }
+        if (!ok || !at_sep(r)) {
+            const char *e = at;
+            while (e < r->end && !is_blank(*e) && *e != '\n' && e - at < 60)
+                e++;
+            diag_error(r->diag, &l, "malformed face vertex '%.*s'", (int)(e - at), at);
+            return false;
+        }
+        int nv = r->m->nverts;
+        long resolved = idx > 0 ? idx - 1 : (long)nv + idx;
+        if (idx == 0 || resolved < 0 || resolved >= nv) {
+            if (idx == 0)
+                diag_error(r->diag, &l, "vertex index 0 out of range (indices start at 1)");
+            else
+                diag_error(r->diag, &l, "vertex index %ld out of range (%d vertices)", idx, nv);
+            return false;
+        }
+        int vi = (int)resolved;
+        if (count == 0) {
+            first = vi;
+        } else if (count >= 2) {
+            if (r->m->ntris == INT_MAX ||
+                !grow((void **)&r->m->tris, &r->cap_t, r->m->ntris + 1, sizeof(int[3]))) {
+                diag_error(r->diag, &l, "out of memory (too many faces)");
+                return false;
+            }
+            int *t = r->m->tris[r->m->ntris++];
+            t[0] = first;
+            t[1] = prev;
+            t[2] = vi;
+        }
+        prev = vi;
+        count++;
+    }
+    if (count < 3) {
+        SrcLoc l = obj_loc(r, f_at);
+        diag_error(r->diag, &l, "face with %d vertices (at least 3 needed)", count);
+        return false;
+    }
+    return true;
+}
+
+bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag)
+{
+    ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0};
+    memset(out, 0, sizeof *out);
+    if (memchr(buf, '\0', len)) {
+        /* Binary data: say so instead of a confusing message about its first line. */
+        const char *z = memchr(buf, '\0', len);
+        r.line = 1;
+        for (const char *q = buf; q < z; q++)
+            if (*q == '\n') {
+                r.line++;
+                r.line_start = q + 1;
+            }
+        SrcLoc l = obj_loc(&r, z);
+        diag_error(diag, &l, "NUL byte: not a text OBJ file");
+        return false;
+    }
+    while (r.p < r.end) {
+        r.line_start = r.p;
+        skip_blanks(&r);
+        const char *kw = r.p;
+        while (r.p < r.end && !is_blank(*r.p) && *r.p != '\n')
+            r.p++;
+        size_t kl = (size_t)(r.p - kw);
+        bool ok = true;
+        if (kl == 1 && kw[0] == 'v')
+            ok = read_vertex(&r);
+        else if (kl == 1 && kw[0] == 'f')
+            ok = read_face(&r, kw);
+        /* Anything else (#, vn, vt, g, o, s, usemtl, mtllib, l, ...) is skipped. */
+        if (!ok) {
+            obj_mesh_free(out);
+            return false;
+        }
+        while (r.p < r.end && *r.p != '\n')
+            r.p++;
+        if (r.p < r.end) {
+            r.p++;
+            if (r.line < INT_MAX)
+                r.line++;
+        }
+    }
+    return true;
+}
+
+Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m)
+{
+    Object3D *g = group_new(a, mesh->ntris);
+    if (!g)
+        return NULL;
+    const Vec3 *v = mesh->verts;
+    for (int i = 0; i < mesh->ntris; i++) {
+        const int *t = mesh->tris[i];
+        Object3D *tri = triangle_new(a, v[t[0]], v[t[1]], v[t[2]], m);
+        if (!tri)
+            return NULL;
+        group_set_child(g, i, tri);
+    }
+    group_finish(g);
+    return g;
+}

@@ -1,0 +1,37 @@
+/* Private to src/scene: the OBJ reader behind TriangleMesh (scene-format.md 7.4).
+ * Line-oriented; v and f records only, everything else ignored. */
+#ifndef RT_SCENE_OBJ_LOADER_H
+#define RT_SCENE_OBJ_LOADER_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include "rt/diag.h"
+#include "rt/object3d.h"
+#include "rt/vec.h"
+
+typedef struct ObjMesh {
+    Vec3 *verts;        /* malloc'd; nverts entries */
+    int nverts;
+    int (*tris)[3];     /* malloc'd; 0-based vertex indices, ntris entries */
+    int ntris;
+} ObjMesh;
+
+/* Parses an OBJ text of len bytes (buf[len] need not be readable). name is used in
+ * located messages. Faces with n > 3 vertices become the fan (v0, vi, vi+1); negative
+ * indices count back from the last vertex read so far. False after reporting an error
+ * (nothing left allocated). */
+bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag);
+void obj_mesh_free(ObjMesh *m);
+
+/* Reads a whole file into a malloc'd, NUL-terminated buffer. False with errno set. */
+bool file_read_all(const char *path, char **out, size_t *len);
+
+/* A Group of one Triangle per face, all with material m, from arena a. NULL when out of
+ * memory. */
+Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m);
+
+/* The float conversion used for OBJ numbers: exactly strtof's result, with a fast path
+ * for short decimals. *p advances past the number; false if none starts at *p. */
+bool obj_parse_float(const char **p, const char *end, float *out);
+
+#endif

@@ -1,0 +1,936 @@
+/* Recursive-descent parser of the A1-A6 scene format (scene-format.md), building the
+ * scene through the geom/material/camera constructors. Stops at the first error with a
+ * located message; where the course parser asserted or trusted the input, we check. */
+#include "parser.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "lexer.h"
+#include "obj_loader.h"
+#include "rt/geom.h"
+
+/* Counts above this are typos or attacks, not scenes (numLights/numMaterials/numObjects). */
+enum { MAX_COUNT = 10000000 };
+/* Noise sums this many octaves per shading call: beyond it rendering would crawl. */
+enum { MAX_OCTAVES = 32 };
+
+typedef struct Parser {
+    Lexer lx;
+    Scene *s;
+    Diag *diag;
+    const char *base_dir;
+    const Material *current;   /* MaterialIndex state: global, ignores the hierarchy (7) */
+    int depth;                 /* Groups/Transforms/meshes currently open */
+    /* Scratch (malloc'd, freed after the parse): children of the open groups as one
+     * stack, so memory follows the actual content, never the declared counts. */
+    Object3D **stack;
+    size_t stack_len, stack_cap;
+} Parser;
+
+/* ---- error helpers ---------------------------------------------------------------- */
+
+static bool fail(Parser *p, const SrcLoc *loc, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static bool fail(Parser *p, const SrcLoc *loc, const char *fmt, ...)
+{
+    char msg[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    diag_error(p->diag, loc, "%s", msg);
+    return false;
+}
+
+/* "expected WHAT, found 'tok'", or "unexpected end of file, expected WHAT". */
+static bool fail_expected(Parser *p, const Token *t, const char *what)
+{
+    char shown[256];
+    if (tok_eof(t))
+        return fail(p, &t->loc, "unexpected end of file, expected %s", what);
+    return fail(p, &t->loc, "expected %s, found '%s'", what, tok_show(t, shown, sizeof shown));
+}
+
+/* "unknown KIND 'tok'", or the end-of-file message when the file just stops. */
+static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char *eof_what)
+{
+    char shown[256];
+    if (tok_eof(t))
+        return fail(p, &t->loc, "unexpected end of file, expected %s", eof_what);
+    return fail(p, &t->loc, "unknown %s '%s'", kind, tok_show(t, shown, sizeof shown));
+}
+
+static bool next(Parser *p, Token *t) { return lex_next(&p->lx, t); }
+
+static bool expect(Parser *p, const char *kw, Token *out)
+{
+    Token t;
+    if (!next(p, &t))
+        return false;
+    if (!tok_is(&t, kw)) {
+        char what[64];
+        snprintf(what, sizeof what, "'%s'", kw);
+        return fail_expected(p, &t, what);
+    }
+    if (out)
+        *out = t;
+    return true;
+}
+
+static bool num_error(Parser *p, const Token *t, NumResult r, bool want_int)
+{
+    char shown[256];
+    if (tok_eof(t))
+        return fail(p, &t->loc, "unexpected end of file, expected %s",
+                    want_int ? "an integer" : "a number");
+    tok_show(t, shown, sizeof shown);
+    if (r == NUM_RANGE)
+        return fail(p, &t->loc, "number out of range: '%s'", shown);
+    return fail(p, &t->loc, "expected %s, found '%s'", want_int ? "an integer" : "a number",
+                shown);
+}
+
+static bool read_float(Parser *p, float *out)
+{
+    Token t;
+    if (!next(p, &t))
+        return false;
+    NumResult r = tok_eof(&t) ? NUM_NOT_A_NUMBER : tok_to_float(&t, out);
+    return r == NUM_OK || num_error(p, &t, r, false);
+}
+
+static bool read_int_tok(Parser *p, int *out, Token *tok)
+{
+    Token t;
+    if (!next(p, &t))
+        return false;
+    NumResult r = tok_eof(&t) ? NUM_NOT_A_NUMBER : tok_to_int(&t, out);
+    if (tok)
+        *tok = t;
+    return r == NUM_OK || num_error(p, &t, r, true);
+}
+
+static bool read_vec3(Parser *p, Vec3 *v)
+{
+    return read_float(p, &v->x) && read_float(p, &v->y) && read_float(p, &v->z);
+}
+
+/* `kw` then a Vec3 / a float: the fixed-order fields of most blocks. */
+static bool field_vec3(Parser *p, const char *kw, Vec3 *v, SrcLoc *at)
+{
+    Token t;
+    if (!expect(p, kw, &t))
+        return false;
+    if (at)
+        *at = t.loc;
+    return read_vec3(p, v);
+}
+
+static bool field_float(Parser *p, const char *kw, float *f, SrcLoc *at)
+{
+    Token t;
+    if (!expect(p, kw, &t))
+        return false;
+    if (at)
+        *at = t.loc;
+    return read_float(p, f);
+}
+
+static bool field_int(Parser *p, const char *kw, int *v, Token *num)
+{
+    return expect(p, kw, NULL) && read_int_tok(p, v, num);
+}
+
+static bool read_count(Parser *p, const char *kw, int *n)
+{
+    Token num;
+    if (!field_int(p, kw, n, &num))
+        return false;
+    if (*n < 0 || *n > MAX_COUNT)
+        return fail(p, &num.loc, "%s must be between 0 and %d, found %d", kw, MAX_COUNT, *n);
+    return true;
+}
+
+static bool out_of_memory(Parser *p, const SrcLoc *loc)
+{
+    return fail(p, loc, "out of memory");
+}
+
+/* ---- transformations (8) ------------------------------------------------------------ */
+
+static bool is_transformation(const Token *t)
+{
+    static const char *const kws[] = {"Scale", "UniformScale", "Translate", "XRotate",
+                                      "YRotate", "ZRotate", "Rotate", "Matrix"};
+    for (size_t i = 0; i < sizeof kws / sizeof kws[0]; i++)
+        if (tok_is(t, kws[i]))
+            return true;
+    return false;
+}
+
+/* Applies one transformation keyword t (already read) to *m in the course's order:
+ * M <- M * T for all but Matrix, M <- T * M for Matrix (8, "Composition order"). */
+static bool parse_transformation(Parser *p, const Token *t, Mat4 *m)
+{
+    Mat4 x;
+    bool left = false;
+    if (tok_is(t, "Scale")) {
+        Vec3 s;
+        if (!read_vec3(p, &s))
+            return false;
+        x = mat4_scale(s);
+    } else if (tok_is(t, "UniformScale")) {
+        float s;
+        if (!read_float(p, &s))
+            return false;
+        x = mat4_scale(v3(s, s, s));
+    } else if (tok_is(t, "Translate")) {
+        Vec3 d;
+        if (!read_vec3(p, &d))
+            return false;
+        x = mat4_translate(d);
+    } else if (tok_is(t, "XRotate") || tok_is(t, "YRotate") || tok_is(t, "ZRotate")) {
+        float deg;
+        if (!read_float(p, &deg))
+            return false;
+        x = t->text[0] == 'X' ? mat4_rotate_x(deg)
+            : t->text[0] == 'Y' ? mat4_rotate_y(deg) : mat4_rotate_z(deg);
+    } else if (tok_is(t, "Rotate")) {
+        Vec3 axis;
+        float deg;
+        Token at;
+        if (!expect(p, "{", NULL) || !lex_peek(&p->lx, &at) || !read_vec3(p, &axis) ||
+            !read_float(p, &deg) || !expect(p, "}", NULL))
+            return false;
+        if (v3_is_zero(axis))
+            return fail(p, &at.loc, "Rotate axis is zero");
+        x = mat4_rotate_axis(axis, deg);
+    } else if (tok_is(t, "Matrix")) {
+        float v[16];
+        if (!expect(p, "{", NULL))
+            return false;
+        for (int i = 0; i < 16; i++)
+            if (!read_float(p, &v[i]))
+                return false;
+        if (!expect(p, "}", NULL))
+            return false;
+        /* Our objects are affine (rays stay rays); a projective row would be silently
+         * ignored downstream, so it is refused here. */
+        if (v[12] != 0.0f || v[13] != 0.0f || v[14] != 0.0f || v[15] != 1.0f)
+            return fail(p, &t->loc, "Matrix must be affine: its last row must be 0 0 0 1");
+        x = mat4_from_rows(v);
+        left = true;
+    } else {
+        return fail_unknown(p, t, "transformation", "a transformation");
+    }
+    *m = left ? mat4_mul(&x, m) : mat4_mul(m, &x);
+    if (!mat4_isfinite(m))
+        return fail(p, &t->loc, "transformation overflows (matrix is not finite)");
+    return true;
+}
+
+/* ---- objects (7) -------------------------------------------------------------------- */
+
+static bool parse_object(Parser *p, const Token *kw, Object3D **out);
+
+static bool is_object(const Token *t)
+{
+    return tok_is(t, "Group") || tok_is(t, "Sphere") || tok_is(t, "Plane") ||
+           tok_is(t, "Triangle") || tok_is(t, "TriangleMesh") || tok_is(t, "Transform");
+}
+
+static bool enter(Parser *p, const Token *kw)
+{
+    if (p->depth >= RT_MAX_NESTING)
+        return fail(p, &kw->loc, "objects nested deeper than %d levels", RT_MAX_NESTING);
+    p->depth++;
+    return true;
+}
+
+static bool need_material(Parser *p, const Token *kw)
+{
+    if (p->current)
+        return true;
+    char shown[64];
+    return fail(p, &kw->loc, "no material selected for %s (MaterialIndex missing)",
+                tok_show(kw, shown, sizeof shown));
+}
+
+static bool stack_push(Parser *p, Object3D *o)
+{
+    if (p->stack_len == p->stack_cap) {
+        size_t nc = p->stack_cap ? p->stack_cap * 2 : 256;
+        Object3D **ns = realloc(p->stack, nc * sizeof *ns);
+        if (!ns)
+            return false;
+        p->stack = ns;
+        p->stack_cap = nc;
+    }
+    p->stack[p->stack_len++] = o;
+    return true;
+}
+
+static bool parse_group(Parser *p, const Token *kw, Object3D **out)
+{
+    int n;
+    if (!enter(p, kw) || !expect(p, "{", NULL) || !read_count(p, "numObjects", &n))
+        return false;
+    size_t base = p->stack_len;
+    int count = 0;
+    for (;;) {
+        Token t;
+        if (!next(p, &t))
+            return false;
+        if (tok_is(&t, "}")) {
+            if (count < n)
+                return fail(p, &t.loc, "numObjects is %d but the group ends after %d object%s",
+                            n, count, count == 1 ? "" : "s");
+            break;
+        }
+        if (count == n) {
+            if (is_object(&t))
+                return fail(p, &t.loc, "numObjects is %d but the group has more objects", n);
+            char what[64];
+            snprintf(what, sizeof what, "'}' after %d object%s", n, n == 1 ? "" : "s");
+            return fail_expected(p, &t, what);
+        }
+        if (tok_is(&t, "MaterialIndex")) {
+            Token num;
+            int i;
+            if (!read_int_tok(p, &i, &num))
+                return false;
+            if (i < 0 || i >= p->s->num_materials)
+                return fail(p, &num.loc, "MaterialIndex %d out of range (%d material%s)", i,
+                            p->s->num_materials, p->s->num_materials == 1 ? "" : "s");
+            p->current = p->s->materials[i];
+            continue;
+        }
+        if (!is_object(&t))
+            return fail_unknown(p, &t, "object", "'}'");
+        Object3D *child;
+        if (!parse_object(p, &t, &child))
+            return false;
+        if (!stack_push(p, child))
+            return out_of_memory(p, &t.loc);
+        count++;
+    }
+    Object3D *g = group_new(&p->s->arena, n);
+    if (!g)
+        return out_of_memory(p, &kw->loc);
+    for (int i = 0; i < n; i++)
+        group_set_child(g, i, p->stack[base + (size_t)i]);
+    group_finish(g);
+    p->stack_len = base;
+    p->depth--;
+    *out = g;
+    return true;
+}
+
+static bool parse_transform(Parser *p, const Token *kw, Object3D **out)
+{
+    if (!enter(p, kw) || !expect(p, "{", NULL))
+        return false;
+    Mat4 m = mat4_identity();
+    Token t;
+    for (;;) {
+        if (!next(p, &t))
+            return false;
+        if (!is_transformation(&t))
+            break;
+        if (!parse_transformation(p, &t, &m))
+            return false;
+    }
+    if (tok_is(&t, "}"))
+        return fail(p, &t.loc, "Transform has no object (expected an object before '}')");
+    if (!is_object(&t))
+        return fail_unknown(p, &t, "object", "an object");
+    Object3D *child;
+    if (!parse_object(p, &t, &child))
+        return false;
+    if (!next(p, &t))
+        return false;
+    if (!tok_is(&t, "}")) {
+        if (is_object(&t))
+            return fail(p, &t.loc, "a Transform holds exactly one object; expected '}'");
+        return fail_expected(p, &t, "'}'");
+    }
+    Object3D *x = transform_new(&p->s->arena, &m, child);
+    if (!x) {
+        Mat4 inv;
+        if (!mat4_inverse(&m, &inv))
+            return fail(p, &kw->loc, "singular transformation (the matrix has no inverse)");
+        return out_of_memory(p, &kw->loc);
+    }
+    p->depth--;
+    *out = x;
+    return true;
+}
+
+static bool parse_sphere(Parser *p, const Token *kw, Object3D **out)
+{
+    Vec3 c;
+    float r;
+    SrcLoc at;
+    if (!need_material(p, kw) || !expect(p, "{", NULL) || !field_vec3(p, "center", &c, NULL) ||
+        !field_float(p, "radius", &r, &at) || !expect(p, "}", NULL))
+        return false;
+    if (r < 0.0f)
+        return fail(p, &at, "Sphere radius must not be negative, found %g", (double)r);
+    *out = sphere_new(&p->s->arena, c, r, p->current);
+    return *out || out_of_memory(p, &kw->loc);
+}
+
+static bool parse_plane(Parser *p, const Token *kw, Object3D **out)
+{
+    Vec3 n;
+    float d;
+    SrcLoc at;
+    if (!need_material(p, kw) || !expect(p, "{", NULL) || !field_vec3(p, "normal", &n, &at) ||
+        !field_float(p, "offset", &d, NULL) || !expect(p, "}", NULL))
+        return false;
+    if (v3_is_zero(n))
+        return fail(p, &at, "Plane normal is zero");
+    *out = plane_new(&p->s->arena, n, d, p->current);
+    return *out || out_of_memory(p, &kw->loc);
+}
+
+static bool parse_triangle(Parser *p, const Token *kw, Object3D **out)
+{
+    Vec3 v[3];
+    if (!need_material(p, kw) || !expect(p, "{", NULL) || !field_vec3(p, "vertex0", &v[0], NULL) ||
+        !field_vec3(p, "vertex1", &v[1], NULL) || !field_vec3(p, "vertex2", &v[2], NULL) ||
+        !expect(p, "}", NULL))
+        return false;
+    *out = triangle_new(&p->s->arena, v[0], v[1], v[2], p->current);
+    return *out || out_of_memory(p, &kw->loc);
+}
+
+/* obj_file resolution: the scene file's folder first, then the working directory (the
+ * course used the working directory only; running from elsewhere should still work). */
+static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
+{
+    Token name;
+    if (!need_material(p, kw) || !enter(p, kw) || !expect(p, "{", NULL) ||
+        !expect(p, "obj_file", NULL) || !next(p, &name))
+        return false;
+    if (tok_eof(&name) || tok_is(&name, "}"))
+        return fail_expected(p, &name, "an OBJ file name");
+    if (memchr(name.text, '\0', name.len))
+        return fail(p, &name.loc, "invalid OBJ file name (contains a NUL byte)");
+    if (!expect(p, "}", NULL))
+        return false;
+
+    char file[LEX_MAX_TOKEN + 1];
+    memcpy(file, name.text, name.len);
+    file[name.len] = '\0';
+    const char *base = p->base_dir;
+    char *tried[2] = {NULL, NULL};
+    int ntried = 0;
+    if (file[0] != '/' && base && base[0] && strcmp(base, ".") != 0) {
+        size_t bl = strlen(base);
+        bool slash = base[bl - 1] == '/';
+        tried[ntried] = malloc(bl + 1 + name.len + 1);
+        if (!tried[ntried])
+            return out_of_memory(p, &name.loc);
+        snprintf(tried[ntried], bl + 1 + name.len + 1, "%s%s%s", base, slash ? "" : "/", file);
+        ntried++;
+    }
+    tried[ntried] = malloc(name.len + 1);
+    if (!tried[ntried]) {
+        free(tried[0]);
+        return out_of_memory(p, &name.loc);
+    }
+    memcpy(tried[ntried], file, name.len + 1);
+    ntried++;
+
+    char *buf = NULL;
+    size_t len = 0;
+    int used = -1, first_errno = 0;
+    for (int i = 0; i < ntried && used < 0; i++) {
+        if (file_read_all(tried[i], &buf, &len))
+            used = i;
+        else if (!first_errno)
+            first_errno = errno;
+    }
+    bool ok = true;
+    ObjMesh mesh = {0};
+    if (used < 0) {
+        char shown[256];
+        tok_show(&name, shown, sizeof shown);
+        if (ntried == 2)
+            fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s', '%s'): %s", shown,
+                 tried[0], tried[1], strerror(first_errno));
+        else
+            fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s'): %s", shown, tried[0],
+                 strerror(first_errno));
+        ok = false;
+    } else {
+        ok = obj_parse(buf, len, tried[used], &mesh, p->diag);
+        if (ok && mesh.ntris == 0) {
+            char shown[256];
+            fail(p, &name.loc, "OBJ file '%s' has no faces", tok_show(&name, shown, sizeof shown));
+            ok = false;
+        }
+        if (ok) {
+            *out = obj_build_group(&p->s->arena, &mesh, p->current);
+            if (!*out)
+                ok = out_of_memory(p, &name.loc);
+        }
+    }
+    obj_mesh_free(&mesh);
+    free(buf);
+    free(tried[0]);
+    free(tried[1]);
+    if (ok)
+        p->depth--;
+    return ok;
+}
+
+static bool parse_object(Parser *p, const Token *kw, Object3D **out)
+{
+    if (tok_is(kw, "Group"))
+        return parse_group(p, kw, out);
+    if (tok_is(kw, "Sphere"))
+        return parse_sphere(p, kw, out);
+    if (tok_is(kw, "Plane"))
+        return parse_plane(p, kw, out);
+    if (tok_is(kw, "Triangle"))
+        return parse_triangle(p, kw, out);
+    if (tok_is(kw, "TriangleMesh"))
+        return parse_mesh(p, kw, out);
+    if (tok_is(kw, "Transform"))
+        return parse_transform(p, kw, out);
+    return fail_unknown(p, kw, "object", "an object");
+}
+
+/* ---- cameras, background, lights (3-5) ----------------------------------------------- */
+
+static bool parse_camera(Parser *p, const Token *kw, bool perspective)
+{
+    Vec3 center, dir, up;
+    float size;
+    SrcLoc dir_at, up_at, size_at;
+    if (!expect(p, "{", NULL) || !field_vec3(p, "center", &center, NULL) ||
+        !field_vec3(p, "direction", &dir, &dir_at) || !field_vec3(p, "up", &up, &up_at) ||
+        !field_float(p, perspective ? "angle" : "size", &size, &size_at) ||
+        !expect(p, "}", NULL))
+        return false;
+    if (v3_is_zero(dir))
+        return fail(p, &dir_at, "camera direction is zero");
+    Camera cam;
+    bool ok;
+    if (perspective) {
+        if (!(size > 0.0f && size < 180.0f))
+            return fail(p, &size_at, "angle must be between 0 and 180 degrees, found %g",
+                        (double)size);
+        ok = camera_init_perspective(&cam, center, dir, up,
+                                     (float)((double)size * M_PI / 180.0));
+    } else {
+        if (!(size > 0.0f))
+            return fail(p, &size_at, "size must be positive, found %g", (double)size);
+        ok = camera_init_orthographic(&cam, center, dir, up, size);
+    }
+    if (!ok)
+        return fail(p, &up_at, "degenerate camera: up is zero or parallel to direction");
+    (void)kw;
+    p->s->camera = cam;
+    p->s->has_camera = true;
+    return true;
+}
+
+static bool parse_background(Parser *p)
+{
+    if (!expect(p, "{", NULL))
+        return false;
+    for (;;) {
+        Token t;
+        if (!next(p, &t))
+            return false;
+        if (tok_is(&t, "}"))
+            return true;
+        if (tok_is(&t, "color")) {
+            if (!read_vec3(p, &p->s->background))
+                return false;
+        } else if (tok_is(&t, "ambientLight")) {
+            if (!read_vec3(p, &p->s->ambient))
+                return false;
+        } else {
+            return fail_unknown(p, &t, "Background field", "'}'");
+        }
+    }
+}
+
+static bool parse_light(Parser *p, const Token *kw, Light *l)
+{
+    memset(l, 0, sizeof *l);
+    l->attenuation[0] = 1.0f;
+    if (tok_is(kw, "DirectionalLight")) {
+        SrcLoc at;
+        l->kind = LIGHT_DIRECTIONAL;
+        if (!expect(p, "{", NULL) || !field_vec3(p, "direction", &l->direction, &at) ||
+            !field_vec3(p, "color", &l->color, NULL) || !expect(p, "}", NULL))
+            return false;
+        if (v3_is_zero(l->direction))
+            return fail(p, &at, "light direction is zero");
+        l->direction = v3_normalize(l->direction);
+        return true;
+    }
+    if (tok_is(kw, "PointLight")) {
+        l->kind = LIGHT_POINT;
+        if (!expect(p, "{", NULL) || !field_vec3(p, "position", &l->position, NULL) ||
+            !field_vec3(p, "color", &l->color, NULL))
+            return false;
+        Token t;
+        if (!next(p, &t))
+            return false;
+        if (tok_is(&t, "attenuation")) {
+            if (!read_float(p, &l->attenuation[0]) || !read_float(p, &l->attenuation[1]) ||
+                !read_float(p, &l->attenuation[2]))
+                return false;
+            if (l->attenuation[0] == 0.0f && l->attenuation[1] == 0.0f &&
+                l->attenuation[2] == 0.0f)
+                return fail(p, &t.loc, "attenuation 0 0 0 would divide by zero");
+            if (!next(p, &t))
+                return false;
+            if (!tok_is(&t, "}"))
+                return fail_expected(p, &t, "'}'");
+            return true;
+        }
+        if (!tok_is(&t, "}"))
+            return fail_expected(p, &t, "'attenuation' or '}'");
+        return true;
+    }
+    return fail_unknown(p, kw, "light", "'}'");
+}
+
+static bool is_light(const Token *t)
+{
+    return tok_is(t, "DirectionalLight") || tok_is(t, "PointLight");
+}
+
+static bool parse_lights(Parser *p)
+{
+    int n;
+    if (!expect(p, "{", NULL) || !read_count(p, "numLights", &n))
+        return false;
+    Light *tmp = NULL;
+    size_t cap = 0;
+    int count = 0;
+    bool ok = true;
+    for (;;) {
+        Token t;
+        if (!next(p, &t)) {
+            ok = false;
+            break;
+        }
+        if (tok_is(&t, "}")) {
+            if (count < n)
+                ok = fail(p, &t.loc, "numLights is %d but the Lights block ends after %d light%s",
+                          n, count, count == 1 ? "" : "s");
+            break;
+        }
+        if (count == n) {
+            if (is_light(&t))
+                ok = fail(p, &t.loc, "numLights is %d but more lights follow", n);
+            else
+                ok = fail_expected(p, &t, "'}'");
+            break;
+        }
+        if (!is_light(&t)) {
+            ok = fail_unknown(p, &t, "light", "'}'");
+            break;
+        }
+        if ((size_t)count == cap) {
+            size_t nc = cap ? cap * 2 : 8;
+            Light *nt = realloc(tmp, nc * sizeof *nt);
+            if (!nt) {
+                ok = out_of_memory(p, &t.loc);
+                break;
+            }
+            tmp = nt;
+            cap = nc;
+        }
+        if (!parse_light(p, &t, &tmp[count])) {
+            ok = false;
+            break;
+        }
+        count++;
+    }
+    if (ok) {
+        Light *arr = n ? arena_calloc(&p->s->arena, (size_t)n, sizeof *arr) : NULL;
+        if (n && !arr) {
+            SrcLoc none = {p->lx.file, 0, 0};
+            ok = out_of_memory(p, &none);
+        } else {
+            if (n)
+                memcpy(arr, tmp, (size_t)n * sizeof *arr);
+            p->s->lights = arr;   /* a repeated block replaces the earlier one (2) */
+            p->s->num_lights = n;
+        }
+    }
+    free(tmp);
+    return ok;
+}
+
+/* ---- materials (6) ----------------------------------------------------------------- */
+
+typedef struct MatList {
+    Material **mats;
+    int *depth;                /* nesting depth of procedural chains (render recursion) */
+    int cap;
+} MatList;
+
+static bool parse_phong(Parser *p, Material **out, const Token *kw)
+{
+    PhongParams pp = phong_defaults();
+    if (!expect(p, "{", NULL))
+        return false;
+    for (;;) {
+        Token t;
+        if (!next(p, &t))
+            return false;
+        bool ok;
+        if (tok_is(&t, "}"))
+            break;
+        else if (tok_is(&t, "diffuseColor"))
+            ok = read_vec3(p, &pp.diffuse);
+        else if (tok_is(&t, "specularColor"))
+            ok = read_vec3(p, &pp.specular);
+        else if (tok_is(&t, "exponent"))
+            ok = read_float(p, &pp.exponent);
+        else if (tok_is(&t, "reflectiveColor"))
+            ok = read_vec3(p, &pp.reflective);
+        else if (tok_is(&t, "transparentColor"))
+            ok = read_vec3(p, &pp.transparent);
+        else if (tok_is(&t, "indexOfRefraction"))
+            ok = read_float(p, &pp.ior);
+        else
+            return fail_unknown(p, &t, "PhongMaterial field", "'}'");
+        if (!ok)
+            return false;
+    }
+    *out = phong_new(&p->s->arena, &pp);
+    return *out || out_of_memory(p, &kw->loc);
+}
+
+/* materialIndex i inside material number self: only earlier materials (6.2). */
+static bool read_mat_ref(Parser *p, const MatList *ml, int self, const Material **m,
+                         int *depth)
+{
+    Token num;
+    int i;
+    if (!field_int(p, "materialIndex", &i, &num))
+        return false;
+    if (i < 0 || i >= self) {
+        if (self == 0)
+            return fail(p, &num.loc,
+                        "materialIndex %d out of range (material 0 cannot refer to another; "
+                        "only earlier materials may be used)", i);
+        return fail(p, &num.loc,
+                    "materialIndex %d out of range (only earlier materials 0..%d may be used)",
+                    i, self - 1);
+    }
+    *m = ml->mats[i];
+    if (ml->depth[i] > *depth)
+        *depth = ml->depth[i];
+    return true;
+}
+
+static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int self,
+                             Material **out, int *depth)
+{
+    if (!expect(p, "{", NULL))
+        return false;
+    Token t;
+    if (!lex_peek(&p->lx, &t))
+        return false;
+    Mat4 *xf = NULL;
+    if (tok_is(&t, "Transform")) {
+        next(p, &t);
+        if (!expect(p, "{", NULL))
+            return false;
+        Mat4 m = mat4_identity();
+        for (;;) {
+            Token u;
+            if (!next(p, &u))
+                return false;
+            if (tok_is(&u, "}"))
+                break;
+            if (!is_transformation(&u))
+                return fail_expected(p, &u, "a transformation or '}'");
+            if (!parse_transformation(p, &u, &m))
+                return false;
+        }
+        xf = arena_alloc(&p->s->arena, sizeof *xf);
+        if (!xf)
+            return out_of_memory(p, &t.loc);
+        *xf = m;
+    }
+    const Material *m1, *m2;
+    int d = 0;
+    if (!read_mat_ref(p, ml, self, &m1, &d) || !read_mat_ref(p, ml, self, &m2, &d))
+        return false;
+    *depth = d + 1;
+    if (*depth > RT_MAX_NESTING)
+        return fail(p, &kw->loc, "procedural materials nested deeper than %d levels",
+                    RT_MAX_NESTING);
+    Arena *a = &p->s->arena;
+    if (tok_is(kw, "Checkerboard")) {
+        if (!expect(p, "}", NULL))
+            return false;
+        *out = checkerboard_new(a, xf, m1, m2);
+        return *out || out_of_memory(p, &kw->loc);
+    }
+    int octaves;
+    Token num;
+    if (!field_int(p, "octaves", &octaves, &num))
+        return false;
+    if (octaves < 0 || octaves > MAX_OCTAVES)
+        return fail(p, &num.loc, "octaves must be between 0 and %d, found %d", MAX_OCTAVES,
+                    octaves);
+    if (tok_is(kw, "Noise")) {
+        if (!expect(p, "}", NULL))
+            return false;
+        *out = noise_new(a, xf, m1, m2, octaves);
+        return *out || out_of_memory(p, &kw->loc);
+    }
+    float freq, amp;
+    if (!field_float(p, "frequency", &freq, NULL) || !field_float(p, "amplitude", &amp, NULL) ||
+        !expect(p, "}", NULL))
+        return false;
+    if (tok_is(kw, "Marble"))
+        *out = marble_new(a, xf, m1, m2, octaves, freq, amp);
+    else
+        *out = wood_new(a, xf, m1, m2, octaves, freq, amp);
+    return *out || out_of_memory(p, &kw->loc);
+}
+
+static bool is_material(const Token *t)
+{
+    return tok_is(t, "PhongMaterial") || tok_is(t, "Material") || tok_is(t, "Checkerboard") ||
+           tok_is(t, "Noise") || tok_is(t, "Marble") || tok_is(t, "Wood");
+}
+
+static bool parse_materials(Parser *p)
+{
+    int n;
+    if (!expect(p, "{", NULL) || !read_count(p, "numMaterials", &n))
+        return false;
+    MatList ml = {NULL, NULL, 0};
+    int count = 0;
+    bool ok = true;
+    for (;;) {
+        Token t;
+        if (!next(p, &t)) {
+            ok = false;
+            break;
+        }
+        if (tok_is(&t, "}")) {
+            if (count < n)
+                ok = fail(p, &t.loc,
+                          "numMaterials is %d but the Materials block ends after %d material%s",
+                          n, count, count == 1 ? "" : "s");
+            break;
+        }
+        if (count == n) {
+            if (is_material(&t))
+                ok = fail(p, &t.loc, "numMaterials is %d but more materials follow", n);
+            else
+                ok = fail_expected(p, &t, "'}'");
+            break;
+        }
+        if (!is_material(&t)) {
+            ok = fail_unknown(p, &t, "material", "'}'");
+            break;
+        }
+        if (count == ml.cap) {
+            int nc = ml.cap ? ml.cap * 2 : 16;
+            Material **nm = realloc(ml.mats, (size_t)nc * sizeof *nm);
+            if (nm)
+                ml.mats = nm;
+            int *nd = nm ? realloc(ml.depth, (size_t)nc * sizeof *nd) : NULL;
+            if (!nd) {
+                ok = out_of_memory(p, &t.loc);
+                break;
+            }
+            ml.depth = nd;
+            ml.cap = nc;
+        }
+        Material *m = NULL;
+        int depth = 1;
+        if (tok_is(&t, "PhongMaterial") || tok_is(&t, "Material"))
+            ok = parse_phong(p, &m, &t);
+        else
+            ok = parse_procedural(p, &t, &ml, count, &m, &depth);
+        if (!ok)
+            break;
+        ml.mats[count] = m;
+        ml.depth[count] = depth;
+        count++;
+    }
+    if (ok) {
+        Material **arr = n ? arena_calloc(&p->s->arena, (size_t)n, sizeof *arr) : NULL;
+        if (n && !arr) {
+            SrcLoc none = {p->lx.file, 0, 0};
+            ok = out_of_memory(p, &none);
+        } else {
+            if (n)
+                memcpy(arr, ml.mats, (size_t)n * sizeof *arr);
+            p->s->materials = arr;   /* replaces an earlier block (2) */
+            p->s->num_materials = n;
+        }
+    }
+    free(ml.mats);
+    free(ml.depth);
+    return ok;
+}
+
+/* ---- file ------------------------------------------------------------------------- */
+
+bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
+                 const char *base_dir, Diag *diag)
+{
+    Parser p;
+    memset(&p, 0, sizeof p);
+    p.s = s;
+    p.diag = diag;
+    p.base_dir = base_dir;
+    lex_init(&p.lx, buf, len, name, diag);
+    bool ok = true;
+    for (;;) {
+        Token t;
+        if (!next(&p, &t)) {
+            ok = false;
+            break;
+        }
+        if (tok_eof(&t))
+            break;
+        if (tok_is(&t, "OrthographicCamera"))
+            ok = parse_camera(&p, &t, false);
+        else if (tok_is(&t, "PerspectiveCamera"))
+            ok = parse_camera(&p, &t, true);
+        else if (tok_is(&t, "Background"))
+            ok = parse_background(&p);
+        else if (tok_is(&t, "Lights"))
+            ok = parse_lights(&p);
+        else if (tok_is(&t, "Materials"))
+            ok = parse_materials(&p);
+        else if (tok_is(&t, "Group")) {
+            Object3D *root;
+            ok = parse_group(&p, &t, &root);
+            if (ok)
+                s->root = root;   /* a second Group replaces the first (2) */
+        } else {
+            char shown[256];
+            ok = fail(&p, &t.loc, "unknown top-level block '%s'", tok_show(&t, shown, sizeof shown));
+        }
+        if (!ok)
+            break;
+    }
+    free(p.stack);
+    return ok;
+}
