@@ -1,0 +1,452 @@
+/* Helpers for end-to-end tests, header-only (each test binary is built from one .c):
+ * temporary folders, running the binary under test without a shell (stdout and stderr
+ * captured, stdin /dev/null, a time limit), files, and the course's -stats block. */
+#ifndef RT_E2E_UTIL_H
+#define RT_E2E_UTIL_H
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+/* ---- folders and files --------------------------------------------------------- */
+
+/* Creates a fresh folder under $TMPDIR (or /tmp) into buf; NULL on failure. */
+static inline char *e2e_tmpdir(char *buf, size_t size, const char *tag)
+{
+    const char *base = getenv("TMPDIR");
+    if (!base || !*base)
+        base = "/tmp";
+    snprintf(buf, size, "%s/rt_%s.XXXXXX", base, tag);
+    return mkdtemp(buf);
+}
+
+/* Removes a folder tree made by a test (files and sub-folders). */
+static inline void e2e_rmtree(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    char p[PATH_MAX];
+    while ((e = readdir(d)) != NULL) {
+        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
+            continue;
+        if (snprintf(p, sizeof p, "%s/%s", dir, e->d_name) >= (int)sizeof p)
+            continue;
+        struct stat st;
+        if (lstat(p, &st) == 0 && S_ISDIR(st.st_mode))
+            e2e_rmtree(p);
+        else
+            unlink(p);
+    }
+    closedir(d);
+    rmdir(dir);
+}
+
+/* Number of entries in a folder other than . and ..; -1 when it cannot be opened. */
+static inline int e2e_count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL)
+        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
+            n++;
+    closedir(d);
+    return n;
+}
+
+static inline bool e2e_exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+/* Whole file, NUL-terminated, malloc'd; NULL when unreadable. */
+static inline char *e2e_read_file(const char *path, size_t *len_out)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    size_t cap = 4096, len = 0;
+    char *buf = malloc(cap + 1);
+    size_t n;
+    while (buf && (n = fread(buf + len, 1, cap - len, f)) > 0) {
+        len += n;
+        if (len == cap) {
+            char *nb = realloc(buf, cap * 2 + 1);
+            if (!nb) {
+                free(buf);
+                buf = NULL;
+                break;
+            }
+            buf = nb;
+            cap *= 2;
+        }
+    }
+    fclose(f);
+    if (!buf)
+        return NULL;
+    buf[len] = '\0';
+    if (len_out)
+        *len_out = len;
+    return buf;
+}
+
+static inline bool e2e_write_file(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return false;
+    size_t n = strlen(text);
+    bool ok = fwrite(text, 1, n, f) == n;
+    return fclose(f) == 0 && ok;
+}
+
+/* "dir/name" into buf (truncation would be a test-setup bug; callers use PATH_MAX). */
+static inline const char *e2e_join(char *buf, size_t size, const char *dir, const char *name)
+{
+    if (snprintf(buf, size, "%s/%s", dir, name) >= (int)size)
+        buf[0] = '\0'; /* too long: an empty path fails loudly in the caller */
+    return buf;
+}
+
+/* An absolute form of a path, without resolving symbolic links of the last part. */
+static inline bool e2e_abspath(const char *path, char *buf, size_t size)
+{
+    if (path[0] == '/') {
+        snprintf(buf, size, "%s", path);
+        return true;
+    }
+    char cwd[PATH_MAX];
+    if (!getcwd(cwd, sizeof cwd))
+        return false;
+    return snprintf(buf, size, "%s/%s", cwd, path) < (int)size;
+}
+
+/* ---- running a program --------------------------------------------------------- */
+
+typedef struct E2eRun {
+    int status;        /* exit code; 128 + signal when killed; -1 could not run */
+    bool timed_out;
+    char *out, *err;   /* captured stdout / stderr, NUL-terminated (never NULL) */
+    size_t out_len, err_len;
+    double seconds;    /* wall time */
+} E2eRun;
+
+static inline void e2e_run_free(E2eRun *r)
+{
+    free(r->out);
+    free(r->err);
+    r->out = r->err = NULL;
+}
+
+static inline double e2e_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
+}
+
+static inline void e2e_append(char **buf, size_t *len, size_t *cap, const char *src, size_t n)
+{
+    if (*len + n + 1 > *cap) {
+        size_t c = *cap ? *cap : 1024;
+        while (c < *len + n + 1)
+            c *= 2;
+        char *nb = realloc(*buf, c);
+        if (!nb)
+            return; /* drop output rather than crash; the checks will then fail */
+        *buf = nb;
+        *cap = c;
+    }
+    memcpy(*buf + *len, src, n);
+    *len += n;
+    (*buf)[*len] = '\0';
+}
+
+/* The time limit of one run in seconds: RT_E2E_TIMEOUT, default 600 (renders under
+ * the sanitizers are several times slower than optimised ones). */
+static inline double e2e_timeout(void)
+{
+    const char *t = getenv("RT_E2E_TIMEOUT");
+    double v = t ? atof(t) : 0.0;
+    return v > 0.0 ? v : 600.0;
+}
+
+/* Runs argv[0] with argv (NULL-terminated) directly (fork + execv, no shell; argv[0]
+ * is a path). Returns false only when the run could not be started. */
+static inline bool e2e_run(char *const argv[], E2eRun *r)
+{
+    memset(r, 0, sizeof *r);
+    r->status = -1;
+    int po[2], pe[2];
+    if (pipe(po) != 0)
+        return false;
+    if (pipe(pe) != 0) {
+        close(po[0]);
+        close(po[1]);
+        return false;
+    }
+    fflush(stdout);
+    fflush(stderr);
+    double t0 = e2e_now();
+    pid_t pid = fork();
+    if (pid < 0) {
+        close(po[0]); close(po[1]); close(pe[0]); close(pe[1]);
+        return false;
+    }
+    if (pid == 0) {
+        int devnull = open("/dev/null", O_RDONLY);
+        if (devnull >= 0) {
+            dup2(devnull, 0);
+            close(devnull);
+        }
+        dup2(po[1], 1);
+        dup2(pe[1], 2);
+        close(po[0]); close(po[1]); close(pe[0]); close(pe[1]);
+        execv(argv[0], argv);
+        fprintf(stderr, "e2e: cannot run %s: %s\n", argv[0], strerror(errno));
+        _exit(127);
+    }
+    close(po[1]);
+    close(pe[1]);
+    size_t ocap = 0, ecap = 0;
+    e2e_append(&r->out, &r->out_len, &ocap, "", 0);
+    e2e_append(&r->err, &r->err_len, &ecap, "", 0);
+    struct pollfd fds[2] = {{po[0], POLLIN, 0}, {pe[0], POLLIN, 0}};
+    int open_fds = 2;
+    double limit = e2e_timeout();
+    char chunk[8192];
+    while (open_fds > 0) {
+        double left = limit - (e2e_now() - t0);
+        if (left <= 0) {
+            r->timed_out = true;
+            kill(pid, SIGKILL);
+            break;
+        }
+        int ms = left > 1.0 ? 1000 : (int)(left * 1000.0) + 1;
+        int n = poll(fds, 2, ms);
+        if (n < 0 && errno != EINTR)
+            break;
+        for (int i = 0; i < 2; i++) {
+            if (fds[i].fd < 0 || !(fds[i].revents & (POLLIN | POLLHUP | POLLERR)))
+                continue;
+            ssize_t got = read(fds[i].fd, chunk, sizeof chunk);
+            if (got > 0) {
+                if (i == 0)
+                    e2e_append(&r->out, &r->out_len, &ocap, chunk, (size_t)got);
+                else
+                    e2e_append(&r->err, &r->err_len, &ecap, chunk, (size_t)got);
+            } else if (got == 0 || errno != EINTR) {
+                close(fds[i].fd);
+                fds[i].fd = -1;
+                open_fds--;
+            }
+        }
+    }
+    for (int i = 0; i < 2; i++)
+        if (fds[i].fd >= 0)
+            close(fds[i].fd);
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+    }
+    r->seconds = e2e_now() - t0;
+    if (WIFEXITED(st))
+        r->status = WEXITSTATUS(st);
+    else if (WIFSIGNALED(st))
+        r->status = 128 + WTERMSIG(st);
+    return true;
+}
+
+/* Runs the binary under test (harness_bin()) with the given arguments (NULL-terminated,
+ * not including the program name). */
+static inline bool e2e_run_bin(const char *bin, const char *const *args, E2eRun *r)
+{
+    char *argv[128];
+    int n = 0;
+    argv[n++] = (char *)bin;
+    for (int i = 0; args[i] && n < 127; i++)
+        argv[n++] = (char *)args[i];
+    argv[n] = NULL;
+    return e2e_run(argv, r);
+}
+
+/* A readable one-line summary of a failed run, for CHECK_MSG. */
+static inline const char *e2e_describe(const E2eRun *r, char *buf, size_t size)
+{
+    snprintf(buf, size, "exit %d%s; stderr: %.300s", r->status,
+             r->timed_out ? " (timed out)" : "", r->err ? r->err : "");
+    return buf;
+}
+
+/* ---- the -stats block (spec stats.md 2) ----------------------------------------- */
+
+/* Writes a reason into why and returns false (vsnprintf: a long reason is cut). */
+static inline bool e2e_why(char *why, size_t size, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static inline bool e2e_why(char *why, size_t size, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(why, size, fmt, ap);
+    va_end(ap);
+    return false;
+}
+
+enum { E2E_STATS_LINES = 15, E2E_STATS_LABELS = 12 };
+
+static const char *const e2e_stats_labels[E2E_STATS_LABELS] = {
+    "total time", "num pixels", "scene bounds", "num grid cells",
+    "num non-shadow rays", "num shadow rays", "total intersections",
+    "total cells traversed", "rays per second", "rays per pixel",
+    "intersections per ray", "cells traversed per ray",
+};
+
+typedef struct E2eStats {
+    bool found;
+    char lines[E2E_STATS_LINES][256];      /* the block's lines, without newlines */
+    char values[E2E_STATS_LABELS][200];    /* text after each label, leading spaces cut */
+    unsigned long long nonshadow, shadow, intersections, cells;
+} E2eStats;
+
+/* Finds the block in text (the line "RAY TRACING STATISTICS" and the line before it)
+ * and extracts the value of every label, leniently: values[] are filled even when the
+ * layout is off, so peer files with another time format can be read too. */
+static inline bool e2e_stats_parse(const char *text, E2eStats *s)
+{
+    memset(s, 0, sizeof *s);
+    const char *title = strstr(text, "\nRAY TRACING STATISTICS\n");
+    if (!title)
+        return false;
+    const char *start = title;
+    while (start > text && start[-1] != '\n')
+        start--;
+    const char *p = start;
+    for (int i = 0; i < E2E_STATS_LINES && *p; i++) {
+        const char *nl = strchr(p, '\n');
+        size_t n = nl ? (size_t)(nl - p) : strlen(p);
+        if (n >= sizeof s->lines[i])
+            n = sizeof s->lines[i] - 1;
+        memcpy(s->lines[i], p, n);
+        s->lines[i][n] = '\0';
+        p = nl ? nl + 1 : p + n;
+    }
+    for (int k = 0; k < E2E_STATS_LABELS; k++) {
+        const char *line = s->lines[k + 2];
+        const char *at = strstr(line, e2e_stats_labels[k]);
+        if (!at)
+            continue;
+        at += strlen(e2e_stats_labels[k]);
+        while (*at == ' ')
+            at++;
+        snprintf(s->values[k], sizeof s->values[k], "%s", at);
+    }
+    s->nonshadow = strtoull(s->values[4], NULL, 10);
+    s->shadow = strtoull(s->values[5], NULL, 10);
+    s->intersections = strtoull(s->values[6], NULL, 10);
+    s->cells = strtoull(s->values[7], NULL, 10);
+    s->found = true;
+    return true;
+}
+
+/* Checks the exact layout of stats.md 2: 15 lines, 44 asterisks around, the title, the
+ * labels with their values in column 30, the formats of time/pixels/bounds/grid cells/
+ * counters/ratios. Writes the first problem into why and returns false. */
+static inline bool e2e_stats_layout_ok(const E2eStats *s, int width, int height, char *why,
+                                       size_t size)
+{
+    static const char stars[] = "********************************************";
+    if (!s->found)
+        return e2e_why(why, size, "no RAY TRACING STATISTICS block on stdout");
+    if (strcmp(s->lines[0], stars) != 0 || strcmp(s->lines[14], stars) != 0)
+        return e2e_why(why, size, "first/last line is not 44 asterisks: '%s' / '%s'",
+                        s->lines[0], s->lines[14]);
+    if (strcmp(s->lines[1], "RAY TRACING STATISTICS") != 0)
+        return e2e_why(why, size, "line 2 is '%s'", s->lines[1]);
+    for (int k = 0; k < E2E_STATS_LABELS; k++) {
+        const char *line = s->lines[k + 2];
+        char prefix[64];
+        snprintf(prefix, sizeof prefix, "  %-27s", e2e_stats_labels[k]);
+        if (strncmp(line, prefix, 29) != 0 || line[29] == ' ' || line[29] == '\0')
+            return e2e_why(why, size, "line %d: '%s' (want label '%s' and the value in "
+                            "column 30)", k + 3, line, e2e_stats_labels[k]);
+    }
+    /* total time H:MM:SS */
+    unsigned hh, mm, ss;
+    char again_t[64];
+    if (sscanf(s->values[0], "%u:%u:%u", &hh, &mm, &ss) != 3 || mm > 59 || ss > 59 ||
+        (snprintf(again_t, sizeof again_t, "%u:%02u:%02u", hh, mm, ss),
+         strcmp(again_t, s->values[0]) != 0))
+        return e2e_why(why, size, "total time '%s' is not H:MM:SS", s->values[0]);
+    char want[128];
+    snprintf(want, sizeof want, "%d (%dx%d)", width * height, width, height);
+    if (strcmp(s->values[1], want) != 0)
+        return e2e_why(why, size, "num pixels '%s', expected '%s'", s->values[1], want);
+    if (strcmp(s->values[2], "NULL") != 0) {
+        double b[6];
+        char again[200];
+        if (sscanf(s->values[2], "%lf %lf %lf -> %lf %lf %lf", &b[0], &b[1], &b[2], &b[3],
+                   &b[4], &b[5]) != 6)
+            return e2e_why(why, size, "scene bounds '%s' unreadable", s->values[2]);
+        snprintf(again, sizeof again, "%f %f %f  -> %f %f %f", b[0], b[1], b[2], b[3], b[4],
+                 b[5]);
+        if (strcmp(again, s->values[2]) != 0)
+            return e2e_why(why, size, "scene bounds '%s' not in the format '%s'",
+                            s->values[2], again);
+    }
+    if (strcmp(s->values[3], "NULL") != 0) {
+        int n, x, y, z;
+        char again[128];
+        if (sscanf(s->values[3], "%d (%dx%dx%d)", &n, &x, &y, &z) != 4)
+            return e2e_why(why, size, "num grid cells '%s' unreadable", s->values[3]);
+        snprintf(again, sizeof again, "%d (%dx%dx%d)", x * y * z, x, y, z);
+        if (strcmp(again, s->values[3]) != 0)
+            return e2e_why(why, size, "num grid cells '%s', expected '%s'", s->values[3],
+                            again);
+    }
+    for (int k = 4; k < 8; k++) {
+        const char *v = s->values[k];
+        if (!*v || strspn(v, "0123456789") != strlen(v))
+            return e2e_why(why, size, "%s '%s' is not an unsigned integer",
+                            e2e_stats_labels[k], v);
+    }
+    for (int k = 8; k < 12; k++) {
+        const char *v = s->values[k];
+        const char *dot = strchr(v, '.');
+        bool ok = dot && dot > v && strlen(dot) == 2 && dot[1] >= '0' && dot[1] <= '9' &&
+                  strspn(v, "0123456789") == (size_t)(dot - v);
+        if (!ok && strcmp(v, "nan") != 0 && strcmp(v, "-nan") != 0)
+            return e2e_why(why, size, "%s '%s' is not %%0.1f", e2e_stats_labels[k], v);
+    }
+    /* The ratios follow from the counters (stats.md 3); allow printf rounding. */
+    double rays = (double)(s->nonshadow + s->shadow);
+    double pix = (double)width * height;
+    double expect[3] = {rays / pix, rays > 0 ? (double)s->intersections / rays : 0.0,
+                        rays > 0 ? (double)s->cells / rays : 0.0};
+    for (int k = 0; k < 3; k++) {
+        double got = atof(s->values[9 + k]);
+        if (rays > 0 && !(got >= expect[k] - 0.051 && got <= expect[k] + 0.051))
+            return e2e_why(why, size, "%s is %s, counters give %.3f", e2e_stats_labels[9 + k],
+                            s->values[9 + k], expect[k]);
+    }
+    return true;
+}
+
+#endif

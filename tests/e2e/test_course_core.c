@@ -1,0 +1,300 @@
+/* Acceptance test of the core: every course command line without a grid, the GUI or a
+ * procedural material, rendered by the binary and compared with the course's official
+ * image (>= 99.5% of pixels within 8/255) and, where an independent implementation's
+ * -stats output exists, with its counters; a few lines also with -threads 1 and 2. */
+#define _POSIX_C_SOURCE 200809L
+#include "../harness.h"
+#include "e2e_util.h"
+
+#include "rt/image.h"
+#include "rt/image_compare.h"
+
+/* Pass rule of the reference comparison (course README: nearly every pixel within
+ * 1/255; 8/255 leaves room for float-order differences on grazing pixels). */
+enum { REF_THRESHOLD = 8 };
+static const double REF_MIN_PERCENT = 99.5;
+/* Shadow rays and intersections may differ from the peer's by rays grazing
+ * silhouettes (course README); non-shadow rays must be exact. */
+static const double COUNT_TOLERANCE = 0.005;
+
+typedef struct CourseLine {
+    char id[16];
+    int argc;
+    char *argv[64];      /* pointers into text */
+    char text[1024];
+} CourseLine;
+
+/* Reads the line "<id>|<arguments>" of commands.txt and splits its arguments. */
+static bool course_line(const char *course, const char *id, CourseLine *cl)
+{
+    char path[PATH_MAX];
+    char *all = e2e_read_file(e2e_join(path, sizeof path, course, "commands.txt"), NULL);
+    if (!all)
+        return false;
+    bool found = false;
+    size_t idlen = strlen(id);
+    for (char *line = all; line && *line;) {
+        char *nl = strchr(line, '\n');
+        if (nl)
+            *nl = '\0';
+        if (strncmp(line, id, idlen) == 0 && line[idlen] == '|') {
+            snprintf(cl->id, sizeof cl->id, "%s", id);
+            snprintf(cl->text, sizeof cl->text, "%s", line + idlen + 1);
+            found = true;
+            break;
+        }
+        line = nl ? nl + 1 : NULL;
+    }
+    free(all);
+    if (!found)
+        return false;
+    cl->argc = 0;
+    for (char *tok = strtok(cl->text, " \t\r"); tok && cl->argc < 63;
+         tok = strtok(NULL, " \t\r"))
+        cl->argv[cl->argc++] = tok;
+    cl->argv[cl->argc] = NULL;
+    return true;
+}
+
+static bool has_arg(const CourseLine *cl, const char *flag)
+{
+    for (int i = 0; i < cl->argc; i++)
+        if (strcmp(cl->argv[i], flag) == 0)
+            return true;
+    return false;
+}
+
+static int int_after(const CourseLine *cl, const char *flag, int which, int fallback)
+{
+    for (int i = 0; i < cl->argc; i++)
+        if (strcmp(cl->argv[i], flag) == 0 && i + 1 + which < cl->argc)
+            return atoi(cl->argv[i + 1 + which]);
+    return fallback;
+}
+
+typedef struct Render {
+    E2eRun run;
+    E2eStats stats;
+    char out_path[PATH_MAX];
+    bool ok;             /* ran, exit 0, image written */
+} Render;
+
+/* Renders a course line: -input made absolute into the course folder, -output into
+ * dir, extra arguments appended. */
+static void render_line(const char *course, const CourseLine *cl, const char *dir,
+                        const char *out_name, const char *const *extra, Render *r)
+{
+    static char input_abs[PATH_MAX];
+    char course_abs[PATH_MAX];
+    const char *args[96];
+    int n = 0;
+    memset(r, 0, sizeof *r);
+    CHECK(e2e_abspath(course, course_abs, sizeof course_abs));
+    e2e_join(r->out_path, sizeof r->out_path, dir, out_name);
+    for (int i = 0; i < cl->argc && n < 80; i++) {
+        args[n++] = cl->argv[i];
+        if (strcmp(cl->argv[i], "-input") == 0 && i + 1 < cl->argc) {
+            args[n++] = e2e_join(input_abs, sizeof input_abs, course_abs, cl->argv[++i]);
+        } else if (strcmp(cl->argv[i], "-output") == 0 && i + 1 < cl->argc) {
+            args[n++] = r->out_path;
+            i++;
+        }
+    }
+    for (int i = 0; extra && extra[i] && n < 95; i++)
+        args[n++] = extra[i];
+    args[n] = NULL;
+    if (!e2e_run_bin(harness_bin(), args, &r->run)) {
+        CHECK_MSG(false, "cannot start %s", harness_bin());
+        return;
+    }
+    char why[512];
+    CHECK_MSG(r->run.status == 0, "%s: %s", cl->id, e2e_describe(&r->run, why, sizeof why));
+    CHECK_MSG(e2e_exists(r->out_path), "%s: no image written at %s", cl->id, r->out_path);
+    e2e_stats_parse(r->run.out, &r->stats);
+    r->ok = r->run.status == 0 && e2e_exists(r->out_path);
+}
+
+static const char *course_or_skip(void)
+{
+    const char *course = harness_course_dir();
+    if (!course)
+        harness_skip("course folder absent (set RT_COURSE or put it at ../shared/course)");
+    return course;
+}
+
+static bool within(unsigned long long got, unsigned long long want, double tol)
+{
+    double g = (double)got, w = (double)want;
+    return fabs(g - w) <= tol * (w > 1.0 ? w : 1.0);
+}
+
+static void check_course_id(const char *id)
+{
+    const char *course = course_or_skip();
+    CourseLine cl;
+    CHECK_MSG(course_line(course, id, &cl), "line %s not found in commands.txt", id);
+    if (harness_failures)
+        return;
+    /* This test covers the core only: the lines picked must stay grid/GUI free. */
+    CHECK(!has_arg(&cl, "-grid") && !has_arg(&cl, "-gui"));
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "course") != NULL);
+    char out_name[64];
+    snprintf(out_name, sizeof out_name, "output6_%s.tga", id);
+
+    Render r;
+    render_line(course, &cl, dir, out_name, NULL, &r);
+    if (!r.ok) {
+        e2e_run_free(&r.run);
+        e2e_rmtree(dir);
+        return;
+    }
+
+    /* (a) the image against the official one */
+    char ref_path[PATH_MAX], rel[128];
+    snprintf(rel, sizeof rel, "official/%s", out_name);
+    e2e_join(ref_path, sizeof ref_path, course, rel);
+    Diag diag;
+    diag_init(&diag, NULL);
+    Image mine, ref;
+    bool have_mine = image_read(&mine, r.out_path, &diag);
+    CHECK_MSG(have_mine, "%s", diag.last);
+    bool have_ref = image_read(&ref, ref_path, &diag);
+    CHECK_MSG(have_ref, "%s", diag.last);
+    if (have_mine && have_ref) {
+        ImageDiff d = image_compare(&mine, &ref, REF_THRESHOLD);
+        CHECK_MSG(d.same_size, "%s: size %dx%d, official %dx%d", id, mine.width, mine.height,
+                  ref.width, ref.height);
+        if (d.same_size) {
+            printf("\n    %-4s image: mean diff %.4f/255, within 1/255 %.3f%%, within 8/255 "
+                   "%.3f%%, max %d, %.1fs", id, d.mean_abs, d.pct_within_1, d.pct_within_8,
+                   d.max_diff, r.run.seconds);
+            CHECK_MSG(d.pct_within_t >= REF_MIN_PERCENT,
+                      "%s: only %.3f%% of pixels within %d/255 of the official image "
+                      "(need %.1f%%; mean diff %.4f)", id, d.pct_within_t, REF_THRESHOLD,
+                      REF_MIN_PERCENT, d.mean_abs);
+        }
+    }
+    if (have_mine)
+        image_free(&mine);
+    if (have_ref)
+        image_free(&ref);
+
+    /* (b) the -stats block: layout, and counters against the peer implementation */
+    if (has_arg(&cl, "-stats")) {
+        char why[512] = "";
+        int w = int_after(&cl, "-size", 0, 100), h = int_after(&cl, "-size", 1, 100);
+        CHECK_MSG(e2e_stats_layout_ok(&r.stats, w, h, why, sizeof why), "%s: -stats: %s", id,
+                  why);
+        CHECK_MSG(strcmp(r.stats.values[3], "NULL") == 0, "%s: num grid cells '%s' without "
+                  "-grid", id, r.stats.values[3]);
+        CHECK_MSG(r.stats.cells == 0, "%s: %llu cells traversed without a grid", id,
+                  r.stats.cells);
+        char peer_path[PATH_MAX];
+        snprintf(rel, sizeof rel, "peer-stats/%s.stats.txt", id);
+        char *peer_text = e2e_read_file(e2e_join(peer_path, sizeof peer_path, course, rel),
+                                        NULL);
+        if (peer_text) {
+            E2eStats peer;
+            CHECK_MSG(e2e_stats_parse(peer_text, &peer), "%s: unreadable", peer_path);
+            printf("\n    %-4s stats: non-shadow %llu (peer %llu), shadow %llu (peer %llu), "
+                   "intersections %llu (peer %llu)", id, r.stats.nonshadow, peer.nonshadow,
+                   r.stats.shadow, peer.shadow, r.stats.intersections, peer.intersections);
+            if (strcmp(r.stats.values[2], peer.values[2]) != 0)
+                printf("\n    %-4s note: scene bounds '%s', peer '%s'", id, r.stats.values[2],
+                       peer.values[2]);
+            CHECK_MSG(r.stats.nonshadow == peer.nonshadow,
+                      "%s: %llu non-shadow rays, peer %llu", id, r.stats.nonshadow,
+                      peer.nonshadow);
+            CHECK_MSG(within(r.stats.shadow, peer.shadow, COUNT_TOLERANCE),
+                      "%s: %llu shadow rays, peer %llu (> 0.5%% apart)", id, r.stats.shadow,
+                      peer.shadow);
+            CHECK_MSG(within(r.stats.intersections, peer.intersections, COUNT_TOLERANCE),
+                      "%s: %llu intersections, peer %llu (> 0.5%% apart)", id,
+                      r.stats.intersections, peer.intersections);
+            free(peer_text);
+        }
+    }
+    printf("\n    ");
+    e2e_run_free(&r.run);
+    e2e_rmtree(dir);
+}
+
+/* (c) -threads 1 and -threads 2 give the same bytes and the same counters (DESIGN 6). */
+static void check_threads_id(const char *id)
+{
+    const char *course = course_or_skip();
+    CourseLine cl;
+    CHECK_MSG(course_line(course, id, &cl), "line %s not found in commands.txt", id);
+    if (harness_failures)
+        return;
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "threads") != NULL);
+    const char *one[] = {"-threads", "1", has_arg(&cl, "-stats") ? NULL : "-stats", NULL};
+    const char *two[] = {"-threads", "2", has_arg(&cl, "-stats") ? NULL : "-stats", NULL};
+    Render a, b;
+    render_line(course, &cl, dir, "t1.tga", one, &a);
+    render_line(course, &cl, dir, "t2.tga", two, &b);
+    if (a.ok && b.ok) {
+        size_t la = 0, lb = 0;
+        char *ba = e2e_read_file(a.out_path, &la), *bb = e2e_read_file(b.out_path, &lb);
+        CHECK(ba && bb);
+        if (ba && bb)
+            CHECK_MSG(la == lb && memcmp(ba, bb, la) == 0,
+                      "%s: -threads 1 and -threads 2 images differ", id);
+        free(ba);
+        free(bb);
+        CHECK_MSG(a.stats.found && b.stats.found, "%s: no stats block", id);
+        CHECK_MSG(a.stats.nonshadow == b.stats.nonshadow && a.stats.shadow == b.stats.shadow &&
+                  a.stats.intersections == b.stats.intersections &&
+                  a.stats.cells == b.stats.cells,
+                  "%s: counters differ between 1 and 2 threads: %llu/%llu/%llu/%llu vs "
+                  "%llu/%llu/%llu/%llu", id, a.stats.nonshadow, a.stats.shadow,
+                  a.stats.intersections, a.stats.cells, b.stats.nonshadow, b.stats.shadow,
+                  b.stats.intersections, b.stats.cells);
+        printf("\n    %-4s 1 thread %.1fs, 2 threads %.1fs\n    ", id, a.run.seconds,
+               b.run.seconds);
+    }
+    e2e_run_free(&a.run);
+    e2e_run_free(&b.run);
+    e2e_rmtree(dir);
+}
+
+/* One test per line, so each id passes or fails on its own. */
+static void test_course_01a(void) { check_course_id("01a"); }
+static void test_course_02a(void) { check_course_id("02a"); }
+static void test_course_02c(void) { check_course_id("02c"); }
+static void test_course_03a(void) { check_course_id("03a"); }
+static void test_course_03c(void) { check_course_id("03c"); }
+static void test_course_04a(void) { check_course_id("04a"); }
+static void test_course_04c(void) { check_course_id("04c"); }
+static void test_course_08a(void) { check_course_id("08a"); }
+static void test_course_09a(void) { check_course_id("09a"); }
+static void test_course_10a(void) { check_course_id("10a"); }
+static void test_course_11a(void) { check_course_id("11a"); }
+static void test_course_12a(void) { check_course_id("12a"); }
+static void test_threads_03c(void) { check_threads_id("03c"); }
+static void test_threads_04c(void) { check_threads_id("04c"); }
+static void test_threads_11a(void) { check_threads_id("11a"); }
+static void test_threads_12a(void) { check_threads_id("12a"); }
+
+static const TestCase tests[] = {
+    {"course 01a: sphere", test_course_01a},
+    {"course 02a: sphere + triangles", test_course_02a},
+    {"course 02c: ... with shadows", test_course_02c},
+    {"course 03a: sphere + plane", test_course_03a},
+    {"course 03c: ... with shadows", test_course_03c},
+    {"course 04a: bunny 200", test_course_04a},
+    {"course 04c: ... with shadows", test_course_04c},
+    {"course 08a: scale + translate", test_course_08a},
+    {"course 09a: rotated triangles", test_course_09a},
+    {"course 10a: nested transformations", test_course_10a},
+    {"course 11a: mirrored floor", test_course_11a},
+    {"course 12a: faceted gem", test_course_12a},
+    {"threads 03c: 1 vs 2 threads identical", test_threads_03c},
+    {"threads 04c: 1 vs 2 threads identical", test_threads_04c},
+    {"threads 11a: 1 vs 2 threads identical", test_threads_11a},
+    {"threads 12a: 1 vs 2 threads identical", test_threads_12a},
+};
+
+RT_TEST_MAIN(tests)
