@@ -177,7 +177,8 @@ static int run(App *app)
             diag_warning(&app->diag, &file, "nothing bounded to put in a grid (only planes): rendering without one");
         else if (o->stats && o->grid_auto)
             printf("grid auto: %d x %d x %d cells\n", n[0], n[1], n[2]);
-        grid_set_marking(!o->no_marking);
+        if (app->grid)
+            grid_set_marking(app->grid, !o->no_marking);
     }
     app->rt.grid = app->grid;
     app->rt.visualize_grid = o->visualize_grid && app->grid;

@@ -21,8 +21,21 @@ BBox grid_bounds(const Grid *g);
 void grid_dims(const Grid *g, int n[3]);
 /* Number of entries in cell (i, j, k) (the visualisation "count"). */
 int grid_cell_count(const Grid *g, int i, int j, int k);
+/* Number of primitives the march would test in cell (i, j, k): the tighter, padded
+ * marching set (exact sphere-surface / triangle-box tests), never smaller than needed. */
+int grid_cell_marching_count(const Grid *g, int i, int j, int k);
+/* Sum over all cells of the course counts and of the marching-set sizes. */
+void grid_entry_totals(const Grid *g, uint64_t *course, uint64_t *marching);
 /* Size the per-thread mailbox (RenderCtx.mailbox) must have. */
 uint32_t grid_mailbox_size(const Grid *g);
+
+/* Marking (mailboxing): on by default. grid_build turns it off when the environment
+ * variable RT_NO_MARKING is set to anything but "" or "0" (for the with/without
+ * analysis). Call before rendering only: the grid is shared read-only while rendering.
+ * With marking off and a mailbox present, RtStats.repeat_tests counts the repeated
+ * primitive tests marking would have avoided. */
+void grid_set_marking(Grid *g, bool on);
+bool grid_marking(const Grid *g);
 
 /* RayCastFast: nearest hit with t > tmin, exactly the one the brute-force loop over
  * the scene finds (same t, normal, material, id). Counts cells and intersections. */
@@ -33,10 +46,6 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
  * normal = entered face, material = palette colour of its count). Planes not drawn. */
 bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
                               RenderCtx *ctx);
-
-/* Marking (mailboxing) on or off for the whole process; on by default. main sets it
- * once before rendering (-no_marking, for the analysis of what marking changes). */
-void grid_set_marking(bool on);
 
 /* -grid auto: a resolution chosen from the scene (README.txt explains the rule). */
 void grid_choose_auto(const Scene *scene, int n[3]);

@@ -1,0 +1,212 @@
+/* Unit tests of the primitives: hit, miss, tangent, inside, transforms with
+ * non-uniform scale, tie-break order and intersection counting. */
+#include "harness.h"
+#include "rt/arena.h"
+#include "rt/geom.h"
+#include "rt/material.h"
+
+static Arena arena;
+static const Material *mat;
+
+static void setup(void)
+{
+    arena_init(&arena);
+    PhongParams p = phong_defaults();
+    mat = phong_new(&arena, &p);
+}
+
+static Ray ray(Vec3 o, Vec3 d)
+{
+    Ray r = {o, d};
+    return r;
+}
+
+static void test_sphere(void)
+{
+    setup();
+    RenderCtx ctx = {0};
+    Object3D *s = sphere_new(&arena, v3(0, 0, 0), 1, mat);
+    object_assign_ids(s);
+    Hit h = hit_none();
+    Ray r = ray(v3(0, 0, 5), v3(0, 0, -1));
+    CHECK(obj_intersect(s, &r, &h, 0, &ctx));
+    CHECK_NEAR(h.t, 4, 1e-6);
+    CHECK_NEAR(h.normal.z, 1, 1e-6);
+    CHECK(h.material == mat);
+    /* Miss, and a non-unit direction: t scales accordingly. */
+    Hit h2 = hit_none();
+    Ray miss = ray(v3(0, 2, 5), v3(0, 0, -1));
+    CHECK(!obj_intersect(s, &miss, &h2, 0, &ctx));
+    Ray slow = ray(v3(0, 0, 5), v3(0, 0, -2));
+    CHECK(obj_intersect(s, &slow, &h2, 0, &ctx));
+    CHECK_NEAR(h2.t, 2, 1e-6);
+    /* Inside: the far root; normal still points outward. */
+    Hit h3 = hit_none();
+    Ray in = ray(v3(0, 0, 0), v3(1, 0, 0));
+    CHECK(obj_intersect(s, &in, &h3, 0, &ctx));
+    CHECK_NEAR(h3.t, 1, 1e-6);
+    CHECK_NEAR(h3.normal.x, 1, 1e-6);
+    /* Tangent ray grazes at one point. */
+    Hit h4 = hit_none();
+    Ray tan_r = ray(v3(-5, 1, 0), v3(1, 0, 0));
+    CHECK(obj_intersect(s, &tan_r, &h4, 0, &ctx));
+    CHECK_NEAR(h4.t, 5, 1e-3);
+    /* Behind the origin with tmin 0: nothing. */
+    Hit h5 = hit_none();
+    Ray away = ray(v3(0, 0, 5), v3(0, 0, 1));
+    CHECK(!obj_intersect(s, &away, &h5, 0, &ctx));
+    /* A farther hit never replaces a nearer one. */
+    Hit near = hit_none();
+    near.t = 3;
+    near.id = 7;
+    CHECK(!obj_intersect(s, &r, &near, 0, &ctx));
+    CHECK_INT(ctx.stats.intersections, 7);
+}
+
+static void test_plane(void)
+{
+    setup();
+    RenderCtx ctx = {0};
+    Object3D *p = plane_new(&arena, v3(0, 2, 0), 2, mat); /* y = 1, normal not unit */
+    object_assign_ids(p);
+    CHECK(!p->bounded);
+    Hit h = hit_none();
+    Ray down = ray(v3(0, 5, 0), v3(0, -1, 0));
+    CHECK(obj_intersect(p, &down, &h, 0, &ctx));
+    CHECK_NEAR(h.t, 4, 1e-6);
+    CHECK_NEAR(h.normal.y, 1, 1e-6);
+    Hit h2 = hit_none();
+    Ray par = ray(v3(0, 5, 0), v3(1, 0, 0));
+    CHECK(!obj_intersect(p, &par, &h2, 0, &ctx));
+    Ray up = ray(v3(0, 5, 0), v3(0, 1, 0));
+    CHECK(!obj_intersect(p, &up, &h2, 0, &ctx));
+}
+
+static void test_triangle(void)
+{
+    setup();
+    RenderCtx ctx = {0};
+    Object3D *t = triangle_new(&arena, v3(0, 0, 0), v3(1, 0, 0), v3(0, 1, 0), mat);
+    object_assign_ids(t);
+    Vec3 n = triangle_normal(t);
+    CHECK_NEAR(n.z, 1, 0); /* counter-clockwise seen from +z */
+    Hit h = hit_none();
+    Ray r = ray(v3(0.25f, 0.25f, 3), v3(0, 0, -1));
+    CHECK(obj_intersect(t, &r, &h, 0, &ctx));
+    CHECK_NEAR(h.t, 3, 1e-6);
+    Hit h2 = hit_none();
+    Ray out = ray(v3(0.75f, 0.75f, 3), v3(0, 0, -1));
+    CHECK(!obj_intersect(t, &out, &h2, 0, &ctx));
+    /* An edge point counts (closed triangle), from the back side too. */
+    Ray edge = ray(v3(0.5f, 0, -3), v3(0, 0, 1));
+    CHECK(obj_intersect(t, &edge, &h2, 0, &ctx));
+    CHECK_NEAR(h2.normal.z, 1, 0); /* the normal is not flipped by intersect */
+    Ray par = ray(v3(-1, 0.2f, 0), v3(1, 0, 0));
+    Hit h3 = hit_none();
+    CHECK(!obj_intersect(t, &par, &h3, 0, &ctx));
+}
+
+static void test_transform_nonuniform(void)
+{
+    setup();
+    RenderCtx ctx = {0};
+    /* Sphere of radius 1 scaled by (2,1,1) and moved to x = 5: an ellipsoid. */
+    Object3D *s = sphere_new(&arena, v3(0, 0, 0), 1, mat);
+    Mat4 t = mat4_translate(v3(5, 0, 0)), sc = mat4_scale(v3(2, 1, 1));
+    Mat4 m = mat4_mul(&t, &sc);
+    Object3D *x = transform_new(&arena, &m, s);
+    CHECK(x != NULL);
+    object_assign_ids(x);
+    CHECK_NEAR(x->bbox.min.x, 3, 1e-6);
+    CHECK_NEAR(x->bbox.max.x, 7, 1e-6);
+    Hit h = hit_none();
+    Ray r = ray(v3(0, 0, 0), v3(1, 0, 0));
+    CHECK(obj_intersect(x, &r, &h, 0, &ctx));
+    CHECK_NEAR(h.t, 3, 1e-5); /* world-space t */
+    CHECK_NEAR(h.normal.x, -1, 1e-6);
+    /* Normal by the inverse transpose: at 45 degrees on the unit sphere, the ellipsoid
+     * normal is (1/2, 1, 0) normalised, not the transformed (2, 1, 0) direction. */
+    float a = (float)(sqrt(0.5));
+    Ray r2 = ray(v3(5 + 2 * a, a, 5), v3(0, 0, -1));
+    Hit h2 = hit_none();
+    CHECK(obj_intersect(x, &r2, &h2, 0, &ctx));
+    Vec3 want = v3_normalize(v3(0.5f * a, a, 0));
+    CHECK_NEAR(h2.normal.x, want.x, 1e-3);
+    CHECK_NEAR(h2.normal.y, want.y, 1e-3);
+    /* Singular matrices are refused. */
+    Mat4 z = mat4_scale(v3(0, 1, 1));
+    CHECK(transform_new(&arena, &z, s) == NULL);
+}
+
+static void test_path_matches_tree(void)
+{
+    setup();
+    RenderCtx ctx = {0};
+    Object3D *tri = triangle_new(&arena, v3(-1, -1, 0), v3(1, -1, 0), v3(0, 1, 0.3f), mat);
+    Mat4 a = mat4_rotate_axis(v3(0.2f, 0.9f, 0.1f), 23), b = mat4_scale(v3(1.7f, 0.4f, 2.2f));
+    Mat4 c = mat4_translate(v3(0.3f, -0.2f, 1.1f));
+    Object3D *inner = transform_new(&arena, &b, tri);
+    Object3D *mid = transform_new(&arena, &a, inner);
+    Object3D *outer = transform_new(&arena, &c, mid);
+    object_assign_ids(outer);
+    XformPath path = {{outer, mid, inner}, 3};
+    int agree = 0, hits = 0;
+    for (int i = 0; i < 400; i++) {
+        float u = (float)(i % 20) / 10.0f - 1.0f, v = (float)(i / 20) / 10.0f - 1.0f;
+        Ray r = ray(v3(u, v, 5), v3(0.01f * u, -0.02f, -1));
+        Hit h1 = hit_none(), h2 = hit_none();
+        bool b1 = obj_intersect(outer, &r, &h1, 0, &ctx);
+        bool b2 = xform_path_intersect(&path, tri, &r, &h2, 0, &ctx);
+        hits += b1;
+        if (b1 == b2 && (!b1 || (h1.t == h2.t && h1.normal.x == h2.normal.x &&
+                                 h1.normal.y == h2.normal.y && h1.normal.z == h2.normal.z)))
+            agree++;
+    }
+    CHECK(hits > 50);
+    CHECK_INT(agree, 400);
+}
+
+static void test_group_and_ties(void)
+{
+    setup();
+    RenderCtx ctx = {0};
+    Object3D *g = group_new(&arena, 3);
+    /* Two coplanar triangles sharing an edge, and a sphere behind them. */
+    Object3D *t0 = triangle_new(&arena, v3(0, 0, 0), v3(1, 0, 0), v3(0, 1, 0), mat);
+    Object3D *t1 = triangle_new(&arena, v3(1, 0, 0), v3(1, 1, 0), v3(0, 1, 0), mat);
+    Object3D *s = sphere_new(&arena, v3(0, 0, -5), 1, mat);
+    group_set_child(g, 0, s);
+    group_set_child(g, 1, t1);
+    group_set_child(g, 2, t0);
+    group_finish(g);
+    CHECK_INT(object_assign_ids(g), 3);
+    CHECK_INT(s->id, 0);
+    CHECK_INT(t1->id, 1);
+    CHECK_INT(t0->id, 2);
+    CHECK_NEAR(g->bbox.min.z, -6, 0);
+    /* On the shared edge both triangles give the same t: the lower id wins in either
+     * testing order. */
+    Ray r = ray(v3(0.5f, 0.5f, 2), v3(0, 0, -1));
+    Hit h = hit_none();
+    CHECK(obj_intersect(g, &r, &h, 0, &ctx));
+    CHECK_INT(h.id, 1);
+    Hit h2 = hit_none();
+    CHECK(obj_intersect(t0, &r, &h2, 0, &ctx));
+    CHECK(obj_intersect(t1, &r, &h2, 0, &ctx));
+    CHECK_INT(h2.id, 1);
+    /* Groups and transforms do not count as intersections; leaves do. */
+    RenderCtx c2 = {0};
+    Hit h3 = hit_none();
+    obj_intersect(g, &r, &h3, 0, &c2);
+    CHECK_INT(c2.stats.intersections, 3);
+}
+
+static const TestCase tests[] = {
+    {"geom: sphere hit, miss, inside, tangent", test_sphere},
+    {"geom: plane", test_plane},
+    {"geom: triangle hit, miss, edge, parallel", test_triangle},
+    {"geom: transform with non-uniform scale", test_transform_nonuniform},
+    {"geom: flattened path == nested transforms", test_path_matches_tree},
+    {"geom: group nearest hit, tie-break, counting", test_group_and_ties},
+};
+RT_TEST_MAIN(tests)

@@ -1,0 +1,128 @@
+/* Unit tests of the command line (spec cli.md) and of the statistics block layout. */
+#define _GNU_SOURCE
+#include "harness.h"
+#include "rt/options.h"
+#include "rt/stats.h"
+
+#include <stdlib.h>
+
+static bool parse(Options *o, const char *line, char *err, size_t errlen)
+{
+    char buf[1024], *argv[64];
+    int argc = 0;
+    snprintf(buf, sizeof buf, "raytracer %s", line);
+    for (char *t = strtok(buf, " "); t && argc < 63; t = strtok(NULL, " "))
+        argv[argc++] = t;
+    argv[argc] = NULL;
+    FILE *f = fmemopen(err, errlen, "w");
+    options_defaults(o);
+    bool ok = options_parse(o, argc, argv, f);
+    fclose(f);
+    return ok;
+}
+
+static void test_course_line(void)
+{
+    Options o;
+    char err[512] = "";
+    CHECK(parse(&o, "-input s.txt -size 400 200 -output o.tga -shadows -shade_back -bounces 5 "
+                    "-weight 0.01 -grid 80 30 3 -stats -depth -2 2 d.tga -normals n.tga",
+                err, sizeof err));
+    CHECK_STR(o.input, "s.txt");
+    CHECK_INT(o.width, 400);
+    CHECK_INT(o.height, 200);
+    CHECK(o.shadows && o.shade_back && o.stats && o.grid && !o.grid_auto);
+    CHECK_INT(o.bounces, 5);
+    CHECK_NEAR(o.weight, 0.01, 1e-7);
+    CHECK_INT(o.grid_n[0] * 100 + o.grid_n[1] * 10 + o.grid_n[2], 8000 + 300 + 3);
+    CHECK_NEAR(o.depth_min, -2, 0);
+    CHECK_STR(o.depth_file, "d.tga");
+    CHECK_STR(o.normals_file, "n.tga");
+}
+
+static void test_defaults_and_repeats(void)
+{
+    Options o;
+    char err[512] = "";
+    CHECK(parse(&o, "-input a.txt -input b.txt -grid auto", err, sizeof err));
+    CHECK_STR(o.input, "b.txt"); /* the later occurrence wins */
+    CHECK_INT(o.width, 100);
+    CHECK_INT(o.bounces, 0);
+    CHECK(o.grid_auto);
+    CHECK(parse(&o, "-h", err, sizeof err) && o.help);
+    CHECK(parse(&o, "--version", err, sizeof err) && o.version);
+}
+
+static void test_usage_errors(void)
+{
+    static const char *bad[][2] = {
+        {"-input s.txt -bogus", "unknown option '-bogus'"},
+        {"-input s.txt -size 10", "needs more arguments"},
+        {"-input s.txt -size 10 x", "expects an integer, got 'x'"},
+        {"-input s.txt -size -5 10", "out of range"},
+        {"-input s.txt -size 0 10", "out of range"},
+        {"-input s.txt -weight nan", "finite number"},
+        {"-input s.txt -weight -1", ">= 0"},
+        {"-input s.txt -bounces 1.5", "expects an integer"},
+        {"-input s.txt -depth 1 1 d.tga", "must differ"},
+        {"-input s.txt -grid 0 1 1", "out of range"},
+        {"-input s.txt -grid 10 10", "needs more arguments"},
+        {"-input s.txt -visualize_grid", "needs -grid"},
+        {"-output o.tga", "-input scene.txt is required"},
+        {"-input s.txt -threads 0", "out of range"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        Options o;
+        char err[512] = "";
+        bool ok = parse(&o, bad[i][0], err, sizeof err);
+        CHECK_MSG(!ok, "accepted: %s", bad[i][0]);
+        CHECK_CONTAINS(err, bad[i][1]);
+        CHECK_CONTAINS(err, "raytracer: ");
+    }
+}
+
+static void test_stats_block(void)
+{
+    char buf[4096] = "";
+    FILE *f = fmemopen(buf, sizeof buf, "w");
+    BBox b = {{-1, -1, -1}, {1, 1, 1}};
+    StatsReport r = {200, 200, &b, 0, 0, 0, 0.25, {40000, 0, 40000, 0, 0, 0}};
+    stats_print(f, &r);
+    fclose(f);
+    const char *want =
+        "********************************************\n"
+        "RAY TRACING STATISTICS\n"
+        "  total time                 0:00:01\n"
+        "  num pixels                 40000 (200x200)\n"
+        "  scene bounds               -1.000000 -1.000000 -1.000000  -> 1.000000 1.000000 1.000000\n"
+        "  num grid cells             NULL\n"
+        "  num non-shadow rays        40000\n"
+        "  num shadow rays            0\n"
+        "  total intersections        40000\n"
+        "  total cells traversed      0\n"
+        "  rays per second            160000.0\n"
+        "  rays per pixel             1.0\n"
+        "  intersections per ray      1.0\n"
+        "  cells traversed per ray    0.0\n"
+        "********************************************\n";
+    CHECK_STR(buf, want);
+
+    f = fmemopen(buf, sizeof buf, "w");
+    StatsReport g = {400, 200, NULL, 40, 40, 33, 3725.5, {100, 50, 300, 900, 0, 0}};
+    stats_print(f, &g);
+    fclose(f);
+    CHECK_CONTAINS(buf, "  total time                 1:02:05\n");
+    CHECK_CONTAINS(buf, "  num pixels                 80000 (400x200)\n");
+    CHECK_CONTAINS(buf, "  scene bounds               NULL\n");
+    CHECK_CONTAINS(buf, "  num grid cells             52800 (40x40x33)\n");
+    CHECK_CONTAINS(buf, "  intersections per ray      2.0\n");
+    CHECK_CONTAINS(buf, "  cells traversed per ray    6.0\n");
+}
+
+static const TestCase tests[] = {
+    {"options: a full course command line", test_course_line},
+    {"options: defaults, repeats, -grid auto, -h", test_defaults_and_repeats},
+    {"options: usage errors say why", test_usage_errors},
+    {"stats: the course block, label for label", test_stats_block},
+};
+RT_TEST_MAIN(tests)
