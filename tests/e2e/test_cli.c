@@ -1,0 +1,339 @@
+/* End-to-end tests of the command line: exit statuses (0 written, 1 input/output error,
+ * 2 usage error; DESIGN.md 4), help and version output, and that a failed run leaves
+ * no output file. Scenes are written by the tests into a temporary folder. */
+#define _POSIX_C_SOURCE 200809L
+#include "../harness.h"
+#include "e2e_util.h"
+
+#include <ctype.h>
+
+#include "rt/image.h"
+
+static const char SCENE[] =
+    "OrthographicCamera {\n"
+    "    center 0 0 10\n"
+    "    direction 0 0 -1\n"
+    "    up 0 1 0\n"
+    "    size 5\n"
+    "}\n"
+    "Lights {\n"
+    "    numLights 1\n"
+    "    DirectionalLight {\n"
+    "        direction -0.5 -0.5 -1\n"
+    "        color 1 1 1\n"
+    "    }\n"
+    "}\n"
+    "Background { color 0.1 0.2 0.3 ambientLight 0.2 0.2 0.2 }\n"
+    "Materials {\n"
+    "    numMaterials 1\n"
+    "    PhongMaterial { diffuseColor 1 0 0 }\n"
+    "}\n"
+    "Group {\n"
+    "    numObjects 1\n"
+    "    MaterialIndex 0\n"
+    "    Sphere { center 0 0 0 radius 1 }\n"
+    "}\n";
+
+/* A scene with a syntax error near the end, so parsing gets some way first. */
+static const char BAD_SCENE[] =
+    "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+    "Group {\n"
+    "    numObjects 1\n"
+    "    Sphere { center 0 0 0 radius oops }\n"
+    "}\n";
+
+typedef struct Fixture {
+    char dir[PATH_MAX];
+    char scene[PATH_MAX];
+    char bad_scene[PATH_MAX];
+    char out[PATH_MAX];
+} Fixture;
+
+static void fixture_init(Fixture *f)
+{
+    CHECK(e2e_tmpdir(f->dir, sizeof f->dir, "cli") != NULL);
+    e2e_join(f->scene, sizeof f->scene, f->dir, "scene.txt");
+    e2e_join(f->bad_scene, sizeof f->bad_scene, f->dir, "bad.txt");
+    e2e_join(f->out, sizeof f->out, f->dir, "out.tga");
+    CHECK(e2e_write_file(f->scene, SCENE));
+    CHECK(e2e_write_file(f->bad_scene, BAD_SCENE));
+    if (access(harness_bin(), X_OK) != 0) {
+        harness_fail(__FILE__, __LINE__, "binary under test %s not found (run make first)",
+                     harness_bin());
+        e2e_rmtree(f->dir);
+        fflush(stdout);
+        _exit(1);
+    }
+}
+
+/* Runs the binary with args; returns the exit status and keeps the run in *r. */
+static int run(const char *const *args, E2eRun *r)
+{
+    if (!e2e_run_bin(harness_bin(), args, r))
+        return -1;
+    return r->status;
+}
+
+static void expect_status(const char *const *args, int want, const char *what, E2eRun *r)
+{
+    int got = run(args, r);
+    char why[512];
+    CHECK_MSG(got == want, "%s: exit %d, expected %d (%s)", what, got, want,
+              e2e_describe(r, why, sizeof why));
+}
+
+static bool ci_contains(const char *hay, const char *needle)
+{
+    size_t n = strlen(needle);
+    for (; *hay; hay++) {
+        size_t i = 0;
+        while (i < n && hay[i] && tolower((unsigned char)hay[i]) == tolower((unsigned char)needle[i]))
+            i++;
+        if (i == n)
+            return true;
+    }
+    return false;
+}
+
+static void test_good_render(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    E2eRun r;
+    const char *args[] = {"-input", f.scene, "-output", f.out, "-size", "12", "10", NULL};
+    expect_status(args, 0, "good render", &r);
+    CHECK_MSG(r.err_len == 0, "good render printed on stderr: %s", r.err);
+    Image img;
+    Diag diag;
+    diag_init(&diag, NULL);
+    CHECK_MSG(image_read(&img, f.out, &diag), "%s", diag.last);
+    CHECK_INT(img.width, 12);
+    CHECK_INT(img.height, 10);
+    if (img.pixels) {
+        /* corner: background (0.1 0.2 0.3); centre: the lit red sphere */
+        CHECK_INT(color_to_byte(image_get(&img, 0, 0).z), color_to_byte(0.3f));
+        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), color_to_byte(0.1f));
+        Vec3 c = image_get(&img, 6, 5);
+        CHECK(c.x > 0.2f && c.y == 0.0f && c.z == 0.0f);
+    }
+    image_free(&img);
+    size_t len = 0;
+    char *bytes = e2e_read_file(f.out, &len);
+    CHECK_INT(len, 18 + 12 * 10 * 3);
+    free(bytes);
+    /* scene, image and nothing else (no leftover temporary file) */
+    CHECK_INT(e2e_count_entries(f.dir), 3);
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
+static void test_all_three_images_and_ppm(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    char depth[PATH_MAX], normals[PATH_MAX], ppm[PATH_MAX];
+    e2e_join(depth, sizeof depth, f.dir, "depth.tga");
+    e2e_join(normals, sizeof normals, f.dir, "normals.tga");
+    e2e_join(ppm, sizeof ppm, f.dir, "out.ppm");
+    E2eRun r;
+    const char *args[] = {"-input", f.scene, "-size", "8", "8", "-output", ppm, "-depth", "9",
+                          "11", depth, "-normals", normals, NULL};
+    expect_status(args, 0, "three images", &r);
+    CHECK(e2e_exists(ppm));
+    CHECK(e2e_exists(depth));
+    CHECK(e2e_exists(normals));
+    size_t len = 0;
+    char *bytes = e2e_read_file(ppm, &len);
+    CHECK(bytes && len > 2 && bytes[0] == 'P' && bytes[1] == '6');
+    free(bytes);
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
+/* Each usage error: exit 2, a message on stderr, and no image. */
+static void check_usage_error(Fixture *f, const char *const *args, const char *what)
+{
+    E2eRun r;
+    expect_status(args, 2, what, &r);
+    CHECK_MSG(r.err_len > 0, "%s: nothing on stderr", what);
+    CHECK_MSG(!e2e_exists(f->out), "%s: an image was written", what);
+    e2e_run_free(&r);
+}
+
+static void test_usage_errors(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    const char *unknown[] = {"-input", f.scene, "-output", f.out, "-bogus", NULL};
+    check_usage_error(&f, unknown, "unknown option");
+    const char *missing_value[] = {"-input", f.scene, "-output", f.out, "-size", "10", NULL};
+    check_usage_error(&f, missing_value, "-size with one value");
+    const char *missing_input_value[] = {"-output", f.out, "-input", NULL};
+    check_usage_error(&f, missing_input_value, "-input without a value");
+    const char *negative[] = {"-input", f.scene, "-output", f.out, "-size", "-5", "10", NULL};
+    check_usage_error(&f, negative, "negative size");
+    const char *zero[] = {"-input", f.scene, "-output", f.out, "-size", "0", "10", NULL};
+    check_usage_error(&f, zero, "zero size");
+    const char *not_number[] = {"-input", f.scene, "-output", f.out, "-size", "10", "x", NULL};
+    check_usage_error(&f, not_number, "-size 10 x");
+    const char *trailing[] = {"-input", f.scene, "-output", f.out, "-size", "10", "10x", NULL};
+    check_usage_error(&f, trailing, "-size 10 10x");
+    const char *bad_float[] = {"-input", f.scene, "-output", f.out, "-weight", "abc", NULL};
+    check_usage_error(&f, bad_float, "-weight abc");
+    const char *no_input[] = {"-output", f.out, "-size", "10", "10", NULL};
+    check_usage_error(&f, no_input, "no -input");
+    const char *positional[] = {"-input", f.scene, "-output", f.out, "stray", NULL};
+    check_usage_error(&f, positional, "stray positional argument");
+    e2e_rmtree(f.dir);
+}
+
+static void check_help(const char *flag)
+{
+    E2eRun r;
+    const char *args[] = {flag, NULL};
+    expect_status(args, 0, flag, &r);
+    CHECK_MSG(ci_contains(r.out, "usage"), "%s: no usage on stdout: %.200s", flag, r.out);
+    CHECK_CONTAINS(r.out, "-input");
+    CHECK_CONTAINS(r.out, "-output");
+    CHECK_CONTAINS(r.out, "-size");
+    CHECK_MSG(r.err_len == 0, "%s printed on stderr: %s", flag, r.err);
+    e2e_run_free(&r);
+}
+
+static void test_help(void)
+{
+    check_help("-h");
+    check_help("--help");
+}
+
+static void test_version(void)
+{
+    E2eRun r;
+    const char *args[] = {"--version", NULL};
+    expect_status(args, 0, "--version", &r);
+    CHECK_CONTAINS(r.out, "raytracer");
+    /* the optional features are listed; this test binary is built with the same
+     * feature flags as the raytracer */
+    CHECK_MSG(ci_contains(r.out, "png"), "--version does not list the png feature: %s",
+              r.out);
+    if (image_png_supported())
+        CHECK_MSG(ci_contains(r.out, "png yes") || ci_contains(r.out, "+png") ||
+                  ci_contains(r.out, "png: yes"),
+                  "--version does not say png is built in: %s", r.out);
+    e2e_run_free(&r);
+}
+
+static void test_missing_scene(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    char missing[PATH_MAX];
+    e2e_join(missing, sizeof missing, f.dir, "nothere.txt");
+    E2eRun r;
+    const char *args[] = {"-input", missing, "-output", f.out, "-size", "8", "8", NULL};
+    expect_status(args, 1, "missing scene file", &r);
+    CHECK_CONTAINS(r.err, "nothere.txt");
+    CHECK_CONTAINS(r.err, "error");
+    CHECK(!e2e_exists(f.out));
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
+static void test_bad_scene_leaves_no_output(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    E2eRun r;
+    const char *args[] = {"-input", f.bad_scene, "-output", f.out, "-size", "8", "8", NULL};
+    expect_status(args, 1, "scene with a syntax error", &r);
+    /* located message: bad.txt:4:<col>: error: ... */
+    CHECK_CONTAINS(r.err, "bad.txt:4:");
+    CHECK_CONTAINS(r.err, "error");
+    CHECK(!e2e_exists(f.out));
+    CHECK_INT(e2e_count_entries(f.dir), 2); /* only the two scenes */
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
+static void test_unwritable_output(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    char out[PATH_MAX];
+    e2e_join(out, sizeof out, f.dir, "missing/out.tga");
+    E2eRun r;
+    const char *args[] = {"-input", f.scene, "-output", out, "-size", "8", "8", NULL};
+    expect_status(args, 1, "output into a missing folder", &r);
+    CHECK_CONTAINS(r.err, "missing/out.tga");
+    CHECK_CONTAINS(r.err, "cannot write image");
+    CHECK(!e2e_exists(out));
+    CHECK_INT(e2e_count_entries(f.dir), 2);
+    e2e_run_free(&r);
+
+    /* An unknown image extension fails (usage or output error) and writes nothing. */
+    char bmp[PATH_MAX];
+    e2e_join(bmp, sizeof bmp, f.dir, "out.bmp");
+    const char *args2[] = {"-input", f.scene, "-output", bmp, "-size", "8", "8", NULL};
+    int st = run(args2, &r);
+    CHECK_MSG(st == 1 || st == 2, "unknown extension: exit %d", st);
+    CHECK_CONTAINS(r.err, ".tga");
+    CHECK(!e2e_exists(bmp));
+    CHECK_INT(e2e_count_entries(f.dir), 2);
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
+static void test_failed_second_image_leaves_no_first(void)
+{
+    /* -output fine, -normals into a missing folder: the run fails with 1. Whatever was
+     * written, no temporary file stays behind. */
+    Fixture f;
+    fixture_init(&f);
+    char normals[PATH_MAX];
+    e2e_join(normals, sizeof normals, f.dir, "missing/n.tga");
+    E2eRun r;
+    const char *args[] = {"-input", f.scene, "-output", f.out, "-normals", normals, "-size",
+                          "8", "8", NULL};
+    expect_status(args, 1, "unwritable -normals", &r);
+    CHECK(!e2e_exists(normals));
+    int n = e2e_count_entries(f.dir);
+    CHECK_MSG(n == 2 || n == 3, "%d entries in the folder (temporary file left?)", n);
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
+static void test_stats_on_stdout(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    E2eRun r;
+    const char *args[] = {"-input", f.scene, "-output", f.out, "-size", "20", "10", "-stats",
+                          NULL};
+    expect_status(args, 0, "-stats", &r);
+    E2eStats s;
+    CHECK_MSG(e2e_stats_parse(r.out, &s), "no statistics block on stdout: %.300s", r.out);
+    char why[512] = "";
+    CHECK_MSG(e2e_stats_layout_ok(&s, 20, 10, why, sizeof why), "%s", why);
+    /* one sphere, no shadows, no bounces: one ray and one test per pixel (stats.md 4) */
+    CHECK_INT(s.nonshadow, 200);
+    CHECK_INT(s.shadow, 0);
+    CHECK_INT(s.intersections, 200);
+    CHECK_STR(s.values[2], "-1.000000 -1.000000 -1.000000  -> 1.000000 1.000000 1.000000");
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
+static const TestCase tests[] = {
+    {"cli: good render exits 0, image correct", test_good_render},
+    {"cli: -output .ppm, -depth, -normals together", test_all_three_images_and_ppm},
+    {"cli: usage errors exit 2, write nothing", test_usage_errors},
+    {"cli: -h and --help", test_help},
+    {"cli: --version lists features", test_version},
+    {"cli: missing scene exits 1", test_missing_scene},
+    {"cli: bad scene exits 1, located, no output", test_bad_scene_leaves_no_output},
+    {"cli: unwritable output exits 1, no file", test_unwritable_output},
+    {"cli: failed second image leaves no temp file", test_failed_second_image_leaves_no_first},
+    {"cli: -stats block on stdout", test_stats_on_stdout},
+};
+
+RT_TEST_MAIN(tests)
