@@ -1,0 +1,273 @@
+/* OBJ reader tests: record forms, fans, negative indices, CRLF, located errors, the float
+ * fast path against strtof, and the official meshes against a course-style reader. */
+#define _POSIX_C_SOURCE 200809L
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "../harness.h"
+#include "../../src/scene/obj_loader.h"
+
+static Diag g_diag;
+
+static bool parse(const char *text, ObjMesh *m)
+{
+    diag_init(&g_diag, NULL);
+    return obj_parse(text, strlen(text), "m.obj", m, &g_diag);
+}
+
+#define EXPECT_OBJ_ERROR(text, msg) \
+    do { \
+        ObjMesh m_; \
+        CHECK_MSG(!parse((text), &m_), "parsed, expected \"%s\"", (msg)); \
+        CHECK_CONTAINS(g_diag.last, (msg)); \
+        CHECK(m_.verts == NULL && m_.tris == NULL); \
+    } while (0)
+
+static void check_tri(const ObjMesh *m, int i, int a, int b, int c)
+{
+    CHECK_MSG(i < m->ntris, "triangle %d missing (%d triangles)", i, m->ntris);
+    if (i >= m->ntris)
+        return;
+    CHECK_MSG(m->tris[i][0] == a && m->tris[i][1] == b && m->tris[i][2] == c,
+              "triangle %d = (%d %d %d), expected (%d %d %d)", i, m->tris[i][0],
+              m->tris[i][1], m->tris[i][2], a, b, c);
+}
+
+static void test_basic(void)
+{
+    ObjMesh m;
+    CHECK(parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &m));
+    CHECK_INT(m.nverts, 3);
+    CHECK_INT(m.ntris, 1);
+    check_tri(&m, 0, 0, 1, 2);
+    CHECK_NEAR(m.verts[1].x, 1, 0);
+    CHECK_NEAR(m.verts[2].y, 1, 0);
+    obj_mesh_free(&m);
+    /* Empty input: nothing, no error (the scene parser rejects a mesh without faces). */
+    CHECK(parse("", &m));
+    CHECK_INT(m.nverts, 0);
+    CHECK_INT(m.ntris, 0);
+    obj_mesh_free(&m);
+}
+
+static void test_slash_forms(void)
+{
+    ObjMesh m;
+    CHECK(parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n"
+                "f 1/1/1 2/2/2 3/3/3\nf 2//1 4//1 3//1\nf 1/5 3/6 4/7\n", &m));
+    CHECK_INT(m.ntris, 3);
+    check_tri(&m, 0, 0, 1, 2);
+    check_tri(&m, 1, 1, 3, 2);
+    check_tri(&m, 2, 0, 2, 3);
+    obj_mesh_free(&m);
+}
+
+static void test_polygon_fan(void)
+{
+    ObjMesh m;
+    CHECK(parse("v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\nf 1 2 3 4 5\n", &m));
+    CHECK_INT(m.ntris, 3);
+    check_tri(&m, 0, 0, 1, 2);
+    check_tri(&m, 1, 0, 2, 3);
+    check_tri(&m, 2, 0, 3, 4);
+    obj_mesh_free(&m);
+}
+
+static void test_negative_indices(void)
+{
+    ObjMesh m;
+    /* Relative to the vertices read so far (OBJ standard). */
+    CHECK(parse("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 5 5 5\nf -1 -3 -4\n", &m));
+    CHECK_INT(m.ntris, 2);
+    check_tri(&m, 0, 0, 1, 2);
+    check_tri(&m, 1, 3, 1, 0);
+    obj_mesh_free(&m);
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nf -1 -2 -3\n",
+                     "m.obj:3:9: error: vertex index -3 out of range (2 vertices)");
+}
+
+static void test_crlf_comments_ignored_records(void)
+{
+    ObjMesh m;
+    CHECK(parse("# a comment with v and f inside\r\n"
+                "mtllib x.mtl\r\no thing\r\ng group\r\ns 1\r\nusemtl red\r\n"
+                "\r\n   \r\n"
+                "v 0 0 0 1\r\n\tv 1 0 0\r\nv 0 1 0 0.5 0.5 0.5\r\n"
+                "vn 0 0 1\r\nvt 0 0\r\nvp 1\r\nl 1 2\r\n"
+                "f 1 2 3\r\nf 1 2 3", &m)); /* last line without newline */
+    CHECK_INT(m.nverts, 3);
+    CHECK_INT(m.ntris, 2);
+    check_tri(&m, 1, 0, 1, 2);
+    CHECK_NEAR(m.verts[1].x, 1, 0);
+    obj_mesh_free(&m);
+}
+
+static void test_errors(void)
+{
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 205\n",
+                     "m.obj:4:7: error: vertex index 205 out of range (3 vertices)");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+                     "m.obj:4:3: error: vertex index 0 out of range (indices start at 1)");
+    /* Faces only see the vertices read before them. */
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n",
+                     "m.obj:3:7: error: vertex index 3 out of range (2 vertices)");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 x\n", "m.obj:2:7: error: malformed number 'x'");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 1.5.3\n", "m.obj:2:7: error: malformed number '1.5.3'");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0\nv 1 1 1\n", "m.obj:2:6: error: vertex needs 3 coordinates, found 2");
+    EXPECT_OBJ_ERROR("v 1 1 1e999\n", "m.obj:1:7: error: number out of range: '1e999'");
+    EXPECT_OBJ_ERROR("v 1 1 nan\n", "m.obj:1:7: error: number out of range: 'nan'");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2\n",
+                     "m.obj:4:3: error: face with 2 vertices (at least 3 needed)");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3a\n", "m.obj:4:7: error: malformed face vertex '3a'");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2/x/3 3\n", "m.obj:4:5: error: malformed face vertex '2/x/3'");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999\n",
+                     "m.obj:4:7: error: vertex index");
+    EXPECT_OBJ_ERROR("v 0 0 0\r\nf 1 1 1\r\nf 1 1 2\r\n", "m.obj:3:7: error: vertex index 2 out of range (1 vertices)");
+    ObjMesh m;
+    diag_init(&g_diag, NULL);
+    CHECK(!obj_parse("v 0 0 0\nv 1\0 0 0\n", 17, "m.obj", &m, &g_diag));
+    CHECK_CONTAINS(g_diag.last, "m.obj:2:4: error: NUL byte: not a text OBJ file");
+}
+
+/* obj_parse_float must give exactly strtof's float (fscanf %f) for every input. */
+static void check_float_same(const char *s)
+{
+    const char *p = s;
+    float got = 0;
+    bool ok = obj_parse_float(&p, s + strlen(s), &got);
+    char *e;
+    float want = strtof(s, &e);
+    CHECK_MSG(ok == (e != s), "'%s': ok %d", s, ok);
+    if (ok && e != s) {
+        CHECK_MSG(memcmp(&got, &want, sizeof got) == 0, "'%s': %.9g, strtof %.9g", s,
+                  (double)got, (double)want);
+        CHECK_MSG(p == e, "'%s': consumed %d, strtof %d", s, (int)(p - s), (int)(e - s));
+    }
+}
+
+static void test_float_matches_strtof(void)
+{
+    static const char *fixed[] = {
+        "0", "-0", "0.", ".5", "-.3", "+2", "1e-3", "1E+2", "16777216", "16777217",
+        "16777215.5", "0.1", "0.2", "0.3", "3.4028235e38", "3.4028236e38", "1e-45",
+        "1.17549435e-38", "-0.0766682", "0.00925504", "123456789012345678901234",
+        "0.000000000000000000000000001", "9999999999", "1e10", "1e-10", "1e11", "1e-11",
+        "0x1p3", "1.5e", "1e+", "-", ".", "e5", "12abc", "inf", "nan", "1.0000001",
+        "0.30000001192092896", "7.038531e-26", "2.5", "-2.5e-3", "00001.2500000"};
+    for (size_t i = 0; i < sizeof fixed / sizeof fixed[0]; i++)
+        check_float_same(fixed[i]);
+    uint32_t rng = 2024u;
+    char buf[64];
+    for (int i = 0; i < 200000; i++) {
+        rng = rng * 1664525u + 1013904223u;
+        uint32_t r = rng;
+        int intd = (int)(r % 4), fracd = (int)((r >> 2) % 10);
+        size_t o = 0;
+        if (r & 0x1000)
+            buf[o++] = '-';
+        for (int k = 0; k < intd; k++) {
+            rng = rng * 1664525u + 1013904223u;
+            buf[o++] = (char)('0' + (rng >> 20) % 10);
+        }
+        if (fracd || !intd) {
+            buf[o++] = '.';
+            for (int k = 0; k < fracd || (!intd && k == 0); k++) {
+                rng = rng * 1664525u + 1013904223u;
+                buf[o++] = (char)('0' + (rng >> 20) % 10);
+            }
+        }
+        if ((r >> 8) % 5 == 0)
+            o += (size_t)snprintf(buf + o, sizeof buf - o, "e%d", (int)((r >> 12) % 30) - 15);
+        buf[o] = '\0';
+        check_float_same(buf);
+    }
+}
+
+/* The course reader (scene-format.md 7.4): one character at a time, 'v' -> %f %f %f,
+ * 'f' -> %d %d %d. Right for the official files, which contain only v and f lines. */
+static bool course_read(const char *path, ObjMesh *m)
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return false;
+    int cv = 0, ct = 0;
+    memset(m, 0, sizeof *m);
+    int c;
+    while ((c = fgetc(f)) != EOF) {
+        if (c == 'v') {
+            float x, y, z;
+            if (fscanf(f, "%f %f %f", &x, &y, &z) != 3)
+                break;
+            if (m->nverts == cv) {
+                cv = cv ? cv * 2 : 1024;
+                m->verts = realloc(m->verts, (size_t)cv * sizeof *m->verts);
+            }
+            m->verts[m->nverts++] = v3(x, y, z);
+        } else if (c == 'f') {
+            int a, b, d;
+            if (fscanf(f, "%d %d %d", &a, &b, &d) != 3)
+                break;
+            if (m->ntris == ct) {
+                ct = ct ? ct * 2 : 1024;
+                m->tris = realloc(m->tris, (size_t)ct * sizeof *m->tris);
+            }
+            m->tris[m->ntris][0] = a - 1;
+            m->tris[m->ntris][1] = b - 1;
+            m->tris[m->ntris][2] = d - 1;
+            m->ntris++;
+        }
+    }
+    fclose(f);
+    return true;
+}
+
+static void test_official_meshes(void)
+{
+    const char *dir = harness_course_dir();
+    if (!dir)
+        harness_skip("course data folder absent (set RT_COURSE)");
+    static const struct { const char *name; int v, f; } k[] = {
+        {"cube.obj", 8, 12},         {"diamond.obj", 57, 110},   {"bunny_200.obj", 102, 200},
+        {"bunny_1k.obj", 502, 1000}, {"bunny_5k.obj", 2502, 5000},
+        {"bunny_40k.obj", 20002, 40000}, {"vase.obj", 1922, 3840}, {"6.837.obj", 6930, 13852}};
+    for (size_t i = 0; i < sizeof k / sizeof k[0]; i++) {
+        char path[4096];
+        snprintf(path, sizeof path, "%s/%s", dir, k[i].name);
+        char *buf;
+        size_t len;
+        CHECK_MSG(file_read_all(path, &buf, &len), "%s: cannot read", k[i].name);
+        ObjMesh m, ref;
+        diag_init(&g_diag, NULL);
+        bool ok = obj_parse(buf, len, path, &m, &g_diag);
+        free(buf);
+        CHECK_MSG(ok, "%s: %s", k[i].name, g_diag.last);
+        if (!ok)
+            continue;
+        CHECK_MSG(m.nverts == k[i].v && m.ntris == k[i].f, "%s: %d v / %d f", k[i].name,
+                  m.nverts, m.ntris);
+        CHECK(course_read(path, &ref));
+        CHECK_INT(ref.nverts, m.nverts);
+        CHECK_INT(ref.ntris, m.ntris);
+        if (ref.nverts == m.nverts)
+            CHECK_MSG(memcmp(ref.verts, m.verts, (size_t)m.nverts * sizeof(Vec3)) == 0,
+                      "%s: vertices differ from the course reader's", k[i].name);
+        if (ref.ntris == m.ntris)
+            CHECK_MSG(memcmp(ref.tris, m.tris, (size_t)m.ntris * sizeof(int[3])) == 0,
+                      "%s: faces differ from the course reader's", k[i].name);
+        obj_mesh_free(&m);
+        obj_mesh_free(&ref);
+    }
+}
+
+static const TestCase tests[] = {
+    {"basic", test_basic},
+    {"slash_forms", test_slash_forms},
+    {"polygon_fan", test_polygon_fan},
+    {"negative_indices", test_negative_indices},
+    {"crlf_comments_ignored_records", test_crlf_comments_ignored_records},
+    {"errors", test_errors},
+    {"float_matches_strtof", test_float_matches_strtof},
+    {"official_meshes", test_official_meshes},
+};
+
+RT_TEST_MAIN(tests)
