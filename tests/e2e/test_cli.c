@@ -323,6 +323,90 @@ static void test_stats_on_stdout(void)
     e2e_rmtree(f.dir);
 }
 
+/* The image comparison tool (docs/images.txt): figures and exit statuses. */
+static void test_imgdiff_tool(void)
+{
+    const char *tools = getenv("RT_TOOLS");
+    char bin[PATH_MAX];
+    if (!tools || !*tools)
+        tools = "build/tools";
+    e2e_join(bin, sizeof bin, tools, "imgdiff");
+    if (access(bin, X_OK) != 0) {
+        harness_fail(__FILE__, __LINE__, "%s not found (make builds it)", bin);
+        return;
+    }
+    char dir[PATH_MAX], a[PATH_MAX], b[PATH_MAX], c[PATH_MAX], d[PATH_MAX], missing[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "imgdiff") != NULL);
+    e2e_join(a, sizeof a, dir, "a.tga");
+    e2e_join(b, sizeof b, dir, "b.ppm");
+    e2e_join(c, sizeof c, dir, "c.tga");
+    e2e_join(d, sizeof d, dir, "diff.tga");
+    e2e_join(missing, sizeof missing, dir, "nothere.tga");
+    /* 10x10: b equals a; c differs by 20/255 in one channel of 2 pixels (98% within 8) */
+    Image img;
+    Diag diag;
+    diag_init(&diag, NULL);
+    CHECK(image_init(&img, 10, 10));
+    image_fill(&img, v3(0.5f, 0.25f, 0.75f));
+    CHECK(image_write(&img, a, &diag));
+    CHECK(image_write(&img, b, &diag));
+    image_set(&img, 3, 4, v3(0.5f + 20.0f / 255.0f, 0.25f, 0.75f));
+    image_set(&img, 7, 1, v3(0.5f, 0.25f, 0.75f - 20.0f / 255.0f));
+    CHECK(image_write(&img, c, &diag));
+    image_free(&img);
+
+    E2eRun r;
+    char *same[] = {bin, a, b, NULL};
+    CHECK(e2e_run(same, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_CONTAINS(r.out, "PASS");
+    CHECK_CONTAINS(r.out, "100.000%");
+    e2e_run_free(&r);
+
+    char *differ[] = {bin, a, c, "-o", d, NULL};
+    CHECK(e2e_run(differ, &r));
+    CHECK_INT(r.status, 1);
+    CHECK_CONTAINS(r.out, "FAIL");
+    CHECK_CONTAINS(r.out, "98.000%");
+    CHECK_CONTAINS(r.out, "max diff        20");
+    e2e_run_free(&r);
+    CHECK(image_read(&img, d, &diag));
+    if (img.pixels) {
+        CHECK_INT(color_to_byte(image_get(&img, 3, 4).x), 160); /* 20 x 8 */
+        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), 0);
+    }
+    image_free(&img);
+
+    char *loose[] = {bin, "-t", "20", "-q", a, c, NULL};
+    CHECK(e2e_run(loose, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_INT(r.out_len, 0);
+    e2e_run_free(&r);
+    char *low_bar[] = {bin, "-p", "97.5", a, c, NULL};
+    CHECK(e2e_run(low_bar, &r));
+    CHECK_INT(r.status, 0);
+    e2e_run_free(&r);
+
+    char *unreadable[] = {bin, a, missing, NULL};
+    CHECK(e2e_run(unreadable, &r));
+    CHECK_INT(r.status, 2);
+    CHECK_CONTAINS(r.err, "nothere.tga");
+    e2e_run_free(&r);
+    char *bad_opt[] = {bin, "-x", a, b, NULL};
+    CHECK(e2e_run(bad_opt, &r));
+    CHECK_INT(r.status, 2);
+    e2e_run_free(&r);
+    char *one_file[] = {bin, a, NULL};
+    CHECK(e2e_run(one_file, &r));
+    CHECK_INT(r.status, 2);
+    e2e_run_free(&r);
+    char *bad_t[] = {bin, "-t", "abc", a, b, NULL};
+    CHECK(e2e_run(bad_t, &r));
+    CHECK_INT(r.status, 2);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"cli: good render exits 0, image correct", test_good_render},
     {"cli: -output .ppm, -depth, -normals together", test_all_three_images_and_ppm},
@@ -334,6 +418,7 @@ static const TestCase tests[] = {
     {"cli: unwritable output exits 1, no file", test_unwritable_output},
     {"cli: failed second image leaves no temp file", test_failed_second_image_leaves_no_first},
     {"cli: -stats block on stdout", test_stats_on_stdout},
+    {"imgdiff: figures, exit statuses, -o", test_imgdiff_tool},
 };
 
 RT_TEST_MAIN(tests)
