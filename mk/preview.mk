@@ -1,0 +1,30 @@
+# OpenGL preview (src/preview/, docs/preview.txt). The GLUT window (-gui) needs
+# pkg-config's gl + glut (Debian libglut-dev), the offscreen snapshot (-gui_snapshot)
+# osmesa (libosmesa6-dev). Both are linked into one binary: the drawing code calls GL
+# through a table of entry points (src/preview/gl_api.h), so libGL and libOSMesa never
+# compete for the gl* symbols. PREVIEW=0 leaves both out, PREVIEW=1 insists on both.
+# The preview's files are always compiled: without the libraries they hold the
+# "not built" answers of include/rt/preview.h.
+PREVIEW ?=
+RT_PV_GLUT :=
+RT_PV_OSMESA :=
+ifneq ($(PREVIEW),0)
+  RT_PV_GLUT := $(shell pkg-config --exists gl glut 2>/dev/null && echo yes)
+  RT_PV_OSMESA := $(shell pkg-config --exists osmesa 2>/dev/null && echo yes)
+  ifeq ($(PREVIEW),1)
+    ifneq ($(RT_PV_GLUT)$(RT_PV_OSMESA),yesyes)
+      $(error PREVIEW=1 but pkg-config cannot find GL/GLUT/OSMesa: apt-get install libglut-dev libosmesa6-dev)
+    endif
+  endif
+endif
+ifeq ($(RT_PV_GLUT),yes)
+  FEATURE_CFLAGS += -DRT_HAVE_GLUT $(shell pkg-config --cflags gl glut)
+  FEATURE_LIBS   += $(shell pkg-config --libs gl glut)
+  FEATURES       += gui
+endif
+ifeq ($(RT_PV_OSMESA),yes)
+  FEATURE_CFLAGS += -DRT_HAVE_OSMESA $(shell pkg-config --cflags osmesa)
+  FEATURE_LIBS   += $(shell pkg-config --libs osmesa)
+  FEATURES       += osmesa
+endif
+EXTRA_SRCS += $(sort $(wildcard src/preview/*.c))

@@ -1,0 +1,156 @@
+/* -gui_snapshot: one preview frame drawn into an OSMesa offscreen buffer, after the
+ * -gui_keys script, written with image_write. No X server needed. */
+#include "rt/preview.h"
+
+#ifdef RT_HAVE_OSMESA
+#include <GL/osmesa.h>
+#include <stdlib.h>
+#include <string.h>
+#include "draw.h"
+#include "rt/render.h"
+#include "view.h"
+
+bool preview_snapshot_built(void) { return true; }
+
+static GlProc osmesa_proc(const char *name) { return (GlProc)OSMesaGetProcAddress(name); }
+
+typedef struct Snapshot {
+    const PreviewConfig *cfg;
+    Diag *diag;
+    GlApi gl;
+    PreviewView view;
+    PreviewTraced traced;
+    bool have_traced;
+    int w, h;
+    Image frame;
+    unsigned char *scratch;
+} Snapshot;
+
+static void traced_free(Snapshot *s)
+{
+    if (s->have_traced) {
+        image_free(&s->traced.image);
+        free((void *)s->traced.row_ready);
+        s->have_traced = false;
+    }
+}
+
+/* `r`: ray-trace the current view into the frame, then the requested files. */
+static int snapshot_render(Snapshot *s)
+{
+    traced_free(s);
+    if (!image_init(&s->traced.image, s->w, s->h)) {
+        diag_error(s->diag, NULL, "out of memory for the traced preview");
+        return 1;
+    }
+    s->traced.row_ready = calloc((size_t)s->h, sizeof *s->traced.row_ready);
+    if (!s->traced.row_ready) {
+        image_free(&s->traced.image);
+        diag_error(s->diag, NULL, "out of memory for the traced preview");
+        return 1;
+    }
+    s->have_traced = true;
+    RenderTarget target;
+    memset(&target, 0, sizeof target);
+    target.width = s->w;
+    target.height = s->h;
+    target.color = &s->traced.image;
+    if (!render_image(s->cfg->tracer, &s->view.camera, &target, s->cfg->threads, NULL, NULL,
+                      NULL, NULL)) {
+        diag_error(s->diag, NULL, "could not start the render (out of memory?)");
+        return 1;
+    }
+    for (int y = 0; y < s->h; y++)
+        atomic_store(&s->traced.row_ready[y], 1);
+    if (s->cfg->render)
+        return s->cfg->render(s->cfg->render_user, &s->view.camera);
+    return 0;
+}
+
+static bool snapshot_write(Snapshot *s, const char *path)
+{
+    preview_draw_frame(&s->gl, &s->view, s->w, s->h, s->have_traced ? &s->traced : NULL);
+    preview_read_frame(&s->gl, s->w, s->h, &s->frame, s->scratch);
+    return image_write(&s->frame, path, s->diag);
+}
+
+static int snapshot_run(Snapshot *s, const KeyScript *script)
+{
+    for (int k = 0; k < script->count; k++) {
+        const KeyCmd *cmd = &script->cmds[k];
+        bool ok;
+        if (preview_view_apply(&s->view, cmd, s->w, s->h, &ok)) {
+            if (!ok) {
+                diag_error(s->diag, NULL, "out of memory tracing the ray tree");
+                return 1;
+            }
+            /* Whatever changes the view hides the traced picture, as in the window. */
+            traced_free(s);
+            continue;
+        }
+        if (cmd->kind == KEYCMD_QUIT)
+            break;
+        if (cmd->kind == KEYCMD_SHOT) {
+            if (!snapshot_write(s, cmd->path))
+                return 1;
+            continue;
+        }
+        int status = snapshot_render(s);
+        if (status)
+            return status;
+    }
+    return snapshot_write(s, s->cfg->snapshot_path) ? 0 : 1;
+}
+
+int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
+{
+    KeyScript script;
+    if (!preview_keys_parse(cfg->keys, &script, diag))
+        return 2;
+    Snapshot s;
+    memset(&s, 0, sizeof s);
+    s.cfg = cfg;
+    s.diag = diag;
+    s.w = cfg->width;
+    s.h = cfg->height;
+    int status = 1;
+    OSMesaContext ctx = OSMesaCreateContextExt(OSMESA_RGBA, 24, 0, 0, NULL);
+    unsigned char *buffer = malloc((size_t)s.w * (size_t)s.h * 4);
+    s.scratch = malloc((size_t)s.w * (size_t)s.h * 3);
+    const char *missing = NULL;
+    if (!ctx) {
+        diag_error(diag, NULL, "OSMesa could not create an offscreen GL context");
+    } else if (!buffer || !s.scratch || !image_init(&s.frame, s.w, s.h)) {
+        diag_error(diag, NULL, "out of memory for a %d x %d snapshot", s.w, s.h);
+    } else if (!OSMesaMakeCurrent(ctx, buffer, GL_UNSIGNED_BYTE, s.w, s.h)) {
+        diag_error(diag, NULL, "OSMesa cannot draw a %d x %d buffer", s.w, s.h);
+    } else if (!gl_api_load(&s.gl, osmesa_proc, &missing)) {
+        diag_error(diag, NULL, "OSMesa lacks the GL function %s", missing);
+    } else if (preview_view_init(&s.view, cfg, diag)) {
+        status = snapshot_run(&s, &script);
+        preview_view_free(&s.view);
+    }
+    traced_free(&s);
+    image_free(&s.frame);
+    if (ctx)
+        OSMesaDestroyContext(ctx);
+    free(buffer);
+    free(s.scratch);
+    preview_keys_free(&script);
+    return status;
+}
+
+#else /* !RT_HAVE_OSMESA */
+
+bool preview_snapshot_built(void) { return false; }
+
+int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
+{
+    (void)cfg;
+    diag_error(diag, NULL,
+               "-gui_snapshot is not built in: apt-get install libglut-dev libosmesa6-dev, "
+               "then rebuild (make)");
+    return 2;
+}
+
+#endif

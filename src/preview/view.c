@@ -1,0 +1,323 @@
+/* Preview state without GL: camera controls of the course GLCanvas (cli.md 4), the
+ * `t` ray tree, the grid display mode and the -gui_keys script parser. */
+#include "view.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include "rt/matrix.h"
+#include "rt/raytracer.h"
+#include "rt/scene.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* The course GLCanvas constants (cli.md 4). */
+#define ROTATE_RAD_PER_PIXEL 0.005f
+#define TRUCK_PER_PIXEL 0.05f
+#define DOLLY_PER_PIXEL 0.05f
+/* PerspectiveCamera::rotateCamera keeps the tilt from world up within these (radians). */
+#define TILT_MIN 0.01f
+#define TILT_MAX 3.13f
+
+bool preview_view_init(PreviewView *v, const PreviewConfig *cfg, Diag *diag)
+{
+    memset(v, 0, sizeof *v);
+    v->cfg = cfg;
+    v->camera = cfg->scene->camera;
+    v->world_up = v->camera.up;
+    /* Rotation about the scene's centre; a scene of planes only has no centre, so a
+     * point ten units ahead stands in. */
+    const BBox *b = &cfg->scene->bounds;
+    if (!bbox_is_empty(b))
+        v->pivot = v3_scale(v3_add(b->min, b->max), 0.5f);
+    else
+        v->pivot = v3_madd(v->camera.center, v->camera.direction, 10.0f);
+    v->mode = (cfg->visualize_grid && cfg->tracer->grid) ? PREVIEW_GRID : PREVIEW_OBJECTS;
+    v->tree = malloc(sizeof *v->tree);
+    if (!v->tree) {
+        diag_error(diag, NULL, "out of memory for the preview's ray tree");
+        return false;
+    }
+    ray_tree_clear(v->tree);
+    return true;
+}
+
+void preview_view_free(PreviewView *v)
+{
+    free(v->tree);
+    v->tree = NULL;
+}
+
+void preview_view_rotate(PreviewView *v, float dx, float dy)
+{
+    /* As GLCanvas::motion -> rotateCamera(0.005 * (oldX - x), 0.005 * (oldY - y)). */
+    float rx = -ROTATE_RAD_PER_PIXEL * dx;
+    float ry = -ROTATE_RAD_PER_PIXEL * dy;
+    Camera c = v->camera;
+    float cosine = v3_dot(v->world_up, c.direction);
+    float tilt = acosf(fmaxf(-1.0f, fminf(1.0f, cosine)));
+    if (tilt - ry > TILT_MAX)
+        ry = tilt - TILT_MAX;
+    else if (tilt - ry < TILT_MIN)
+        ry = tilt - TILT_MIN;
+    const float deg = (float)(180.0 / M_PI);
+    Mat4 yaw = mat4_rotate_axis(v->world_up, rx * deg);
+    Mat4 pitch = mat4_rotate_axis(c.horizontal, ry * deg);
+    Mat4 r = mat4_mul(&yaw, &pitch);
+    c.center = v3_add(v->pivot, mat4_dir(&r, v3_sub(c.center, v->pivot)));
+    c.direction = mat4_dir(&r, c.direction);
+    c.up = v->world_up;
+    if (camera_rebasis(&c))
+        v->camera = c;
+}
+
+void preview_view_truck(PreviewView *v, float dx, float dy)
+{
+    /* truckCamera((oldX - x) * 0.05, (y - oldY) * 0.05): the scene follows the mouse. */
+    Camera *c = &v->camera;
+    c->center = v3_madd(c->center, c->horizontal, -TRUCK_PER_PIXEL * dx);
+    c->center = v3_madd(c->center, c->up, TRUCK_PER_PIXEL * dy);
+}
+
+void preview_view_dolly(PreviewView *v, float dx)
+{
+    Camera *c = &v->camera;
+    c->center = v3_madd(c->center, c->direction, DOLLY_PER_PIXEL * dx);
+}
+
+bool preview_view_trace(PreviewView *v, int i, int j, int w, int h)
+{
+    const RayTracer *rt = v->cfg->tracer;
+    RenderCtx ctx;
+    if (!render_ctx_init(&ctx, rt))
+        return false;
+    ray_tree_clear(v->tree);
+    ctx.tree = v->tree;
+    float u, s;
+    camera_pixel_to_screen(i, j, w, h, &u, &s);
+    Ray ray = camera_generate_ray(&v->camera, u, s);
+    /* A fresh primary ray: depth 0, weight 1, in air (semantics.md 4.1). */
+    (void)raytracer_trace(rt, &ctx, &ray, camera_tmin(&v->camera), 0, 1.0f, 1.0f, NULL);
+    render_ctx_free(&ctx);
+    v->has_tree = true;
+    return true;
+}
+
+void preview_view_cycle_grid(PreviewView *v, FILE *out)
+{
+    if (!v->cfg->tracer->grid) {
+        if (out)
+            fprintf(out, "no grid to show: run with -grid nx ny nz\n");
+        v->mode = PREVIEW_OBJECTS;
+        return;
+    }
+    v->mode = v->mode == PREVIEW_OBJECTS ? PREVIEW_GRID
+            : v->mode == PREVIEW_GRID    ? PREVIEW_GRID_RAY
+                                         : PREVIEW_OBJECTS;
+}
+
+void preview_view_print_camera(const PreviewView *v, FILE *out)
+{
+    const Camera *c = &v->camera;
+    bool ortho = c->kind == CAMERA_ORTHOGRAPHIC;
+    fprintf(out, "%s {\n", ortho ? "OrthographicCamera" : "PerspectiveCamera");
+    fprintf(out, "    center %g %g %g\n", (double)c->center.x, (double)c->center.y,
+            (double)c->center.z);
+    fprintf(out, "    direction %g %g %g\n", (double)c->direction.x,
+            (double)c->direction.y, (double)c->direction.z);
+    fprintf(out, "    up %g %g %g\n", (double)c->up.x, (double)c->up.y, (double)c->up.z);
+    if (ortho)
+        fprintf(out, "    size %g\n", (double)c->size);
+    else
+        fprintf(out, "    angle %g\n", (double)c->angle * 180.0 / M_PI);
+    fprintf(out, "}\n");
+    fflush(out);
+}
+
+/* ---- -gui_keys ---- */
+
+/* Parses "A,B" (floats) filling both; false unless the whole text is consumed. */
+static bool parse_pair(const char *text, float *a, float *b, bool want_two)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(text, &end);
+    if (end == text || errno || !isfinite(x))
+        return false;
+    *a = (float)x;
+    if (!want_two)
+        return *end == '\0';
+    if (*end != ',')
+        return false;
+    const char *p = end + 1;
+    double y = strtod(p, &end);
+    if (end == p || errno || !isfinite(y) || *end != '\0')
+        return false;
+    *b = (float)y;
+    return true;
+}
+
+static bool parse_pixel(const char *text, int *i, int *j)
+{
+    char *end;
+    errno = 0;
+    long x = strtol(text, &end, 10);
+    if (end == text || *end != ',' || errno || x < 0 || x > 1000000)
+        return false;
+    const char *p = end + 1;
+    long y = strtol(p, &end, 10);
+    if (end == p || *end != '\0' || errno || y < 0 || y > 1000000)
+        return false;
+    *i = (int)x;
+    *j = (int)y;
+    return true;
+}
+
+/* One command word (NUL-terminated copy) -> cmd. */
+static bool parse_word(char *w, KeyCmd *cmd)
+{
+    memset(cmd, 0, sizeof *cmd);
+    char *arg = strchr(w, ':');
+    if (arg)
+        *arg++ = '\0';
+    for (char *p = w; *p; p++)
+        *p = (char)tolower((unsigned char)*p);
+    if (!arg) {
+        if (!strcmp(w, "r"))
+            cmd->kind = KEYCMD_RENDER;
+        else if (!strcmp(w, "t"))
+            cmd->kind = KEYCMD_TRACE;
+        else if (!strcmp(w, "g"))
+            cmd->kind = KEYCMD_GRID;
+        else if (!strcmp(w, "c"))
+            cmd->kind = KEYCMD_CAMERA;
+        else if (!strcmp(w, "q"))
+            cmd->kind = KEYCMD_QUIT;
+        else
+            return false;
+        return true;
+    }
+    if (!strcmp(w, "t")) {
+        cmd->kind = KEYCMD_TRACE;
+        cmd->has_pixel = true;
+        return parse_pixel(arg, &cmd->i, &cmd->j);
+    }
+    if (!strcmp(w, "rot")) {
+        cmd->kind = KEYCMD_ROTATE;
+        return parse_pair(arg, &cmd->a, &cmd->b, true);
+    }
+    if (!strcmp(w, "truck")) {
+        cmd->kind = KEYCMD_TRUCK;
+        return parse_pair(arg, &cmd->a, &cmd->b, true);
+    }
+    if (!strcmp(w, "dolly")) {
+        cmd->kind = KEYCMD_DOLLY;
+        return parse_pair(arg, &cmd->a, &cmd->b, false);
+    }
+    if (!strcmp(w, "shot")) {
+        cmd->kind = KEYCMD_SHOT;
+        if (!*arg)
+            return false;
+        cmd->path = malloc(strlen(arg) + 1);
+        if (!cmd->path)
+            return false;
+        strcpy(cmd->path, arg);
+        return true;
+    }
+    return false;
+}
+
+bool preview_keys_parse(const char *text, KeyScript *out, Diag *diag)
+{
+    out->count = 0;
+    out->cmds = NULL;
+    if (!text)
+        return true;
+    size_t len = strlen(text);
+    /* At most one command per two characters (a word and a separator). */
+    KeyCmd *cmds = calloc(len / 2 + 1, sizeof *cmds);
+    char *word = malloc(len + 1);
+    if (!cmds || !word) {
+        free(cmds);
+        free(word);
+        diag_error(diag, NULL, "-gui_keys: out of memory");
+        return false;
+    }
+    int n = 0;
+    const char *p = text;
+    for (;;) {
+        while (isspace((unsigned char)*p))
+            p++;
+        if (!*p)
+            break;
+        const char *start = p;
+        while (*p && !isspace((unsigned char)*p))
+            p++;
+        size_t wl = (size_t)(p - start);
+        memcpy(word, start, wl);
+        word[wl] = '\0';
+        if (!parse_word(word, &cmds[n])) {
+            diag_error(diag, NULL,
+                       "-gui_keys: bad command '%.*s' at character %d (expected r, t, t:I,J, "
+                       "g, c, q, rot:DX,DY, truck:DX,DY, dolly:D or shot:FILE)",
+                       (int)wl, start, (int)(start - text) + 1);
+            free(cmds[n].path);
+            out->count = n;
+            out->cmds = cmds;
+            preview_keys_free(out);
+            free(word);
+            return false;
+        }
+        n++;
+    }
+    free(word);
+    out->count = n;
+    out->cmds = cmds;
+    return true;
+}
+
+void preview_keys_free(KeyScript *s)
+{
+    for (int k = 0; k < s->count; k++)
+        free(s->cmds[k].path);
+    free(s->cmds);
+    s->cmds = NULL;
+    s->count = 0;
+}
+
+bool preview_view_apply(PreviewView *v, const KeyCmd *cmd, int w, int h, bool *ok)
+{
+    *ok = true;
+    switch (cmd->kind) {
+    case KEYCMD_TRACE:
+        if (cmd->has_pixel)
+            *ok = preview_view_trace(v, cmd->i, cmd->j, w, h);
+        else
+            *ok = preview_view_trace(v, w / 2, h / 2, w, h);
+        return true;
+    case KEYCMD_GRID:
+        preview_view_cycle_grid(v, stdout);
+        return true;
+    case KEYCMD_CAMERA:
+        preview_view_print_camera(v, stdout);
+        return true;
+    case KEYCMD_ROTATE:
+        preview_view_rotate(v, cmd->a, cmd->b);
+        return true;
+    case KEYCMD_TRUCK:
+        preview_view_truck(v, cmd->a, cmd->b);
+        return true;
+    case KEYCMD_DOLLY:
+        preview_view_dolly(v, cmd->a);
+        return true;
+    case KEYCMD_RENDER:
+    case KEYCMD_SHOT:
+    case KEYCMD_QUIT:
+        break;
+    }
+    return false;
+}
