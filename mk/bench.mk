@@ -1,0 +1,43 @@
+# Benchmarks, the demo's models and the optional Embree reference tracer (bench/, docs/bench.txt).
+#   make models   regenerate the committed OBJ models in models/ with build/tools/modelgen
+#   make bench    the full benchmark: course suite, throughput, set-up, Embree pairing;
+#                 BENCH_RUNS=N (median of N, default 3), BENCH_QUICK=1 (a short run)
+# The Embree reference (bench/embree_ref.c) is built only when Debian's libembree-dev is
+# installed; nothing else in the build needs it.
+
+# This fragment is read before the main Makefile defines `all`: keep `all` the default.
+.DEFAULT_GOAL := all
+
+EMBREE_HEADER := /usr/include/embree3/rtcore.h
+HAVE_EMBREE   := $(if $(wildcard $(EMBREE_HEADER)),1,0)
+EMBREE_REF    := $(BUILD)/bench/embree_ref
+BENCH_RUNS    ?= 3
+BENCH_QUICK   ?= 0
+
+.PHONY: models bench embree_ref
+
+# The committed models, made by the project's own generator (tools/modelgen.c).
+models: $(BUILD)/tools/modelgen
+	$(BUILD)/tools/modelgen -o models/icosahedron.obj icosphere 0
+	$(BUILD)/tools/modelgen -o models/icosphere.obj icosphere 3
+	$(BUILD)/tools/modelgen -o models/torus.obj torus 1 0.35 48 24
+	$(BUILD)/tools/modelgen -o models/vase.obj vase 48 40
+	$(BUILD)/tools/modelgen -o models/ground.obj ground 24 8 0.15
+
+# Recipes expand late, so $(BIN)/$(LIB) (defined after this fragment is included) are
+# safe here but not in prerequisite lists: build through a sub-make instead.
+bench:
+	$(Q)$(MAKE) --no-print-directory all
+	$(Q)if [ "$(HAVE_EMBREE)" = 1 ]; then $(MAKE) --no-print-directory embree_ref; \
+	    else echo "bench: libembree-dev not installed: no Embree pairing (apt-get install libembree-dev)"; fi
+	$(Q)BENCH_RUNS=$(BENCH_RUNS) BENCH_QUICK=$(BENCH_QUICK) \
+	    RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
+	    EMBREE_REF=$(if $(filter 1,$(HAVE_EMBREE)),$(abspath $(EMBREE_REF))) \
+	    sh bench/run.sh
+
+embree_ref: $(BUILD)/bench/embree_ref
+
+$(BUILD)/bench/embree_ref: bench/embree_ref.c $(BUILD)/librt.a
+	@mkdir -p $(dir $@)
+	$(say) CC $<
+	$(Q)$(CC) $(ALL_CFLAGS) -O3 -o $@ $< $(BUILD)/librt.a $(LDLIBS_ALL) -lembree3
