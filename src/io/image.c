@@ -5,6 +5,7 @@
 #include "rt/image.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -161,6 +162,51 @@ static bool write_atomically(const char *path, const uint8_t *data, size_t len, 
     return ok;
 }
 
+/* Writes straight into an existing non-regular file (a pipe, /dev/stdout, /dev/null):
+ * renaming over it would replace the device node instead of writing to it. */
+static bool write_direct(const char *path, const uint8_t *data, size_t len, Diag *diag)
+{
+    int fd = open(path, O_WRONLY | O_TRUNC);
+    if (fd < 0) {
+        report(diag, path, "cannot write image: ", strerror(errno));
+        return false;
+    }
+    bool ok = write_all(fd, data, len);
+    int e = errno;
+    if (close(fd) != 0 && ok) {
+        ok = false;
+        e = errno;
+    }
+    if (!ok)
+        report(diag, path, "cannot write image: ", strerror(e));
+    return ok;
+}
+
+/* Chooses how to put the bytes at path: through a temporary file and rename for new or
+ * regular files (following a symbolic link to its target, so the link stays a link),
+ * directly for devices and pipes. Messages name the path the user gave. */
+static bool write_bytes(const char *path, const uint8_t *data, size_t len, Diag *diag)
+{
+    struct stat st, lst;
+    if (stat(path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
+        return write_direct(path, data, len, diag);
+    if (lstat(path, &lst) == 0 && S_ISLNK(lst.st_mode)) {
+        char *target = realpath(path, NULL);
+        if (target) {
+            Diag quiet;
+            diag_init(&quiet, NULL);
+            bool ok = write_atomically(target, data, len, &quiet);
+            free(target);
+            if (!ok && diag) {
+                const char *why = strstr(quiet.last, "cannot write image: ");
+                report(diag, path, why ? why : "cannot write image", NULL);
+            }
+            return ok;
+        }
+    }
+    return write_atomically(path, data, len, diag);
+}
+
 bool image_write(const Image *img, const char *path, Diag *diag)
 {
     uint8_t *buf = NULL;
@@ -199,7 +245,7 @@ bool image_write(const Image *img, const char *path, Diag *diag)
         report(diag, path, "cannot write image: ", strerror(ENOMEM));
         return false;
     }
-    ok = write_atomically(path, buf, len, diag);
+    ok = write_bytes(path, buf, len, diag);
     free(buf);
     return ok;
 }

@@ -447,6 +447,43 @@ static void test_write_unwritable_folder(void)
     remove_tree(dir);
 }
 
+static void test_write_devices_and_links(void)
+{
+    Image img;
+    make_small(&img);
+    Diag diag;
+    diag_init(&diag, NULL);
+    /* a device is written into, never replaced by a regular file */
+    struct stat st;
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    char fifo_like[256];
+    snprintf(fifo_like, sizeof fifo_like, "%s/null.tga", dir);
+    CHECK(symlink("/dev/null", fifo_like) == 0);
+    CHECK_MSG(image_write(&img, fifo_like, &diag), "%s", diag.last);
+    CHECK(stat("/dev/null", &st) == 0 && S_ISCHR(st.st_mode));
+    CHECK(lstat(fifo_like, &st) == 0 && S_ISLNK(st.st_mode));
+    unlink(fifo_like);
+
+    /* a symbolic link to a regular file: the target is replaced, the link stays */
+    char target[256], link[256];
+    snprintf(target, sizeof target, "%s/real.tga", dir);
+    snprintf(link, sizeof link, "%s/link.tga", dir);
+    FILE *f = fopen(target, "w");
+    CHECK(f != NULL);
+    if (f)
+        fclose(f);
+    CHECK(symlink("real.tga", link) == 0);
+    CHECK_MSG(image_write(&img, link, &diag), "%s", diag.last);
+    CHECK(lstat(link, &st) == 0 && S_ISLNK(st.st_mode));
+    CHECK(stat(target, &st) == 0 && st.st_size == 18 + 18);
+    CHECK_INT(count_entries(dir), 2);
+    image_free(&img);
+    remove_tree(dir);
+}
+
 static void test_image_init_bounds(void)
 {
     Image img;
@@ -526,6 +563,7 @@ static const TestCase tests[] = {
     {"image: write/read by extension", test_write_read_by_extension},
     {"image: failed write leaves nothing", test_write_failure_leaves_nothing},
     {"image: unwritable folder", test_write_unwritable_folder},
+    {"image: devices written into, links followed", test_write_devices_and_links},
     {"image: init bounds, fill, free", test_image_init_bounds},
     {"image_compare: figures on hand-made images", test_compare_figures},
 };
