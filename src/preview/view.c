@@ -293,12 +293,16 @@ bool preview_view_apply(PreviewView *v, const KeyCmd *cmd, int w, int h, bool *o
 {
     *ok = true;
     switch (cmd->kind) {
-    case KEYCMD_TRACE:
-        if (cmd->has_pixel)
-            *ok = preview_view_trace(v, cmd->i, cmd->j, w, h);
-        else
-            *ok = preview_view_trace(v, w / 2, h / 2, w, h);
+    case KEYCMD_TRACE: {
+        int i = cmd->has_pixel ? cmd->i : w / 2, j = cmd->has_pixel ? cmd->j : h / 2;
+        *ok = preview_view_trace(v, i, j, w, h);
+        if (*ok) {
+            printf("ray tree of pixel (%d, %d): %d segments, %d grid cells\n", i, j,
+                   v->tree->num_segments, v->tree->num_cells);
+            fflush(stdout);
+        }
         return true;
+    }
     case KEYCMD_GRID:
         preview_view_cycle_grid(v, stdout);
         return true;
