@@ -30,19 +30,19 @@ render() {
 
 echo "demo: rendering into $OUT"
 # The showcase: every feature at once (docs/demo.txt lists what is where).
-render showcase showcase.txt -size 400 300 -shadows -bounces 5 -weight 0.01 -grid auto -stats
+render showcase showcase.txt -size 400 300 -shadows -shade_back -bounces 5 -weight 0.01 -grid auto -stats
 sed -n '/RAY TRACING STATISTICS/,/^\*/p' "$OUT/showcase.log"
 
 render feat_ortho feat_ortho.txt -size 200 200 -shadows \
     -depth 8 12 "$OUT/feat_ortho_depth.tga" -normals "$OUT/feat_ortho_normals.tga"
 render feat_transforms feat_transforms.txt -size 300 200 -shadows -grid auto
-render feat_refraction feat_refraction.txt -size 300 200 -shadows -shade_back -bounces 8 -weight 0.01
-render feat_shade_back feat_shade_back.txt -size 200 200 -shade_back
-render feat_no_shade_back feat_shade_back.txt -size 200 200
+render feat_refraction feat_refraction.txt -size 300 200 -shadows -shade_back -bounces 8 -weight 0.01 -grid auto
+render feat_shade_back feat_shade_back.txt -size 200 200 -shade_back -grid auto
+render feat_no_shade_back feat_shade_back.txt -size 200 200 -grid auto
 render feat_attenuation feat_attenuation.txt -size 300 200 -shadows
 render feat_planes feat_planes.txt -size 200 200 -shadows -bounces 2 -weight 0.01 -grid auto
-render feat_mirrors feat_mirrors.txt -size 300 200 -shadows -bounces 10 -weight 0.01
-render feat_nolights feat_nolights.txt -size 200 200
+render feat_mirrors feat_mirrors.txt -size 300 200 -shadows -bounces 10 -weight 0.01 -grid auto
+render feat_nolights feat_nolights.txt -size 200 200 -grid auto
 render feat_sphere_grid feat_sphere_grid.txt -size 200 200 -shadows -bounces 2 -weight 0.01 -grid 10 10 10
 render feat_sphere_grid_cells feat_sphere_grid.txt -size 200 200 -grid 10 10 10 -visualize_grid
 render feat_mesh_transform feat_mesh_transform.txt -size 300 200 -shadows -bounces 1 -weight 0.01 -grid auto
