@@ -1,0 +1,161 @@
+/* The real -gui window, run under xvfb-run (no shell: fork/exec): it opens, runs a
+ * -gui_keys script (screenshot, `r` progressive trace, `t` ray tree, `q`), writes the
+ * screenshots and the requested -output, and exits 0. Skipped when the window is not
+ * built or xvfb-run is absent (Debian: apt-get install xvfb xauth). */
+#include "../harness.h"
+#include "e2e_util.h"
+
+#include "rt/image.h"
+#include "rt/preview.h"
+
+/* Perspective view of a checkerboard sphere: the preview shows the first material
+ * (red) only, the ray-traced picture both squares (red and white). */
+static const char *SCENE =
+    "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+    "Lights { numLights 1 DirectionalLight { direction -1 -0.2 -0.3 color 0.9 0.9 0.9 } }\n"
+    "Background { color 0.1 0.2 0.3 ambientLight 0.2 0.2 0.2 }\n"
+    "Materials { numMaterials 3\n"
+    "  PhongMaterial { diffuseColor 1 0 0 }\n"
+    "  PhongMaterial { diffuseColor 1 1 1 }\n"
+    "  Checkerboard { Transform { UniformScale 2 } materialIndex 0 materialIndex 1 }\n"
+    "}\n"
+    "Group { numObjects 1 MaterialIndex 2 Sphere { center 0 0 0 radius 1.5 } }\n";
+
+/* xvfb-run's full path from PATH, or NULL. */
+static const char *find_xvfb_run(char *buf, size_t size)
+{
+    const char *path = getenv("PATH");
+    if (!path)
+        path = "/usr/bin:/bin";
+    while (*path) {
+        const char *end = strchr(path, ':');
+        size_t n = end ? (size_t)(end - path) : strlen(path);
+        if (n > 0 && snprintf(buf, size, "%.*s/xvfb-run", (int)n, path) < (int)size &&
+            access(buf, X_OK) == 0)
+            return buf;
+        path += n + (end ? 1 : 0);
+    }
+    return NULL;
+}
+
+static float max_diff(Vec3 a, Vec3 b)
+{
+    return fmaxf(fabsf(a.x - b.x), fmaxf(fabsf(a.y - b.y), fabsf(a.z - b.z)));
+}
+
+static bool load(Image *img, const char *path)
+{
+    Diag d;
+    diag_init(&d, stderr);
+    return image_read(img, path, &d);
+}
+
+/* Pixels that look like the white checker square (lit, all channels alike, bright). */
+static int count_whitish(const Image *img)
+{
+    int n = 0;
+    for (long p = 0; p < (long)img->width * img->height; p++) {
+        Vec3 c = img->pixels[p];
+        n += c.x > 0.5f && c.y > 0.5f && c.z > 0.5f && max_diff(c, v3(c.x, c.x, c.x)) < 0.05f;
+    }
+    return n;
+}
+
+static int count_green(const Image *img)
+{
+    int n = 0;
+    for (long p = 0; p < (long)img->width * img->height; p++) {
+        Vec3 c = img->pixels[p];
+        n += c.y > 0.5f && c.y > c.x + 0.3f && c.y > c.z + 0.3f;
+    }
+    return n;
+}
+
+static void test_window_script_under_xvfb(void)
+{
+    if (!preview_window_built())
+        harness_skip("built without freeglut (apt-get install libglut-dev, rebuild)");
+    char xvfb[PATH_MAX];
+    if (!find_xvfb_run(xvfb, sizeof xvfb))
+        harness_skip("xvfb-run not found (apt-get install xvfb xauth)");
+    char dir[PATH_MAX], scene[PATH_MAX], a[PATH_MAX], b[PATH_MAX], c[PATH_MAX],
+        out[PATH_MAX], keys[4 * PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "gui") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(a, sizeof a, dir, "preview.tga");
+    e2e_join(b, sizeof b, dir, "traced.tga");
+    e2e_join(c, sizeof c, dir, "tree.tga");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    snprintf(keys, sizeof keys, "shot:%s r shot:%s t:200,200 shot:%s q", a, b, c);
+    char *argv[] = {xvfb, "-a", "-s", "-screen 0 640x480x24", (char *)harness_bin(),
+                    "-input", scene, "-size", "200", "200", "-shadows", "-gui",
+                    "-output", out, "-gui_keys", keys, NULL};
+    E2eRun r;
+    char why[512];
+    CHECK(e2e_run(argv, &r));
+    CHECK_MSG(r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
+    CHECK_CONTAINS(r.out, "Rendering scene... done.");
+    CHECK_CONTAINS(r.out, "ray tree of pixel (200, 200)");
+    Image ia = {0}, ib = {0}, ic = {0}, io = {0};
+    if (r.status == 0 && load(&ia, a) && load(&ib, b) && load(&ic, c) && load(&io, out)) {
+        /* The window is the course's 400 x 400 for -size 200 200. */
+        CHECK_INT(ia.width, 400);
+        CHECK_INT(ia.height, 400);
+        CHECK_INT(io.width, 200);
+        Vec3 bg = v3(0.1f, 0.2f, 0.3f);
+        CHECK(max_diff(image_get(&ia, 0, 0), bg) < 0.01f);
+        CHECK(max_diff(image_get(&ia, 399, 399), bg) < 0.01f);
+        Vec3 mid = image_get(&ia, 200, 200);
+        CHECK_MSG(mid.x > 0.3f && mid.y < 0.05f && mid.z < 0.05f, "preview centre %.3f %.3f %.3f",
+                  (double)mid.x, (double)mid.y, (double)mid.z);
+        /* The GL preview shows only the first (red) material; the traced one both. */
+        CHECK_INT(count_whitish(&ia), 0);
+        CHECK(count_whitish(&ib) > 1000);
+        /* The traced window agrees with the 200 x 200 -output written by the same `r`. */
+        int close = 0;
+        for (int y = 0; y < 200; y++)
+            for (int x = 0; x < 200; x++)
+                close += max_diff(image_get(&ib, 2 * x, 2 * y), image_get(&io, x, y)) < 0.1f;
+        CHECK_MSG(close >= 200 * 200 * 95 / 100, "%d of 40000 pixels agree", close);
+        /* After `t` the preview is back, with the green shadow ray drawn. */
+        CHECK_INT(count_whitish(&ic), 0);
+        CHECK(count_green(&ic) > 50);
+    }
+    image_free(&ia);
+    image_free(&ib);
+    image_free(&ic);
+    image_free(&io);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
+static void test_window_without_display(void)
+{
+    char dir[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "guinodisp") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    CHECK(e2e_write_file(scene, SCENE));
+    unsetenv("DISPLAY"); /* this test runs in its own forked child */
+    const char *args[] = {"-input", scene, "-gui", NULL};
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    if (preview_window_built()) {
+        /* Reported, not freeglut's exit: status 1 and a pointer to -gui_snapshot. */
+        CHECK_INT(r.status, 1);
+        CHECK_CONTAINS(r.err, "X display");
+    } else {
+        CHECK_INT(r.status, 2);
+        CHECK_CONTAINS(r.err, "apt-get install libglut-dev");
+    }
+    CHECK_INT(e2e_count_entries(dir), 1);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
+static const TestCase tests[] = {
+    {"window_script_under_xvfb", test_window_script_under_xvfb},
+    {"window_without_display", test_window_without_display},
+};
+
+RT_TEST_MAIN(tests)
