@@ -700,14 +700,24 @@ static bool parse_phong(Parser *p, Material **out, const Token *kw)
             ok = read_vec3(p, &pp.diffuse);
         else if (tok_is(&t, "specularColor"))
             ok = read_vec3(p, &pp.specular);
-        else if (tok_is(&t, "exponent"))
+        else if (tok_is(&t, "exponent")) {
             ok = read_float(p, &pp.exponent);
+            /* pow(0, negative) is infinite: a NaN/inf highlight, never what was meant. */
+            if (ok && pp.exponent < 0.0f)
+                return fail(p, &t.loc, "exponent must not be negative, found %g",
+                            (double)pp.exponent);
+        }
         else if (tok_is(&t, "reflectiveColor"))
             ok = read_vec3(p, &pp.reflective);
         else if (tok_is(&t, "transparentColor"))
             ok = read_vec3(p, &pp.transparent);
-        else if (tok_is(&t, "indexOfRefraction"))
+        else if (tok_is(&t, "indexOfRefraction")) {
             ok = read_float(p, &pp.ior);
+            /* Snell's ratio divides by it. */
+            if (ok && !(pp.ior > 0.0f))
+                return fail(p, &t.loc, "indexOfRefraction must be positive, found %g",
+                            (double)pp.ior);
+        }
         else
             return fail_unknown(p, &t, "PhongMaterial field", "'}'");
         if (!ok)

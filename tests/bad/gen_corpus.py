@@ -255,6 +255,11 @@ case("light_zero_direction", CAM + "Lights {\n    numLights 1\n    DirectionalLi
 case("attenuation_all_zero", CAM + "Lights {\n    numLights 1\n    PointLight {\n        position 0 0 0\n"
      "        color 1 1 1\n        @@attenuation 0 0 0\n    }\n}\n", "attenuation 0 0 0 would divide by zero")
 
+case("phong_negative_exponent", mats("    PhongMaterial {\n        @@exponent -2\n    }\n", 1),
+     "exponent must not be negative, found -2")
+case("phong_zero_ior", mats("    PhongMaterial {\n        transparentColor 1 1 1\n        @@indexOfRefraction 0\n    }\n", 1),
+     "indexOfRefraction must be positive, found 0")
+
 # --- nesting, tokens, garbage ---------------------------------------------------------------
 deep = HEAD
 for i in range(100):
@@ -317,7 +322,7 @@ def as_bytes(x):
 
 def main():
     for f in os.listdir(HERE):
-        if f.endswith((".txt", ".expect", ".obj", ".bin")):
+        if f.endswith((".txt", ".expect", ".obj", ".bin")) and os.path.isfile(os.path.join(HERE, f)):
             os.remove(os.path.join(HERE, f))
     d = os.path.join(HERE, "obj_dir.obj")
     os.makedirs(d, exist_ok=True)

@@ -16,6 +16,15 @@
 #include "../harness.h"
 #include "rt/scene.h"
 
+/* Under ASan, LeakSanitizer checks each child explicitly: the harness ends children with
+ * _exit(), which skips the automatic check at exit. */
+#if defined(__SANITIZE_ADDRESS__)
+#include <sanitizer/lsan_interface.h>
+#define LEAKS_FOUND() (__lsan_do_recoverable_leak_check() != 0)
+#else
+#define LEAKS_FOUND() false
+#endif
+
 enum { MAX_FILES = 1024, TIMEOUT_S = 30 };
 
 typedef struct Entry {
@@ -127,6 +136,10 @@ static void test_corpus_in_process(void)
                 bad = 1;
             }
             scene_free(s);
+            if (LEAKS_FOUND()) {
+                fprintf(stderr, "    %s: memory leaked (report above)\n", en->name);
+                bad = 1;
+            }
             fflush(stderr);
             _exit(bad);
         }

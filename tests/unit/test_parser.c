@@ -12,6 +12,15 @@
 #include "rt/geom.h"
 #include "rt/scene.h"
 
+/* Under ASan, LeakSanitizer checks explicitly: the harness ends children with _exit(),
+ * which skips the automatic check at exit. */
+#if defined(__SANITIZE_ADDRESS__)
+#include <sanitizer/lsan_interface.h>
+#define CHECK_NO_LEAKS() CHECK_MSG(__lsan_do_recoverable_leak_check() == 0, "memory leaked")
+#else
+#define CHECK_NO_LEAKS() ((void)0)
+#endif
+
 static Diag g_diag;
 
 static Scene *load(const char *text)
@@ -561,6 +570,18 @@ static void test_obj_file_resolution(void)
         CHECK_INT(s->num_primitives, 3);
         scene_free(s);
     }
+    /* Any file name is accepted for obj_file (not only *.obj); the content decides. */
+    char dat[700];
+    snprintf(dat, sizeof dat, "%s/quad.dat", sub);
+    write_file(dat, "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
+    diag_init(&d, NULL);
+    s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
+                          "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file quad.dat } }",
+                          "str", sub, &d);
+    CHECK_MSG(s != NULL, "%s", d.last);
+    if (s)
+        CHECK_INT(s->num_primitives, 1);
+    scene_free(s);
     /* scene_load_string: base_dir, then the working directory. */
     diag_init(&d, NULL);
     s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
@@ -613,6 +634,7 @@ static void test_obj_file_resolution(void)
     char cmd[700];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_tmp);
     CHECK(system(cmd) == 0);
+    CHECK_NO_LEAKS();
 }
 
 /* ---- located errors ----------------------------------------------------------------- */
@@ -733,6 +755,7 @@ static void test_errors_located(void)
     EXPECT_ERROR("Group {", "t.txt:1:8: error: unexpected end of file, expected 'numObjects'");
     EXPECT_ERROR("Group { numObjects", "t.txt:1:19: error: unexpected end of file, expected an integer");
     EXPECT_ERROR("Group { numObjects 1 MaterialIndex", "unexpected end of file, expected an integer");
+    CHECK_NO_LEAKS();
 }
 
 static void test_errors_limits(void)
@@ -790,6 +813,7 @@ static void test_errors_limits(void)
     /* Binary garbage is shown escaped. */
     EXPECT_ERROR("\x01\x02\xff", "t.txt:1:1: error: unknown top-level block '\\x01\\x02\\xff'");
     free(buf);
+    CHECK_NO_LEAKS();
 }
 
 /* ---- robustness: every truncation, seeded random mutations -------------------------- */
@@ -831,6 +855,7 @@ static void test_truncations_never_crash(void)
             fuzz_one(text, cut);
         free(text);
     }
+    CHECK_NO_LEAKS();
 }
 
 static void test_mutations_never_crash(void)
@@ -881,6 +906,7 @@ static void test_mutations_never_crash(void)
         fuzz_one(buf, n);
     }
     free(buf);
+    CHECK_NO_LEAKS();
 }
 
 static const TestCase tests[] = {
