@@ -29,9 +29,8 @@ void grid_entry_totals(const Grid *g, uint64_t *course, uint64_t *marching);
 /* Size the per-thread mailbox (RenderCtx.mailbox) must have. */
 uint32_t grid_mailbox_size(const Grid *g);
 
-/* Marking (mailboxing): on by default. grid_build turns it off when the environment
- * variable RT_NO_MARKING is set to anything but "" or "0" (for the with/without
- * analysis). Call before rendering only: the grid is shared read-only while rendering.
+/* Marking (mailboxing): on by default; main turns it off for the hidden option
+ * -no_marking (the with/without analysis). Call before rendering only: the grid is shared read-only while rendering.
  * With marking off and a mailbox present, RtStats.repeat_tests counts the repeated
  * primitive tests marking would have avoided. */
 void grid_set_marking(Grid *g, bool on);

@@ -1,0 +1,52 @@
+/* MarchingInfo: the 3D-DDA of Amanatides & Woo ("A Fast Voxel Traversal Algorithm for
+ * Ray Tracing", 1987) over a uniform grid of nx*ny*nz cells (course class MarchingInfo,
+ * semantics.md 7.3). Pure arithmetic: it knows the grid only by its box and resolution. */
+#ifndef RT_MARCHING_INFO_H
+#define RT_MARCHING_INFO_H
+
+#include <stdbool.h>
+#include "rt/bbox.h"
+#include "rt/ray.h"
+#include "rt/render_ctx.h"
+
+typedef struct MarchingInfo {
+    float t;          /* entry t of the current cell (tmin when the ray started inside) */
+    float t_next[3];  /* t where the ray crosses the next boundary along each axis; +inf
+                         when the ray is parallel to that axis */
+    int cell[3];      /* current cell (i, j, k) */
+    int step[3];      /* +1 or -1 per axis (+1 for parallel axes, never used) */
+    int n[3];         /* resolution */
+    Vec3 normal;      /* unit normal of the face the current cell was entered through:
+                         -step[a]*e_a; for a start inside the box, the face the ray would
+                         have entered through along its dominant axis */
+    bool started_inside; /* the current cell is the first one and the march began inside
+                            the box at tmin (no face crossed) */
+    /* Boundary k of axis a lies at t = base[a] + k*dt[a]: t_next is recomputed from the
+     * boundary index instead of accumulated, so its error does not grow along the ray. */
+    float base[3], dt[3];
+} MarchingInfo;
+
+/* Starts a march of ray over the grid whose cells tile box (n[a] cells per axis; every
+ * axis of box must have max > min). pad (>= 0, per axis, world units) widens only the
+ * slab test that decides whether and where the ray meets the grid, so rays meeting the
+ * box within pad of its border still visit the border cells (the grid's insertion pads
+ * cells the same way). Returns false when the ray misses the (padded) box, the box lies
+ * entirely at t < tmin, or the direction is zero. On success the first cell is current;
+ * when ctx is non-NULL it is counted in ctx->stats.cells_traversed and recorded in
+ * ctx->tree when that is non-NULL. */
+bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],
+                const Ray *ray, float tmin, RenderCtx *ctx);
+
+/* Moves to the next cell along the ray (the axis with the smallest t_next; ties go to
+ * x, then y, then z). Returns false when the ray leaves the grid. A cell entered is
+ * counted and recorded like the first one (every visited cell counts once; stats.md 4). */
+bool march_next(MarchingInfo *mi, RenderCtx *ctx);
+
+/* t at which the ray leaves the current cell. */
+static inline float march_exit_t(const MarchingInfo *mi)
+{
+    float a = mi->t_next[0] < mi->t_next[1] ? mi->t_next[0] : mi->t_next[1];
+    return a < mi->t_next[2] ? a : mi->t_next[2];
+}
+
+#endif

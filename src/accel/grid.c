@@ -1,0 +1,627 @@
+/* Grid construction: flattens the scene tree into a uniform grid (semantics.md 7.1-7.2).
+ * Two cell sets are built from one walk: the course's occupancy counts (what
+ * -visualize_grid shows) and tighter, rounding-padded lists (what the march tests). */
+#include "grid_internal.h"
+
+#include <limits.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rt/geom.h"
+#include "rt/scene.h"
+
+/* Upper bound on nx*ny*nz: 16M cells keep the offsets and counts under 128 MB. */
+#define GRID_MAX_CELLS (1u << 24)
+
+typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE } RecKind;
+
+/* A primitive reached by the walk, with what its insertion needs in world space. */
+struct GridBuildRec {
+    const Object3D *obj;
+    const GridPath *gp;   /* NULL: no Transform above it */
+    RecKind kind;
+    Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world vertices */
+    float r;              /* sphere radius (object space) */
+};
+
+/* ---- interning of transformation paths ---- */
+
+static bool path_equal(const XformPath *a, const XformPath *b)
+{
+    return a->depth == b->depth &&
+           memcmp(a->xf, b->xf, (size_t)a->depth * sizeof a->xf[0]) == 0;
+}
+
+/* The interned copy of path (with composed matrices). A depth-first walk returns to a
+ * path of depth d only after visiting deeper ones, so remembering the last path seen
+ * at each depth finds every repeat. */
+static const GridPath *intern_path(Grid *g, const XformPath *path)
+{
+    if (path->depth <= 0)
+        return NULL;
+    int d = path->depth > RT_MAX_NESTING ? RT_MAX_NESTING : path->depth;
+    const GridPath *last = g->last_at_depth[d];
+    if (last && path_equal(&last->path, path))
+        return last;
+    if (g->num_paths == g->cap_paths) {
+        uint32_t cap = g->cap_paths ? 2 * g->cap_paths : 16;
+        GridPath **p = realloc(g->paths, cap * sizeof *p);
+        if (!p) {
+            g->oom = true;
+            return NULL;
+        }
+        g->paths = p;
+        g->cap_paths = cap;
+    }
+    GridPath *gp = malloc(sizeof *gp);
+    if (!gp) {
+        g->oom = true;
+        return NULL;
+    }
+    memset(gp, 0, sizeof *gp);
+    gp->path.depth = d;
+    memcpy(gp->path.xf, path->xf, (size_t)d * sizeof path->xf[0]);
+    /* M = M1 * ... * Mk maps object space to world; its inverse is Mk^-1 * ... * M1^-1. */
+    gp->m = mat4_identity();
+    gp->inv = mat4_identity();
+    for (int i = 0; i < d; i++) {
+        gp->m = mat4_mul(&gp->m, transform_matrix(path->xf[i]));
+        gp->inv = mat4_mul(transform_inverse(path->xf[i]), &gp->inv);
+    }
+    g->paths[g->num_paths++] = gp;
+    g->last_at_depth[d] = gp;
+    return gp;
+}
+
+static GridBuildRec *new_rec(Grid *g)
+{
+    if (g->oom || !g->cell_start)
+        return NULL; /* called outside grid_build, or after a failure */
+    if (g->num_recs == g->cap_recs) {
+        uint32_t cap = g->cap_recs ? 2 * g->cap_recs : 256;
+        if (cap < g->cap_recs || cap > UINT32_MAX / 2) {
+            g->oom = true;
+            return NULL;
+        }
+        GridBuildRec *r = realloc(g->recs, (size_t)cap * sizeof *r);
+        if (!r) {
+            g->oom = true;
+            return NULL;
+        }
+        g->recs = r;
+        g->cap_recs = cap;
+    }
+    GridBuildRec *rec = &g->recs[g->num_recs++];
+    memset(rec, 0, sizeof *rec);
+    return rec;
+}
+
+/* ---- insertion API called by the leaves' insert_into_grid ops ---- */
+
+void grid_insert_sphere(Grid *g, const Object3D *sphere, const XformPath *path)
+{
+    const GridPath *gp = intern_path(g, path);
+    GridBuildRec *rec = new_rec(g);
+    if (!rec)
+        return;
+    rec->obj = sphere;
+    rec->gp = gp;
+    rec->kind = gp ? REC_SPHERE_XF : REC_SPHERE;
+    rec->v[0] = sphere_center(sphere);
+    rec->r = sphere_radius(sphere);
+}
+
+void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path)
+{
+    const GridPath *gp = intern_path(g, path);
+    GridBuildRec *rec = new_rec(g);
+    if (!rec)
+        return;
+    rec->obj = tri;
+    rec->gp = gp;
+    rec->kind = REC_TRIANGLE;
+    triangle_vertices(tri, rec->v);
+    if (gp)
+        for (int i = 0; i < 3; i++)
+            rec->v[i] = mat4_point(&gp->m, rec->v[i]);
+}
+
+void grid_insert_unbounded(Grid *g, const Object3D *prim, const XformPath *path)
+{
+    if (g->oom || !g->cell_start)
+        return;
+    const GridPath *gp = intern_path(g, path);
+    if (g->oom)
+        return;
+    if (g->num_unbounded == g->cap_unbounded) {
+        uint32_t cap = g->cap_unbounded ? 2 * g->cap_unbounded : 8;
+        GridPrim *u = realloc(g->unbounded, (size_t)cap * sizeof *u);
+        if (!u) {
+            g->oom = true;
+            return;
+        }
+        g->unbounded = u;
+        g->cap_unbounded = cap;
+    }
+    g->unbounded[g->num_unbounded].obj = prim;
+    g->unbounded[g->num_unbounded].path = gp ? &gp->path : NULL;
+    g->num_unbounded++;
+}
+
+/* ---- the course's occupancy rules (semantics.md 7.2), in float like the course ---- */
+
+typedef struct CellRange {
+    int lo[3], hi[3];
+} CellRange;
+
+static int clamp_cell(float f, int n)
+{
+    if (!(f >= 0.0f))
+        return 0;
+    if (f >= (float)(n - 1))
+        return n - 1;
+    return (int)f;
+}
+
+/* Box rule: every cell whose closed box meets the closed box [bmin, bmax], touching
+ * cells included (lo = ceil(..) - 1, not floor: output5_05/5_10 need it). */
+static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax)
+{
+    CellRange r;
+    for (int a = 0; a < 3; a++) {
+        float mn = v3_comp(g->box.min, a), s = g->size[a];
+        r.lo[a] = clamp_cell(ceilf((v3_comp(bmin, a) - mn) / s) - 1.0f, g->n[a]);
+        r.hi[a] = clamp_cell(floorf((v3_comp(bmax, a) - mn) / s), g->n[a]);
+    }
+    return r;
+}
+
+static void count_range(Grid *g, const CellRange *r)
+{
+    for (int k = r->lo[2]; k <= r->hi[2]; k++)
+        for (int j = r->lo[1]; j <= r->hi[1]; j++)
+            for (int i = r->lo[0]; i <= r->hi[0]; i++)
+                g->course_count[grid_cell_index(g, i, j, k)]++;
+}
+
+static void course_insert(Grid *g, const GridBuildRec *rec)
+{
+    if (rec->kind == REC_SPHERE) {
+        /* Cell centre within r + half the cell diagonal of the centre. */
+        Vec3 c = rec->v[0];
+        float half_diag = 0.5f * v3_length(v3(g->size[0], g->size[1], g->size[2]));
+        float reach = rec->r + half_diag;
+        Vec3 e = v3(reach, reach, reach);
+        CellRange r = course_box_range(g, v3_sub(c, e), v3_add(c, e));
+        for (int k = r.lo[2]; k <= r.hi[2]; k++)
+            for (int j = r.lo[1]; j <= r.hi[1]; j++)
+                for (int i = r.lo[0]; i <= r.hi[0]; i++) {
+                    Vec3 cc = v3(g->box.min.x + ((float)i + 0.5f) * g->size[0],
+                                 g->box.min.y + ((float)j + 0.5f) * g->size[1],
+                                 g->box.min.z + ((float)k + 0.5f) * g->size[2]);
+                    if (v3_length(v3_sub(cc, c)) <= reach)
+                        g->course_count[grid_cell_index(g, i, j, k)]++;
+                }
+        return;
+    }
+    BBox b;
+    if (rec->kind == REC_SPHERE_XF) {
+        Vec3 e = v3(rec->r, rec->r, rec->r);
+        BBox local = {v3_sub(rec->v[0], e), v3_add(rec->v[0], e)};
+        b = bbox_transform(&local, &rec->gp->m);
+    } else {
+        b.min = v3_min(v3_min(rec->v[0], rec->v[1]), rec->v[2]);
+        b.max = v3_max(v3_max(rec->v[0], rec->v[1]), rec->v[2]);
+    }
+    CellRange r = course_box_range(g, b.min, b.max);
+    count_range(g, &r);
+}
+
+/* ---- tight, padded insertion for marching (double precision) ---- */
+
+typedef struct DVec {
+    double x[3];
+} DVec;
+
+static DVec dvec(Vec3 v)
+{
+    DVec d = {{v.x, v.y, v.z}};
+    return d;
+}
+
+/* Cells whose padded box meets [bmin, bmax]. */
+static CellRange tight_range(const Grid *g, const double bmin[3], const double bmax[3])
+{
+    CellRange r;
+    for (int a = 0; a < 3; a++) {
+        double mn = v3_comp(g->box.min, a), s = g->size[a], p = g->pad[a];
+        double lo = ceil((bmin[a] - p - mn) / s) - 1.0, hi = floor((bmax[a] + p - mn) / s);
+        int n = g->n[a];
+        r.lo[a] = !(lo >= 0.0) ? 0 : lo >= n - 1 ? n - 1 : (int)lo;
+        r.hi[a] = !(hi >= 0.0) ? 0 : hi >= n - 1 ? n - 1 : (int)hi;
+    }
+    return r;
+}
+
+/* The padded box of cell (i,j,k). Border cells reach out to include [bmin, bmax], so a
+ * primitive that pokes out of the scene box by rounding still lands in them (the march
+ * clamps positions outside the box to the border cells the same way). */
+static void cell_box(const Grid *g, const int c[3], const double bmin[3],
+                     const double bmax[3], double lo[3], double hi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        double mn = v3_comp(g->box.min, a), s = g->size[a], p = g->pad[a];
+        lo[a] = mn + c[a] * s - p;
+        hi[a] = mn + (c[a] + 1) * s + p;
+        if (c[a] == 0 && bmin[a] < lo[a])
+            lo[a] = bmin[a];
+        if (c[a] == g->n[a] - 1 && bmax[a] > hi[a])
+            hi[a] = bmax[a];
+    }
+}
+
+static double dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* Separating-axis test of a triangle against a box given by centre-relative vertices
+ * v[3] and half extents h (Akenine-Moller, "Fast 3D Triangle-Box Overlap Testing",
+ * 2001): the 9 edge x axis directions, the 3 box normals, the triangle normal. */
+static bool tri_box_overlap(double v[3][3], const double h[3])
+{
+    double e[3][3];
+    for (int a = 0; a < 3; a++) {
+        e[0][a] = v[1][a] - v[0][a];
+        e[1][a] = v[2][a] - v[1][a];
+        e[2][a] = v[0][a] - v[2][a];
+    }
+    for (int i = 0; i < 3; i++) {
+        for (int u = 0; u < 3; u++) {
+            double unit[3] = {0, 0, 0}, ax[3];
+            unit[u] = 1.0;
+            cross3(e[i], unit, ax);
+            double p0 = dot3(ax, v[0]), p1 = dot3(ax, v[1]), p2 = dot3(ax, v[2]);
+            double mn = fmin(p0, fmin(p1, p2)), mx = fmax(p0, fmax(p1, p2));
+            double rad = h[0] * fabs(ax[0]) + h[1] * fabs(ax[1]) + h[2] * fabs(ax[2]);
+            if (mn > rad || mx < -rad)
+                return false;
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        double mn = fmin(v[0][a], fmin(v[1][a], v[2][a]));
+        double mx = fmax(v[0][a], fmax(v[1][a], v[2][a]));
+        if (mn > h[a] || mx < -h[a])
+            return false;
+    }
+    double nrm[3];
+    cross3(e[0], e[1], nrm);
+    double dist = dot3(nrm, v[0]);
+    double rad = h[0] * fabs(nrm[0]) + h[1] * fabs(nrm[1]) + h[2] * fabs(nrm[2]);
+    return fabs(dist) <= rad;
+}
+
+/* Relative slack for the sphere surface tests: the hit point of a quadratic solve lies
+ * within a few float ulps of the surface; 1e-5 of the size is far above that. */
+#define SURFACE_SLACK 1e-5
+
+static bool tight_sphere_cell(const GridBuildRec *rec, const double lo[3],
+                              const double hi[3])
+{
+    DVec c = dvec(rec->v[0]);
+    double r = rec->r;
+    double eta = SURFACE_SLACK * (fabs(r) + fabs(c.x[0]) + fabs(c.x[1]) + fabs(c.x[2]));
+    double dmin2 = 0.0, dmax2 = 0.0;
+    for (int a = 0; a < 3; a++) {
+        double below = lo[a] - c.x[a], above = c.x[a] - hi[a];
+        double out = below > 0 ? below : above > 0 ? above : 0.0;
+        dmin2 += out * out;
+        double far = fmax(fabs(c.x[a] - lo[a]), fabs(hi[a] - c.x[a]));
+        dmax2 += far * far;
+    }
+    /* Only the surface can be hit: skip cells wholly outside, or wholly inside. */
+    return sqrt(dmin2) <= r + eta && sqrt(dmax2) >= r - eta;
+}
+
+/* A transformed sphere (ellipsoid) against a cell, tested in the sphere's object space
+ * where the cell becomes a parallelepiped: out if even its bounding sphere misses the
+ * sphere, out if all 8 corners lie inside (convexity: then the whole cell does). */
+static bool tight_sphere_xf_cell(const GridBuildRec *rec, const double lo[3],
+                                 const double hi[3])
+{
+    const Mat4 *inv = &rec->gp->inv;
+    DVec c = dvec(rec->v[0]);
+    double r = rec->r;
+    double frob = 0.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            frob += (double)inv->m[i][j] * (double)inv->m[i][j];
+    frob = sqrt(frob);
+    double mid[3], half = 0.0;
+    for (int a = 0; a < 3; a++) {
+        mid[a] = 0.5 * (lo[a] + hi[a]);
+        half += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    }
+    half = sqrt(half);
+    double q[3], d2 = 0.0;
+    for (int i = 0; i < 3; i++) {
+        q[i] = inv->m[i][3];
+        for (int j = 0; j < 3; j++)
+            q[i] += (double)inv->m[i][j] * mid[j];
+        d2 += (q[i] - c.x[i]) * (q[i] - c.x[i]);
+    }
+    double slack = SURFACE_SLACK * (fabs(r) + fabs(c.x[0]) + fabs(c.x[1]) + fabs(c.x[2]));
+    if (sqrt(d2) > r + frob * half + slack)
+        return false;
+    for (int corner = 0; corner < 8; corner++) {
+        double p[3] = {(corner & 1) ? hi[0] : lo[0], (corner & 2) ? hi[1] : lo[1],
+                       (corner & 4) ? hi[2] : lo[2]};
+        double e2 = 0.0;
+        for (int i = 0; i < 3; i++) {
+            double qi = inv->m[i][3];
+            for (int j = 0; j < 3; j++)
+                qi += (double)inv->m[i][j] * p[j];
+            e2 += (qi - c.x[i]) * (qi - c.x[i]);
+        }
+        if (sqrt(e2) >= r - slack)
+            return true; /* a corner outside: the surface may cross the cell */
+    }
+    return false;
+}
+
+/* World-space box around the primitive for the tight range. */
+static void tight_bounds(const GridBuildRec *rec, double bmin[3], double bmax[3])
+{
+    if (rec->kind == REC_TRIANGLE) {
+        for (int a = 0; a < 3; a++) {
+            double x0 = v3_comp(rec->v[0], a), x1 = v3_comp(rec->v[1], a),
+                   x2 = v3_comp(rec->v[2], a);
+            bmin[a] = fmin(x0, fmin(x1, x2));
+            bmax[a] = fmax(x0, fmax(x1, x2));
+        }
+    } else if (rec->kind == REC_SPHERE) {
+        for (int a = 0; a < 3; a++) {
+            double c = v3_comp(rec->v[0], a), r = fabs((double)rec->r);
+            bmin[a] = c - r;
+            bmax[a] = c + r;
+        }
+    } else {
+        /* Exact AABB of the ellipsoid M(S): centre M c, half extent r * |row a of M|. */
+        const Mat4 *m = &rec->gp->m;
+        DVec c = dvec(rec->v[0]);
+        for (int a = 0; a < 3; a++) {
+            double w = m->m[a][3], len = 0.0;
+            for (int j = 0; j < 3; j++) {
+                w += (double)m->m[a][j] * c.x[j];
+                len += (double)m->m[a][j] * (double)m->m[a][j];
+            }
+            double e = fabs((double)rec->r) * sqrt(len);
+            bmin[a] = w - e * (1.0 + SURFACE_SLACK);
+            bmax[a] = w + e * (1.0 + SURFACE_SLACK);
+        }
+    }
+}
+
+/* Visits the cells of the marching set of rec: counts them into cell_start[c + 1]
+ * (fill false) or appends entry index idx to each (fill true, cell_start[c] used as the
+ * fill cursor). Returns the number of cells. */
+static uint64_t tight_insert(Grid *g, const GridBuildRec *rec, uint32_t idx, bool fill)
+{
+    double bmin[3], bmax[3];
+    tight_bounds(rec, bmin, bmax);
+    CellRange r = tight_range(g, bmin, bmax);
+    uint64_t count = 0;
+    int c[3];
+    for (c[2] = r.lo[2]; c[2] <= r.hi[2]; c[2]++)
+        for (c[1] = r.lo[1]; c[1] <= r.hi[1]; c[1]++)
+            for (c[0] = r.lo[0]; c[0] <= r.hi[0]; c[0]++) {
+                double lo[3], hi[3];
+                cell_box(g, c, bmin, bmax, lo, hi);
+                bool in;
+                if (rec->kind == REC_TRIANGLE) {
+                    double v[3][3], h[3];
+                    for (int a = 0; a < 3; a++) {
+                        double mid = 0.5 * (lo[a] + hi[a]);
+                        h[a] = 0.5 * (hi[a] - lo[a]);
+                        for (int k = 0; k < 3; k++)
+                            v[k][a] = (double)v3_comp(rec->v[k], a) - mid;
+                    }
+                    in = tri_box_overlap(v, h);
+                } else if (rec->kind == REC_SPHERE) {
+                    in = tight_sphere_cell(rec, lo, hi);
+                } else {
+                    in = tight_sphere_xf_cell(rec, lo, hi);
+                }
+                if (!in)
+                    continue;
+                uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);
+                if (fill)
+                    g->cell_items[g->cell_start[cell]++] = idx;
+                else
+                    g->cell_start[cell + 1]++;
+                count++;
+            }
+    return count;
+}
+
+/* ---- build ---- */
+
+static void free_build_state(Grid *g)
+{
+    free(g->recs);
+    g->recs = NULL;
+    g->num_recs = g->cap_recs = 0;
+}
+
+void grid_free(Grid *g)
+{
+    if (!g)
+        return;
+    free_build_state(g);
+    free(g->cell_start);
+    free(g->cell_items);
+    free(g->course_count);
+    free(g->prims);
+    free(g->unbounded);
+    for (uint32_t i = 0; i < g->num_paths; i++)
+        free(g->paths[i]);
+    free(g->paths);
+    free(g);
+}
+
+/* Sets the box the cells tile and the rounding pad. Zero-thickness axes (a flat scene)
+ * get a small symmetric thickness so cell sizes stay positive (semantics.md 7.1). */
+static void setup_geometry(Grid *g)
+{
+    float ext_max = 0.0f, mag = 0.0f;
+    for (int a = 0; a < 3; a++) {
+        float lo = v3_comp(g->bounds.min, a), hi = v3_comp(g->bounds.max, a);
+        ext_max = fmaxf(ext_max, hi - lo);
+        mag = fmaxf(mag, fmaxf(fabsf(lo), fabsf(hi)));
+    }
+    float thick = fmaxf(1e-4f * ext_max, fmaxf(1e-5f * mag, 1e-6f));
+    float lo3[3], hi3[3];
+    for (int a = 0; a < 3; a++) {
+        lo3[a] = v3_comp(g->bounds.min, a);
+        hi3[a] = v3_comp(g->bounds.max, a);
+        if (!(hi3[a] - lo3[a] >= thick * 1e-3f)) {
+            lo3[a] -= thick;
+            hi3[a] += thick;
+        }
+    }
+    g->box.min = v3(lo3[0], lo3[1], lo3[2]);
+    g->box.max = v3(hi3[0], hi3[1], hi3[2]);
+    for (int a = 0; a < 3; a++) {
+        g->size[a] = (hi3[a] - lo3[a]) / (float)g->n[a];
+        /* Rounding margin: 0.1% of a cell plus a few float ulps of the coordinates.
+         * It only adds primitives lying within the margin of a cell's border. */
+        g->pad[a] = 1e-3f * g->size[a] + 1e-5f * mag;
+    }
+}
+
+Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
+{
+    if (!scene || !scene->root || bbox_is_empty(&scene->bounds))
+        return NULL;
+    if (nx < 1 || ny < 1 || nz < 1) {
+        diag_error(diag, NULL, "grid resolution must be positive, got %dx%dx%d", nx, ny, nz);
+        return NULL;
+    }
+    uint64_t cells = (uint64_t)nx * (uint64_t)ny * (uint64_t)nz;
+    if (cells > GRID_MAX_CELLS) {
+        diag_error(diag, NULL, "grid resolution %dx%dx%d too large (at most %u cells)", nx,
+                   ny, nz, GRID_MAX_CELLS);
+        return NULL;
+    }
+    if (!v3_isfinite(scene->bounds.min) || !v3_isfinite(scene->bounds.max)) {
+        diag_error(diag, NULL, "cannot build a grid: the scene's bounding box is not finite");
+        return NULL;
+    }
+    Grid *g = calloc(1, sizeof *g);
+    if (!g)
+        goto oom;
+    g->bounds = scene->bounds;
+    g->n[0] = nx;
+    g->n[1] = ny;
+    g->n[2] = nz;
+    g->num_cells = (uint32_t)cells;
+    g->marking = true;
+    setup_geometry(g);
+    g->cell_start = calloc((size_t)cells + 1, sizeof *g->cell_start);
+    g->course_count = calloc((size_t)cells, sizeof *g->course_count);
+    if (!g->cell_start || !g->course_count)
+        goto oom;
+
+    XformPath path;
+    path.depth = 0;
+    obj_insert_into_grid(scene->root, g, &path);
+    if (g->oom)
+        goto oom;
+
+    g->num_prims = g->num_recs;
+    g->prims = malloc(((size_t)g->num_prims + 1) * sizeof *g->prims);
+    if (!g->prims)
+        goto oom;
+    uint64_t total = 0;
+    for (uint32_t e = 0; e < g->num_recs; e++) {
+        const GridBuildRec *rec = &g->recs[e];
+        g->prims[e].obj = rec->obj;
+        g->prims[e].path = rec->gp ? &rec->gp->path : NULL;
+        course_insert(g, rec);
+        total += tight_insert(g, rec, e, false);
+        if (total > UINT32_MAX - 1u) {
+            diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",
+                       nx, ny, nz);
+            grid_free(g);
+            return NULL;
+        }
+    }
+    /* CSR: prefix sum of the counts, fill with cell_start[c] as cursor, then shift. */
+    for (uint32_t c = 0; c < g->num_cells; c++)
+        g->cell_start[c + 1] += g->cell_start[c];
+    g->cell_items = malloc(((size_t)total + 1) * sizeof *g->cell_items);
+    if (!g->cell_items)
+        goto oom;
+    for (uint32_t e = 0; e < g->num_recs; e++)
+        tight_insert(g, &g->recs[e], e, true);
+    for (uint32_t c = g->num_cells; c > 0; c--)
+        g->cell_start[c] = g->cell_start[c - 1];
+    g->cell_start[0] = 0;
+    free_build_state(g);
+    return g;
+
+oom:
+    diag_error(diag, NULL, "out of memory building a %dx%dx%d grid", nx, ny, nz);
+    grid_free(g);
+    return NULL;
+}
+
+/* ---- accessors ---- */
+
+BBox grid_bounds(const Grid *g) { return g->bounds; }
+
+void grid_dims(const Grid *g, int n[3])
+{
+    n[0] = g->n[0];
+    n[1] = g->n[1];
+    n[2] = g->n[2];
+}
+
+int grid_cell_count(const Grid *g, int i, int j, int k)
+{
+    if (i < 0 || j < 0 || k < 0 || i >= g->n[0] || j >= g->n[1] || k >= g->n[2])
+        return 0;
+    uint32_t c = g->course_count[grid_cell_index(g, i, j, k)];
+    return c > INT_MAX ? INT_MAX : (int)c;
+}
+
+int grid_cell_marching_count(const Grid *g, int i, int j, int k)
+{
+    if (i < 0 || j < 0 || k < 0 || i >= g->n[0] || j >= g->n[1] || k >= g->n[2])
+        return 0;
+    uint32_t c = grid_cell_index(g, i, j, k);
+    return (int)(g->cell_start[c + 1] - g->cell_start[c]);
+}
+
+uint32_t grid_mailbox_size(const Grid *g) { return g ? g->num_prims : 0; }
+
+void grid_set_marking(Grid *g, bool on) { g->marking = on; }
+bool grid_marking(const Grid *g) { return g->marking; }
+
+void grid_entry_totals(const Grid *g, uint64_t *course, uint64_t *marching)
+{
+    uint64_t sum = 0;
+    for (uint32_t c = 0; c < g->num_cells; c++)
+        sum += g->course_count[c];
+    if (course)
+        *course = sum;
+    if (marching)
+        *marching = g->cell_start[g->num_cells];
+}

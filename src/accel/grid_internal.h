@@ -1,0 +1,62 @@
+/* Private layout of the uniform Grid, shared by the files of src/accel/ (build, casting,
+ * visualisation). Nothing outside src/accel/ sees it. */
+#ifndef RT_ACCEL_GRID_INTERNAL_H
+#define RT_ACCEL_GRID_INTERNAL_H
+
+#include <stdint.h>
+#include "rt/grid.h"
+#include "rt/marching_info.h"
+
+/* One flattened primitive: the leaf and the Transforms above it (NULL: none). Its index
+ * in Grid.prims is its mailbox slot. */
+typedef struct GridPrim {
+    const Object3D *obj;
+    const XformPath *path;
+} GridPrim;
+
+/* An interned transformation path with its composed matrices (build time and after:
+ * GridPrim.path points into it). */
+typedef struct GridPath {
+    XformPath path;
+    Mat4 m;    /* object -> world: M1 * M2 * ... * Mk (outermost first) */
+    Mat4 inv;  /* world -> object */
+} GridPath;
+
+typedef struct GridBuildRec GridBuildRec;
+
+struct Grid {
+    BBox bounds;            /* the scene box as given (printed by -stats) */
+    BBox box;               /* the box the cells tile: bounds, zero-thickness axes widened */
+    int n[3];
+    float size[3];          /* cell size per axis */
+    float pad[3];           /* rounding margin (world units): cells are padded by it when
+                               inserting for marching, and the march's slab test too */
+    uint32_t num_cells;
+    uint32_t *cell_start;   /* num_cells + 1 offsets into cell_items (CSR) */
+    uint32_t *cell_items;   /* indices into prims: the marching sets (tight insertion) */
+    uint32_t *course_count; /* per cell: entries by the course rules (semantics.md 7.2),
+                               the -visualize_grid count */
+    GridPrim *prims;        /* bounded primitives, depth-first order */
+    uint32_t num_prims;
+    GridPrim *unbounded;    /* planes: tested for every ray */
+    uint32_t num_unbounded;
+    bool marking;           /* mailboxing on (default; grid_set_marking) */
+
+    /* Interned paths (live as long as the grid). */
+    GridPath **paths;
+    uint32_t num_paths, cap_paths;
+
+    /* Build-time state (NULL after grid_build returns). */
+    GridBuildRec *recs;
+    uint32_t num_recs, cap_recs;
+    uint32_t cap_unbounded;
+    const GridPath *last_at_depth[RT_MAX_NESTING + 1];
+    bool oom;
+};
+
+static inline uint32_t grid_cell_index(const Grid *g, int i, int j, int k)
+{
+    return ((uint32_t)k * (uint32_t)g->n[1] + (uint32_t)j) * (uint32_t)g->n[0] + (uint32_t)i;
+}
+
+#endif

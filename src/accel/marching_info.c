@@ -1,0 +1,145 @@
+/* The 3D-DDA (Amanatides & Woo 1987) that walks a ray through the grid's cells in order
+ * (semantics.md 7.3). Used by RayCastFast, the shadow query and -visualize_grid. */
+#include "rt/marching_info.h"
+
+static Vec3 axis_normal(int axis, int sign)
+{
+    Vec3 n = {0.0f, 0.0f, 0.0f};
+    float s = (float)sign;
+    if (axis == 0)
+        n.x = s;
+    else if (axis == 1)
+        n.y = s;
+    else
+        n.z = s;
+    return n;
+}
+
+/* Counts the current cell (A6: one "cell traversed" per visited cell, the first one
+ * included) and records it for the GUI's ray tree. */
+static inline void enter_cell(const MarchingInfo *mi, RenderCtx *ctx)
+{
+    if (!ctx)
+        return;
+    ctx->stats.cells_traversed++;
+    if (ctx->tree) {
+        Vec3 zero = {0.0f, 0.0f, 0.0f};
+        ray_tree_add_cell(ctx->tree, mi->cell[0], mi->cell[1], mi->cell[2],
+                          mi->started_inside ? zero : mi->normal);
+    }
+}
+
+/* Cell index of coordinate x on an axis, clamped to [0, n-1] in float first so a far or
+ * NaN coordinate cannot overflow the int conversion. */
+static int cell_of(float x, float lo, float inv_size, int n)
+{
+    float f = (x - lo) * inv_size;
+    if (!(f >= 0.0f))
+        return 0;
+    if (f >= (float)n)
+        return n - 1;
+    int c = (int)f;
+    return c < n ? c : n - 1;
+}
+
+bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],
+                const Ray *ray, float tmin, RenderCtx *ctx)
+{
+    const float o[3] = {ray->origin.x, ray->origin.y, ray->origin.z};
+    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
+    const float lo[3] = {box->min.x, box->min.y, box->min.z};
+    const float hi[3] = {box->max.x, box->max.y, box->max.z};
+    float inv[3];
+    bool parallel[3];
+    float t_enter = -INFINITY, t_exit = INFINITY;
+    int enter_axis = -1;
+
+    /* Slab test against the padded box (Kay & Kajiya). */
+    for (int a = 0; a < 3; a++) {
+        inv[a] = 1.0f / d[a];
+        parallel[a] = d[a] == 0.0f || !isfinite(inv[a]);
+        float plo = lo[a] - pad[a], phi = hi[a] + pad[a];
+        if (parallel[a]) {
+            if (!(o[a] >= plo && o[a] <= phi))
+                return false;
+            continue;
+        }
+        float t0 = (plo - o[a]) * inv[a], t1 = (phi - o[a]) * inv[a];
+        if (inv[a] < 0.0f) {
+            float tmp = t0;
+            t0 = t1;
+            t1 = tmp;
+        }
+        if (t0 > t_enter) {
+            t_enter = t0;
+            enter_axis = a;
+        }
+        if (t1 < t_exit)
+            t_exit = t1;
+    }
+    if (enter_axis < 0)
+        return false; /* zero direction: the ray goes nowhere */
+    if (!(t_enter <= t_exit) || t_exit < tmin)
+        return false;
+
+    mi->started_inside = t_enter < tmin;
+    mi->t = mi->started_inside ? tmin : t_enter;
+    for (int a = 0; a < 3; a++) {
+        mi->n[a] = n[a];
+        mi->step[a] = (!parallel[a] && d[a] < 0.0f) ? -1 : 1;
+        float inv_size = (float)n[a] / (hi[a] - lo[a]);
+        if (!mi->started_inside && a == enter_axis) {
+            /* The entry point lies on the entered face: its cell is known exactly,
+             * whatever the rounding of o + t*d. */
+            mi->cell[a] = mi->step[a] > 0 ? 0 : n[a] - 1;
+        } else {
+            mi->cell[a] = cell_of(o[a] + mi->t * d[a], lo[a], inv_size, n[a]);
+        }
+        if (parallel[a]) {
+            mi->base[a] = 0.0f;
+            mi->dt[a] = 0.0f;
+            mi->t_next[a] = INFINITY;
+        } else {
+            float size = (hi[a] - lo[a]) / (float)n[a];
+            mi->base[a] = (lo[a] - o[a]) * inv[a];
+            mi->dt[a] = size * inv[a];
+            int k = mi->step[a] > 0 ? mi->cell[a] + 1 : mi->cell[a];
+            mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
+        }
+    }
+    if (mi->started_inside) {
+        /* No face was crossed; use the face the dominant axis would have entered. */
+        int a = 0;
+        if (fabsf(d[1]) > fabsf(d[a]))
+            a = 1;
+        if (fabsf(d[2]) > fabsf(d[a]))
+            a = 2;
+        mi->normal = axis_normal(a, -mi->step[a]);
+    } else {
+        mi->normal = axis_normal(enter_axis, -mi->step[enter_axis]);
+    }
+    enter_cell(mi, ctx);
+    return true;
+}
+
+bool march_next(MarchingInfo *mi, RenderCtx *ctx)
+{
+    int a = 0;
+    if (mi->t_next[1] < mi->t_next[a])
+        a = 1;
+    if (mi->t_next[2] < mi->t_next[a])
+        a = 2;
+    if (!(mi->t_next[a] < INFINITY))
+        return false; /* parallel to every remaining axis: nothing more to cross */
+    int c = mi->cell[a] + mi->step[a];
+    if (c < 0 || c >= mi->n[a])
+        return false;
+    mi->cell[a] = c;
+    mi->t = mi->t_next[a];
+    int k = mi->step[a] > 0 ? c + 1 : c;
+    mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
+    mi->normal = axis_normal(a, -mi->step[a]);
+    mi->started_inside = false;
+    enter_cell(mi, ctx);
+    return true;
+}
