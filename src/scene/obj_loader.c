@@ -238,8 +238,9 @@ static bool read_vertex(ObjReader *r)
         }
     }
     /* A fourth (w) coordinate or vertex colours may follow: ignored. */
-    if (r->m->nverts == INT_MAX || !grow((void **)&r->m->verts, &r->cap_v, r->m->nverts + 1,
-                                          sizeof(Vec3))) {
+    if (r->m->nverts >= r->cap_v &&
+        (r->m->nverts == INT_MAX ||
+         !grow((void **)&r->m->verts, &r->cap_v, r->m->nverts + 1, sizeof(Vec3)))) {
         SrcLoc l = obj_loc(r, r->line_start);
         diag_error(r->diag, &l, "out of memory (too many vertices)");
         return false;
@@ -309,8 +310,9 @@ static bool read_face(ObjReader *r, const char *f_at)
         if (count == 0) {
             first = vi;
         } else if (count >= 2) {
-            if (r->m->ntris == INT_MAX ||
-                !grow((void **)&r->m->tris, &r->cap_t, r->m->ntris + 1, sizeof(int[3]))) {
+            if (r->m->ntris >= r->cap_t &&
+                (r->m->ntris == INT_MAX ||
+                 !grow((void **)&r->m->tris, &r->cap_t, r->m->ntris + 1, sizeof(int[3])))) {
                 diag_error(r->diag, &l, "out of memory (too many faces)");
                 return false;
             }
