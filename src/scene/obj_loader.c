@@ -14,6 +14,11 @@
 #include "rt/arena.h"
 #include "rt/geom.h"
 
+/* Inputs above this are refused (EFBIG) rather than exhausting memory: /dev/zero or an
+ * endless pipe given as a file must end in an error, not in the OOM killer. 256 MiB is
+ * an OBJ of several million triangles. */
+#define RT_MAX_INPUT_BYTES ((size_t)256 << 20)
+
 bool file_read_all(const char *path, char **out, size_t *len)
 {
     FILE *f = fopen(path, "rb");
@@ -31,6 +36,11 @@ bool file_read_all(const char *path, char **out, size_t *len)
         errno = EISDIR;
         return false;
     }
+    if (S_ISREG(st.st_mode) && (uintmax_t)st.st_size > RT_MAX_INPUT_BYTES) {
+        fclose(f);
+        errno = EFBIG;
+        return false;
+    }
     /* Regular files: one fread of the known size. Pipes and the like: grow as we go. */
     size_t cap = S_ISREG(st.st_mode) && st.st_size > 0 ? (size_t)st.st_size + 1 : 65536;
     char *buf = malloc(cap);
@@ -42,7 +52,7 @@ bool file_read_all(const char *path, char **out, size_t *len)
     }
     for (;;) {
         if (n + 1 >= cap) {
-            if (cap > SIZE_MAX / 2) {
+            if (cap >= RT_MAX_INPUT_BYTES) {
                 free(buf);
                 fclose(f);
                 errno = EFBIG;
@@ -101,29 +111,34 @@ bool obj_parse_float(const char **pp, const char *end, float *out)
         neg = *p++ == '-';
     uint64_t mant = 0;
     int sig = 0, digits = 0, exp10 = 0;
+    /* Leading zeros carry no significance; then up to 19 digits fit a uint64_t exactly. */
+    while (p < end && *p == '0') {
+        digits++;
+        p++;
+    }
     while (p < end && is_digit(*p)) {
-        if (mant || *p != '0') {
-            if (sig < 19)
-                mant = mant * 10 + (uint64_t)(*p - '0');
-            else
-                exp10++;
-            sig++;
-        }
+        if (sig < 19)
+            mant = mant * 10 + (uint64_t)(*p - '0');
+        else
+            exp10++;
+        sig++;
         digits++;
         p++;
     }
     if (p < end && *p == '.') {
         p++;
+        if (sig == 0)
+            while (p < end && *p == '0') {
+                exp10--;
+                digits++;
+                p++;
+            }
         while (p < end && is_digit(*p)) {
-            if (mant || *p != '0') {
-                if (sig < 19) {
-                    mant = mant * 10 + (uint64_t)(*p - '0');
-                    exp10--;
-                }
-                sig++;
-            } else {
+            if (sig < 19) {
+                mant = mant * 10 + (uint64_t)(*p - '0');
                 exp10--;
             }
+            sig++;
             digits++;
             p++;
         }

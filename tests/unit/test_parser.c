@@ -631,6 +631,10 @@ static void test_obj_file_resolution(void)
     diag_init(&d, NULL);
     CHECK(scene_load(g_tmp, &d) == NULL); /* a directory */
     CHECK_CONTAINS(d.last, "error: cannot open scene file: Is a directory");
+    /* An endless input is refused, not read until memory runs out. */
+    diag_init(&d, NULL);
+    CHECK(scene_load("/dev/zero", &d) == NULL);
+    CHECK_CONTAINS(d.last, "/dev/zero: error: cannot open scene file: File too large");
     char cmd[700];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", g_tmp);
     CHECK(system(cmd) == 0);
