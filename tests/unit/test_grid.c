@@ -1,0 +1,410 @@
+/* Grid construction on small hand-made scenes: the course occupancy rules of
+ * semantics.md 7.2 (sphere distance rule, touching boxes, transformed triangles and
+ * spheres), the tighter marching sets, planes, degenerate boxes, the palette, the
+ * visualisation hit and -grid auto. */
+#include <string.h>
+
+#include "../harness.h"
+#include "rt/arena.h"
+#include "rt/geom.h"
+#include "rt/grid.h"
+#include "rt/material.h"
+#include "rt/scene.h"
+
+/* A scene assembled by hand from the geometry constructors. */
+typedef struct TestScene {
+    Scene s;
+    Material *mat;
+    Object3D *kids[16];
+    int n;
+} TestScene;
+
+static void ts_init(TestScene *t)
+{
+    memset(t, 0, sizeof *t);
+    arena_init(&t->s.arena);
+    PhongParams p = phong_defaults();
+    t->mat = phong_new(&t->s.arena, &p);
+}
+
+static void ts_add(TestScene *t, Object3D *o)
+{
+    CHECK(o != NULL);
+    if (o && t->n < 16)
+        t->kids[t->n++] = o;
+}
+
+static void ts_finish(TestScene *t)
+{
+    Object3D *root = group_new(&t->s.arena, t->n);
+    for (int i = 0; i < t->n; i++)
+        group_set_child(root, i, t->kids[i]);
+    group_finish(root);
+    t->s.root = root;
+    t->s.num_primitives = object_assign_ids(root);
+    t->s.bounds = root->bounded ? root->bbox : bbox_empty();
+}
+
+static void ts_free(TestScene *t) { arena_free(&t->s.arena); }
+
+static Grid *build(const TestScene *t, int nx, int ny, int nz)
+{
+    Diag d;
+    diag_init(&d, stderr);
+    Grid *g = grid_build(&t->s, nx, ny, nz, &d);
+    CHECK(g != NULL);
+    CHECK_INT(d.errors, 0);
+    return g;
+}
+
+/* Unit sphere, 5^3 cells of 0.4: reach = 1 + 0.2*sqrt(3) = 1.3464. Every cell centre
+ * lies within it except the 8 corner cells (centre distance 0.8*sqrt(3) = 1.386). */
+static void test_sphere_distance_rule(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, sphere_new(&t.s.arena, v3(0, 0, 0), 1.0f, t.mat));
+    ts_finish(&t);
+    Grid *g = build(&t, 5, 5, 5);
+    if (!g)
+        return;
+    int occupied = 0;
+    for (int k = 0; k < 5; k++)
+        for (int j = 0; j < 5; j++)
+            for (int i = 0; i < 5; i++) {
+                int c = grid_cell_count(g, i, j, k);
+                CHECK(c == 0 || c == 1);
+                bool corner = (i == 0 || i == 4) && (j == 0 || j == 4) && (k == 0 || k == 4);
+                CHECK_MSG(c == (corner ? 0 : 1), "cell (%d,%d,%d) count %d", i, j, k, c);
+                occupied += c;
+            }
+    CHECK_INT(occupied, 117);
+    /* Marching set: only cells the surface crosses. The centre cell [-0.2,0.2]^3 lies
+     * inside the sphere, the corner cells outside it. */
+    CHECK_INT(grid_cell_marching_count(g, 2, 2, 2), 0);
+    CHECK_INT(grid_cell_marching_count(g, 0, 0, 0), 0);
+    CHECK_INT(grid_cell_marching_count(g, 4, 2, 2), 1);
+    CHECK_INT(grid_cell_marching_count(g, 0, 0, 2), 1);
+    CHECK_INT(grid_cell_count(g, 5, 0, 0), 0); /* out of range */
+    CHECK_INT(grid_cell_count(g, -1, 0, 0), 0);
+    CHECK_INT(grid_mailbox_size(g), 1);
+    uint64_t course, marching;
+    grid_entry_totals(g, &course, &marching);
+    CHECK_INT(course, 117);
+    CHECK(marching < course);
+    grid_free(g);
+    ts_free(&t);
+}
+
+/* Box [0,4]^3 of unit cells (a sphere at (2,2,2) of radius 2 occupies every cell by the
+ * distance rule: corner centre distance 2.598 <= 2 + 0.866), plus triangles whose boxes
+ * touch cell borders. */
+static void test_touching_boxes(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, sphere_new(&t.s.arena, v3(2, 2, 2), 2.0f, t.mat));
+    /* AABB [0.5,1] x [0.5,1] x {0.5}: max touches x = 1 and y = 1. */
+    ts_add(&t, triangle_new(&t.s.arena, v3(0.5f, 0.5f, 0.5f), v3(1, 0.5f, 0.5f),
+                            v3(0.5f, 1, 0.5f), t.mat));
+    /* AABB [1,1.5] x [2.5,3] x {0.5}: min touches x = 1, max touches y = 3. */
+    ts_add(&t, triangle_new(&t.s.arena, v3(1, 2.5f, 0.5f), v3(1.5f, 2.5f, 0.5f),
+                            v3(1, 3, 0.5f), t.mat));
+    ts_finish(&t);
+    Grid *g = build(&t, 4, 4, 4);
+    if (!g)
+        return;
+    int expect[4][4] = {{0}}; /* [j][i] in layer k = 0: extra entries */
+    expect[0][0] = expect[0][1] = expect[1][0] = expect[1][1] = 1;
+    expect[2][0] = expect[2][1] = expect[3][0] = expect[3][1] = 1;
+    for (int k = 0; k < 4; k++)
+        for (int j = 0; j < 4; j++)
+            for (int i = 0; i < 4; i++) {
+                int want = 1 + (k == 0 ? expect[j][i] : 0);
+                CHECK_MSG(grid_cell_count(g, i, j, k) == want, "cell (%d,%d,%d): %d, want %d",
+                          i, j, k, grid_cell_count(g, i, j, k), want);
+            }
+    /* Marching set of the first triangle: its hypotenuse x + y = 1.5 stays out of
+     * cell (1,1,0) (x + y >= 2 there); the exact test drops the cell the box rule adds. */
+    CHECK_INT(grid_cell_count(g, 1, 1, 0), 2);
+    CHECK_INT(grid_cell_marching_count(g, 1, 1, 0), 1); /* the sphere's surface only */
+    CHECK_INT(grid_cell_marching_count(g, 0, 0, 0), 2);
+    grid_free(g);
+    ts_free(&t);
+}
+
+/* The course's transformed-triangle rule: the box of the three TRANSFORMED vertices. */
+static void test_transformed_triangle(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, sphere_new(&t.s.arena, v3(2, 2, 2), 2.0f, t.mat));
+    Object3D *tri = triangle_new(&t.s.arena, v3(0.25f, 0.25f, 1.5f), v3(0.75f, 0.25f, 1.5f),
+                                 v3(0.25f, 0.75f, 1.5f), t.mat);
+    Mat4 tr = mat4_translate(v3(2, 0, 0)), sc = mat4_scale(v3(1, 2, 1));
+    Mat4 m = mat4_mul(&tr, &sc);
+    /* Two nested transforms to exercise path composition: translate(2,0,0)(scale(1,2,1)). */
+    Object3D *inner = transform_new(&t.s.arena, &sc, tri);
+    ts_add(&t, transform_new(&t.s.arena, &tr, inner));
+    (void)m;
+    ts_finish(&t);
+    Grid *g = build(&t, 4, 4, 4);
+    if (!g)
+        return;
+    /* World vertices (2.25,0.5,1.5) (2.75,0.5,1.5) (2.25,1.5,1.5): cells x 2, y 0..1, z 1. */
+    for (int k = 0; k < 4; k++)
+        for (int j = 0; j < 4; j++)
+            for (int i = 0; i < 4; i++) {
+                int want = 1 + (i == 2 && j <= 1 && k == 1);
+                CHECK_MSG(grid_cell_count(g, i, j, k) == want, "cell (%d,%d,%d): %d, want %d",
+                          i, j, k, grid_cell_count(g, i, j, k), want);
+            }
+    grid_free(g);
+    ts_free(&t);
+}
+
+/* A sphere through a Transform uses the box rule on its transformed local box:
+ * translate(2,2,2) scale(2,1,1), r = 0.5 -> [1,3] x [1.5,2.5]^2, touching x = 1 and 3:
+ * cells x 0..3, y 1..2, z 1..2 (16 cells). */
+static void test_transformed_sphere(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, sphere_new(&t.s.arena, v3(2, 2, 2), 2.0f, t.mat));
+    Mat4 tr = mat4_translate(v3(2, 2, 2)), sc = mat4_scale(v3(2, 1, 1));
+    Mat4 m = mat4_mul(&tr, &sc);
+    ts_add(&t, transform_new(&t.s.arena, &m, sphere_new(&t.s.arena, v3(0, 0, 0), 0.5f, t.mat)));
+    ts_finish(&t);
+    Grid *g = build(&t, 4, 4, 4);
+    if (!g)
+        return;
+    int extra = 0;
+    for (int k = 0; k < 4; k++)
+        for (int j = 0; j < 4; j++)
+            for (int i = 0; i < 4; i++) {
+                int want = 1 + (j >= 1 && j <= 2 && k >= 1 && k <= 2);
+                CHECK_MSG(grid_cell_count(g, i, j, k) == want, "cell (%d,%d,%d): %d, want %d",
+                          i, j, k, grid_cell_count(g, i, j, k), want);
+                extra += grid_cell_count(g, i, j, k) - 1;
+            }
+    CHECK_INT(extra, 16);
+    /* Marching: the ellipsoid's surface crosses these cells, so it must be there. */
+    CHECK(grid_cell_marching_count(g, 1, 1, 1) >= 1);
+    CHECK(grid_cell_marching_count(g, 2, 2, 2) >= 1);
+    grid_free(g);
+    ts_free(&t);
+}
+
+/* An identity Transform still switches a sphere to the box rule (semantics.md 7.2). */
+static void test_identity_transform_sphere_uses_box_rule(void)
+{
+    TestScene t;
+    ts_init(&t);
+    Mat4 id = mat4_identity();
+    ts_add(&t, transform_new(&t.s.arena, &id, sphere_new(&t.s.arena, v3(0, 0, 0), 1.0f, t.mat)));
+    ts_finish(&t);
+    Grid *g = build(&t, 5, 5, 5);
+    if (!g)
+        return;
+    CHECK_INT(grid_cell_count(g, 0, 0, 0), 1); /* the corner the distance rule leaves out */
+    CHECK_INT(grid_cell_count(g, 4, 4, 4), 1);
+    grid_free(g);
+    ts_free(&t);
+}
+
+static void test_planes_are_not_in_cells(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, plane_new(&t.s.arena, v3(0, 1, 0), -1.0f, t.mat));
+    ts_add(&t, sphere_new(&t.s.arena, v3(0, 0, 0), 1.0f, t.mat));
+    ts_finish(&t);
+    Grid *g = build(&t, 5, 5, 5);
+    if (!g)
+        return;
+    CHECK_INT(grid_cell_count(g, 2, 0, 2), 1);
+    CHECK_INT(grid_mailbox_size(g), 1);
+    /* A ray from above hits the sphere; one from below the plane (y = -1) hits the plane
+     * first, although the plane is in no cell. */
+    RenderCtx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    Hit h = hit_none();
+    Ray down = {v3(0, 5, 0), v3(0, -1, 0)};
+    CHECK(grid_intersect(g, &down, &h, 0.0f, &ctx));
+    CHECK_NEAR(h.t, 4.0, 1e-6);
+    h = hit_none();
+    Ray up = {v3(0, -5, 0), v3(0, 1, 0)};
+    CHECK(grid_intersect(g, &up, &h, 0.0f, &ctx));
+    CHECK_NEAR(h.t, 4.0, 1e-6);
+    CHECK_INT(h.id, 0); /* the plane (first child) */
+    /* Shadow query between y = -5 and y = -3: nothing; up to y = 0: the plane. */
+    CHECK(!grid_occluded(g, &up, 0.0f, 2.0f, &ctx));
+    CHECK(grid_occluded(g, &up, 0.0f, 5.0f, &ctx));
+    grid_free(g);
+    ts_free(&t);
+}
+
+static void test_only_planes_gives_no_grid(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, plane_new(&t.s.arena, v3(0, 1, 0), 0.0f, t.mat));
+    ts_finish(&t);
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(grid_build(&t.s, 4, 4, 4, &d) == NULL);
+    CHECK_INT(d.errors, 0);
+    ts_free(&t);
+}
+
+static void test_bad_resolutions(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, sphere_new(&t.s.arena, v3(0, 0, 0), 1.0f, t.mat));
+    ts_finish(&t);
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(grid_build(&t.s, 0, 4, 4, &d) == NULL);
+    CHECK_INT(d.errors, 1);
+    CHECK(grid_build(&t.s, 100000, 100000, 100000, &d) == NULL);
+    CHECK_INT(d.errors, 2);
+    CHECK_CONTAINS(d.last, "too large");
+    ts_free(&t);
+}
+
+/* A flat scene (one triangle in z = 0) has a zero-thickness box: the grid still works. */
+static void test_zero_thickness_box(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, triangle_new(&t.s.arena, v3(0, 0, 0), v3(1, 0, 0), v3(0, 1, 0), t.mat));
+    ts_finish(&t);
+    Grid *g = build(&t, 4, 4, 4);
+    if (!g)
+        return;
+    BBox b = grid_bounds(g);
+    CHECK(b.min.z == 0.0f && b.max.z == 0.0f); /* the printed box is the scene's */
+    RenderCtx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    Hit h = hit_none();
+    Ray r = {v3(0.2f, 0.3f, 5), v3(0, 0, -1)};
+    CHECK(grid_intersect(g, &r, &h, 0.0f, &ctx));
+    CHECK_NEAR(h.t, 5.0, 0);
+    h = hit_none();
+    Ray miss = {v3(0.8f, 0.8f, 5), v3(0, 0, -1)};
+    CHECK(!grid_intersect(g, &miss, &h, 0.0f, &ctx));
+    /* Grazing within the plane of the triangle: no hit, no crash. */
+    h = hit_none();
+    Ray along = {v3(-1, 0.25f, 0), v3(1, 0, 0)};
+    (void)grid_intersect(g, &along, &h, 0.0f, &ctx);
+    grid_free(g);
+    ts_free(&t);
+}
+
+static void check_rgb(const Material *m, float r, float gg, float b)
+{
+    PhongParams p;
+    CHECK(m != NULL);
+    if (!m)
+        return;
+    CHECK(phong_params(m, &p));
+    CHECK_MSG(p.diffuse.x == r && p.diffuse.y == gg && p.diffuse.z == b,
+              "diffuse (%g,%g,%g), want (%g,%g,%g)", (double)p.diffuse.x, (double)p.diffuse.y,
+              (double)p.diffuse.z, (double)r, (double)gg, (double)b);
+    CHECK(v3_is_zero(p.specular));
+}
+
+static void test_palette(void)
+{
+    check_rgb(grid_palette_material(1), 1, 1, 1);
+    check_rgb(grid_palette_material(2), 1, 0, 1);
+    check_rgb(grid_palette_material(3), 0.7f, 0, 1);
+    check_rgb(grid_palette_material(5), 0, 0, 1);
+    check_rgb(grid_palette_material(8), 0, 1, 1);
+    check_rgb(grid_palette_material(11), 0, 1, 0);
+    check_rgb(grid_palette_material(14), 1, 1, 0);
+    check_rgb(grid_palette_material(16), 1, 0.3f, 0);
+    check_rgb(grid_palette_material(17), 1, 0, 0);
+    check_rgb(grid_palette_material(1000), 1, 0, 0);
+    CHECK(grid_palette_material(4) == grid_palette_material(4)); /* made once */
+}
+
+/* The visualisation hit: first non-empty course cell, t = its entry, entered face. */
+static void test_visualize_hit(void)
+{
+    TestScene t;
+    ts_init(&t);
+    ts_add(&t, sphere_new(&t.s.arena, v3(0, 0, 0), 1.0f, t.mat));
+    ts_finish(&t);
+    Grid *g = build(&t, 5, 5, 5);
+    if (!g)
+        return;
+    RenderCtx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    /* Along the diagonal corner cell (4,4,4) is empty, (3,4,4)... the march from the
+     * +x side through row y = 0.9, z = 0.9 meets corner cell (4,4,4) first (empty),
+     * then (3,4,4) at x = 0.6 (count 1). */
+    Hit h = hit_none();
+    Ray r = {v3(3, 0.9f, 0.9f), v3(-1, 0, 0)};
+    CHECK(grid_visualize_intersect(g, &r, &h, 0.0f, &ctx));
+    CHECK_NEAR(h.t, 2.4, 1e-5);
+    CHECK(h.normal.x == 1.0f && h.normal.y == 0.0f && h.normal.z == 0.0f);
+    CHECK(h.material == grid_palette_material(1));
+    CHECK_INT(ctx.stats.cells_traversed, 2);
+    /* A ray in front of the box entering a full cell: t = box entry, face -z. */
+    h = hit_none();
+    Ray f = {v3(0, 0, -3), v3(0, 0, 1)};
+    CHECK(grid_visualize_intersect(g, &f, &h, 0.0f, &ctx));
+    CHECK_NEAR(h.t, 2.0, 1e-6);
+    CHECK(h.normal.z == -1.0f);
+    /* Missing the box. */
+    h = hit_none();
+    Ray m = {v3(0, 3, -3), v3(0, 0, 1)};
+    CHECK(!grid_visualize_intersect(g, &m, &h, 0.0f, &ctx));
+    grid_free(g);
+    ts_free(&t);
+}
+
+static void test_auto_resolution(void)
+{
+    TestScene t;
+    ts_init(&t);
+    /* 40 small spheres along a 4 x 2 x 1 box. */
+    for (int i = 0; i < 16; i++)
+        ts_add(&t, sphere_new(&t.s.arena, v3(0.25f * (float)i, (float)(i % 2), 0), 0.5f, t.mat));
+    ts_finish(&t);
+    int n[3];
+    grid_choose_auto(&t.s, n);
+    for (int a = 0; a < 3; a++)
+        CHECK(n[a] >= 1);
+    /* Box 4.75 x 2 x 1: the resolution follows the sides' proportions. */
+    CHECK(n[0] >= n[1] && n[1] >= n[2]);
+    ts_free(&t);
+
+    TestScene f;
+    ts_init(&f);
+    ts_add(&f, triangle_new(&f.s.arena, v3(0, 0, 0), v3(10, 0, 0), v3(0, 10, 0), f.mat));
+    ts_finish(&f);
+    grid_choose_auto(&f.s, n);
+    CHECK_INT(n[2], 1); /* flat axis: one cell */
+    CHECK(n[0] >= 1 && n[0] == n[1]);
+    ts_free(&f);
+}
+
+static const TestCase tests[] = {
+    {"sphere_distance_rule", test_sphere_distance_rule},
+    {"touching_boxes", test_touching_boxes},
+    {"transformed_triangle", test_transformed_triangle},
+    {"transformed_sphere", test_transformed_sphere},
+    {"identity_transform_sphere_uses_box_rule", test_identity_transform_sphere_uses_box_rule},
+    {"planes_are_not_in_cells", test_planes_are_not_in_cells},
+    {"only_planes_gives_no_grid", test_only_planes_gives_no_grid},
+    {"bad_resolutions", test_bad_resolutions},
+    {"zero_thickness_box", test_zero_thickness_box},
+    {"palette", test_palette},
+    {"visualize_hit", test_visualize_hit},
+    {"auto_resolution", test_auto_resolution},
+};
+
+RT_TEST_MAIN(tests)

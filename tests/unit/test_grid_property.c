@@ -1,0 +1,443 @@
+/* Property test of RayCastFast: over seeded random scenes (spheres, triangles, meshes with
+ * shared edges, nested Transforms with rotations and non-uniform scales, planes) and
+ * thousands of seeded random rays (camera-like, secondary rays leaving surfaces, rays
+ * aimed at cell borders and mesh vertices), grid_intersect returns exactly the hit of the
+ * brute-force tree walk (t bit-equal, same primitive, normal, material) at several
+ * resolutions, grid_occluded agrees with a brute-force occlusion test, and with marking on
+ * no primitive is intersected twice for one ray (counted independently by wrapping the
+ * primitives' ops). */
+#include <stdlib.h>
+#include <string.h>
+
+#include "../harness.h"
+#include "rt/arena.h"
+#include "rt/geom.h"
+#include "rt/grid.h"
+#include "rt/material.h"
+#include "rt/scene.h"
+
+/* ---- deterministic random numbers (splitmix64) ---- */
+
+static uint64_t rng_state;
+
+static uint64_t rng_next(void)
+{
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+static float frand(float lo, float hi)
+{
+    double u = (double)(rng_next() >> 11) * (1.0 / 9007199254740992.0);
+    return lo + (float)u * (hi - lo);
+}
+
+static int irand(int n) { return (int)(rng_next() % (uint64_t)n); }
+
+static Vec3 vrand(float lo, float hi) { return v3(frand(lo, hi), frand(lo, hi), frand(lo, hi)); }
+
+static Vec3 unit_rand(void)
+{
+    for (;;) {
+        Vec3 v = vrand(-1, 1);
+        float l = v3_length(v);
+        if (l > 0.05f && l <= 1.0f)
+            return v3_scale(v, 1.0f / l);
+    }
+}
+
+/* ---- counting wrapper around the primitives' intersect ---- */
+
+static const Object3DOps *orig_ops[OBJ_TRANSFORM + 1];
+static Object3DOps wrapped_ops[OBJ_TRANSFORM + 1];
+static uint32_t *test_counts; /* per primitive id, for the current ray */
+static uint32_t num_counted;
+
+static bool counting_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
+                               RenderCtx *ctx)
+{
+    if (test_counts && self->id < num_counted)
+        test_counts[self->id]++;
+    return orig_ops[obj_kind(self)]->intersect(self, ray, hit, tmin, ctx);
+}
+
+static void wrap(Object3D *o)
+{
+    ObjKind k = obj_kind(o);
+    if (!orig_ops[k]) {
+        orig_ops[k] = o->ops;
+        wrapped_ops[k] = *o->ops;
+        wrapped_ops[k].intersect = counting_intersect;
+    }
+    o->ops = &wrapped_ops[k];
+}
+
+/* ---- random scenes ---- */
+
+typedef struct RScene {
+    Scene s;
+    Material *mats[4];
+    Vec3 vertices[256]; /* mesh vertices in world space (for aimed rays) */
+    int num_vertices;
+} RScene;
+
+static Mat4 random_matrix(void)
+{
+    Mat4 m = mat4_identity(), t;
+    int parts = 1 + irand(3);
+    for (int i = 0; i < parts; i++) {
+        switch (irand(5)) {
+        case 0: t = mat4_translate(vrand(-1.5f, 1.5f)); break;
+        case 1: t = mat4_scale(v3(frand(0.3f, 2), frand(0.3f, 2), frand(0.3f, 2))); break;
+        case 2: t = mat4_rotate_x(frand(-180, 180)); break;
+        case 3: t = mat4_rotate_y(frand(-180, 180)); break;
+        default: t = mat4_rotate_axis(unit_rand(), frand(-180, 180)); break;
+        }
+        m = mat4_mul(&m, &t);
+    }
+    return m;
+}
+
+static Object3D *random_leaf(RScene *r, int depth);
+
+/* A small height-field mesh: triangles sharing edges and vertices (ties in t). */
+static Object3D *random_mesh(RScene *r, bool record)
+{
+    Arena *a = &r->s.arena;
+    int nx = 2 + irand(4), nz = 2 + irand(4);
+    Vec3 base = vrand(-2, 1);
+    float step = frand(0.1f, 0.5f);
+    Object3D *g = group_new(a, 2 * nx * nz);
+    int k = 0;
+    for (int i = 0; i < nx; i++)
+        for (int j = 0; j < nz; j++) {
+            Vec3 p[4];
+            for (int c = 0; c < 4; c++) {
+                int di = c & 1, dj = c >> 1;
+                /* Integer-ish heights keep many shared vertices exactly representable. */
+                float h = (float)(((i + di) * 7 + (j + dj) * 3) % 4) * 0.125f;
+                p[c] = v3_add(base, v3((float)(i + di) * step, h, (float)(j + dj) * step));
+                if (record && r->num_vertices < 256)
+                    r->vertices[r->num_vertices++] = p[c];
+            }
+            const Material *m = r->mats[irand(4)];
+            group_set_child(g, k++, triangle_new(a, p[0], p[1], p[3], m));
+            group_set_child(g, k++, triangle_new(a, p[0], p[3], p[2], m));
+        }
+    group_finish(g);
+    return g;
+}
+
+static Object3D *random_leaf(RScene *r, int depth)
+{
+    Arena *a = &r->s.arena;
+    const Material *m = r->mats[irand(4)];
+    int choice = irand(depth < 3 ? 10 : 7);
+    if (choice <= 2) {
+        return sphere_new(a, vrand(-2, 2), frand(0.05f, 0.9f), m);
+    } else if (choice <= 4) {
+        Vec3 c = vrand(-2, 2);
+        float s = frand(0.1f, 1.5f);
+        return triangle_new(a, v3_add(c, vrand(-s, s)), v3_add(c, vrand(-s, s)),
+                            v3_add(c, vrand(-s, s)), m);
+    } else if (choice == 5) {
+        return random_mesh(r, depth == 0);
+    } else if (choice == 6) {
+        /* Axis-aligned triangle lying exactly on a likely cell border plane. */
+        float y = (float)irand(5) * 0.5f - 1.0f;
+        Vec3 c = vrand(-2, 2);
+        return triangle_new(a, v3(c.x, y, c.z), v3(c.x + 1, y, c.z), v3(c.x, y, c.z + 1), m);
+    } else {
+        /* A Transform above a group of 1-3 leaves (nesting grows with depth). */
+        int n = 1 + irand(3);
+        Object3D *g = group_new(a, n);
+        for (int i = 0; i < n; i++)
+            group_set_child(g, i, random_leaf(r, depth + 1));
+        group_finish(g);
+        Mat4 mm = random_matrix();
+        Object3D *x = transform_new(a, &mm, g);
+        return x ? x : g;
+    }
+}
+
+static void rscene_make(RScene *r, int num_objects, int num_planes)
+{
+    memset(r, 0, sizeof *r);
+    arena_init(&r->s.arena);
+    for (int i = 0; i < 4; i++) {
+        PhongParams p = phong_defaults();
+        p.diffuse = vrand(0, 1);
+        r->mats[i] = phong_new(&r->s.arena, &p);
+    }
+    Object3D *root = group_new(&r->s.arena, num_objects + num_planes);
+    int k = 0;
+    for (int i = 0; i < num_objects; i++) {
+        if (k < num_objects + num_planes && irand(num_objects) < num_planes) {
+            Vec3 n = unit_rand();
+            Object3D *p = plane_new(&r->s.arena, n, frand(-3, 3), r->mats[irand(4)]);
+            if (irand(2)) {
+                Mat4 mm = random_matrix();
+                Object3D *x = transform_new(&r->s.arena, &mm, p);
+                p = x ? x : p;
+            }
+            group_set_child(root, k++, p);
+        }
+        group_set_child(root, k++, random_leaf(r, 0));
+    }
+    while (k < num_objects + num_planes)
+        group_set_child(root, k++, sphere_new(&r->s.arena, vrand(-2, 2), 0.3f, r->mats[0]));
+    group_finish(root);
+    r->s.root = root;
+    r->s.num_primitives = object_assign_ids(root);
+    r->s.bounds = root->bounded ? root->bbox : bbox_empty();
+}
+
+static void wrap_tree(Object3D *o)
+{
+    switch (obj_kind(o)) {
+    case OBJ_GROUP:
+        for (int i = 0; i < group_count(o); i++)
+            wrap_tree((Object3D *)group_child(o, i));
+        break;
+    case OBJ_TRANSFORM:
+        wrap_tree((Object3D *)transform_child(o));
+        break;
+    default:
+        wrap(o);
+        break;
+    }
+}
+
+/* ---- rays ---- */
+
+typedef struct TestRay {
+    Ray ray;
+    float tmin;
+} TestRay;
+
+static TestRay random_ray(const RScene *r, const Grid *g)
+{
+    TestRay tr;
+    tr.tmin = 0.0f;
+    BBox b = grid_bounds(g);
+    int n[3];
+    grid_dims(g, n);
+    Vec3 target;
+    switch (irand(4)) {
+    case 0: /* aim at a point on a cell border plane */
+        target = v3(frand(b.min.x, b.max.x), frand(b.min.y, b.max.y), frand(b.min.z, b.max.z));
+        {
+            int a = irand(3);
+            float lo = v3_comp(b.min, a), hi = v3_comp(b.max, a);
+            float s = (hi - lo) / (float)n[a];
+            float v = lo + (float)irand(n[a] + 1) * s;
+            if (a == 0) target.x = v; else if (a == 1) target.y = v; else target.z = v;
+        }
+        break;
+    case 1: /* aim at a mesh vertex (shared by several triangles) */
+        target = r->num_vertices ? r->vertices[irand(r->num_vertices)] : vrand(-2, 2);
+        break;
+    default:
+        target = vrand(-2.5f, 2.5f);
+        break;
+    }
+    Vec3 o = vrand(-6, 6);
+    if (irand(8) == 0) {
+        /* Axis-parallel ray. */
+        int a = irand(3);
+        Vec3 d = v3(0, 0, 0);
+        float s = irand(2) ? 1.0f : -1.0f;
+        if (a == 0) d.x = s; else if (a == 1) d.y = s; else d.z = s;
+        tr.ray.origin = v3_sub(target, v3_scale(d, 6));
+        tr.ray.dir = d;
+        return tr;
+    }
+    Vec3 d = v3_sub(target, o);
+    if (irand(3))
+        d = v3_normalize(d);
+    tr.ray.origin = o;
+    tr.ray.dir = d;
+    int k = irand(6);
+    if (k == 0)
+        tr.tmin = -INFINITY; /* orthographic camera */
+    else if (k == 1)
+        tr.tmin = frand(0, 0.5f);
+    return tr;
+}
+
+static bool same_hit(const Hit *a, const Hit *b)
+{
+    return a->t == b->t && a->id == b->id && a->material == b->material &&
+           a->normal.x == b->normal.x && a->normal.y == b->normal.y &&
+           a->normal.z == b->normal.z;
+}
+
+typedef struct RunTotals {
+    long rays, hits, occl, grid_tests, brute_tests, repeats_seen;
+} RunTotals;
+
+/* One ray: grid vs brute force, marking checked through the wrapper counts. */
+static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const TestRay *tr,
+                      RunTotals *tot, Hit *brute_out)
+{
+    uint32_t np = r->s.num_primitives;
+    memset(test_counts, 0, np * sizeof *test_counts);
+    Hit hg = hit_none();
+    uint64_t rep0 = ctx->stats.repeat_tests;
+    bool fg = grid_intersect(g, &tr->ray, &hg, tr->tmin, ctx);
+    long repeats = 0, tested = 0;
+    for (uint32_t i = 0; i < np; i++) {
+        tested += test_counts[i];
+        if (test_counts[i] > 1)
+            repeats += test_counts[i] - 1;
+    }
+    tot->grid_tests += tested;
+    tot->repeats_seen += repeats;
+    if (grid_marking(g))
+        CHECK_MSG(repeats == 0, "marking on, but %ld repeated primitive tests", repeats);
+    else if (ctx->mailbox)
+        CHECK_INT(ctx->stats.repeat_tests - rep0, repeats);
+
+    memset(test_counts, 0, np * sizeof *test_counts);
+    Hit hb = hit_none();
+    RenderCtx bctx;
+    memset(&bctx, 0, sizeof bctx);
+    bool fb = obj_intersect(r->s.root, &tr->ray, &hb, tr->tmin, &bctx);
+    tot->brute_tests += (long)bctx.stats.intersections;
+    tot->rays++;
+    CHECK_MSG(fg == fb && (!fb || same_hit(&hg, &hb)),
+              "ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) tmin=%g: grid %d t=%.9g id=%u, "
+              "brute %d t=%.9g id=%u",
+              (double)tr->ray.origin.x, (double)tr->ray.origin.y, (double)tr->ray.origin.z,
+              (double)tr->ray.dir.x, (double)tr->ray.dir.y, (double)tr->ray.dir.z,
+              (double)tr->tmin, fg, (double)hg.t, hg.id, fb, (double)hb.t, hb.id);
+    if (fb)
+        tot->hits++;
+    *brute_out = hb;
+    if (!fb)
+        brute_out->t = INFINITY;
+
+    /* Occlusion up to a random distance (sometimes exactly the nearest hit's t: the
+     * hit itself must then not count, t < tmax is strict). */
+    float tmax = fb && irand(3) == 0 ? hb.t : frand(0.0f, 12.0f);
+    float tmin = isfinite(tr->tmin) ? tr->tmin : 0.0f;
+    Hit ho = hit_none();
+    ho.t = tmax;
+    ho.id = 0;
+    memset(&bctx, 0, sizeof bctx);
+    bool ob = obj_intersect(r->s.root, &tr->ray, &ho, tmin, &bctx);
+    bool og = grid_occluded(g, &tr->ray, tmin, tmax, ctx);
+    CHECK_MSG(ob == og, "occlusion to %.9g: grid %d, brute %d", (double)tmax, og, ob);
+    tot->occl += ob;
+}
+
+static void run_scene(int seed, int objects, int planes, int rays, bool marking,
+                      RunTotals *tot)
+{
+    rng_state = (uint64_t)seed * 7919u + 17u;
+    RScene r;
+    rscene_make(&r, objects, planes);
+    wrap_tree(r.s.root);
+    num_counted = r.s.num_primitives;
+    test_counts = calloc(num_counted + 1, sizeof *test_counts);
+    static const int res[][3] = {{1, 1, 1}, {3, 5, 2}, {8, 8, 8}, {17, 9, 23}, {48, 48, 48}};
+    for (size_t ri = 0; ri < sizeof res / sizeof res[0]; ri++) {
+        Diag d;
+        diag_init(&d, stderr);
+        Grid *g = grid_build(&r.s, res[ri][0], res[ri][1], res[ri][2], &d);
+        if (bbox_is_empty(&r.s.bounds)) {
+            CHECK(g == NULL);
+            continue;
+        }
+        CHECK(g != NULL);
+        if (!g)
+            continue;
+        grid_set_marking(g, marking);
+        RenderCtx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.num_mailbox = grid_mailbox_size(g);
+        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        /* Start near the wrap-around of the stamps: it must clear and go on. */
+        ctx.ray_stamp = UINT32_MAX - 5;
+        for (int i = 0; i < rays; i++) {
+            TestRay tr = random_ray(&r, g);
+            Hit hb;
+            check_ray(&r, g, &ctx, &tr, tot, &hb);
+            /* Secondary rays from the hit point, like reflection/shadow rays. */
+            if (isfinite(hb.t) && irand(2)) {
+                TestRay s;
+                s.ray.origin = ray_at(&tr.ray, hb.t);
+                s.ray.dir = irand(2) ? unit_rand() : v3_neg(tr.ray.dir);
+                s.tmin = 1e-3f;
+                Hit h2;
+                check_ray(&r, g, &ctx, &s, tot, &h2);
+            }
+        }
+        if (marking)
+            CHECK_INT(ctx.stats.repeat_tests, 0);
+        free(ctx.mailbox);
+        grid_free(g);
+    }
+    free(test_counts);
+    test_counts = NULL;
+    arena_free(&r.s.arena);
+}
+
+static void test_random_scenes_marking_on(void)
+{
+    RunTotals tot = {0};
+    for (int seed = 1; seed <= 12; seed++)
+        run_scene(seed, 4 + seed * 3, seed % 3, 400, true, &tot);
+    printf("    %ld rays, %ld hits, %ld occluded; tests grid %ld vs brute %ld\n", tot.rays,
+           tot.hits, tot.occl, tot.grid_tests, tot.brute_tests);
+    CHECK(tot.rays > 10000);
+    CHECK(tot.hits > tot.rays / 10); /* the rays do hit things */
+    CHECK(tot.grid_tests < tot.brute_tests);
+}
+
+static void test_random_scenes_marking_off(void)
+{
+    RunTotals tot = {0};
+    for (int seed = 100; seed < 106; seed++)
+        run_scene(seed, 20, 1, 300, false, &tot);
+    printf("    %ld rays, %ld repeated tests without marking\n", tot.rays, tot.repeats_seen);
+    CHECK(tot.repeats_seen > 0); /* big primitives do span several cells */
+}
+
+/* Without a mailbox (NULL) the march still answers exactly. */
+static void test_no_mailbox(void)
+{
+    rng_state = 4242;
+    RScene r;
+    rscene_make(&r, 25, 1);
+    Diag d;
+    diag_init(&d, stderr);
+    Grid *g = grid_build(&r.s, 12, 12, 12, &d);
+    CHECK(g != NULL);
+    if (g) {
+        RenderCtx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        for (int i = 0; i < 2000; i++) {
+            TestRay tr = random_ray(&r, g);
+            Hit hg = hit_none(), hb = hit_none();
+            RenderCtx bctx;
+            memset(&bctx, 0, sizeof bctx);
+            bool fg = grid_intersect(g, &tr.ray, &hg, tr.tmin, &ctx);
+            bool fb = obj_intersect(r.s.root, &tr.ray, &hb, tr.tmin, &bctx);
+            CHECK(fg == fb && (!fb || same_hit(&hg, &hb)));
+        }
+        CHECK_INT(ctx.stats.mailbox_skips, 0);
+        grid_free(g);
+    }
+    arena_free(&r.s.arena);
+}
+
+static const TestCase tests[] = {
+    {"random_scenes_marking_on", test_random_scenes_marking_on},
+    {"random_scenes_marking_off", test_random_scenes_marking_off},
+    {"no_mailbox", test_no_mailbox},
+};
+
+RT_TEST_MAIN(tests)
