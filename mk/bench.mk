@@ -1,7 +1,8 @@
 # Benchmarks, the demo's models and the optional Embree reference tracer (bench/, docs/bench.txt).
 #   make models   regenerate the committed OBJ models in models/ with build/tools/modelgen
 #   make bench    the full benchmark: course suite, throughput, set-up, Embree pairing;
-#                 BENCH_RUNS=N (median of N, default 3), BENCH_QUICK=1 (a short run)
+#                 BENCH_RUNS=N (median of N, default 3), BENCH_QUICK=1 (a short run),
+#                 BENCH_BRUTE=0 (skip the brute-force column of the course suite)
 # The Embree reference (bench/embree_ref.c) is built only when Debian's libembree-dev is
 # installed; nothing else in the build needs it.
 
@@ -13,6 +14,7 @@ HAVE_EMBREE   := $(if $(wildcard $(EMBREE_HEADER)),1,0)
 EMBREE_REF    := $(BUILD)/bench/embree_ref
 BENCH_RUNS    ?= 3
 BENCH_QUICK   ?= 0
+BENCH_BRUTE   ?= 1
 
 .PHONY: models bench embree_ref
 
@@ -30,7 +32,7 @@ bench:
 	$(Q)$(MAKE) --no-print-directory all
 	$(Q)if [ "$(HAVE_EMBREE)" = 1 ]; then $(MAKE) --no-print-directory embree_ref; \
 	    else echo "bench: libembree-dev not installed: no Embree pairing (apt-get install libembree-dev)"; fi
-	$(Q)BENCH_RUNS=$(BENCH_RUNS) BENCH_QUICK=$(BENCH_QUICK) \
+	$(Q)BENCH_RUNS=$(BENCH_RUNS) BENCH_QUICK=$(BENCH_QUICK) BENCH_BRUTE=$(BENCH_BRUTE) \
 	    RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
 	    EMBREE_REF=$(if $(filter 1,$(HAVE_EMBREE)),$(abspath $(EMBREE_REF))) \
 	    sh bench/run.sh

@@ -1,0 +1,300 @@
+#!/bin/bash
+# The benchmark driver behind `make bench` (docs/bench.txt): (a) the course suite, wall
+# and CPU per line; (b) trace throughput, primary and shadow rays, 1 and 2 threads, on
+# the bunny scenes and a 1.3M-triangle mesh; (c) set-up costs; (d) the same rays through
+# Embree (bench/embree_ref.c), paired with ours. Writes bench/REPORT.txt.
+# Environment: RT_BIN, RT_TOOLS (build/tools), EMBREE_REF (empty: no pairing),
+# BENCH_RUNS (median of N, default 3), BENCH_QUICK=1 (bunny 40k and the blob only, no
+# brute-force column), BENCH_BRUTE=0 (no brute-force column), RT_COURSE (default
+# ../shared/course), BENCH_REPORT (output file, default bench/REPORT.txt).
+set -u
+export LC_ALL=C
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+BIN=${RT_BIN:-$ROOT/raytracer}
+TOOLS=${RT_TOOLS:-$ROOT/build/tools}
+EMB=${EMBREE_REF:-}
+RUNS=${BENCH_RUNS:-3}
+QUICK=${BENCH_QUICK:-0}
+BRUTE=${BENCH_BRUTE:-1}
+[ "$QUICK" = 1 ] && BRUTE=0
+COURSE=${RT_COURSE:-$ROOT/../shared/course}
+OUT=$ROOT/bench/out
+REPORT=${BENCH_REPORT:-$ROOT/bench/REPORT.txt}
+mkdir -p "$OUT" || exit 1
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/rt_bench.XXXXXX") || exit 1
+trap 'rm -rf "$TMP"' EXIT
+R=$TMP/report.txt
+: >"$R"
+
+[ -x "$BIN" ] || { echo "bench: no raytracer at $BIN (run make)" >&2; exit 1; }
+[ -n "$EMB" ] && [ ! -x "$EMB" ] && { echo "bench: no $EMB; running without Embree" >&2; EMB=; }
+# Run private copies: a rebuild in the work tree during the run must not swap binaries.
+cp "$BIN" "$TMP/raytracer" && BIN=$TMP/raytracer || exit 1
+if [ -n "$EMB" ]; then cp "$EMB" "$TMP/embree_ref" && EMB=$TMP/embree_ref || exit 1; fi
+
+say() { printf '%s\n' "$*" | tee -a "$R"; }
+note() { printf '%s\n' "$*" >&2; }
+
+# median of the arguments (numbers)
+median() {
+    printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 } END {
+        if (NR == 0) print "nan"; else if (NR % 2) print a[(NR + 1) / 2];
+        else printf "%.3f\n", (a[NR / 2] + a[NR / 2 + 1]) / 2 }'
+}
+# arithmetic with awk: calc "expr" [decimals] (numbers only)
+calc() { awk "BEGIN { printf \"%.${2:-2}f\", $1 }"; }
+# div A B [decimals]: A / B, or "-" unless both are numbers and B > 0
+div() {
+    awk -v a="$1" -v b="$2" -v d="${3:-2}" 'BEGIN {
+        if (a !~ /^[0-9.eE+-]+$/ || b !~ /^[0-9.eE+-]+$/ || b + 0 <= 0) print "-";
+        else printf "%.*f", d, a / b }'
+}
+
+# run_timed CMD...: runs once, sets WALL CPU (ms) and leaves stdout/stderr in
+# $TMP/run.out $TMP/run.err; STATUS = exit status.
+run_timed() {
+    local TIMEFORMAT='%R %U %S' t
+    { time "$@" >"$TMP/run.out" 2>"$TMP/run.err"; STATUS=$?; } 2>"$TMP/time.txt"
+    t=$(tail -n 1 "$TMP/time.txt")
+    WALL=$(echo "$t" | awk '{ printf "%.1f", $1 * 1000 }')
+    CPU=$(echo "$t" | awk '{ printf "%.1f", ($2 + $3) * 1000 }')
+}
+# from the last run: -timings phase (parse|grid|render|write) in ms, or nan
+timing() { sed -n "s/.*timings:.* $1 \([0-9.]*\) ms.*/\1/p" "$TMP/run.err" | tail -n 1 | grep . || echo nan; }
+# from the last run: a -stats counter by label ("num shadow rays")
+stat_of() { sed -n "s/^  $1  *\([0-9.]*\).*/\1/p" "$TMP/run.out" | tail -n 1 | grep . || echo 0; }
+# from the last embree_ref run: key=value
+emb_of() { tr ' ' '\n' <"$TMP/run.out" | sed -n "s/^$1=//p" | head -n 1; }
+
+HAS_TIMINGS=0
+"$BIN" -h 2>&1 | grep -q -- '-timings' && HAS_TIMINGS=1
+TIMINGS=
+[ "$HAS_TIMINGS" = 1 ] && TIMINGS=-timings
+
+cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n 1)
+commit=$(cd "$ROOT" && git rev-parse HEAD 2>/dev/null || echo unknown)
+dirty=$(cd "$ROOT" && git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo " (work tree has uncommitted changes)")
+say "raytracer benchmark report (make bench; docs/bench.txt)"
+say "date      $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
+say "commit    $commit$dirty"
+say "machine   $(nproc) cores, $cpu"
+say "load      $(cut -d' ' -f1-3 /proc/loadavg) (1/5/15-min load average at the start)"
+say "runs      median of $RUNS per figure; times are wall-clock unless marked CPU"
+if [ -n "$EMB" ]; then
+    say "embree    bench/embree_ref, Embree $(dpkg-query -W -f='${Version}' libembree-dev 2>/dev/null || echo '?')"
+else
+    say "embree    not built (apt-get install libembree-dev, then make bench)"
+fi
+say ""
+
+# ---------------------------------------------------------------------------------
+# (a) the course suite
+# ---------------------------------------------------------------------------------
+if [ -f "$COURSE/commands.txt" ]; then
+    say "== (a) course suite: $COURSE/commands.txt (outputs into a temporary folder)"
+    say "   wall/cpu: whole process, ms; parse (incl. OBJ load), grid build, render: from -timings"
+    if [ "$BRUTE" = 1 ]; then
+        say "   brute: the same line without -grid, one run (only for grid lines that render)"
+    fi
+    hdr=$(printf '   %-4s %9s %9s %8s %8s %9s %10s %8s' id wall cpu parse grid render brute speedup)
+    say "$hdr"
+    tot_wall=0 tot_cpu=0
+    while IFS='|' read -r id args; do
+        case "$id" in '#'* | '') continue ;; esac
+        # rewrite -input/-output to absolute paths; -gui lines cannot run unattended
+        set -- $args
+        argv=() skip=0 has_grid=0 vis=0
+        while [ $# -gt 0 ]; do
+            case "$1" in
+            -input) argv+=(-input "$COURSE/$2"); shift 2 ;;
+            -output) argv+=(-output "$TMP/$2"); shift 2 ;;
+            -gui) skip=1; shift ;;
+            -grid) has_grid=1; argv+=("$1"); shift ;;
+            -visualize_grid) vis=1; argv+=("$1"); shift ;;
+            *) argv+=("$1"); shift ;;
+            esac
+        done
+        if [ "$skip" = 1 ]; then
+            say "$(printf '   %-4s (skipped: -gui)' "$id")"
+            continue
+        fi
+        walls=() cpus=() parses=() grids=() renders=()
+        for ((k = 0; k < RUNS; k++)); do
+            run_timed "$BIN" "${argv[@]}" $TIMINGS
+            if [ "$STATUS" != 0 ]; then
+                note "bench: line $id failed (exit $STATUS): $(head -c 300 "$TMP/run.err")"
+                break
+            fi
+            walls+=("$WALL") cpus+=("$CPU")
+            parses+=("$(timing parse)") grids+=("$(timing grid)") renders+=("$(timing render)")
+        done
+        if [ "$STATUS" != 0 ]; then
+            say "$(printf '   %-4s FAILED (exit %s)' "$id" "$STATUS")"
+            continue
+        fi
+        w=$(median "${walls[@]}") c=$(median "${cpus[@]}")
+        tot_wall=$(calc "$tot_wall + $w" 1) tot_cpu=$(calc "$tot_cpu + $c" 1)
+        brute=- speed=-
+        if [ "$BRUTE" = 1 ] && [ "$has_grid" = 1 ] && [ "$vis" = 0 ]; then
+            # the same line without "-grid nx ny nz"
+            nog=() i=0
+            while [ $i -lt ${#argv[@]} ]; do
+                if [ "${argv[$i]}" = -grid ]; then i=$((i + 4)); continue; fi
+                nog+=("${argv[$i]}"); i=$((i + 1))
+            done
+            run_timed "$BIN" "${nog[@]}"
+            brute=$WALL
+            speed=$(div "$brute" "$w" 1)x
+        fi
+        say "$(printf '   %-4s %9s %9s %8s %8s %9s %10s %8s' "$id" "$w" "$c" \
+            "$(median "${parses[@]}")" "$(median "${grids[@]}")" "$(median "${renders[@]}")" \
+            "$brute" "$speed")"
+    done <"$COURSE/commands.txt"
+    say "   total: wall $tot_wall ms, cpu $tot_cpu ms (sum of the medians)"
+    say ""
+else
+    say "== (a) course suite: SKIPPED ($COURSE/commands.txt not found; set RT_COURSE)"
+    say ""
+fi
+
+# ---------------------------------------------------------------------------------
+# (b)+(d) trace throughput, ours and Embree's, paired
+# ---------------------------------------------------------------------------------
+if [ ! -f "$OUT/blob.obj" ]; then
+    note "bench: generating bench/out/blob.obj (modelgen blob 8: 1,310,720 triangles)"
+    "$TOOLS/modelgen" -o "$OUT/blob.obj" blob 8 || exit 1
+fi
+
+# name|scene|grid args
+cases=()
+if [ -f "$COURSE/commands.txt" ]; then
+    if [ "$QUICK" != 1 ]; then
+        cases+=("bunny200|$COURSE/scene6_04_bunny_mesh_200.txt|-grid 10 10 7")
+        cases+=("bunny1k|$COURSE/scene6_05_bunny_mesh_1k.txt|-grid 15 15 12")
+        cases+=("bunny5k|$COURSE/scene6_06_bunny_mesh_5k.txt|-grid 20 20 15")
+    fi
+    cases+=("bunny40k|$COURSE/scene6_07_bunny_mesh_40k.txt|-grid 40 40 33")
+    cases+=("bunny40k/auto|$COURSE/scene6_07_bunny_mesh_40k.txt|-grid auto")
+fi
+cases+=("blob1.3M|$ROOT/bench/blob.txt|-grid auto")
+
+say "== (b) trace throughput (Mrays/s) with (d) Embree on the same rays"
+say "   ours: render time from -timings (shading included, image writing excluded);"
+say "   primary = W*H / render time without -shadows; shadow = shadow rays / (render"
+say "   time with -shadows minus without). Embree: bench/embree_ref, same camera, rays,"
+say "   light directions and epsilon, traversal only; single = rtcIntersect1/rtcOccluded1,"
+say "   packet = rtcIntersect16/rtcOccluded16 on 4x4 pixel tiles. ratio = ours / Embree."
+hdr=$(printf '   %-14s %-9s %2s %8s %8s %8s %8s %8s %8s %8s %8s' case size th \
+    prim shad embS-p embS-s embP-p embP-s "p/S" "s/S")
+say "$hdr"
+rm -f "$TMP/ratios.txt"
+for c in "${cases[@]}"; do
+    IFS='|' read -r name scene gridargs <<<"$c"
+    for size in "200 200" "1920 1080"; do
+        for th in 1 2; do
+            prs=() sh=() shadow_rays=0
+            for ((k = 0; k < RUNS; k++)); do
+                run_timed "$BIN" -input "$scene" -output "$TMP/o.tga" -size $size $gridargs \
+                    -threads $th -stats $TIMINGS
+                r0=$(timing render)
+                [ "$STATUS" = 0 ] || { note "bench: $name failed: $(head -c 300 "$TMP/run.err")"; break; }
+                [ "$r0" = nan ] && r0=$WALL
+                run_timed "$BIN" -input "$scene" -output "$TMP/o.tga" -size $size $gridargs \
+                    -threads $th -stats -shadows $TIMINGS
+                r1=$(timing render)
+                [ "$r1" = nan ] && r1=$WALL
+                shadow_rays=$(stat_of "num shadow rays")
+                prs+=("$r0") sh+=("$r1")
+            done
+            [ "$STATUS" = 0 ] || continue
+            set -- $size
+            px=$(($1 * $2))
+            r0=$(median "${prs[@]}") r1=$(median "${sh[@]}")
+            ours_p=$(div "$px" "$(calc "$r0 * 1000" 3)" 2)
+            ours_s=$(div "$shadow_rays" "$(calc "($r1 - $r0) * 1000" 3)" 2)
+            es_p=- es_s=- ep_p=- ep_s=- rp=- rs=- emb_rays=
+            if [ -n "$EMB" ]; then
+                run_timed "$EMB" -input "$scene" -size $size -threads $th -mode single \
+                    -repeat "$RUNS" -shadows
+                es_p=$(emb_of primary_mrays) es_s=$(emb_of shadow_mrays)
+                emb_rays=$(emb_of shadow_rays)
+                run_timed "$EMB" -input "$scene" -size $size -threads $th -mode packet \
+                    -repeat "$RUNS" -shadows
+                ep_p=$(emb_of primary_mrays) ep_s=$(emb_of shadow_mrays)
+                rp=$(div "$ours_p" "$es_p") rs=$(div "$ours_s" "$es_s")
+                echo "$name $size $th $rp $rs $(div "$ours_p" "$ep_p") $(div "$ours_s" "$ep_s")" >>"$TMP/ratios.txt"
+                if [ "$th" = 1 ] && [ "$emb_rays" != "$shadow_rays" ]; then
+                    echo "   note: $name $1x$2: shadow rays ours $shadow_rays, Embree $emb_rays" >>"$TMP/notes.txt"
+                fi
+            fi
+            say "$(printf '   %-14s %-9s %2s %8s %8s %8s %8s %8s %8s %8s %8s' "$name" "${1}x$2" \
+                "$th" "$ours_p" "$ours_s" "$es_p" "$es_s" "$ep_p" "$ep_s" "$rp" "$rs")"
+        done
+    done
+done
+say "   columns: prim/shad = ours; embS = Embree single rays, embP = Embree packets;"
+say "   p/S, s/S = ours / Embree single (primary, shadow). Against packets:"
+if [ -f "$TMP/ratios.txt" ]; then
+    awk '{ printf "     %-14s %4sx%-5s %s threads: ours/packet primary %s, shadow %s\n", $1, $2, $3, $4, $7, $8 }' \
+        "$TMP/ratios.txt" | tee -a "$R"
+fi
+[ -f "$TMP/notes.txt" ] && tee -a "$R" <"$TMP/notes.txt"
+say "   (per core: divide the 2-thread figures by 2; the machine has $(nproc) cores)"
+say ""
+
+# ---------------------------------------------------------------------------------
+# (c) set-up costs; whole-program pairing of course line 07
+# ---------------------------------------------------------------------------------
+say "== (c) set-up costs (ms, median; -size 1 1 runs with -timings)"
+say "$(printf '   %-14s %9s %9s %10s %12s %12s' case triangles parse grid emb-load emb-build)"
+for c in "${cases[@]}"; do
+    IFS='|' read -r name scene gridargs <<<"$c"
+    ps=() gs=() els=() ebs=() tris=-
+    for ((k = 0; k < RUNS; k++)); do
+        run_timed "$BIN" -input "$scene" -output "$TMP/o.tga" -size 1 1 $gridargs $TIMINGS
+        ps+=("$(timing parse)") gs+=("$(timing grid)")
+        if [ -n "$EMB" ]; then
+            run_timed "$EMB" -input "$scene" -size 1 1 -threads 1
+            els+=("$(emb_of load_ms)") ebs+=("$(emb_of build_ms)")
+            tris=$(emb_of triangles)
+        fi
+    done
+    el=- eb=-
+    [ -n "$EMB" ] && el=$(median "${els[@]}") eb=$(median "${ebs[@]}")
+    say "$(printf '   %-14s %9s %9s %10s %12s %12s' "$name" "$tris" "$(median "${ps[@]}")" \
+        "$(median "${gs[@]}")" "$el" "$eb")"
+done
+say "   parse includes reading the OBJ file; emb-load is the same parser (embree_ref uses"
+say "   scene_load), emb-build is Embree's BVH build with 1 thread."
+say ""
+
+if [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ]; then
+    say "== whole program, course line 07 (-size 200 200 -grid 40 40 33 -stats -shadows), wall ms"
+    s07=$COURSE/scene6_07_bunny_mesh_40k.txt
+    ow=() esw=() epw=()
+    for ((k = 0; k < RUNS; k++)); do
+        run_timed "$BIN" -input "$s07" -output "$TMP/o.tga" -size 200 200 -grid 40 40 33 -stats -shadows
+        ow+=("$WALL")
+        if [ -n "$EMB" ]; then
+            run_timed "$EMB" -input "$s07" -size 200 200 -threads "$(nproc)" -mode single -shadows
+            esw+=("$WALL")
+            run_timed "$EMB" -input "$s07" -size 200 200 -threads "$(nproc)" -mode packet -shadows
+            epw+=("$WALL")
+        fi
+    done
+    o=$(median "${ow[@]}")
+    if [ -n "$EMB" ]; then
+        es=$(median "${esw[@]}") ep=$(median "${epw[@]}")
+        say "   ours $o, Embree single $es, Embree packets $ep; ours/Embree single $(div "$o" "$es"), ours/packets $(div "$o" "$ep")"
+        say "   (both processes parse with our scene parser and use all cores; ours also"
+        say "    shades and writes the image)"
+    else
+        say "   ours $o"
+    fi
+    say ""
+fi
+
+mv "$R" "$REPORT.tmp" && mv "$REPORT.tmp" "$REPORT"
+trap - EXIT
+rm -rf "$TMP"
+echo "bench: report written to $REPORT"
