@@ -1,6 +1,7 @@
 /* End-to-end: the A6 solid-texture sample commands (course commands.txt lines 13-16,
  * 17a, 18a) against the official images, plus grid/no-grid and 1/2-thread identity. */
 #define _POSIX_C_SOURCE 200809L
+#include <errno.h>
 #include <fcntl.h>
 #include <stdlib.h>
 #include <sys/stat.h>
@@ -41,7 +42,7 @@ static void remove_tmpdir(void)
 /* Reads the arguments of line `id` of commands.txt ("id|args"). */
 static bool read_command(const char *course, const char *id, Cmd *cmd)
 {
-    char path[1024], line[1024];
+    char path[4400], line[1024];
     snprintf(path, sizeof path, "%s/commands.txt", course);
     FILE *f = fopen(path, "r");
     if (!f)
@@ -74,11 +75,19 @@ static int find_arg(const Cmd *c, const char *flag)
 }
 
 /* Runs the binary with cmd's arguments, -input replaced by `input`, -output by
- * `output`, `-grid nx ny nz` removed when drop_grid, and `-threads n` appended.
- * stdout/stderr go to a log that is printed when the run fails. */
-static bool run(const Cmd *cmd, const char *input, const char *output, bool drop_grid,
-                int threads)
+ * `output`, `-grid nx ny nz` removed when drop_grid, `-size` replaced by `size` when
+ * not NULL ("w h"), and `-threads n` appended. stdout/stderr go to a log that is
+ * printed when the run fails. */
+static bool run_sized(const Cmd *cmd, const char *input, const char *output, bool drop_grid,
+                      int threads, const char *size)
 {
+    char sizebuf[32] = "";
+    char *size_w = NULL, *size_h = NULL;
+    if (size) {
+        snprintf(sizebuf, sizeof sizebuf, "%s", size);
+        size_w = strtok(sizebuf, " ");
+        size_h = strtok(NULL, " ");
+    }
     char *argv[MAX_ARGS + 4];
     char nthreads[16];
     int n = 0;
@@ -94,6 +103,11 @@ static bool run(const Cmd *cmd, const char *input, const char *output, bool drop
             i++;
         } else if (drop_grid && !strcmp(cmd->argv[i], "-grid")) {
             i += 3;
+        } else if (size_w && size_h && !strcmp(cmd->argv[i], "-size") && i + 2 < cmd->argc) {
+            argv[n++] = "-size";
+            argv[n++] = size_w;
+            argv[n++] = size_h;
+            i += 2;
         } else {
             argv[n++] = cmd->argv[i];
         }
@@ -117,6 +131,7 @@ static bool run(const Cmd *cmd, const char *input, const char *output, bool drop
             dup2(fd, 2);
         }
         execv(argv[0], argv);
+        fprintf(stderr, "cannot run %s: %s\n", argv[0], strerror(errno));
         _exit(127);
     }
     int status = 0;
@@ -136,6 +151,23 @@ static bool run(const Cmd *cmd, const char *input, const char *output, bool drop
             fclose(f);
     }
     return ok;
+}
+
+static bool run(const Cmd *cmd, const char *input, const char *output, bool drop_grid,
+                int threads)
+{
+    return run_sized(cmd, input, output, drop_grid, threads, NULL);
+}
+
+/* The course folder as an absolute path (inputs and the symbolic link of the swapped
+ * copy must not depend on the working directory). */
+static const char *course_abs(void)
+{
+    static char buf[4096];
+    const char *c = harness_course_dir();
+    if (!c)
+        return NULL;
+    return realpath(c, buf) ? buf : c;
 }
 
 static char *slurp(const char *path, size_t *len)
@@ -199,7 +231,7 @@ static void compare_official(const char *id, const char *ours, const char *offic
  * (for lines with -grid) the same image without the grid. */
 static void check_line(const char *id)
 {
-    const char *course = harness_course_dir();
+    const char *course = course_abs();
     if (!course)
         harness_skip("course folder absent (set RT_COURSE)");
     if (access(harness_bin(), X_OK) != 0)
@@ -212,7 +244,7 @@ static void check_line(const char *id)
     if (in < 0 || in + 1 >= cmd.argc)
         return;
     make_tmpdir();
-    char input[1024], official[1024], out2[512], out1[512], outng[512];
+    char input[4400], official[4400], out2[512], out1[512], outng[512];
     snprintf(input, sizeof input, "%s/%s", course, cmd.argv[in + 1]);
     snprintf(official, sizeof official, "%s/official/output6_%s.tga", course, id);
     snprintf(out2, sizeof out2, "%s/t2.tga", tmpdir);
@@ -221,10 +253,16 @@ static void check_line(const char *id)
 
     if (run(&cmd, input, out2, false, 2)) {
         compare_official(id, out2, official);
-        if (run(&cmd, input, out1, false, 1))
+        bool r1 = run(&cmd, input, out1, false, 1);
+        CHECK_MSG(r1, "%s: -threads 1 run failed", id);
+        if (r1)
             CHECK_MSG(same_bytes(out1, out2), "%s: -threads 1 and -threads 2 differ", id);
-        if (find_arg(&cmd, "-grid") >= 0 && run(&cmd, input, outng, true, 2))
-            CHECK_MSG(same_bytes(outng, out2), "%s: with and without -grid differ", id);
+        if (find_arg(&cmd, "-grid") >= 0) {
+            bool rn = run(&cmd, input, outng, true, 2);
+            CHECK_MSG(rn, "%s: run without -grid failed", id);
+            if (rn)
+                CHECK_MSG(same_bytes(outng, out2), "%s: with and without -grid differ", id);
+        }
     } else {
         CHECK_MSG(false, "%s: render failed", id);
     }
@@ -242,7 +280,7 @@ static void test_line17a(void) { check_line("17a"); }
 static bool write_swapped_logo(const char *course, const char *scene_name, char *out,
                                size_t outlen)
 {
-    char src[1024];
+    char src[4400];
     snprintf(src, sizeof src, "%s/%s", course, scene_name);
     size_t len = 0;
     char *text = slurp(src, &len);
@@ -273,7 +311,7 @@ static bool write_swapped_logo(const char *course, const char *scene_name, char 
         }
     }
     free(text);
-    char model[1024], link[512];
+    char model[4400], link[512];
     snprintf(model, sizeof model, "%s/6.837.obj", course);
     snprintf(link, sizeof link, "%s/6.837.obj", tmpdir);
     return ok && symlink(model, link) == 0;
@@ -281,7 +319,7 @@ static bool write_swapped_logo(const char *course, const char *scene_name, char 
 
 static void test_line18a(void)
 {
-    const char *course = harness_course_dir();
+    const char *course = course_abs();
     if (!course)
         harness_skip("course folder absent (set RT_COURSE)");
     if (access(harness_bin(), X_OK) != 0)
@@ -294,7 +332,7 @@ static void test_line18a(void)
     if (in < 0 || in + 1 >= cmd.argc)
         return;
     make_tmpdir();
-    char input[1024], official[1024], swapped[512], out2[512], out1[512], outng[512],
+    char input[4400], official[4400], swapped[512], out2[512], out1[512], outng[512],
         outsw[512];
     snprintf(input, sizeof input, "%s/%s", course, cmd.argv[in + 1]);
     snprintf(official, sizeof official, "%s/official/output6_18a.tga", course);
@@ -341,8 +379,10 @@ static void test_line18a(void)
                    "%.2f%% within 1/255, %.2f%% within 8/255 ",
                    masked, n, masked ? sum / (3.0 * (double)masked) : 0,
                    masked ? 100.0 * (double)within1 / (double)masked : 0, pct8);
-            /* The logo and the background are well over a third of the picture. */
-            CHECK_MSG(masked >= n / 3, "only %ld pixels outside the floor", masked);
+            /* The floor fills the whole frame and shows through the glass logo, so the
+             * two renders agree only on a few thousand pixels (shadows, the dark far
+             * floor, the logo's opaque edges); require enough for a real comparison. */
+            CHECK_MSG(masked >= 1000, "only %ld pixels outside the floor", masked);
             CHECK_MSG(masked < n, "the swap changed nothing: the floor is not a checkerboard");
             CHECK_MSG(pct8 >= 99.5, "18a outside the floor: only %.2f%% within 8/255", pct8);
         } else {
@@ -353,10 +393,20 @@ static void test_line18a(void)
         image_free(&off);
     }
     if (r_plain) {
-        if (run(&cmd, input, out1, false, 1))
+        bool r1 = run(&cmd, input, out1, false, 1);
+        CHECK(r1);
+        if (r1)
             CHECK_MSG(same_bytes(out1, out2), "18a: -threads 1 and -threads 2 differ");
-        if (run(&cmd, input, outng, true, 2))
-            CHECK_MSG(same_bytes(outng, out2), "18a: with and without -grid differ");
+        /* Without the grid the 13852-triangle logo takes minutes at 400x200 on two
+         * cores, so grid and brute force are compared at 100x50 (the same rays in
+         * kind: every pixel's result must be identical either way). */
+        char small_grid[512];
+        snprintf(small_grid, sizeof small_grid, "%s/small_grid.tga", tmpdir);
+        bool rg = run_sized(&cmd, input, small_grid, false, 2, "100 50");
+        bool rn = run_sized(&cmd, input, outng, true, 2, "100 50");
+        CHECK(rg && rn);
+        if (rg && rn)
+            CHECK_MSG(same_bytes(outng, small_grid), "18a: with and without -grid differ");
     }
     remove_tmpdir();
 }
