@@ -289,7 +289,7 @@ static bool read_face(ObjReader *r, const char *f_at)
     int first = -1, prev = -1, count = 0;
     for (;;) {
         skip_blanks(r);
-        if (at_eol(r))
+        if (at_eol(r) || *r->p == '#') /* a trailing comment ends the face */
             break;
         const char *at = r->p;
         SrcLoc l = obj_loc(r, at);

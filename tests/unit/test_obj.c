@@ -94,7 +94,7 @@ static void test_crlf_comments_ignored_records(void)
                 "\r\n   \r\n"
                 "v 0 0 0 1\r\n\tv 1 0 0\r\nv 0 1 0 0.5 0.5 0.5\r\n"
                 "vn 0 0 1\r\nvt 0 0\r\nvp 1\r\nl 1 2\r\n"
-                "f 1 2 3\r\nf 1 2 3", &m)); /* last line without newline */
+                "f 1 2 3 # trailing comment\r\nf 1 2 3", &m)); /* no final newline */
     CHECK_INT(m.nverts, 3);
     CHECK_INT(m.ntris, 2);
     check_tri(&m, 1, 0, 1, 2);
