@@ -509,7 +509,7 @@ static bool parse_object(Parser *p, const Token *kw, Object3D **out)
 
 /* ---- cameras, background, lights (3-5) ----------------------------------------------- */
 
-static bool parse_camera(Parser *p, const Token *kw, bool perspective)
+static bool parse_camera(Parser *p, bool perspective)
 {
     Vec3 center, dir, up;
     float size;
@@ -536,7 +536,6 @@ static bool parse_camera(Parser *p, const Token *kw, bool perspective)
     }
     if (!ok)
         return fail(p, &up_at, "degenerate camera: up is zero or parallel to direction");
-    (void)kw;
     p->s->camera = cam;
     p->s->has_camera = true;
     return true;
@@ -760,7 +759,7 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
         return false;
     Mat4 *xf = NULL;
     if (tok_is(&t, "Transform")) {
-        next(p, &t);
+        (void)next(p, &t); /* the peeked token: cannot fail */
         if (!expect(p, "{", NULL))
             return false;
         Mat4 m = mat4_identity();
@@ -920,9 +919,9 @@ bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
         if (tok_eof(&t))
             break;
         if (tok_is(&t, "OrthographicCamera"))
-            ok = parse_camera(&p, &t, false);
+            ok = parse_camera(&p, false);
         else if (tok_is(&t, "PerspectiveCamera"))
-            ok = parse_camera(&p, &t, true);
+            ok = parse_camera(&p, true);
         else if (tok_is(&t, "Background"))
             ok = parse_background(&p);
         else if (tok_is(&t, "Lights"))
