@@ -35,7 +35,7 @@ bench:
 	$(Q)BENCH_RUNS=$(BENCH_RUNS) BENCH_QUICK=$(BENCH_QUICK) BENCH_BRUTE=$(BENCH_BRUTE) \
 	    RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
 	    EMBREE_REF=$(if $(filter 1,$(HAVE_EMBREE)),$(abspath $(EMBREE_REF))) \
-	    sh bench/run.sh
+	    bash bench/run.sh
 
 embree_ref: $(BUILD)/bench/embree_ref
 
