@@ -101,6 +101,36 @@ case("unknown_transformation", HEAD + group("    Transform {\n        @@Shear 1 
      "unknown object 'Shear'")
 case("lowercase_keyword", HEAD + "@@group {\n    numObjects 0\n}\n", "unknown top-level block 'group'")
 
+case("misspelled_background_block", "@@BackGround {\n    color 0 0 0\n}\n", "unknown top-level block 'BackGround'")
+case("singular_lights_block", "@@Light {\n    numLights 0\n}\n", "unknown top-level block 'Light'")
+case("singular_materials_block", "@@Material {\n    numMaterials 0\n}\n", "unknown top-level block 'Material'")
+case("misspelled_persp_center", "PerspectiveCamera {\n    @@centre 0 0 10\n", "expected 'center', found 'centre'")
+case("misspelled_light_direction",
+     "Lights {\n    numLights 1\n    DirectionalLight {\n        @@dir 0 0 -1\n        color 1 1 1\n    }\n}\n",
+     "expected 'direction', found 'dir'")
+case("misspelled_point_color",
+     "Lights {\n    numLights 1\n    PointLight {\n        position 0 0 0\n        @@Color 1 1 1\n    }\n}\n",
+     "expected 'color', found 'Color'")
+case("misspelled_diffuse", mats("    Material {\n        @@diffuseColour 1 0 0\n    }\n", 1),
+     "unknown PhongMaterial field 'diffuseColour'")
+case("misspelled_checkerboard", mats(PH + PH + "    @@CheckerBoard {\n        materialIndex 0\n        materialIndex 1\n    }\n", 3),
+     "unknown material 'CheckerBoard'")
+case("misspelled_octaves",
+     mats(PH + PH + "    Wood {\n        materialIndex 0\n        materialIndex 1\n        @@octave 3\n"
+          "        frequency 1\n        amplitude 1\n    }\n", 3),
+     "expected 'octaves', found 'octave'")
+case("misspelled_sphere_center", HEAD + group("    Sphere {\n        @@centre 0 0 0\n        radius 1\n    }\n"),
+     "expected 'center', found 'centre'")
+case("misspelled_plane_normal", HEAD + group("    Plane {\n        @@norm 0 1 0\n        offset 1\n    }\n"),
+     "expected 'normal', found 'norm'")
+case("misspelled_vertex0", HEAD + group("    Triangle {\n        @@v0 0 0 0\n        vertex1 1 0 0\n        vertex2 0 1 0\n    }\n"),
+     "expected 'vertex0', found 'v0'")
+case("misspelled_nested_group", HEAD + group("    @@Grop {\n        numObjects 0\n    }\n"), "unknown object 'Grop'")
+case("misspelled_trianglemesh", HEAD + group("    @@TriangleMsh {\n        obj_file cube.obj\n    }\n"),
+     "unknown object 'TriangleMsh'")
+case("misspelled_transform", HEAD + group("    @@Transfrom {\n" + SPHERE + "    }\n"), "unknown object 'Transfrom'")
+case("misspelled_materialindex", HEAD + group(SPHERE, mat="    @@MaterialIdx 0\n"), "unknown object 'MaterialIdx'")
+
 # --- braces -------------------------------------------------------------------------
 case("missing_brace", HEAD + "Group {\n    numObjects 1\n    MaterialIndex 0\n" + SPHERE + "@@",
      "unexpected end of file, expected '}'")
