@@ -83,6 +83,9 @@ $(BUILD)/%.o: %.c
 	$(say) CC $<
 	$(Q)$(CC) $(ALL_CFLAGS) -c -o $@ $<
 
+# Test sources include "harness.h" from tests/.
+$(BUILD)/tests/%.o: ALL_CFLAGS += -Itests
+
 $(BUILD)/tests/harness.o: tests/harness.c
 	@mkdir -p $(dir $@)
 	$(say) CC $<
