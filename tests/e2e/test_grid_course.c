@@ -1,0 +1,301 @@
+/* Acceptance test of the grid on the course's command lines: every -grid line (except
+ * the procedural-material scenes 14, 17a, 18a, covered by the texture tests) renders the
+ * byte-identical image without -grid and matches the official image; every
+ * -visualize_grid line matches the official image; on the bunny scenes the grid cuts
+ * intersections at least tenfold; -no_marking changes counts, never pixels. */
+#define _POSIX_C_SOURCE 200809L
+#include "../harness.h"
+#include "e2e_util.h"
+
+#include "rt/image.h"
+#include "rt/image_compare.h"
+
+enum { REF_THRESHOLD = 8 };
+static const double REF_MIN_PERCENT = 99.5;
+
+typedef struct Line {
+    char id[16];
+    int argc;
+    char *argv[64];
+    char text[1024];
+} Line;
+
+static bool read_line(const char *course, const char *id, Line *l)
+{
+    char path[PATH_MAX];
+    char *all = e2e_read_file(e2e_join(path, sizeof path, course, "commands.txt"), NULL);
+    if (!all)
+        return false;
+    bool found = false;
+    size_t n = strlen(id);
+    for (char *p = all; p && *p;) {
+        char *nl = strchr(p, '\n');
+        if (nl)
+            *nl = '\0';
+        if (strncmp(p, id, n) == 0 && p[n] == '|') {
+            snprintf(l->id, sizeof l->id, "%s", id);
+            snprintf(l->text, sizeof l->text, "%s", p + n + 1);
+            found = true;
+            break;
+        }
+        p = nl ? nl + 1 : NULL;
+    }
+    free(all);
+    if (!found)
+        return false;
+    l->argc = 0;
+    for (char *t = strtok(l->text, " \t\r"); t && l->argc < 63; t = strtok(NULL, " \t\r"))
+        l->argv[l->argc++] = t;
+    l->argv[l->argc] = NULL;
+    return true;
+}
+
+static bool has_arg(const Line *l, const char *flag)
+{
+    for (int i = 0; i < l->argc; i++)
+        if (strcmp(l->argv[i], flag) == 0)
+            return true;
+    return false;
+}
+
+typedef struct Opts {
+    bool drop_grid;          /* remove "-grid nx ny nz" */
+    bool stats;              /* make sure -stats is there */
+    const char *size;        /* replace -size's values by "w h" ("100 100"), or NULL */
+    const char *extra;       /* one more flag, or NULL */
+} Opts;
+
+typedef struct Render {
+    E2eRun run;
+    E2eStats stats;
+    char out[PATH_MAX];
+    bool ok;
+} Render;
+
+static void render(const char *course, const Line *l, const char *dir, const char *name,
+                   const Opts *o, Render *r)
+{
+    static char input_abs[PATH_MAX];
+    char course_abs[PATH_MAX];
+    const char *args[96];
+    int n = 0;
+    memset(r, 0, sizeof *r);
+    CHECK(e2e_abspath(course, course_abs, sizeof course_abs));
+    e2e_join(r->out, sizeof r->out, dir, name);
+    char w[16] = "", h[16] = "";
+    if (o->size)
+        sscanf(o->size, "%15s %15s", w, h);
+    for (int i = 0; i < l->argc && n < 80; i++) {
+        const char *a = l->argv[i];
+        if (strcmp(a, "-input") == 0 && i + 1 < l->argc) {
+            args[n++] = a;
+            args[n++] = e2e_join(input_abs, sizeof input_abs, course_abs, l->argv[++i]);
+        } else if (strcmp(a, "-output") == 0 && i + 1 < l->argc) {
+            args[n++] = a;
+            args[n++] = r->out;
+            i++;
+        } else if (strcmp(a, "-grid") == 0 && o->drop_grid) {
+            i += 3;
+        } else if (strcmp(a, "-size") == 0 && o->size && i + 2 < l->argc) {
+            args[n++] = a;
+            args[n++] = w;
+            args[n++] = h;
+            i += 2;
+        } else {
+            args[n++] = a;
+        }
+    }
+    if (o->stats && !has_arg(l, "-stats"))
+        args[n++] = "-stats";
+    if (o->extra)
+        args[n++] = o->extra;
+    args[n] = NULL;
+    if (!e2e_run_bin(harness_bin(), args, &r->run)) {
+        CHECK_MSG(false, "cannot start %s", harness_bin());
+        return;
+    }
+    char why[512];
+    CHECK_MSG(r->run.status == 0, "%s: %s", l->id, e2e_describe(&r->run, why, sizeof why));
+    e2e_stats_parse(r->run.out, &r->stats);
+    r->ok = r->run.status == 0 && e2e_exists(r->out);
+    CHECK_MSG(r->ok, "%s: no image at %s", l->id, r->out);
+}
+
+static const char *course_or_skip(void)
+{
+    const char *course = harness_course_dir();
+    if (!course)
+        harness_skip("course folder absent (set RT_COURSE or put it at ../shared/course)");
+    if (access(harness_bin(), X_OK) != 0) {
+        harness_fail(__FILE__, __LINE__, "binary under test %s not found (run make first)",
+                     harness_bin());
+        fflush(stdout);
+        _exit(1);
+    }
+    return course;
+}
+
+static void compare_official(const char *course, const Line *l, const char *path)
+{
+    char ref[PATH_MAX], rel[128];
+    snprintf(rel, sizeof rel, "official/output6_%s.tga", l->id);
+    e2e_join(ref, sizeof ref, course, rel);
+    Diag diag;
+    diag_init(&diag, NULL);
+    Image a, b;
+    bool ha = image_read(&a, path, &diag);
+    CHECK_MSG(ha, "%s", diag.last);
+    bool hb = image_read(&b, ref, &diag);
+    CHECK_MSG(hb, "%s", diag.last);
+    if (ha && hb) {
+        ImageDiff d = image_compare(&a, &b, REF_THRESHOLD);
+        CHECK_MSG(d.same_size, "%s: size differs from the official image", l->id);
+        if (d.same_size) {
+            printf("\n    %-4s vs official: mean diff %.4f/255, within 1/255 %.3f%%, within "
+                   "8/255 %.3f%%", l->id, d.mean_abs, d.pct_within_1, d.pct_within_8);
+            CHECK_MSG(d.pct_within_t >= REF_MIN_PERCENT,
+                      "%s: only %.3f%% of pixels within %d/255 of the official image", l->id,
+                      d.pct_within_t, REF_THRESHOLD);
+        }
+    }
+    if (ha)
+        image_free(&a);
+    if (hb)
+        image_free(&b);
+}
+
+static bool same_bytes(const char *a, const char *b)
+{
+    size_t la = 0, lb = 0;
+    char *da = e2e_read_file(a, &la), *db = e2e_read_file(b, &lb);
+    bool same = da && db && la == lb && memcmp(da, db, la) == 0;
+    free(da);
+    free(db);
+    return same;
+}
+
+/* Sanitizer builds run several times slower: there the 40k-triangle bunny's brute-force
+ * twin (80 s optimised) is compared at 100x100 instead, still byte for byte. */
+static bool sanitized_binary(void) { return strstr(harness_bin(), "asan") != NULL; }
+
+static bool is_bunny(const char *id)
+{
+    return !strncmp(id, "04", 2) || !strcmp(id, "05") || !strcmp(id, "06") || !strcmp(id, "07");
+}
+
+/* A -grid line: the image equals the one rendered without -grid, byte for byte, and
+ * matches the official image. On the bunnies the grid cuts intersections >= 10x. */
+static void check_grid_line(const char *id)
+{
+    const char *course = course_or_skip();
+    Line l;
+    CHECK_MSG(read_line(course, id, &l), "line %s not in commands.txt", id);
+    if (harness_failures)
+        return;
+    CHECK(has_arg(&l, "-grid") && !has_arg(&l, "-visualize_grid"));
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "gridcourse") != NULL);
+    const char *size = !strcmp(id, "07") && sanitized_binary() ? "100 100" : NULL;
+    Opts with = {false, true, size, NULL}, without = {true, true, size, NULL};
+    Render g, b;
+    render(course, &l, dir, "grid.tga", &with, &g);
+    render(course, &l, dir, "nogrid.tga", &without, &b);
+    if (g.ok && b.ok) {
+        CHECK_MSG(same_bytes(g.out, b.out), "%s: the image with -grid differs from the one "
+                  "without", id);
+        if (!size)
+            compare_official(course, &l, g.out);
+        CHECK(g.stats.found && b.stats.found);
+        double rays_g = (double)(g.stats.nonshadow + g.stats.shadow);
+        printf("\n    %-4s grid: %.2fs, %llu rays, %.2f intersections/ray, %.2f cells/ray;"
+               " no grid: %.2fs, %.2f intersections/ray", id, g.run.seconds,
+               g.stats.nonshadow + g.stats.shadow,
+               rays_g > 0 ? (double)g.stats.intersections / rays_g : 0.0,
+               rays_g > 0 ? (double)g.stats.cells / rays_g : 0.0, b.run.seconds,
+               rays_g > 0 ? (double)b.stats.intersections / rays_g : 0.0);
+        /* Same rays either way: the grid changes what is tested, not what is traced. */
+        CHECK_INT(g.stats.nonshadow, b.stats.nonshadow);
+        CHECK_INT(g.stats.shadow, b.stats.shadow);
+        CHECK(g.stats.cells > 0 && b.stats.cells == 0);
+        if (is_bunny(id))
+            CHECK_MSG(g.stats.intersections * 10 <= b.stats.intersections,
+                      "%s: %llu intersections with the grid, %llu without: less than 10x",
+                      id, g.stats.intersections, b.stats.intersections);
+    }
+    printf("\n    ");
+    e2e_run_free(&g.run);
+    e2e_run_free(&b.run);
+    e2e_rmtree(dir);
+}
+
+static void check_visualize_line(const char *id)
+{
+    const char *course = course_or_skip();
+    Line l;
+    CHECK_MSG(read_line(course, id, &l), "line %s not in commands.txt", id);
+    if (harness_failures)
+        return;
+    CHECK(has_arg(&l, "-visualize_grid"));
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "gridvis") != NULL);
+    Opts o = {false, false, NULL, NULL};
+    Render r;
+    render(course, &l, dir, "vis.tga", &o, &r);
+    if (r.ok)
+        compare_official(course, &l, r.out);
+    printf("\n    ");
+    e2e_run_free(&r.run);
+    e2e_rmtree(dir);
+}
+
+/* Marking changes only the number of intersection tests, never a pixel. */
+static void test_no_marking_same_image(void)
+{
+    const char *course = course_or_skip();
+    Line l;
+    CHECK(read_line(course, "11b", &l));
+    if (harness_failures)
+        return;
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "gridmark") != NULL);
+    Opts on = {false, true, NULL, NULL}, off = {false, true, NULL, "-no_marking"};
+    Render a, b;
+    render(course, &l, dir, "on.tga", &on, &a);
+    render(course, &l, dir, "off.tga", &off, &b);
+    if (a.ok && b.ok) {
+        CHECK(same_bytes(a.out, b.out));
+        CHECK_INT(a.stats.nonshadow, b.stats.nonshadow);
+        CHECK_INT(a.stats.cells, b.stats.cells);
+        printf("\n    11b intersections: %llu with marking, %llu without\n    ",
+               a.stats.intersections, b.stats.intersections);
+        /* The floor's two big triangles span many cells: without marking they are
+         * tested again in each. */
+        CHECK(a.stats.intersections < b.stats.intersections);
+    }
+    e2e_run_free(&a.run);
+    e2e_run_free(&b.run);
+    e2e_rmtree(dir);
+}
+
+#define GRID_LINE(id) static void test_grid_##id(void) { check_grid_line(#id); }
+#define VIS_LINE(id) static void test_vis_##id(void) { check_visualize_line(#id); }
+GRID_LINE(01b) GRID_LINE(02b) GRID_LINE(02d) GRID_LINE(03b) GRID_LINE(03d)
+GRID_LINE(04b) GRID_LINE(04d) GRID_LINE(05) GRID_LINE(06) GRID_LINE(07)
+GRID_LINE(08b) GRID_LINE(09b) GRID_LINE(10b) GRID_LINE(11b) GRID_LINE(12b)
+VIS_LINE(01c) VIS_LINE(02e) VIS_LINE(03e) VIS_LINE(04e) VIS_LINE(08c) VIS_LINE(09c)
+VIS_LINE(10c) VIS_LINE(11c) VIS_LINE(12c) VIS_LINE(17b) VIS_LINE(18b)
+
+static const TestCase tests[] = {
+    {"grid_01b", test_grid_01b}, {"grid_02b", test_grid_02b}, {"grid_02d", test_grid_02d},
+    {"grid_03b", test_grid_03b}, {"grid_03d", test_grid_03d}, {"grid_04b", test_grid_04b},
+    {"grid_04d", test_grid_04d}, {"grid_05", test_grid_05},   {"grid_06", test_grid_06},
+    {"grid_07", test_grid_07},   {"grid_08b", test_grid_08b}, {"grid_09b", test_grid_09b},
+    {"grid_10b", test_grid_10b}, {"grid_11b", test_grid_11b}, {"grid_12b", test_grid_12b},
+    {"vis_01c", test_vis_01c},   {"vis_02e", test_vis_02e},   {"vis_03e", test_vis_03e},
+    {"vis_04e", test_vis_04e},   {"vis_08c", test_vis_08c},   {"vis_09c", test_vis_09c},
+    {"vis_10c", test_vis_10c},   {"vis_11c", test_vis_11c},   {"vis_12c", test_vis_12c},
+    {"vis_17b", test_vis_17b},   {"vis_18b", test_vis_18b},
+    {"no_marking_same_image", test_no_marking_same_image},
+};
+
+RT_TEST_MAIN(tests)
