@@ -3,6 +3,7 @@
  * official files; also slash forms, polygons (fanned), negative indices and CRLF. */
 #include "obj_loader.h"
 
+#include <assert.h>
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
@@ -107,16 +108,16 @@ bool obj_parse_float(const char **pp, const char *end, float *out)
     const char *p = *pp;
     const char *s = p;
     bool neg = false;
-    if (p < end && (*p == '+' || *p == '-'))
+    if (*p == '+' || *p == '-')
         neg = *p++ == '-';
     uint64_t mant = 0;
     int sig = 0, digits = 0, exp10 = 0;
     /* Leading zeros carry no significance; then up to 19 digits fit a uint64_t exactly. */
-    while (p < end && *p == '0') {
+    while (*p == '0') {
         digits++;
         p++;
     }
-    while (p < end && is_digit(*p)) {
+    while (is_digit(*p)) {
         if (sig < 19)
             mant = mant * 10 + (uint64_t)(*p - '0');
         else
@@ -125,15 +126,15 @@ bool obj_parse_float(const char **pp, const char *end, float *out)
         digits++;
         p++;
     }
-    if (p < end && *p == '.') {
+    if (*p == '.') {
         p++;
         if (sig == 0)
-            while (p < end && *p == '0') {
+            while (*p == '0') {
                 exp10--;
                 digits++;
                 p++;
             }
-        while (p < end && is_digit(*p)) {
+        while (is_digit(*p)) {
             if (sig < 19) {
                 mant = mant * 10 + (uint64_t)(*p - '0');
                 exp10--;
@@ -144,14 +145,14 @@ bool obj_parse_float(const char **pp, const char *end, float *out)
         }
     }
     bool fast = digits > 0;
-    if (fast && p < end && (*p == 'e' || *p == 'E')) {
+    if (fast && (*p == 'e' || *p == 'E')) {
         const char *q = p + 1;
         bool eneg = false;
-        if (q < end && (*q == '+' || *q == '-'))
+        if ((*q == '+' || *q == '-'))
             eneg = *q++ == '-';
-        if (q < end && is_digit(*q)) {
+        if (is_digit(*q)) {
             int e = 0;
-            while (q < end && is_digit(*q)) {
+            while (is_digit(*q)) {
                 if (e < 100000)
                     e = e * 10 + (*q - '0');
                 q++;
@@ -163,7 +164,7 @@ bool obj_parse_float(const char **pp, const char *end, float *out)
     /* Clinger's fast path: an exact mantissa times/over an exact power of ten rounds
      * once, so it is the correctly rounded value strtof returns too. */
     if (fast && sig <= 19 && mant <= (1u << 24) && exp10 >= -10 && exp10 <= 10 &&
-        (p == end || !(*p == 'x' || *p == 'X' || *p == 'n' || *p == 'N'))) {
+        (!(*p == 'x' || *p == 'X' || *p == 'n' || *p == 'N'))) {
         float v = (float)mant;
         v = exp10 < 0 ? v / k_pow10f[-exp10] : v * k_pow10f[exp10];
         *out = neg ? -v : v;
@@ -205,11 +206,11 @@ static SrcLoc obj_loc(const ObjReader *r, const char *at)
 
 static void skip_blanks(ObjReader *r)
 {
-    while (r->p < r->end && is_blank(*r->p))
+    while (is_blank(*r->p))
         r->p++;
 }
 
-static bool at_eol(const ObjReader *r) { return r->p >= r->end || *r->p == '\n'; }
+static bool at_eol(const ObjReader *r) { return *r->p == '\n' || *r->p == '\0'; }
 static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p); }
 
 static bool grow(void **arr, int *cap, int need, size_t elem)
@@ -242,7 +243,7 @@ static bool read_vertex(ObjReader *r)
         }
         if (!obj_parse_float(&r->p, r->end, &c[i]) || !at_sep(r)) {
             const char *e = at;
-            while (e < r->end && !is_blank(*e) && *e != '\n' && e - at < 60)
+            while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
                 e++;
             diag_error(r->diag, &l, "malformed number '%.*s'", (int)(e - at), at);
             return false;
@@ -269,12 +270,12 @@ static bool read_index(ObjReader *r, long *out)
 {
     const char *p = r->p;
     bool neg = false;
-    if (p < r->end && (*p == '+' || *p == '-'))
+    if (*p == '+' || *p == '-')
         neg = *p++ == '-';
-    if (p >= r->end || !is_digit(*p))
+    if (!is_digit(*p))
         return false;
     long v = 0;
-    while (p < r->end && is_digit(*p)) {
+    while (is_digit(*p)) {
         if (v < 100000000000L)
             v = v * 10 + (*p - '0');
         p++;
@@ -296,18 +297,18 @@ static bool read_face(ObjReader *r, const char *f_at)
         long idx, ignored;
         bool ok = read_index(r, &idx);
         /* v, v/vt, v/vt/vn, v//vn: only the vertex index matters here. */
-        if (ok && r->p < r->end && *r->p == '/') {
+        if (ok && *r->p == '/') {
             r->p++;
-            if (r->p < r->end && *r->p != '/')
+            if (*r->p != '/')
                 ok = read_index(r, &ignored) || at_sep(r);
-            if (ok && r->p < r->end && *r->p == '/') {
+            if (ok && *r->p == '/') {
                 r->p++;
                 ok = read_index(r, &ignored);
             }
         }
         if (!ok || !at_sep(r)) {
             const char *e = at;
-            while (e < r->end && !is_blank(*e) && *e != '\n' && e - at < 60)
+            while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
                 e++;
             diag_error(r->diag, &l, "malformed face vertex '%.*s'", (int)(e - at), at);
             return false;
@@ -351,6 +352,9 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
 {
     ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0};
     memset(out, 0, sizeof *out);
+    /* The scanners stop at the terminating NUL instead of comparing with the end on
+     * every byte; a NUL inside the text is refused below, so NUL means end of buffer. */
+    assert(buf[len] == '\0');
     if (memchr(buf, '\0', len)) {
         /* Binary data: say so instead of a confusing message about its first line. */
         const char *z = memchr(buf, '\0', len);
@@ -368,7 +372,7 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
         r.line_start = r.p;
         skip_blanks(&r);
         const char *kw = r.p;
-        while (r.p < r.end && !is_blank(*r.p) && *r.p != '\n')
+        while (*r.p && !is_blank(*r.p) && *r.p != '\n')
             r.p++;
         size_t kl = (size_t)(r.p - kw);
         bool ok = true;
@@ -381,9 +385,9 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
             obj_mesh_free(out);
             return false;
         }
-        while (r.p < r.end && *r.p != '\n')
+        while (*r.p && *r.p != '\n')
             r.p++;
-        if (r.p < r.end) {
+        if (*r.p == '\n') {
             r.p++;
             if (r.line < INT_MAX)
                 r.line++;

@@ -16,7 +16,8 @@ typedef struct ObjMesh {
     int ntris;
 } ObjMesh;
 
-/* Parses an OBJ text of len bytes (buf[len] need not be readable). name is used in
+/* Parses an OBJ text of len bytes; buf[len] must be '\0' (file_read_all provides it:
+ * the scanners use it as the end sentinel). name is used in
  * located messages. Faces with n > 3 vertices become the fan (v0, vi, vi+1); negative
  * indices count back from the last vertex read so far. False after reporting an error
  * (nothing left allocated). */
@@ -31,7 +32,8 @@ bool file_read_all(const char *path, char **out, size_t *len);
 Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m);
 
 /* The float conversion used for OBJ numbers: exactly strtof's result, with a fast path
- * for short decimals. *p advances past the number; false if none starts at *p. */
+ * for short decimals. *p advances past the number; false if none starts at *p. The text
+ * must be NUL-terminated at or before end. */
 bool obj_parse_float(const char **p, const char *end, float *out);
 
 #endif
