@@ -91,6 +91,14 @@ static void test_window_script_under_xvfb(void)
     char *argv[] = {xvfb, "-a", "-s", "-screen 0 640x480x24", (char *)harness_bin(),
                     "-input", scene, "-size", "200", "200", "-shadows", "-gui",
                     "-output", out, "-gui_keys", keys, NULL};
+    /* Under `make asan`: Mesa's X driver keeps allocations and is unloaded before the
+     * leak check runs, so LeakSanitizer cannot name (or suppress) them; leaks are not
+     * checked for this run. The same drawing code is leak-checked through OSMesa
+     * (tests/unit/test_preview.c). No effect on builds without sanitizers. */
+    char asan[1024];
+    const char *prev = getenv("ASAN_OPTIONS");
+    snprintf(asan, sizeof asan, "%s%sdetect_leaks=0", prev ? prev : "", prev && *prev ? ":" : "");
+    setenv("ASAN_OPTIONS", asan, 1);
     E2eRun r;
     char why[512];
     CHECK(e2e_run(argv, &r));
