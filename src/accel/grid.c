@@ -413,6 +413,24 @@ static void tight_bounds(const GridBuildRec *rec, double bmin[3], double bmax[3]
     }
 }
 
+/* Whether rec's surface may cross the padded cell box [lo, hi]. */
+static bool tight_cell(const GridBuildRec *rec, const double lo[3], const double hi[3])
+{
+    if (rec->kind == REC_TRIANGLE) {
+        double v[3][3], h[3];
+        for (int a = 0; a < 3; a++) {
+            double mid = 0.5 * (lo[a] + hi[a]);
+            h[a] = 0.5 * (hi[a] - lo[a]);
+            for (int k = 0; k < 3; k++)
+                v[k][a] = (double)v3_comp(rec->v[k], a) - mid;
+        }
+        return tri_box_overlap(v, h);
+    }
+    if (rec->kind == REC_SPHERE)
+        return tight_sphere_cell(rec, lo, hi);
+    return tight_sphere_xf_cell(rec, lo, hi);
+}
+
 /* Visits the cells of the marching set of rec: counts them into cell_start[c + 1]
  * (fill false) or appends entry index idx to each (fill true, cell_start[c] used as the
  * fill cursor). Returns the number of cells. */
@@ -428,21 +446,13 @@ static uint64_t tight_insert(Grid *g, const GridBuildRec *rec, uint32_t idx, boo
             for (c[0] = r.lo[0]; c[0] <= r.hi[0]; c[0]++) {
                 double lo[3], hi[3];
                 cell_box(g, c, bmin, bmax, lo, hi);
-                bool in;
-                if (rec->kind == REC_TRIANGLE) {
-                    double v[3][3], h[3];
-                    for (int a = 0; a < 3; a++) {
-                        double mid = 0.5 * (lo[a] + hi[a]);
-                        h[a] = 0.5 * (hi[a] - lo[a]);
-                        for (int k = 0; k < 3; k++)
-                            v[k][a] = (double)v3_comp(rec->v[k], a) - mid;
-                    }
-                    in = tri_box_overlap(v, h);
-                } else if (rec->kind == REC_SPHERE) {
-                    in = tight_sphere_cell(rec, lo, hi);
-                } else {
-                    in = tight_sphere_xf_cell(rec, lo, hi);
-                }
+#ifdef RT_GRID_AABB_ONLY
+                /* Analysis build (bench/grid_analysis.sh): every cell of the padded
+                 * bounding box, to measure what the exact tests save. */
+                bool in = true || tight_cell(rec, lo, hi);
+#else
+                bool in = tight_cell(rec, lo, hi);
+#endif
                 if (!in)
                     continue;
                 uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);

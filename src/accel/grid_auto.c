@@ -8,7 +8,7 @@
 #include "rt/scene.h"
 
 /* Cells per primitive. Measured on the course scenes (docs/grid.txt). */
-#define GRID_AUTO_LAMBDA 2.0
+#define GRID_AUTO_LAMBDA 4.0
 #define GRID_AUTO_MAX_AXIS 512
 #define GRID_AUTO_MAX_CELLS (1 << 22)
 
