@@ -2,6 +2,13 @@
  * texture matrix copied in, the GL preview rule, and the weighted blend of two children. */
 #include "procedural.h"
 
+#include <stdatomic.h>
+#include <stdint.h>
+#include <string.h>
+
+/* Serial numbers of the blends, the key of the weight cache below (0 = empty slot). */
+static atomic_uint_fast64_t next_serial = 1;
+
 ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *texture_xf,
                                   const Material *m1, const Material *m2)
 {
@@ -29,7 +36,43 @@ Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *tex
                                                                      : octaves;
     b->frequency = frequency;
     b->amplitude = amplitude;
+    b->serial = atomic_fetch_add(&next_serial, 1);
     return &b->proc.base;
+}
+
+/* One direct-mapped cache per render thread. Eight slots cover a few nested blends
+ * at one hit point; a slot is overwritten when another point comes along. Entries
+ * are keyed by the blend's serial number (never reused within the process, unlike
+ * its address once a scene is freed) and the exact bits of the world point; the
+ * weight is a pure function of the two, so a hit returns exactly what a call would. */
+typedef struct WeightSlot {
+    uint64_t serial;        /* 0: empty (serials start at 1) */
+    uint32_t bits[3];
+    float weight;
+} WeightSlot;
+
+static _Thread_local WeightSlot weight_cache[8];
+
+float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn weight)
+{
+    uint32_t bits[3];
+    memcpy(&bits[0], &p.x, sizeof bits[0]);
+    memcpy(&bits[1], &p.y, sizeof bits[1]);
+    memcpy(&bits[2], &p.z, sizeof bits[2]);
+    /* The slot depends on the point too, so blends nested in each other rarely evict
+     * one another at the same point. */
+    uint64_t h = b->serial * 0x9E3779B97F4A7C15ULL;
+    h ^= bits[0] ^ ((uint64_t)bits[1] << 11) ^ ((uint64_t)bits[2] << 23);
+    h ^= h >> 29;
+    WeightSlot *s = &weight_cache[h & 7];
+    if (s->serial == b->serial && s->bits[0] == bits[0] && s->bits[1] == bits[1] &&
+        s->bits[2] == bits[2])
+        return s->weight;
+    float t = weight(b, p);
+    s->serial = b->serial;
+    memcpy(s->bits, bits, sizeof bits);
+    s->weight = t;
+    return t;
 }
 
 const Material *procedural_preview(const Material *self)

@@ -5,6 +5,7 @@
 #define RT_SHADE_PROCEDURAL_H
 
 #include <stdbool.h>
+#include <stdint.h>
 #include "rt/arena.h"
 #include "rt/material.h"
 #include "rt/matrix.h"
@@ -25,6 +26,7 @@ typedef struct ProceduralBlend {
     int octaves;            /* clamped to [0, PROCEDURAL_MAX_OCTAVES] */
     float frequency;
     float amplitude;
+    uint64_t serial;        /* unique within the process: key of the weight cache */
 } ProceduralBlend;
 
 /* More octaves add terms below 2^-64 of the first one; the cap keeps an absurd
@@ -60,6 +62,14 @@ Vec3 procedural_blend_reflective(const Procedural *pr, float t, Vec3 p);
 Vec3 procedural_blend_transparent(const Procedural *pr, float t, Vec3 p);
 float procedural_blend_ior(const Procedural *pr, float t, Vec3 p);
 
+/* The weight of blend b at world point p, i.e. weight(b, p), memoised: the tracer asks
+ * a material about the same hit point several times (ambient, each light's shade,
+ * reflection, refraction), and each answer costs up to `octaves` noise evaluations.
+ * A small per-thread cache keyed by (material, exact bits of p) returns the value
+ * computed before, so images are bit-identical with or without it. */
+typedef float (*ProceduralWeightFn)(const ProceduralBlend *b, Vec3 p);
+float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn weight);
+
 /* Defines the static ops functions and the one static const ops table NAME_ops of a
  * blending material whose weight at world point p is WEIGHT(const ProceduralBlend *,
  * Vec3 p) -> float in [0,1]. */
@@ -68,27 +78,27 @@ float procedural_blend_ior(const Procedural *pr, float t, Vec3 p);
                              Vec3 l, Vec3 c)                                                \
     {                                                                                      \
         const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_shade(&b->proc, WEIGHT(b, hit->point), ray, hit, l, c);    \
+        return procedural_blend_shade(&b->proc, procedural_weight(b, hit->point, WEIGHT), ray, hit, l, c);    \
     }                                                                                      \
     static Vec3 NAME##_diffuse_at(const Material *self, Vec3 p)                            \
     {                                                                                      \
         const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_diffuse(&b->proc, WEIGHT(b, p), p);                        \
+        return procedural_blend_diffuse(&b->proc, procedural_weight(b, p, WEIGHT), p);                        \
     }                                                                                      \
     static Vec3 NAME##_reflective_at(const Material *self, Vec3 p)                         \
     {                                                                                      \
         const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_reflective(&b->proc, WEIGHT(b, p), p);                     \
+        return procedural_blend_reflective(&b->proc, procedural_weight(b, p, WEIGHT), p);                     \
     }                                                                                      \
     static Vec3 NAME##_transparent_at(const Material *self, Vec3 p)                        \
     {                                                                                      \
         const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_transparent(&b->proc, WEIGHT(b, p), p);                    \
+        return procedural_blend_transparent(&b->proc, procedural_weight(b, p, WEIGHT), p);                    \
     }                                                                                      \
     static float NAME##_ior_at(const Material *self, Vec3 p)                               \
     {                                                                                      \
         const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_ior(&b->proc, WEIGHT(b, p), p);                            \
+        return procedural_blend_ior(&b->proc, procedural_weight(b, p, WEIGHT), p);                            \
     }                                                                                      \
     static const MaterialOps NAME##_ops = {                                                \
         TYPE_NAME,        NAME##_shade,   NAME##_diffuse_at,  NAME##_reflective_at,        \

@@ -426,6 +426,40 @@ static void test_constructor_edges(void)
     arena_free(&a);
 }
 
+static void test_weight_memo(void)
+{
+    /* The weights are memoised per thread by (material serial, point bits). A new
+     * material at a reused address, and alternating queries of nested blends at the
+     * same point, must still get their own exact values. */
+    init_children();
+    Vec3 p = v3(0.25f, 7, -3);
+    for (int round = 0; round < 4; round++) {
+        Arena a;
+        arena_init(&a);
+        float f = 1.0f + (float)round; /* different frequency each round */
+        Material *m = marble_new(&a, NULL, &A.base, &B.base, 0, f, 0);
+        double want = (sin((double)f * 0.25) + 1) / 2;
+        CHECK_NEAR(weight_of(m, p), want, 1e-6);
+        CHECK_NEAR(weight_of(m, p), want, 1e-6); /* second query: from the memo */
+        arena_free(&a);
+    }
+    Arena a;
+    arena_init(&a);
+    Material *inner = marble_new(&a, NULL, &A.base, &B.base, 0, 2.0f, 0);
+    Material *outer = noise_new(&a, NULL, inner, &B.base, 0); /* t = 0.5 */
+    double ti = (sin(0.5) + 1) / 2;
+    for (int i = 0; i < 3; i++) {
+        CHECK_NEAR(weight_of(inner, p), ti, 1e-6);
+        Vec3 d = mat_diffuse_at(outer, p);
+        CHECK_NEAR(d.x, 0.5 * ti, 1e-6);
+        CHECK_NEAR(d.y, 0.5 * (1 - ti) + 0.5, 1e-6);
+    }
+    /* Points differing in one bit are different points. */
+    Vec3 q = v3(nextafterf(0.25f, 1.0f), 7, -3);
+    CHECK_NEAR(weight_of(inner, q), (sin(2.0 * (double)q.x) + 1) / 2, 1e-7);
+    arena_free(&a);
+}
+
 static const TestCase tests[] = {
     {"checkerboard: parity incl. negative cells", test_checker_parity},
     {"checkerboard: exact cell borders (floor)", test_checker_borders},
@@ -440,5 +474,6 @@ static const TestCase tests[] = {
     {"procedural: nesting", test_nesting},
     {"procedural: preview material", test_preview},
     {"procedural: constructor edge cases", test_constructor_edges},
+    {"procedural: weight memo returns exact values", test_weight_memo},
 };
 RT_TEST_MAIN(tests)
