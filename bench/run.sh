@@ -5,7 +5,8 @@
 # Embree (bench/embree_ref.c), paired with ours. Writes bench/REPORT.txt.
 # Environment: RT_BIN, RT_TOOLS (build/tools), EMBREE_REF (empty: no pairing),
 # BENCH_RUNS (median of N, default 3), BENCH_QUICK=1 (bunny 40k and the blob only, no
-# brute-force column), BENCH_BRUTE=0 (no brute-force column), RT_COURSE (default
+# brute-force column), BENCH_BRUTE=0 (no brute-force column), BENCH_BRUTE_LIMIT (seconds
+# per brute-force run, default 20), RT_COURSE (default
 # ../shared/course), BENCH_REPORT (output file, default bench/REPORT.txt).
 set -u
 export LC_ALL=C
@@ -16,6 +17,7 @@ EMB=${EMBREE_REF:-}
 RUNS=${BENCH_RUNS:-3}
 QUICK=${BENCH_QUICK:-0}
 BRUTE=${BENCH_BRUTE:-1}
+BRUTE_LIMIT=${BENCH_BRUTE_LIMIT:-20}
 [ "$QUICK" = 1 ] && BRUTE=0
 COURSE=${RT_COURSE:-$ROOT/../shared/course}
 OUT=$ROOT/bench/out
@@ -94,7 +96,8 @@ if [ -f "$COURSE/commands.txt" ]; then
     say "== (a) course suite: $COURSE/commands.txt (outputs into a temporary folder)"
     say "   wall/cpu: whole process, ms; parse (incl. OBJ load), grid build, render: from -timings"
     if [ "$BRUTE" = 1 ]; then
-        say "   brute: the same line without -grid, one run (only for grid lines that render)"
+        say "   brute: the same line without -grid, one run (only for grid lines that render),"
+        say "   stopped after $BRUTE_LIMIT s (BENCH_BRUTE_LIMIT)"
     fi
     hdr=$(printf '   %-4s %9s %9s %8s %8s %9s %10s %8s' id wall cpu parse grid render brute speedup)
     say "$hdr"
@@ -142,9 +145,14 @@ if [ -f "$COURSE/commands.txt" ]; then
                 if [ "${argv[$i]}" = -grid ]; then i=$((i + 4)); continue; fi
                 nog+=("${argv[$i]}"); i=$((i + 1))
             done
-            run_timed "$BIN" "${nog[@]}"
-            brute=$WALL
-            speed=$(div "$brute" "$w" 1)x
+            run_timed timeout "$BRUTE_LIMIT" "$BIN" "${nog[@]}"
+            if [ "$STATUS" = 124 ]; then
+                brute=">$((BRUTE_LIMIT * 1000))"
+                speed=">$(div "$((BRUTE_LIMIT * 1000))" "$w" 0)x"
+            else
+                brute=$WALL
+                speed=$(div "$brute" "$w" 1)x
+            fi
         fi
         say "$(printf '   %-4s %9s %9s %8s %8s %9s %10s %8s' "$id" "$w" "$c" \
             "$(median "${parses[@]}")" "$(median "${grids[@]}")" "$(median "${renders[@]}")" \
