@@ -1,15 +1,15 @@
 # OpenGL preview (src/preview/, docs/preview.txt). The GLUT window (-gui) needs
-# pkg-config's gl + glut (Debian libglut-dev), the offscreen snapshot (-gui_snapshot)
-# osmesa (libosmesa6-dev). Both are linked into one binary: the drawing code calls GL
-# through a table of entry points (src/preview/gl_api.h), so libGL and libOSMesa never
-# compete for the gl* symbols. PREVIEW=0 leaves both out, PREVIEW=1 insists on both.
-# The preview's files are always compiled: without the libraries they hold the
-# "not built" answers of include/rt/preview.h.
+# pkg-config's gl + glut + x11 (Debian libglut-dev brings all three), the offscreen
+# snapshot (-gui_snapshot) osmesa (libosmesa6-dev). Both go into one binary: the
+# drawing code calls GL through a table of entry points (src/preview/gl_api.h), so
+# libGL and libOSMesa never compete for the gl* symbols. PREVIEW=0 leaves both out,
+# PREVIEW=1 insists on both. The preview's files are always compiled: without the
+# libraries they hold the "not built" answers of include/rt/preview.h.
 PREVIEW ?=
 RT_PV_GLUT :=
 RT_PV_OSMESA :=
 ifneq ($(PREVIEW),0)
-  RT_PV_GLUT := $(shell pkg-config --exists gl glut 2>/dev/null && echo yes)
+  RT_PV_GLUT := $(shell pkg-config --exists gl glut x11 2>/dev/null && echo yes)
   RT_PV_OSMESA := $(shell pkg-config --exists osmesa 2>/dev/null && echo yes)
   ifeq ($(PREVIEW),1)
     ifneq ($(RT_PV_GLUT)$(RT_PV_OSMESA),yesyes)
@@ -18,8 +18,8 @@ ifneq ($(PREVIEW),0)
   endif
 endif
 ifeq ($(RT_PV_GLUT),yes)
-  FEATURE_CFLAGS += -DRT_HAVE_GLUT $(shell pkg-config --cflags gl glut)
-  FEATURE_LIBS   += $(shell pkg-config --libs gl glut)
+  FEATURE_CFLAGS += -DRT_HAVE_GLUT $(shell pkg-config --cflags gl glut x11)
+  FEATURE_LIBS   += $(shell pkg-config --libs gl glut x11)
   FEATURES       += gui
 endif
 ifeq ($(RT_PV_OSMESA),yes)

@@ -6,6 +6,8 @@
 
 #ifdef RT_HAVE_GLUT
 #include <GL/freeglut.h>
+#include <GL/glx.h>
+#include <X11/Xlib.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
@@ -91,10 +93,8 @@ static void join_render(void)
     int status = atomic_load(&W.thread_status);
     if (status && !W.status)
         W.status = status;
-    if (!W.cancel) {
-        printf("done.\n");
-        fflush(stdout);
-    }
+    printf(W.cancel ? "stopped.\n" : "done.\n");
+    fflush(stdout);
 }
 
 /* Stops a running render and forgets the traced picture (the view changed). */
@@ -310,15 +310,35 @@ static void script_step(int value)
     glutTimerFunc(SCRIPT_STEP_MS, script_step, 0);
 }
 
-int preview_run_window(const PreviewConfig *cfg, Diag *diag)
+/* freeglut exit()s when it cannot open the display or find a GL visual; ask first,
+ * so the failure is reported like any other (DESIGN.md 4). */
+static bool display_usable(Diag *diag)
 {
-    const char *display_name = getenv("DISPLAY");
-    if (!display_name || !*display_name) {
-        /* freeglut would exit() on its own without a display. */
+    const char *name = getenv("DISPLAY");
+    if (!name || !*name) {
         diag_error(diag, NULL, "-gui needs an X display (DISPLAY is not set); "
                                "-gui_snapshot FILE draws the preview without one");
-        return 1;
+        return false;
     }
+    Display *dpy = XOpenDisplay(NULL);
+    if (!dpy) {
+        diag_error(diag, NULL, "-gui cannot open the X display '%s'; "
+                               "-gui_snapshot FILE draws the preview without one", name);
+        return false;
+    }
+    int error_base, event_base;
+    bool glx = glXQueryExtension(dpy, &error_base, &event_base);
+    XCloseDisplay(dpy);
+    if (!glx)
+        diag_error(diag, NULL, "the X display '%s' has no OpenGL (GLX) support; "
+                               "-gui_snapshot FILE draws the preview without one", name);
+    return glx;
+}
+
+int preview_run_window(const PreviewConfig *cfg, Diag *diag)
+{
+    if (!display_usable(diag))
+        return 1;
     memset(&W, 0, sizeof W);
     W.cfg = cfg;
     W.diag = diag;
