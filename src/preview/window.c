@@ -311,42 +311,50 @@ static void script_step(int value)
 }
 
 /* freeglut exit()s when it cannot open the display or find a GL visual; ask first,
- * so the failure is reported like any other (DESIGN.md 4). */
-static bool display_usable(Diag *diag)
+ * so the failure is reported like any other (DESIGN.md 4). Returns the connection
+ * (NULL on failure), to be closed only after glutInit has made its own: an X server
+ * may reset when its last client leaves (Xvfb does), refusing the next one meanwhile. */
+static Display *display_open(Diag *diag)
 {
     const char *name = getenv("DISPLAY");
     if (!name || !*name) {
         diag_error(diag, NULL, "-gui needs an X display (DISPLAY is not set); "
                                "-gui_snapshot FILE draws the preview without one");
-        return false;
+        return NULL;
     }
     Display *dpy = XOpenDisplay(NULL);
     if (!dpy) {
         diag_error(diag, NULL, "-gui cannot open the X display '%s'; "
                                "-gui_snapshot FILE draws the preview without one", name);
-        return false;
+        return NULL;
     }
     int error_base, event_base;
-    bool glx = glXQueryExtension(dpy, &error_base, &event_base);
-    XCloseDisplay(dpy);
-    if (!glx)
+    if (!glXQueryExtension(dpy, &error_base, &event_base)) {
         diag_error(diag, NULL, "the X display '%s' has no OpenGL (GLX) support; "
                                "-gui_snapshot FILE draws the preview without one", name);
-    return glx;
+        XCloseDisplay(dpy);
+        return NULL;
+    }
+    return dpy;
 }
 
 int preview_run_window(const PreviewConfig *cfg, Diag *diag)
 {
-    if (!display_usable(diag))
-        return 1;
     memset(&W, 0, sizeof W);
     W.cfg = cfg;
     W.diag = diag;
     W.button = -1;
+    /* A bad script is a usage error (2), reported before the display is looked at. */
     if (!preview_keys_parse(cfg->keys, &W.script, diag))
         return 2;
+    Display *probe = display_open(diag);
+    if (!probe) {
+        preview_keys_free(&W.script);
+        return 1;
+    }
     if (!preview_view_init(&W.view, cfg, diag)) {
         preview_keys_free(&W.script);
+        XCloseDisplay(probe);
         return 1;
     }
     int long_side = cfg->width > cfg->height ? cfg->width : cfg->height;
@@ -363,6 +371,7 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     char name[] = "raytracer";
     char *argv[] = {name, NULL};
     glutInit(&argc, argv);
+    XCloseDisplay(probe);
     glutSetOption(GLUT_ACTION_ON_WINDOW_CLOSE, GLUT_ACTION_GLUTMAINLOOP_RETURNS);
     glutInitDisplayMode(GLUT_RGBA | GLUT_DOUBLE | GLUT_DEPTH);
     glutInitWindowSize(W.w, W.h);
