@@ -276,40 +276,59 @@ static void cross3(const double a[3], const double b[3], double out[3])
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
+static inline double min3(double a, double b, double c)
+{
+    double m = a < b ? a : b;
+    return m < c ? m : c;
+}
+
+static inline double max3(double a, double b, double c)
+{
+    double m = a > b ? a : b;
+    return m > c ? m : c;
+}
+
+/* Whether the projections p0..p2 of the triangle onto an axis miss [-rad, rad]. */
+static inline bool separated(double p0, double p1, double p2, double rad)
+{
+    return min3(p0, p1, p2) > rad || max3(p0, p1, p2) < -rad;
+}
+
 /* Separating-axis test of a triangle against a box given by centre-relative vertices
  * v[3] and half extents h (Akenine-Moller, "Fast 3D Triangle-Box Overlap Testing",
- * 2001): the 9 edge x axis directions, the 3 box normals, the triangle normal. */
+ * 2001): the 3 box normals first (cheapest, they reject most candidates), the triangle
+ * normal, then the 9 directions edge x box axis, written out since the box axes are
+ * unit vectors: e x X = (0, ez, -ey), e x Y = (-ez, 0, ex), e x Z = (ey, -ex, 0). */
 static bool tri_box_overlap(double v[3][3], const double h[3])
 {
+    for (int a = 0; a < 3; a++)
+        if (separated(v[0][a], v[1][a], v[2][a], h[a]))
+            return false;
     double e[3][3];
     for (int a = 0; a < 3; a++) {
         e[0][a] = v[1][a] - v[0][a];
         e[1][a] = v[2][a] - v[1][a];
         e[2][a] = v[0][a] - v[2][a];
     }
-    for (int i = 0; i < 3; i++) {
-        for (int u = 0; u < 3; u++) {
-            double unit[3] = {0, 0, 0}, ax[3];
-            unit[u] = 1.0;
-            cross3(e[i], unit, ax);
-            double p0 = dot3(ax, v[0]), p1 = dot3(ax, v[1]), p2 = dot3(ax, v[2]);
-            double mn = fmin(p0, fmin(p1, p2)), mx = fmax(p0, fmax(p1, p2));
-            double rad = h[0] * fabs(ax[0]) + h[1] * fabs(ax[1]) + h[2] * fabs(ax[2]);
-            if (mn > rad || mx < -rad)
-                return false;
-        }
-    }
-    for (int a = 0; a < 3; a++) {
-        double mn = fmin(v[0][a], fmin(v[1][a], v[2][a]));
-        double mx = fmax(v[0][a], fmax(v[1][a], v[2][a]));
-        if (mn > h[a] || mx < -h[a])
-            return false;
-    }
     double nrm[3];
     cross3(e[0], e[1], nrm);
-    double dist = dot3(nrm, v[0]);
     double rad = h[0] * fabs(nrm[0]) + h[1] * fabs(nrm[1]) + h[2] * fabs(nrm[2]);
-    return fabs(dist) <= rad;
+    if (fabs(dot3(nrm, v[0])) > rad)
+        return false;
+    for (int i = 0; i < 3; i++) {
+        double ex = e[i][0], ey = e[i][1], ez = e[i][2];
+        double fx = fabs(ex), fy = fabs(ey), fz = fabs(ez);
+        if (separated(ez * v[0][1] - ey * v[0][2], ez * v[1][1] - ey * v[1][2],
+                      ez * v[2][1] - ey * v[2][2], h[1] * fz + h[2] * fy))
+            return false;
+        if (separated(ex * v[0][2] - ez * v[0][0], ex * v[1][2] - ez * v[1][0],
+                      ex * v[2][2] - ez * v[2][0], h[0] * fz + h[2] * fx))
+            return false;
+        if (separated(ey * v[0][0] - ex * v[0][1], ey * v[1][0] - ex * v[1][1],
+                      ey * v[2][0] - ex * v[2][1], h[0] * fy + h[1] * fx))
+            return false;
+    }
+    return true;
 }
 
 /* Relative slack for the sphere surface tests: the hit point of a quadratic solve lies
@@ -387,8 +406,8 @@ static void tight_bounds(const GridBuildRec *rec, double bmin[3], double bmax[3]
         for (int a = 0; a < 3; a++) {
             double x0 = v3_comp(rec->v[0], a), x1 = v3_comp(rec->v[1], a),
                    x2 = v3_comp(rec->v[2], a);
-            bmin[a] = fmin(x0, fmin(x1, x2));
-            bmax[a] = fmax(x0, fmax(x1, x2));
+            bmin[a] = min3(x0, x1, x2);
+            bmax[a] = max3(x0, x1, x2);
         }
     } else if (rec->kind == REC_SPHERE) {
         for (int a = 0; a < 3; a++) {
