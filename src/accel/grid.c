@@ -553,7 +553,8 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
                    ny, nz, GRID_MAX_CELLS);
         return NULL;
     }
-    if (!v3_isfinite(scene->bounds.min) || !v3_isfinite(scene->bounds.max)) {
+    if (!v3_isfinite(scene->bounds.min) || !v3_isfinite(scene->bounds.max) ||
+        !v3_isfinite(v3_sub(scene->bounds.max, scene->bounds.min))) {
         diag_error(diag, NULL, "cannot build a grid: the scene's bounding box is not finite");
         return NULL;
     }

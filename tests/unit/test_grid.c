@@ -271,6 +271,18 @@ static void test_bad_resolutions(void)
     CHECK_INT(d.errors, 2);
     CHECK_CONTAINS(d.last, "too large");
     ts_free(&t);
+
+    /* A box whose size overflows a float: refused with a message, no crash. */
+    TestScene h;
+    ts_init(&h);
+    ts_add(&h, sphere_new(&h.s.arena, v3(3e38f, 0, 0), 1.0f, h.mat));
+    ts_add(&h, sphere_new(&h.s.arena, v3(-3e38f, 0, 0), 1.0f, h.mat));
+    ts_finish(&h);
+    diag_init(&d, NULL);
+    CHECK(grid_build(&h.s, 4, 4, 4, &d) == NULL);
+    CHECK_INT(d.errors, 1);
+    CHECK_CONTAINS(d.last, "not finite");
+    ts_free(&h);
 }
 
 /* A flat scene (one triangle in z = 0) has a zero-thickness box: the grid still works. */
