@@ -18,6 +18,7 @@
 
 #include "rt/camera.h"
 #include "rt/geom.h"
+#include "rt/image.h"
 #include "rt/light.h"
 #include "rt/matrix.h"
 #include "rt/raytracer.h"
@@ -407,15 +408,17 @@ static double median(double *v, int n)
 static void usage(FILE *out)
 {
     fputs("usage: embree_ref -input scene.txt [-size W H] [-threads N] [-mode single|packet]\n"
-          "                  [-repeat R] [-shadows] [-shade_back]\n"
+          "                  [-repeat R] [-shadows] [-shade_back] [-depth DMIN DMAX FILE]\n"
           "Traces our primary rays and (with -shadows) our shadow rays with Embree and prints\n"
-          "one line of key=value timings (median of R repeats of each pass).\n",
+          "one line of key=value timings (median of R repeats of each pass). -depth writes\n"
+          "the primary hits as the course's depth image, to compare with ours.\n",
           out);
 }
 
 int main(int argc, char **argv)
 {
-    const char *input = NULL;
+    const char *input = NULL, *depth_file = NULL;
+    float dmin = 0.0f, dmax = 1.0f;
     int w = 200, h = 200, threads = 1, packets = 0, repeat = 1, shadows = 0, shade_back = 0;
     for (int a = 1; a < argc; a++) {
         if (!strcmp(argv[a], "-input") && a + 1 < argc)
@@ -434,6 +437,10 @@ int main(int argc, char **argv)
                 usage(stderr);
                 return 2;
             }
+        } else if (!strcmp(argv[a], "-depth") && a + 3 < argc) {
+            dmin = strtof(argv[a + 1], NULL), dmax = strtof(argv[a + 2], NULL);
+            depth_file = argv[a + 3];
+            a += 3;
         } else if (!strcmp(argv[a], "-shadows"))
             shadows = 1;
         else if (!strcmp(argv[a], "-shade_back"))
@@ -537,6 +544,27 @@ int main(int argc, char **argv)
     size_t hits = 0;
     for (size_t i = 0; i < np; i++)
         hits += isfinite(jb.t[i]);
+    if (depth_file) {
+        /* semantics.md 8: clamp t to [dmin, dmax], near white; no hit black */
+        Image img;
+        if (!(dmax > dmin) || !image_init(&img, w, h)) {
+            fprintf(stderr, "embree_ref: bad -depth range or out of memory\n");
+            return 1;
+        }
+        for (int j = 0; j < h; j++)
+            for (int i = 0; i < w; i++) {
+                float t = jb.t[(size_t)j * (size_t)w + (size_t)i], g = 0.0f;
+                if (isfinite(t)) {
+                    float d = t < dmin ? dmin : t > dmax ? dmax : t;
+                    g = (dmax - d) / (dmax - dmin);
+                }
+                image_set(&img, i, j, v3(g, g, g));
+            }
+        bool ok = image_write(&img, depth_file, &diag);
+        image_free(&img);
+        if (!ok)
+            return 1;
+    }
     double mp = median(tp, repeat), ms = median(ts, repeat);
     printf("embree mode=%s threads=%d size=%dx%d triangles=%zu spheres=%zu planes=%zu "
            "skipped=%zu load_ms=%.3f build_ms=%.3f primary_rays=%zu primary_hits=%zu "

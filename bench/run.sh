@@ -173,18 +173,18 @@ if [ ! -f "$OUT/blob.obj" ]; then
     "$TOOLS/modelgen" -o "$OUT/blob.obj" blob 8 || exit 1
 fi
 
-# name|scene|grid args
+# name|scene|grid args|depth range (for the hit cross-check with Embree)
 cases=()
 if [ -f "$COURSE/commands.txt" ]; then
     if [ "$QUICK" != 1 ]; then
-        cases+=("bunny200|$COURSE/scene6_04_bunny_mesh_200.txt|-grid 10 10 7")
-        cases+=("bunny1k|$COURSE/scene6_05_bunny_mesh_1k.txt|-grid 15 15 12")
-        cases+=("bunny5k|$COURSE/scene6_06_bunny_mesh_5k.txt|-grid 20 20 15")
+        cases+=("bunny200|$COURSE/scene6_04_bunny_mesh_200.txt|-grid 10 10 7|0.6 1.2")
+        cases+=("bunny1k|$COURSE/scene6_05_bunny_mesh_1k.txt|-grid 15 15 12|0.6 1.2")
+        cases+=("bunny5k|$COURSE/scene6_06_bunny_mesh_5k.txt|-grid 20 20 15|0.6 1.2")
     fi
-    cases+=("bunny40k|$COURSE/scene6_07_bunny_mesh_40k.txt|-grid 40 40 33")
-    cases+=("bunny40k/auto|$COURSE/scene6_07_bunny_mesh_40k.txt|-grid auto")
+    cases+=("bunny40k|$COURSE/scene6_07_bunny_mesh_40k.txt|-grid 40 40 33|0.6 1.2")
+    cases+=("bunny40k/auto|$COURSE/scene6_07_bunny_mesh_40k.txt|-grid auto|0.6 1.2")
 fi
-cases+=("blob1.3M|$ROOT/bench/blob.txt|-grid auto")
+cases+=("blob1.3M|$ROOT/bench/blob.txt|-grid auto|4 9")
 
 say "== (b) trace throughput (Mrays/s) with (d) Embree on the same rays"
 say "   ours: render time from -timings (shading included, image writing excluded);"
@@ -197,7 +197,15 @@ hdr=$(printf '   %-14s %-9s %2s %8s %8s %8s %8s %8s %8s %8s %8s' case size th \
 say "$hdr"
 rm -f "$TMP/ratios.txt"
 for c in "${cases[@]}"; do
-    IFS='|' read -r name scene gridargs <<<"$c"
+    IFS='|' read -r name scene gridargs drange <<<"$c"
+    if [ -n "$EMB" ]; then
+        # Same rays? Both depth images of the primary hits, compared pixel by pixel.
+        "$BIN" -input "$scene" -size 200 200 $gridargs -depth $drange "$TMP/d_ours.tga" >/dev/null 2>&1
+        "$EMB" -input "$scene" -size 200 200 -depth $drange "$TMP/d_emb.tga" >/dev/null 2>&1
+        same=$("$TOOLS/imgdiff" -t 1 "$TMP/d_ours.tga" "$TMP/d_emb.tga" 2>/dev/null |
+            sed -n 's/^within 1\/255 *\([0-9.]*%\).*/\1/p' | head -n 1)
+        echo "   $name: primary hits, depth images ours vs Embree at 200x200: ${same:-?} of pixels within 1/255" >>"$TMP/notes.txt"
+    fi
     for size in "200 200" "1920 1080"; do
         for th in 1 2; do
             prs=() sh=() shadow_rays=0
@@ -256,7 +264,7 @@ say ""
 say "== (c) set-up costs (ms, median; -size 1 1 runs with -timings)"
 say "$(printf '   %-14s %9s %9s %10s %12s %12s' case triangles parse grid emb-load emb-build)"
 for c in "${cases[@]}"; do
-    IFS='|' read -r name scene gridargs <<<"$c"
+    IFS='|' read -r name scene gridargs drange <<<"$c"
     ps=() gs=() els=() ebs=() tris=-
     for ((k = 0; k < RUNS; k++)); do
         run_timed "$BIN" -input "$scene" -output "$TMP/o.tga" -size 1 1 $gridargs $TIMINGS
