@@ -6,7 +6,8 @@
 # Environment: COURSE (default ../shared/course), RUNS (best of N wall times, default 3),
 # BRUTE=0 skips the no-grid column, AABB_BIN=path of a binary built with
 #   make BUILD=build-aabb CFLAGS="-O2 -g -DRT_GRID_AABB_ONLY" build-aabb/raytracer
-# Prints one line per run: id, variant, wall seconds, rays, intersections/ray, cells/ray.
+# Prints one line per run: id, variant, CPU and wall seconds, rays, intersections/ray,
+# cells/ray (and the -grid auto choice). Needs /usr/bin/time (Debian package time).
 BIN=${1:-./raytracer}
 COURSE=${COURSE:-../shared/course}
 RUNS=${RUNS:-3}
@@ -16,30 +17,31 @@ case "$COURSE" in /*) ;; *) COURSE=$(pwd)/$COURSE ;; esac
 TMP=$(mktemp -d "${TMPDIR:-/tmp}/gridan.XXXXXX") || exit 1
 trap 'rm -rf "$TMP"' EXIT INT TERM
 
-now() { date +%s.%N; }
-
-# run LABEL VARIANT BIN ARGS... : best wall time of RUNS runs plus the counters.
+# run LABEL VARIANT BIN ARGS... : the run with the least CPU time (user + system, which
+# a busy machine inflates less than wall time) of RUNS runs, its wall time, and the
+# counters of its -stats block.
 run() {
     label=$1 variant=$2 bin=$3; shift 3
-    best=""
+    best="" bestwall=""
     i=0
     while [ $i -lt "$RUNS" ]; do
-        t0=$(now)
-        (cd "$COURSE" && "$bin" "$@" -stats > "$TMP/stats.txt" 2>/dev/null) || {
-            echo "$label $variant FAILED"; return; }
-        t1=$(now)
-        t=$(echo "$t1 - $t0" | bc)
-        if [ -z "$best" ] || [ "$(echo "$t < $best" | bc)" = 1 ]; then best=$t; fi
+        (cd "$COURSE" && /usr/bin/time -f "%e %U %S" -o "$TMP/time.txt" "$bin" "$@" -stats \
+            > "$TMP/stats.txt" 2>/dev/null) || { echo "$label $variant FAILED"; return; }
+        read -r wall user sys < "$TMP/time.txt"
+        cpu=$(echo "$user + $sys" | bc)
+        if [ -z "$best" ] || [ "$(echo "$cpu < $best" | bc)" = 1 ]; then
+            best=$cpu bestwall=$wall
+            cp "$TMP/stats.txt" "$TMP/best.txt"
+        fi
         i=$((i + 1))
     done
-    awk -v id="$label" -v var="$variant" -v t="$best" '
+    awk -v id="$label" -v var="$variant" -v t="$best" -v w="$bestwall" '
         /num non-shadow rays/ {ns = $NF} /num shadow rays/ {sh = $NF}
         /total intersections/ {it = $NF} /total cells traversed/ {ce = $NF}
-        /num grid cells/ {g = $4}
         /grid auto:/ {auto = $3 "x" $5 "x" $7}
         END { r = ns + sh; if (r == 0) r = 1;
-              printf "%-5s %-22s %8.3fs %9d rays %9.2f int/ray %7.2f cells/ray %s\n",
-                     id, var, t, ns + sh, it / r, ce / r, auto }' "$TMP/stats.txt"
+              printf "%-5s %-24s cpu %7.2fs wall %7.2fs %8d rays %9.2f int/ray %6.2f cells/ray %s\n",
+                     id, var, t, w, ns + sh, it / r, ce / r, auto }' "$TMP/best.txt"
 }
 
 # Course lines with -grid, without -visualize_grid.
