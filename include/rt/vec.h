@@ -36,8 +36,12 @@ static inline Vec3 v3_lerp(Vec3 a, Vec3 b, float t) /* t*a + (1-t)*b: weight on 
     return v3_add(v3_scale(a, t), v3_scale(b, 1.0f - t));
 }
 static inline float v3_comp(Vec3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
-static inline Vec3 v3_min(Vec3 a, Vec3 b) { return v3(fminf(a.x, b.x), fminf(a.y, b.y), fminf(a.z, b.z)); }
-static inline Vec3 v3_max(Vec3 a, Vec3 b) { return v3(fmaxf(a.x, b.x), fmaxf(a.y, b.y), fmaxf(a.z, b.z)); }
+/* Plain compares, not fminf/fmaxf (libm calls without -ffast-math). NaN never reaches
+ * them: the parser rejects non-finite numbers. An empty box's +/-inf works as usual. */
+static inline float rt_minf(float a, float b) { return b < a ? b : a; }
+static inline float rt_maxf(float a, float b) { return b > a ? b : a; }
+static inline Vec3 v3_min(Vec3 a, Vec3 b) { return v3(rt_minf(a.x, b.x), rt_minf(a.y, b.y), rt_minf(a.z, b.z)); }
+static inline Vec3 v3_max(Vec3 a, Vec3 b) { return v3(rt_maxf(a.x, b.x), rt_maxf(a.y, b.y), rt_maxf(a.z, b.z)); }
 static inline bool v3_isfinite(Vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
 #endif
