@@ -175,7 +175,7 @@ static bool same_bytes(const char *a, const char *b)
 }
 
 /* Sanitizer builds run several times slower: there the 40k-triangle bunny's brute-force
- * twin (80 s optimised) is compared at 100x100 instead, still byte for byte. */
+ * twin (about 30 s optimised) is compared at 100x100 instead, still byte for byte. */
 static bool sanitized_binary(void) { return strstr(harness_bin(), "asan") != NULL; }
 
 static bool is_bunny(const char *id)
