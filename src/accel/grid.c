@@ -229,7 +229,7 @@ typedef struct DVec {
 
 static DVec dvec(Vec3 v)
 {
-    DVec d = {{v.x, v.y, v.z}};
+    DVec d = {{(double)v.x, (double)v.y, (double)v.z}};
     return d;
 }
 
@@ -238,7 +238,8 @@ static CellRange tight_range(const Grid *g, const double bmin[3], const double b
 {
     CellRange r;
     for (int a = 0; a < 3; a++) {
-        double mn = v3_comp(g->box.min, a), s = g->size[a], p = g->pad[a];
+        double mn = (double)v3_comp(g->box.min, a), s = (double)g->size[a],
+               p = (double)g->pad[a];
         double lo = ceil((bmin[a] - p - mn) / s) - 1.0, hi = floor((bmax[a] + p - mn) / s);
         int n = g->n[a];
         r.lo[a] = !(lo >= 0.0) ? 0 : lo >= n - 1 ? n - 1 : (int)lo;
@@ -254,7 +255,8 @@ static void cell_box(const Grid *g, const int c[3], const double bmin[3],
                      const double bmax[3], double lo[3], double hi[3])
 {
     for (int a = 0; a < 3; a++) {
-        double mn = v3_comp(g->box.min, a), s = g->size[a], p = g->pad[a];
+        double mn = (double)v3_comp(g->box.min, a), s = (double)g->size[a],
+               p = (double)g->pad[a];
         lo[a] = mn + c[a] * s - p;
         hi[a] = mn + (c[a] + 1) * s + p;
         if (c[a] == 0 && bmin[a] < lo[a])
@@ -339,7 +341,7 @@ static bool tight_sphere_cell(const GridBuildRec *rec, const double lo[3],
                               const double hi[3])
 {
     DVec c = dvec(rec->v[0]);
-    double r = rec->r;
+    double r = (double)rec->r;
     double eta = SURFACE_SLACK * (fabs(r) + fabs(c.x[0]) + fabs(c.x[1]) + fabs(c.x[2]));
     double dmin2 = 0.0, dmax2 = 0.0;
     for (int a = 0; a < 3; a++) {
@@ -361,7 +363,7 @@ static bool tight_sphere_xf_cell(const GridBuildRec *rec, const double lo[3],
 {
     const Mat4 *inv = &rec->gp->inv;
     DVec c = dvec(rec->v[0]);
-    double r = rec->r;
+    double r = (double)rec->r;
     double frob = 0.0;
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
@@ -375,7 +377,7 @@ static bool tight_sphere_xf_cell(const GridBuildRec *rec, const double lo[3],
     half = sqrt(half);
     double q[3], d2 = 0.0;
     for (int i = 0; i < 3; i++) {
-        q[i] = inv->m[i][3];
+        q[i] = (double)inv->m[i][3];
         for (int j = 0; j < 3; j++)
             q[i] += (double)inv->m[i][j] * mid[j];
         d2 += (q[i] - c.x[i]) * (q[i] - c.x[i]);
@@ -388,7 +390,7 @@ static bool tight_sphere_xf_cell(const GridBuildRec *rec, const double lo[3],
                        (corner & 4) ? hi[2] : lo[2]};
         double e2 = 0.0;
         for (int i = 0; i < 3; i++) {
-            double qi = inv->m[i][3];
+            double qi = (double)inv->m[i][3];
             for (int j = 0; j < 3; j++)
                 qi += (double)inv->m[i][j] * p[j];
             e2 += (qi - c.x[i]) * (qi - c.x[i]);
@@ -404,14 +406,14 @@ static void tight_bounds(const GridBuildRec *rec, double bmin[3], double bmax[3]
 {
     if (rec->kind == REC_TRIANGLE) {
         for (int a = 0; a < 3; a++) {
-            double x0 = v3_comp(rec->v[0], a), x1 = v3_comp(rec->v[1], a),
-                   x2 = v3_comp(rec->v[2], a);
+            double x0 = (double)v3_comp(rec->v[0], a), x1 = (double)v3_comp(rec->v[1], a),
+                   x2 = (double)v3_comp(rec->v[2], a);
             bmin[a] = min3(x0, x1, x2);
             bmax[a] = max3(x0, x1, x2);
         }
     } else if (rec->kind == REC_SPHERE) {
         for (int a = 0; a < 3; a++) {
-            double c = v3_comp(rec->v[0], a), r = fabs((double)rec->r);
+            double c = (double)v3_comp(rec->v[0], a), r = fabs((double)rec->r);
             bmin[a] = c - r;
             bmax[a] = c + r;
         }
@@ -420,7 +422,7 @@ static void tight_bounds(const GridBuildRec *rec, double bmin[3], double bmax[3]
         const Mat4 *m = &rec->gp->m;
         DVec c = dvec(rec->v[0]);
         for (int a = 0; a < 3; a++) {
-            double w = m->m[a][3], len = 0.0;
+            double w = (double)m->m[a][3], len = 0.0;
             for (int j = 0; j < 3; j++) {
                 w += (double)m->m[a][j] * c.x[j];
                 len += (double)m->m[a][j] * (double)m->m[a][j];
