@@ -22,6 +22,7 @@ struct GridBuildRec {
     RecKind kind;
     Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world vertices */
     float r;              /* sphere radius (object space) */
+    uint32_t ncells;      /* cells of its marching set (its run in Grid.pairs) */
 };
 
 /* ---- interning of transformation paths ---- */
@@ -452,15 +453,34 @@ static bool tight_cell(const GridBuildRec *rec, const double lo[3], const double
     return tight_sphere_xf_cell(rec, lo, hi);
 }
 
-/* Visits the cells of the marching set of rec: counts them into cell_start[c + 1]
- * (fill false) or appends entry index idx to each (fill true, cell_start[c] used as the
- * fill cursor). Returns the number of cells. */
-static uint64_t tight_insert(Grid *g, const GridBuildRec *rec, uint32_t idx, bool fill)
+/* Appends one cell index to the build's pair list (cells of each record, in record
+ * order); false when out of memory. */
+static bool push_pair(Grid *g, uint32_t cell)
+{
+    if (g->num_pairs == g->cap_pairs) {
+        size_t cap = g->cap_pairs ? 2 * g->cap_pairs : 1024;
+        uint32_t *p = realloc(g->pairs, cap * sizeof *p);
+        if (!p)
+            return false;
+        g->pairs = p;
+        g->cap_pairs = cap;
+    }
+    g->pairs[g->num_pairs++] = cell;
+    return true;
+}
+
+/* Finds the cells of the marching set of rec, counts them into cell_start[c + 1] and
+ * remembers them in g->pairs, so the fill pass needs no second round of tests. False
+ * when out of memory. */
+static bool tight_insert(Grid *g, GridBuildRec *rec)
 {
     double bmin[3], bmax[3];
     tight_bounds(rec, bmin, bmax);
     CellRange r = tight_range(g, bmin, bmax);
-    uint64_t count = 0;
+    /* A primitive whose padded box fits in one cell is in that cell: no test needed
+     * (the common case of small mesh triangles). */
+    bool single = r.lo[0] == r.hi[0] && r.lo[1] == r.hi[1] && r.lo[2] == r.hi[2];
+    rec->ncells = 0;
     int c[3];
     for (c[2] = r.lo[2]; c[2] <= r.hi[2]; c[2]++)
         for (c[1] = r.lo[1]; c[1] <= r.hi[1]; c[1]++)
@@ -470,20 +490,19 @@ static uint64_t tight_insert(Grid *g, const GridBuildRec *rec, uint32_t idx, boo
 #ifdef RT_GRID_AABB_ONLY
                 /* Analysis build (bench/grid_analysis.sh): every cell of the padded
                  * bounding box, to measure what the exact tests save. */
-                bool in = true || tight_cell(rec, lo, hi);
+                bool in = true || single || tight_cell(rec, lo, hi);
 #else
-                bool in = tight_cell(rec, lo, hi);
+                bool in = single || tight_cell(rec, lo, hi);
 #endif
                 if (!in)
                     continue;
                 uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);
-                if (fill)
-                    g->cell_items[g->cell_start[cell]++] = idx;
-                else
-                    g->cell_start[cell + 1]++;
-                count++;
+                if (!push_pair(g, cell))
+                    return false;
+                g->cell_start[cell + 1]++;
+                rec->ncells++;
             }
-    return count;
+    return true;
 }
 
 /* ---- build ---- */
@@ -493,6 +512,9 @@ static void free_build_state(Grid *g)
     free(g->recs);
     g->recs = NULL;
     g->num_recs = g->cap_recs = 0;
+    free(g->pairs);
+    g->pairs = NULL;
+    g->num_pairs = g->cap_pairs = 0;
 }
 
 void grid_free(Grid *g)
@@ -585,14 +607,14 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
     g->prims = malloc(((size_t)g->num_prims + 1) * sizeof *g->prims);
     if (!g->prims)
         goto oom;
-    uint64_t total = 0;
     for (uint32_t e = 0; e < g->num_recs; e++) {
-        const GridBuildRec *rec = &g->recs[e];
+        GridBuildRec *rec = &g->recs[e];
         g->prims[e].obj = rec->obj;
         g->prims[e].path = rec->gp ? &rec->gp->path : NULL;
         course_insert(g, rec);
-        total += tight_insert(g, rec, e, false);
-        if (total > UINT32_MAX - 1u) {
+        if (!tight_insert(g, rec))
+            goto oom;
+        if (g->num_pairs > UINT32_MAX - 1u) {
             diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",
                        nx, ny, nz);
             grid_free(g);
@@ -602,11 +624,13 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
     /* CSR: prefix sum of the counts, fill with cell_start[c] as cursor, then shift. */
     for (uint32_t c = 0; c < g->num_cells; c++)
         g->cell_start[c + 1] += g->cell_start[c];
-    g->cell_items = malloc(((size_t)total + 1) * sizeof *g->cell_items);
+    g->cell_items = malloc((g->num_pairs + 1) * sizeof *g->cell_items);
     if (!g->cell_items)
         goto oom;
+    size_t pos = 0;
     for (uint32_t e = 0; e < g->num_recs; e++)
-        tight_insert(g, &g->recs[e], e, true);
+        for (uint32_t k = 0; k < g->recs[e].ncells; k++)
+            g->cell_items[g->cell_start[g->pairs[pos++]]++] = e;
     for (uint32_t c = g->num_cells; c > 0; c--)
         g->cell_start[c] = g->cell_start[c - 1];
     g->cell_start[0] = 0;

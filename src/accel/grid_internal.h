@@ -50,6 +50,8 @@ struct Grid {
     GridBuildRec *recs;
     uint32_t num_recs, cap_recs;
     uint32_t cap_unbounded;
+    uint32_t *pairs;        /* cells of each record's marching set, in record order */
+    size_t num_pairs, cap_pairs;
     const GridPath *last_at_depth[RT_MAX_NESTING + 1];
     bool oom;
 };
