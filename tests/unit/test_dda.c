@@ -3,6 +3,7 @@
  * misses, negative directions, padding and the cells-traversed counter. */
 #include "rt/marching_info.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 #include "../harness.h"
@@ -269,6 +270,31 @@ static void test_counts_every_visited_cell(void)
     CHECK_INT(ctx.stats.cells_traversed, 9);
 }
 
+/* With a ray tree attached, every visited cell is recorded with its entered face; a
+ * march starting inside records no face for its first cell (the GUI's `g` modes). */
+static void test_records_cells_in_ray_tree(void)
+{
+    RenderCtx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.tree = calloc(1, sizeof *ctx.tree);
+    CHECK(ctx.tree != NULL);
+    if (!ctx.tree)
+        return;
+    ray_tree_clear(ctx.tree);
+    Seq s;
+    CHECK(run(&unit_box, four, 0.0f, v3(-1, 0.25f, 0.5f), v3(1, 0.5f, 0), 0.0f, &s, &ctx));
+    CHECK_INT(ctx.tree->num_cells, 6);
+    CHECK(ctx.tree->cells[1].i == 0 && ctx.tree->cells[1].j == 1 && ctx.tree->cells[1].k == 0);
+    check_normal(ctx.tree->cells[0].entered_normal, -1, 0, 0);
+    check_normal(ctx.tree->cells[1].entered_normal, 0, -1, 0);
+    ray_tree_clear(ctx.tree);
+    CHECK(run(&unit_box, four, 0.0f, v3(1.5f, 1.5f, 1.5f), v3(0, 0, 1), 0.0f, &s, &ctx));
+    CHECK_INT(ctx.tree->num_cells, 3);
+    check_normal(ctx.tree->cells[0].entered_normal, 0, 0, 0);
+    check_normal(ctx.tree->cells[1].entered_normal, 0, 0, -1);
+    free(ctx.tree);
+}
+
 /* The recomputed boundaries stay exact over a long march (no accumulated drift). */
 static void test_long_march_boundaries(void)
 {
@@ -305,6 +331,7 @@ static const TestCase tests[] = {
     {"non_cubic_cells", test_non_cubic_cells},
     {"counts_every_visited_cell", test_counts_every_visited_cell},
     {"long_march_boundaries", test_long_march_boundaries},
+    {"records_cells_in_ray_tree", test_records_cells_in_ray_tree},
 };
 
 RT_TEST_MAIN(tests)
