@@ -2,13 +2,17 @@
  * the procedural-material scenes 14, 17a, 18a, covered by the texture tests) renders the
  * byte-identical image without -grid and matches the official image; every
  * -visualize_grid line matches the official image; on the bunny scenes the grid cuts
- * intersections at least tenfold; -no_marking changes counts, never pixels. */
+ * intersections at least tenfold; -no_marking changes counts, never pixels; with marking
+ * no primitive is tested twice for one ray (renderer-level counters). */
 #define _POSIX_C_SOURCE 200809L
 #include "../harness.h"
 #include "e2e_util.h"
 
+#include "rt/grid.h"
 #include "rt/image.h"
 #include "rt/image_compare.h"
+#include "rt/render.h"
+#include "rt/scene.h"
 
 enum { REF_THRESHOLD = 8 };
 static const double REF_MIN_PERCENT = 99.5;
@@ -277,6 +281,65 @@ static void test_no_marking_same_image(void)
     e2e_rmtree(dir);
 }
 
+/* Through the library (the renderer's own loop, threads and per-thread mailboxes) on
+ * a course scene: with marking no primitive is tested twice for one ray
+ * (repeat_tests == 0); without it, exactly the skipped tests come back as repeats, the
+ * rays and cells stay the same, and so does the image. */
+static void check_marking_counters(const char *scene_name, int bounces, bool shadows,
+                                   int nx, int ny, int nz)
+{
+    const char *course = course_or_skip();
+    char path[PATH_MAX];
+    e2e_join(path, sizeof path, course, scene_name);
+    Diag diag;
+    diag_init(&diag, stderr);
+    Scene *scene = scene_load(path, &diag);
+    CHECK_MSG(scene != NULL, "%s", diag.last);
+    if (!scene)
+        return;
+    Grid *grid = grid_build(scene, nx, ny, nz, &diag);
+    CHECK(grid != NULL);
+    RtStats st[2];
+    Image img[2];
+    for (int pass = 0; pass < 2 && grid; pass++) {
+        grid_set_marking(grid, pass == 0);
+        RayTracer rt = {scene, grid, shadows, false, bounces, 0.01f, false};
+        CHECK(image_init(&img[pass], 64, 64));
+        RenderTarget target = {64, 64, &img[pass], NULL, 0.0f, 1.0f, NULL};
+        CHECK(render_image(&rt, &scene->camera, &target, 2, &st[pass], NULL, NULL, NULL));
+    }
+    if (grid) {
+        printf("\n    %s: marking on: %llu tests, %llu skipped, %llu repeats; off: %llu "
+               "tests, %llu repeats\n    ", scene_name,
+               (unsigned long long)st[0].intersections, (unsigned long long)st[0].mailbox_skips,
+               (unsigned long long)st[0].repeat_tests, (unsigned long long)st[1].intersections,
+               (unsigned long long)st[1].repeat_tests);
+        CHECK_INT(st[0].repeat_tests, 0);
+        CHECK_INT(st[1].mailbox_skips, 0);
+        CHECK(st[0].mailbox_skips > 0);
+        CHECK_INT(st[1].repeat_tests, st[0].mailbox_skips);
+        CHECK_INT(st[1].intersections, st[0].intersections + st[0].mailbox_skips);
+        CHECK_INT(st[0].nonshadow_rays, st[1].nonshadow_rays);
+        CHECK_INT(st[0].shadow_rays, st[1].shadow_rays);
+        CHECK_INT(st[0].cells_traversed, st[1].cells_traversed);
+        CHECK(memcmp(img[0].pixels, img[1].pixels, 64 * 64 * sizeof(Vec3)) == 0);
+        image_free(&img[0]);
+        image_free(&img[1]);
+    }
+    grid_free(grid);
+    scene_free(scene);
+}
+
+static void test_marking_counters_bunny(void)
+{
+    check_marking_counters("scene6_05_bunny_mesh_1k.txt", 0, true, 15, 15, 12);
+}
+
+static void test_marking_counters_mirror(void)
+{
+    check_marking_counters("scene6_11_mirrored_floor.txt", 1, true, 40, 10, 40);
+}
+
 #define GRID_LINE(id) static void test_grid_##id(void) { check_grid_line(#id); }
 #define VIS_LINE(id) static void test_vis_##id(void) { check_visualize_line(#id); }
 GRID_LINE(01b) GRID_LINE(02b) GRID_LINE(02d) GRID_LINE(03b) GRID_LINE(03d)
@@ -296,6 +359,8 @@ static const TestCase tests[] = {
     {"vis_10c", test_vis_10c},   {"vis_11c", test_vis_11c},   {"vis_12c", test_vis_12c},
     {"vis_17b", test_vis_17b},   {"vis_18b", test_vis_18b},
     {"no_marking_same_image", test_no_marking_same_image},
+    {"marking_counters_bunny", test_marking_counters_bunny},
+    {"marking_counters_mirror", test_marking_counters_mirror},
 };
 
 RT_TEST_MAIN(tests)
