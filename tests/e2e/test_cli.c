@@ -387,6 +387,18 @@ static void test_imgdiff_tool(void)
     CHECK_INT(r.status, 0);
     e2e_run_free(&r);
 
+    /* different sizes: a difference (1), not an error */
+    char small[PATH_MAX];
+    e2e_join(small, sizeof small, dir, "small.tga");
+    CHECK(image_init(&img, 4, 3));
+    CHECK(image_write(&img, small, &diag));
+    image_free(&img);
+    char *sizes[] = {bin, a, small, NULL};
+    CHECK(e2e_run(sizes, &r));
+    CHECK_INT(r.status, 1);
+    CHECK_CONTAINS(r.out, "size differs: 10x10 vs 4x3");
+    e2e_run_free(&r);
+
     char *unreadable[] = {bin, a, missing, NULL};
     CHECK(e2e_run(unreadable, &r));
     CHECK_INT(r.status, 2);
