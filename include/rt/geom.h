@@ -24,6 +24,29 @@ Vec3 plane_normal(const Object3D *plane);
 float plane_offset(const Object3D *plane);
 
 Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m);
+
+/* Moller-Trumbore ("Fast, Minimum Storage Ray/Triangle Intersection", 1997) on
+ * v0 and the edges e1 = v1 - v0, e2 = v2 - v0: the t of the ray's crossing of the
+ * closed triangle, false when it misses or is parallel. The one formula of
+ * Triangle::intersect and of the grid's packed triangles, so both give the same t. */
+static inline bool triangle_ray_t(Vec3 v0, Vec3 e1, Vec3 e2, const Ray *ray, float *t_out)
+{
+    Vec3 p = v3_cross(ray->dir, e2);
+    float det = v3_dot(e1, p);
+    if (det == 0.0f)
+        return false; /* parallel to the plane, or a degenerate triangle */
+    float inv = 1.0f / det;
+    Vec3 s = v3_sub(ray->origin, v0);
+    float u = v3_dot(s, p) * inv;
+    if (u < 0.0f || u > 1.0f)
+        return false;
+    Vec3 q = v3_cross(s, e1);
+    float v = v3_dot(ray->dir, q) * inv;
+    if (v < 0.0f || u + v > 1.0f)
+        return false;
+    *t_out = v3_dot(e2, q) * inv;
+    return true;
+}
 void triangle_vertices(const Object3D *tri, Vec3 out[3]);
 Vec3 triangle_normal(const Object3D *tri);  /* normalize((v1-v0) x (v2-v0)) */
 

@@ -46,6 +46,12 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
 bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
                               RenderCtx *ctx);
 
+/* Packed triangles (on by default): untransformed triangles are intersected inline from
+ * a packed copy instead of through their ops. Same hits either way; tests that count
+ * calls of the ops turn it off. */
+void grid_set_packing(Grid *g, bool on);
+bool grid_packing(const Grid *g);
+
 /* -grid auto: a resolution chosen from the scene (README.txt explains the rule). */
 void grid_choose_auto(const Scene *scene, int n[3]);
 

@@ -524,6 +524,7 @@ void grid_free(Grid *g)
     free_build_state(g);
     free(g->cell_start);
     free(g->cell_items);
+    grid_pack_free(g);
     free(g->course_count);
     free(g->prims);
     free(g->unbounded);
@@ -557,10 +558,14 @@ static void setup_geometry(Grid *g)
     g->box.max = v3(hi3[0], hi3[1], hi3[2]);
     for (int a = 0; a < 3; a++) {
         g->size[a] = (hi3[a] - lo3[a]) / (float)g->n[a];
-        /* Rounding margin: 0.1% of a cell plus a few float ulps of the coordinates.
-         * It only adds primitives lying within the margin of a cell's border. */
-        g->pad[a] = 1e-3f * g->size[a] + 1e-5f * mag;
+        /* Rounding margin: 1% of a cell plus a few float ulps of the coordinates.
+         * It only adds primitives lying within the margin of a cell's border. 1% (not
+         * less) keeps the march exact for ray origins up to ~100 box sizes away; rays
+         * from farther away are tested without the march (grid_cast.c). */
+        g->pad[a] = 1e-2f * g->size[a] + 1e-5f * mag;
     }
+    g->min_pad = fminf(g->pad[0], fminf(g->pad[1], g->pad[2]));
+    g->box_mag = mag;
 }
 
 Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
@@ -635,6 +640,9 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
         g->cell_start[c] = g->cell_start[c - 1];
     g->cell_start[0] = 0;
     free_build_state(g);
+    /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c). */
+    if (!grid_pack(g))
+        goto oom;
     return g;
 
 oom:

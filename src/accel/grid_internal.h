@@ -24,6 +24,12 @@ typedef struct GridPath {
 
 typedef struct GridBuildRec GridBuildRec;
 
+/* An untransformed triangle as the hot loop reads it (grid_pack.c). */
+typedef struct PackedTri {
+    Vec3 v0, e1, e2;
+    uint32_t id;            /* depth-first id; RT_NO_ID: this primitive is not packed */
+} PackedTri;
+
 struct Grid {
     BBox bounds;            /* the scene box as given (printed by -stats) */
     BBox box;               /* the box the cells tile: bounds, zero-thickness axes widened */
@@ -31,6 +37,8 @@ struct Grid {
     float size[3];          /* cell size per axis */
     float pad[3];           /* rounding margin (world units): cells are padded by it when
                                inserting for marching, and the march's slab test too */
+    float min_pad;          /* smallest pad[a] */
+    float box_mag;          /* largest |coordinate| of the box (march rounding bound) */
     uint32_t num_cells;
     uint32_t *cell_start;   /* num_cells + 1 offsets into cell_items (CSR) */
     uint32_t *cell_items;   /* indices into prims: the marching sets (tight insertion) */
@@ -41,6 +49,11 @@ struct Grid {
     GridPrim *unbounded;    /* planes: tested for every ray */
     uint32_t num_unbounded;
     bool marking;           /* mailboxing on (default; grid_set_marking) */
+
+    /* Hot-loop layout (grid_pack.c): cell_items entries with GRID_ITEM_TRI set are
+     * untransformed triangles whose edges are copied, packed, into tri[prim]. */
+    PackedTri *tri;
+    bool packing_off;       /* grid_set_packing(g, false): every entry via its ops */
 
     /* Interned paths (live as long as the grid). */
     GridPath **paths;
@@ -55,6 +68,14 @@ struct Grid {
     const GridPath *last_at_depth[RT_MAX_NESTING + 1];
     bool oom;
 };
+
+/* Tag bit on cell_items entries: the primitive is a packed triangle. */
+#define GRID_ITEM_TRI 0x80000000u
+#define GRID_ITEM_INDEX(e) ((e) & ~GRID_ITEM_TRI)
+
+/* Builds g->tri and tags the cell items (after the CSR fill); false when out of memory. */
+bool grid_pack(Grid *g);
+void grid_pack_free(Grid *g);
 
 static inline uint32_t grid_cell_index(const Grid *g, int i, int j, int k)
 {

@@ -14,19 +14,36 @@ static bool sphere_intersect(const Object3D *self, const Ray *ray, Hit *hit, flo
 {
     const Sphere *s = (const Sphere *)self;
     ctx->stats.intersections++;
+    /* a t^2 + 2 b t + c = 0 with b = d.oc. The textbook discriminant b^2 - a c cancels
+     * catastrophically for far origins (its error grows like eps |oc|^2: a ray from
+     * 4000 units away "hits" spheres it misses by units). Written as a (r^2 - |f|^2)
+     * with f = oc - (b/a) d, the offset of the closest approach, it stays accurate;
+     * the roots come from q = -(b + sign(b) sqrt(disc)) without cancellation either
+     * (Haines et al., "Precision Improvements for Ray/Sphere Intersection", Ray
+     * Tracing Gems, 2019). */
     Vec3 oc = v3_sub(ray->origin, s->center);
     float a = v3_dot(ray->dir, ray->dir);
-    float b = 2.0f * v3_dot(ray->dir, oc);
-    float c = v3_dot(oc, oc) - s->radius * s->radius;
-    float disc = b * b - 4.0f * a * c;
-    if (disc < 0.0f || a == 0.0f)
+    if (a == 0.0f)
         return false;
-    float sq = sqrtf(disc);
+    float b = v3_dot(ray->dir, oc);
+    Vec3 f = v3_sub(oc, v3_scale(ray->dir, b / a));
+    float r2 = s->radius * s->radius;
+    float disc = a * (r2 - v3_dot(f, f));
+    if (disc < 0.0f)
+        return false;
+    float c = v3_dot(oc, oc) - r2;
+    float q = -(b + copysignf(sqrtf(disc), b));
+    float t0 = q / a, t1 = q != 0.0f ? c / q : -t0;
+    if (t0 > t1) {
+        float tmp = t0;
+        t0 = t1;
+        t1 = tmp;
+    }
     /* The nearer root when it lies past tmin, else the farther one: a camera inside
      * the sphere sees its inside (A2 scene2_05). */
-    float t = (-b - sq) / (2.0f * a);
+    float t = t0;
     if (!(t > tmin))
-        t = (-b + sq) / (2.0f * a);
+        t = t1;
     if (!(t > tmin) || !hit_accepts(hit, t, self->id))
         return false;
     hit->t = t;

@@ -1,4 +1,4 @@
-/* Triangle (A2): Moller-Trumbore with precomputed edges; normal from the winding. */
+/* Triangle (A2): Moller-Trumbore (geom.h) with precomputed edges; normal from the winding. */
 #include "rt/geom.h"
 #include "rt/arena.h"
 #include "rt/grid.h"
@@ -15,20 +15,9 @@ static bool triangle_intersect(const Object3D *self, const Ray *ray, Hit *hit, f
 {
     const Triangle *tr = (const Triangle *)self;
     ctx->stats.intersections++;
-    Vec3 p = v3_cross(ray->dir, tr->e2);
-    float det = v3_dot(tr->e1, p);
-    if (det == 0.0f)
-        return false;   /* parallel to the plane, or a degenerate triangle */
-    float inv = 1.0f / det;
-    Vec3 s = v3_sub(ray->origin, tr->v0);
-    float u = v3_dot(s, p) * inv;
-    if (u < 0.0f || u > 1.0f)
+    float t;
+    if (!triangle_ray_t(tr->v0, tr->e1, tr->e2, ray, &t))
         return false;
-    Vec3 q = v3_cross(s, tr->e1);
-    float v = v3_dot(ray->dir, q) * inv;
-    if (v < 0.0f || u + v > 1.0f)
-        return false;
-    float t = v3_dot(tr->e2, q) * inv;
     if (!(t > tmin) || !hit_accepts(hit, t, self->id))
         return false;
     hit->t = t;

@@ -1,0 +1,61 @@
+/* The grid's hot-loop layout: untransformed triangles copied into one packed array
+ * (v0, edges, id: 40 bytes, no pointer chasing, no indirect call), and their cell
+ * entries tagged so grid_cast.c intersects them inline with triangle_ray_t, the same
+ * arithmetic as Triangle::intersect, hence the same hits to the bit. */
+#include "grid_internal.h"
+
+#include <stdlib.h>
+
+#include "rt/geom.h"
+
+bool grid_pack(Grid *g)
+{
+    g->tri = NULL;
+    /* The tag bit must stay free: beyond 2^31 primitives use the generic path. */
+    if (g->num_prims == 0 || g->num_prims >= GRID_ITEM_TRI)
+        return true;
+    g->tri = malloc((size_t)g->num_prims * sizeof *g->tri);
+    if (!g->tri)
+        return false;
+    for (uint32_t p = 0; p < g->num_prims; p++) {
+        const GridPrim *gp = &g->prims[p];
+        PackedTri *pt = &g->tri[p];
+        if (gp->path || obj_kind(gp->obj) != OBJ_TRIANGLE) {
+            pt->id = RT_NO_ID; /* not packed */
+            continue;
+        }
+        Vec3 v[3];
+        triangle_vertices(gp->obj, v);
+        /* The same subtractions as triangle_new: bit-identical edges. */
+        pt->v0 = v[0];
+        pt->e1 = v3_sub(v[1], v[0]);
+        pt->e2 = v3_sub(v[2], v[0]);
+        pt->id = gp->obj->id;
+    }
+    size_t n = g->cell_start[g->num_cells];
+    for (size_t e = 0; e < n; e++)
+        if (g->tri[g->cell_items[e]].id != RT_NO_ID)
+            g->cell_items[e] |= GRID_ITEM_TRI;
+    return true;
+}
+
+void grid_set_packing(Grid *g, bool on)
+{
+    if (!g->tri)
+        return;
+    size_t n = g->cell_start[g->num_cells];
+    for (size_t e = 0; e < n; e++) {
+        uint32_t p = GRID_ITEM_INDEX(g->cell_items[e]);
+        bool packable = g->tri[p].id != RT_NO_ID;
+        g->cell_items[e] = (on && packable) ? (p | GRID_ITEM_TRI) : p;
+    }
+    g->packing_off = !on;
+}
+
+bool grid_packing(const Grid *g) { return g->tri && !g->packing_off; }
+
+void grid_pack_free(Grid *g)
+{
+    free(g->tri);
+    g->tri = NULL;
+}
