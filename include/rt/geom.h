@@ -24,6 +24,12 @@ Vec3 plane_normal(const Object3D *plane);
 float plane_offset(const Object3D *plane);
 
 Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m);
+/* A TriangleMesh: a Group of n Triangles (verts[faces[i][0..2]], material m), the same
+ * objects and box as triangle_new per face, group_set_child in face order and
+ * group_finish, with all triangles in one arena block. Every index in faces must be a
+ * valid index into verts. NULL when out of memory. */
+Object3D *triangle_mesh_new(Arena *a, const Vec3 *verts, const int (*faces)[3], int n,
+                            const Material *m);
 
 /* Moller-Trumbore ("Fast, Minimum Storage Ray/Triangle Intersection", 1997) on
  * v0 and the edges e1 = v1 - v0, e2 = v2 - v0: the t of the ray's crossing of the
@@ -31,21 +37,19 @@ Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m);
  * Triangle::intersect and of the grid's packed triangles, so both give the same t. */
 static inline bool triangle_ray_t(Vec3 v0, Vec3 e1, Vec3 e2, const Ray *ray, float *t_out)
 {
+    /* Everything is computed, then the tests are combined without branches: the
+     * outcome of u, v tests is close to random over a cell's triangles, so branches on
+     * them mispredict. A zero det (parallel ray or degenerate triangle) makes u, v
+     * infinite or NaN, which every comparison below rejects. */
     Vec3 p = v3_cross(ray->dir, e2);
     float det = v3_dot(e1, p);
-    if (det == 0.0f)
-        return false; /* parallel to the plane, or a degenerate triangle */
     float inv = 1.0f / det;
     Vec3 s = v3_sub(ray->origin, v0);
     float u = v3_dot(s, p) * inv;
-    if (u < 0.0f || u > 1.0f)
-        return false;
     Vec3 q = v3_cross(s, e1);
     float v = v3_dot(ray->dir, q) * inv;
-    if (v < 0.0f || u + v > 1.0f)
-        return false;
     *t_out = v3_dot(e2, q) * inv;
-    return true;
+    return (det != 0.0f) & (u >= 0.0f) & (u <= 1.0f) & (v >= 0.0f) & (u + v <= 1.0f);
 }
 void triangle_vertices(const Object3D *tri, Vec3 out[3]);
 Vec3 triangle_normal(const Object3D *tri);  /* normalize((v1-v0) x (v2-v0)) */

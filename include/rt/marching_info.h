@@ -7,6 +7,7 @@
 #include <stdbool.h>
 #include "rt/bbox.h"
 #include "rt/ray.h"
+#include "rt/ray_tree.h"
 #include "rt/render_ctx.h"
 
 typedef struct MarchingInfo {
@@ -37,10 +38,58 @@ typedef struct MarchingInfo {
 bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],
                 const Ray *ray, float tmin, RenderCtx *ctx);
 
+/* Internal helpers of march_init/march_next (inline: the march is the hot loop). */
+static inline Vec3 march_axis_normal(int axis, int sign)
+{
+    Vec3 n = {0.0f, 0.0f, 0.0f};
+    float s = (float)sign;
+    if (axis == 0)
+        n.x = s;
+    else if (axis == 1)
+        n.y = s;
+    else
+        n.z = s;
+    return n;
+}
+
+/* Counts the current cell (A6: one "cell traversed" per visited cell, the first one
+ * included) and records it for the GUI's ray tree. */
+static inline void march_enter_cell(const MarchingInfo *mi, RenderCtx *ctx)
+{
+    if (!ctx)
+        return;
+    ctx->stats.cells_traversed++;
+    if (ctx->tree) {
+        Vec3 zero = {0.0f, 0.0f, 0.0f};
+        ray_tree_add_cell(ctx->tree, mi->cell[0], mi->cell[1], mi->cell[2],
+                          mi->started_inside ? zero : mi->normal);
+    }
+}
+
 /* Moves to the next cell along the ray (the axis with the smallest t_next; ties go to
  * x, then y, then z). Returns false when the ray leaves the grid. A cell entered is
  * counted and recorded like the first one (every visited cell counts once; stats.md 4). */
-bool march_next(MarchingInfo *mi, RenderCtx *ctx);
+static inline bool march_next(MarchingInfo *mi, RenderCtx *ctx)
+{
+    int a = 0;
+    if (mi->t_next[1] < mi->t_next[a])
+        a = 1;
+    if (mi->t_next[2] < mi->t_next[a])
+        a = 2;
+    if (!(mi->t_next[a] < INFINITY))
+        return false; /* parallel to every remaining axis: nothing more to cross */
+    int c = mi->cell[a] + mi->step[a];
+    if (c < 0 || c >= mi->n[a])
+        return false;
+    mi->cell[a] = c;
+    mi->t = mi->t_next[a];
+    int k = mi->step[a] > 0 ? c + 1 : c;
+    mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
+    mi->normal = march_axis_normal(a, -mi->step[a]);
+    mi->started_inside = false;
+    march_enter_cell(mi, ctx);
+    return true;
+}
 
 /* t at which the ray leaves the current cell. */
 static inline float march_exit_t(const MarchingInfo *mi)

@@ -18,7 +18,7 @@ static inline bool test_prim(const GridPrim *p, const Ray *ray, Hit *hit, float 
 
 /* Cell entry e: a packed triangle inline (grid_pack.c), anything else through its ops.
  * Both do exactly what Triangle::intersect does, so the hit is the same to the bit. */
-static inline bool test_entry(const Grid *g, uint32_t e, const Ray *ray, Hit *hit, float tmin,
+static inline __attribute__((always_inline)) bool test_entry(const Grid *g, uint32_t e, const Ray *ray, Hit *hit, float tmin,
                               RenderCtx *ctx)
 {
     uint32_t p = GRID_ITEM_INDEX(e);

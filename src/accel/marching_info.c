@@ -2,33 +2,6 @@
  * (semantics.md 7.3). Used by RayCastFast, the shadow query and -visualize_grid. */
 #include "rt/marching_info.h"
 
-static Vec3 axis_normal(int axis, int sign)
-{
-    Vec3 n = {0.0f, 0.0f, 0.0f};
-    float s = (float)sign;
-    if (axis == 0)
-        n.x = s;
-    else if (axis == 1)
-        n.y = s;
-    else
-        n.z = s;
-    return n;
-}
-
-/* Counts the current cell (A6: one "cell traversed" per visited cell, the first one
- * included) and records it for the GUI's ray tree. */
-static inline void enter_cell(const MarchingInfo *mi, RenderCtx *ctx)
-{
-    if (!ctx)
-        return;
-    ctx->stats.cells_traversed++;
-    if (ctx->tree) {
-        Vec3 zero = {0.0f, 0.0f, 0.0f};
-        ray_tree_add_cell(ctx->tree, mi->cell[0], mi->cell[1], mi->cell[2],
-                          mi->started_inside ? zero : mi->normal);
-    }
-}
-
 /* Cell index of coordinate x on an axis, clamped to [0, n-1] in float first so a far or
  * NaN coordinate cannot overflow the int conversion. */
 static int cell_of(float x, float lo, float inv_size, int n)
@@ -114,32 +87,10 @@ bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float p
             a = 1;
         if (fabsf(d[2]) > fabsf(d[a]))
             a = 2;
-        mi->normal = axis_normal(a, -mi->step[a]);
+        mi->normal = march_axis_normal(a, -mi->step[a]);
     } else {
-        mi->normal = axis_normal(enter_axis, -mi->step[enter_axis]);
+        mi->normal = march_axis_normal(enter_axis, -mi->step[enter_axis]);
     }
-    enter_cell(mi, ctx);
-    return true;
-}
-
-bool march_next(MarchingInfo *mi, RenderCtx *ctx)
-{
-    int a = 0;
-    if (mi->t_next[1] < mi->t_next[a])
-        a = 1;
-    if (mi->t_next[2] < mi->t_next[a])
-        a = 2;
-    if (!(mi->t_next[a] < INFINITY))
-        return false; /* parallel to every remaining axis: nothing more to cross */
-    int c = mi->cell[a] + mi->step[a];
-    if (c < 0 || c >= mi->n[a])
-        return false;
-    mi->cell[a] = c;
-    mi->t = mi->t_next[a];
-    int k = mi->step[a] > 0 ? c + 1 : c;
-    mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
-    mi->normal = axis_normal(a, -mi->step[a]);
-    mi->started_inside = false;
-    enter_cell(mi, ctx);
+    march_enter_cell(mi, ctx);
     return true;
 }
