@@ -3,11 +3,7 @@
 #include "rt/arena.h"
 #include "rt/grid.h"
 
-typedef struct Group {
-    Object3D base;
-    int count;
-    Object3D **children;
-} Group;
+#include "group_internal.h"
 
 static bool group_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
                             RenderCtx *ctx)

@@ -3,12 +3,7 @@
 #include "rt/arena.h"
 #include "rt/grid.h"
 
-typedef struct Triangle {
-    Object3D base;
-    Vec3 v0, e1, e2;   /* v1 = v0 + e1, v2 = v0 + e2 */
-    Vec3 normal;       /* normalize(e1 x e2) */
-    Vec3 v1, v2;
-} Triangle;
+#include "triangle_internal.h"
 
 static bool triangle_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
                                RenderCtx *ctx)
@@ -32,8 +27,8 @@ static void triangle_insert(const Object3D *self, Grid *grid, XformPath *path)
     grid_insert_triangle(grid, self, path);
 }
 
-static const Object3DOps triangle_ops = {"Triangle", OBJ_TRIANGLE, triangle_intersect,
-                                         triangle_insert};
+const Object3DOps triangle_ops = {"Triangle", OBJ_TRIANGLE, triangle_intersect,
+                                  triangle_insert};
 
 Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m)
 {

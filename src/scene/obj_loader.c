@@ -398,17 +398,5 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
 
 Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m)
 {
-    Object3D *g = group_new(a, mesh->ntris);
-    if (!g)
-        return NULL;
-    const Vec3 *v = mesh->verts;
-    for (int i = 0; i < mesh->ntris; i++) {
-        const int *t = mesh->tris[i];
-        Object3D *tri = triangle_new(a, v[t[0]], v[t[1]], v[t[2]], m);
-        if (!tri)
-            return NULL;
-        group_set_child(g, i, tri);
-    }
-    group_finish(g);
-    return g;
+    return triangle_mesh_new(a, mesh->verts, (const int(*)[3])mesh->tris, mesh->ntris, m);
 }

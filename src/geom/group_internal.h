@@ -1,0 +1,14 @@
+/* Private to src/geom: the Group layout, shared by group.c and mesh.c (which fills a
+ * mesh's Group and its box in the pass that builds the triangles). */
+#ifndef RT_GEOM_GROUP_INTERNAL_H
+#define RT_GEOM_GROUP_INTERNAL_H
+
+#include "rt/object3d.h"
+
+typedef struct Group {
+    Object3D base;
+    int count;
+    Object3D **children;
+} Group;
+
+#endif
