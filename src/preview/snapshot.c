@@ -9,6 +9,7 @@
 #include "draw.h"
 #include "rt/render.h"
 #include "view.h"
+#include "dynload.h"
 
 bool preview_snapshot_built(void) { return true; }
 
@@ -107,6 +108,10 @@ int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
     KeyScript script;
     if (!preview_keys_parse(cfg->keys, &script, diag))
         return 2;
+    if (!preview_load_osmesa_libs(diag)) {
+        preview_keys_free(&script);
+        return 1;
+    }
     Snapshot s;
     memset(&s, 0, sizeof s);
     s.cfg = cfg;

@@ -15,6 +15,7 @@
 #include "draw.h"
 #include "rt/render.h"
 #include "view.h"
+#include "dynload.h"
 
 bool preview_window_built(void) { return true; }
 
@@ -347,6 +348,10 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     /* A bad script is a usage error (2), reported before the display is looked at. */
     if (!preview_keys_parse(cfg->keys, &W.script, diag))
         return 2;
+    if (!preview_load_window_libs(diag)) {
+        preview_keys_free(&W.script);
+        return 1;
+    }
     Display *probe = display_open(diag);
     if (!probe) {
         preview_keys_free(&W.script);
