@@ -8,9 +8,47 @@
 
 #include "rt/geom.h"
 
+/* Renumbers the primitives in the order the cells first mention them, so the packed
+ * triangles (and the mailbox stamps) a cell's entries point to lie next to each other
+ * in memory instead of in scene order. Hits do not depend on the numbering: ties are
+ * broken by the depth-first id, not by this index. */
+static bool reorder_prims(Grid *g)
+{
+    uint32_t n = g->num_prims;
+    uint32_t *newix = malloc((size_t)n * sizeof *newix);
+    GridPrim *prims = malloc(((size_t)n + 1) * sizeof *prims);
+    if (!newix || !prims) {
+        free(newix);
+        free(prims);
+        return false;
+    }
+    for (uint32_t p = 0; p < n; p++)
+        newix[p] = UINT32_MAX;
+    uint32_t next = 0;
+    size_t m = g->cell_start[g->num_cells];
+    for (size_t e = 0; e < m; e++) {
+        uint32_t p = g->cell_items[e];
+        if (newix[p] == UINT32_MAX) {
+            newix[p] = next;
+            prims[next++] = g->prims[p];
+        }
+        g->cell_items[e] = newix[p];
+    }
+    /* Primitives in no cell (possible after tight insertion) keep a slot at the end. */
+    for (uint32_t p = 0; p < n; p++)
+        if (newix[p] == UINT32_MAX)
+            prims[next++] = g->prims[p];
+    free(g->prims);
+    g->prims = prims;
+    free(newix);
+    return true;
+}
+
 bool grid_pack(Grid *g)
 {
     g->tri = NULL;
+    if (g->num_prims && !reorder_prims(g))
+        return false;
     /* The tag bit must stay free: beyond 2^31 primitives use the generic path. */
     if (g->num_prims == 0 || g->num_prims >= GRID_ITEM_TRI)
         return true;
