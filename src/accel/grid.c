@@ -15,14 +15,15 @@
 
 typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE } RecKind;
 
-/* A primitive reached by the walk, with what its insertion needs in world space. */
+/* A primitive reached by the walk, with what its insertion needs in world space. It
+ * lives on the stack of grid_insert_*: each primitive is binned as the walk reaches it,
+ * so no array of records is kept. */
 struct GridBuildRec {
     const Object3D *obj;
     const GridPath *gp;   /* NULL: no Transform above it */
     RecKind kind;
     Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world vertices */
     float r;              /* sphere radius (object space) */
-    uint32_t ncells;      /* cells of its marching set (its run in Grid.pairs) */
 };
 
 /* ---- interning of transformation paths ---- */
@@ -74,62 +75,53 @@ static const GridPath *intern_path(Grid *g, const XformPath *path)
     return gp;
 }
 
-static GridBuildRec *new_rec(Grid *g)
-{
-    if (g->oom || !g->cell_start)
-        return NULL; /* called outside grid_build, or after a failure */
-    if (g->num_recs == g->cap_recs) {
-        uint32_t cap = g->cap_recs ? 2 * g->cap_recs : 256;
-        if (cap < g->cap_recs || cap > UINT32_MAX / 2) {
-            g->oom = true;
-            return NULL;
-        }
-        GridBuildRec *r = realloc(g->recs, (size_t)cap * sizeof *r);
-        if (!r) {
-            g->oom = true;
-            return NULL;
-        }
-        g->recs = r;
-        g->cap_recs = cap;
-    }
-    GridBuildRec *rec = &g->recs[g->num_recs++];
-    memset(rec, 0, sizeof *rec);
-    return rec;
-}
+static bool insert_rec(Grid *g, const GridBuildRec *rec);
+
+/* Whether the insertion API may run: only inside grid_build (prim_ncells is build-time
+ * state) and before any failure. */
+static bool building(const Grid *g) { return !g->oom && !g->too_many && g->prim_ncells; }
 
 /* ---- insertion API called by the leaves' insert_into_grid ops ---- */
 
 void grid_insert_sphere(Grid *g, const Object3D *sphere, const XformPath *path)
 {
-    const GridPath *gp = intern_path(g, path);
-    GridBuildRec *rec = new_rec(g);
-    if (!rec)
+    if (!building(g))
         return;
-    rec->obj = sphere;
-    rec->gp = gp;
-    rec->kind = gp ? REC_SPHERE_XF : REC_SPHERE;
-    rec->v[0] = sphere_center(sphere);
-    rec->r = sphere_radius(sphere);
+    const GridPath *gp = intern_path(g, path);
+    if (g->oom)
+        return;
+    GridBuildRec rec;
+    memset(&rec, 0, sizeof rec);
+    rec.obj = sphere;
+    rec.gp = gp;
+    rec.kind = gp ? REC_SPHERE_XF : REC_SPHERE;
+    rec.v[0] = sphere_center(sphere);
+    rec.r = sphere_radius(sphere);
+    insert_rec(g, &rec);
 }
 
 void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path)
 {
-    const GridPath *gp = intern_path(g, path);
-    GridBuildRec *rec = new_rec(g);
-    if (!rec)
+    if (!building(g))
         return;
-    rec->obj = tri;
-    rec->gp = gp;
-    rec->kind = REC_TRIANGLE;
-    triangle_vertices(tri, rec->v);
+    const GridPath *gp = intern_path(g, path);
+    if (g->oom)
+        return;
+    GridBuildRec rec;
+    rec.obj = tri;
+    rec.gp = gp;
+    rec.kind = REC_TRIANGLE;
+    rec.r = 0.0f;
+    triangle_vertices(tri, rec.v);
     if (gp)
         for (int i = 0; i < 3; i++)
-            rec->v[i] = mat4_point(&gp->m, rec->v[i]);
+            rec.v[i] = mat4_point(&gp->m, rec.v[i]);
+    insert_rec(g, &rec);
 }
 
 void grid_insert_unbounded(Grid *g, const Object3D *prim, const XformPath *path)
 {
-    if (g->oom || !g->cell_start)
+    if (!building(g))
         return;
     const GridPath *gp = intern_path(g, path);
     if (g->oom)
@@ -155,13 +147,48 @@ typedef struct CellRange {
     int lo[3], hi[3];
 } CellRange;
 
-static int clamp_cell(float f, int n)
+/* The cell ranges below are ceil(y) - 1 and floor(z), clamped to [0, n-1], where NaN
+ * and everything below 0 give 0. Written with compares and one conversion instead of
+ * ceil/floor (libm calls without SSE4.1), with the same result for every input:
+ * ceil(y) - 1 >= 0 iff y > 0, ceil(y) - 1 >= n - 1 iff y > n - 1, floor(z) >= 0 iff
+ * z >= 0, floor(z) >= n - 1 iff z >= n - 1; in between, y and z are small positive
+ * numbers whose conversion truncates exactly. n <= 2^24, so n - 1 is exact in float. */
+static inline int range_lo_f(float y, int n)
 {
-    if (!(f >= 0.0f))
+    if (!(y > 0.0f))
         return 0;
-    if (f >= (float)(n - 1))
+    if (y > (float)(n - 1))
         return n - 1;
-    return (int)f;
+    int i = (int)y;
+    return (float)i < y ? i : i - 1;
+}
+
+static inline int range_hi_f(float z, int n)
+{
+    if (!(z >= 0.0f))
+        return 0;
+    if (z >= (float)(n - 1))
+        return n - 1;
+    return (int)z;
+}
+
+static inline int range_lo_d(double y, int n)
+{
+    if (!(y > 0.0))
+        return 0;
+    if (y > (double)(n - 1))
+        return n - 1;
+    int i = (int)y;
+    return (double)i < y ? i : i - 1;
+}
+
+static inline int range_hi_d(double z, int n)
+{
+    if (!(z >= 0.0))
+        return 0;
+    if (z >= (double)(n - 1))
+        return n - 1;
+    return (int)z;
 }
 
 /* Box rule: every cell whose closed box meets the closed box [bmin, bmax], touching
@@ -175,8 +202,8 @@ static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax)
     CellRange r;
     for (int a = 0; a < 3; a++) {
         float mn = v3_comp(g->box.min, a), s = g->size[a];
-        r.lo[a] = clamp_cell(ceilf((v3_comp(bmin, a) - mn) / s - 1e-4f) - 1.0f, g->n[a]);
-        r.hi[a] = clamp_cell(floorf((v3_comp(bmax, a) - mn) / s + 1e-4f), g->n[a]);
+        r.lo[a] = range_lo_f((v3_comp(bmin, a) - mn) / s - 1e-4f, g->n[a]);
+        r.hi[a] = range_hi_f((v3_comp(bmax, a) - mn) / s + 1e-4f, g->n[a]);
     }
     return r;
 }
@@ -241,10 +268,8 @@ static CellRange tight_range(const Grid *g, const double bmin[3], const double b
     for (int a = 0; a < 3; a++) {
         double mn = (double)v3_comp(g->box.min, a), s = (double)g->size[a],
                p = (double)g->pad[a];
-        double lo = ceil((bmin[a] - p - mn) / s) - 1.0, hi = floor((bmax[a] + p - mn) / s);
-        int n = g->n[a];
-        r.lo[a] = !(lo >= 0.0) ? 0 : lo >= n - 1 ? n - 1 : (int)lo;
-        r.hi[a] = !(hi >= 0.0) ? 0 : hi >= n - 1 ? n - 1 : (int)hi;
+        r.lo[a] = range_lo_d((bmin[a] - p - mn) / s, g->n[a]);
+        r.hi[a] = range_hi_d((bmax[a] + p - mn) / s, g->n[a]);
     }
     return r;
 }
@@ -453,34 +478,184 @@ static bool tight_cell(const GridBuildRec *rec, const double lo[3], const double
     return tight_sphere_xf_cell(rec, lo, hi);
 }
 
-/* Appends one cell index to the build's pair list (cells of each record, in record
- * order); false when out of memory. */
+/* Appends one cell index to the build's pair list (cells of each primitive, in walk
+ * order); false when out of memory or when the entries would overflow a uint32_t. */
 static bool push_pair(Grid *g, uint32_t cell)
 {
     if (g->num_pairs == g->cap_pairs) {
+        if (g->num_pairs >= UINT32_MAX - 1u) {
+            g->too_many = true;
+            return false;
+        }
         size_t cap = g->cap_pairs ? 2 * g->cap_pairs : 1024;
         uint32_t *p = realloc(g->pairs, cap * sizeof *p);
-        if (!p)
+        if (!p) {
+            g->oom = true;
             return false;
+        }
         g->pairs = p;
         g->cap_pairs = cap;
     }
+    if (g->num_pairs >= UINT32_MAX - 1u) {
+        g->too_many = true;
+        return false;
+    }
     g->pairs[g->num_pairs++] = cell;
+    g->cell_start[cell + 1]++;
+    return true;
+}
+
+/* ---- the triangle fast path of the marching sets ---- */
+
+/* Per axis a and cell c, CELL_AXIS_STRIDE doubles of cell_box's padded bounds without
+ * the border stretch: lo, hi, their centre, half size, and the half size shrunk by a
+ * relative 2^-30 (the "vertex well inside" bound of tri_cell_overlap). */
+enum { CA_LO, CA_HI, CA_MID, CA_H, CA_HIN, CELL_AXIS_STRIDE };
+#define INSIDE_SHRINK (1.0 - 0x1p-30)
+
+static bool setup_cell_axis(Grid *g)
+{
+    size_t n = (size_t)g->n[0] + (size_t)g->n[1] + (size_t)g->n[2];
+    g->cell_axis = malloc(n * CELL_AXIS_STRIDE * sizeof *g->cell_axis);
+    if (!g->cell_axis)
+        return false;
+    double *e = g->cell_axis;
+    for (int a = 0; a < 3; a++) {
+        double mn = (double)v3_comp(g->box.min, a), s = (double)g->size[a],
+               p = (double)g->pad[a];
+        for (int c = 0; c < g->n[a]; c++, e += CELL_AXIS_STRIDE) {
+            /* cell_box's and tight_cell's expressions, operation for operation. */
+            e[CA_LO] = mn + c * s - p;
+            e[CA_HI] = mn + (c + 1) * s + p;
+            e[CA_MID] = 0.5 * (e[CA_LO] + e[CA_HI]);
+            e[CA_H] = 0.5 * (e[CA_HI] - e[CA_LO]);
+            e[CA_HIN] = e[CA_H] * INSIDE_SHRINK;
+        }
+    }
+    return true;
+}
+
+/* Centre, half size and shrunk half size of cell c on axis a, as cell_box + tight_cell
+ * compute them for a triangle with box [bmin, bmax] (border cells stretched). */
+static inline void cell_axis(const Grid *g, int a, int c, double bmin, double bmax,
+                             double out[3])
+{
+    size_t off = a == 0 ? 0 : a == 1 ? (size_t)g->n[0] : (size_t)g->n[0] + (size_t)g->n[1];
+    const double *e = &g->cell_axis[(off + (size_t)c) * CELL_AXIS_STRIDE];
+    double lo = e[CA_LO], hi = e[CA_HI];
+    bool stretch = false;
+    if (c == 0 && bmin < lo) {
+        lo = bmin;
+        stretch = true;
+    }
+    if (c == g->n[a] - 1 && bmax > hi) {
+        hi = bmax;
+        stretch = true;
+    }
+    if (!stretch) {
+        out[0] = e[CA_MID];
+        out[1] = e[CA_H];
+        out[2] = e[CA_HIN];
+        return;
+    }
+    out[0] = 0.5 * (lo + hi);
+    out[1] = 0.5 * (hi - lo);
+    out[2] = out[1] * INSIDE_SHRINK;
+}
+
+/* tri_box_overlap(v, h), the same answer for every input, cheaper when a vertex lies
+ * well inside the box (the common case: a small triangle straddling a cell border has
+ * a vertex in most of its cells). Why it is the same: with |v_k[a]| <= (1 - d) h[a],
+ * d = 2^-30, vertex k alone keeps every box axis and every edge axis from separating,
+ * in floating point: its projection on an edge axis is ez*vy - ey*vz (and the like),
+ * at most (1 - d) times the exact radius h1|ez| + h2|ey| in size, and the rounding of
+ * the projection and of the radius is a few 2^-53 of that radius, far below d. The
+ * normal axis projects v0 only, so the same bound covers it when k = 0; for k = 1, 2
+ * the computed normal is tested as tri_box_overlap does. */
+static bool tri_cell_overlap(double v[3][3], const double h[3], const double hin[3])
+{
+    bool in0 = fabs(v[0][0]) <= hin[0] && fabs(v[0][1]) <= hin[1] && fabs(v[0][2]) <= hin[2];
+    if (in0)
+        return true;
+    bool in12 = (fabs(v[1][0]) <= hin[0] && fabs(v[1][1]) <= hin[1] && fabs(v[1][2]) <= hin[2]) ||
+                (fabs(v[2][0]) <= hin[0] && fabs(v[2][1]) <= hin[1] && fabs(v[2][2]) <= hin[2]);
+    if (!in12)
+        return tri_box_overlap(v, h);
+    /* tri_box_overlap's normal test, operation for operation. */
+    double e0[3], e1[3], nrm[3];
+    for (int a = 0; a < 3; a++) {
+        e0[a] = v[1][a] - v[0][a];
+        e1[a] = v[2][a] - v[1][a];
+    }
+    cross3(e0, e1, nrm);
+    double rad = h[0] * fabs(nrm[0]) + h[1] * fabs(nrm[1]) + h[2] * fabs(nrm[2]);
+    return !(fabs(dot3(nrm, v[0])) > rad);
+}
+
+/* tight_insert for a triangle (rec->v, world space): the same cells in the same order,
+ * with the per-cell bounds from the tables and the vertex-inside shortcut. */
+static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *ncells)
+{
+    double P[3][3], bmin[3], bmax[3];
+    for (int k = 0; k < 3; k++)
+        for (int a = 0; a < 3; a++)
+            P[k][a] = (double)v3_comp(rec->v[k], a);
+    for (int a = 0; a < 3; a++) {
+        bmin[a] = min3(P[0][a], P[1][a], P[2][a]);
+        bmax[a] = max3(P[0][a], P[1][a], P[2][a]);
+    }
+    CellRange r = tight_range(g, bmin, bmax);
+    uint32_t count = 0;
+    if (r.lo[0] == r.hi[0] && r.lo[1] == r.hi[1] && r.lo[2] == r.hi[2]) {
+        /* Its padded box fits in one cell: it is in that cell, no test needed. */
+        if (!push_pair(g, grid_cell_index(g, r.lo[0], r.lo[1], r.lo[2])))
+            return false;
+        *ncells = 1;
+        return true;
+    }
+    double v[3][3], ax[3][3], h[3], hin[3];
+    for (int k2 = r.lo[2]; k2 <= r.hi[2]; k2++) {
+        cell_axis(g, 2, k2, bmin[2], bmax[2], ax[2]);
+        for (int j = r.lo[1]; j <= r.hi[1]; j++) {
+            cell_axis(g, 1, j, bmin[1], bmax[1], ax[1]);
+            for (int i = r.lo[0]; i <= r.hi[0]; i++) {
+                cell_axis(g, 0, i, bmin[0], bmax[0], ax[0]);
+                for (int a = 0; a < 3; a++) {
+                    h[a] = ax[a][1];
+                    hin[a] = ax[a][2];
+                    for (int k = 0; k < 3; k++)
+                        v[k][a] = P[k][a] - ax[a][0];
+                }
+#ifdef RT_GRID_AABB_ONLY
+                bool in = true; /* analysis build: see tight_insert */
+#else
+                bool in = tri_cell_overlap(v, h, hin);
+#endif
+                if (!in)
+                    continue;
+                if (!push_pair(g, grid_cell_index(g, i, j, k2)))
+                    return false;
+                count++;
+            }
+        }
+    }
+    *ncells = count;
     return true;
 }
 
 /* Finds the cells of the marching set of rec, counts them into cell_start[c + 1] and
  * remembers them in g->pairs, so the fill pass needs no second round of tests. False
- * when out of memory. */
-static bool tight_insert(Grid *g, GridBuildRec *rec)
+ * when out of memory or out of entries. */
+static bool tight_insert(Grid *g, const GridBuildRec *rec, uint32_t *ncells)
 {
+    if (rec->kind == REC_TRIANGLE)
+        return tight_insert_triangle(g, rec, ncells);
     double bmin[3], bmax[3];
     tight_bounds(rec, bmin, bmax);
     CellRange r = tight_range(g, bmin, bmax);
-    /* A primitive whose padded box fits in one cell is in that cell: no test needed
-     * (the common case of small mesh triangles). */
+    /* A primitive whose padded box fits in one cell is in that cell: no test needed. */
     bool single = r.lo[0] == r.hi[0] && r.lo[1] == r.hi[1] && r.lo[2] == r.hi[2];
-    rec->ncells = 0;
+    uint32_t count = 0;
     int c[3];
     for (c[2] = r.lo[2]; c[2] <= r.hi[2]; c[2]++)
         for (c[1] = r.lo[1]; c[1] <= r.hi[1]; c[1]++)
@@ -496,12 +671,42 @@ static bool tight_insert(Grid *g, GridBuildRec *rec)
 #endif
                 if (!in)
                     continue;
-                uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);
-                if (!push_pair(g, cell))
+                if (!push_pair(g, grid_cell_index(g, c[0], c[1], c[2])))
                     return false;
-                g->cell_start[cell + 1]++;
-                rec->ncells++;
+                count++;
             }
+    *ncells = count;
+    return true;
+}
+
+/* Bins one primitive (both cell sets) and appends it to prims. */
+static bool insert_rec(Grid *g, const GridBuildRec *rec)
+{
+    if (g->num_prims == g->cap_prims) {
+        uint32_t cap = g->cap_prims ? 2 * g->cap_prims : 256;
+        if (cap <= g->cap_prims || cap > UINT32_MAX / 2) {
+            g->oom = true;
+            return false;
+        }
+        GridPrim *p = realloc(g->prims, (size_t)cap * sizeof *p);
+        if (p)
+            g->prims = p;
+        uint32_t *nc = p ? realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
+        if (!nc) {
+            g->oom = true;
+            return false;
+        }
+        g->prim_ncells = nc;
+        g->cap_prims = cap;
+    }
+    course_insert(g, rec);
+    uint32_t ncells = 0;
+    if (!tight_insert(g, rec, &ncells))
+        return false;
+    g->prims[g->num_prims].obj = rec->obj;
+    g->prims[g->num_prims].path = rec->gp ? &rec->gp->path : NULL;
+    g->prim_ncells[g->num_prims] = ncells;
+    g->num_prims++;
     return true;
 }
 
@@ -515,6 +720,10 @@ static void free_build_state(Grid *g)
     free(g->pairs);
     g->pairs = NULL;
     g->num_pairs = g->cap_pairs = 0;
+    free(g->prim_ncells);
+    g->prim_ncells = NULL;
+    free(g->cell_axis);
+    g->cell_axis = NULL;
 }
 
 void grid_free(Grid *g)
@@ -602,30 +811,34 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
     if (!g->cell_start || !g->course_count)
         goto oom;
 
+    if (!setup_cell_axis(g))
+        goto oom;
+    /* Sized for the scene's primitives (planes included, so an upper bound) and about
+     * two cells each, so the walk rarely reallocates. */
+    g->cap_prims = scene->num_primitives > 0 && scene->num_primitives < UINT32_MAX / 4
+                       ? scene->num_primitives
+                       : 256;
+    g->prims = malloc((size_t)g->cap_prims * sizeof *g->prims);
+    g->prim_ncells = malloc((size_t)g->cap_prims * sizeof *g->prim_ncells);
+    g->cap_pairs = 2 * (size_t)g->cap_prims + 1024;
+    g->pairs = malloc(g->cap_pairs * sizeof *g->pairs);
+    if (!g->prims || !g->prim_ncells || !g->pairs)
+        goto oom;
+
+    /* The walk bins every primitive as it reaches it (grid_insert_*): course counts,
+     * marching cells into pairs and their counts into cell_start[c + 1]. */
     XformPath path;
     path.depth = 0;
     obj_insert_into_grid(scene->root, g, &path);
+    if (g->too_many) {
+        diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",
+                   nx, ny, nz);
+        grid_free(g);
+        return NULL;
+    }
     if (g->oom)
         goto oom;
 
-    g->num_prims = g->num_recs;
-    g->prims = malloc(((size_t)g->num_prims + 1) * sizeof *g->prims);
-    if (!g->prims)
-        goto oom;
-    for (uint32_t e = 0; e < g->num_recs; e++) {
-        GridBuildRec *rec = &g->recs[e];
-        g->prims[e].obj = rec->obj;
-        g->prims[e].path = rec->gp ? &rec->gp->path : NULL;
-        course_insert(g, rec);
-        if (!tight_insert(g, rec))
-            goto oom;
-        if (g->num_pairs > UINT32_MAX - 1u) {
-            diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",
-                       nx, ny, nz);
-            grid_free(g);
-            return NULL;
-        }
-    }
     /* CSR: prefix sum of the counts, fill with cell_start[c] as cursor, then shift. */
     for (uint32_t c = 0; c < g->num_cells; c++)
         g->cell_start[c + 1] += g->cell_start[c];
@@ -633,8 +846,8 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
     if (!g->cell_items)
         goto oom;
     size_t pos = 0;
-    for (uint32_t e = 0; e < g->num_recs; e++)
-        for (uint32_t k = 0; k < g->recs[e].ncells; k++)
+    for (uint32_t e = 0; e < g->num_prims; e++)
+        for (uint32_t k = 0; k < g->prim_ncells[e]; k++)
             g->cell_items[g->cell_start[g->pairs[pos++]]++] = e;
     for (uint32_t c = g->num_cells; c > 0; c--)
         g->cell_start[c] = g->cell_start[c - 1];

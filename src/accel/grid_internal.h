@@ -26,8 +26,10 @@ typedef struct GridBuildRec GridBuildRec;
 
 /* An untransformed triangle as the hot loop reads it (grid_pack.c). */
 typedef struct PackedTri {
-    Vec3 v0, e1, e2;
+    _Alignas(16) Vec3 v0;   /* 48 bytes, 16-aligned: three 4-float rows for SIMD loads */
+    Vec3 e1, e2;
     uint32_t id;            /* depth-first id; RT_NO_ID: this primitive is not packed */
+    uint32_t pad[2];
 } PackedTri;
 
 struct Grid {
@@ -67,6 +69,10 @@ struct Grid {
     size_t num_pairs, cap_pairs;
     const GridPath *last_at_depth[RT_MAX_NESTING + 1];
     bool oom;
+    bool too_many;          /* more marching entries than a uint32_t index can hold */
+    uint32_t cap_prims;     /* prims is filled during the walk (grid.c) */
+    uint32_t *prim_ncells;  /* per prim: cells of its marching set (its run in pairs) */
+    double *cell_axis;      /* per axis and cell: padded bounds, centre, half sizes */
 };
 
 /* Tag bit on cell_items entries: the primitive is a packed triangle. */
