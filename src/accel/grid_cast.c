@@ -9,6 +9,13 @@
 
 #include "rt/geom.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#define RT_GRID_SIMD 1
+#else
+#define RT_GRID_SIMD 0
+#endif
+
 static inline bool test_prim(const GridPrim *p, const Ray *ray, Hit *hit, float tmin,
                              RenderCtx *ctx)
 {
@@ -37,6 +44,102 @@ static inline __attribute__((always_inline)) bool test_entry(const Grid *g, uint
     hit->id = pt->id;
     return true;
 }
+
+#if RT_GRID_SIMD
+/* Four packed triangles at once: triangle_ray_t lane by lane. SSE2 add, sub, mul and
+ * div are IEEE operations like their scalar forms and are applied in the same order
+ * (no fused multiply-add), so every lane computes exactly the scalar t and verdict.
+ * The lanes' outcomes are then applied in any order: the nearest hit under
+ * hit_accepts' (t, id) order does not depend on the order candidates are offered. */
+typedef struct TriBatch {
+    uint32_t p[4];
+    int n;
+} TriBatch;
+
+typedef struct RaySimd {
+    __m128 ox, oy, oz, dx, dy, dz, tmin;
+} RaySimd;
+
+static inline RaySimd ray_simd(const Ray *ray, float tmin)
+{
+    RaySimd r = {_mm_set1_ps(ray->origin.x), _mm_set1_ps(ray->origin.y),
+                 _mm_set1_ps(ray->origin.z), _mm_set1_ps(ray->dir.x),
+                 _mm_set1_ps(ray->dir.y),    _mm_set1_ps(ray->dir.z), _mm_set1_ps(tmin)};
+    return r;
+}
+
+/* Tests batch->p[0..3]; returns the lane mask of hits with t > tmin and t[] per lane. */
+static inline int batch_test(const Grid *g, const TriBatch *b, const RaySimd *r, float t[4])
+{
+    const float *t0 = (const float *)&g->tri[b->p[0]], *t1 = (const float *)&g->tri[b->p[1]];
+    const float *t2 = (const float *)&g->tri[b->p[2]], *t3 = (const float *)&g->tri[b->p[3]];
+    __m128 a0 = _mm_load_ps(t0), a1 = _mm_load_ps(t1), a2 = _mm_load_ps(t2), a3 = _mm_load_ps(t3);
+    _MM_TRANSPOSE4_PS(a0, a1, a2, a3); /* v0x v0y v0z e1x */
+    __m128 b0 = _mm_load_ps(t0 + 4), b1 = _mm_load_ps(t1 + 4), b2 = _mm_load_ps(t2 + 4),
+           b3 = _mm_load_ps(t3 + 4);
+    _MM_TRANSPOSE4_PS(b0, b1, b2, b3); /* e1y e1z e2x e2y */
+    __m128 c0 = _mm_load_ps(t0 + 8), c1 = _mm_load_ps(t1 + 8), c2 = _mm_load_ps(t2 + 8),
+           c3 = _mm_load_ps(t3 + 8);
+    _MM_TRANSPOSE4_PS(c0, c1, c2, c3); /* e2z id pad pad */
+    __m128 v0x = a0, v0y = a1, v0z = a2, e1x = a3, e1y = b0, e1z = b1, e2x = b2, e2y = b3,
+           e2z = c0;
+    /* p = cross(d, e2) */
+    __m128 px = _mm_sub_ps(_mm_mul_ps(r->dy, e2z), _mm_mul_ps(r->dz, e2y));
+    __m128 py = _mm_sub_ps(_mm_mul_ps(r->dz, e2x), _mm_mul_ps(r->dx, e2z));
+    __m128 pz = _mm_sub_ps(_mm_mul_ps(r->dx, e2y), _mm_mul_ps(r->dy, e2x));
+    __m128 det = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e1x, px), _mm_mul_ps(e1y, py)),
+                            _mm_mul_ps(e1z, pz));
+    __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
+    __m128 sx = _mm_sub_ps(r->ox, v0x), sy = _mm_sub_ps(r->oy, v0y), sz = _mm_sub_ps(r->oz, v0z);
+    __m128 u = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, px), _mm_mul_ps(sy, py)),
+                                     _mm_mul_ps(sz, pz)),
+                          inv);
+    /* q = cross(s, e1) */
+    __m128 qx = _mm_sub_ps(_mm_mul_ps(sy, e1z), _mm_mul_ps(sz, e1y));
+    __m128 qy = _mm_sub_ps(_mm_mul_ps(sz, e1x), _mm_mul_ps(sx, e1z));
+    __m128 qz = _mm_sub_ps(_mm_mul_ps(sx, e1y), _mm_mul_ps(sy, e1x));
+    __m128 v = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(r->dx, qx), _mm_mul_ps(r->dy, qy)),
+                                     _mm_mul_ps(r->dz, qz)),
+                          inv);
+    __m128 tt = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(e2x, qx), _mm_mul_ps(e2y, qy)),
+                                      _mm_mul_ps(e2z, qz)),
+                           inv);
+    __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    __m128 ok = _mm_cmpneq_ps(det, zero);
+    ok = _mm_and_ps(ok, _mm_cmpge_ps(u, zero));
+    ok = _mm_and_ps(ok, _mm_cmple_ps(u, one));
+    ok = _mm_and_ps(ok, _mm_cmpge_ps(v, zero));
+    ok = _mm_and_ps(ok, _mm_cmple_ps(_mm_add_ps(u, v), one));
+    ok = _mm_and_ps(ok, _mm_cmpgt_ps(tt, r->tmin));
+    _mm_storeu_ps(t, tt);
+    return _mm_movemask_ps(ok);
+}
+
+/* Offers the batch's hits to hit (nearest-hit query). */
+static inline bool batch_intersect(const Grid *g, const TriBatch *b, const RaySimd *r,
+                                   Hit *hit, RenderCtx *ctx)
+{
+    float t[4];
+    int mask = batch_test(g, b, r, t);
+    ctx->stats.intersections += 4;
+    bool found = false;
+    for (int i = 0; i < 4; i++) {
+        if (!(mask & (1 << i)))
+            continue;
+        uint32_t p = b->p[i];
+        uint32_t id = g->tri[p].id;
+        if (!hit_accepts(hit, t[i], id))
+            continue;
+        const Object3D *o = g->prims[p].obj;
+        hit->t = t[i];
+        hit->normal = triangle_normal(o);
+        hit->material = o->material;
+        hit->id = id;
+        found = true;
+    }
+    return found;
+}
+#endif
 
 /* A fresh stamp for this ray, or 0 when there is no usable mailbox. Stamps wrap after
  * 2^32 - 1 rays: then every slot is cleared, so no stale stamp can match. */
@@ -128,17 +231,39 @@ bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderC
         return found;
     uint32_t stamp = begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
+#if RT_GRID_SIMD
+    RaySimd rs = ray_simd(ray, tmin);
+#endif
     const uint32_t *start = g->cell_start, *items = g->cell_items;
     do {
         /* 4. The cell starts beyond the best hit: nothing in it or later is nearer. */
         if (mi.t > hit->t)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
+#if RT_GRID_SIMD
+        TriBatch batch;
+        batch.n = 0;
+#endif
         for (uint32_t e = start[c], end = start[c + 1]; e < end; e++) {
             uint32_t item = items[e];
-            if (should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx))
-                found |= test_entry(g, item, ray, hit, tmin, ctx);
+            if (!should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx))
+                continue;
+#if RT_GRID_SIMD
+            if (item & GRID_ITEM_TRI) {
+                batch.p[batch.n++] = GRID_ITEM_INDEX(item);
+                if (batch.n == 4) {
+                    found |= batch_intersect(g, &batch, &rs, hit, ctx);
+                    batch.n = 0;
+                }
+                continue;
+            }
+#endif
+            found |= test_entry(g, item, ray, hit, tmin, ctx);
         }
+#if RT_GRID_SIMD
+        for (int i = 0; i < batch.n; i++) /* the last one to three: scalar */
+            found |= test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, hit, tmin, ctx);
+#endif
         /* 3. A hit inside this cell or an earlier one is final: every primitive that
          * could be hit sooner lies in a cell already tested (cells are padded, so this
          * holds up to float rounding at borders). A hit beyond it stays a candidate. */
@@ -165,17 +290,41 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
         return false;
     uint32_t stamp = begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
+#if RT_GRID_SIMD
+    RaySimd rs = ray_simd(ray, tmin);
+#endif
     const uint32_t *start = g->cell_start, *items = g->cell_items;
     do {
         if (mi.t > tmax)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
+#if RT_GRID_SIMD
+        TriBatch batch;
+        batch.n = 0;
+#endif
         for (uint32_t e = start[c], end = start[c + 1]; e < end; e++) {
             uint32_t item = items[e];
-            if (should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx) &&
-                test_entry(g, item, ray, &h, tmin, ctx))
+            if (!should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx))
+                continue;
+#if RT_GRID_SIMD
+            if (item & GRID_ITEM_TRI) {
+                batch.p[batch.n++] = GRID_ITEM_INDEX(item);
+                if (batch.n == 4) {
+                    if (batch_intersect(g, &batch, &rs, &h, ctx))
+                        return true; /* the first occluder settles it */
+                    batch.n = 0;
+                }
+                continue;
+            }
+#endif
+            if (test_entry(g, item, ray, &h, tmin, ctx))
                 return true; /* the first occluder settles it */
         }
+#if RT_GRID_SIMD
+        for (int i = 0; i < batch.n; i++)
+            if (test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, &h, tmin, ctx))
+                return true;
+#endif
     } while (march_next(&mi, ctx));
     return false;
 }

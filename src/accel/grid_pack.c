@@ -52,7 +52,7 @@ bool grid_pack(Grid *g)
     /* The tag bit must stay free: beyond 2^31 primitives use the generic path. */
     if (g->num_prims == 0 || g->num_prims >= GRID_ITEM_TRI)
         return true;
-    g->tri = malloc((size_t)g->num_prims * sizeof *g->tri);
+    g->tri = aligned_alloc(16, (size_t)g->num_prims * sizeof *g->tri);
     if (!g->tri)
         return false;
     for (uint32_t p = 0; p < g->num_prims; p++) {
@@ -69,6 +69,7 @@ bool grid_pack(Grid *g)
         pt->e1 = v3_sub(v[1], v[0]);
         pt->e2 = v3_sub(v[2], v[0]);
         pt->id = gp->obj->id;
+        pt->pad[0] = pt->pad[1] = 0;
     }
     size_t n = g->cell_start[g->num_cells];
     for (size_t e = 0; e < n; e++)
