@@ -273,6 +273,9 @@ bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderC
     return found;
 }
 
+/* The shadow query repeats grid_intersect's cell loop with an early return instead of
+ * sharing it: a shared always-inline version with an any-hit flag measured 15% slower
+ * on course line 07 (best of 8, interleaved), so the two loops stay written out. */
 bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx)
 {
     /* hit_accepts with t = tmax and id 0 takes exactly the hits with t < tmax. */
