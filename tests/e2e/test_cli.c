@@ -2,6 +2,10 @@
  * 2 usage error; DESIGN.md 4), help and version output, and that a failed run leaves
  * no output file. Scenes are written by the tests into a temporary folder. */
 #define _POSIX_C_SOURCE 200809L
+#include <signal.h>
+#include <fcntl.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include "../harness.h"
 #include "e2e_util.h"
 
@@ -239,6 +243,41 @@ static void test_missing_scene(void)
     e2e_rmtree(f.dir);
 }
 
+/* Ctrl-C during a render: exit status 130, no image and no temporary file. */
+static void test_interrupt(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    int before = e2e_count_entries(f.dir);
+    const char *args[] = {harness_bin(), "-input", f.scene, "-output", f.out, "-size", "6000",
+                          "6000", "-threads", "1", NULL};
+    fflush(stdout);
+    fflush(stderr);
+    pid_t pid = fork();
+    if (pid == 0) {
+        int null = open("/dev/null", O_WRONLY);
+        if (null >= 0) {
+            dup2(null, 1);
+            dup2(null, 2);
+        }
+        execv(args[0], (char *const *)args);
+        _exit(127);
+    }
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    usleep(400 * 1000); /* well inside the render (36M pixels take seconds) */
+    kill(pid, SIGINT);
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0) {
+    }
+    CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 130, "status %d, expected exit 130",
+              status);
+    CHECK(!e2e_exists(f.out));
+    CHECK_INT(e2e_count_entries(f.dir), before);
+    e2e_rmtree(f.dir);
+}
+
 static void test_bad_scene_leaves_no_output(void)
 {
     Fixture f;
@@ -420,6 +459,7 @@ static void test_imgdiff_tool(void)
 }
 
 static const TestCase tests[] = {
+    {"cli: Ctrl-C exits 130 and writes nothing", test_interrupt},
     {"cli: good render exits 0, image correct", test_good_render},
     {"cli: -output .ppm, -depth, -normals together", test_all_three_images_and_ppm},
     {"cli: usage errors exit 2, write nothing", test_usage_errors},
