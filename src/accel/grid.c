@@ -2,11 +2,16 @@
  * Two cell sets are built from one walk: the course's occupancy counts (what
  * -visualize_grid shows) and tighter, rounding-padded lists (what the march tests). */
 #include "grid_internal.h"
+#include "grid_build.h"
 
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 
+#include "rt/arena.h"
 #include "rt/geom.h"
 #include "rt/scene.h"
 
@@ -200,11 +205,29 @@ static inline int range_hi_d(double z, int n)
 static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax)
 {
     CellRange r;
+#ifdef __SSE2__
+    /* The six divisions as two 4-lane ones: IEEE operations lane by lane, the same
+     * floats as the scalar loop below (which is what non-SSE2 targets compile). */
+    __m128 mn = _mm_setr_ps(g->box.min.x, g->box.min.y, g->box.min.z, 0.0f);
+    __m128 s = _mm_setr_ps(g->size[0], g->size[1], g->size[2], 1.0f);
+    __m128 lo = _mm_sub_ps(_mm_div_ps(_mm_sub_ps(_mm_setr_ps(bmin.x, bmin.y, bmin.z, 0.0f), mn), s),
+                           _mm_set1_ps(1e-4f));
+    __m128 hi = _mm_add_ps(_mm_div_ps(_mm_sub_ps(_mm_setr_ps(bmax.x, bmax.y, bmax.z, 0.0f), mn), s),
+                           _mm_set1_ps(1e-4f));
+    float l[4], h[4];
+    _mm_storeu_ps(l, lo);
+    _mm_storeu_ps(h, hi);
+    for (int a = 0; a < 3; a++) {
+        r.lo[a] = range_lo_f(l[a], g->n[a]);
+        r.hi[a] = range_hi_f(h[a], g->n[a]);
+    }
+#else
     for (int a = 0; a < 3; a++) {
         float mn = v3_comp(g->box.min, a), s = g->size[a];
         r.lo[a] = range_lo_f((v3_comp(bmin, a) - mn) / s - 1e-4f, g->n[a]);
         r.hi[a] = range_hi_f((v3_comp(bmax, a) - mn) / s + 1e-4f, g->n[a]);
     }
+#endif
     return r;
 }
 
@@ -265,12 +288,43 @@ static DVec dvec(Vec3 v)
 static CellRange tight_range(const Grid *g, const double bmin[3], const double bmax[3])
 {
     CellRange r;
+#ifdef __SSE2__
+    /* Three 2-lane divisions instead of six (same doubles: see course_box_range). */
+    double mn[3], s[3], p[3];
+    for (int a = 0; a < 3; a++) {
+        mn[a] = (double)v3_comp(g->box.min, a);
+        s[a] = (double)g->size[a];
+        p[a] = (double)g->pad[a];
+    }
+    __m128d lo01 = _mm_div_pd(_mm_sub_pd(_mm_sub_pd(_mm_loadu_pd(bmin), _mm_loadu_pd(p)),
+                                         _mm_loadu_pd(mn)),
+                              _mm_loadu_pd(s));
+    __m128d hi01 = _mm_div_pd(_mm_sub_pd(_mm_add_pd(_mm_loadu_pd(bmax), _mm_loadu_pd(p)),
+                                         _mm_loadu_pd(mn)),
+                              _mm_loadu_pd(s));
+    /* Lane 0: the low z bound, lane 1: the high one. */
+    __m128d z = _mm_div_pd(_mm_sub_pd(_mm_add_pd(_mm_setr_pd(bmin[2], bmax[2]),
+                                                 _mm_setr_pd(-p[2], p[2])),
+                                      _mm_set1_pd(mn[2])),
+                           _mm_set1_pd(s[2]));
+    double l[2], h[2], zz[2];
+    _mm_storeu_pd(l, lo01);
+    _mm_storeu_pd(h, hi01);
+    _mm_storeu_pd(zz, z);
+    for (int a = 0; a < 2; a++) {
+        r.lo[a] = range_lo_d(l[a], g->n[a]);
+        r.hi[a] = range_hi_d(h[a], g->n[a]);
+    }
+    r.lo[2] = range_lo_d(zz[0], g->n[2]);
+    r.hi[2] = range_hi_d(zz[1], g->n[2]);
+#else
     for (int a = 0; a < 3; a++) {
         double mn = (double)v3_comp(g->box.min, a), s = (double)g->size[a],
                p = (double)g->pad[a];
         r.lo[a] = range_lo_d((bmin[a] - p - mn) / s, g->n[a]);
         r.hi[a] = range_hi_d((bmax[a] + p - mn) / s, g->n[a]);
     }
+#endif
     return r;
 }
 
@@ -488,7 +542,7 @@ static bool push_pair(Grid *g, uint32_t cell)
             return false;
         }
         size_t cap = g->cap_pairs ? 2 * g->cap_pairs : 1024;
-        uint32_t *p = realloc(g->pairs, cap * sizeof *p);
+        uint32_t *p = big_realloc(g->pairs, cap * sizeof *p);
         if (!p) {
             g->oom = true;
             return false;
@@ -565,23 +619,20 @@ static inline void cell_axis(const Grid *g, int a, int c, double bmin, double bm
 
 /* tri_box_overlap(v, h), the same answer for every input, cheaper when a vertex lies
  * well inside the box (the common case: a small triangle straddling a cell border has
- * a vertex in most of its cells). Why it is the same: with |v_k[a]| <= (1 - d) h[a],
- * d = 2^-30, vertex k alone keeps every box axis and every edge axis from separating,
- * in floating point: its projection on an edge axis is ez*vy - ey*vz (and the like),
- * at most (1 - d) times the exact radius h1|ez| + h2|ey| in size, and the rounding of
- * the projection and of the radius is a few 2^-53 of that radius, far below d. The
- * normal axis projects v0 only, so the same bound covers it when k = 0; for k = 1, 2
- * the computed normal is tested as tri_box_overlap does. */
-static bool tri_cell_overlap(double v[3][3], const double h[3], const double hin[3])
+ * a vertex in most of its cells). in[k]: |v[k][a]| <= (1 - d) h[a] on every axis,
+ * d = 2^-30. Why the answer is the same: such a vertex alone keeps every box axis and
+ * every edge axis from separating, in floating point: its projection on an edge axis
+ * is ez*vy - ey*vz (and the like), at most (1 - d) times the exact radius
+ * h1|ez| + h2|ey| in size, and the rounding of the projection and of the radius is a
+ * few 2^-53 of that radius, far below d. The normal axis projects v0 only, so the same
+ * bound covers it when k = 0; for k = 1, 2 the normal is tested as tri_box_overlap
+ * tests it, operation for operation. */
+static bool tri_cell_overlap(double v[3][3], const double h[3], const bool in[3])
 {
-    bool in0 = fabs(v[0][0]) <= hin[0] && fabs(v[0][1]) <= hin[1] && fabs(v[0][2]) <= hin[2];
-    if (in0)
+    if (in[0])
         return true;
-    bool in12 = (fabs(v[1][0]) <= hin[0] && fabs(v[1][1]) <= hin[1] && fabs(v[1][2]) <= hin[2]) ||
-                (fabs(v[2][0]) <= hin[0] && fabs(v[2][1]) <= hin[1] && fabs(v[2][2]) <= hin[2]);
-    if (!in12)
+    if (!in[1] && !in[2])
         return tri_box_overlap(v, h);
-    /* tri_box_overlap's normal test, operation for operation. */
     double e0[3], e1[3], nrm[3];
     for (int a = 0; a < 3; a++) {
         e0[a] = v[1][a] - v[0][a];
@@ -592,8 +643,22 @@ static bool tri_cell_overlap(double v[3][3], const double h[3], const double hin
     return !(fabs(dot3(nrm, v[0])) > rad);
 }
 
+bool grid_tri_box_overlap(double v[3][3], const double h[3]) { return tri_box_overlap(v, h); }
+
+bool grid_tri_cell_overlap(double v[3][3], const double h[3])
+{
+    bool in[3];
+    for (int k = 0; k < 3; k++) {
+        in[k] = true;
+        for (int a = 0; a < 3; a++)
+            in[k] = in[k] && fabs(v[k][a]) <= h[a] * INSIDE_SHRINK;
+    }
+    return tri_cell_overlap(v, h, in);
+}
+
 /* tight_insert for a triangle (rec->v, world space): the same cells in the same order,
- * with the per-cell bounds from the tables and the vertex-inside shortcut. */
+ * with the per-cell bounds from the tables, the vertex-inside shortcut, and what
+ * depends on one axis only computed once per row or slab. */
 static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *ncells)
 {
     double P[3][3], bmin[3], bmax[3];
@@ -605,7 +670,6 @@ static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *nc
         bmax[a] = max3(P[0][a], P[1][a], P[2][a]);
     }
     CellRange r = tight_range(g, bmin, bmax);
-    uint32_t count = 0;
     if (r.lo[0] == r.hi[0] && r.lo[1] == r.hi[1] && r.lo[2] == r.hi[2]) {
         /* Its padded box fits in one cell: it is in that cell, no test needed. */
         if (!push_pair(g, grid_cell_index(g, r.lo[0], r.lo[1], r.lo[2])))
@@ -613,25 +677,36 @@ static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *nc
         *ncells = 1;
         return true;
     }
-    double v[3][3], ax[3][3], h[3], hin[3];
+    uint32_t count = 0;
+    double v[3][3], ax[3][3], h[3];
+    bool in2[3], in12[3], in[3];
     for (int k2 = r.lo[2]; k2 <= r.hi[2]; k2++) {
         cell_axis(g, 2, k2, bmin[2], bmax[2], ax[2]);
+        for (int k = 0; k < 3; k++) {
+            v[k][2] = P[k][2] - ax[2][0];
+            in2[k] = fabs(v[k][2]) <= ax[2][2];
+        }
         for (int j = r.lo[1]; j <= r.hi[1]; j++) {
             cell_axis(g, 1, j, bmin[1], bmax[1], ax[1]);
+            for (int k = 0; k < 3; k++) {
+                v[k][1] = P[k][1] - ax[1][0];
+                in12[k] = in2[k] && fabs(v[k][1]) <= ax[1][2];
+            }
             for (int i = r.lo[0]; i <= r.hi[0]; i++) {
                 cell_axis(g, 0, i, bmin[0], bmax[0], ax[0]);
-                for (int a = 0; a < 3; a++) {
-                    h[a] = ax[a][1];
-                    hin[a] = ax[a][2];
-                    for (int k = 0; k < 3; k++)
-                        v[k][a] = P[k][a] - ax[a][0];
+                for (int k = 0; k < 3; k++) {
+                    v[k][0] = P[k][0] - ax[0][0];
+                    in[k] = in12[k] && fabs(v[k][0]) <= ax[0][2];
                 }
+                h[0] = ax[0][1];
+                h[1] = ax[1][1];
+                h[2] = ax[2][1];
 #ifdef RT_GRID_AABB_ONLY
-                bool in = true; /* analysis build: see tight_insert */
+                bool hit = true; /* analysis build: see tight_insert */
 #else
-                bool in = tri_cell_overlap(v, h, hin);
+                bool hit = tri_cell_overlap(v, h, in);
 #endif
-                if (!in)
+                if (!hit)
                     continue;
                 if (!push_pair(g, grid_cell_index(g, i, j, k2)))
                     return false;
@@ -691,7 +766,7 @@ static bool insert_rec(Grid *g, const GridBuildRec *rec)
         GridPrim *p = realloc(g->prims, (size_t)cap * sizeof *p);
         if (p)
             g->prims = p;
-        uint32_t *nc = p ? realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
+        uint32_t *nc = p ? big_realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
         if (!nc) {
             g->oom = true;
             return false;
@@ -717,10 +792,10 @@ static void free_build_state(Grid *g)
     free(g->recs);
     g->recs = NULL;
     g->num_recs = g->cap_recs = 0;
-    free(g->pairs);
+    big_free(g->pairs);
     g->pairs = NULL;
     g->num_pairs = g->cap_pairs = 0;
-    free(g->prim_ncells);
+    big_free(g->prim_ncells);
     g->prim_ncells = NULL;
     free(g->cell_axis);
     g->cell_axis = NULL;
@@ -819,9 +894,10 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
                        ? scene->num_primitives
                        : 256;
     g->prims = malloc((size_t)g->cap_prims * sizeof *g->prims);
-    g->prim_ncells = malloc((size_t)g->cap_prims * sizeof *g->prim_ncells);
+    /* Build-time arrays from big_alloc: huge pages save most of their page faults. */
+    g->prim_ncells = big_alloc((size_t)g->cap_prims * sizeof *g->prim_ncells);
     g->cap_pairs = 2 * (size_t)g->cap_prims + 1024;
-    g->pairs = malloc(g->cap_pairs * sizeof *g->pairs);
+    g->pairs = big_alloc(g->cap_pairs * sizeof *g->pairs);
     if (!g->prims || !g->prim_ncells || !g->pairs)
         goto oom;
 

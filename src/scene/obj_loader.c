@@ -20,7 +20,21 @@
  * an OBJ of several million triangles. */
 #define RT_MAX_INPUT_BYTES ((size_t)256 << 20)
 
-bool file_read_all(const char *path, char **out, size_t *len)
+/* Buffers of file_read_all (malloc) or file_read_big (big_alloc). */
+static void *buf_alloc(size_t n, bool big) { return big ? big_alloc(n) : malloc(n); }
+static void *buf_realloc(void *p, size_t n, bool big)
+{
+    return big ? big_realloc(p, n) : realloc(p, n);
+}
+static void buf_free(void *p, bool big)
+{
+    if (big)
+        big_free(p);
+    else
+        free(p);
+}
+
+static bool read_all(const char *path, char **out, size_t *len, bool big)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
@@ -44,7 +58,7 @@ bool file_read_all(const char *path, char **out, size_t *len)
     }
     /* Regular files: one fread of the known size. Pipes and the like: grow as we go. */
     size_t cap = S_ISREG(st.st_mode) && st.st_size > 0 ? (size_t)st.st_size + 1 : 65536;
-    char *buf = malloc(cap);
+    char *buf = buf_alloc(cap, big);
     size_t n = 0;
     if (!buf) {
         fclose(f);
@@ -54,14 +68,14 @@ bool file_read_all(const char *path, char **out, size_t *len)
     for (;;) {
         if (n + 1 >= cap) {
             if (cap >= RT_MAX_INPUT_BYTES) {
-                free(buf);
+                buf_free(buf, big);
                 fclose(f);
                 errno = EFBIG;
                 return false;
             }
-            char *nb = realloc(buf, cap * 2);
+            char *nb = buf_realloc(buf, cap * 2, big);
             if (!nb) {
-                free(buf);
+                buf_free(buf, big);
                 fclose(f);
                 errno = ENOMEM;
                 return false;
@@ -74,7 +88,7 @@ bool file_read_all(const char *path, char **out, size_t *len)
         if (got == 0) {
             if (ferror(f)) {
                 int e = errno ? errno : EIO;
-                free(buf);
+                buf_free(buf, big);
                 fclose(f);
                 errno = e;
                 return false;
@@ -89,10 +103,22 @@ bool file_read_all(const char *path, char **out, size_t *len)
     return true;
 }
 
+bool file_read_all(const char *path, char **out, size_t *len)
+{
+    return read_all(path, out, len, false);
+}
+
+bool file_read_big(const char *path, char **out, size_t *len)
+{
+    return read_all(path, out, len, true);
+}
+
+void file_big_free(char *buf) { big_free(buf); }
+
 void obj_mesh_free(ObjMesh *m)
 {
-    free(m->verts);
-    free(m->tris);
+    big_free(m->verts);
+    big_free(m->tris);
     memset(m, 0, sizeof *m);
 }
 
@@ -222,7 +248,7 @@ static bool grow(void **arr, int *cap, int need, size_t elem)
         nc = nc > INT_MAX / 2 ? INT_MAX : nc * 2;
     if ((size_t)nc > SIZE_MAX / elem)
         return false;
-    void *na = realloc(*arr, (size_t)nc * elem);
+    void *na = big_realloc(*arr, (size_t)nc * elem);
     if (!na)
         return false;
     *arr = na;
