@@ -98,13 +98,26 @@ enum { BIG_HEADER = 64 };
 #define BIG_MIN ((size_t)256 << 10)
 #define BIG_HUGE ((size_t)2 << 20)
 
+/* Under AddressSanitizer every buffer comes from calloc, so overruns stay detected. */
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RT_NO_BIG_MAP 1
+#endif
+#endif
+#if defined(__SANITIZE_ADDRESS__)
+#define RT_NO_BIG_MAP 1
+#endif
+#if defined(MAP_ANONYMOUS) && defined(MADV_HUGEPAGE) && !defined(RT_NO_BIG_MAP)
+#define RT_BIG_MAP 1
+#endif
+
 static BigHeader *big_header(void *p) { return (BigHeader *)((char *)p - BIG_HEADER); }
 
 void *big_alloc(size_t size)
 {
     if (size > SIZE_MAX / 2)
         return NULL;
-#if defined(MAP_ANONYMOUS) && defined(MADV_HUGEPAGE)
+#ifdef RT_BIG_MAP
     if (size >= BIG_MIN) {
         /* A 2 MB-aligned run of whole 2 MB pages: map one page more, trim both ends. */
         size_t len = (size + BIG_HEADER + BIG_HUGE - 1) & ~(BIG_HUGE - 1);
@@ -159,7 +172,7 @@ void big_free(void *p)
     if (!p)
         return;
     BigHeader *h = big_header(p);
-#if defined(MAP_ANONYMOUS) && defined(MADV_HUGEPAGE)
+#ifdef RT_BIG_MAP
     if (h->map_len) {
         munmap(h->base, h->map_len);
         return;
