@@ -7,11 +7,7 @@
 #include <limits.h>
 #include <stdlib.h>
 #include <string.h>
-#ifdef __SSE2__
-#include <emmintrin.h>
-#endif
 
-#include "rt/arena.h"
 #include "rt/geom.h"
 #include "rt/scene.h"
 
@@ -205,29 +201,11 @@ static inline int range_hi_d(double z, int n)
 static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax)
 {
     CellRange r;
-#ifdef __SSE2__
-    /* The six divisions as two 4-lane ones: IEEE operations lane by lane, the same
-     * floats as the scalar loop below (which is what non-SSE2 targets compile). */
-    __m128 mn = _mm_setr_ps(g->box.min.x, g->box.min.y, g->box.min.z, 0.0f);
-    __m128 s = _mm_setr_ps(g->size[0], g->size[1], g->size[2], 1.0f);
-    __m128 lo = _mm_sub_ps(_mm_div_ps(_mm_sub_ps(_mm_setr_ps(bmin.x, bmin.y, bmin.z, 0.0f), mn), s),
-                           _mm_set1_ps(1e-4f));
-    __m128 hi = _mm_add_ps(_mm_div_ps(_mm_sub_ps(_mm_setr_ps(bmax.x, bmax.y, bmax.z, 0.0f), mn), s),
-                           _mm_set1_ps(1e-4f));
-    float l[4], h[4];
-    _mm_storeu_ps(l, lo);
-    _mm_storeu_ps(h, hi);
-    for (int a = 0; a < 3; a++) {
-        r.lo[a] = range_lo_f(l[a], g->n[a]);
-        r.hi[a] = range_hi_f(h[a], g->n[a]);
-    }
-#else
     for (int a = 0; a < 3; a++) {
         float mn = v3_comp(g->box.min, a), s = g->size[a];
         r.lo[a] = range_lo_f((v3_comp(bmin, a) - mn) / s - 1e-4f, g->n[a]);
         r.hi[a] = range_hi_f((v3_comp(bmax, a) - mn) / s + 1e-4f, g->n[a]);
     }
-#endif
     return r;
 }
 
@@ -288,43 +266,12 @@ static DVec dvec(Vec3 v)
 static CellRange tight_range(const Grid *g, const double bmin[3], const double bmax[3])
 {
     CellRange r;
-#ifdef __SSE2__
-    /* Three 2-lane divisions instead of six (same doubles: see course_box_range). */
-    double mn[3], s[3], p[3];
-    for (int a = 0; a < 3; a++) {
-        mn[a] = (double)v3_comp(g->box.min, a);
-        s[a] = (double)g->size[a];
-        p[a] = (double)g->pad[a];
-    }
-    __m128d lo01 = _mm_div_pd(_mm_sub_pd(_mm_sub_pd(_mm_loadu_pd(bmin), _mm_loadu_pd(p)),
-                                         _mm_loadu_pd(mn)),
-                              _mm_loadu_pd(s));
-    __m128d hi01 = _mm_div_pd(_mm_sub_pd(_mm_add_pd(_mm_loadu_pd(bmax), _mm_loadu_pd(p)),
-                                         _mm_loadu_pd(mn)),
-                              _mm_loadu_pd(s));
-    /* Lane 0: the low z bound, lane 1: the high one. */
-    __m128d z = _mm_div_pd(_mm_sub_pd(_mm_add_pd(_mm_setr_pd(bmin[2], bmax[2]),
-                                                 _mm_setr_pd(-p[2], p[2])),
-                                      _mm_set1_pd(mn[2])),
-                           _mm_set1_pd(s[2]));
-    double l[2], h[2], zz[2];
-    _mm_storeu_pd(l, lo01);
-    _mm_storeu_pd(h, hi01);
-    _mm_storeu_pd(zz, z);
-    for (int a = 0; a < 2; a++) {
-        r.lo[a] = range_lo_d(l[a], g->n[a]);
-        r.hi[a] = range_hi_d(h[a], g->n[a]);
-    }
-    r.lo[2] = range_lo_d(zz[0], g->n[2]);
-    r.hi[2] = range_hi_d(zz[1], g->n[2]);
-#else
     for (int a = 0; a < 3; a++) {
         double mn = (double)v3_comp(g->box.min, a), s = (double)g->size[a],
                p = (double)g->pad[a];
         r.lo[a] = range_lo_d((bmin[a] - p - mn) / s, g->n[a]);
         r.hi[a] = range_hi_d((bmax[a] + p - mn) / s, g->n[a]);
     }
-#endif
     return r;
 }
 
@@ -542,7 +489,7 @@ static bool push_pair(Grid *g, uint32_t cell)
             return false;
         }
         size_t cap = g->cap_pairs ? 2 * g->cap_pairs : 1024;
-        uint32_t *p = big_realloc(g->pairs, cap * sizeof *p);
+        uint32_t *p = realloc(g->pairs, cap * sizeof *p);
         if (!p) {
             g->oom = true;
             return false;
@@ -766,7 +713,7 @@ static bool insert_rec(Grid *g, const GridBuildRec *rec)
         GridPrim *p = realloc(g->prims, (size_t)cap * sizeof *p);
         if (p)
             g->prims = p;
-        uint32_t *nc = p ? big_realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
+        uint32_t *nc = p ? realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
         if (!nc) {
             g->oom = true;
             return false;
@@ -792,10 +739,10 @@ static void free_build_state(Grid *g)
     free(g->recs);
     g->recs = NULL;
     g->num_recs = g->cap_recs = 0;
-    big_free(g->pairs);
+    free(g->pairs);
     g->pairs = NULL;
     g->num_pairs = g->cap_pairs = 0;
-    big_free(g->prim_ncells);
+    free(g->prim_ncells);
     g->prim_ncells = NULL;
     free(g->cell_axis);
     g->cell_axis = NULL;
@@ -894,10 +841,9 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
                        ? scene->num_primitives
                        : 256;
     g->prims = malloc((size_t)g->cap_prims * sizeof *g->prims);
-    /* Build-time arrays from big_alloc: huge pages save most of their page faults. */
-    g->prim_ncells = big_alloc((size_t)g->cap_prims * sizeof *g->prim_ncells);
+    g->prim_ncells = malloc((size_t)g->cap_prims * sizeof *g->prim_ncells);
     g->cap_pairs = 2 * (size_t)g->cap_prims + 1024;
-    g->pairs = big_alloc(g->cap_pairs * sizeof *g->pairs);
+    g->pairs = malloc(g->cap_pairs * sizeof *g->pairs);
     if (!g->prims || !g->prim_ncells || !g->pairs)
         goto oom;
 

@@ -20,21 +20,7 @@
  * an OBJ of several million triangles. */
 #define RT_MAX_INPUT_BYTES ((size_t)256 << 20)
 
-/* Buffers of file_read_all (malloc) or file_read_big (big_alloc). */
-static void *buf_alloc(size_t n, bool big) { return big ? big_alloc(n) : malloc(n); }
-static void *buf_realloc(void *p, size_t n, bool big)
-{
-    return big ? big_realloc(p, n) : realloc(p, n);
-}
-static void buf_free(void *p, bool big)
-{
-    if (big)
-        big_free(p);
-    else
-        free(p);
-}
-
-static bool read_all(const char *path, char **out, size_t *len, bool big)
+bool file_read_all(const char *path, char **out, size_t *len)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
@@ -58,7 +44,7 @@ static bool read_all(const char *path, char **out, size_t *len, bool big)
     }
     /* Regular files: one fread of the known size. Pipes and the like: grow as we go. */
     size_t cap = S_ISREG(st.st_mode) && st.st_size > 0 ? (size_t)st.st_size + 1 : 65536;
-    char *buf = buf_alloc(cap, big);
+    char *buf = malloc(cap);
     size_t n = 0;
     if (!buf) {
         fclose(f);
@@ -68,14 +54,14 @@ static bool read_all(const char *path, char **out, size_t *len, bool big)
     for (;;) {
         if (n + 1 >= cap) {
             if (cap >= RT_MAX_INPUT_BYTES) {
-                buf_free(buf, big);
+                free(buf);
                 fclose(f);
                 errno = EFBIG;
                 return false;
             }
-            char *nb = buf_realloc(buf, cap * 2, big);
+            char *nb = realloc(buf, cap * 2);
             if (!nb) {
-                buf_free(buf, big);
+                free(buf);
                 fclose(f);
                 errno = ENOMEM;
                 return false;
@@ -88,7 +74,7 @@ static bool read_all(const char *path, char **out, size_t *len, bool big)
         if (got == 0) {
             if (ferror(f)) {
                 int e = errno ? errno : EIO;
-                buf_free(buf, big);
+                free(buf);
                 fclose(f);
                 errno = e;
                 return false;
@@ -103,22 +89,10 @@ static bool read_all(const char *path, char **out, size_t *len, bool big)
     return true;
 }
 
-bool file_read_all(const char *path, char **out, size_t *len)
-{
-    return read_all(path, out, len, false);
-}
-
-bool file_read_big(const char *path, char **out, size_t *len)
-{
-    return read_all(path, out, len, true);
-}
-
-void file_big_free(char *buf) { big_free(buf); }
-
 void obj_mesh_free(ObjMesh *m)
 {
-    big_free(m->verts);
-    big_free(m->tris);
+    free(m->verts);
+    free(m->tris);
     memset(m, 0, sizeof *m);
 }
 
@@ -248,7 +222,7 @@ static bool grow(void **arr, int *cap, int need, size_t elem)
         nc = nc > INT_MAX / 2 ? INT_MAX : nc * 2;
     if ((size_t)nc > SIZE_MAX / elem)
         return false;
-    void *na = big_realloc(*arr, (size_t)nc * elem);
+    void *na = realloc(*arr, (size_t)nc * elem);
     if (!na)
         return false;
     *arr = na;

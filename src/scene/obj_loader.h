@@ -10,9 +10,9 @@
 #include "rt/vec.h"
 
 typedef struct ObjMesh {
-    Vec3 *verts;        /* big_alloc'd (rt/arena.h); nverts entries */
+    Vec3 *verts;        /* malloc'd; nverts entries */
     int nverts;
-    int (*tris)[3];     /* big_alloc'd; 0-based vertex indices, ntris entries */
+    int (*tris)[3];     /* malloc'd; 0-based vertex indices, ntris entries */
     int ntris;
 } ObjMesh;
 
@@ -26,10 +26,6 @@ void obj_mesh_free(ObjMesh *m);
 
 /* Reads a whole file into a malloc'd, NUL-terminated buffer. False with errno set. */
 bool file_read_all(const char *path, char **out, size_t *len);
-/* The same into a big_alloc buffer (arena.h: huge pages for big files), released with
- * file_big_free. */
-bool file_read_big(const char *path, char **out, size_t *len);
-void file_big_free(char *buf);
 
 /* A Group of one Triangle per face, all with material m, from arena a. NULL when out of
  * memory. */

@@ -451,7 +451,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     size_t len = 0;
     int used = -1, first_errno = 0;
     for (int i = 0; i < ntried && used < 0; i++) {
-        if (file_read_big(tried[i], &buf, &len))
+        if (file_read_all(tried[i], &buf, &len))
             used = i;
         else if (!first_errno)
             first_errno = errno;
@@ -482,7 +482,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
         }
     }
     obj_mesh_free(&mesh);
-    file_big_free(buf);
+    free(buf);
     free(tried[0]);
     free(tried[1]);
     if (ok)
