@@ -483,11 +483,11 @@ static bool tight_cell(const GridBuildRec *rec, const double lo[3], const double
  * order); false when out of memory or when the entries would overflow a uint32_t. */
 static bool push_pair(Grid *g, uint32_t cell)
 {
+    if (g->num_pairs >= UINT32_MAX - 1u) {
+        g->too_many = true;
+        return false;
+    }
     if (g->num_pairs == g->cap_pairs) {
-        if (g->num_pairs >= UINT32_MAX - 1u) {
-            g->too_many = true;
-            return false;
-        }
         size_t cap = g->cap_pairs ? 2 * g->cap_pairs : 1024;
         uint32_t *p = realloc(g->pairs, cap * sizeof *p);
         if (!p) {
@@ -496,10 +496,6 @@ static bool push_pair(Grid *g, uint32_t cell)
         }
         g->pairs = p;
         g->cap_pairs = cap;
-    }
-    if (g->num_pairs >= UINT32_MAX - 1u) {
-        g->too_many = true;
-        return false;
     }
     g->pairs[g->num_pairs++] = cell;
     g->cell_start[cell + 1]++;
