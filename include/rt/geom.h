@@ -30,6 +30,11 @@ Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m);
  * valid index into verts. NULL when out of memory. */
 Object3D *triangle_mesh_new(Arena *a, const Vec3 *verts, const int (*faces)[3], int n,
                             const Material *m);
+/* The same, with the triangles built in block (from arena_buffer_new, e.g. the OBJ text
+ * once parsed), which the arena adopts, so its pages are not faulted in twice. Takes
+ * ownership of block in every case (NULL: like triangle_mesh_new). */
+Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
+                               const int (*faces)[3], int n, const Material *m);
 
 /* Moller-Trumbore ("Fast, Minimum Storage Ray/Triangle Intersection", 1997) on
  * v0 and the edges e1 = v1 - v0, e2 = v2 - v0: the t of the ray's crossing of the

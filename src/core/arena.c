@@ -83,3 +83,55 @@ void arena_free(Arena *a)
     a->head = NULL;
     a->total = 0;
 }
+
+/* An arena buffer is an ArenaBlock in waiting: the header is reserved in front. */
+static ArenaBlock *buffer_block(void *buf) { return (ArenaBlock *)((char *)buf - header_size()); }
+
+void *arena_buffer_new(size_t size)
+{
+    if (size > SIZE_MAX / 2)
+        return NULL;
+    char *b = malloc(header_size() + size);
+    return b ? b + header_size() : NULL;
+}
+
+void *arena_buffer_resize(void *buf, size_t size)
+{
+    if (!buf)
+        return arena_buffer_new(size);
+    if (size > SIZE_MAX / 2)
+        return NULL;
+    /* Large buffers are mmap'd by malloc, so realloc moves pages without copying. */
+    char *b = realloc(buffer_block(buf), header_size() + size);
+    return b ? b + header_size() : NULL;
+}
+
+void arena_buffer_free(void *buf)
+{
+    if (buf)
+        free(buffer_block(buf));
+}
+
+void *arena_adopt_buffer(Arena *a, void *buf, size_t size)
+{
+    if (size == 0)
+        size = 1;
+    char *data = arena_buffer_resize(buf, size);
+    if (!data) {
+        arena_buffer_free(buf);
+        return NULL;
+    }
+    ArenaBlock *b = buffer_block(data);
+    b->size = size;
+    b->used = size;
+    /* Behind the head: the head keeps serving small allocations from its free space. */
+    if (a->head) {
+        b->next = a->head->next;
+        a->head->next = b;
+    } else {
+        b->next = NULL;
+        a->head = b;
+    }
+    a->total += size;
+    return data;
+}

@@ -2,6 +2,9 @@
  * Group with its box in the same pass (the per-triangle path costs an allocation each
  * and a second walk for the box). The objects are exactly triangle_new's. */
 #include "rt/geom.h"
+
+#include <string.h>
+
 #include "rt/arena.h"
 
 #include "group_internal.h"
@@ -10,13 +13,22 @@
 Object3D *triangle_mesh_new(Arena *a, const Vec3 *verts, const int (*faces)[3], int n,
                             const Material *m)
 {
-    if (n < 0)
-        return NULL;
-    Object3D *go = group_new(a, n);
-    if (!go)
-        return NULL;
-    Triangle *tris = n ? arena_calloc(a, (size_t)n, sizeof *tris) : NULL;
-    if (n && !tris)
+    return triangle_mesh_new_in(a, NULL, verts, faces, n, m);
+}
+
+Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
+                               const int (*faces)[3], int n, const Material *m)
+{
+    Object3D *go = n >= 0 ? group_new(a, n) : NULL;
+    if (!go || n == 0) {
+        arena_buffer_free(block);
+        return n == 0 ? go : NULL;
+    }
+    /* An adopted block holds old bytes (the OBJ text): every triangle is cleared before
+     * it is filled, so padding is zero as from arena_calloc. */
+    Triangle *tris = block ? arena_adopt_buffer(a, block, (size_t)n * sizeof *tris)
+                           : arena_calloc(a, (size_t)n, sizeof *tris);
+    if (!tris)
         return NULL;
     Group *g = (Group *)go;
     /* group_finish's fold, bbox_union in child order, written out: min/max by the same
@@ -26,7 +38,9 @@ Object3D *triangle_mesh_new(Arena *a, const Vec3 *verts, const int (*faces)[3], 
     for (int i = 0; i < n; i++) {
         Triangle *t = &tris[i];
         Vec3 v0 = verts[faces[i][0]], v1 = verts[faces[i][1]], v2 = verts[faces[i][2]];
-        /* triangle_new, field by field (the arena hands out zeroed memory already). */
+        if (block)
+            memset(t, 0, sizeof *t);
+        /* triangle_new, field by field. */
         t->base.ops = &triangle_ops;
         t->base.material = m;
         t->base.bounded = true;

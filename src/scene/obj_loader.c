@@ -20,7 +20,24 @@
  * an OBJ of several million triangles. */
 #define RT_MAX_INPUT_BYTES ((size_t)256 << 20)
 
-bool file_read_all(const char *path, char **out, size_t *len)
+/* The buffer functions of file_read_all (malloc) or file_read_reusable (arena buffer). */
+static void *buf_alloc(size_t n, bool reusable)
+{
+    return reusable ? arena_buffer_new(n) : malloc(n);
+}
+static void *buf_realloc(void *p, size_t n, bool reusable)
+{
+    return reusable ? arena_buffer_resize(p, n) : realloc(p, n);
+}
+static void buf_free(void *p, bool reusable)
+{
+    if (reusable)
+        arena_buffer_free(p);
+    else
+        free(p);
+}
+
+static bool read_all(const char *path, char **out, size_t *len, bool reusable)
 {
     FILE *f = fopen(path, "rb");
     if (!f)
@@ -44,7 +61,7 @@ bool file_read_all(const char *path, char **out, size_t *len)
     }
     /* Regular files: one fread of the known size. Pipes and the like: grow as we go. */
     size_t cap = S_ISREG(st.st_mode) && st.st_size > 0 ? (size_t)st.st_size + 1 : 65536;
-    char *buf = malloc(cap);
+    char *buf = buf_alloc(cap, reusable);
     size_t n = 0;
     if (!buf) {
         fclose(f);
@@ -54,14 +71,14 @@ bool file_read_all(const char *path, char **out, size_t *len)
     for (;;) {
         if (n + 1 >= cap) {
             if (cap >= RT_MAX_INPUT_BYTES) {
-                free(buf);
+                buf_free(buf, reusable);
                 fclose(f);
                 errno = EFBIG;
                 return false;
             }
-            char *nb = realloc(buf, cap * 2);
+            char *nb = buf_realloc(buf, cap * 2, reusable);
             if (!nb) {
-                free(buf);
+                buf_free(buf, reusable);
                 fclose(f);
                 errno = ENOMEM;
                 return false;
@@ -74,7 +91,7 @@ bool file_read_all(const char *path, char **out, size_t *len)
         if (got == 0) {
             if (ferror(f)) {
                 int e = errno ? errno : EIO;
-                free(buf);
+                buf_free(buf, reusable);
                 fclose(f);
                 errno = e;
                 return false;
@@ -87,6 +104,16 @@ bool file_read_all(const char *path, char **out, size_t *len)
     *out = buf;
     *len = n;
     return true;
+}
+
+bool file_read_all(const char *path, char **out, size_t *len)
+{
+    return read_all(path, out, len, false);
+}
+
+bool file_read_reusable(const char *path, char **out, size_t *len)
+{
+    return read_all(path, out, len, true);
 }
 
 void obj_mesh_free(ObjMesh *m)
@@ -396,7 +423,8 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
     return true;
 }
 
-Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m)
+Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m, void *block)
 {
-    return triangle_mesh_new(a, mesh->verts, (const int(*)[3])mesh->tris, mesh->ntris, m);
+    return triangle_mesh_new_in(a, block, mesh->verts, (const int(*)[3])mesh->tris,
+                                mesh->ntris, m);
 }

@@ -26,10 +26,14 @@ void obj_mesh_free(ObjMesh *m);
 
 /* Reads a whole file into a malloc'd, NUL-terminated buffer. False with errno set. */
 bool file_read_all(const char *path, char **out, size_t *len);
+/* The same into an arena buffer (rt/arena.h; arena_buffer_free), which
+ * obj_build_group can reuse for the triangles. */
+bool file_read_reusable(const char *path, char **out, size_t *len);
 
-/* A Group of one Triangle per face, all with material m, from arena a. NULL when out of
- * memory. */
-Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m);
+/* A Group of one Triangle per face, all with material m, from arena a. block: NULL, or
+ * the file's arena buffer (file_read_reusable), no longer needed, which is taken over
+ * (triangle_mesh_new_in) in every case. NULL when out of memory. */
+Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m, void *block);
 
 /* The float conversion used for OBJ numbers: exactly strtof's result, with a fast path
  * for short decimals. *p advances past the number; false if none starts at *p. The text

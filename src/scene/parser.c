@@ -451,7 +451,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     size_t len = 0;
     int used = -1, first_errno = 0;
     for (int i = 0; i < ntried && used < 0; i++) {
-        if (file_read_all(tried[i], &buf, &len))
+        if (file_read_reusable(tried[i], &buf, &len))
             used = i;
         else if (!first_errno)
             first_errno = errno;
@@ -476,13 +476,15 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
             ok = false;
         }
         if (ok) {
-            *out = obj_build_group(&p->s->arena, &mesh, p->current);
+            /* The text is parsed: its pages become the triangles' (arena.h). */
+            *out = obj_build_group(&p->s->arena, &mesh, p->current, buf);
+            buf = NULL;
             if (!*out)
                 ok = out_of_memory(p, &name.loc);
         }
     }
     obj_mesh_free(&mesh);
-    free(buf);
+    arena_buffer_free(buf);
     free(tried[0]);
     free(tried[1]);
     if (ok)
