@@ -37,6 +37,13 @@ Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
     BBox box = empty;
     for (int i = 0; i < n; i++) {
         Triangle *t = &tris[i];
+        /* Faces index the vertex array out of order: ask for the vertices of a face a
+         * few iterations ahead (measured: ~0.2 ms of 2 on the 40k bunny). */
+        if (i + 16 < n) {
+            __builtin_prefetch(&verts[faces[i + 16][0]]);
+            __builtin_prefetch(&verts[faces[i + 16][1]]);
+            __builtin_prefetch(&verts[faces[i + 16][2]]);
+        }
         Vec3 v0 = verts[faces[i][0]], v1 = verts[faces[i][1]], v2 = verts[faces[i][2]];
         if (block)
             memset(t, 0, sizeof *t);
