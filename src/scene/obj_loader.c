@@ -375,6 +375,42 @@ static bool read_face(ObjReader *r, const char *f_at)
     return true;
 }
 
+/* The common face record "f a b c": single spaces, plain positive in-range indices, the
+ * line ending right after. Read without the general machinery of read_face (same
+ * triangle); anything else returns false with r untouched, and read_face takes the
+ * line from the start, so messages do not change. */
+static bool read_face_simple(ObjReader *r)
+{
+    const char *p = r->p;
+    int nv = r->m->nverts, idx[3];
+    for (int k = 0; k < 3; k++) {
+        if (*p != ' ' || !is_digit(p[1]))
+            return false;
+        p++;
+        int v = 0, nd = 0;
+        while (is_digit(*p)) {
+            if (++nd > 9)
+                return false; /* no overflow; read_face handles long indices */
+            v = v * 10 + (*p++ - '0');
+        }
+        if (v < 1 || v > nv)
+            return false;
+        idx[k] = v - 1;
+    }
+    if (!(*p == '\n' || *p == '\0' || (*p == '\r' && (p[1] == '\n' || p[1] == '\0'))))
+        return false;
+    if (r->m->ntris >= r->cap_t &&
+        (r->m->ntris == INT_MAX ||
+         !grow((void **)&r->m->tris, &r->cap_t, r->m->ntris + 1, sizeof(int[3]))))
+        return false;
+    int *t = r->m->tris[r->m->ntris++];
+    t[0] = idx[0];
+    t[1] = idx[1];
+    t[2] = idx[2];
+    r->p = p;
+    return true;
+}
+
 bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag)
 {
     ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0};
@@ -406,7 +442,7 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
         if (kl == 1 && kw[0] == 'v')
             ok = read_vertex(&r);
         else if (kl == 1 && kw[0] == 'f')
-            ok = read_face(&r, kw);
+            ok = read_face_simple(&r) || read_face(&r, kw);
         /* Anything else (#, vn, vt, g, o, s, usemtl, mtllib, l, ...) is skipped. */
         if (!ok) {
             obj_mesh_free(out);
