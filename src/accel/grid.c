@@ -732,9 +732,6 @@ static bool insert_rec(Grid *g, const GridBuildRec *rec)
 
 static void free_build_state(Grid *g)
 {
-    free(g->recs);
-    g->recs = NULL;
-    g->num_recs = g->cap_recs = 0;
     free(g->pairs);
     g->pairs = NULL;
     g->num_pairs = g->cap_pairs = 0;

@@ -62,8 +62,6 @@ struct Grid {
     uint32_t num_paths, cap_paths;
 
     /* Build-time state (NULL after grid_build returns). */
-    GridBuildRec *recs;
-    uint32_t num_recs, cap_recs;
     uint32_t cap_unbounded;
     uint32_t *pairs;        /* cells of each record's marching set, in record order */
     size_t num_pairs, cap_pairs;

@@ -1,5 +1,5 @@
 /* The grid's hot-loop layout: untransformed triangles copied into one packed array
- * (v0, edges, id: 40 bytes, no pointer chasing, no indirect call), and their cell
+ * (v0, edges, id: 48 bytes, no pointer chasing, no indirect call), and their cell
  * entries tagged so grid_cast.c intersects them inline with triangle_ray_t, the same
  * arithmetic as Triangle::intersect, hence the same hits to the bit. */
 #include "grid_internal.h"
@@ -15,31 +15,43 @@
 static bool reorder_prims(Grid *g)
 {
     uint32_t n = g->num_prims;
+    if (n >= GRID_ITEM_TRI)
+        return true; /* the mark bit below must stay free; keep scene order */
     uint32_t *newix = malloc((size_t)n * sizeof *newix);
-    GridPrim *prims = malloc(((size_t)n + 1) * sizeof *prims);
-    if (!newix || !prims) {
-        free(newix);
-        free(prims);
+    if (!newix)
         return false;
-    }
     for (uint32_t p = 0; p < n; p++)
         newix[p] = UINT32_MAX;
     uint32_t next = 0;
     size_t m = g->cell_start[g->num_cells];
     for (size_t e = 0; e < m; e++) {
         uint32_t p = g->cell_items[e];
-        if (newix[p] == UINT32_MAX) {
-            newix[p] = next;
-            prims[next++] = g->prims[p];
-        }
+        if (newix[p] == UINT32_MAX)
+            newix[p] = next++;
         g->cell_items[e] = newix[p];
     }
-    /* Primitives in no cell (possible after tight insertion) keep a slot at the end. */
+    /* Primitives in no cell (possible after tight insertion) take the last slots. */
     for (uint32_t p = 0; p < n; p++)
         if (newix[p] == UINT32_MAX)
-            prims[next++] = g->prims[p];
-    free(g->prims);
-    g->prims = prims;
+            newix[p] = next++;
+    /* Move prims[p] to prims[newix[p]] in place, cycle by cycle (no second array:
+     * fresh pages cost more than the moves here); GRID_ITEM_TRI marks placed slots. */
+    for (uint32_t s0 = 0; s0 < n; s0++) {
+        if (newix[s0] & GRID_ITEM_TRI)
+            continue;
+        GridPrim carry = g->prims[s0];
+        uint32_t dst = newix[s0];
+        newix[s0] |= GRID_ITEM_TRI;
+        while (dst != s0) {
+            GridPrim tmp = g->prims[dst];
+            g->prims[dst] = carry;
+            carry = tmp;
+            uint32_t nd = newix[dst];
+            newix[dst] |= GRID_ITEM_TRI;
+            dst = nd;
+        }
+        g->prims[s0] = carry;
+    }
     free(newix);
     return true;
 }
