@@ -65,6 +65,8 @@ else
 endif
 
 .PHONY: all test asan demo clean tools tests
+# Keep the objects of test and tool binaries (make would delete them as intermediates).
+.SECONDARY:
 all: $(BIN) tools
 
 tools: $(TOOL_BINS)
