@@ -449,4 +449,52 @@ static inline bool e2e_stats_layout_ok(const E2eStats *s, int width, int height,
     return true;
 }
 
+
+/* One line "<id>|<arguments>" of the course's commands.txt, split into arguments. */
+typedef struct E2eCourseLine {
+    char id[16];
+    int argc;
+    char *argv[64];      /* pointers into text */
+    char text[1024];
+} E2eCourseLine;
+
+static inline bool e2e_course_line(const char *course, const char *id, E2eCourseLine *cl)
+{
+    char path[PATH_MAX];
+    char *all = e2e_read_file(e2e_join(path, sizeof path, course, "commands.txt"), NULL);
+    if (!all)
+        return false;
+    bool found = false;
+    size_t idlen = strlen(id);
+    for (char *line = all; line && *line;) {
+        char *nl = strchr(line, '\n');
+        if (nl)
+            *nl = '\0';
+        if (strncmp(line, id, idlen) == 0 && line[idlen] == '|') {
+            snprintf(cl->id, sizeof cl->id, "%s", id);
+            snprintf(cl->text, sizeof cl->text, "%s", line + idlen + 1);
+            found = true;
+            break;
+        }
+        line = nl ? nl + 1 : NULL;
+    }
+    free(all);
+    if (!found)
+        return false;
+    cl->argc = 0;
+    for (char *tok = strtok(cl->text, " \t\r"); tok && cl->argc < 63;
+         tok = strtok(NULL, " \t\r"))
+        cl->argv[cl->argc++] = tok;
+    cl->argv[cl->argc] = NULL;
+    return true;
+}
+
+static inline bool e2e_course_has_arg(const E2eCourseLine *cl, const char *flag)
+{
+    for (int i = 0; i < cl->argc; i++)
+        if (strcmp(cl->argv[i], flag) == 0)
+            return true;
+    return false;
+}
+
 #endif

@@ -17,54 +17,7 @@ static const double REF_MIN_PERCENT = 99.5;
  * silhouettes (course README); non-shadow rays must be exact. */
 static const double COUNT_TOLERANCE = 0.005;
 
-typedef struct CourseLine {
-    char id[16];
-    int argc;
-    char *argv[64];      /* pointers into text */
-    char text[1024];
-} CourseLine;
-
-/* Reads the line "<id>|<arguments>" of commands.txt and splits its arguments. */
-static bool course_line(const char *course, const char *id, CourseLine *cl)
-{
-    char path[PATH_MAX];
-    char *all = e2e_read_file(e2e_join(path, sizeof path, course, "commands.txt"), NULL);
-    if (!all)
-        return false;
-    bool found = false;
-    size_t idlen = strlen(id);
-    for (char *line = all; line && *line;) {
-        char *nl = strchr(line, '\n');
-        if (nl)
-            *nl = '\0';
-        if (strncmp(line, id, idlen) == 0 && line[idlen] == '|') {
-            snprintf(cl->id, sizeof cl->id, "%s", id);
-            snprintf(cl->text, sizeof cl->text, "%s", line + idlen + 1);
-            found = true;
-            break;
-        }
-        line = nl ? nl + 1 : NULL;
-    }
-    free(all);
-    if (!found)
-        return false;
-    cl->argc = 0;
-    for (char *tok = strtok(cl->text, " \t\r"); tok && cl->argc < 63;
-         tok = strtok(NULL, " \t\r"))
-        cl->argv[cl->argc++] = tok;
-    cl->argv[cl->argc] = NULL;
-    return true;
-}
-
-static bool has_arg(const CourseLine *cl, const char *flag)
-{
-    for (int i = 0; i < cl->argc; i++)
-        if (strcmp(cl->argv[i], flag) == 0)
-            return true;
-    return false;
-}
-
-static int int_after(const CourseLine *cl, const char *flag, int which, int fallback)
+static int int_after(const E2eCourseLine *cl, const char *flag, int which, int fallback)
 {
     for (int i = 0; i < cl->argc; i++)
         if (strcmp(cl->argv[i], flag) == 0 && i + 1 + which < cl->argc)
@@ -81,7 +34,7 @@ typedef struct Render {
 
 /* Renders a course line: -input made absolute into the course folder, -output into
  * dir, extra arguments appended. */
-static void render_line(const char *course, const CourseLine *cl, const char *dir,
+static void render_line(const char *course, const E2eCourseLine *cl, const char *dir,
                         const char *out_name, const char *const *extra, Render *r)
 {
     static char input_abs[PATH_MAX];
@@ -137,12 +90,12 @@ static bool within(unsigned long long got, unsigned long long want, double tol)
 static void check_course_id(const char *id)
 {
     const char *course = course_or_skip();
-    CourseLine cl;
-    CHECK_MSG(course_line(course, id, &cl), "line %s not found in commands.txt", id);
+    E2eCourseLine cl;
+    CHECK_MSG(e2e_course_line(course, id, &cl), "line %s not found in commands.txt", id);
     if (harness_failures)
         return;
     /* This test covers the core only: the lines picked must stay grid/GUI free. */
-    CHECK(!has_arg(&cl, "-grid") && !has_arg(&cl, "-gui"));
+    CHECK(!e2e_course_has_arg(&cl, "-grid") && !e2e_course_has_arg(&cl, "-gui"));
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "course") != NULL);
     char out_name[64];
@@ -187,7 +140,7 @@ static void check_course_id(const char *id)
         image_free(&ref);
 
     /* (b) the -stats block: layout, and counters against the peer implementation */
-    if (has_arg(&cl, "-stats")) {
+    if (e2e_course_has_arg(&cl, "-stats")) {
         char why[512] = "";
         int w = int_after(&cl, "-size", 0, 100), h = int_after(&cl, "-size", 1, 100);
         CHECK_MSG(e2e_stats_layout_ok(&r.stats, w, h, why, sizeof why), "%s: -stats: %s", id,
@@ -230,14 +183,14 @@ static void check_course_id(const char *id)
 static void check_threads_id(const char *id)
 {
     const char *course = course_or_skip();
-    CourseLine cl;
-    CHECK_MSG(course_line(course, id, &cl), "line %s not found in commands.txt", id);
+    E2eCourseLine cl;
+    CHECK_MSG(e2e_course_line(course, id, &cl), "line %s not found in commands.txt", id);
     if (harness_failures)
         return;
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "threads") != NULL);
-    const char *one[] = {"-threads", "1", has_arg(&cl, "-stats") ? NULL : "-stats", NULL};
-    const char *two[] = {"-threads", "2", has_arg(&cl, "-stats") ? NULL : "-stats", NULL};
+    const char *one[] = {"-threads", "1", e2e_course_has_arg(&cl, "-stats") ? NULL : "-stats", NULL};
+    const char *two[] = {"-threads", "2", e2e_course_has_arg(&cl, "-stats") ? NULL : "-stats", NULL};
     Render a, b;
     render_line(course, &cl, dir, "t1.tga", one, &a);
     render_line(course, &cl, dir, "t2.tga", two, &b);

@@ -17,51 +17,6 @@
 enum { REF_THRESHOLD = 8 };
 static const double REF_MIN_PERCENT = 99.5;
 
-typedef struct Line {
-    char id[16];
-    int argc;
-    char *argv[64];
-    char text[1024];
-} Line;
-
-static bool read_line(const char *course, const char *id, Line *l)
-{
-    char path[PATH_MAX];
-    char *all = e2e_read_file(e2e_join(path, sizeof path, course, "commands.txt"), NULL);
-    if (!all)
-        return false;
-    bool found = false;
-    size_t n = strlen(id);
-    for (char *p = all; p && *p;) {
-        char *nl = strchr(p, '\n');
-        if (nl)
-            *nl = '\0';
-        if (strncmp(p, id, n) == 0 && p[n] == '|') {
-            snprintf(l->id, sizeof l->id, "%s", id);
-            snprintf(l->text, sizeof l->text, "%s", p + n + 1);
-            found = true;
-            break;
-        }
-        p = nl ? nl + 1 : NULL;
-    }
-    free(all);
-    if (!found)
-        return false;
-    l->argc = 0;
-    for (char *t = strtok(l->text, " \t\r"); t && l->argc < 63; t = strtok(NULL, " \t\r"))
-        l->argv[l->argc++] = t;
-    l->argv[l->argc] = NULL;
-    return true;
-}
-
-static bool has_arg(const Line *l, const char *flag)
-{
-    for (int i = 0; i < l->argc; i++)
-        if (strcmp(l->argv[i], flag) == 0)
-            return true;
-    return false;
-}
-
 typedef struct Opts {
     bool drop_grid;          /* remove "-grid nx ny nz" */
     bool stats;              /* make sure -stats is there */
@@ -76,7 +31,7 @@ typedef struct Render {
     bool ok;
 } Render;
 
-static void render(const char *course, const Line *l, const char *dir, const char *name,
+static void render(const char *course, const E2eCourseLine *l, const char *dir, const char *name,
                    const Opts *o, Render *r)
 {
     static char input_abs[PATH_MAX];
@@ -109,7 +64,7 @@ static void render(const char *course, const Line *l, const char *dir, const cha
             args[n++] = a;
         }
     }
-    if (o->stats && !has_arg(l, "-stats"))
+    if (o->stats && !e2e_course_has_arg(l, "-stats"))
         args[n++] = "-stats";
     if (o->extra)
         args[n++] = o->extra;
@@ -139,7 +94,7 @@ static const char *course_or_skip(void)
     return course;
 }
 
-static void compare_official(const char *course, const Line *l, const char *path)
+static void compare_official(const char *course, const E2eCourseLine *l, const char *path)
 {
     char ref[PATH_MAX], rel[128];
     snprintf(rel, sizeof rel, "official/output6_%s.tga", l->id);
@@ -192,11 +147,11 @@ static bool is_bunny(const char *id)
 static void check_grid_line(const char *id)
 {
     const char *course = course_or_skip();
-    Line l;
-    CHECK_MSG(read_line(course, id, &l), "line %s not in commands.txt", id);
+    E2eCourseLine l;
+    CHECK_MSG(e2e_course_line(course, id, &l), "line %s not in commands.txt", id);
     if (harness_failures)
         return;
-    CHECK(has_arg(&l, "-grid") && !has_arg(&l, "-visualize_grid"));
+    CHECK(e2e_course_has_arg(&l, "-grid") && !e2e_course_has_arg(&l, "-visualize_grid"));
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gridcourse") != NULL);
     const char *size = !strcmp(id, "07") && sanitized_binary() ? "100 100" : NULL;
@@ -235,11 +190,11 @@ static void check_grid_line(const char *id)
 static void check_visualize_line(const char *id)
 {
     const char *course = course_or_skip();
-    Line l;
-    CHECK_MSG(read_line(course, id, &l), "line %s not in commands.txt", id);
+    E2eCourseLine l;
+    CHECK_MSG(e2e_course_line(course, id, &l), "line %s not in commands.txt", id);
     if (harness_failures)
         return;
-    CHECK(has_arg(&l, "-visualize_grid"));
+    CHECK(e2e_course_has_arg(&l, "-visualize_grid"));
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gridvis") != NULL);
     Opts o = {false, false, NULL, NULL};
@@ -256,8 +211,8 @@ static void check_visualize_line(const char *id)
 static void test_no_marking_same_image(void)
 {
     const char *course = course_or_skip();
-    Line l;
-    CHECK(read_line(course, "11b", &l));
+    E2eCourseLine l;
+    CHECK(e2e_course_line(course, "11b", &l));
     if (harness_failures)
         return;
     char dir[PATH_MAX];
