@@ -15,6 +15,7 @@ typedef struct Camera {
     Vec3 horizontal;    /* unit, direction x up: screen right */
     float size;         /* orthographic: world width of the square screen */
     float angle;        /* perspective: full field of view, radians */
+    float tan_half;     /* tanf(angle / 2), set by the init functions and camera_rebasis */
 } Camera;
 
 /* Build the basis (semantics.md 2.2). False when direction is zero or up is parallel
@@ -22,7 +23,8 @@ typedef struct Camera {
 bool camera_init_orthographic(Camera *c, Vec3 center, Vec3 direction, Vec3 up, float size);
 bool camera_init_perspective(Camera *c, Vec3 center, Vec3 direction, Vec3 up,
                              float angle_radians);
-/* Re-derives horizontal/up from direction and up after an interactive change. */
+/* Re-derives horizontal/up from direction and up (and tan_half from angle) after an
+ * interactive change. */
 bool camera_rebasis(Camera *c);
 Ray camera_generate_ray(const Camera *c, float u, float v);
 /* -inf (a very large negative number) for orthographic cameras, 0 for perspective. */

@@ -23,6 +23,7 @@ bool camera_rebasis(Camera *c)
     c->direction = d;
     c->up = up;
     c->horizontal = h;
+    c->tan_half = tanf(c->angle * 0.5f);
     return true;
 }
 
@@ -61,8 +62,9 @@ Ray camera_generate_ray(const Camera *c, float u, float v)
                                             v3_scale(c->up, (v - 0.5f) * c->size)));
         r.dir = c->direction;
     } else {
-        /* angle spans the whole square screen: tan(angle/2) at its edges. */
-        float t = tanf(c->angle * 0.5f);
+        /* angle spans the whole square screen: tan(angle/2) at its edges (computed
+         * once per camera, not per ray). */
+        float t = c->tan_half;
         Vec3 d = v3_add(c->direction, v3_add(v3_scale(c->horizontal, (2.0f * u - 1.0f) * t),
                                              v3_scale(c->up, (2.0f * v - 1.0f) * t)));
         r.origin = c->center;
