@@ -4,6 +4,7 @@
 #include "rt/arena.h"
 #include "rt/geom.h"
 #include "rt/raytracer.h"
+#include "rt/render.h"
 
 #include <float.h>
 #include <string.h>
@@ -237,7 +238,48 @@ static void test_refraction_and_tir(void)
     arena_free(&m.s.arena);
 }
 
+/* -depth and -normals (A1, A2): a tilted plane seen by an orthographic camera; the
+ * left half of the image sees it, the right half sees nothing. */
+static void test_depth_and_normals_images(void)
+{
+    Mini m;
+    mini_init(&m);
+    CHECK(camera_init_orthographic(&m.s.camera, v3(0, 0, 10), v3(0, 0, -1), v3(0, 1, 0), 4));
+    PhongParams pp = phong_defaults();
+    Material *white = phong_new(&m.s.arena, &pp);
+    /* A big triangle covering the left half (x < 0), in the plane z = -x/2. */
+    Object3D *t = triangle_new(&m.s.arena, v3(0, -10, 0), v3(0, 10, 0), v3(-10, 0, 5), white);
+    mini_set_root(&m, t);
+    RayTracer rt = tracer(&m.s);
+    Image depth, normals;
+    CHECK(image_init(&depth, 8, 8));
+    CHECK(image_init(&normals, 8, 8));
+    RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals};
+    CHECK(render_image(&rt, &m.s.camera, &target, 2, NULL, NULL, NULL, NULL));
+    Vec3 n = v3_normalize(v3(0.5f, 0, 1)); /* the triangle's plane: z = -x/2 */
+    for (int x = 0; x < 8; x++) {
+        float u, v;
+        camera_pixel_to_screen(x, 4, 8, 8, &u, &v);
+        float wx = (u - 0.5f) * 4.0f; /* world x of the pixel's ray */
+        Vec3 d = image_get(&depth, x, 4), nn = image_get(&normals, x, 4);
+        if (wx < 0.0f) {
+            float tt = 10.0f - (-0.5f * wx); /* ray from z = 10 down to z = -x/2 */
+            float g = (11.0f - (tt < 9 ? 9 : tt > 11 ? 11 : tt)) / 2.0f;
+            CHECK_NEAR(d.x, g, 1e-5);
+            CHECK_NEAR(nn.x, fabs(n.x), 1e-5);
+            CHECK_NEAR(nn.z, fabs(n.z), 1e-5);
+        } else {
+            CHECK_NEAR(d.x, 0, 0); /* background: black in both */
+            CHECK_NEAR(nn.z, 0, 0);
+        }
+    }
+    image_free(&depth);
+    image_free(&normals);
+    arena_free(&m.s.arena);
+}
+
 static const TestCase tests[] = {
+    {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
     {"shading: camera bases and rays", test_cameras},
     {"shading: lights and attenuation", test_lights},
