@@ -1,8 +1,8 @@
 /* Binary PPM (P6, 8 bits per channel) in memory: the course Image class's other format
  * (spec tga.md 4). Rows top-down, R G B. The reader accepts '#' comments in the header. */
 #include "rt/image.h"
+#include "codec.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,19 +31,6 @@ bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
     *out = b;
     *out_len = len;
     return true;
-}
-
-static bool fail(char *err, size_t errlen, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static bool fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return false;
 }
 
 static bool is_space(uint8_t c)
@@ -86,27 +73,27 @@ bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errl
     img->width = img->height = 0;
     img->pixels = NULL;
     if (len < 2 || d[0] != 'P' || d[1] != '6')
-        return fail(err, errlen, "not a binary PPM file (expected \"P6\")");
+        return codec_fail(err, errlen, "not a binary PPM file (expected \"P6\")");
     size_t pos = 2;
     long w, h, maxval;
     if (!read_header_int(d, len, &pos, &w) || !read_header_int(d, len, &pos, &h) ||
         !read_header_int(d, len, &pos, &maxval))
-        return fail(err, errlen, "malformed PPM header");
+        return codec_fail(err, errlen, "malformed PPM header");
     /* Exactly one whitespace character separates the header from the samples. */
     if (pos >= len || !is_space(d[pos]))
-        return fail(err, errlen, "malformed PPM header");
+        return codec_fail(err, errlen, "malformed PPM header");
     pos++;
     if (w <= 0 || h <= 0 || w > 65535 || h > 65535)
-        return fail(err, errlen, "unsupported PPM size %ldx%ld", w, h);
+        return codec_fail(err, errlen, "unsupported PPM size %ldx%ld", w, h);
     if (maxval <= 0 || maxval > 255)
-        return fail(err, errlen, "unsupported PPM maximum value %ld (only 8-bit, 1..255)",
+        return codec_fail(err, errlen, "unsupported PPM maximum value %ld (only 8-bit, 1..255)",
                     maxval);
     size_t need = (size_t)w * (size_t)h * 3;
     if (len - pos < need)
-        return fail(err, errlen, "truncated PPM file: %ldx%ld needs %zu pixel bytes, "
+        return codec_fail(err, errlen, "truncated PPM file: %ldx%ld needs %zu pixel bytes, "
                     "file has %zu", w, h, need, len - pos);
     if (!image_init(img, (int)w, (int)h))
-        return fail(err, errlen, "out of memory for a %ldx%ld image", w, h);
+        return codec_fail(err, errlen, "out of memory for a %ldx%ld image", w, h);
     const uint8_t *p = d + pos;
     for (long r = 0; r < h; r++) {
         int y = (int)(h - 1 - r);

@@ -1,8 +1,8 @@
 /* Targa files in memory: the course's exact layout on output (spec tga.md 2) and a
  * tolerant reader for uncompressed true-colour files (24/32 bits, either row order). */
 #include "rt/image.h"
+#include "codec.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,50 +39,37 @@ bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     return true;
 }
 
-static bool fail(char *err, size_t errlen, const char *fmt, ...)
-    __attribute__((format(printf, 3, 4)));
-static bool fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    if (err && errlen) {
-        va_list ap;
-        va_start(ap, fmt);
-        vsnprintf(err, errlen, fmt, ap);
-        va_end(ap);
-    }
-    return false;
-}
-
 bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
 {
     img->width = img->height = 0;
     img->pixels = NULL;
     if (len < TGA_HEADER)
-        return fail(err, errlen, "not a TGA file (only %zu bytes)", len);
+        return codec_fail(err, errlen, "not a TGA file (only %zu bytes)", len);
     unsigned id_len = d[0], cmap_type = d[1], type = d[2];
     int w = d[12] | (d[13] << 8), h = d[14] | (d[15] << 8);
     unsigned bpp = d[16], desc = d[17];
 
     if (type == 10 || type == 11 || type == 9)
-        return fail(err, errlen, "RLE-compressed TGA (type %u) is not supported; "
+        return codec_fail(err, errlen, "RLE-compressed TGA (type %u) is not supported; "
                     "save it uncompressed (type 2)", type);
     if (type == 1 || cmap_type != 0)
-        return fail(err, errlen, "colour-mapped TGA is not supported; save it as "
+        return codec_fail(err, errlen, "colour-mapped TGA is not supported; save it as "
                     "uncompressed true colour (type 2)");
     if (type != 2)
-        return fail(err, errlen, "unsupported TGA image type %u (only uncompressed true "
+        return codec_fail(err, errlen, "unsupported TGA image type %u (only uncompressed true "
                     "colour, type 2)", type);
     if (bpp != 24 && bpp != 32)
-        return fail(err, errlen, "unsupported TGA depth of %u bits (only 24 or 32)", bpp);
+        return codec_fail(err, errlen, "unsupported TGA depth of %u bits (only 24 or 32)", bpp);
     if (w == 0 || h == 0)
-        return fail(err, errlen, "TGA image has zero size (%dx%d)", w, h);
+        return codec_fail(err, errlen, "TGA image has zero size (%dx%d)", w, h);
 
     size_t bytes = bpp / 8;
     size_t need = TGA_HEADER + (size_t)id_len + (size_t)w * (size_t)h * bytes;
     if (len < need)
-        return fail(err, errlen, "truncated TGA file: %dx%d needs %zu bytes, file has %zu",
+        return codec_fail(err, errlen, "truncated TGA file: %dx%d needs %zu bytes, file has %zu",
                     w, h, need, len);
     if (!image_init(img, w, h))
-        return fail(err, errlen, "out of memory for a %dx%d image", w, h);
+        return codec_fail(err, errlen, "out of memory for a %dx%d image", w, h);
 
     /* Descriptor bit 5: first stored row is the top one; bit 4: pixels run right to left. */
     bool top_down = (desc & 0x20) != 0;

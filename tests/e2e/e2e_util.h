@@ -497,4 +497,19 @@ static inline bool e2e_course_has_arg(const E2eCourseLine *cl, const char *flag)
     return false;
 }
 
+/* The course folder, or SKIP when it is absent; a missing binary fails the test. */
+static inline const char *e2e_course_or_skip(void)
+{
+    const char *course = harness_course_dir();
+    if (!course)
+        harness_skip("course folder absent (set RT_COURSE or put it at ../shared/course)");
+    if (access(harness_bin(), X_OK) != 0) {
+        harness_fail(__FILE__, __LINE__, "binary under test %s not found (run make first)",
+                     harness_bin());
+        fflush(stdout);
+        _exit(1);
+    }
+    return course;
+}
+
 #endif

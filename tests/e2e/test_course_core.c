@@ -67,20 +67,6 @@ static void render_line(const char *course, const E2eCourseLine *cl, const char 
     r->ok = r->run.status == 0 && e2e_exists(r->out_path);
 }
 
-static const char *course_or_skip(void)
-{
-    const char *course = harness_course_dir();
-    if (!course)
-        harness_skip("course folder absent (set RT_COURSE or put it at ../shared/course)");
-    if (access(harness_bin(), X_OK) != 0) {
-        harness_fail(__FILE__, __LINE__, "binary under test %s not found (run make first)",
-                     harness_bin());
-        fflush(stdout);
-        _exit(1);
-    }
-    return course;
-}
-
 static bool within(unsigned long long got, unsigned long long want, double tol)
 {
     double g = (double)got, w = (double)want;
@@ -89,7 +75,7 @@ static bool within(unsigned long long got, unsigned long long want, double tol)
 
 static void check_course_id(const char *id)
 {
-    const char *course = course_or_skip();
+    const char *course = e2e_course_or_skip();
     E2eCourseLine cl;
     CHECK_MSG(e2e_course_line(course, id, &cl), "line %s not found in commands.txt", id);
     if (harness_failures)
@@ -182,7 +168,7 @@ static void check_course_id(const char *id)
 /* (c) -threads 1 and -threads 2 give the same bytes and the same counters (DESIGN 6). */
 static void check_threads_id(const char *id)
 {
-    const char *course = course_or_skip();
+    const char *course = e2e_course_or_skip();
     E2eCourseLine cl;
     CHECK_MSG(e2e_course_line(course, id, &cl), "line %s not found in commands.txt", id);
     if (harness_failures)

@@ -80,20 +80,6 @@ static void render(const char *course, const E2eCourseLine *l, const char *dir, 
     CHECK_MSG(r->ok, "%s: no image at %s", l->id, r->out);
 }
 
-static const char *course_or_skip(void)
-{
-    const char *course = harness_course_dir();
-    if (!course)
-        harness_skip("course folder absent (set RT_COURSE or put it at ../shared/course)");
-    if (access(harness_bin(), X_OK) != 0) {
-        harness_fail(__FILE__, __LINE__, "binary under test %s not found (run make first)",
-                     harness_bin());
-        fflush(stdout);
-        _exit(1);
-    }
-    return course;
-}
-
 static void compare_official(const char *course, const E2eCourseLine *l, const char *path)
 {
     char ref[PATH_MAX], rel[128];
@@ -146,7 +132,7 @@ static bool is_bunny(const char *id)
  * matches the official image. On the bunnies the grid cuts intersections >= 10x. */
 static void check_grid_line(const char *id)
 {
-    const char *course = course_or_skip();
+    const char *course = e2e_course_or_skip();
     E2eCourseLine l;
     CHECK_MSG(e2e_course_line(course, id, &l), "line %s not in commands.txt", id);
     if (harness_failures)
@@ -189,7 +175,7 @@ static void check_grid_line(const char *id)
 
 static void check_visualize_line(const char *id)
 {
-    const char *course = course_or_skip();
+    const char *course = e2e_course_or_skip();
     E2eCourseLine l;
     CHECK_MSG(e2e_course_line(course, id, &l), "line %s not in commands.txt", id);
     if (harness_failures)
@@ -210,7 +196,7 @@ static void check_visualize_line(const char *id)
 /* Marking changes only the number of intersection tests, never a pixel. */
 static void test_no_marking_same_image(void)
 {
-    const char *course = course_or_skip();
+    const char *course = e2e_course_or_skip();
     E2eCourseLine l;
     CHECK(e2e_course_line(course, "11b", &l));
     if (harness_failures)
@@ -243,7 +229,7 @@ static void test_no_marking_same_image(void)
 static void check_marking_counters(const char *scene_name, int bounces, bool shadows,
                                    int nx, int ny, int nz)
 {
-    const char *course = course_or_skip();
+    const char *course = e2e_course_or_skip();
     char path[PATH_MAX];
     e2e_join(path, sizeof path, course, scene_name);
     Diag diag;

@@ -1,0 +1,24 @@
+/* Private helper of the image decoders in src/io/: their error reporting. */
+#ifndef RT_IO_CODEC_H
+#define RT_IO_CODEC_H
+
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+
+/* Formats the reason a decoder refuses its input into err (if any); returns false so
+ * decoders can write `return codec_fail(err, errlen, "...")`. */
+static inline bool codec_fail(char *err, size_t errlen, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+static inline bool codec_fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    if (err && errlen) {
+        va_list ap;
+        va_start(ap, fmt);
+        vsnprintf(err, errlen, fmt, ap);
+        va_end(ap);
+    }
+    return false;
+}
+
+#endif
