@@ -278,6 +278,24 @@ static void test_interrupt(void)
     e2e_rmtree(f.dir);
 }
 
+/* -timings: one line of phase times on stderr, nothing added to stdout. */
+static void test_timings(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    E2eRun r;
+    const char *args[] = {"-input", f.scene, "-output", f.out, "-size", "8", "8", "-timings",
+                          NULL};
+    expect_status(args, 0, "-timings", &r);
+    CHECK_CONTAINS(r.err, "timings: parse ");
+    CHECK_CONTAINS(r.err, " ms, grid ");
+    CHECK_CONTAINS(r.err, " ms, render ");
+    CHECK_CONTAINS(r.err, " ms, write ");
+    CHECK(r.out == NULL || strstr(r.out, "timings") == NULL);
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
 static void test_bad_scene_leaves_no_output(void)
 {
     Fixture f;
@@ -459,6 +477,7 @@ static void test_imgdiff_tool(void)
 }
 
 static const TestCase tests[] = {
+    {"cli: -timings prints phase times on stderr", test_timings},
     {"cli: Ctrl-C exits 130 and writes nothing", test_interrupt},
     {"cli: good render exits 0, image correct", test_good_render},
     {"cli: -output .ppm, -depth, -normals together", test_all_three_images_and_ppm},
