@@ -162,6 +162,7 @@ static int run(App *app)
     app->rt.shade_back = o->shade_back;
     app->rt.bounces = o->bounces;
     app->rt.weight = o->weight;
+    app->rt.single_rays = o->no_packets;
 
     if (o->grid) {
         int n[3] = {o->grid_n[0], o->grid_n[1], o->grid_n[2]};

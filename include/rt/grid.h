@@ -41,6 +41,29 @@ bool grid_marking(const Grid *g);
 bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx);
 /* Shadow query: is anything hit with tmin < t < tmax? Stops at the first occluder. */
 bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx);
+/* Ray packets: up to GRID_PACKET_MAX coherent rays (a tile of primary rays, or their
+ * shadow rays) walked through the grid together, slice by slice along the packet's main
+ * axis, with each cell's triangles tested against all rays at once in SIMD (coherent
+ * grid traversal, Wald et al., SIGGRAPH 2006). Every answer is exactly the one the
+ * single-ray query gives (same t, normal, material, id); only the counters differ: a
+ * cell counts once per packet visit, a test once per ray it is run for. Rays that do
+ * not fit the packet (other direction, grazing, far origin) go through the single-ray
+ * march. Without ctx->packet_rays every ray goes through it. */
+#define GRID_PACKET_MAX 64
+/* Nearest hits: for every i < n, like grid_intersect(g, &rays[i], &hits[i], tmin, ctx)
+ * (hits are in/out, as there). Returns the mask of rays that found a hit (bit i). */
+uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits, float tmin,
+                               RenderCtx *ctx);
+/* Shadow queries for the rays in mask: bit i of the result is
+ * grid_occluded(g, &rays[i], tmin, tmax[i], ctx). */
+uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
+                              const float *tmax, RenderCtx *ctx);
+/* Which SIMD kernel the packets use: "avx2" or "generic" (the CPU is asked once). */
+const char *grid_packet_kernel(void);
+/* Tests: makes every packet use kernel `name` ("generic", or "avx2" when the CPU has
+ * it); false when it cannot. Not while rendering. */
+bool grid_packet_use_kernel(const char *name);
+
 /* -visualize_grid: the first non-empty cell along the ray, as a hit (t = cell entry,
  * normal = entered face, material = palette colour of its count). Planes not drawn. */
 bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,

@@ -22,6 +22,7 @@ typedef struct Options {
     int grid_n[3];
     bool visualize_grid, visualize_grid_count;
     bool no_marking;             /* -no_marking: grid without mailboxing (analysis) */
+    bool no_packets;             /* -no_packets: every ray marched alone (comparisons) */
     bool gui, gouraud;
     int tess_theta, tess_phi;    /* default 20 10 */
     const char *gui_snapshot;    /* -gui_snapshot file.tga: headless preview frame */

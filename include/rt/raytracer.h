@@ -17,12 +17,19 @@ typedef struct RayTracer {
     int bounces;               /* max recursion depth; 0 = no secondary rays */
     float weight;              /* cutoff: secondary rays with weight < cutoff not traced */
     bool visualize_grid;       /* needs grid */
+    bool single_rays;          /* true: no ray packets, every ray marched on its own
+                                  (hidden option -no_packets, for comparisons) */
 } RayTracer;
 
 /* traceRay: colour seen along ray; counts one non-shadow ray. If hit_out is non-NULL it
  * receives the ray's nearest hit (t = +inf when none) with the unflipped normal. */
 Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin,
                      int depth, float weight, float ior, Hit *hit_out);
+/* raytracer_trace(rt, ctx, &rays[i], tmin, 0, 1, 1, &hits[i]) for every i < n
+ * (n <= GRID_PACKET_MAX): the same colours and hits to the bit, but with a grid the
+ * rays and their first shadow rays go through the grid as packets (grid.h). */
+void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
+                            float tmin, Vec3 *colors, Hit *hits);
 /* Nearest hit (grid march, visualisation or brute force as configured). */
 bool raytracer_cast(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, Hit *hit);
 /* True when something lies on the ray with tmin < t < dist. Counts one shadow ray. */

@@ -1,4 +1,4 @@
-/* The image loop: one primary ray per pixel, rows handed out to worker threads. The
+/* The image loop: one primary ray per pixel, bands of rows handed out to worker threads. The
  * result depends only on the pixel, never on the thread count. */
 #ifndef RT_RENDER_H
 #define RT_RENDER_H
@@ -14,7 +14,8 @@ typedef struct RenderTarget {
     Image *normals;            /* -normals */
 } RenderTarget;
 
-/* Called from a worker thread after row y (0 = bottom) is complete; may be NULL. */
+/* Called from a worker thread after row y (0 = bottom) is complete (rows finish in
+ * bands of 8); may be NULL. */
 typedef void (*RenderRowFn)(void *user, int y);
 
 /* Renders every pixel of target with camera; images must be allocated at the target

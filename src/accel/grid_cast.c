@@ -16,12 +16,6 @@
 #define RT_GRID_SIMD 0
 #endif
 
-static inline bool test_prim(const GridPrim *p, const Ray *ray, Hit *hit, float tmin,
-                             RenderCtx *ctx)
-{
-    return p->path ? xform_path_intersect(p->path, p->obj, ray, hit, tmin, ctx)
-                   : obj_intersect(p->obj, ray, hit, tmin, ctx);
-}
 
 /* Cell entry e: a packed triangle inline (grid_pack.c), anything else through its ops.
  * Both do exactly what Triangle::intersect does, so the hit is the same to the bit. */
@@ -30,7 +24,7 @@ static inline __attribute__((always_inline)) bool test_entry(const Grid *g, uint
 {
     uint32_t p = GRID_ITEM_INDEX(e);
     if (!(e & GRID_ITEM_TRI))
-        return test_prim(&g->prims[p], ray, hit, tmin, ctx);
+        return grid_test_prim(&g->prims[p], ray, hit, tmin, ctx);
     const PackedTri *pt = &g->tri[p];
     ctx->stats.intersections++;
     float t;
@@ -143,7 +137,7 @@ static inline bool batch_intersect(const Grid *g, const TriBatch *b, const RaySi
 
 /* A fresh stamp for this ray, or 0 when there is no usable mailbox. Stamps wrap after
  * 2^32 - 1 rays: then every slot is cleared, so no stale stamp can match. */
-static inline uint32_t begin_ray(const Grid *g, RenderCtx *ctx)
+uint32_t grid_begin_ray(const Grid *g, RenderCtx *ctx)
 {
     if (!ctx->mailbox || ctx->num_mailbox < g->num_prims || g->num_prims == 0)
         return 0;
@@ -194,7 +188,7 @@ static float march_error(const Grid *g, const Ray *ray)
 /* True when the march cannot be trusted for this ray AND the ray passes near enough
  * to the box to hit something in it (a far ray that misses the widened box is left to
  * march_init, which rejects it). */
-static bool ray_too_far(const Grid *g, const Ray *ray, float tmin)
+bool grid_ray_too_far(const Grid *g, const Ray *ray, float tmin)
 {
     float err = march_error(g, ray);
     if (err < g->min_pad)
@@ -213,23 +207,23 @@ static bool brute_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
 {
     bool found = false;
     for (uint32_t p = 0; p < g->num_prims; p++)
-        found |= test_prim(&g->prims[p], ray, hit, tmin, ctx);
+        found |= grid_test_prim(&g->prims[p], ray, hit, tmin, ctx);
     return found;
 }
 
-bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx)
+/* Everything of grid_intersect after the unbounded primitives: the march (or the
+ * brute-force loop for rays too far out), updating hit. */
+static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
+                                                                  const Ray *ray, Hit *hit,
+                                                                  float tmin, RenderCtx *ctx)
 {
     bool found = false;
-    /* 1. Infinite primitives first: their hit bounds the march (early rejection). */
-    for (uint32_t u = 0; u < g->num_unbounded; u++)
-        found |= test_prim(&g->unbounded[u], ray, hit, tmin, ctx);
-
-    if (ray_too_far(g, ray, tmin))
-        return brute_intersect(g, ray, hit, tmin, ctx) || found;
+    if (grid_ray_too_far(g, ray, tmin))
+        return brute_intersect(g, ray, hit, tmin, ctx);
     MarchingInfo mi;
     if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
-        return found;
-    uint32_t stamp = begin_ray(g, ctx);
+        return false;
+    uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
 #if RT_GRID_SIMD
     RaySimd rs = ray_simd(ray, tmin);
@@ -273,25 +267,35 @@ bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderC
     return found;
 }
 
+bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx)
+{
+    bool found = false;
+    /* 1. Infinite primitives first: their hit bounds the march (early rejection). */
+    for (uint32_t u = 0; u < g->num_unbounded; u++)
+        found |= grid_test_prim(&g->unbounded[u], ray, hit, tmin, ctx);
+    return march_intersect(g, ray, hit, tmin, ctx) || found;
+}
+
+bool grid_march_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx)
+{
+    return march_intersect(g, ray, hit, tmin, ctx);
+}
+
 /* The shadow query repeats grid_intersect's cell loop with an early return instead of
  * sharing it: a shared always-inline version with an any-hit flag measured 15% slower
  * on course line 07 (best of 8, interleaved), so the two loops stay written out. */
-bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx)
+static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
+                                                                  const Ray *ray, Hit *hp,
+                                                                  float tmin, float tmax,
+                                                                  RenderCtx *ctx)
 {
-    /* hit_accepts with t = tmax and id 0 takes exactly the hits with t < tmax. */
-    Hit h = hit_none();
-    h.t = tmax;
-    h.id = 0;
-    for (uint32_t u = 0; u < g->num_unbounded; u++)
-        if (test_prim(&g->unbounded[u], ray, &h, tmin, ctx))
-            return true;
-
-    if (ray_too_far(g, ray, tmin))
+    Hit h = *hp;
+    if (grid_ray_too_far(g, ray, tmin))
         return brute_intersect(g, ray, &h, tmin, ctx);
     MarchingInfo mi;
     if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
         return false;
-    uint32_t stamp = begin_ray(g, ctx);
+    uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
 #if RT_GRID_SIMD
     RaySimd rs = ray_simd(ray, tmin);
@@ -330,4 +334,24 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
 #endif
     } while (march_next(&mi, ctx));
     return false;
+}
+
+bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx)
+{
+    /* hit_accepts with t = tmax and id 0 takes exactly the hits with t < tmax. */
+    Hit h = hit_none();
+    h.t = tmax;
+    h.id = 0;
+    for (uint32_t u = 0; u < g->num_unbounded; u++)
+        if (grid_test_prim(&g->unbounded[u], ray, &h, tmin, ctx))
+            return true;
+    return march_occluded(g, ray, &h, tmin, tmax, ctx);
+}
+
+bool grid_march_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx)
+{
+    Hit h = hit_none();
+    h.t = tmax;
+    h.id = 0;
+    return march_occluded(g, ray, &h, tmin, tmax, ctx);
 }

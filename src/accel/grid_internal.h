@@ -6,6 +6,7 @@
 #include <stdint.h>
 #include "rt/grid.h"
 #include "rt/marching_info.h"
+#include "rt/geom.h"
 
 /* One flattened primitive: the leaf and the Transforms above it (NULL: none). Its index
  * in Grid.prims is its mailbox slot. */
@@ -85,5 +86,24 @@ static inline uint32_t grid_cell_index(const Grid *g, int i, int j, int k)
 {
     return ((uint32_t)k * (uint32_t)g->n[1] + (uint32_t)j) * (uint32_t)g->n[0] + (uint32_t)i;
 }
+
+/* The leaf's intersect, through its flattened transform path when it has one. */
+static inline bool grid_test_prim(const GridPrim *p, const Ray *ray, Hit *hit, float tmin,
+                                  RenderCtx *ctx)
+{
+    return p->path ? xform_path_intersect(p->path, p->obj, ray, hit, tmin, ctx)
+                   : obj_intersect(p->obj, ray, hit, tmin, ctx);
+}
+
+/* grid_cast.c, for the packet traversal (grid_packet.c): */
+/* grid_intersect / grid_occluded without the unbounded primitives (the caller tests
+ * those first), for one ray. */
+bool grid_march_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx);
+bool grid_march_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx);
+/* True when the ray starts so far out that the march's rounding could exceed the
+ * padding (it is then tested against every primitive). */
+bool grid_ray_too_far(const Grid *g, const Ray *ray, float tmin);
+/* A fresh mailbox stamp for one ray or packet, 0 when there is no usable mailbox. */
+uint32_t grid_begin_ray(const Grid *g, RenderCtx *ctx);
 
 #endif

@@ -52,6 +52,7 @@ void options_usage(FILE *out)
         "  -visualize_grid          render the occupied grid cells instead of the scene\n"
         "  -visualize_grid_count    same as -visualize_grid (cells are coloured by count)\n"
         "  -no_marking              grid: test an object again in every cell (for analysis)\n"
+        "  -no_packets              grid: march every ray on its own, no ray packets\n"
         "  -threads n               render threads (default: all cores)\n"
         "OpenGL preview (when built)\n"
         "  -gui                     open the interactive preview window\n"
@@ -190,6 +191,8 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             o->visualize_grid_count = true;
         } else if (!strcmp(a, "-no_marking")) {
             o->no_marking = true;
+        } else if (!strcmp(a, "-no_packets")) {
+            o->no_packets = true;
         } else if (!strcmp(a, "-gui")) {
             o->gui = true;
         } else if (!strcmp(a, "-gouraud")) {

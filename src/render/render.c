@@ -1,6 +1,6 @@
-/* The image loop: rows handed out to worker threads through an atomic counter. A
- * pixel depends only on its coordinates, so images and counters are identical for
- * any thread count. */
+/* The image loop: bands of rows handed out to worker threads through an atomic
+ * counter. A pixel depends only on its coordinates, and the tiles only on the image
+ * size, so images and counters are identical for any thread count. */
 #include "rt/render.h"
 
 #include <pthread.h>
@@ -15,7 +15,7 @@ typedef struct RenderJob {
     RenderRowFn row_done;
     void *user;
     volatile int *cancel;
-    atomic_int next_row;
+    atomic_int next_row;  /* next band of TILE rows */
     atomic_int failed;
 } RenderJob;
 
@@ -32,34 +32,71 @@ int render_default_threads(void)
     return n > 0 ? (int)n : 1;
 }
 
-static void render_row(RenderJob *job, RenderCtx *ctx, int y)
+/* Rows are rendered in bands of TILE rows, each band in TILE x TILE tiles: a tile's
+ * primary rays (and then their shadow rays) go through the grid as one packet. */
+#define TILE 8 /* a power of two (Z order) */
+_Static_assert(TILE * TILE <= GRID_PACKET_MAX, "a tile must fit in one ray packet");
+
+static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
+{
+    if (t->color)
+        image_set(t->color, x, y, c);
+    bool any = hit->material != NULL && isfinite(hit->t);
+    if (t->depth) {
+        float g = 0.0f;
+        if (any) {
+            /* Near = white, far = black, linear between dmin and dmax (A1). */
+            float d = hit->t < t->depth_min ? t->depth_min
+                    : hit->t > t->depth_max ? t->depth_max : hit->t;
+            g = (t->depth_max - d) / (t->depth_max - t->depth_min);
+        }
+        image_set(t->depth, x, y, v3(g, g, g));
+    }
+    if (t->normals) {
+        Vec3 n = any ? v3(fabsf(hit->normal.x), fabsf(hit->normal.y), fabsf(hit->normal.z))
+                     : v3(0, 0, 0);
+        image_set(t->normals, x, y, n);
+    }
+}
+
+/* Position k of the Z (Morton) order of a TILE x TILE tile: every quarter of the
+ * order is a quarter of the tile, which is how the grid splits a packet too wide. */
+static void tile_zorder(int k, int *dx, int *dy)
+{
+    int x = 0, y = 0;
+    for (int b = 0; (1 << (2 * b)) < TILE * TILE; b++) {
+        x |= ((k >> (2 * b)) & 1) << b;
+        y |= ((k >> (2 * b + 1)) & 1) << b;
+    }
+    *dx = x;
+    *dy = y;
+}
+
+static void render_band(RenderJob *job, RenderCtx *ctx, int y0, int y1)
 {
     RenderTarget *t = job->target;
     float tmin = camera_tmin(job->camera);
-    for (int x = 0; x < t->width; x++) {
-        float u, v;
-        camera_pixel_to_screen(x, y, t->width, t->height, &u, &v);
-        Ray ray = camera_generate_ray(job->camera, u, v);
-        Hit hit;
-        Vec3 c = raytracer_trace(job->rt, ctx, &ray, tmin, 0, 1.0f, 1.0f, &hit);
-        if (t->color)
-            image_set(t->color, x, y, c);
-        bool any = hit.material != NULL && isfinite(hit.t);
-        if (t->depth) {
-            float g = 0.0f;
-            if (any) {
-                /* Near = white, far = black, linear between dmin and dmax (A1). */
-                float d = hit.t < t->depth_min ? t->depth_min
-                        : hit.t > t->depth_max ? t->depth_max : hit.t;
-                g = (t->depth_max - d) / (t->depth_max - t->depth_min);
-            }
-            image_set(t->depth, x, y, v3(g, g, g));
+    Ray rays[TILE * TILE];
+    Hit hits[TILE * TILE];
+    Vec3 colors[TILE * TILE];
+    int px[TILE * TILE], py[TILE * TILE];
+    for (int x0 = 0; x0 < t->width; x0 += TILE) {
+        int n = 0;
+        for (int k = 0; k < TILE * TILE; k++) {
+            int dx, dy;
+            tile_zorder(k, &dx, &dy);
+            int x = x0 + dx, y = y0 + dy;
+            if (x >= t->width || y >= y1)
+                continue;
+            float u, v;
+            camera_pixel_to_screen(x, y, t->width, t->height, &u, &v);
+            rays[n] = camera_generate_ray(job->camera, u, v);
+            px[n] = x;
+            py[n++] = y;
         }
-        if (t->normals) {
-            Vec3 n = any ? v3(fabsf(hit.normal.x), fabsf(hit.normal.y), fabsf(hit.normal.z))
-                         : v3(0, 0, 0);
-            image_set(t->normals, x, y, n);
-        }
+        raytracer_trace_packet(job->rt, ctx, rays, n, tmin, colors, hits);
+        for (int i = 0; i < n; i++)
+            store_pixel(t, px[i], py[i], colors[i], &hits[i]);
     }
 }
 
@@ -70,12 +107,15 @@ static void *worker_main(void *arg)
     for (;;) {
         if (job->cancel && *job->cancel)
             break;
-        int y = atomic_fetch_add(&job->next_row, 1);
-        if (y >= job->target->height)
+        int band = atomic_fetch_add(&job->next_row, 1);
+        int h = job->target->height;
+        if (band >= (h + TILE - 1) / TILE)
             break;
-        render_row(job, &w->ctx, y);
+        int y0 = band * TILE, y1 = y0 + TILE < h ? y0 + TILE : h;
+        render_band(job, &w->ctx, y0, y1);
         if (job->row_done)
-            job->row_done(job->user, y);
+            for (int y = y0; y < y1; y++)
+                job->row_done(job->user, y);
     }
     return NULL;
 }
@@ -86,8 +126,9 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
 {
     if (threads <= 0)
         threads = render_default_threads();
-    if (threads > target->height && target->height > 0)
-        threads = target->height;
+    int bands = (target->height + TILE - 1) / TILE;
+    if (threads > bands && bands > 0)
+        threads = bands;
     if (threads < 1)
         threads = 1;
 

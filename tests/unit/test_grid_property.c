@@ -5,7 +5,9 @@
  * brute-force tree walk (t bit-equal, same primitive, normal, material) at several
  * resolutions, grid_occluded agrees with a brute-force occlusion test, and with marking on
  * no primitive is intersected twice for one ray (counted independently by wrapping the
- * primitives' ops). */
+ * primitives' ops). The packet queries (grid_intersect_packet, grid_occluded_packet)
+ * are held to the same brute-force answers on coherent, incoherent and shadow-like
+ * packets. */
 #include <stdlib.h>
 #include <string.h>
 
@@ -336,6 +338,108 @@ static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const Test
     tot->occl += ob;
 }
 
+/* ---- packets ---- */
+
+/* One packet of n rays sharing tmin: grid_intersect_packet and grid_occluded_packet
+ * must give every ray exactly the brute-force answer. */
+static void check_packet(const RScene *r, const Grid *g, RenderCtx *ctx, const Ray *rays,
+                         int n, float tmin, const float *tmax, RunTotals *tot)
+{
+    Hit hits[GRID_PACKET_MAX];
+    for (int i = 0; i < n; i++)
+        hits[i] = hit_none();
+    uint64_t found = grid_intersect_packet(g, rays, n, hits, tmin, ctx);
+    uint64_t mask = 0;
+    for (int i = 0; i < n; i++)
+        if (irand(5))
+            mask |= (uint64_t)1 << i;
+    uint64_t occl = grid_occluded_packet(g, rays, mask, tmin, tmax, ctx);
+    for (int i = 0; i < n; i++) {
+        RenderCtx bctx;
+        memset(&bctx, 0, sizeof bctx);
+        Hit hb = hit_none();
+        bool fb = obj_intersect(r->s.root, &rays[i], &hb, tmin, &bctx);
+        bool fg = (found >> i) & 1;
+        tot->rays++;
+        tot->hits += fb;
+        CHECK_MSG(fg == fb && (!fb || same_hit(&hits[i], &hb)),
+                  "packet ray %d/%d o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) tmin=%g: packet %d "
+                  "t=%.9g id=%u, brute %d t=%.9g id=%u", i, n, (double)rays[i].origin.x,
+                  (double)rays[i].origin.y, (double)rays[i].origin.z, (double)rays[i].dir.x,
+                  (double)rays[i].dir.y, (double)rays[i].dir.z, (double)tmin, fg,
+                  (double)hits[i].t, hits[i].id, fb, (double)hb.t, hb.id);
+        Hit ho = hit_none();
+        ho.t = tmax[i];
+        ho.id = 0;
+        bool ob = (mask >> i & 1) && obj_intersect(r->s.root, &rays[i], &ho, tmin, &bctx);
+        bool og = (occl >> i) & 1;
+        CHECK_MSG(ob == og, "packet ray %d/%d: occlusion to %.9g: packet %d, brute %d", i, n,
+                  (double)tmax[i], og, ob);
+        tot->occl += ob;
+    }
+}
+
+/* Camera-like packets (one origin, directions through a window of random width, so
+ * some are split and some not), random incoherent ones, and shadow-like ones from their
+ * hit points towards a directional or a point light. */
+static void check_packets(const RScene *r, const Grid *g, RenderCtx *ctx, int count,
+                          RunTotals *tot)
+{
+    Ray rays[GRID_PACKET_MAX];
+    float tmax[GRID_PACKET_MAX];
+    for (int p = 0; p < count; p++) {
+        int n = irand(4) ? GRID_PACKET_MAX : 1 + irand(GRID_PACKET_MAX);
+        int kind = irand(3);
+        Vec3 o = vrand(-6, 6), target = vrand(-2, 2);
+        Vec3 w = unit_rand();
+        Vec3 a = v3_normalize(v3_cross(w, v3(0.3f, 1, 0.1f))), b = v3_cross(w, a);
+        float width = irand(2) ? frand(0.0f, 0.05f) : frand(0.0f, 1.0f);
+        for (int i = 0; i < n; i++) {
+            if (kind == 2) {
+                TestRay tr = random_ray(r, g);
+                rays[i] = tr.ray;
+            } else {
+                /* Z order over an 8x8 window, as the renderer lays out a tile. */
+                int x = 0, y = 0;
+                for (int bit = 0; bit < 3; bit++) {
+                    x |= ((i >> (2 * bit)) & 1) << bit;
+                    y |= ((i >> (2 * bit + 1)) & 1) << bit;
+                }
+                Vec3 t = v3_add(target, v3_add(v3_scale(a, width * (float)x / 8.0f),
+                                               v3_scale(b, width * (float)y / 8.0f)));
+                rays[i].origin = o;
+                rays[i].dir = v3_normalize(v3_sub(t, o));
+                if (kind == 1 && irand(8) == 0)
+                    rays[i].dir = v3_neg(rays[i].dir); /* a stray ray going the other way */
+            }
+            tmax[i] = irand(2) ? INFINITY : frand(0.0f, 12.0f);
+        }
+        float tmin = irand(2) ? 0.0f : 1e-3f;
+        check_packet(r, g, ctx, rays, n, tmin, tmax, tot);
+
+        /* Shadow-like: from each hit towards one light. */
+        Ray srays[GRID_PACKET_MAX];
+        Hit hits[GRID_PACKET_MAX];
+        for (int i = 0; i < n; i++)
+            hits[i] = hit_none();
+        uint64_t found = grid_intersect_packet(g, rays, n, hits, tmin, ctx);
+        Vec3 ldir = unit_rand(), lpos = vrand(-5, 5);
+        bool point = irand(2);
+        int m = 0;
+        for (int i = 0; i < n; i++) {
+            if (!(found >> i & 1) || !isfinite(hits[i].t))
+                continue;
+            srays[m].origin = ray_at(&rays[i], hits[i].t);
+            Vec3 to = v3_sub(lpos, srays[m].origin);
+            srays[m].dir = point ? v3_normalize(to) : ldir;
+            tmax[m] = point ? v3_length(to) : INFINITY;
+            m++;
+        }
+        if (m)
+            check_packet(r, g, ctx, srays, m, 1e-3f, tmax, tot);
+    }
+}
+
 static void run_scene(int seed, int objects, int planes, int rays, bool marking,
                       RunTotals *tot)
 {
@@ -365,6 +469,7 @@ static void run_scene(int seed, int objects, int planes, int rays, bool marking,
         memset(&ctx, 0, sizeof ctx);
         ctx.num_mailbox = grid_mailbox_size(g);
         ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        ctx.packet_rays = calloc(ctx.num_mailbox + 1, sizeof *ctx.packet_rays);
         /* Start near the wrap-around of the stamps: it must clear and go on. */
         ctx.ray_stamp = UINT32_MAX - 5;
         for (int i = 0; i < rays; i++) {
@@ -383,6 +488,14 @@ static void run_scene(int seed, int objects, int planes, int rays, bool marking,
         }
         if (marking)
             CHECK_INT(ctx.stats.repeat_tests, 0);
+        /* Both kernels where the CPU has both; the generic one is the fallback. */
+        static const char *const kernels[] = {"generic", "avx2"};
+        for (int k = 0; k < 2; k++)
+            if (grid_packet_use_kernel(kernels[k]))
+                check_packets(&r, g, &ctx, rays / 20, tot);
+        if (marking)
+            CHECK_INT(ctx.stats.repeat_tests, 0);
+        free(ctx.packet_rays);
         free(ctx.mailbox);
         grid_free(g);
     }

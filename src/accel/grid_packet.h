@@ -1,0 +1,41 @@
+/* Private state of the packet traversal (grid_packet.c): rays in SIMD-friendly columns
+ * of PK_LANES, shared by the generic kernel and the AVX2 build of the same kernel
+ * (grid_packet_kernel.h, compiled twice). */
+#ifndef RT_ACCEL_GRID_PACKET_H
+#define RT_ACCEL_GRID_PACKET_H
+
+#include <stdint.h>
+#include "grid_internal.h"
+
+#define PK_LANES 8
+#define PK_GROUPS (GRID_PACKET_MAX / PK_LANES)
+
+/* GCC/Clang vector extensions: 8 lanes; the compiler maps them to one AVX register or
+ * two SSE registers. Arithmetic on them is lane-wise IEEE, like the scalar code. */
+typedef float pk_f8 __attribute__((vector_size(32)));
+typedef int32_t pk_i8 __attribute__((vector_size(32)));
+typedef uint32_t pk_u8 __attribute__((vector_size(32)));
+
+typedef struct Packet {
+    pk_f8 o[3][PK_GROUPS], d[3][PK_GROUPS];
+    pk_f8 inv_k[PK_GROUPS];     /* 1 / d[axis] */
+    pk_f8 t0[PK_GROUPS];        /* where the ray's part inside the padded box starts (>= tmin) */
+    pk_f8 t1[PK_GROUPS];        /* ... and ends (shadow rays: also < tmax) */
+    pk_f8 best_t[PK_GROUPS];    /* nearest: t of the best hit so far; shadow: tmax */
+    pk_u8 best_id[PK_GROUPS];   /* nearest: its id */
+    pk_i8 best_prim[PK_GROUPS]; /* nearest: packed primitive of the best hit; -1: the
+                                   caller's Hit holds the best hit */
+    uint64_t active;            /* rays still walking */
+    uint64_t hit;               /* nearest: rays with a hit; shadow: rays occluded */
+    int axis, sign, k_first;    /* main axis, its direction (+1/-1), first slice */
+    float tmin;
+    bool shadow;
+    Hit *hits;                  /* nearest: the caller's hits */
+    const Ray *rays;
+} Packet;
+
+/* One kernel per instruction set: walks the packet's active rays (grid_packet_kernel.h). */
+void grid_packet_walk_generic(const Grid *g, Packet *pk, RenderCtx *ctx);
+void grid_packet_walk_avx2(const Grid *g, Packet *pk, RenderCtx *ctx);
+
+#endif

@@ -1,0 +1,16 @@
+/* The packet walk compiled for AVX2 (one 8-lane register per ray group). Chosen at run
+ * time by grid_packet.c when the CPU has AVX2; without FMA, so every lane rounds like
+ * the scalar code (grid_packet_kernel.h). */
+#include "grid_packet.h"
+
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#pragma GCC target("avx2")
+#define PK_WALK grid_packet_walk_avx2
+#include "grid_packet_kernel.h"
+#else
+/* Never chosen on other targets; defined so the dispatch table links. */
+void grid_packet_walk_avx2(const Grid *g, Packet *pk, RenderCtx *ctx)
+{
+    grid_packet_walk_generic(g, pk, ctx);
+}
+#endif

@@ -1,0 +1,290 @@
+/* The packet walk, written once and compiled twice: by grid_packet.c for the baseline
+ * instruction set and by grid_packet_avx2.c under "#pragma GCC target("avx2")". The
+ * includer defines PK_WALK (the function's name) and includes this file once.
+ *
+ * Coherent grid traversal (Wald, Ize, Kensler, Knoll, Parker, SIGGRAPH 2006): the
+ * packet advances one slice of cells at a time along its main axis K. In a slice, the
+ * rays' parts between the slice's two planes span a rectangle of cells in the other two
+ * axes; every primitive of those cells is tested against every ray in the slice. A ray
+ * leaves the walk when its best hit lies before the slice's far plane (nothing nearer
+ * can be in a later slice: the argument of grid_intersect's step 3, made per slice) or
+ * when it leaves the box. Each ray therefore tests a superset of the primitives its own
+ * march would test, in another order; hit_accepts' (t, id) order makes the answer
+ * independent of the order, and each test is triangle_ray_t's arithmetic lane by lane
+ * (IEEE add, sub, mul, div in the same order, never fused), so the answers are bit for
+ * bit those of the single-ray query. */
+
+#include <math.h>
+#include <string.h>
+
+#if defined(__AVX__)
+#include <immintrin.h>
+#elif defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+/* The 8-lane helpers below are always inlined, so no vector crosses a call and the
+ * ABI note GCC gives for 32-byte vectors without AVX does not apply. */
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+#define PK_INLINE static inline __attribute__((always_inline))
+
+PK_INLINE pk_f8 pk_splat(float x) { return (pk_f8){x, x, x, x, x, x, x, x}; }
+
+PK_INLINE pk_f8 pk_blend(pk_i8 m, pk_f8 a, pk_f8 b) /* m ? a : b, lane by lane */
+{
+    return (pk_f8)((m & (pk_i8)a) | (~m & (pk_i8)b));
+}
+
+PK_INLINE pk_f8 pk_min(pk_f8 a, pk_f8 b) { return pk_blend(a < b, a, b); }
+PK_INLINE pk_f8 pk_max(pk_f8 a, pk_f8 b) { return pk_blend(a > b, a, b); }
+
+/* Bit l set when lane l of m is set. */
+PK_INLINE unsigned pk_bits(pk_i8 m)
+{
+#if defined(__AVX__)
+    return (unsigned)_mm256_movemask_ps((__m256)m);
+#elif defined(__SSE2__)
+    __m128 lo, hi;
+    memcpy(&lo, &m, sizeof lo);
+    memcpy(&hi, (const char *)&m + sizeof lo, sizeof hi);
+    return (unsigned)_mm_movemask_ps(lo) | (unsigned)_mm_movemask_ps(hi) << 4;
+#else
+    unsigned r = 0;
+    for (int l = 0; l < PK_LANES; l++)
+        r |= (unsigned)(m[l] & 1) << l;
+    return r;
+#endif
+}
+
+/* The lane mask of the 8 bits in byte. */
+PK_INLINE pk_i8 pk_lanes(unsigned byte)
+{
+    const pk_i8 bit = {1, 2, 4, 8, 16, 32, 64, 128};
+    int32_t b = (int32_t)byte;
+    pk_i8 v = {b, b, b, b, b, b, b, b};
+    return (v & bit) != (pk_i8){0, 0, 0, 0, 0, 0, 0, 0};
+}
+
+PK_INLINE float pk_hmin(pk_f8 v)
+{
+    float m = v[0];
+    for (int l = 1; l < PK_LANES; l++)
+        m = v[l] < m ? v[l] : m;
+    return m;
+}
+
+PK_INLINE float pk_hmax(pk_f8 v)
+{
+    float m = v[0];
+    for (int l = 1; l < PK_LANES; l++)
+        m = v[l] > m ? v[l] : m;
+    return m;
+}
+
+static int pk_cell_of(float x, float lo, float inv_size, int n)
+{
+    float f = (x - lo) * inv_size;
+    if (!(f >= 0.0f))
+        return 0;
+    if (f >= (float)n)
+        return n - 1;
+    int c = (int)f;
+    return c < n ? c : n - 1;
+}
+
+/* Packed triangle p against the rays of `want` (a 64-bit ray mask). */
+PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
+{
+    const PackedTri *pt = &g->tri[p];
+    const float v0x = pt->v0.x, v0y = pt->v0.y, v0z = pt->v0.z;
+    const float e1x = pt->e1.x, e1y = pt->e1.y, e1z = pt->e1.z;
+    const float e2x = pt->e2.x, e2y = pt->e2.y, e2z = pt->e2.z;
+    const pk_f8 zero = pk_splat(0.0f), one = pk_splat(1.0f), tmin = pk_splat(pk->tmin);
+    const uint32_t id = pt->id;
+    for (int gi = 0; gi < PK_GROUPS; gi++) {
+        unsigned byte = (unsigned)(want >> (8 * gi)) & 0xffu;
+        if (!byte)
+            continue;
+        pk_f8 dx = pk->d[0][gi], dy = pk->d[1][gi], dz = pk->d[2][gi];
+        /* triangle_ray_t, term by term */
+        pk_f8 px = dy * e2z - dz * e2y;
+        pk_f8 py = dz * e2x - dx * e2z;
+        pk_f8 pz = dx * e2y - dy * e2x;
+        pk_f8 det = e1x * px + e1y * py + e1z * pz;
+        pk_f8 inv = one / det;
+        pk_f8 sx = pk->o[0][gi] - v0x, sy = pk->o[1][gi] - v0y, sz = pk->o[2][gi] - v0z;
+        pk_f8 u = (sx * px + sy * py + sz * pz) * inv;
+        pk_f8 qx = sy * e1z - sz * e1y;
+        pk_f8 qy = sz * e1x - sx * e1z;
+        pk_f8 qz = sx * e1y - sy * e1x;
+        pk_f8 v = (dx * qx + dy * qy + dz * qz) * inv;
+        pk_f8 t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        pk_i8 ok = (det != zero) & (u >= zero) & (u <= one) & (v >= zero) & (u + v <= one) &
+                   (t > tmin) & pk_lanes(byte);
+        pk_f8 bt = pk->best_t[gi];
+        if (pk->shadow) {
+            /* hit_accepts against (tmax, id 0): exactly t < tmax */
+            ok &= t < bt;
+            unsigned hitb = pk_bits(ok);
+            if (hitb)
+                pk->hit |= (uint64_t)hitb << (8 * gi);
+            continue;
+        }
+        pk_u8 bid = pk->best_id[gi];
+        pk_u8 idv = {id, id, id, id, id, id, id, id};
+        ok &= (t < bt) | ((t == bt) & (pk_i8)(idv < bid));
+        pk->best_t[gi] = pk_blend(ok, t, bt);
+        pk->best_id[gi] = (pk_u8)pk_blend(ok, (pk_f8)idv, (pk_f8)bid);
+        pk_i8 pv = {(int32_t)p, (int32_t)p, (int32_t)p, (int32_t)p,
+                    (int32_t)p, (int32_t)p, (int32_t)p, (int32_t)p};
+        pk->best_prim[gi] = (pk_i8)pk_blend(ok, (pk_f8)pv, (pk_f8)pk->best_prim[gi]);
+    }
+}
+
+/* Any other primitive (sphere, transformed triangle, ...): its own intersect, ray by
+ * ray, through the caller's Hit (nearest) or a (tmax, id 0) Hit (shadow). */
+static void pk_test_prim(const Grid *g, Packet *pk, uint32_t p, uint64_t want, RenderCtx *ctx)
+{
+    while (want) {
+        int i = __builtin_ctzll(want);
+        want &= want - 1;
+        int gi = i / PK_LANES, l = i % PK_LANES;
+        const Ray *ray = &pk->rays[i];
+        if (pk->shadow) {
+            Hit h = hit_none();
+            h.t = pk->best_t[gi][l];
+            h.id = 0;
+            if (grid_test_prim(&g->prims[p], ray, &h, pk->tmin, ctx))
+                pk->hit |= (uint64_t)1 << i;
+            continue;
+        }
+        Hit *h = &pk->hits[i];
+        h->t = pk->best_t[gi][l];
+        h->id = pk->best_id[gi][l];
+        if (grid_test_prim(&g->prims[p], ray, h, pk->tmin, ctx)) {
+            pk->best_t[gi][l] = h->t;
+            pk->best_id[gi][l] = h->id;
+            pk->best_prim[gi][l] = -1;
+            pk->hit |= (uint64_t)1 << i;
+        }
+    }
+}
+
+void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
+{
+    const int K = pk->axis, U = (K + 1) % 3, V = (K + 2) % 3;
+    const float lo_k = v3_comp(g->box.min, K), size_k = g->size[K];
+    const float lo_u = v3_comp(g->box.min, U), lo_v = v3_comp(g->box.min, V);
+    const float inv_su = 1.0f / g->size[U], inv_sv = 1.0f / g->size[V];
+    const float pad_u = g->pad[U], pad_v = g->pad[V];
+    const int nk = g->n[K], nu = g->n[U], nv = g->n[V];
+    const uint32_t *start = g->cell_start, *items = g->cell_items;
+    const pk_f8 inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+
+    uint32_t stamp = grid_begin_ray(g, ctx);
+    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    uint64_t *mrays = ctx->packet_rays;
+
+    for (int k = pk->k_first; k >= 0 && k < nk && pk->active; k += pk->sign) {
+        /* The slice's near and far planes; the grid's first and last slices reach out
+         * to the padded box (the rays' t0 and t1 bound them there). */
+        int b_near = pk->sign > 0 ? k : k + 1, b_far = pk->sign > 0 ? k + 1 : k;
+        bool first = pk->sign > 0 ? k == 0 : k == nk - 1;
+        bool last = pk->sign > 0 ? k == nk - 1 : k == 0;
+        float p_near = lo_k + (float)b_near * size_k, p_far = lo_k + (float)b_far * size_k;
+
+        pk_f8 umin = inf, umax = ninf, vmin = inf, vmax = ninf;
+        pk_f8 tfar[PK_GROUPS];
+        uint64_t in = 0;
+        for (int gi = 0; gi < PK_GROUPS; gi++) {
+            unsigned byte = (unsigned)(pk->active >> (8 * gi)) & 0xffu;
+            if (!byte)
+                continue;
+            pk_f8 ok_ = pk->o[K][gi];
+            pk_f8 ta = first ? ninf : (p_near - ok_) * pk->inv_k[gi];
+            pk_f8 tb = last ? inf : (p_far - ok_) * pk->inv_k[gi];
+            tfar[gi] = tb;
+            pk_f8 lo = pk_max(ta, pk->t0[gi]);
+            pk_f8 hi = pk_min(tb, pk->t1[gi]);
+            if (!pk->shadow)
+                hi = pk_min(hi, pk->best_t[gi]);
+            pk_i8 m = (lo <= hi) & pk_lanes(byte);
+            unsigned mb8 = pk_bits(m);
+            if (!mb8)
+                continue;
+            in |= (uint64_t)mb8 << (8 * gi);
+            pk_f8 ou = pk->o[U][gi], du = pk->d[U][gi], ov = pk->o[V][gi], dv = pk->d[V][gi];
+            pk_f8 ua = ou + lo * du, ub = ou + hi * du;
+            pk_f8 va = ov + lo * dv, vb = ov + hi * dv;
+            umin = pk_min(umin, pk_blend(m, pk_min(ua, ub), inf));
+            umax = pk_max(umax, pk_blend(m, pk_max(ua, ub), ninf));
+            vmin = pk_min(vmin, pk_blend(m, pk_min(va, vb), inf));
+            vmax = pk_max(vmax, pk_blend(m, pk_max(va, vb), ninf));
+        }
+
+        if (in) {
+            /* The rectangle widened by the padding the cells were filled with, so a
+             * rounding of o + t*d cannot lose a cell. */
+            int iu0 = pk_cell_of(pk_hmin(umin) - pad_u, lo_u, inv_su, nu);
+            int iu1 = pk_cell_of(pk_hmax(umax) + pad_u, lo_u, inv_su, nu);
+            int iv0 = pk_cell_of(pk_hmin(vmin) - pad_v, lo_v, inv_sv, nv);
+            int iv1 = pk_cell_of(pk_hmax(vmax) + pad_v, lo_v, inv_sv, nv);
+            int c[3];
+            c[K] = k;
+            for (int iv = iv0; iv <= iv1; iv++) {
+                c[V] = iv;
+                for (int iu = iu0; iu <= iu1; iu++) {
+                    c[U] = iu;
+                    uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);
+                    ctx->stats.cells_traversed++;
+                    for (uint32_t e = start[cell], end = start[cell + 1]; e < end; e++) {
+                        uint32_t item = items[e];
+                        uint32_t p = GRID_ITEM_INDEX(item);
+                        uint64_t want = pk->shadow ? in & ~pk->hit : in;
+                        if (!want)
+                            break;
+                        if (mb) {
+                            /* Packet marking: a ray that has tested p skips it. */
+                            if (mb[p] == stamp) {
+                                uint64_t seen = mrays[p] & want;
+                                if (g->marking) {
+                                    ctx->stats.mailbox_skips += (uint64_t)__builtin_popcountll(seen);
+                                    want &= ~seen;
+                                    if (!want)
+                                        continue;
+                                } else {
+                                    ctx->stats.repeat_tests += (uint64_t)__builtin_popcountll(seen);
+                                }
+                                mrays[p] |= want;
+                            } else {
+                                mb[p] = stamp;
+                                mrays[p] = want;
+                            }
+                        }
+                        if (item & GRID_ITEM_TRI) {
+                            ctx->stats.intersections += (uint64_t)__builtin_popcountll(want);
+                            pk_test_tri(g, pk, p, want);
+                        } else {
+                            pk_test_prim(g, pk, p, want, ctx);
+                        }
+                    }
+                }
+            }
+        }
+
+        /* Who is done: rays past the box, rays whose best hit lies before the far
+         * plane, occluded shadow rays. */
+        uint64_t done = pk->shadow ? pk->hit : 0;
+        for (int gi = 0; gi < PK_GROUPS; gi++) {
+            unsigned byte = (unsigned)(pk->active >> (8 * gi)) & 0xffu;
+            if (!byte)
+                continue;
+            pk_i8 m = tfar[gi] >= pk->t1[gi];
+            if (!pk->shadow)
+                m |= pk->best_t[gi] <= tfar[gi];
+            done |= (uint64_t)(pk_bits(m) & byte) << (8 * gi);
+        }
+        pk->active &= ~done;
+    }
+}
