@@ -12,11 +12,12 @@
 EMBREE_HEADER := /usr/include/embree3/rtcore.h
 HAVE_EMBREE   := $(if $(wildcard $(EMBREE_HEADER)),1,0)
 EMBREE_REF    := $(BUILD)/bench/embree_ref
+GRID_REF      := $(BUILD)/bench/grid_ref
 BENCH_RUNS    ?= 3
 BENCH_QUICK   ?= 0
 BENCH_BRUTE   ?= 1
 
-.PHONY: models bench embree_ref
+.PHONY: models bench embree_ref grid_ref
 
 # The committed models, made by the project's own generator (tools/modelgen.c).
 models: $(BUILD)/tools/modelgen
@@ -29,11 +30,11 @@ models: $(BUILD)/tools/modelgen
 # Recipes expand late, so $(BIN)/$(LIB) (defined after this fragment is included) are
 # safe here but not in prerequisite lists: build through a sub-make instead.
 bench:
-	$(Q)$(MAKE) --no-print-directory all
+	$(Q)$(MAKE) --no-print-directory all grid_ref
 	$(Q)if [ "$(HAVE_EMBREE)" = 1 ]; then $(MAKE) --no-print-directory embree_ref; \
 	    else echo "bench: libembree-dev not installed: no Embree pairing (apt-get install libembree-dev)"; fi
 	$(Q)BENCH_RUNS=$(BENCH_RUNS) BENCH_QUICK=$(BENCH_QUICK) BENCH_BRUTE=$(BENCH_BRUTE) \
-	    RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
+	    RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) GRID_REF=$(abspath $(GRID_REF)) \
 	    EMBREE_REF=$(if $(filter 1,$(HAVE_EMBREE)),$(abspath $(EMBREE_REF))) \
 	    bash bench/run.sh
 
@@ -43,3 +44,11 @@ $(BUILD)/bench/embree_ref: bench/embree_ref.c $(BUILD)/librt.a
 	@mkdir -p $(dir $@)
 	$(say) CC $<
 	$(Q)$(CC) $(ALL_CFLAGS) -O3 -o $@ $< $(BUILD)/librt.a $(LDLIBS_ALL) -lembree3
+
+# Our grid traced like embree_ref traces Embree (traversal only): the like-for-like column.
+grid_ref: $(BUILD)/bench/grid_ref
+
+$(BUILD)/bench/grid_ref: bench/grid_ref.c $(BUILD)/librt.a
+	@mkdir -p $(dir $@)
+	$(say) CC $<
+	$(Q)$(CC) $(ALL_CFLAGS) -o $@ $< $(BUILD)/librt.a $(LDLIBS_ALL)

@@ -3,6 +3,8 @@
  * kernel. The walk itself is grid_packet_kernel.h. */
 #include "grid_packet.h"
 
+#include <float.h>
+#include <stddef.h>
 #include <math.h>
 #include <pthread.h>
 #include <string.h>
@@ -99,11 +101,11 @@ static bool box_span(const Grid *g, const Ray *ray, float tmin, float *t0, float
     return true;
 }
 
-/* Fills pk with the rays of `cand` that the packet can walk (*walk) and those it
- * leaves to the single-ray march (*single); *spread is how many cells wide the walked
- * rays' bundle is, at its widest end, across the main axis. */
-static void packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
-                           uint64_t *walk_out, uint64_t *single_out, float *spread)
+/* Fills pk with the rays of `cand` that a packet can walk (returned) and those it
+ * leaves to the single-ray march (*single), and chooses the packet's main axis. Rays
+ * that miss the box are in neither: their march would not start either. */
+static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
+                               uint64_t *single_out)
 {
     const Ray *rays = pk->rays;
     /* The main axis: the largest component of the summed directions. */
@@ -120,29 +122,31 @@ static void packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const float
         K = 2;
     int sign = v3_comp(sum, K) < 0.0f ? -1 : 1;
     const int U = (K + 1) % 3, V = (K + 2) % 3;
+    pk->axis = K;
+    pk->sign = sign;
 
     uint64_t single = 0, walk = 0;
-    int k_first = sign > 0 ? g->n[K] : -1;
     const float lo_k = v3_comp(g->box.min, K), inv_sk = 1.0f / g->size[K];
-    /* ends[0..1]: u, v at t0; ends[2..3]: at t1; min and max */
-    float emin[4] = {INFINITY, INFINITY, INFINITY, INFINITY};
-    float emax[4] = {-INFINITY, -INFINITY, -INFINITY, -INFINITY};
+    /* Rays starting within this distance of the origin need no far-origin check: the
+     * march's rounding there stays below the padding (grid_ray_too_far's bound). */
+    const float near = 0.5f * (g->min_pad / (4.0f * FLT_EPSILON) - g->box_mag);
     for (uint64_t m = cand; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         const Ray *r = &rays[i];
         float dk = v3_comp(r->dir, K);
         float big = pk_max3(fabsf(r->dir.x), fabsf(r->dir.y), fabsf(r->dir.z));
-        bool fits = isfinite(r->dir.x) && isfinite(r->dir.y) && isfinite(r->dir.z) && (sign > 0 ? dk > 0.0f : dk < 0.0f) &&
-                    fabsf(dk) >= PK_MIN_AXIS_SHARE * big && isfinite(r->origin.x) &&
-                    isfinite(r->origin.y) && isfinite(r->origin.z) &&
-                    !grid_ray_too_far(g, r, pk->tmin);
+        float far = pk_max3(fabsf(r->origin.x), fabsf(r->origin.y), fabsf(r->origin.z));
+        bool fits = isfinite(r->dir.x) && isfinite(r->dir.y) && isfinite(r->dir.z) &&
+                    (sign > 0 ? dk > 0.0f : dk < 0.0f) && fabsf(dk) >= PK_MIN_AXIS_SHARE * big &&
+                    isfinite(r->origin.x) && isfinite(r->origin.y) && isfinite(r->origin.z) &&
+                    (far < near || !grid_ray_too_far(g, r, pk->tmin));
         if (!fits) {
             single |= (uint64_t)1 << i;
             continue;
         }
         float t0, t1;
         if (!box_span(g, r, pk->tmin, &t0, &t1))
-            continue; /* misses the box: the march would not start either */
+            continue;
         if (pk->shadow && tmax[i] < t1)
             t1 = tmax[i];
         int gi = i / PK_LANES, l = i % PK_LANES;
@@ -153,72 +157,90 @@ static void packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const float
         pk->inv_k[gi][l] = 1.0f / dk;
         pk->t0[gi][l] = t0;
         pk->t1[gi][l] = t1;
-        int k = pk_cell_of(v3_comp(r->origin, K) + t0 * dk, lo_k, inv_sk, g->n[K]);
-        if (sign > 0 ? k < k_first : k > k_first)
-            k_first = k;
-        float e[4] = {v3_comp(r->origin, U) + t0 * v3_comp(r->dir, U),
-                      v3_comp(r->origin, V) + t0 * v3_comp(r->dir, V),
-                      v3_comp(r->origin, U) + t1 * v3_comp(r->dir, U),
-                      v3_comp(r->origin, V) + t1 * v3_comp(r->dir, V)};
-        for (int j = 0; j < 4; j++) {
-            emin[j] = e[j] < emin[j] ? e[j] : emin[j];
-            emax[j] = e[j] > emax[j] ? e[j] : emax[j];
-        }
+        pk->k_start[i] = pk_cell_of(v3_comp(r->origin, K) + t0 * dk, lo_k, inv_sk, g->n[K]);
+        float ou = v3_comp(r->origin, U), du = v3_comp(r->dir, U);
+        float ov = v3_comp(r->origin, V), dv = v3_comp(r->dir, V);
+        pk->end[0][i] = ou + t0 * du;
+        pk->end[1][i] = ov + t0 * dv;
+        pk->end[2][i] = ou + t1 * du;
+        pk->end[3][i] = ov + t1 * dv;
         walk |= (uint64_t)1 << i;
     }
-    float w = 0.0f;
-    if (walk) {
-        const float inv_s[2] = {1.0f / g->size[U], 1.0f / g->size[V]};
-        for (int j = 0; j < 4; j++)
-            if ((emax[j] - emin[j]) * inv_s[j % 2] > w)
-                w = (emax[j] - emin[j]) * inv_s[j % 2];
-    }
-    pk->axis = K;
-    pk->sign = sign;
-    pk->k_first = k_first;
-    *walk_out = walk;
     *single_out = single;
-    *spread = w;
+    return walk;
 }
 
-/* A packet wider than this many cells is split in four: its rays would share few cells,
- * and each would be tested against the triangles of the others' cells. Measured on the
- * course bunnies at 200x200 and 1920x1080 (bench/): 1.5 and 2.5 cost 3-15% more than 4;
- * no split at all costs about the same as 4. */
-#define PK_MAX_SPREAD 4.0f
+/* How many cells wide the rays of `walk` are across the main axis, at the wider end. */
+static float packet_spread(const Grid *g, const Packet *pk, uint64_t walk)
+{
+    const int U = (pk->axis + 1) % 3, V = (pk->axis + 2) % 3;
+    const float inv_s[2] = {1.0f / g->size[U], 1.0f / g->size[V]};
+    float w = 0.0f;
+    for (int j = 0; j < 4; j++) {
+        float mn = INFINITY, mx = -INFINITY;
+        for (uint64_t m = walk; m; m &= m - 1) {
+            float e = pk->end[j][__builtin_ctzll(m)];
+            mn = e < mn ? e : mn;
+            mx = e > mx ? e : mx;
+        }
+        float c = (mx - mn) * inv_s[j % 2];
+        w = c > w ? c : w;
+    }
+    return w;
+}
 
-/* Walks the rays of cand, which lie in [lo, lo + n) (rays in Z order: a quarter of the
+/* A packet wider than this many cells is split in four. Each ray only tests the cells
+ * it crosses (the kernel's per-cell ray masks), so width costs little until the
+ * slice rectangles get large and mostly empty for each ray. Measured on the 40k bunny
+ * (bench/grid_ref, 200x200 and 1920x1080): thresholds 8 to 100 trace alike, 4 is 10%
+ * slower at 200x200 and 2 is 20% slower. */
+#define PK_MAX_SPREAD 12.0f
+
+/* Walks the rays of walk, which lie in [lo, lo + n) (rays in Z order: a quarter of the
  * range is a quarter of the tile), as one packet, or as four when it is too wide.
  * Returns the rays left to the single-ray march. */
-static uint64_t packet_trace(const Grid *g, Packet *pk, int lo, int n, uint64_t cand,
-                             const float *tmax, RenderCtx *ctx)
+static uint64_t packet_walk(const Grid *g, Packet *pk, int lo, int n, uint64_t walk,
+                            RenderCtx *ctx)
 {
-    uint64_t walk, single;
-    float spread;
-    packet_prepare(g, pk, cand, tmax, &walk, &single, &spread);
-    if (n >= 8 && spread > PK_MAX_SPREAD) {
-        single = 0;
+    if (n >= 8 && packet_spread(g, pk, walk) > PK_MAX_SPREAD) {
+        uint64_t single = 0;
         for (int q = 0; q < 4; q++) {
             int a = lo + q * n / 4, b = lo + (q + 1) * n / 4;
             uint64_t range = (b - a == 64 ? ~(uint64_t)0 : (((uint64_t)1 << (b - a)) - 1)) << a;
-            if (cand & range)
-                single |= packet_trace(g, pk, a, b - a, cand & range, tmax, ctx);
+            if (walk & range)
+                single |= packet_walk(g, pk, a, b - a, walk & range, ctx);
         }
         return single;
     }
     if (__builtin_popcountll(walk) < 2)
-        return single | walk; /* one ray: its own march is cheaper */
+        return walk; /* one ray: its own march is cheaper */
+    int k_first = pk->sign > 0 ? g->n[pk->axis] : -1;
+    for (uint64_t m = walk; m; m &= m - 1) {
+        int k = pk->k_start[__builtin_ctzll(m)];
+        if (pk->sign > 0 ? k < k_first : k > k_first)
+            k_first = k;
+    }
+    pk->k_first = k_first;
     pk->active = walk;
     pthread_once(&walk_once, choose_walk);
     walk_fn(g, pk, ctx);
-    return single;
+    return 0;
+}
+
+static uint64_t packet_trace(const Grid *g, Packet *pk, int n, uint64_t cand, const float *tmax,
+                             RenderCtx *ctx)
+{
+    uint64_t single;
+    uint64_t walk = packet_prepare(g, pk, cand, tmax, &single);
+    return single | (walk ? packet_walk(g, pk, 0, n, walk, ctx) : 0);
 }
 
 /* Lanes of rays outside the walk keep harmless values (they are masked, but still
  * computed). */
 static void packet_clear(Packet *pk)
 {
-    memset(pk, 0, sizeof *pk);
+    memset(pk, 0, offsetof(Packet, end)); /* the lanes; the per-ray set-up is written before use */
+    pk->hit = 0;
     for (int gi = 0; gi < PK_GROUPS; gi++) {
         for (int a = 0; a < 3; a++)
             pk->d[a][gi] = pk_splat(1.0f);
@@ -258,7 +280,7 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
         pk.best_t[i / PK_LANES][i % PK_LANES] = hits[i].t;
         pk.best_id[i / PK_LANES][i % PK_LANES] = hits[i].id;
     }
-    uint64_t single = packet_trace(g, &pk, 0, n, cand, NULL, ctx);
+    uint64_t single = packet_trace(g, &pk, n, cand, NULL, ctx);
     found |= pk.hit;
     for (uint64_t m = cand & ~single; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
@@ -315,7 +337,7 @@ uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, flo
         int i = __builtin_ctzll(m);
         pk.best_t[i / PK_LANES][i % PK_LANES] = tmax[i];
     }
-    uint64_t single = packet_trace(g, &pk, 0, 64 - __builtin_clzll(cand), cand, tmax, ctx);
+    uint64_t single = packet_trace(g, &pk, 64 - __builtin_clzll(cand), cand, tmax, ctx);
     occluded |= pk.hit;
     for (uint64_t m = single; m; m &= m - 1) {
         int i = __builtin_ctzll(m);

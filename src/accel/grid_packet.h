@@ -25,6 +25,10 @@ typedef struct Packet {
     pk_u8 best_id[PK_GROUPS];   /* nearest: its id */
     pk_i8 best_prim[PK_GROUPS]; /* nearest: packed primitive of the best hit; -1: the
                                    caller's Hit holds the best hit */
+    /* Set-up per ray (grid_packet.c): the ends of its part in the box across the main
+     * axis (u, v at t0 and at t1) and the slice it starts in, for splitting. */
+    float end[4][GRID_PACKET_MAX];
+    int k_start[GRID_PACKET_MAX];
     uint64_t active;            /* rays still walking */
     uint64_t hit;               /* nearest: rays with a hit; shadow: rays occluded */
     int axis, sign, k_first;    /* main axis, its direction (+1/-1), first slice */

@@ -93,6 +93,15 @@ static int pk_cell_of(float x, float lo, float inv_size, int n)
     return c < n ? c : n - 1;
 }
 
+/* pk_cell_of lane by lane (lanes outside the slice may hold anything: clamped). */
+PK_INLINE pk_i8 pk_cells(pk_f8 x, float lo, float inv_size, int n)
+{
+    pk_f8 f = (x - lo) * inv_size;
+    f = pk_max(f, pk_splat(0.0f)); /* a NaN lane compares false and becomes 0 */
+    f = pk_min(f, pk_splat((float)(n - 1)));
+    return __builtin_convertvector(f, pk_i8);
+}
+
 /* Packed triangle p against the rays of `want` (a 64-bit ray mask). */
 PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
 {
@@ -196,6 +205,7 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
 
         pk_f8 umin = inf, umax = ninf, vmin = inf, vmax = ninf;
         pk_f8 tfar[PK_GROUPS];
+        pk_i8 cu0[PK_GROUPS], cu1[PK_GROUPS], cv0[PK_GROUPS], cv1[PK_GROUPS];
         uint64_t in = 0;
         for (int gi = 0; gi < PK_GROUPS; gi++) {
             unsigned byte = (unsigned)(pk->active >> (8 * gi)) & 0xffu;
@@ -217,19 +227,28 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
             pk_f8 ou = pk->o[U][gi], du = pk->d[U][gi], ov = pk->o[V][gi], dv = pk->d[V][gi];
             pk_f8 ua = ou + lo * du, ub = ou + hi * du;
             pk_f8 va = ov + lo * dv, vb = ov + hi * dv;
-            umin = pk_min(umin, pk_blend(m, pk_min(ua, ub), inf));
-            umax = pk_max(umax, pk_blend(m, pk_max(ua, ub), ninf));
-            vmin = pk_min(vmin, pk_blend(m, pk_min(va, vb), inf));
-            vmax = pk_max(vmax, pk_blend(m, pk_max(va, vb), ninf));
+            /* Each ray's own cells in this slice (widened by the padding, as the
+             * rectangle below), so a cell is tested only for the rays that cross it. */
+            pk_f8 u0 = pk_min(ua, ub) - pad_u, u1 = pk_max(ua, ub) + pad_u;
+            pk_f8 v0 = pk_min(va, vb) - pad_v, v1 = pk_max(va, vb) + pad_v;
+            cu0[gi] = pk_cells(u0, lo_u, inv_su, nu);
+            cu1[gi] = pk_cells(u1, lo_u, inv_su, nu);
+            cv0[gi] = pk_cells(v0, lo_v, inv_sv, nv);
+            cv1[gi] = pk_cells(v1, lo_v, inv_sv, nv);
+            umin = pk_min(umin, pk_blend(m, u0, inf));
+            umax = pk_max(umax, pk_blend(m, u1, ninf));
+            vmin = pk_min(vmin, pk_blend(m, v0, inf));
+            vmax = pk_max(vmax, pk_blend(m, v1, ninf));
         }
 
         if (in) {
             /* The rectangle widened by the padding the cells were filled with, so a
              * rounding of o + t*d cannot lose a cell. */
-            int iu0 = pk_cell_of(pk_hmin(umin) - pad_u, lo_u, inv_su, nu);
-            int iu1 = pk_cell_of(pk_hmax(umax) + pad_u, lo_u, inv_su, nu);
-            int iv0 = pk_cell_of(pk_hmin(vmin) - pad_v, lo_v, inv_sv, nv);
-            int iv1 = pk_cell_of(pk_hmax(vmax) + pad_v, lo_v, inv_sv, nv);
+            int iu0 = pk_cell_of(pk_hmin(umin), lo_u, inv_su, nu);
+            int iu1 = pk_cell_of(pk_hmax(umax), lo_u, inv_su, nu);
+            int iv0 = pk_cell_of(pk_hmin(vmin), lo_v, inv_sv, nv);
+            int iv1 = pk_cell_of(pk_hmax(vmax), lo_v, inv_sv, nv);
+            bool one_cell = iu0 == iu1 && iv0 == iv1;
             int c[3];
             c[K] = k;
             for (int iv = iv0; iv <= iv1; iv++) {
@@ -238,10 +257,27 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                     c[U] = iu;
                     uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);
                     ctx->stats.cells_traversed++;
-                    for (uint32_t e = start[cell], end = start[cell + 1]; e < end; e++) {
+                    uint32_t e = start[cell], end = start[cell + 1];
+                    if (e == end)
+                        continue;
+                    uint64_t crossing = in;
+                    if (!one_cell) {
+                        crossing = 0;
+                        const pk_i8 ivu = {iu, iu, iu, iu, iu, iu, iu, iu};
+                        const pk_i8 ivv = {iv, iv, iv, iv, iv, iv, iv, iv};
+                        for (int gi = 0; gi < PK_GROUPS; gi++) {
+                            unsigned byte = (unsigned)(in >> (8 * gi)) & 0xffu;
+                            if (!byte)
+                                continue;
+                            pk_i8 m = (cu0[gi] <= ivu) & (ivu <= cu1[gi]) & (cv0[gi] <= ivv) &
+                                      (ivv <= cv1[gi]);
+                            crossing |= (uint64_t)(pk_bits(m) & byte) << (8 * gi);
+                        }
+                    }
+                    for (; e < end; e++) {
                         uint32_t item = items[e];
                         uint32_t p = GRID_ITEM_INDEX(item);
-                        uint64_t want = pk->shadow ? in & ~pk->hit : in;
+                        uint64_t want = pk->shadow ? crossing & ~pk->hit : crossing;
                         if (!want)
                             break;
                         if (mb) {

@@ -1,0 +1,318 @@
+/* grid_ref: our grid traced the way bench/embree_ref traces Embree, for a like-for-like
+ * throughput figure: one primary ray per pixel through our camera, then one shadow ray
+ * per light per front-facing hit (epsilon RT_EPSILON), nothing shaded, nothing written.
+ * -mode packet: 8x8 pixel tiles as ray packets (grid_intersect_packet /
+ * grid_occluded_packet, what the renderer does); -mode single: grid_intersect /
+ * grid_occluded ray by ray. Prints the same key=value line as embree_ref. Built by
+ * `make bench` (mk/bench.mk); README.txt, BENCHMARKS. */
+#define _POSIX_C_SOURCE 200809L
+#include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "rt/camera.h"
+#include "rt/grid.h"
+#include "rt/light.h"
+#include "rt/raytracer.h"
+#include "rt/scene.h"
+
+#define TILE 8 /* the renderer's tile (src/render/render.c) */
+
+typedef struct Job {
+    const Scene *sc;
+    const Grid *grid;
+    RayTracer rt;
+    int w, h, packets, shade_back;
+    float tmin;
+    float *t;
+    Vec3 *org, *dir;
+    unsigned char *lit;
+    atomic_int next;
+    atomic_llong shadow_rays, blocked;
+} Job;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Pixel (dx, dy) of a tile at position k of the Z order, as the renderer lays it out. */
+static void zorder(int k, int *dx, int *dy)
+{
+    int x = 0, y = 0;
+    for (int b = 0; (1 << (2 * b)) < TILE * TILE; b++) {
+        x |= ((k >> (2 * b)) & 1) << b;
+        y |= ((k >> (2 * b + 1)) & 1) << b;
+    }
+    *dx = x, *dy = y;
+}
+
+static void finish(Job *jb, int idx, const Ray *r, const Hit *h, bool found)
+{
+    jb->t[idx] = found ? h->t : INFINITY;
+    jb->org[idx] = r->origin;
+    jb->dir[idx] = r->dir;
+    int front = found && v3_dot(h->normal, r->dir) <= 0.0f;
+    jb->lit[idx] = found && isfinite(h->t) && (front || jb->shade_back);
+}
+
+static void primary_tile(Job *jb, RenderCtx *ctx, int x0, int y0, int y1)
+{
+    Ray rays[TILE * TILE];
+    Hit hits[TILE * TILE];
+    int idx[TILE * TILE], n = 0;
+    for (int k = 0; k < TILE * TILE; k++) {
+        int dx, dy;
+        zorder(k, &dx, &dy);
+        int x = x0 + dx, y = y0 + dy;
+        if (x >= jb->w || y >= y1)
+            continue;
+        float u, v;
+        camera_pixel_to_screen(x, y, jb->w, jb->h, &u, &v);
+        rays[n] = camera_generate_ray(&jb->sc->camera, u, v);
+        hits[n] = hit_none();
+        idx[n++] = y * jb->w + x;
+    }
+    if (jb->packets) {
+        uint64_t found = grid_intersect_packet(jb->grid, rays, n, hits, jb->tmin, ctx);
+        for (int i = 0; i < n; i++)
+            finish(jb, idx[i], &rays[i], &hits[i], found >> i & 1);
+    } else {
+        for (int i = 0; i < n; i++) {
+            bool f = grid_intersect(jb->grid, &rays[i], &hits[i], jb->tmin, ctx);
+            finish(jb, idx[i], &rays[i], &hits[i], f);
+        }
+    }
+}
+
+static void shadow_tile(Job *jb, RenderCtx *ctx, int x0, int y0, int y1, long long *count,
+                        long long *blocked)
+{
+    const Scene *sc = jb->sc;
+    Vec3 p[TILE * TILE];
+    uint64_t live = 0;
+    for (int k = 0; k < TILE * TILE; k++) {
+        int dx, dy;
+        zorder(k, &dx, &dy);
+        int x = x0 + dx, y = y0 + dy;
+        if (x >= jb->w || y >= y1)
+            continue;
+        int i = y * jb->w + x;
+        if (!jb->lit[i])
+            continue;
+        Ray pr = {jb->org[i], jb->dir[i]};
+        p[k] = ray_at(&pr, jb->t[i]);
+        live |= (uint64_t)1 << k;
+    }
+    for (int l = 0; l < sc->num_lights && live; l++) {
+        Ray sr[TILE * TILE];
+        float dist[TILE * TILE];
+        for (uint64_t m = live; m; m &= m - 1) {
+            int k = __builtin_ctzll(m);
+            Vec3 col;
+            sr[k].origin = p[k];
+            light_illuminate(&sc->lights[l], p[k], &sr[k].dir, &col, &dist[k]);
+        }
+        *count += __builtin_popcountll(live);
+        if (jb->packets) {
+            uint64_t b = grid_occluded_packet(jb->grid, sr, live, RT_EPSILON, dist, ctx);
+            *blocked += __builtin_popcountll(b);
+        } else {
+            for (uint64_t m = live; m; m &= m - 1) {
+                int k = __builtin_ctzll(m);
+                *blocked += grid_occluded(jb->grid, &sr[k], RT_EPSILON, dist[k], ctx);
+            }
+        }
+    }
+}
+
+typedef struct Worker {
+    Job *jb;
+    int pass; /* 0 primary, 1 shadow */
+    RenderCtx ctx;
+} Worker;
+
+static void *worker_main(void *arg)
+{
+    Worker *wk = arg;
+    Job *jb = wk->jb;
+    long long count = 0, blocked = 0;
+    for (;;) {
+        int y0 = atomic_fetch_add(&jb->next, 1) * TILE;
+        if (y0 >= jb->h)
+            break;
+        int y1 = y0 + TILE < jb->h ? y0 + TILE : jb->h;
+        for (int x0 = 0; x0 < jb->w; x0 += TILE) {
+            if (wk->pass == 0)
+                primary_tile(jb, &wk->ctx, x0, y0, y1);
+            else
+                shadow_tile(jb, &wk->ctx, x0, y0, y1, &count, &blocked);
+        }
+    }
+    atomic_fetch_add(&jb->shadow_rays, count);
+    atomic_fetch_add(&jb->blocked, blocked);
+    return NULL;
+}
+
+static double run_pass(Job *jb, Worker *wk, int pass, int nthreads)
+{
+    pthread_t th[64];
+    atomic_store(&jb->next, 0);
+    double t0 = now_s();
+    for (int i = 0; i < nthreads; i++) {
+        wk[i].pass = pass;
+        if (i > 0 && pthread_create(&th[i], NULL, worker_main, &wk[i]) != 0) {
+            fprintf(stderr, "grid_ref: cannot start threads\n");
+            exit(1);
+        }
+    }
+    worker_main(&wk[0]);
+    for (int i = 1; i < nthreads; i++)
+        pthread_join(th[i], NULL);
+    return now_s() - t0;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static void usage(FILE *out)
+{
+    fputs("usage: grid_ref -input scene.txt [-size W H] [-grid NX NY NZ | -grid auto]\n"
+          "                [-threads N] [-mode single|packet] [-repeat R] [-shadows]\n"
+          "                [-shade_back]\n"
+          "Traces our primary rays and (with -shadows) our shadow rays through our grid,\n"
+          "nothing else, and prints one line of key=value timings (median of R repeats).\n",
+          out);
+}
+
+int main(int argc, char **argv)
+{
+    const char *input = NULL;
+    int w = 200, h = 200, threads = 1, packets = 1, repeat = 1, shadows = 0, shade_back = 0;
+    int n[3] = {0, 0, 0};
+    for (int a = 1; a < argc; a++) {
+        if (!strcmp(argv[a], "-input") && a + 1 < argc)
+            input = argv[++a];
+        else if (!strcmp(argv[a], "-size") && a + 2 < argc)
+            w = atoi(argv[a + 1]), h = atoi(argv[a + 2]), a += 2;
+        else if (!strcmp(argv[a], "-grid") && a + 1 < argc && !strcmp(argv[a + 1], "auto"))
+            n[0] = -1, a++;
+        else if (!strcmp(argv[a], "-grid") && a + 3 < argc)
+            n[0] = atoi(argv[a + 1]), n[1] = atoi(argv[a + 2]), n[2] = atoi(argv[a + 3]), a += 3;
+        else if (!strcmp(argv[a], "-threads") && a + 1 < argc)
+            threads = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "-repeat") && a + 1 < argc)
+            repeat = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "-mode") && a + 1 < argc) {
+            a++;
+            if (!strcmp(argv[a], "single"))
+                packets = 0;
+            else if (strcmp(argv[a], "packet") != 0) {
+                usage(stderr);
+                return 2;
+            }
+        } else if (!strcmp(argv[a], "-shadows"))
+            shadows = 1;
+        else if (!strcmp(argv[a], "-shade_back"))
+            shade_back = 1;
+        else if (!strcmp(argv[a], "-h") || !strcmp(argv[a], "--help")) {
+            usage(stdout);
+            return 0;
+        } else {
+            usage(stderr);
+            return 2;
+        }
+    }
+    if (!input || w < 1 || h < 1 || w > 16384 || h > 16384 || threads < 1 || threads > 64 ||
+        repeat < 1 || repeat > 1000 || n[0] == 0) {
+        usage(stderr);
+        return 2;
+    }
+    Diag diag;
+    diag_init(&diag, stderr);
+    Scene *sc = scene_load(input, &diag);
+    if (!sc)
+        return 1;
+    if (!sc->has_camera || !sc->root) {
+        fprintf(stderr, "grid_ref: %s has no camera or no group\n", input);
+        scene_free(sc);
+        return 1;
+    }
+    if (n[0] < 0)
+        grid_choose_auto(sc, n);
+    double t0 = now_s();
+    Grid *grid = grid_build(sc, n[0], n[1], n[2], &diag);
+    double t_build = now_s() - t0;
+    if (!grid) {
+        fprintf(stderr, "grid_ref: no grid (nothing bounded, or out of memory)\n");
+        scene_free(sc);
+        return 1;
+    }
+
+    size_t np = (size_t)w * (size_t)h;
+    Job jb = {.sc = sc, .grid = grid, .w = w, .h = h, .packets = packets,
+              .shade_back = shade_back, .tmin = camera_tmin(&sc->camera)};
+    jb.rt.scene = sc;
+    jb.rt.grid = grid;
+    jb.rt.single_rays = !packets;
+    jb.t = malloc(np * sizeof *jb.t);
+    jb.org = malloc(np * sizeof *jb.org);
+    jb.dir = malloc(np * sizeof *jb.dir);
+    jb.lit = malloc(np);
+    Worker *wk = calloc((size_t)threads, sizeof *wk);
+    double *tp = malloc((size_t)repeat * sizeof *tp), *ts = malloc((size_t)repeat * sizeof *ts);
+    if (!jb.t || !jb.org || !jb.dir || !jb.lit || !wk || !tp || !ts) {
+        fprintf(stderr, "grid_ref: out of memory\n");
+        return 1;
+    }
+    for (int i = 0; i < threads; i++) {
+        wk[i].jb = &jb;
+        if (!render_ctx_init(&wk[i].ctx, &jb.rt)) {
+            fprintf(stderr, "grid_ref: out of memory\n");
+            return 1;
+        }
+    }
+    long long shadow_rays = 0, blocked = 0;
+    for (int r = 0; r < repeat; r++) {
+        tp[r] = run_pass(&jb, wk, 0, threads);
+        ts[r] = 0.0;
+        if (shadows) {
+            atomic_store(&jb.shadow_rays, 0);
+            atomic_store(&jb.blocked, 0);
+            ts[r] = run_pass(&jb, wk, 1, threads);
+            shadow_rays = atomic_load(&jb.shadow_rays);
+            blocked = atomic_load(&jb.blocked);
+        }
+    }
+    size_t hits = 0;
+    for (size_t i = 0; i < np; i++)
+        hits += isfinite(jb.t[i]);
+    double mp = median(tp, repeat), ms = median(ts, repeat);
+    printf("grid mode=%s kernel=%s threads=%d size=%dx%d cells=%dx%dx%d build_ms=%.3f "
+           "primary_rays=%zu primary_hits=%zu primary_ms=%.3f primary_mrays=%.3f "
+           "shadow_rays=%lld shadow_blocked=%lld shadow_ms=%.3f shadow_mrays=%.3f\n",
+           packets ? "packet" : "single", packets ? grid_packet_kernel() : "-", threads, w, h,
+           n[0], n[1], n[2], t_build * 1e3, np, hits, mp * 1e3, (double)np / mp * 1e-6,
+           shadow_rays, blocked, ms * 1e3, ms > 0 ? (double)shadow_rays / ms * 1e-6 : 0.0);
+    for (int i = 0; i < threads; i++)
+        render_ctx_free(&wk[i].ctx);
+    free(wk), free(tp), free(ts), free(jb.t), free(jb.org), free(jb.dir), free(jb.lit);
+    grid_free(grid);
+    scene_free(sc);
+    return 0;
+}
