@@ -1,14 +1,17 @@
 /* Grid construction: flattens the scene tree into a uniform grid (semantics.md 7.1-7.2).
  * Two cell sets are built from one walk: the course's occupancy counts (what
- * -visualize_grid shows) and tighter, rounding-padded lists (what the march tests). */
+ * -visualize_grid shows) and tighter, rounding-padded lists (what the march tests); the
+ * binning runs on the set-up threads (rt/par.h), with the same result on any number. */
 #include "grid_internal.h"
 #include "grid_build.h"
 
 #include <limits.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "rt/geom.h"
+#include "rt/par.h"
 #include "rt/scene.h"
 
 /* Upper bound on nx*ny*nz: 16M cells keep the offsets and counts under 128 MB. */
@@ -16,9 +19,8 @@
 
 typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE } RecKind;
 
-/* A primitive reached by the walk, with what its insertion needs in world space. It
- * lives on the stack of grid_insert_*: each primitive is binned as the walk reaches it,
- * so no array of records is kept. */
+/* A primitive with what its insertion needs in world space, made by the binning pass
+ * (bin_part) from the walk's GridPrim and kept on its stack. */
 struct GridBuildRec {
     const Object3D *obj;
     const GridPath *gp;   /* NULL: no Transform above it */
@@ -26,6 +28,19 @@ struct GridBuildRec {
     Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world vertices */
     float r;              /* sphere radius (object space) */
 };
+
+/* One binning worker's scratch (rt/par.h): its own counts and cell list, so workers
+ * share nothing they write. Which worker bins which primitives varies from run to run;
+ * the result does not: the counts are sums, and the fill pass reads the chunks' cell
+ * lists in primitive order. */
+typedef struct BinPart {
+    const Grid *g;
+    uint32_t *course;     /* per cell: course counts (worker 0: g->course_count) */
+    uint32_t *count;      /* per cell: marching entries (worker 0: g->cell_start + 1) */
+    uint32_t *pairs;      /* cells of each binned primitive's marching set, in order */
+    size_t num_pairs, cap_pairs;
+    bool oom, too_many;
+} BinPart;
 
 /* ---- interning of transformation paths ---- */
 
@@ -76,11 +91,37 @@ static const GridPath *intern_path(Grid *g, const XformPath *path)
     return gp;
 }
 
-static bool insert_rec(Grid *g, const GridBuildRec *rec);
-
 /* Whether the insertion API may run: only inside grid_build (prim_ncells is build-time
  * state) and before any failure. */
 static bool building(const Grid *g) { return !g->oom && !g->too_many && g->prim_ncells; }
+
+/* Appends a bounded primitive to prims. The walk only collects them (binning them is
+ * the parallel part of the build): its kind waits in prim_ncells until bin_part
+ * replaces it by the primitive's cell count. */
+static void append_prim(Grid *g, const Object3D *obj, const GridPath *gp, RecKind kind)
+{
+    if (g->num_prims == g->cap_prims) {
+        uint32_t cap = g->cap_prims ? 2 * g->cap_prims : 256;
+        if (cap <= g->cap_prims || cap > UINT32_MAX / 2) {
+            g->oom = true;
+            return;
+        }
+        GridPrim *p = realloc(g->prims, (size_t)cap * sizeof *p);
+        if (p)
+            g->prims = p;
+        uint32_t *nc = p ? realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
+        if (!nc) {
+            g->oom = true;
+            return;
+        }
+        g->prim_ncells = nc;
+        g->cap_prims = cap;
+    }
+    g->prims[g->num_prims].obj = obj;
+    g->prims[g->num_prims].path = gp ? &gp->path : NULL;
+    g->prim_ncells[g->num_prims] = (uint32_t)kind;
+    g->num_prims++;
+}
 
 /* ---- insertion API called by the leaves' insert_into_grid ops ---- */
 
@@ -91,14 +132,7 @@ void grid_insert_sphere(Grid *g, const Object3D *sphere, const XformPath *path)
     const GridPath *gp = intern_path(g, path);
     if (g->oom)
         return;
-    GridBuildRec rec;
-    memset(&rec, 0, sizeof rec);
-    rec.obj = sphere;
-    rec.gp = gp;
-    rec.kind = gp ? REC_SPHERE_XF : REC_SPHERE;
-    rec.v[0] = sphere_center(sphere);
-    rec.r = sphere_radius(sphere);
-    insert_rec(g, &rec);
+    append_prim(g, sphere, gp, gp ? REC_SPHERE_XF : REC_SPHERE);
 }
 
 void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path)
@@ -108,16 +142,29 @@ void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path)
     const GridPath *gp = intern_path(g, path);
     if (g->oom)
         return;
-    GridBuildRec rec;
-    rec.obj = tri;
-    rec.gp = gp;
-    rec.kind = REC_TRIANGLE;
-    rec.r = 0.0f;
-    triangle_vertices(tri, rec.v);
-    if (gp)
-        for (int i = 0; i < 3; i++)
-            rec.v[i] = mat4_point(&gp->m, rec.v[i]);
-    insert_rec(g, &rec);
+    append_prim(g, tri, gp, REC_TRIANGLE);
+}
+
+/* The record of prims[p] as the walk left it (kind in prim_ncells[p]). */
+static void make_rec(const Grid *g, uint32_t p, GridBuildRec *rec)
+{
+    const GridPrim *gp = &g->prims[p];
+    rec->obj = gp->obj;
+    /* GridPrim.path points at the path member of an interned GridPath. */
+    rec->gp = gp->path ? (const GridPath *)((const char *)gp->path -
+                                            offsetof(GridPath, path))
+                       : NULL;
+    rec->kind = (RecKind)g->prim_ncells[p];
+    rec->r = 0.0f;
+    if (rec->kind == REC_TRIANGLE) {
+        triangle_vertices(rec->obj, rec->v);
+        if (rec->gp)
+            for (int i = 0; i < 3; i++)
+                rec->v[i] = mat4_point(&rec->gp->m, rec->v[i]);
+    } else {
+        rec->v[0] = sphere_center(rec->obj);
+        rec->r = sphere_radius(rec->obj);
+    }
 }
 
 void grid_insert_unbounded(Grid *g, const Object3D *prim, const XformPath *path)
@@ -209,15 +256,16 @@ static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax)
     return r;
 }
 
-static void count_range(Grid *g, const CellRange *r)
+static void count_range(const Grid *g, uint32_t *course, const CellRange *r)
 {
     for (int k = r->lo[2]; k <= r->hi[2]; k++)
         for (int j = r->lo[1]; j <= r->hi[1]; j++)
             for (int i = r->lo[0]; i <= r->hi[0]; i++)
-                g->course_count[grid_cell_index(g, i, j, k)]++;
+                course[grid_cell_index(g, i, j, k)]++;
 }
 
-static void course_insert(Grid *g, const GridBuildRec *rec)
+/* Adds rec's cells by the course's rules to course[] (per-cell counts). */
+static void course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec)
 {
     if (rec->kind == REC_SPHERE) {
         /* Cell centre within r + half the cell diagonal of the centre. */
@@ -233,7 +281,7 @@ static void course_insert(Grid *g, const GridBuildRec *rec)
                                  g->box.min.y + ((float)j + 0.5f) * g->size[1],
                                  g->box.min.z + ((float)k + 0.5f) * g->size[2]);
                     if (v3_length(v3_sub(cc, c)) <= reach)
-                        g->course_count[grid_cell_index(g, i, j, k)]++;
+                        course[grid_cell_index(g, i, j, k)]++;
                 }
         return;
     }
@@ -247,7 +295,7 @@ static void course_insert(Grid *g, const GridBuildRec *rec)
         b.max = v3_max(v3_max(rec->v[0], rec->v[1]), rec->v[2]);
     }
     CellRange r = course_box_range(g, b.min, b.max);
-    count_range(g, &r);
+    count_range(g, course, &r);
 }
 
 /* ---- tight, padded insertion for marching (double precision) ---- */
@@ -479,26 +527,27 @@ static bool tight_cell(const GridBuildRec *rec, const double lo[3], const double
     return tight_sphere_xf_cell(rec, lo, hi);
 }
 
-/* Appends one cell index to the build's pair list (cells of each primitive, in walk
- * order); false when out of memory or when the entries would overflow a uint32_t. */
-static bool push_pair(Grid *g, uint32_t cell)
+/* Appends one cell index to the part's pair list (cells of each primitive, in
+ * primitive order); false when out of memory or when the part's entries would overflow
+ * a uint32_t (grid_build checks the total). */
+static bool push_pair(BinPart *bp, uint32_t cell)
 {
-    if (g->num_pairs >= UINT32_MAX - 1u) {
-        g->too_many = true;
+    if (bp->num_pairs >= UINT32_MAX - 1u) {
+        bp->too_many = true;
         return false;
     }
-    if (g->num_pairs == g->cap_pairs) {
-        size_t cap = g->cap_pairs ? 2 * g->cap_pairs : 1024;
-        uint32_t *p = realloc(g->pairs, cap * sizeof *p);
+    if (bp->num_pairs == bp->cap_pairs) {
+        size_t cap = bp->cap_pairs ? 2 * bp->cap_pairs : 1024;
+        uint32_t *p = realloc(bp->pairs, cap * sizeof *p);
         if (!p) {
-            g->oom = true;
+            bp->oom = true;
             return false;
         }
-        g->pairs = p;
-        g->cap_pairs = cap;
+        bp->pairs = p;
+        bp->cap_pairs = cap;
     }
-    g->pairs[g->num_pairs++] = cell;
-    g->cell_start[cell + 1]++;
+    bp->pairs[bp->num_pairs++] = cell;
+    bp->count[cell]++;
     return true;
 }
 
@@ -602,8 +651,9 @@ bool grid_tri_cell_overlap(double v[3][3], const double h[3])
 /* tight_insert for a triangle (rec->v, world space): the same cells in the same order,
  * with the per-cell bounds from the tables, the vertex-inside shortcut, and what
  * depends on one axis only computed once per row or slab. */
-static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *ncells)
+static bool tight_insert_triangle(BinPart *bp, const GridBuildRec *rec, uint32_t *ncells)
 {
+    const Grid *g = bp->g;
     double P[3][3], bmin[3], bmax[3];
     for (int k = 0; k < 3; k++)
         for (int a = 0; a < 3; a++)
@@ -615,7 +665,7 @@ static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *nc
     CellRange r = tight_range(g, bmin, bmax);
     if (r.lo[0] == r.hi[0] && r.lo[1] == r.hi[1] && r.lo[2] == r.hi[2]) {
         /* Its padded box fits in one cell: it is in that cell, no test needed. */
-        if (!push_pair(g, grid_cell_index(g, r.lo[0], r.lo[1], r.lo[2])))
+        if (!push_pair(bp, grid_cell_index(g, r.lo[0], r.lo[1], r.lo[2])))
             return false;
         *ncells = 1;
         return true;
@@ -651,7 +701,7 @@ static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *nc
 #endif
                 if (!hit)
                     continue;
-                if (!push_pair(g, grid_cell_index(g, i, j, k2)))
+                if (!push_pair(bp, grid_cell_index(g, i, j, k2)))
                     return false;
                 count++;
             }
@@ -661,13 +711,14 @@ static bool tight_insert_triangle(Grid *g, const GridBuildRec *rec, uint32_t *nc
     return true;
 }
 
-/* Finds the cells of the marching set of rec, counts them into cell_start[c + 1] and
- * remembers them in g->pairs, so the fill pass needs no second round of tests. False
- * when out of memory or out of entries. */
-static bool tight_insert(Grid *g, const GridBuildRec *rec, uint32_t *ncells)
+/* Finds the cells of the marching set of rec, counts them into bp->count and remembers
+ * them in bp->pairs, so the fill pass needs no second round of tests. False when out of
+ * memory or out of entries. */
+static bool tight_insert(BinPart *bp, const GridBuildRec *rec, uint32_t *ncells)
 {
     if (rec->kind == REC_TRIANGLE)
-        return tight_insert_triangle(g, rec, ncells);
+        return tight_insert_triangle(bp, rec, ncells);
+    const Grid *g = bp->g;
     double bmin[3], bmax[3];
     tight_bounds(rec, bmin, bmax);
     CellRange r = tight_range(g, bmin, bmax);
@@ -689,7 +740,7 @@ static bool tight_insert(Grid *g, const GridBuildRec *rec, uint32_t *ncells)
 #endif
                 if (!in)
                     continue;
-                if (!push_pair(g, grid_cell_index(g, c[0], c[1], c[2])))
+                if (!push_pair(bp, grid_cell_index(g, c[0], c[1], c[2])))
                     return false;
                 count++;
             }
@@ -697,44 +748,133 @@ static bool tight_insert(Grid *g, const GridBuildRec *rec, uint32_t *ncells)
     return true;
 }
 
-/* Bins one primitive (both cell sets) and appends it to prims. */
-static bool insert_rec(Grid *g, const GridBuildRec *rec)
+/* ---- the binning pass, in parallel over chunks of prims ---- */
+
+/* Primitives per chunk of the binning pass: enough to make handing out a chunk cheap,
+ * few enough that the threads finish close together (40 chunks on the 40k bunny). */
+enum { BIN_CHUNK = 1024 };
+
+typedef struct BinChunk {
+    size_t off, len;      /* its run in the pairs of the worker that binned it */
+    int worker;
+} BinChunk;
+
+typedef struct BinJob {
+    Grid *g;
+    BinPart part[PAR_MAX_WORKERS];
+    BinChunk *chunk;
+} BinJob;
+
+/* Bins chunk i of prims (both cell sets); prim_ncells[p] becomes p's cell count. */
+static void bin_chunk(void *ctx, int i, int worker)
 {
-    if (g->num_prims == g->cap_prims) {
-        uint32_t cap = g->cap_prims ? 2 * g->cap_prims : 256;
-        if (cap <= g->cap_prims || cap > UINT32_MAX / 2) {
-            g->oom = true;
-            return false;
+    BinJob *job = ctx;
+    Grid *g = job->g;
+    BinPart *bp = &job->part[worker];
+    if (bp->oom || bp->too_many)
+        return;
+    if (!bp->pairs) {
+        bp->g = g;
+        if (worker > 0) {
+            /* Fresh zero pages, faulted in by this worker. */
+            bp->course = calloc(2 * (size_t)g->num_cells, sizeof *bp->course);
+            bp->count = bp->course ? bp->course + g->num_cells : NULL;
         }
-        GridPrim *p = realloc(g->prims, (size_t)cap * sizeof *p);
-        if (p)
-            g->prims = p;
-        uint32_t *nc = p ? realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
-        if (!nc) {
-            g->oom = true;
-            return false;
+        /* About two cells per primitive, so the list rarely grows. */
+        bp->cap_pairs = 2 * (size_t)g->num_prims + 1024;
+        bp->pairs = bp->course ? malloc(bp->cap_pairs * sizeof *bp->pairs) : NULL;
+        if (!bp->pairs) {
+            bp->oom = true;
+            return;
         }
-        g->prim_ncells = nc;
-        g->cap_prims = cap;
     }
-    course_insert(g, rec);
-    uint32_t ncells = 0;
-    if (!tight_insert(g, rec, &ncells))
-        return false;
-    g->prims[g->num_prims].obj = rec->obj;
-    g->prims[g->num_prims].path = rec->gp ? &rec->gp->path : NULL;
-    g->prim_ncells[g->num_prims] = ncells;
-    g->num_prims++;
-    return true;
+    uint32_t p0 = (uint32_t)i * BIN_CHUNK;
+    uint32_t p1 = g->num_prims - p0 > BIN_CHUNK ? p0 + BIN_CHUNK : g->num_prims;
+    size_t off = bp->num_pairs;
+    for (uint32_t p = p0; p < p1; p++) {
+        GridBuildRec rec;
+        make_rec(g, p, &rec);
+        course_insert(g, bp->course, &rec);
+        uint32_t ncells = 0;
+        if (!tight_insert(bp, &rec, &ncells))
+            return;
+        g->prim_ncells[p] = ncells;
+    }
+    job->chunk[i].off = off;
+    job->chunk[i].len = bp->num_pairs - off;
+    job->chunk[i].worker = worker;
 }
 
-/* ---- build ---- */
+/* Both cell sets of every primitive (bin_chunk, in parallel), then the CSR arrays: the
+ * workers' counts are added up into offsets, and the entries are written chunk by
+ * chunk, i.e. in primitive order within every cell, as one sequential pass writes them.
+ * False when out of memory, or with g->too_many when the entries overflow a uint32_t. */
+static bool bin_and_fill(Grid *g)
+{
+    uint32_t n = g->num_prims, cells = g->num_cells;
+    uint32_t nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
+    BinJob job;
+    memset(&job, 0, sizeof job);
+    job.g = g;
+    job.part[0].course = g->course_count;
+    job.part[0].count = g->cell_start + 1;
+    job.chunk = calloc(nchunks ? nchunks : 1, sizeof *job.chunk);
+    bool ok = job.chunk != NULL;
+    uint64_t total = 0;
+    if (ok) {
+        par_for((int)nchunks, bin_chunk, &job);
+        for (int w = 0; w < PAR_MAX_WORKERS; w++) {
+            g->too_many = g->too_many || job.part[w].too_many;
+            ok = ok && !job.part[w].oom && !job.part[w].too_many;
+            total += job.part[w].num_pairs;
+        }
+        if (total > UINT32_MAX - 1u) {
+            g->too_many = true;
+            ok = false;
+        }
+    }
+    if (ok) {
+        /* Offsets (cell_start[c] = the fill cursor); the other workers' course counts
+         * are added to worker 0's. */
+        uint32_t *start = g->cell_start, run = 0;
+        for (uint32_t c = 0; c < cells; c++) {
+            uint32_t m = start[c + 1], course = g->course_count[c];
+            for (int w = 1; w < PAR_MAX_WORKERS; w++)
+                if (job.part[w].count) {
+                    m += job.part[w].count[c];
+                    course += job.part[w].course[c];
+                }
+            start[c] = run;
+            run += m;
+            g->course_count[c] = course;
+        }
+        g->cell_items = malloc(((size_t)total + 1) * sizeof *g->cell_items);
+        ok = g->cell_items != NULL;
+    }
+    if (ok) {
+        uint32_t *items = g->cell_items, *cursor = g->cell_start;
+        for (uint32_t k = 0; k < nchunks; k++) {
+            const uint32_t *cell = job.part[job.chunk[k].worker].pairs + job.chunk[k].off;
+            uint32_t p1 = n - k * BIN_CHUNK > BIN_CHUNK ? (k + 1) * BIN_CHUNK : n;
+            for (uint32_t p = k * BIN_CHUNK; p < p1; p++)
+                for (uint32_t j = g->prim_ncells[p]; j > 0; j--)
+                    items[cursor[*cell++]++] = p;
+        }
+        /* Each cursor now stands at the start of the next cell. */
+        memmove(g->cell_start + 1, g->cell_start, (size_t)cells * sizeof *g->cell_start);
+        g->cell_start[0] = 0;
+    }
+    for (int w = 0; w < PAR_MAX_WORKERS; w++) {
+        free(job.part[w].pairs);
+        if (w > 0)
+            free(job.part[w].course);
+    }
+    free(job.chunk);
+    return ok;
+}
 
 static void free_build_state(Grid *g)
 {
-    free(g->pairs);
-    g->pairs = NULL;
-    g->num_pairs = g->cap_pairs = 0;
     free(g->prim_ncells);
     g->prim_ncells = NULL;
     free(g->cell_axis);
@@ -792,10 +932,8 @@ static void setup_geometry(Grid *g)
     g->box_mag = mag;
 }
 
-Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
+static Grid *build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
 {
-    if (!scene || !scene->root || bbox_is_empty(&scene->bounds))
-        return NULL;
     if (nx < 1 || ny < 1 || nz < 1) {
         diag_error(diag, NULL, "grid resolution must be positive, got %dx%dx%d", nx, ny, nz);
         return NULL;
@@ -835,38 +973,23 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
                        : 256;
     g->prims = malloc((size_t)g->cap_prims * sizeof *g->prims);
     g->prim_ncells = malloc((size_t)g->cap_prims * sizeof *g->prim_ncells);
-    g->cap_pairs = 2 * (size_t)g->cap_prims + 1024;
-    g->pairs = malloc(g->cap_pairs * sizeof *g->pairs);
-    if (!g->prims || !g->prim_ncells || !g->pairs)
+    if (!g->prims || !g->prim_ncells)
         goto oom;
 
-    /* The walk bins every primitive as it reaches it (grid_insert_*): course counts,
-     * marching cells into pairs and their counts into cell_start[c + 1]. */
+    /* The walk collects the bounded primitives in depth-first order (grid_insert_*). */
     XformPath path;
     path.depth = 0;
     obj_insert_into_grid(scene->root, g, &path);
-    if (g->too_many) {
+    if (g->oom)
+        goto oom;
+    if (!bin_and_fill(g)) {
+        if (!g->too_many)
+            goto oom;
         diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",
                    nx, ny, nz);
         grid_free(g);
         return NULL;
     }
-    if (g->oom)
-        goto oom;
-
-    /* CSR: prefix sum of the counts, fill with cell_start[c] as cursor, then shift. */
-    for (uint32_t c = 0; c < g->num_cells; c++)
-        g->cell_start[c + 1] += g->cell_start[c];
-    g->cell_items = malloc((g->num_pairs + 1) * sizeof *g->cell_items);
-    if (!g->cell_items)
-        goto oom;
-    size_t pos = 0;
-    for (uint32_t e = 0; e < g->num_prims; e++)
-        for (uint32_t k = 0; k < g->prim_ncells[e]; k++)
-            g->cell_items[g->cell_start[g->pairs[pos++]]++] = e;
-    for (uint32_t c = g->num_cells; c > 0; c--)
-        g->cell_start[c] = g->cell_start[c - 1];
-    g->cell_start[0] = 0;
     free_build_state(g);
     /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c). */
     if (!grid_pack(g))
@@ -877,6 +1000,19 @@ oom:
     diag_error(diag, NULL, "out of memory building a %dx%dx%d grid", nx, ny, nz);
     grid_free(g);
     return NULL;
+}
+
+Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
+{
+    if (!scene || !scene->root || bbox_is_empty(&scene->bounds))
+        return NULL;
+    /* Wake the binning helpers now: the walk gives them time to get a CPU. */
+    if (scene->num_primitives >= 2 * BIN_CHUNK)
+        par_prepare();
+    Grid *g = build(scene, nx, ny, nz, diag);
+    /* The grid is the last step before the render, which wants the cores. */
+    par_release();
+    return g;
 }
 
 /* ---- accessors ---- */

@@ -14,11 +14,17 @@
 
 #include "rt/arena.h"
 #include "rt/geom.h"
+#include "rt/par.h"
 
 /* Inputs above this are refused (EFBIG) rather than exhausting memory: /dev/zero or an
  * endless pipe given as a file must end in an error, not in the OOM killer. 256 MiB is
  * an OBJ of several million triangles. */
 #define RT_MAX_INPUT_BYTES ((size_t)256 << 20)
+
+/* Files from this size on are read in pieces of about OBJ_PIECE_BYTES, each ending at a
+ * line end: some 20 pieces for the 40k bunny (1.3 MB). */
+#define OBJ_PAR_MIN_BYTES ((size_t)256 << 10)
+#define OBJ_PIECE_BYTES ((size_t)64 << 10)
 
 /* The buffer functions of file_read_all (malloc) or file_read_reusable (arena buffer). */
 static void *buf_alloc(size_t n, bool reusable)
@@ -59,6 +65,10 @@ static bool read_all(const char *path, char **out, size_t *len, bool reusable)
         errno = EFBIG;
         return false;
     }
+    /* A big OBJ is read in parallel next (parse_pieces): wake the helpers now, so the
+     * read gives them time to get a CPU. */
+    if (S_ISREG(st.st_mode) && (uintmax_t)st.st_size >= OBJ_PAR_MIN_BYTES)
+        par_prepare();
     /* Regular files: one fread of the known size. Pipes and the like: grow as we go. */
     size_t cap = S_ISREG(st.st_mode) && st.st_size > 0 ? (size_t)st.st_size + 1 : 65536;
     char *buf = buf_alloc(cap, reusable);
@@ -223,6 +233,12 @@ typedef struct ObjReader {
     Diag *diag;
     ObjMesh *m;
     int cap_v, cap_t;
+    /* A piece of a file read in parallel (parse_pieces): the vertices before it are
+     * not known yet, so a positive face index is only remembered as an excess over the
+     * piece's own vertex count (checked against the count before the piece later),
+     * and a negative one, which needs that count, fails the piece. */
+    bool piece;
+    long excess;    /* max over the piece's face indices of index - nverts so far */
 } ObjReader;
 
 static SrcLoc obj_loc(const ObjReader *r, const char *at)
@@ -342,7 +358,10 @@ static bool read_face(ObjReader *r, const char *f_at)
         }
         int nv = r->m->nverts;
         long resolved = idx > 0 ? idx - 1 : (long)nv + idx;
-        if (idx == 0 || resolved < 0 || resolved >= nv) {
+        if (r->piece && idx > 0 && idx <= INT_MAX) {
+            if (idx - nv > r->excess)
+                r->excess = idx - nv;
+        } else if (r->piece || idx == 0 || resolved < 0 || resolved >= nv) {
             if (idx == 0)
                 diag_error(r->diag, &l, "vertex index 0 out of range (indices start at 1)");
             else
@@ -393,8 +412,14 @@ static bool read_face_simple(ObjReader *r)
                 return false; /* no overflow; read_face handles long indices */
             v = v * 10 + (*p++ - '0');
         }
-        if (v < 1 || v > nv)
+        if (v < 1)
             return false;
+        if (v > nv) {
+            if (!r->piece)
+                return false;
+            if (v - nv > r->excess)
+                r->excess = v - nv;
+        }
         idx[k] = v - 1;
     }
     if (!(*p == '\n' || *p == '\0' || (*p == '\r' && (p[1] == '\n' || p[1] == '\0'))))
@@ -411,9 +436,155 @@ static bool read_face_simple(ObjReader *r)
     return true;
 }
 
+/* The records of r->p .. r->end, line by line; false after reporting an error. */
+static bool parse_lines(ObjReader *r)
+{
+    while (r->p < r->end) {
+        r->line_start = r->p;
+        skip_blanks(r);
+        const char *kw = r->p;
+        while (*r->p && !is_blank(*r->p) && *r->p != '\n')
+            r->p++;
+        size_t kl = (size_t)(r->p - kw);
+        bool ok = true;
+        if (kl == 1 && kw[0] == 'v')
+            ok = read_vertex(r);
+        else if (kl == 1 && kw[0] == 'f')
+            ok = read_face_simple(r) || read_face(r, kw);
+        /* Anything else (#, vn, vt, g, o, s, usemtl, mtllib, l, ...) is skipped. */
+        if (!ok)
+            return false;
+        while (*r->p && *r->p != '\n')
+            r->p++;
+        if (*r->p == '\n') {
+            r->p++;
+            if (r->line < INT_MAX)
+                r->line++;
+        }
+    }
+    return true;
+}
+
+/* ---- reading a big file in pieces, in parallel (rt/par.h) ---- */
+
+enum { OBJ_MAX_PIECES = 4096 };
+
+typedef struct ObjPiece {
+    const char *begin, *end;
+    ObjMesh mesh;       /* the piece's vertices and triangles (indices absolute) */
+    long excess;        /* ObjReader.excess */
+    bool ok;
+    int vbefore, tbefore; /* vertices and triangles of the pieces before it */
+} ObjPiece;
+
+typedef struct PieceJob {
+    ObjPiece *piece;
+    ObjMesh *out;
+} PieceJob;
+
+static void parse_piece(void *ctx, int i, int worker)
+{
+    (void)worker;
+    ObjPiece *pc = &((PieceJob *)ctx)->piece[i];
+    Diag quiet; /* a failed piece is read again by the serial reader, which reports */
+    diag_init(&quiet, NULL);
+    ObjReader r;
+    memset(&r, 0, sizeof r);
+    r.buf = r.p = r.line_start = pc->begin;
+    r.end = pc->end;
+    r.line = 1;
+    r.name = "";
+    r.diag = &quiet;
+    r.m = &pc->mesh;
+    r.piece = true;
+    r.excess = LONG_MIN;
+    pc->ok = parse_lines(&r);
+    pc->excess = r.excess;
+}
+
+/* Moves piece i (i >= 1) into its place in the whole mesh. */
+static void place_piece(void *ctx, int i, int worker)
+{
+    (void)worker;
+    PieceJob *job = ctx;
+    ObjPiece *pc = &job->piece[i + 1];
+    if (pc->mesh.nverts)
+        memcpy(job->out->verts + pc->vbefore, pc->mesh.verts,
+               (size_t)pc->mesh.nverts * sizeof *pc->mesh.verts);
+    if (pc->mesh.ntris)
+        memcpy(job->out->tris + pc->tbefore, pc->mesh.tris,
+               (size_t)pc->mesh.ntris * sizeof *pc->mesh.tris);
+    obj_mesh_free(&pc->mesh);
+}
+
+/* The whole of buf read as pieces: exactly the mesh the serial reader makes, or false
+ * (out untouched) when a piece has an error, a negative index or an index beyond the
+ * vertices read so far, or memory runs out; the serial reader then reads the file
+ * again and reports. */
+static bool parse_pieces(const char *buf, size_t len, ObjMesh *out)
+{
+    size_t want = len / OBJ_PIECE_BYTES;
+    int n = want > OBJ_MAX_PIECES ? OBJ_MAX_PIECES : (int)want;
+    ObjPiece *piece = calloc((size_t)n, sizeof *piece);
+    if (!piece)
+        return false;
+    /* Piece k starts after the first line end at or after k * len / n. */
+    const char *end = buf + len;
+    const char *at = buf;
+    int np = 0;
+    for (int k = 0; k < n && at < end; k++) {
+        const char *cut = k + 1 < n ? buf + (size_t)((uint64_t)len * (uint64_t)(k + 1) / (uint64_t)n) : end;
+        if (cut < at)
+            cut = at;
+        const char *nl = cut < end ? memchr(cut, '\n', (size_t)(end - cut)) : NULL;
+        cut = nl ? nl + 1 : end;
+        piece[np].begin = at;
+        piece[np].end = cut;
+        np++;
+        at = cut;
+    }
+    PieceJob job = {piece, out};
+    par_for(np, parse_piece, &job);
+    bool ok = true;
+    long nv = 0, nt = 0;
+    for (int k = 0; k < np && ok; k++) {
+        ObjPiece *pc = &piece[k];
+        ok = pc->ok && pc->excess <= nv;
+        pc->vbefore = (int)nv;
+        pc->tbefore = (int)nt;
+        nv += pc->mesh.nverts;
+        nt += pc->mesh.ntris;
+        ok = ok && nv < INT_MAX && nt < INT_MAX;
+    }
+    /* Piece 0's arrays grow into the whole mesh's (big blocks are moved, not copied);
+     * the others are copied behind them, in parallel. */
+    if (ok && nv) {
+        Vec3 *v = realloc(piece[0].mesh.verts, (size_t)nv * sizeof *v);
+        ok = v != NULL;
+        if (v)
+            piece[0].mesh.verts = v;
+    }
+    if (ok && nt) {
+        int(*t)[3] = realloc(piece[0].mesh.tris, (size_t)nt * sizeof *t);
+        ok = t != NULL;
+        if (t)
+            piece[0].mesh.tris = t;
+    }
+    if (ok) {
+        *out = piece[0].mesh;
+        out->nverts = (int)nv;
+        out->ntris = (int)nt;
+        memset(&piece[0].mesh, 0, sizeof piece[0].mesh);
+        par_for(np - 1, place_piece, &job);
+    }
+    for (int k = 0; k < np; k++)
+        obj_mesh_free(&piece[k].mesh);
+    free(piece);
+    return ok;
+}
+
 bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag)
 {
-    ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0};
     memset(out, 0, sizeof *out);
     /* The scanners stop at the terminating NUL instead of comparing with the end on
      * every byte; a NUL inside the text is refused below, so NUL means end of buffer. */
@@ -421,7 +592,7 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
     if (memchr(buf, '\0', len)) {
         /* Binary data: say so instead of a confusing message about its first line. */
         const char *z = memchr(buf, '\0', len);
-        r.line = 1;
+        ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0, false, 0};
         for (const char *q = buf; q < z; q++)
             if (*q == '\n') {
                 r.line++;
@@ -431,30 +602,12 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
         diag_error(diag, &l, "NUL byte: not a text OBJ file");
         return false;
     }
-    while (r.p < r.end) {
-        r.line_start = r.p;
-        skip_blanks(&r);
-        const char *kw = r.p;
-        while (*r.p && !is_blank(*r.p) && *r.p != '\n')
-            r.p++;
-        size_t kl = (size_t)(r.p - kw);
-        bool ok = true;
-        if (kl == 1 && kw[0] == 'v')
-            ok = read_vertex(&r);
-        else if (kl == 1 && kw[0] == 'f')
-            ok = read_face_simple(&r) || read_face(&r, kw);
-        /* Anything else (#, vn, vt, g, o, s, usemtl, mtllib, l, ...) is skipped. */
-        if (!ok) {
-            obj_mesh_free(out);
-            return false;
-        }
-        while (*r.p && *r.p != '\n')
-            r.p++;
-        if (*r.p == '\n') {
-            r.p++;
-            if (r.line < INT_MAX)
-                r.line++;
-        }
+    if (len >= OBJ_PAR_MIN_BYTES && par_threads() > 1 && parse_pieces(buf, len, out))
+        return true;
+    ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0, false, 0};
+    if (!parse_lines(&r)) {
+        obj_mesh_free(out);
+        return false;
     }
     return true;
 }

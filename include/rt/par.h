@@ -1,0 +1,41 @@
+/* Set-up parallelism: a loop split into chunks, run by the calling thread and by helper
+ * threads that join in when they get a CPU. For the build steps before the render (OBJ
+ * reading, mesh construction, grid binning); the render has its own threads. */
+#ifndef RT_PAR_H
+#define RT_PAR_H
+
+#include <stdbool.h>
+
+/* Most threads a par_for uses: the caller (worker 0) and up to 7 helpers. */
+enum { PAR_MAX_WORKERS = 8 };
+
+/* One chunk: i in [0, n), worker in [0, PAR_MAX_WORKERS) names the thread running it
+ * (two chunks run concurrently only on different workers), so per-worker scratch needs
+ * no locks. */
+typedef void (*ParChunkFn)(void *ctx, int i, int worker);
+
+/* Runs fn(ctx, i, worker) once for every i in [0, n) and returns when all have run.
+ * Chunks are handed out in increasing i, but run in any order and concurrently: a
+ * result must not depend on which worker ran a chunk (callers keep per-chunk outputs
+ * and combine them in chunk order). The caller never waits for a helper that has not
+ * started: a helper's CPU can take milliseconds to wake on a virtual machine, and then
+ * the caller simply runs more chunks itself. A par_for that starts while another is
+ * running (another thread, or from inside a chunk) runs all its chunks on the caller. */
+void par_for(int n, ParChunkFn fn, void *ctx);
+
+/* Starts the helpers now, for par_for calls soon after; between calls they wait
+ * (spinning, yielding the CPU) at most a few milliseconds before they exit. */
+void par_prepare(void);
+/* The set-up is over: idle helpers exit now (the render's threads want the cores). */
+void par_release(void);
+
+/* Threads a par_for may use now: 1 + the helpers wanted (1: everything on the caller,
+ * so splitting work only costs). */
+int par_threads(void);
+
+/* Helpers to use: n >= 0 exactly n (at most PAR_MAX_WORKERS - 1; 0: every chunk on
+ * the caller); n < 0 (the default) one per online CPU beyond the first. For tests and
+ * benchmarks; call it while no par_for runs. */
+void par_set_helpers(int n);
+
+#endif

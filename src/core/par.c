@@ -1,0 +1,242 @@
+/* Set-up parallelism (rt/par.h): one job at a time, its chunks handed out under a spin
+ * lock to the caller and to detached helper threads that linger briefly between jobs. */
+#ifdef __linux__
+#define _GNU_SOURCE /* pthread_attr_setaffinity_np, sched_getcpu */
+#endif
+#include "rt/par.h"
+
+#include <pthread.h>
+#include <sched.h>
+#include <stdatomic.h>
+#include <stdint.h>
+#include <time.h>
+#include <unistd.h>
+
+/* How long an idle helper waits for the next job before it exits. The serial stretches
+ * between two parallel steps of the set-up (the rest of the scene after its OBJ file,
+ * the grid's walk) last about a millisecond on the 40k bunny, while a new thread took
+ * from 0.05 to 5 ms to get a CPU on the 2-core virtual machines measured (its vCPU is
+ * asleep). So a helper that is already running is worth a little spinning. */
+#define PAR_LINGER_NS 3000000LL
+
+/* Everything below is guarded by g_lock. A spin lock, not a mutex: a thread put to
+ * sleep on a contended mutex can take milliseconds to wake on those machines, and the
+ * lock is held for a few instructions only. */
+static atomic_flag g_lock = ATOMIC_FLAG_INIT;
+static struct {
+    ParChunkFn fn;
+    void *ctx;
+    int n, next, done;
+    bool open;
+} g_job;
+static bool g_alive[PAR_MAX_WORKERS]; /* helper slots 1.. taken (0 is the caller) */
+static int64_t g_deadline;            /* idle helpers exit after it (CLOCK_MONOTONIC ns) */
+static int g_want = -1;               /* par_set_helpers; < 0: automatic */
+static bool g_running;                /* a par_for is in progress */
+static pthread_once_t g_once = PTHREAD_ONCE_INIT;
+
+static inline void cpu_relax(void)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#endif
+}
+
+static void lock(void)
+{
+    while (atomic_flag_test_and_set_explicit(&g_lock, memory_order_acquire))
+        cpu_relax();
+}
+
+static void unlock(void) { atomic_flag_clear_explicit(&g_lock, memory_order_release); }
+
+static int64_t now_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (int64_t)t.tv_sec * 1000000000LL + t.tv_nsec;
+}
+
+/* A forked child has only the forking thread: forget the parent's helpers (and a lock
+ * one of them may have held at the fork). */
+static void reset_in_child(void)
+{
+    atomic_flag_clear(&g_lock);
+    for (int w = 0; w < PAR_MAX_WORKERS; w++)
+        g_alive[w] = false;
+    g_job.open = false;
+    g_running = false;
+}
+
+static int g_auto; /* helpers by default: online CPUs - 1 (set once) */
+
+static void init_once(void)
+{
+    pthread_atfork(NULL, NULL, reset_in_child);
+    long h = sysconf(_SC_NPROCESSORS_ONLN) - 1;
+    g_auto = h < 0 ? 0 : h > PAR_MAX_WORKERS - 1 ? PAR_MAX_WORKERS - 1 : (int)h;
+}
+
+static void *helper_main(void *arg)
+{
+    int worker = (int)(intptr_t)arg;
+    for (;;) {
+        int64_t t = now_ns();
+        lock();
+        if (g_job.open && g_job.next < g_job.n) {
+            int i = g_job.next++;
+            ParChunkFn fn = g_job.fn;
+            void *ctx = g_job.ctx;
+            unlock();
+            fn(ctx, i, worker);
+            lock(); /* the release of this unlock publishes the chunk's writes */
+            g_job.done++;
+            unlock();
+            continue;
+        }
+        if (!g_job.open && t > g_deadline) {
+            g_alive[worker] = false;
+            unlock();
+            return NULL;
+        }
+        unlock();
+        /* Let anything else that wants this CPU have it (a render thread, say). */
+        sched_yield();
+    }
+}
+
+static int helpers_wanted(void)
+{
+    pthread_once(&g_once, init_once);
+    int want = g_want < 0 ? g_auto : g_want;
+    return want < PAR_MAX_WORKERS - 1 ? want : PAR_MAX_WORKERS - 1;
+}
+
+/* Linux tends to start a new thread on its creator's CPU, and a helper that never
+ * sleeps then halves the creator's speed until the load balancer moves one of them
+ * (measured: about half the runs, for milliseconds). So helpers start on the other
+ * CPUs. Best effort: without the call the helper runs anywhere. */
+static void keep_off_this_cpu(pthread_attr_t *attr)
+{
+#ifdef __linux__
+    int me = sched_getcpu();
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    if (me < 0 || sched_getaffinity(0, sizeof set, &set) != 0 || !CPU_ISSET(me, &set))
+        return;
+    CPU_CLR(me, &set);
+    if (CPU_COUNT(&set) > 0)
+        pthread_attr_setaffinity_np(attr, sizeof set, &set);
+#else
+    (void)attr;
+#endif
+}
+
+/* Starts the helpers that are wanted and not running. A helper that cannot be started
+ * is simply missing: the caller runs its chunks. */
+static void ensure_helpers(void)
+{
+    int want = helpers_wanted();
+    for (int w = 1; w <= want; w++) {
+        lock();
+        bool start = !g_alive[w];
+        g_alive[w] = true;
+        unlock();
+        if (!start)
+            continue;
+        pthread_attr_t attr;
+        pthread_t tid;
+        bool ok = pthread_attr_init(&attr) == 0;
+        ok = ok && pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED) == 0;
+        if (ok)
+            keep_off_this_cpu(&attr);
+        ok = ok && pthread_create(&tid, &attr, helper_main, (void *)(intptr_t)w) == 0;
+        pthread_attr_destroy(&attr);
+        if (!ok) {
+            lock();
+            g_alive[w] = false;
+            unlock();
+        }
+    }
+}
+
+void par_prepare(void)
+{
+    if (helpers_wanted() == 0)
+        return;
+    int64_t t = now_ns();
+    lock();
+    g_deadline = t + PAR_LINGER_NS;
+    unlock();
+    ensure_helpers();
+}
+
+void par_release(void)
+{
+    lock();
+    g_deadline = 0;
+    unlock();
+}
+
+void par_set_helpers(int n) { g_want = n; }
+
+int par_threads(void) { return 1 + helpers_wanted(); }
+
+void par_for(int n, ParChunkFn fn, void *ctx)
+{
+    if (n <= 0)
+        return;
+    lock();
+    bool inline_only = g_running || n == 1;
+    if (!inline_only)
+        g_running = true;
+    unlock();
+    if (inline_only || helpers_wanted() == 0) {
+        for (int i = 0; i < n; i++)
+            fn(ctx, i, 0);
+        if (!inline_only) {
+            lock();
+            g_running = false;
+            unlock();
+        }
+        return;
+    }
+    int64_t t = now_ns();
+    lock();
+    g_job.fn = fn;
+    g_job.ctx = ctx;
+    g_job.n = n;
+    g_job.next = 0;
+    g_job.done = 0;
+    g_job.open = true;
+    g_deadline = t + PAR_LINGER_NS;
+    unlock();
+    ensure_helpers();
+    for (;;) {
+        lock();
+        if (g_job.next >= n) {
+            unlock();
+            break;
+        }
+        int i = g_job.next++;
+        unlock();
+        fn(ctx, i, 0);
+        lock();
+        g_job.done++;
+        unlock();
+    }
+    /* Only chunks a helper has taken are waited for; they are short. */
+    for (;;) {
+        lock();
+        bool all = g_job.done == n;
+        if (all) {
+            g_job.open = false;
+            g_running = false;
+            g_deadline = now_ns() + PAR_LINGER_NS;
+        }
+        unlock();
+        if (all)
+            break;
+        cpu_relax();
+    }
+}
