@@ -1,0 +1,410 @@
+/* The parallel set-up gives the serial one's results to the bit: OBJ files read in
+ * pieces (every record form, errors and forward references in late pieces), meshes
+ * built in chunks (the box, signed zeros included), and grids binned by several
+ * threads (the CSR arrays, entry order included), for 0, 1, 2 and 3 helpers. */
+#define _POSIX_C_SOURCE 200809L
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include "../harness.h"
+#include "../../src/accel/grid_internal.h"
+#include "../../src/scene/obj_loader.h"
+#include "rt/geom.h"
+#include "rt/par.h"
+#include "rt/scene.h"
+
+static const int k_helpers[] = {0, 1, 2, 3};
+enum { N_HELPERS = 4 };
+
+static uint64_t g_rng = 0x2545f4914f6cdd1dull;
+
+static uint64_t rnd(void)
+{
+    g_rng ^= g_rng << 13;
+    g_rng ^= g_rng >> 7;
+    g_rng ^= g_rng << 17;
+    return g_rng;
+}
+
+static double unit(void) { return (double)(rnd() >> 11) * 0x1p-53; }
+
+/* A growing text buffer. */
+typedef struct Text {
+    char *s;
+    size_t len, cap;
+} Text;
+
+static void put(Text *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void put(Text *t, const char *fmt, ...)
+{
+    char line[256];
+    va_list ap;
+    va_start(ap, fmt);
+    int n = vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    if (t->len + (size_t)n + 1 > t->cap) {
+        t->cap = 2 * (t->len + (size_t)n + 1) + 4096;
+        t->s = realloc(t->s, t->cap);
+    }
+    memcpy(t->s + t->len, line, (size_t)n + 1);
+    t->len += (size_t)n;
+}
+
+/* A coordinate in one of the spellings OBJ files use. */
+static void put_coord(Text *t)
+{
+    double x = (unit() - 0.5) * 4.0;
+    switch (rnd() % 8) {
+    case 0: put(t, " %.6g", x); break;
+    case 1: put(t, " %.9e", x); break;
+    case 2: put(t, " %+.3f", x); break;
+    case 3: put(t, " %d", (int)(x * 3)); break;
+    case 4: put(t, " %s0", (rnd() & 1) ? "-" : ""); break; /* signed zeros */
+    case 5: put(t, " %.17g", x); break;                     /* beyond the fast path */
+    case 6: put(t, " %.4fE%+d", x, (int)(rnd() % 5) - 2); break;
+    default: put(t, " %.7f", x); break;
+    }
+}
+
+/* An OBJ text of about `bytes` bytes: vertices and faces interleaved (faces use only
+ * vertices read before them, so the file is valid), in every form the reader accepts.
+ * negative: also faces with negative indices (pieces then give up: serial reading). */
+static char *make_obj(size_t bytes, bool negative, size_t *len)
+{
+    Text t = {0};
+    int nv = 0;
+    while (t.len < bytes) {
+        int r = (int)(rnd() % 16);
+        if (nv < 3 || r < 6) {
+            put(&t, "%sv", (rnd() % 8) ? "" : "  ");
+            for (int k = 0; k < 3; k++)
+                put_coord(&t);
+            if (rnd() % 16 == 0)
+                put(&t, " 1.0"); /* a w coordinate: ignored */
+            put(&t, "%s\n", (rnd() % 8) ? "" : "\r");
+            nv++;
+        } else if (r < 12) {
+            put(&t, "f %d %d %d\n", 1 + (int)(rnd() % (unsigned)nv),
+                1 + (int)(rnd() % (unsigned)nv), 1 + (int)(rnd() % (unsigned)nv));
+        } else if (r == 12) {
+            int m = 3 + (int)(rnd() % 4);
+            put(&t, "f");
+            for (int k = 0; k < m; k++) {
+                int v = 1 + (int)(rnd() % (unsigned)nv);
+                switch (rnd() % 4) {
+                case 0: put(&t, " %d/%d/%d", v, 1, 1); break;
+                case 1: put(&t, " %d//%d", v, 2); break;
+                case 2: put(&t, " %d/%d", v, 3); break;
+                default:
+                    if (negative)
+                        put(&t, " %d", v - nv - 1);
+                    else
+                        put(&t, "\t%d", v);
+                    break;
+                }
+            }
+            put(&t, "%s\n", (rnd() % 4) ? "" : " # trailing comment");
+        } else if (r == 13) {
+            put(&t, "# a comment line f 1 2 3\n");
+        } else if (r == 14) {
+            put(&t, "vn 0 1 0\nvt 0.5 0.5\n\n");
+        } else {
+            put(&t, "g part%d\ns off\n", (int)(rnd() % 100));
+        }
+    }
+    *len = t.len;
+    return t.s;
+}
+
+/* Parses text with h helpers; the diagnostics go to *d. */
+static bool parse_with(int h, const char *text, size_t len, ObjMesh *m, Diag *d)
+{
+    par_set_helpers(h);
+    diag_init(d, NULL);
+    bool ok = obj_parse(text, len, "big.obj", m, d);
+    par_set_helpers(-1);
+    return ok;
+}
+
+static void check_same_parse(const char *text, size_t len, const char *what)
+{
+    ObjMesh ref;
+    Diag dref;
+    bool ok_ref = parse_with(0, text, len, &ref, &dref);
+    for (int i = 1; i < N_HELPERS; i++) {
+        ObjMesh m;
+        Diag d;
+        bool ok = parse_with(k_helpers[i], text, len, &m, &d);
+        CHECK_MSG(ok == ok_ref, "%s, %d helpers: ok %d, serial %d", what, k_helpers[i], ok,
+                  ok_ref);
+        CHECK_STR(d.last, dref.last);
+        CHECK_INT(d.errors, dref.errors);
+        CHECK_INT(m.nverts, ref.nverts);
+        CHECK_INT(m.ntris, ref.ntris);
+        if (ok && ok_ref && m.nverts == ref.nverts && m.ntris == ref.ntris) {
+            CHECK_MSG(m.nverts == 0 ||
+                          memcmp(m.verts, ref.verts, (size_t)m.nverts * sizeof *m.verts) == 0,
+                      "%s, %d helpers: vertices differ", what, k_helpers[i]);
+            CHECK_MSG(m.ntris == 0 ||
+                          memcmp(m.tris, ref.tris, (size_t)m.ntris * sizeof *m.tris) == 0,
+                      "%s, %d helpers: faces differ", what, k_helpers[i]);
+        }
+        obj_mesh_free(&m);
+    }
+    obj_mesh_free(&ref);
+}
+
+static void test_obj_pieces_match_serial(void)
+{
+    for (int round = 0; round < 3; round++) {
+        size_t len;
+        char *text = make_obj((size_t)(300 + 400 * round) << 10, false, &len);
+        ObjMesh m;
+        Diag d;
+        CHECK_MSG(parse_with(0, text, len, &m, &d), "generated OBJ: %s", d.last);
+        CHECK(m.ntris > 1000);
+        obj_mesh_free(&m);
+        check_same_parse(text, len, "valid file");
+        free(text);
+    }
+}
+
+static void test_obj_pieces_negative_indices(void)
+{
+    size_t len;
+    char *text = make_obj((size_t)500 << 10, true, &len);
+    check_same_parse(text, len, "negative indices");
+    free(text);
+}
+
+/* Errors near the end (in a late piece) and faces naming vertices that only come
+ * later: the same message, at the same place, as the serial reader's. */
+static void test_obj_pieces_errors(void)
+{
+    static const char *tails[] = {
+        "f 1 2 999999\n",              /* beyond every vertex */
+        "f 1 2 0\n",                   /* index 0 */
+        "v 1 2\n",                     /* too few coordinates */
+        "v 1 2 3e99\n",                /* out of range */
+        "f 1 2\n",                     /* too few vertices */
+        "f 1 2 x\n",                   /* malformed */
+        "f 1 2 -999999\n",             /* negative, out of range */
+    };
+    for (size_t k = 0; k < sizeof tails / sizeof tails[0]; k++) {
+        size_t len;
+        char *text = make_obj((size_t)400 << 10, false, &len);
+        char *full = malloc(len + strlen(tails[k]) + 64);
+        memcpy(full, text, len);
+        size_t n = len + (size_t)sprintf(full + len, "%sv 0 0 0\n", tails[k]);
+        check_same_parse(full, n, tails[k]);
+        free(full);
+        free(text);
+    }
+    /* A face naming a vertex defined only further down: an error for the serial reader
+     * ("out of range" at that face), even though the index exists at the end. */
+    size_t len;
+    char *text = make_obj((size_t)400 << 10, false, &len);
+    char *full = malloc(2 * len + 64);
+    size_t n = (size_t)sprintf(full, "f 1 2 50000\n");
+    memcpy(full + n, text, len);
+    n += len;
+    memcpy(full + n, text, len);
+    n += len;
+    full[n] = '\0';
+    check_same_parse(full, n, "forward reference");
+    /* Again, in the middle of the file. */
+    char *mid = strstr(full + len / 2, "\nf ");
+    if (mid) {
+        size_t off = (size_t)(mid + 1 - full);
+        char *copy = malloc(n + 64);
+        memcpy(copy, full, off);
+        size_t m = off + (size_t)sprintf(copy + off, "f 3 2 %d\n", 20000000);
+        memcpy(copy + m, full + off, n - off);
+        m += n - off;
+        copy[m] = '\0';
+        check_same_parse(copy, m, "forward reference, middle");
+        free(copy);
+    }
+    free(full);
+    free(text);
+}
+
+/* Meshes built in chunks: the same triangles and the same box, bit for bit, also when
+ * the box's extremes are signed zeros met in different chunks. */
+static void test_mesh_chunks_match(void)
+{
+    int nv = 30000, nf = 40000;
+    Vec3 *v = malloc((size_t)nv * sizeof *v);
+    int(*f)[3] = malloc((size_t)nf * sizeof *f);
+    for (int i = 0; i < nv; i++) {
+        v[i] = v3((float)(unit() * 2), (float)(unit() * 2), (float)(unit() * 2));
+        if (i % 7000 == 3) /* minima: +0 first, -0 later, in other chunks */
+            v[i] = v3(i < 15000 ? 0.0f : -0.0f, i < 15000 ? -0.0f : 0.0f, 0.0f);
+    }
+    for (int i = 0; i < nf; i++)
+        for (int k = 0; k < 3; k++)
+            f[i][k] = (int)(rnd() % (unsigned)nv);
+    f[5][0] = 3;
+    f[39000][1] = 28003;
+    Arena a0;
+    arena_init(&a0);
+    par_set_helpers(0);
+    Object3D *ref = triangle_mesh_new(&a0, v, (const int(*)[3])f, nf, NULL);
+    for (int h = 1; h < N_HELPERS; h++) {
+        Arena a;
+        arena_init(&a);
+        par_set_helpers(k_helpers[h]);
+        Object3D *m = triangle_mesh_new(&a, v, (const int(*)[3])f, nf, NULL);
+        CHECK(m && ref);
+        if (m && ref) {
+            CHECK_MSG(memcmp(&m->bbox, &ref->bbox, sizeof m->bbox) == 0,
+                      "%d helpers: mesh box differs", k_helpers[h]);
+            int bad = 0;
+            for (int i = 0; i < nf; i++) {
+                const Object3D *ta = group_child(m, i), *tb = group_child(ref, i);
+                Vec3 va[3], vb[3];
+                triangle_vertices(ta, va);
+                triangle_vertices(tb, vb);
+                Vec3 na = triangle_normal(ta), nb = triangle_normal(tb);
+                bad += memcmp(va, vb, sizeof va) != 0 || memcmp(&na, &nb, sizeof na) != 0 ||
+                       memcmp(&ta->bbox, &tb->bbox, sizeof ta->bbox) != 0;
+            }
+            CHECK_INT(bad, 0);
+        }
+        arena_free(&a);
+    }
+    par_set_helpers(-1);
+    arena_free(&a0);
+    free(v);
+    free(f);
+}
+
+/* Hash of everything the grid build produces. */
+static uint64_t grid_hash(const Grid *g)
+{
+    uint64_t h = 1469598103934665603ull;
+#define MIX(p, n) \
+    do { \
+        const unsigned char *c_ = (const unsigned char *)(p); \
+        for (size_t i_ = 0; i_ < (size_t)(n); i_++) \
+            h = (h ^ c_[i_]) * 1099511628211ull; \
+    } while (0)
+    MIX(g->cell_start, (g->num_cells + 1) * sizeof *g->cell_start);
+    MIX(g->cell_items, g->cell_start[g->num_cells] * sizeof *g->cell_items);
+    MIX(g->course_count, g->num_cells * sizeof *g->course_count);
+    for (uint32_t i = 0; i < g->num_prims; i++) {
+        MIX(&g->prims[i].obj->id, sizeof g->prims[i].obj->id);
+        int depth = g->prims[i].path ? g->prims[i].path->depth : -1;
+        MIX(&depth, sizeof depth);
+    }
+    MIX(&g->num_unbounded, sizeof g->num_unbounded);
+#undef MIX
+    return h;
+}
+
+static void check_grids(const Scene *s, int nx, int ny, int nz, const char *what)
+{
+    Diag d;
+    diag_init(&d, NULL);
+    par_set_helpers(0);
+    Grid *ref = grid_build(s, nx, ny, nz, &d);
+    CHECK_MSG(ref != NULL, "%s: %s", what, d.last);
+    if (!ref)
+        return;
+    uint64_t href = grid_hash(ref);
+    CHECK(ref->num_prims > 2048); /* several chunks, so the helpers have work */
+    for (int h = 1; h < N_HELPERS; h++) {
+        par_set_helpers(k_helpers[h]);
+        Grid *g = grid_build(s, nx, ny, nz, &d);
+        CHECK(g != NULL);
+        if (g) {
+            CHECK_MSG(grid_hash(g) == href, "%s %dx%dx%d, %d helpers: grid differs", what, nx,
+                      ny, nz, k_helpers[h]);
+            CHECK_INT(g->cell_start[g->num_cells], ref->cell_start[ref->num_cells]);
+        }
+        grid_free(g);
+    }
+    par_set_helpers(-1);
+    grid_free(ref);
+}
+
+static void test_grid_threads_match(void)
+{
+    char dir[] = "/tmp/rt_setup_XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    char path[256];
+    snprintf(path, sizeof path, "%s/big.obj", dir);
+    size_t len;
+    char *text = make_obj((size_t)600 << 10, false, &len);
+    FILE *f = fopen(path, "wb");
+    CHECK(f != NULL);
+    if (f) {
+        fwrite(text, 1, len, f);
+        fclose(f);
+    }
+    free(text);
+    /* The mesh twice, once under nested Transforms, and spheres plain and transformed. */
+    const char *scene =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Lights { numLights 0 }\n"
+        "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 1 1 } }\n"
+        "Group { numObjects 5 MaterialIndex 0\n"
+        "  TriangleMesh { obj_file big.obj }\n"
+        "  Transform { Translate 1 0 0 Transform { YRotate 30 Scale 1 2 1\n"
+        "    TriangleMesh { obj_file big.obj } } }\n"
+        "  Sphere { center 0.5 0.5 0.5 radius 0.7 }\n"
+        "  Transform { Scale 2 1 1 Sphere { center 0 0 0 radius 0.4 } }\n"
+        "  Plane { normal 0 1 0 offset -3 }\n"
+        "}\n";
+    Diag d;
+    diag_init(&d, NULL);
+    Scene *s = scene_load_string(scene, "setup.txt", dir, &d);
+    CHECK_MSG(s != NULL, "%s", d.last);
+    if (s) {
+        check_grids(s, 40, 40, 33, "generated");
+        check_grids(s, 7, 3, 50, "generated");
+        check_grids(s, 1, 1, 1, "generated");
+        scene_free(s);
+    }
+    unlink(path);
+    rmdir(dir);
+}
+
+static void test_grid_threads_match_bunny(void)
+{
+    const char *course = harness_course_dir();
+    if (!course)
+        harness_skip("course folder absent (RT_COURSE): no 40k bunny");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/scene6_07_bunny_mesh_40k.txt", course);
+    Diag d;
+    diag_init(&d, NULL);
+    for (int h = 0; h < N_HELPERS; h++) {
+        /* Also the whole load (OBJ pieces and mesh chunks) with h helpers. */
+        par_set_helpers(k_helpers[h]);
+        Scene *s = scene_load(path, &d);
+        par_set_helpers(-1);
+        CHECK_MSG(s != NULL, "%s", d.last);
+        if (!s)
+            return;
+        CHECK_INT(s->num_primitives, 40001);
+        check_grids(s, 40, 40, 33, "bunny 40k");
+        if (h == 0)
+            check_grids(s, 13, 9, 70, "bunny 40k");
+        scene_free(s);
+    }
+}
+
+static const TestCase tests[] = {
+    {"setup: OBJ read in pieces = serial read, every record form", test_obj_pieces_match_serial},
+    {"setup: OBJ pieces with negative indices (serial fallback)", test_obj_pieces_negative_indices},
+    {"setup: OBJ errors in late pieces: serial message and place", test_obj_pieces_errors},
+    {"setup: mesh built in chunks: same triangles, same box bits", test_mesh_chunks_match},
+    {"setup: grid binned by 1-4 threads: identical CSR arrays", test_grid_threads_match},
+    {"setup: 40k bunny loaded and binned by 1-4 threads: identical", test_grid_threads_match_bunny},
+};
+
+RT_TEST_MAIN(tests)
