@@ -3,7 +3,8 @@
 # and CPU per line; (b) trace throughput, primary and shadow rays, 1 and 2 threads, on
 # the bunny scenes and a 1.3M-triangle mesh; (c) set-up costs; (d) the same rays through
 # Embree (bench/embree_ref.c), paired with ours. Writes bench/REPORT.txt.
-# Environment: RT_BIN, RT_TOOLS (build/tools), EMBREE_REF (empty: no pairing),
+# Environment: RT_BIN, RT_TOOLS (build/tools), EMBREE_REF (empty: no pairing), GRID_REF
+# (bench/grid_ref.c built: our traversal alone, traced like embree_ref traces Embree),
 # BENCH_RUNS (median of N, default 3), BENCH_QUICK=1 (bunny 40k and the blob only, no
 # brute-force column), BENCH_BRUTE=0 (no brute-force column), BENCH_BRUTE_LIMIT (seconds
 # per brute-force run, default 20), RT_COURSE (default
@@ -14,6 +15,7 @@ ROOT=$(cd "$(dirname "$0")/.." && pwd)
 BIN=${RT_BIN:-$ROOT/raytracer}
 TOOLS=${RT_TOOLS:-$ROOT/build/tools}
 EMB=${EMBREE_REF:-}
+GREF=${GRID_REF:-$ROOT/build/bench/grid_ref}
 RUNS=${BENCH_RUNS:-3}
 QUICK=${BENCH_QUICK:-0}
 BRUTE=${BENCH_BRUTE:-1}
@@ -33,6 +35,8 @@ R=$TMP/report.txt
 # Run private copies: a rebuild in the work tree during the run must not swap binaries.
 cp "$BIN" "$TMP/raytracer" && BIN=$TMP/raytracer || exit 1
 if [ -n "$EMB" ]; then cp "$EMB" "$TMP/embree_ref" && EMB=$TMP/embree_ref || exit 1; fi
+if [ -x "$GREF" ]; then cp "$GREF" "$TMP/grid_ref" && GREF=$TMP/grid_ref || exit 1; else
+    note "bench: no $GREF (make grid_ref): no traversal-only column"; GREF=; fi
 
 say() { printf '%s\n' "$*" | tee -a "$R"; }
 note() { printf '%s\n' "$*" >&2; }
@@ -187,13 +191,16 @@ fi
 cases+=("blob1.3M|$ROOT/bench/blob.txt|-grid auto|4 9")
 
 say "== (b) trace throughput (Mrays/s) with (d) Embree on the same rays"
-say "   ours: render time from -timings (shading included, image writing excluded);"
-say "   primary = W*H / render time without -shadows; shadow = shadow rays / (render"
-say "   time with -shadows minus without). Embree: bench/embree_ref, same camera, rays,"
-say "   light directions and epsilon, traversal only; single = rtcIntersect1/rtcOccluded1,"
-say "   packet = rtcIntersect16/rtcOccluded16 on 4x4 pixel tiles. ratio = ours / Embree."
-hdr=$(printf '   %-14s %-9s %2s %8s %8s %8s %8s %8s %8s %8s %8s' case size th \
-    prim shad embS-p embS-s embP-p embP-s "p/S" "s/S")
+say "   render: the raytracer, render time from -timings (shading included, image"
+say "   writing excluded); primary = W*H / render time without -shadows; shadow = shadow"
+say "   rays / (render time with -shadows minus without)."
+say "   trav: bench/grid_ref, our grid's traversal alone (8x8-ray packets, as the renderer"
+say "   casts them), traced exactly like Embree's: same camera, rays, light directions"
+say "   and epsilon, nothing shaded. Embree: bench/embree_ref, traversal only;"
+say "   single = rtcIntersect1/rtcOccluded1, packet = rtcIntersect16/rtcOccluded16 on 4x4"
+say "   pixel tiles. ratio = trav / Embree single."
+hdr=$(printf '   %-14s %-9s %2s %7s %7s %7s %7s %7s %7s %7s %7s %6s %6s' case size th \
+    rnd-p rnd-s trav-p trav-s embS-p embS-s embP-p embP-s "p/S" "s/S")
 say "$hdr"
 rm -f "$TMP/ratios.txt"
 for c in "${cases[@]}"; do
@@ -228,6 +235,13 @@ for c in "${cases[@]}"; do
             r0=$(median "${prs[@]}") r1=$(median "${sh[@]}")
             ours_p=$(div "$px" "$(calc "$r0 * 1000" 3)" 2)
             ours_s=$(div "$shadow_rays" "$(calc "($r1 - $r0) * 1000" 3)" 2)
+            tr_p=- tr_s=-
+            if [ -n "$GREF" ]; then
+                run_timed "$GREF" -input "$scene" -size $size $gridargs -threads $th \
+                    -mode packet -repeat "$RUNS" -shadows
+                tr_p=$(emb_of primary_mrays) tr_s=$(emb_of shadow_mrays)
+                tr_rays=$(emb_of shadow_rays)
+            fi
             es_p=- es_s=- ep_p=- ep_s=- rp=- rs=- emb_rays=
             if [ -n "$EMB" ]; then
                 run_timed "$EMB" -input "$scene" -size $size -threads $th -mode single \
@@ -237,21 +251,22 @@ for c in "${cases[@]}"; do
                 run_timed "$EMB" -input "$scene" -size $size -threads $th -mode packet \
                     -repeat "$RUNS" -shadows
                 ep_p=$(emb_of primary_mrays) ep_s=$(emb_of shadow_mrays)
-                rp=$(div "$ours_p" "$es_p") rs=$(div "$ours_s" "$es_s")
-                echo "$name $size $th $rp $rs $(div "$ours_p" "$ep_p") $(div "$ours_s" "$ep_s")" >>"$TMP/ratios.txt"
+                rp=$(div "$tr_p" "$es_p") rs=$(div "$tr_s" "$es_s")
+                echo "$name $size $th $rp $rs $(div "$tr_p" "$ep_p") $(div "$tr_s" "$ep_s")" >>"$TMP/ratios.txt"
                 if [ "$th" = 1 ] && [ "$emb_rays" != "$shadow_rays" ]; then
                     echo "   note: $name $1x$2: shadow rays ours $shadow_rays, Embree $emb_rays" >>"$TMP/notes.txt"
                 fi
             fi
-            say "$(printf '   %-14s %-9s %2s %8s %8s %8s %8s %8s %8s %8s %8s' "$name" "${1}x$2" \
-                "$th" "$ours_p" "$ours_s" "$es_p" "$es_s" "$ep_p" "$ep_s" "$rp" "$rs")"
+            say "$(printf '   %-14s %-9s %2s %7s %7s %7s %7s %7s %7s %7s %7s %6s %6s' "$name" "${1}x$2" \
+                "$th" "$ours_p" "$ours_s" "$tr_p" "$tr_s" "$es_p" "$es_s" "$ep_p" "$ep_s" "$rp" "$rs")"
         done
     done
 done
-say "   columns: prim/shad = ours; embS = Embree single rays, embP = Embree packets;"
-say "   p/S, s/S = ours / Embree single (primary, shadow). Against packets:"
+say "   columns: rnd = the renderer, trav = our traversal alone; embS = Embree single rays,"
+say "   embP = Embree packets; p/S, s/S = trav / Embree single (primary, shadow). Against"
+say "   Embree's packets (trav / embP):"
 if [ -f "$TMP/ratios.txt" ]; then
-    awk '{ printf "     %-14s %4sx%-5s %s threads: ours/packet primary %s, shadow %s\n", $1, $2, $3, $4, $7, $8 }' \
+    awk '{ printf "     %-14s %4sx%-5s %s threads: trav/packet primary %s, shadow %s\n", $1, $2, $3, $4, $7, $8 }' \
         "$TMP/ratios.txt" | tee -a "$R"
 fi
 [ -f "$TMP/notes.txt" ] && tee -a "$R" <"$TMP/notes.txt"

@@ -235,6 +235,13 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
             cu1[gi] = pk_cells(u1, lo_u, inv_su, nu);
             cv0[gi] = pk_cells(v0, lo_v, inv_sv, nv);
             cv1[gi] = pk_cells(v1, lo_v, inv_sv, nv);
+            /* Statistics: each ray counts the cells of its own range in the slice. */
+            pk_i8 ncell = (cu1[gi] - cu0[gi] + 1) * (cv1[gi] - cv0[gi] + 1);
+            ncell &= m;
+            int32_t nsum = 0;
+            for (int l = 0; l < PK_LANES; l++)
+                nsum += ncell[l];
+            ctx->stats.cells_traversed += (uint64_t)nsum;
             umin = pk_min(umin, pk_blend(m, u0, inf));
             umax = pk_max(umax, pk_blend(m, u1, ninf));
             vmin = pk_min(vmin, pk_blend(m, v0, inf));
@@ -256,7 +263,6 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                 for (int iu = iu0; iu <= iu1; iu++) {
                     c[U] = iu;
                     uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);
-                    ctx->stats.cells_traversed++;
                     uint32_t e = start[cell], end = start[cell + 1];
                     if (e == end)
                         continue;

@@ -6,6 +6,7 @@
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 typedef struct RenderJob {
@@ -19,8 +20,10 @@ typedef struct RenderJob {
     atomic_int failed;
 } RenderJob;
 
+/* Each worker on cache lines of its own: its counters change at every cell and test,
+ * and two threads writing one line would bounce it between the cores. */
 typedef struct Worker {
-    RenderJob *job;
+    _Alignas(128) RenderJob *job;
     RenderCtx ctx;
     pthread_t thread;
     bool started;
@@ -133,9 +136,10 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         threads = 1;
 
     RenderJob job = {rt, camera, target, row_done, user, cancel, 0, 0};
-    Worker *workers = calloc((size_t)threads, sizeof *workers);
+    Worker *workers = aligned_alloc(_Alignof(Worker), (size_t)threads * sizeof *workers);
     if (!workers)
         return false;
+    memset(workers, 0, (size_t)threads * sizeof *workers);
     bool ok = true;
     for (int i = 0; i < threads; i++) {
         workers[i].job = &job;
