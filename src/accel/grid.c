@@ -30,7 +30,7 @@ struct GridBuildRec {
 };
 
 /* One binning worker's scratch (rt/par.h): its own counts and cell list, so workers
- * share nothing they write. Which worker bins which primitives varies from run to run;
+ * share nothing they write (worker 0 writes the grid's arrays). Which worker bins which primitives varies from run to run;
  * the result does not: the counts are sums, and the fill pass reads the chunks' cell
  * lists in primitive order. */
 typedef struct BinPart {
@@ -145,16 +145,15 @@ void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path)
     append_prim(g, tri, gp, REC_TRIANGLE);
 }
 
-/* The record of prims[p] as the walk left it (kind in prim_ncells[p]). */
-static void make_rec(const Grid *g, uint32_t p, GridBuildRec *rec)
+/* The record of a primitive of kind kind. */
+static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
 {
-    const GridPrim *gp = &g->prims[p];
     rec->obj = gp->obj;
     /* GridPrim.path points at the path member of an interned GridPath. */
     rec->gp = gp->path ? (const GridPath *)((const char *)gp->path -
                                             offsetof(GridPath, path))
                        : NULL;
-    rec->kind = (RecKind)g->prim_ncells[p];
+    rec->kind = kind;
     rec->r = 0.0f;
     if (rec->kind == REC_TRIANGLE) {
         triangle_vertices(rec->obj, rec->v);
@@ -165,6 +164,12 @@ static void make_rec(const Grid *g, uint32_t p, GridBuildRec *rec)
         rec->v[0] = sphere_center(rec->obj);
         rec->r = sphere_radius(rec->obj);
     }
+}
+
+/* The record of prims[p] as the walk left it (kind in prim_ncells[p]). */
+static void make_rec(const Grid *g, uint32_t p, GridBuildRec *rec)
+{
+    make_rec_of(&g->prims[p], (RecKind)g->prim_ncells[p], rec);
 }
 
 void grid_insert_unbounded(Grid *g, const Object3D *prim, const XformPath *path)
@@ -258,10 +263,15 @@ static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax)
 
 static void count_range(const Grid *g, uint32_t *course, const CellRange *r)
 {
+    /* grid_cell_index, with the row start hoisted: the stores through course may alias
+     * g->n (unsigned and int), so the compiler would reload it for every cell. */
+    uint32_t n0 = (uint32_t)g->n[0], n1 = (uint32_t)g->n[1];
     for (int k = r->lo[2]; k <= r->hi[2]; k++)
-        for (int j = r->lo[1]; j <= r->hi[1]; j++)
+        for (int j = r->lo[1]; j <= r->hi[1]; j++) {
+            uint32_t *row = course + ((uint32_t)k * n1 + (uint32_t)j) * n0;
             for (int i = r->lo[0]; i <= r->hi[0]; i++)
-                course[grid_cell_index(g, i, j, k)]++;
+                row[i]++;
+        }
 }
 
 /* Adds rec's cells by the course's rules to course[] (per-cell counts). */
@@ -750,7 +760,15 @@ static bool tight_insert(BinPart *bp, const GridBuildRec *rec, uint32_t *ncells)
 
 /* ---- the binning pass, in parallel over chunks of prims ---- */
 
-/* Primitives per chunk of the binning pass: enough to make handing out a chunk cheap,
+static void free_build_state(Grid *g)
+{
+    free(g->prim_ncells);
+    g->prim_ncells = NULL;
+    free(g->cell_axis);
+    g->cell_axis = NULL;
+}
+
+/* Primitives per chunk of the binning passes: enough to make handing out a chunk cheap,
  * few enough that the threads finish close together (40 chunks on the 40k bunny). */
 enum { BIN_CHUNK = 1024 };
 
@@ -759,13 +777,35 @@ typedef struct BinChunk {
     int worker;
 } BinChunk;
 
+/* The binning job: the marching cells of every primitive (bin_chunk), then the course
+ * counts (course_chunk) next to grid_pack (pack_chunk). */
 typedef struct BinJob {
     Grid *g;
+    uint32_t nchunks;
     BinPart part[PAR_MAX_WORKERS];
     BinChunk *chunk;
+    /* The primitives in walk order with their kinds, for the course counts: grid_pack
+     * renumbers g->prims while they are counted. */
+    GridPrim *snap;
+    uint8_t *kind;
+    bool pack_failed;
 } BinJob;
 
-/* Bins chunk i of prims (both cell sets); prim_ncells[p] becomes p's cell count. */
+/* Worker w's per-cell array in part->*field: worker 0 uses the grid's own, the others
+ * fresh zero pages (faulted in by the worker itself). */
+static uint32_t *part_cells(BinJob *job, int worker, uint32_t **field, uint32_t *own)
+{
+    if (!*field) {
+        if (worker == 0) {
+            *field = own;
+        } else {
+            *field = calloc(job->g->num_cells, sizeof **field);
+        }
+    }
+    return *field;
+}
+
+/* The marching cells of chunk i of prims; prim_ncells[p] becomes p's cell count. */
 static void bin_chunk(void *ctx, int i, int worker)
 {
     BinJob *job = ctx;
@@ -775,15 +815,10 @@ static void bin_chunk(void *ctx, int i, int worker)
         return;
     if (!bp->pairs) {
         bp->g = g;
-        if (worker > 0) {
-            /* Fresh zero pages, faulted in by this worker. */
-            bp->course = calloc(2 * (size_t)g->num_cells, sizeof *bp->course);
-            bp->count = bp->course ? bp->course + g->num_cells : NULL;
-        }
         /* About two cells per primitive, so the list rarely grows. */
         bp->cap_pairs = 2 * (size_t)g->num_prims + 1024;
-        bp->pairs = bp->course ? malloc(bp->cap_pairs * sizeof *bp->pairs) : NULL;
-        if (!bp->pairs) {
+        bp->pairs = malloc(bp->cap_pairs * sizeof *bp->pairs);
+        if (!bp->pairs || !part_cells(job, worker, &bp->count, g->cell_start + 1)) {
             bp->oom = true;
             return;
         }
@@ -794,7 +829,8 @@ static void bin_chunk(void *ctx, int i, int worker)
     for (uint32_t p = p0; p < p1; p++) {
         GridBuildRec rec;
         make_rec(g, p, &rec);
-        course_insert(g, bp->course, &rec);
+        job->snap[p] = g->prims[p];
+        job->kind[p] = (uint8_t)rec.kind;
         uint32_t ncells = 0;
         if (!tight_insert(bp, &rec, &ncells))
             return;
@@ -805,55 +841,87 @@ static void bin_chunk(void *ctx, int i, int worker)
     job->chunk[i].worker = worker;
 }
 
-/* Both cell sets of every primitive (bin_chunk, in parallel), then the CSR arrays: the
- * workers' counts are added up into offsets, and the entries are written chunk by
- * chunk, i.e. in primitive order within every cell, as one sequential pass writes them.
- * False when out of memory, or with g->too_many when the entries overflow a uint32_t. */
-static bool bin_and_fill(Grid *g)
+/* Chunk 0: grid_pack (one thread); chunk i > 0: the course counts of chunk i - 1 of
+ * the primitives. The counts are sums, so they do not depend on who adds what. */
+static void course_chunk(void *ctx, int i, int worker)
+{
+    BinJob *job = ctx;
+    Grid *g = job->g;
+    if (i == 0) {
+        job->pack_failed = !grid_pack(g);
+        return;
+    }
+    BinPart *bp = &job->part[worker];
+    if (bp->oom)
+        return;
+    uint32_t *course = part_cells(job, worker, &bp->course, g->course_count);
+    if (!course) {
+        bp->oom = true;
+        return;
+    }
+    uint32_t p0 = (uint32_t)(i - 1) * BIN_CHUNK;
+    uint32_t p1 = g->num_prims - p0 > BIN_CHUNK ? p0 + BIN_CHUNK : g->num_prims;
+    for (uint32_t p = p0; p < p1; p++) {
+        GridBuildRec rec;
+        make_rec_of(&job->snap[p], (RecKind)job->kind[p], &rec);
+        course_insert(g, course, &rec);
+    }
+}
+
+static bool parts_ok(const BinJob *job)
+{
+    for (int w = 0; w < PAR_MAX_WORKERS; w++)
+        if (job->part[w].oom || job->part[w].too_many)
+            return false;
+    return true;
+}
+
+/* The marching cells of every primitive (bin_chunk, in parallel), the CSR arrays, then
+ * the course counts in parallel with grid_pack. The CSR fill adds the workers' counts
+ * up into offsets and writes the entries chunk by chunk, i.e. in primitive order within
+ * every cell, as one sequential pass writes them. False when out of memory, or with
+ * g->too_many when the entries overflow a uint32_t. */
+static bool bin_fill_pack(Grid *g)
 {
     uint32_t n = g->num_prims, cells = g->num_cells;
-    uint32_t nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
     BinJob job;
     memset(&job, 0, sizeof job);
     job.g = g;
-    job.part[0].course = g->course_count;
-    job.part[0].count = g->cell_start + 1;
-    job.chunk = calloc(nchunks ? nchunks : 1, sizeof *job.chunk);
-    bool ok = job.chunk != NULL;
+    job.nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
+    job.chunk = calloc(job.nchunks ? job.nchunks : 1, sizeof *job.chunk);
+    job.snap = malloc((n ? n : 1) * sizeof *job.snap);
+    job.kind = malloc(n ? n : 1);
+    bool ok = job.chunk && job.snap && job.kind;
     uint64_t total = 0;
     if (ok) {
-        par_for((int)nchunks, bin_chunk, &job);
+        par_for((int)job.nchunks, bin_chunk, &job);
         for (int w = 0; w < PAR_MAX_WORKERS; w++) {
             g->too_many = g->too_many || job.part[w].too_many;
-            ok = ok && !job.part[w].oom && !job.part[w].too_many;
             total += job.part[w].num_pairs;
         }
+        ok = parts_ok(&job);
         if (total > UINT32_MAX - 1u) {
             g->too_many = true;
             ok = false;
         }
     }
     if (ok) {
-        /* Offsets (cell_start[c] = the fill cursor); the other workers' course counts
-         * are added to worker 0's. */
+        /* Offsets; cell_start[c] is the fill cursor. */
         uint32_t *start = g->cell_start, run = 0;
         for (uint32_t c = 0; c < cells; c++) {
-            uint32_t m = start[c + 1], course = g->course_count[c];
+            uint32_t m = start[c + 1];
             for (int w = 1; w < PAR_MAX_WORKERS; w++)
-                if (job.part[w].count) {
+                if (job.part[w].count)
                     m += job.part[w].count[c];
-                    course += job.part[w].course[c];
-                }
             start[c] = run;
             run += m;
-            g->course_count[c] = course;
         }
         g->cell_items = malloc(((size_t)total + 1) * sizeof *g->cell_items);
         ok = g->cell_items != NULL;
     }
     if (ok) {
         uint32_t *items = g->cell_items, *cursor = g->cell_start;
-        for (uint32_t k = 0; k < nchunks; k++) {
+        for (uint32_t k = 0; k < job.nchunks; k++) {
             const uint32_t *cell = job.part[job.chunk[k].worker].pairs + job.chunk[k].off;
             uint32_t p1 = n - k * BIN_CHUNK > BIN_CHUNK ? (k + 1) * BIN_CHUNK : n;
             for (uint32_t p = k * BIN_CHUNK; p < p1; p++)
@@ -863,23 +931,33 @@ static bool bin_and_fill(Grid *g)
         /* Each cursor now stands at the start of the next cell. */
         memmove(g->cell_start + 1, g->cell_start, (size_t)cells * sizeof *g->cell_start);
         g->cell_start[0] = 0;
+        free_build_state(g);
     }
     for (int w = 0; w < PAR_MAX_WORKERS; w++) {
         free(job.part[w].pairs);
+        job.part[w].pairs = NULL;
         if (w > 0)
-            free(job.part[w].course);
+            free(job.part[w].count);
+        job.part[w].count = NULL;
     }
+    if (ok) {
+        /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c),
+         * while the course counts are made. */
+        par_for((int)job.nchunks + 1, course_chunk, &job);
+        ok = !job.pack_failed && parts_ok(&job);
+        for (int w = 1; ok && w < PAR_MAX_WORKERS; w++)
+            if (job.part[w].course)
+                for (uint32_t c = 0; c < cells; c++)
+                    g->course_count[c] += job.part[w].course[c];
+    }
+    for (int w = 1; w < PAR_MAX_WORKERS; w++)
+        free(job.part[w].course);
     free(job.chunk);
+    free(job.snap);
+    free(job.kind);
     return ok;
 }
 
-static void free_build_state(Grid *g)
-{
-    free(g->prim_ncells);
-    g->prim_ncells = NULL;
-    free(g->cell_axis);
-    g->cell_axis = NULL;
-}
 
 void grid_free(Grid *g)
 {
@@ -982,7 +1060,7 @@ static Grid *build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
     obj_insert_into_grid(scene->root, g, &path);
     if (g->oom)
         goto oom;
-    if (!bin_and_fill(g)) {
+    if (!bin_fill_pack(g)) {
         if (!g->too_many)
             goto oom;
         diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",
@@ -990,10 +1068,6 @@ static Grid *build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
         grid_free(g);
         return NULL;
     }
-    free_build_state(g);
-    /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c). */
-    if (!grid_pack(g))
-        goto oom;
     return g;
 
 oom:

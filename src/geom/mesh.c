@@ -23,7 +23,7 @@ Object3D *triangle_mesh_new(Arena *a, const Vec3 *verts, const int (*faces)[3], 
  * the boxes are folded in chunk order afterwards. That is the fold over all triangles:
  * rt_minf/rt_maxf keep the first of equal values (-0 and +0) and ignore NaN, so folding
  * the chunks' folds picks the same value, the first minimum, as one fold does. */
-enum { MESH_CHUNK = 4096 };
+enum { MESH_CHUNK = 2048 };
 
 typedef struct MeshJob {
     Triangle *tris;
