@@ -101,9 +101,12 @@ if [ -f "$COURSE/commands.txt" ]; then
     say "   wall/cpu: whole process, ms; parse (incl. OBJ load), grid build, render: from -timings"
     if [ "$BRUTE" = 1 ]; then
         say "   brute: the same line without -grid, one run (only for grid lines that render),"
-        say "   stopped after $BRUTE_LIMIT s (BENCH_BRUTE_LIMIT)"
+        say "   stopped after $BRUTE_LIMIT s (BENCH_BRUTE_LIMIT): whole-process wall ms and"
+        say "   render ms; speedup = brute / grid, of the wall times (wall-x) and of the"
+        say "   render times (rend-x, what the grid accelerates)"
     fi
-    hdr=$(printf '   %-4s %9s %9s %8s %8s %9s %10s %8s' id wall cpu parse grid render brute speedup)
+    hdr=$(printf '   %-4s %8s %8s %7s %7s %8s %9s %9s %7s %7s' id wall cpu parse grid render \
+        brute b-rend wall-x rend-x)
     say "$hdr"
     tot_wall=0 tot_cpu=0
     while IFS='|' read -r id args; do
@@ -141,7 +144,8 @@ if [ -f "$COURSE/commands.txt" ]; then
         fi
         w=$(median "${walls[@]}") c=$(median "${cpus[@]}")
         tot_wall=$(calc "$tot_wall + $w" 1) tot_cpu=$(calc "$tot_cpu + $c" 1)
-        brute=- speed=-
+        brute=- speed=- brend=- rspeed=-
+        r=$(median "${renders[@]}")
         if [ "$BRUTE" = 1 ] && [ "$has_grid" = 1 ] && [ "$vis" = 0 ]; then
             # the same line without "-grid nx ny nz"
             nog=() i=0
@@ -149,18 +153,22 @@ if [ -f "$COURSE/commands.txt" ]; then
                 if [ "${argv[$i]}" = -grid ]; then i=$((i + 4)); continue; fi
                 nog+=("${argv[$i]}"); i=$((i + 1))
             done
-            run_timed timeout "$BRUTE_LIMIT" "$BIN" "${nog[@]}"
+            run_timed timeout "$BRUTE_LIMIT" "$BIN" "${nog[@]}" $TIMINGS
             if [ "$STATUS" = 124 ]; then
                 brute=">$((BRUTE_LIMIT * 1000))"
                 speed=">$(div "$((BRUTE_LIMIT * 1000))" "$w" 0)x"
+                brend=">$((BRUTE_LIMIT * 1000))"
+                rspeed=">$(div "$((BRUTE_LIMIT * 1000))" "$r" 0)x"
             else
                 brute=$WALL
                 speed=$(div "$brute" "$w" 1)x
+                brend=$(timing render)
+                rspeed=$(div "$brend" "$r" 1)x
             fi
         fi
-        say "$(printf '   %-4s %9s %9s %8s %8s %9s %10s %8s' "$id" "$w" "$c" \
-            "$(median "${parses[@]}")" "$(median "${grids[@]}")" "$(median "${renders[@]}")" \
-            "$brute" "$speed")"
+        say "$(printf '   %-4s %8s %8s %7s %7s %8s %9s %9s %7s %7s' "$id" "$w" "$c" \
+            "$(median "${parses[@]}")" "$(median "${grids[@]}")" "$r" \
+            "$brute" "$brend" "$speed" "$rspeed")"
     done <"$COURSE/commands.txt"
     say "   total: wall $tot_wall ms, cpu $tot_cpu ms (sum of the medians)"
     say ""
