@@ -12,6 +12,7 @@
 #include "../harness.h"
 #include "../../src/accel/grid_internal.h"
 #include "../../src/scene/obj_loader.h"
+#include "rt/arena.h"
 #include "rt/geom.h"
 #include "rt/par.h"
 #include "rt/scene.h"
@@ -398,7 +399,43 @@ static void test_grid_threads_match_bunny(void)
     }
 }
 
+/* A big file read by parallel preads: the same bytes as the ordinary read. */
+static void test_read_parallel_match(void)
+{
+    char dir[] = "/tmp/rt_setup_XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    char path[256];
+    snprintf(path, sizeof path, "%s/big.obj", dir);
+    size_t len;
+    char *text = make_obj((size_t)900 << 10, false, &len);
+    FILE *f = fopen(path, "wb");
+    CHECK(f != NULL);
+    if (f) {
+        fwrite(text, 1, len, f);
+        fclose(f);
+    }
+    for (int h = 0; h < N_HELPERS; h++) {
+        par_set_helpers(k_helpers[h]);
+        char *buf = NULL;
+        size_t n = 0;
+        CHECK(file_read_reusable(path, &buf, &n));
+        CHECK_INT(n, len);
+        CHECK_MSG(buf && n == len && memcmp(buf, text, len) == 0 && buf[n] == '\0',
+                  "%d helpers: bytes differ", k_helpers[h]);
+        arena_buffer_free(buf);
+        CHECK(file_read_all(path, &buf, &n));
+        CHECK_MSG(buf && n == len && memcmp(buf, text, len) == 0, "%d helpers: bytes differ",
+                  k_helpers[h]);
+        free(buf);
+    }
+    par_set_helpers(-1);
+    free(text);
+    unlink(path);
+    rmdir(dir);
+}
+
 static const TestCase tests[] = {
+    {"setup: big file read by parallel preads = ordinary read", test_read_parallel_match},
     {"setup: OBJ read in pieces = serial read, every record form", test_obj_pieces_match_serial},
     {"setup: OBJ pieces with negative indices (serial fallback)", test_obj_pieces_negative_indices},
     {"setup: OBJ errors in late pieces: serial message and place", test_obj_pieces_errors},
