@@ -10,11 +10,14 @@
 #include <string.h>
 
 #define PK_WALK grid_packet_walk_generic
+#define PK_PREP grid_packet_prep_generic
 #include "grid_packet_kernel.h"
 
 typedef void (*WalkFn)(const Grid *, Packet *, RenderCtx *);
+typedef uint64_t (*PrepFn)(const Grid *, Packet *, uint64_t, const float *, uint64_t *);
 
 static WalkFn walk_fn = grid_packet_walk_generic;
+static PrepFn prep_fn = grid_packet_prep_generic;
 static const char *walk_name = "generic";
 static pthread_once_t walk_once = PTHREAD_ONCE_INIT;
 
@@ -24,6 +27,7 @@ static void choose_walk(void)
     __builtin_cpu_init();
     if (__builtin_cpu_supports("avx2")) {
         walk_fn = grid_packet_walk_avx2;
+        prep_fn = grid_packet_prep_avx2;
         walk_name = "avx2";
     }
 #endif
@@ -40,12 +44,14 @@ bool grid_packet_use_kernel(const char *name)
     pthread_once(&walk_once, choose_walk);
     if (!strcmp(name, "generic")) {
         walk_fn = grid_packet_walk_generic;
+        prep_fn = grid_packet_prep_generic;
         walk_name = "generic";
         return true;
     }
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
     if (!strcmp(name, "avx2") && __builtin_cpu_supports("avx2")) {
         walk_fn = grid_packet_walk_avx2;
+        prep_fn = grid_packet_prep_avx2;
         walk_name = "avx2";
         return true;
     }
@@ -53,62 +59,15 @@ bool grid_packet_use_kernel(const char *name)
     return false;
 }
 
-/* A ray leaves the packet for the single-ray march when its main-axis component is
- * small against its largest one: it would cross many cells per slice and widen the
- * slice rectangle for every ray of the packet. Any value is correct; this one keeps
- * each ray within about three cells' width per slice on cubic cells. */
-#define PK_MIN_AXIS_SHARE 0.35f
-
-static inline float pk_max3(float a, float b, float c)
-{
-    float m = a > b ? a : b;
-    return m > c ? m : c;
-}
-
-/* The padded-box slab test of march_init, with its arithmetic and verdicts, so a ray
- * is walked exactly when its march would start. */
-static bool box_span(const Grid *g, const Ray *ray, float tmin, float *t0, float *t1)
-{
-    const float o[3] = {ray->origin.x, ray->origin.y, ray->origin.z};
-    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
-    float t_enter = -INFINITY, t_exit = INFINITY;
-    bool any_axis = false;
-    for (int a = 0; a < 3; a++) {
-        float inv = 1.0f / d[a];
-        float plo = v3_comp(g->box.min, a) - g->pad[a], phi = v3_comp(g->box.max, a) + g->pad[a];
-        if (d[a] == 0.0f || !isfinite(inv)) {
-            if (!(o[a] >= plo && o[a] <= phi))
-                return false;
-            continue;
-        }
-        float ta = (plo - o[a]) * inv, tb = (phi - o[a]) * inv;
-        if (inv < 0.0f) {
-            float tmp = ta;
-            ta = tb;
-            tb = tmp;
-        }
-        if (ta > t_enter) {
-            t_enter = ta;
-            any_axis = true;
-        }
-        if (tb < t_exit)
-            t_exit = tb;
-    }
-    if (!any_axis || !(t_enter <= t_exit) || t_exit < tmin)
-        return false;
-    *t0 = t_enter < tmin ? tmin : t_enter;
-    *t1 = t_exit;
-    return true;
-}
-
-/* Fills pk with the rays of `cand` that a packet can walk (returned) and those it
- * leaves to the single-ray march (*single), and chooses the packet's main axis. Rays
- * that miss the box are in neither: their march would not start either. */
+/* Chooses the packet's main axis for the rays of `cand` (the largest component of
+ * their summed directions) and runs the kernel's set-up (PK_PREP in
+ * grid_packet_kernel.h): returns the rays the packet walks; *single_out gets those it
+ * leaves to the single-ray march. Rays that miss the box are in neither: their march
+ * would not start either. */
 static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                uint64_t *single_out)
 {
     const Ray *rays = pk->rays;
-    /* The main axis: the largest component of the summed directions. */
     Vec3 sum = {0.0f, 0.0f, 0.0f};
     for (uint64_t m = cand; m; m &= m - 1) {
         const Ray *r = &rays[__builtin_ctzll(m)];
@@ -120,54 +79,10 @@ static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const f
         K = 1;
     if (fabsf(sum.z) > fabsf(v3_comp(sum, K)))
         K = 2;
-    int sign = v3_comp(sum, K) < 0.0f ? -1 : 1;
-    const int U = (K + 1) % 3, V = (K + 2) % 3;
     pk->axis = K;
-    pk->sign = sign;
-
-    uint64_t single = 0, walk = 0;
-    const float lo_k = v3_comp(g->box.min, K), inv_sk = 1.0f / g->size[K];
-    /* Rays starting within this distance of the origin need no far-origin check: the
-     * march's rounding there stays below the padding (grid_ray_too_far's bound). */
-    const float near = 0.5f * (g->min_pad / (4.0f * FLT_EPSILON) - g->box_mag);
-    for (uint64_t m = cand; m; m &= m - 1) {
-        int i = __builtin_ctzll(m);
-        const Ray *r = &rays[i];
-        float dk = v3_comp(r->dir, K);
-        float big = pk_max3(fabsf(r->dir.x), fabsf(r->dir.y), fabsf(r->dir.z));
-        float far = pk_max3(fabsf(r->origin.x), fabsf(r->origin.y), fabsf(r->origin.z));
-        bool fits = isfinite(r->dir.x) && isfinite(r->dir.y) && isfinite(r->dir.z) &&
-                    (sign > 0 ? dk > 0.0f : dk < 0.0f) && fabsf(dk) >= PK_MIN_AXIS_SHARE * big &&
-                    isfinite(r->origin.x) && isfinite(r->origin.y) && isfinite(r->origin.z) &&
-                    (far < near || !grid_ray_too_far(g, r, pk->tmin));
-        if (!fits) {
-            single |= (uint64_t)1 << i;
-            continue;
-        }
-        float t0, t1;
-        if (!box_span(g, r, pk->tmin, &t0, &t1))
-            continue;
-        if (pk->shadow && tmax[i] < t1)
-            t1 = tmax[i];
-        int gi = i / PK_LANES, l = i % PK_LANES;
-        for (int a = 0; a < 3; a++) {
-            pk->o[a][gi][l] = v3_comp(r->origin, a);
-            pk->d[a][gi][l] = v3_comp(r->dir, a);
-        }
-        pk->inv_k[gi][l] = 1.0f / dk;
-        pk->t0[gi][l] = t0;
-        pk->t1[gi][l] = t1;
-        pk->k_start[i] = pk_cell_of(v3_comp(r->origin, K) + t0 * dk, lo_k, inv_sk, g->n[K]);
-        float ou = v3_comp(r->origin, U), du = v3_comp(r->dir, U);
-        float ov = v3_comp(r->origin, V), dv = v3_comp(r->dir, V);
-        pk->end[0][i] = ou + t0 * du;
-        pk->end[1][i] = ov + t0 * dv;
-        pk->end[2][i] = ou + t1 * du;
-        pk->end[3][i] = ov + t1 * dv;
-        walk |= (uint64_t)1 << i;
-    }
-    *single_out = single;
-    return walk;
+    pk->sign = v3_comp(sum, K) < 0.0f ? -1 : 1;
+    pthread_once(&walk_once, choose_walk);
+    return prep_fn(g, pk, cand, tmax, single_out);
 }
 
 /* How many cells wide the rays of `walk` are across the main axis, at the wider end. */

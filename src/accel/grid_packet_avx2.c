@@ -6,11 +6,18 @@
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
 #pragma GCC target("avx2")
 #define PK_WALK grid_packet_walk_avx2
+#define PK_PREP grid_packet_prep_avx2
 #include "grid_packet_kernel.h"
 #else
 /* Never chosen on other targets; defined so the dispatch table links. */
 void grid_packet_walk_avx2(const Grid *g, Packet *pk, RenderCtx *ctx)
 {
     grid_packet_walk_generic(g, pk, ctx);
+}
+
+uint64_t grid_packet_prep_avx2(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
+                               uint64_t *single_out)
+{
+    return grid_packet_prep_generic(g, pk, cand, tmax, single_out);
 }
 #endif

@@ -14,6 +14,7 @@
  * (IEEE add, sub, mul, div in the same order, never fused), so the answers are bit for
  * bit those of the single-ray query. */
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -329,4 +330,110 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         }
         pk->active &= ~done;
     }
+}
+
+/* A ray leaves the packet for the single-ray march when its main-axis component is
+ * small against its largest one: it would cross many cells per slice and widen the
+ * slice rectangle for every ray of the packet. Any value is correct; this one keeps
+ * each ray within about three cells' width per slice on cubic cells. */
+#ifndef PK_MIN_AXIS_SHARE
+#define PK_MIN_AXIS_SHARE 0.35f
+#endif
+
+/* Finite lanes: x - x is 0 exactly for finite x, NaN for infinities and NaN. */
+PK_INLINE pk_i8 pk_finite(pk_f8 x) { return (x - x) == pk_splat(0.0f); }
+
+PK_INLINE pk_f8 pk_abs(pk_f8 x)
+{
+    const pk_i8 m = {0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff,
+                     0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff};
+    return (pk_f8)((pk_i8)x & m);
+}
+
+/* The per-ray set-up of a packet (grid_packet.c, packet_prepare), eight rays at a
+ * time, for the rays of cand along main axis pk->axis: which rays the packet walks
+ * (returned), which go to the single-ray march (*single_out; rays missing the box are
+ * in neither), and for the walked ones their columns, box span, first slice and span
+ * ends. The box span is march_init's padded slab test with its arithmetic and its
+ * verdicts, lane by lane, so a ray is walked exactly when its march would start. */
+uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
+                 uint64_t *single_out)
+{
+    const int K = pk->axis, U = (K + 1) % 3, V = (K + 2) % 3, sign = pk->sign;
+    const Ray *rays = pk->rays;
+    const float lo_k = v3_comp(g->box.min, K), inv_sk = 1.0f / g->size[K];
+    /* Rays starting within this distance of the origin need no far-origin check: the
+     * march's rounding there stays below the padding (grid_ray_too_far's bound). */
+    const pk_f8 near = pk_splat(0.5f * (g->min_pad / (4.0f * FLT_EPSILON) - g->box_mag));
+    const pk_f8 zero = pk_splat(0.0f), one = pk_splat(1.0f), tminv = pk_splat(pk->tmin);
+    const pk_f8 inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+    uint64_t single = 0, walk = 0;
+    for (int gi = 0; gi < PK_GROUPS; gi++) {
+        unsigned byte = (unsigned)(cand >> (8 * gi)) & 0xffu;
+        if (!byte)
+            continue;
+        pk_f8 o[3], d[3], tm = inf;
+        for (int a = 0; a < 3; a++)
+            o[a] = zero, d[a] = one;
+        for (int l = 0; l < PK_LANES; l++) {
+            if (!(byte >> l & 1))
+                continue;
+            const Ray *r = &rays[8 * gi + l];
+            o[0][l] = r->origin.x, o[1][l] = r->origin.y, o[2][l] = r->origin.z;
+            d[0][l] = r->dir.x, d[1][l] = r->dir.y, d[2][l] = r->dir.z;
+            if (tmax)
+                tm[l] = tmax[8 * gi + l];
+        }
+        pk_f8 dk = d[K];
+        pk_f8 big = pk_max(pk_abs(d[0]), pk_max(pk_abs(d[1]), pk_abs(d[2])));
+        pk_f8 far = pk_max(pk_abs(o[0]), pk_max(pk_abs(o[1]), pk_abs(o[2])));
+        pk_i8 ok = pk_finite(d[0]) & pk_finite(d[1]) & pk_finite(d[2]) & pk_finite(o[0]) &
+                   pk_finite(o[1]) & pk_finite(o[2]) & (sign > 0 ? dk > zero : dk < zero) &
+                   (pk_abs(dk) >= PK_MIN_AXIS_SHARE * big);
+        unsigned fits = pk_bits(ok & (far < near)) & byte;
+        /* Far origins: the exact check, ray by ray (rare). */
+        for (unsigned slow = pk_bits(ok) & byte & ~fits; slow; slow &= slow - 1) {
+            int l = __builtin_ctz(slow);
+            if (!grid_ray_too_far(g, &rays[8 * gi + l], pk->tmin))
+                fits |= 1u << l;
+        }
+        single |= (uint64_t)(byte & ~fits) << (8 * gi);
+
+        pk_f8 t_enter = ninf, t_exit = inf;
+        pk_i8 any_axis = (pk_i8){0, 0, 0, 0, 0, 0, 0, 0}, inside = ~any_axis;
+        for (int a = 0; a < 3; a++) {
+            pk_f8 inv = one / d[a];
+            pk_i8 par = (d[a] == zero) | ~pk_finite(inv);
+            float plo = v3_comp(g->box.min, a) - g->pad[a], phi = v3_comp(g->box.max, a) + g->pad[a];
+            inside &= ~par | ((o[a] >= pk_splat(plo)) & (o[a] <= pk_splat(phi)));
+            pk_f8 ta = (plo - o[a]) * inv, tb = (phi - o[a]) * inv;
+            pk_i8 neg = inv < zero;
+            pk_f8 lo = pk_blend(neg, tb, ta), hi = pk_blend(neg, ta, tb);
+            pk_i8 up = ~par & (lo > t_enter);
+            t_enter = pk_blend(up, lo, t_enter);
+            any_axis |= up;
+            t_exit = pk_blend(~par & (hi < t_exit), hi, t_exit);
+        }
+        pk_i8 in_box = inside & any_axis & (t_enter <= t_exit) & ~(t_exit < tminv);
+        unsigned w = fits & pk_bits(in_box);
+        walk |= (uint64_t)w << (8 * gi);
+
+        pk_i8 wm = pk_lanes(w);
+        pk_f8 t0 = pk_blend(t_enter < tminv, tminv, t_enter);
+        pk_f8 t1 = pk->shadow ? pk_blend(tm < t_exit, tm, t_exit) : t_exit;
+        for (int a = 0; a < 3; a++) {
+            pk->o[a][gi] = pk_blend(wm, o[a], zero);
+            pk->d[a][gi] = pk_blend(wm, d[a], one);
+        }
+        pk->inv_k[gi] = pk_blend(wm, one / dk, one);
+        pk->t0[gi] = pk_blend(wm, t0, zero);
+        pk->t1[gi] = pk_blend(wm, t1, zero);
+        pk_i8 ks = pk_cells(pk_blend(wm, o[K] + t0 * dk, zero), lo_k, inv_sk, g->n[K]);
+        pk_f8 e[4] = {o[U] + t0 * d[U], o[V] + t0 * d[V], o[U] + t1 * d[U], o[V] + t1 * d[V]};
+        memcpy(&pk->k_start[8 * gi], &ks, sizeof ks);
+        for (int j = 0; j < 4; j++)
+            memcpy(&pk->end[j][8 * gi], &e[j], sizeof e[j]);
+    }
+    *single_out = single;
+    return walk;
 }
