@@ -8,6 +8,7 @@
 #include "rt/grid.h"
 #include "rt/image.h"
 #include "rt/options.h"
+#include "rt/par.h"
 #include "rt/preview.h"
 #include "rt/render.h"
 #include "rt/scene.h"
@@ -139,6 +140,9 @@ done:
 static int run(App *app)
 {
     const Options *o = &app->opt;
+    /* -threads n bounds the set-up's threads too (rt/par.h): n - 1 helpers. */
+    if (o->threads > 0)
+        par_set_helpers(o->threads - 1 < PAR_MAX_WORKERS - 1 ? o->threads - 1 : PAR_MAX_WORKERS - 1);
     double t0 = clock_now();
     app->scene = scene_load(o->input, &app->diag);
     app->t_parse = clock_now() - t0;
