@@ -4,6 +4,7 @@
 #ifndef RT_PAR_H
 #define RT_PAR_H
 
+#include <pthread.h>
 #include <stdbool.h>
 
 /* Most threads a par_for uses: the caller (worker 0) and up to 7 helpers. */
@@ -37,5 +38,13 @@ int par_threads(void);
  * the caller); n < 0 (the default) one per online CPU beyond the first. For tests and
  * benchmarks; call it while no par_for runs. */
 void par_set_helpers(int n);
+
+/* For any thread started to help a short job: attr makes the new thread start on a
+ * CPU other than the caller's (Linux tends to start it on its creator's CPU, where the
+ * two then share one CPU for milliseconds while the other idles). Best effort. */
+void par_attr_keep_off_this_cpu(pthread_attr_t *attr);
+/* Called by such a thread once running: lets it run on every CPU again, so the
+ * scheduler stays free to balance later. Best effort. */
+void par_thread_release_cpus(void);
 
 #endif

@@ -112,11 +112,11 @@ static int helpers_wanted(void)
     return want < PAR_MAX_WORKERS - 1 ? want : PAR_MAX_WORKERS - 1;
 }
 
-/* Linux tends to start a new thread on its creator's CPU, and a helper that never
+/* (par.h) Linux tends to start a new thread on its creator's CPU, and a helper that never
  * sleeps then halves the creator's speed until the load balancer moves one of them
  * (measured: about half the runs, for milliseconds). So helpers start on the other
  * CPUs. Best effort: without the call the helper runs anywhere. */
-static void keep_off_this_cpu(pthread_attr_t *attr)
+void par_attr_keep_off_this_cpu(pthread_attr_t *attr)
 {
 #ifdef __linux__
     int me = sched_getcpu();
@@ -129,6 +129,18 @@ static void keep_off_this_cpu(pthread_attr_t *attr)
         pthread_attr_setaffinity_np(attr, sizeof set, &set);
 #else
     (void)attr;
+#endif
+}
+
+void par_thread_release_cpus(void)
+{
+#ifdef __linux__
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    for (long c = 0; c < n && c < CPU_SETSIZE; c++)
+        CPU_SET((int)c, &set);
+    sched_setaffinity(0, sizeof set, &set); /* best effort */
 #endif
 }
 
@@ -149,7 +161,7 @@ static void ensure_helpers(void)
         bool ok = pthread_attr_init(&attr) == 0;
         ok = ok && pthread_attr_setdetachstate(&attr, PTHREAD_CREATE_DETACHED) == 0;
         if (ok)
-            keep_off_this_cpu(&attr);
+            par_attr_keep_off_this_cpu(&attr);
         ok = ok && pthread_create(&tid, &attr, helper_main, (void *)(intptr_t)w) == 0;
         pthread_attr_destroy(&attr);
         if (!ok) {

@@ -2,6 +2,7 @@
  * counter. A pixel depends only on its coordinates, and the tiles only on the image
  * size, so images and counters are identical for any thread count. */
 #include "rt/render.h"
+#include "rt/par.h"
 
 #include <pthread.h>
 #include <stdatomic.h>
@@ -18,6 +19,7 @@ typedef struct RenderJob {
     volatile int *cancel;
     atomic_int next_row;  /* next band of TILE rows */
     atomic_int failed;
+    const struct Worker *first; /* worker 0, run by the calling thread */
 } RenderJob;
 
 /* Each worker on cache lines of its own: its counters change at every cell and test,
@@ -106,6 +108,8 @@ static void render_band(RenderJob *job, RenderCtx *ctx, int y0, int y1)
 static void *worker_main(void *arg)
 {
     Worker *w = arg;
+    if (w != w->job->first)
+        par_thread_release_cpus(); /* started off the creator's CPU; now free */
     RenderJob *job = w->job;
     for (;;) {
         if (job->cancel && *job->cancel)
@@ -135,7 +139,7 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
     if (threads < 1)
         threads = 1;
 
-    RenderJob job = {rt, camera, target, row_done, user, cancel, 0, 0};
+    RenderJob job = {rt, camera, target, row_done, user, cancel, 0, 0, NULL};
     Worker *workers = aligned_alloc(_Alignof(Worker), (size_t)threads * sizeof *workers);
     if (!workers)
         return false;
@@ -150,9 +154,19 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
     }
     if (ok) {
         /* Worker 0 runs on this thread: -threads 1 starts no thread at all. */
+        /* The workers start on other CPUs than this one (rt/par.h): on a small image
+         * a worker sharing this CPU for its first milliseconds would cost more than
+         * it brings. */
+        job.first = &workers[0];
+        pthread_attr_t attr;
+        bool attr_ok = pthread_attr_init(&attr) == 0;
+        if (attr_ok)
+            par_attr_keep_off_this_cpu(&attr);
         for (int i = 1; i < threads; i++)
-            workers[i].started =
-                pthread_create(&workers[i].thread, NULL, worker_main, &workers[i]) == 0;
+            workers[i].started = pthread_create(&workers[i].thread, attr_ok ? &attr : NULL,
+                                                worker_main, &workers[i]) == 0;
+        if (attr_ok)
+            pthread_attr_destroy(&attr);
         worker_main(&workers[0]);
         /* A thread that failed to start loses nothing: the others take its rows. */
         for (int i = 1; i < threads; i++)
