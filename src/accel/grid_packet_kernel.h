@@ -195,6 +195,11 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
     uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
     uint64_t *mrays = ctx->packet_rays;
+    /* Statistics: each ray counts the cells of its own range in every slice, summed
+     * lane by lane and added up once at the end. A ray's ranges are disjoint sets of
+     * cells, so a lane (8 rays) gains at most 8 x 16M < 2^31 (grids hold at most 16M
+     * cells). */
+    pk_i8 cells_acc = {0, 0, 0, 0, 0, 0, 0, 0};
 
     for (int k = pk->k_first; k >= 0 && k < nk && pk->active; k += pk->sign) {
         /* The slice's near and far planes; the grid's first and last slices reach out
@@ -237,12 +242,7 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
             cv0[gi] = pk_cells(v0, lo_v, inv_sv, nv);
             cv1[gi] = pk_cells(v1, lo_v, inv_sv, nv);
             /* Statistics: each ray counts the cells of its own range in the slice. */
-            pk_i8 ncell = (cu1[gi] - cu0[gi] + 1) * (cv1[gi] - cv0[gi] + 1);
-            ncell &= m;
-            int32_t nsum = 0;
-            for (int l = 0; l < PK_LANES; l++)
-                nsum += ncell[l];
-            ctx->stats.cells_traversed += (uint64_t)nsum;
+            cells_acc += ((cu1[gi] - cu0[gi] + 1) * (cv1[gi] - cv0[gi] + 1)) & m;
             umin = pk_min(umin, pk_blend(m, u0, inf));
             umax = pk_max(umax, pk_blend(m, u1, ninf));
             vmin = pk_min(vmin, pk_blend(m, v0, inf));
@@ -330,6 +330,10 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         }
         pk->active &= ~done;
     }
+    uint64_t cells = 0;
+    for (int l = 0; l < PK_LANES; l++)
+        cells += (uint64_t)(uint32_t)cells_acc[l];
+    ctx->stats.cells_traversed += cells;
 }
 
 /* A ray leaves the packet for the single-ray march when its main-axis component is
