@@ -16,6 +16,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench_util.h"
 #include "rt/camera.h"
 #include "rt/geom.h"
 #include "rt/image.h"
@@ -155,12 +156,6 @@ typedef struct Job {
 
 enum { ROWS_PER_BLOCK = 4 };
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
 
 static void plane_hit(const Geo *g, Vec3 o, Vec3 d, float tmin, float *t, Vec3 *n)
 {
@@ -393,17 +388,7 @@ static double run_pass(Job *jb, int pass, int nthreads)
     return now_s() - t0;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 static void usage(FILE *out)
 {

@@ -14,13 +14,15 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench_util.h"
 #include "rt/camera.h"
 #include "rt/grid.h"
 #include "rt/light.h"
 #include "rt/raytracer.h"
+#include "rt/render.h"
 #include "rt/scene.h"
 
-#define TILE 8 /* the renderer's tile (src/render/render.c) */
+#define TILE RENDER_TILE /* the renderer's tiles and their order (rt/render.h) */
 
 typedef struct Job {
     const Scene *sc;
@@ -35,23 +37,6 @@ typedef struct Job {
     atomic_llong shadow_rays, blocked;
 } Job;
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-/* Pixel (dx, dy) of a tile at position k of the Z order, as the renderer lays it out. */
-static void zorder(int k, int *dx, int *dy)
-{
-    int x = 0, y = 0;
-    for (int b = 0; (1 << (2 * b)) < TILE * TILE; b++) {
-        x |= ((k >> (2 * b)) & 1) << b;
-        y |= ((k >> (2 * b + 1)) & 1) << b;
-    }
-    *dx = x, *dy = y;
-}
 
 static void finish(Job *jb, int idx, const Ray *r, const Hit *h, bool found)
 {
@@ -69,7 +54,7 @@ static void primary_tile(Job *jb, RenderCtx *ctx, int x0, int y0, int y1)
     int idx[TILE * TILE], n = 0;
     for (int k = 0; k < TILE * TILE; k++) {
         int dx, dy;
-        zorder(k, &dx, &dy);
+        render_tile_order(k, &dx, &dy);
         int x = x0 + dx, y = y0 + dy;
         if (x >= jb->w || y >= y1)
             continue;
@@ -99,7 +84,7 @@ static void shadow_tile(Job *jb, RenderCtx *ctx, int x0, int y0, int y1, long lo
     uint64_t live = 0;
     for (int k = 0; k < TILE * TILE; k++) {
         int dx, dy;
-        zorder(k, &dx, &dy);
+        render_tile_order(k, &dx, &dy);
         int x = x0 + dx, y = y0 + dy;
         if (x >= jb->w || y >= y1)
             continue;
@@ -178,17 +163,7 @@ static double run_pass(Job *jb, Worker *wk, int pass, int nthreads)
     return now_s() - t0;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 static void usage(FILE *out)
 {

@@ -40,7 +40,7 @@ bench:
 
 embree_ref: $(BUILD)/bench/embree_ref
 
-$(BUILD)/bench/embree_ref: bench/embree_ref.c $(BUILD)/librt.a
+$(BUILD)/bench/embree_ref: bench/embree_ref.c bench/bench_util.h $(BUILD)/librt.a
 	@mkdir -p $(dir $@)
 	$(say) CC $<
 	$(Q)$(CC) $(ALL_CFLAGS) -O3 -o $@ $< $(BUILD)/librt.a $(LDLIBS_ALL) -lembree3
@@ -48,7 +48,7 @@ $(BUILD)/bench/embree_ref: bench/embree_ref.c $(BUILD)/librt.a
 # Our grid traced like embree_ref traces Embree (traversal only): the like-for-like column.
 grid_ref: $(BUILD)/bench/grid_ref
 
-$(BUILD)/bench/grid_ref: bench/grid_ref.c $(BUILD)/librt.a
+$(BUILD)/bench/grid_ref: bench/grid_ref.c bench/bench_util.h $(BUILD)/librt.a
 	@mkdir -p $(dir $@)
 	$(say) CC $<
 	$(Q)$(CC) $(ALL_CFLAGS) -o $@ $< $(BUILD)/librt.a $(LDLIBS_ALL)

@@ -38,6 +38,20 @@ typedef struct MarchingInfo {
 bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],
                 const Ray *ray, float tmin, RenderCtx *ctx);
 
+/* Cell index of coordinate x on an axis whose cells start at lo and measure
+ * 1/inv_size, clamped to [0, n-1] in float first so a far or NaN coordinate cannot
+ * overflow the int conversion. (The march and the grid's ray packets.) */
+static inline int march_cell_of(float x, float lo, float inv_size, int n)
+{
+    float f = (x - lo) * inv_size;
+    if (!(f >= 0.0f))
+        return 0;
+    if (f >= (float)n)
+        return n - 1;
+    int c = (int)f;
+    return c < n ? c : n - 1;
+}
+
 /* Internal helpers of march_init/march_next (inline: the march is the hot loop). */
 static inline Vec3 march_axis_normal(int axis, int sign)
 {

@@ -26,6 +26,13 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
                   int threads, RtStats *stats_out, RenderRowFn row_done, void *user,
                   volatile int *cancel);
 
+/* Pixels are traced in RENDER_TILE x RENDER_TILE tiles (a power of two), each as one
+ * ray packet with a grid, in Z (Morton) order: pixel k of a tile is (dx, dy) below.
+ * Every quarter of the order is a quarter of the tile, which is how the grid splits a
+ * packet that is too wide. */
+#define RENDER_TILE 8
+void render_tile_order(int k, int *dx, int *dy);
+
 /* Number of online cores (at least 1). */
 int render_default_threads(void);
 

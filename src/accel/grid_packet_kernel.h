@@ -83,18 +83,7 @@ PK_INLINE float pk_hmax(pk_f8 v)
     return m;
 }
 
-static int pk_cell_of(float x, float lo, float inv_size, int n)
-{
-    float f = (x - lo) * inv_size;
-    if (!(f >= 0.0f))
-        return 0;
-    if (f >= (float)n)
-        return n - 1;
-    int c = (int)f;
-    return c < n ? c : n - 1;
-}
-
-/* pk_cell_of lane by lane (lanes outside the slice may hold anything: clamped). */
+/* march_cell_of lane by lane (lanes outside the slice may hold anything: clamped). */
 PK_INLINE pk_i8 pk_cells(pk_f8 x, float lo, float inv_size, int n)
 {
     pk_f8 f = (x - lo) * inv_size;
@@ -252,10 +241,10 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         if (in) {
             /* The rectangle widened by the padding the cells were filled with, so a
              * rounding of o + t*d cannot lose a cell. */
-            int iu0 = pk_cell_of(pk_hmin(umin), lo_u, inv_su, nu);
-            int iu1 = pk_cell_of(pk_hmax(umax), lo_u, inv_su, nu);
-            int iv0 = pk_cell_of(pk_hmin(vmin), lo_v, inv_sv, nv);
-            int iv1 = pk_cell_of(pk_hmax(vmax), lo_v, inv_sv, nv);
+            int iu0 = march_cell_of(pk_hmin(umin), lo_u, inv_su, nu);
+            int iu1 = march_cell_of(pk_hmax(umax), lo_u, inv_su, nu);
+            int iv0 = march_cell_of(pk_hmin(vmin), lo_v, inv_sv, nv);
+            int iv1 = march_cell_of(pk_hmax(vmax), lo_v, inv_sv, nv);
             bool one_cell = iu0 == iu1 && iv0 == iv1;
             int c[3];
             c[K] = k;

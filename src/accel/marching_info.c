@@ -2,19 +2,6 @@
  * (semantics.md 7.3). Used by RayCastFast, the shadow query and -visualize_grid. */
 #include "rt/marching_info.h"
 
-/* Cell index of coordinate x on an axis, clamped to [0, n-1] in float first so a far or
- * NaN coordinate cannot overflow the int conversion. */
-static int cell_of(float x, float lo, float inv_size, int n)
-{
-    float f = (x - lo) * inv_size;
-    if (!(f >= 0.0f))
-        return 0;
-    if (f >= (float)n)
-        return n - 1;
-    int c = (int)f;
-    return c < n ? c : n - 1;
-}
-
 bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],
                 const Ray *ray, float tmin, RenderCtx *ctx)
 {
@@ -66,7 +53,7 @@ bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float p
              * whatever the rounding of o + t*d. */
             mi->cell[a] = mi->step[a] > 0 ? 0 : n[a] - 1;
         } else {
-            mi->cell[a] = cell_of(o[a] + mi->t * d[a], lo[a], inv_size, n[a]);
+            mi->cell[a] = march_cell_of(o[a] + mi->t * d[a], lo[a], inv_size, n[a]);
         }
         if (parallel[a]) {
             mi->base[a] = 0.0f;

@@ -39,7 +39,7 @@ int render_default_threads(void)
 
 /* Rows are rendered in bands of TILE rows, each band in TILE x TILE tiles: a tile's
  * primary rays (and then their shadow rays) go through the grid as one packet. */
-#define TILE 8 /* a power of two (Z order) */
+#define TILE RENDER_TILE
 _Static_assert(TILE * TILE <= GRID_PACKET_MAX, "a tile must fit in one ray packet");
 
 static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
@@ -64,9 +64,7 @@ static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
     }
 }
 
-/* Position k of the Z (Morton) order of a TILE x TILE tile: every quarter of the
- * order is a quarter of the tile, which is how the grid splits a packet too wide. */
-static void tile_zorder(int k, int *dx, int *dy)
+void render_tile_order(int k, int *dx, int *dy)
 {
     int x = 0, y = 0;
     for (int b = 0; (1 << (2 * b)) < TILE * TILE; b++) {
@@ -89,7 +87,7 @@ static void render_band(RenderJob *job, RenderCtx *ctx, int y0, int y1)
         int n = 0;
         for (int k = 0; k < TILE * TILE; k++) {
             int dx, dy;
-            tile_zorder(k, &dx, &dy);
+            render_tile_order(k, &dx, &dy);
             int x = x0 + dx, y = y0 + dy;
             if (x >= t->width || y >= y1)
                 continue;
