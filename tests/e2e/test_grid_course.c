@@ -222,6 +222,41 @@ static void test_no_marking_same_image(void)
     e2e_rmtree(dir);
 }
 
+/* Ray packets (the default with a grid) against -no_packets (every ray marched on its
+ * own), through the binary: the same bytes and rays; only the counters of tests and
+ * cells differ, by a few percent. */
+static void check_no_packets_same_image(const char *id)
+{
+    const char *course = e2e_course_or_skip();
+    E2eCourseLine l;
+    CHECK(e2e_course_line(course, id, &l));
+    if (harness_failures)
+        return;
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "gridpk") != NULL);
+    Opts on = {false, true, NULL, NULL}, off = {false, true, NULL, "-no_packets"};
+    Render a, b;
+    render(course, &l, dir, "packets.tga", &on, &a);
+    render(course, &l, dir, "single.tga", &off, &b);
+    CHECK(a.ok && b.ok);
+    if (a.ok && b.ok) {
+        CHECK(same_bytes(a.out, b.out));
+        CHECK_INT(a.stats.nonshadow, b.stats.nonshadow);
+        CHECK_INT(a.stats.shadow, b.stats.shadow);
+        printf("\n    %s intersections: %llu in packets, %llu ray by ray; cells %llu, %llu\n    ",
+               id, a.stats.intersections, b.stats.intersections, a.stats.cells, b.stats.cells);
+        /* Each ray tests only the cells its path spans: close to its own march. */
+        CHECK(a.stats.intersections < b.stats.intersections * 3 / 2);
+        CHECK(a.stats.cells < b.stats.cells * 3 / 2);
+    }
+    e2e_run_free(&a.run);
+    e2e_run_free(&b.run);
+    e2e_rmtree(dir);
+}
+
+static void test_no_packets_07(void) { check_no_packets_same_image("07"); }
+static void test_no_packets_17a(void) { check_no_packets_same_image("17a"); }
+
 /* Through the library (the renderer's own loop, threads and per-thread mailboxes) on
  * a course scene: with marking no primitive is tested twice for one ray
  * (repeat_tests == 0); without it, exactly the skipped tests come back as repeats, the
@@ -323,6 +358,8 @@ static const TestCase tests[] = {
     {"vis_10c", test_vis_10c},   {"vis_11c", test_vis_11c},   {"vis_12c", test_vis_12c},
     {"vis_17b", test_vis_17b},   {"vis_18b", test_vis_18b},
     {"no_marking_same_image", test_no_marking_same_image},
+    {"no_packets_same_image_07", test_no_packets_07},
+    {"no_packets_same_image_17a", test_no_packets_17a},
     {"marking_counters_bunny", test_marking_counters_bunny},
     {"marking_counters_mirror", test_marking_counters_mirror},
 };
