@@ -4,10 +4,17 @@
 #include "grid_packet.h"
 
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
 #pragma GCC target("avx2")
+#endif
 #define PK_WALK grid_packet_walk_avx2
 #define PK_PREP grid_packet_prep_avx2
 #include "grid_packet_kernel.h"
+#if defined(__clang__)
+#pragma clang attribute pop
+#endif
 #else
 /* Never chosen on other targets; defined so the dispatch table links. */
 void grid_packet_walk_avx2(const Grid *g, Packet *pk, RenderCtx *ctx)
