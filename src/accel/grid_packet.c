@@ -4,7 +4,6 @@
 #include "grid_packet.h"
 
 #include <float.h>
-#include <stddef.h>
 #include <math.h>
 #include <pthread.h>
 #include <string.h>
@@ -137,8 +136,7 @@ static uint64_t packet_walk(const Grid *g, Packet *pk, int lo, int n, uint64_t w
     }
     pk->k_first = k_first;
     pk->active = walk;
-    pthread_once(&walk_once, choose_walk);
-    walk_fn(g, pk, ctx);
+    walk_fn(g, pk, ctx); /* chosen by packet_prepare's pthread_once */
     return 0;
 }
 
@@ -150,18 +148,40 @@ static uint64_t packet_trace(const Grid *g, Packet *pk, int n, uint64_t cand, co
     return single | (walk ? packet_walk(g, pk, 0, n, walk, ctx) : 0);
 }
 
-/* Lanes of rays outside the walk keep harmless values (they are masked, but still
- * computed). */
+/* The best-hit lanes start defined (the callers then set their rays' own); the ray
+ * lanes are all written by the set-up, harmless values where no ray is walked, for
+ * every group that holds a candidate, and the walk reads no other group. */
 static void packet_clear(Packet *pk)
 {
-    memset(pk, 0, offsetof(Packet, end)); /* the lanes; the per-ray set-up is written before use */
+    memset(pk->best_t, 0, sizeof pk->best_t);
+    memset(pk->best_id, 0, sizeof pk->best_id);
+    memset(pk->best_prim, 0xff, sizeof pk->best_prim); /* -1: no packed hit */
     pk->hit = 0;
-    for (int gi = 0; gi < PK_GROUPS; gi++) {
-        for (int a = 0; a < 3; a++)
-            pk->d[a][gi] = pk_splat(1.0f);
-        pk->inv_k[gi] = pk_splat(1.0f);
-        pk->best_prim[gi] = (pk_i8){-1, -1, -1, -1, -1, -1, -1, -1};
+}
+
+/* The single-ray march for the rays of mask (the unbounded primitives are done). */
+static uint64_t march_intersect_each(const Grid *g, const Ray *rays, uint64_t mask, Hit *hits,
+                                     float tmin, RenderCtx *ctx)
+{
+    uint64_t found = 0;
+    for (; mask; mask &= mask - 1) {
+        int i = __builtin_ctzll(mask);
+        if (grid_march_intersect(g, &rays[i], &hits[i], tmin, ctx))
+            found |= (uint64_t)1 << i;
     }
+    return found;
+}
+
+static uint64_t march_occluded_each(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
+                                    const float *tmax, RenderCtx *ctx)
+{
+    uint64_t occluded = 0;
+    for (; mask; mask &= mask - 1) {
+        int i = __builtin_ctzll(mask);
+        if (grid_march_occluded(g, &rays[i], tmin, tmax[i], ctx))
+            occluded |= (uint64_t)1 << i;
+    }
+    return occluded;
 }
 
 uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits, float tmin,
@@ -178,12 +198,8 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
             found |= (uint64_t)1 << i;
         cand |= (uint64_t)1 << i;
     }
-    if (!ctx->packet_rays || n < 2) {
-        for (int i = 0; i < n; i++)
-            if (grid_march_intersect(g, &rays[i], &hits[i], tmin, ctx))
-                found |= (uint64_t)1 << i;
-        return found;
-    }
+    if (!ctx->packet_rays || n < 2)
+        return found | march_intersect_each(g, rays, cand, hits, tmin, ctx);
 
     _Alignas(32) Packet pk;
     packet_clear(&pk);
@@ -209,12 +225,7 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
         hits[i].material = o->material;
         found |= (uint64_t)1 << i;
     }
-    for (uint64_t m = single; m; m &= m - 1) {
-        int i = __builtin_ctzll(m);
-        if (grid_march_intersect(g, &rays[i], &hits[i], tmin, ctx))
-            found |= (uint64_t)1 << i;
-    }
-    return found;
+    return found | march_intersect_each(g, rays, single, hits, tmin, ctx);
 }
 
 uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
@@ -234,14 +245,8 @@ uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, flo
         else
             cand |= (uint64_t)1 << i;
     }
-    if (!ctx->packet_rays || __builtin_popcountll(cand) < 2) {
-        for (uint64_t m = cand; m; m &= m - 1) {
-            int i = __builtin_ctzll(m);
-            if (grid_march_occluded(g, &rays[i], tmin, tmax[i], ctx))
-                occluded |= (uint64_t)1 << i;
-        }
-        return occluded;
-    }
+    if (!ctx->packet_rays || __builtin_popcountll(cand) < 2)
+        return occluded | march_occluded_each(g, rays, cand, tmin, tmax, ctx);
 
     _Alignas(32) Packet pk;
     packet_clear(&pk);
@@ -253,11 +258,5 @@ uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, flo
         pk.best_t[i / PK_LANES][i % PK_LANES] = tmax[i];
     }
     uint64_t single = packet_trace(g, &pk, 64 - __builtin_clzll(cand), cand, tmax, ctx);
-    occluded |= pk.hit;
-    for (uint64_t m = single; m; m &= m - 1) {
-        int i = __builtin_ctzll(m);
-        if (grid_march_occluded(g, &rays[i], tmin, tmax[i], ctx))
-            occluded |= (uint64_t)1 << i;
-    }
-    return occluded;
+    return occluded | pk.hit | march_occluded_each(g, rays, single, tmin, tmax, ctx);
 }

@@ -1,6 +1,7 @@
-/* The packet walk, written once and compiled twice: by grid_packet.c for the baseline
- * instruction set and by grid_packet_avx2.c under "#pragma GCC target("avx2")". The
- * includer defines PK_WALK (the function's name) and includes this file once.
+/* The packet walk and its per-ray set-up, written once and compiled twice: by
+ * grid_packet.c for the baseline instruction set and by grid_packet_avx2.c for AVX2.
+ * The includer defines PK_WALK and PK_PREP (the two functions' names) and includes
+ * this file once.
  *
  * Coherent grid traversal (Wald, Ize, Kensler, Knoll, Parker, SIGGRAPH 2006): the
  * packet advances one slice of cells at a time along its main axis K. In a slice, the
