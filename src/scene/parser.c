@@ -66,6 +66,42 @@ static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char
 
 static bool next(Parser *p, Token *t) { return lex_next(&p->lx, t); }
 
+/* A counted block: "numLights n" (or numMaterials), then exactly n items, then "}". */
+typedef struct CountedBlock {
+    const char *count_kw;            /* "numLights" */
+    const char *block;               /* "Lights" */
+    const char *noun;                /* "light" (plural: + "s") */
+    bool (*is_item)(const Token *t); /* t starts an item */
+} CountedBlock;
+
+typedef enum { COUNTED_ITEM, COUNTED_END, COUNTED_ERROR } CountedStep;
+
+/* What token t, read after count of the block's n items, is: the start of the next
+ * item, the block's proper end, or an error (reported here). */
+static CountedStep counted_step(Parser *p, const Token *t, int count, int n,
+                                const CountedBlock *b)
+{
+    if (tok_is(t, "}")) {
+        if (count == n)
+            return COUNTED_END;
+        fail(p, &t->loc, "%s is %d but the %s block ends after %d %s%s", b->count_kw, n,
+             b->block, count, b->noun, count == 1 ? "" : "s");
+        return COUNTED_ERROR;
+    }
+    if (count == n) {
+        if (b->is_item(t))
+            fail(p, &t->loc, "%s is %d but more %ss follow", b->count_kw, n, b->noun);
+        else
+            fail_expected(p, t, "'}'");
+        return COUNTED_ERROR;
+    }
+    if (!b->is_item(t)) {
+        fail_unknown(p, t, b->noun, "'}'");
+        return COUNTED_ERROR;
+    }
+    return COUNTED_ITEM;
+}
+
 static bool expect(Parser *p, const char *kw, Token *out)
 {
     Token t;
@@ -628,21 +664,10 @@ static bool parse_lights(Parser *p)
             ok = false;
             break;
         }
-        if (tok_is(&t, "}")) {
-            if (count < n)
-                ok = fail(p, &t.loc, "numLights is %d but the Lights block ends after %d light%s",
-                          n, count, count == 1 ? "" : "s");
-            break;
-        }
-        if (count == n) {
-            if (is_light(&t))
-                ok = fail(p, &t.loc, "numLights is %d but more lights follow", n);
-            else
-                ok = fail_expected(p, &t, "'}'");
-            break;
-        }
-        if (!is_light(&t)) {
-            ok = fail_unknown(p, &t, "light", "'}'");
+        static const CountedBlock lights = {"numLights", "Lights", "light", is_light};
+        CountedStep step = counted_step(p, &t, count, n, &lights);
+        if (step != COUNTED_ITEM) {
+            ok = step == COUNTED_END;
             break;
         }
         if ((size_t)count == cap) {
@@ -840,22 +865,11 @@ static bool parse_materials(Parser *p)
             ok = false;
             break;
         }
-        if (tok_is(&t, "}")) {
-            if (count < n)
-                ok = fail(p, &t.loc,
-                          "numMaterials is %d but the Materials block ends after %d material%s",
-                          n, count, count == 1 ? "" : "s");
-            break;
-        }
-        if (count == n) {
-            if (is_material(&t))
-                ok = fail(p, &t.loc, "numMaterials is %d but more materials follow", n);
-            else
-                ok = fail_expected(p, &t, "'}'");
-            break;
-        }
-        if (!is_material(&t)) {
-            ok = fail_unknown(p, &t, "material", "'}'");
+        static const CountedBlock materials = {"numMaterials", "Materials", "material",
+                                               is_material};
+        CountedStep step = counted_step(p, &t, count, n, &materials);
+        if (step != COUNTED_ITEM) {
+            ok = step == COUNTED_END;
             break;
         }
         if (count == ml.cap) {
