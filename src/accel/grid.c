@@ -245,18 +245,23 @@ static inline int range_hi_d(double z, int n)
 }
 
 /* Box rule: every cell whose closed box meets the closed box [bmin, bmax], touching
- * cells included (lo = ceil(..) - 1, not floor: output5_05/5_10 need it). A box side
- * within 1e-4 of a cell of a border counts as touching it: vertices that lie exactly on
- * a border in exact arithmetic (rotated and scaled cubes of scene6_10/6_12) land a
- * rounding error to either side depending on how the matrices were built; counting
- * them as touching reproduces output6_10c and 6_12c exactly (99.6% of pixels without). */
-static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax)
+ * cells included (lo = ceil(..) - 1, not floor: output5_05/5_10 need it). tol widens
+ * the box by that fraction of a cell on each side. A primitive placed through a
+ * Transform gets 1e-4: its world vertices that lie exactly on a border in exact
+ * arithmetic (rotated and scaled cubes of scene6_10/6_12) land a rounding error to
+ * either side depending on how the matrices were built; counting them as touching
+ * reproduces output6_10c and 6_12c exactly (99.6% of pixels without). An untransformed
+ * triangle gets 0: its vertices are the file's numbers, which the course bins as they
+ * are; a tolerance there adds a cell wherever a vertex of a dense mesh falls within
+ * 1e-4 of a cell of a border (about 25 vertices of the 40k bunny on a 40x40x33 grid,
+ * 0.3% of the pixels of its -visualize_grid picture). */
+static CellRange course_box_range(const Grid *g, Vec3 bmin, Vec3 bmax, float tol)
 {
     CellRange r;
     for (int a = 0; a < 3; a++) {
         float mn = v3_comp(g->box.min, a), s = g->size[a];
-        r.lo[a] = range_lo_f((v3_comp(bmin, a) - mn) / s - 1e-4f, g->n[a]);
-        r.hi[a] = range_hi_f((v3_comp(bmax, a) - mn) / s + 1e-4f, g->n[a]);
+        r.lo[a] = range_lo_f((v3_comp(bmin, a) - mn) / s - tol, g->n[a]);
+        r.hi[a] = range_hi_f((v3_comp(bmax, a) - mn) / s + tol, g->n[a]);
     }
     return r;
 }
@@ -283,7 +288,7 @@ static void course_insert(const Grid *g, uint32_t *course, const GridBuildRec *r
         float half_diag = 0.5f * v3_length(v3(g->size[0], g->size[1], g->size[2]));
         float reach = rec->r + half_diag;
         Vec3 e = v3(reach, reach, reach);
-        CellRange r = course_box_range(g, v3_sub(c, e), v3_add(c, e));
+        CellRange r = course_box_range(g, v3_sub(c, e), v3_add(c, e), 1e-4f);
         for (int k = r.lo[2]; k <= r.hi[2]; k++)
             for (int j = r.lo[1]; j <= r.hi[1]; j++)
                 for (int i = r.lo[0]; i <= r.hi[0]; i++) {
@@ -304,7 +309,7 @@ static void course_insert(const Grid *g, uint32_t *course, const GridBuildRec *r
         b.min = v3_min(v3_min(rec->v[0], rec->v[1]), rec->v[2]);
         b.max = v3_max(v3_max(rec->v[0], rec->v[1]), rec->v[2]);
     }
-    CellRange r = course_box_range(g, b.min, b.max);
+    CellRange r = course_box_range(g, b.min, b.max, rec->gp ? 1e-4f : 0.0f);
     count_range(g, course, &r);
 }
 

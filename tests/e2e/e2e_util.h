@@ -458,6 +458,18 @@ typedef struct E2eCourseLine {
     char text[1024];
 } E2eCourseLine;
 
+/* A line that is not in commands.txt (same form: arguments run in the course folder). */
+static inline void e2e_course_line_set(E2eCourseLine *cl, const char *id, const char *args)
+{
+    snprintf(cl->id, sizeof cl->id, "%s", id);
+    snprintf(cl->text, sizeof cl->text, "%s", args);
+    cl->argc = 0;
+    for (char *tok = strtok(cl->text, " \t\r"); tok && cl->argc < 63;
+         tok = strtok(NULL, " \t\r"))
+        cl->argv[cl->argc++] = tok;
+    cl->argv[cl->argc] = NULL;
+}
+
 static inline bool e2e_course_line(const char *course, const char *id, E2eCourseLine *cl)
 {
     char path[PATH_MAX];
@@ -471,22 +483,14 @@ static inline bool e2e_course_line(const char *course, const char *id, E2eCourse
         if (nl)
             *nl = '\0';
         if (strncmp(line, id, idlen) == 0 && line[idlen] == '|') {
-            snprintf(cl->id, sizeof cl->id, "%s", id);
-            snprintf(cl->text, sizeof cl->text, "%s", line + idlen + 1);
+            e2e_course_line_set(cl, id, line + idlen + 1);
             found = true;
             break;
         }
         line = nl ? nl + 1 : NULL;
     }
     free(all);
-    if (!found)
-        return false;
-    cl->argc = 0;
-    for (char *tok = strtok(cl->text, " \t\r"); tok && cl->argc < 63;
-         tok = strtok(NULL, " \t\r"))
-        cl->argv[cl->argc++] = tok;
-    cl->argv[cl->argc] = NULL;
-    return true;
+    return found;
 }
 
 static inline bool e2e_course_has_arg(const E2eCourseLine *cl, const char *flag)
