@@ -4,7 +4,7 @@
  * then one shadow ray per light per front-facing hit (epsilon RT_EPSILON, our light
  * directions), with single rays (rtcIntersect1/rtcOccluded1) or packets of 16 (4x4
  * pixel tiles, rtcIntersect16/rtcOccluded16). Planes are intersected analytically, as
- * ours are. Built only when libembree-dev is installed (mk/bench.mk); README.txt, BENCHMARKS. */
+ * ours are. Built only when libembree-dev is installed (mk/bench.mk); docs/benchmarks.md. */
 #define _POSIX_C_SOURCE 200809L
 #include <embree3/rtcore.h>
 #include <errno.h>

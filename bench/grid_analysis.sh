@@ -1,5 +1,5 @@
 #!/bin/sh
-# Grid analysis runs (README.txt, GRID ACCELERATION): every -grid line of the course with marking, without
+# Grid analysis runs (docs/grid.md): every -grid line of the course with marking, without
 # marking (-no_marking) and without the grid; the bunnies at several resolutions and with
 # -grid auto; optionally an "AABB-only insertion" build for comparison.
 #   sh bench/grid_analysis.sh [BIN]      (default ./raytracer)

@@ -4,7 +4,7 @@
  * -mode packet: 8x8 pixel tiles as ray packets (grid_intersect_packet /
  * grid_occluded_packet, what the renderer does); -mode single: grid_intersect /
  * grid_occluded ray by ray. Prints the same key=value line as embree_ref. Built by
- * `make bench` (mk/bench.mk); README.txt, BENCHMARKS. */
+ * `make bench` (mk/bench.mk); docs/benchmarks.md. */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <pthread.h>

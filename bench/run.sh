@@ -1,5 +1,5 @@
 #!/bin/bash
-# The benchmark driver behind `make bench` (README.txt, BENCHMARKS): (a) the course suite, wall
+# The benchmark driver behind `make bench` (docs/benchmarks.md): (a) the course suite, wall
 # and CPU per line; (b) trace throughput, primary and shadow rays, 1 and 2 threads, on
 # the bunny scenes and a 1.3M-triangle mesh; (c) set-up costs; (d) the same rays through
 # Embree (bench/embree_ref.c), paired with ours. Writes bench/REPORT.txt.
@@ -80,7 +80,7 @@ TIMINGS=
 cpu=$(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n 1)
 commit=$(cd "$ROOT" && git rev-parse HEAD 2>/dev/null || echo unknown)
 dirty=$(cd "$ROOT" && git status --porcelain --untracked-files=no 2>/dev/null | grep -q . && echo " (work tree has uncommitted changes)")
-say "raytracer benchmark report (make bench; README.txt, BENCHMARKS)"
+say "raytracer benchmark report (make bench; docs/benchmarks.md)"
 say "date      $(date -u '+%Y-%m-%d %H:%M:%S UTC')"
 say "commit    $commit$dirty"
 say "machine   $(nproc) cores, $cpu"

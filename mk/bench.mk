@@ -1,4 +1,4 @@
-# Benchmarks, the demo's models and the optional Embree reference tracer (bench/, README.txt, BENCHMARKS).
+# Benchmarks, the demo's models and the optional Embree reference tracer (bench/, docs/benchmarks.md).
 #   make models   regenerate the committed OBJ models in models/ with build/tools/modelgen
 #   make bench    the full benchmark: course suite, throughput, set-up, Embree pairing;
 #                 BENCH_RUNS=N (median of N, default 3), BENCH_QUICK=1 (a short run),

@@ -1,4 +1,4 @@
-# OpenGL preview (src/preview/, README.txt, OpenGL preview). The GLUT window (-gui) needs
+# OpenGL preview (src/preview/, docs/preview.md). The GLUT window (-gui) needs
 # pkg-config's gl + glut + x11 (Debian libglut-dev brings all three), the offscreen
 # snapshot (-gui_snapshot) osmesa (libosmesa6-dev): their headers at build time; the
 # libraries themselves are opened at run time (dynload.c). Both go into one binary: the

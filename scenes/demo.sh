@@ -1,5 +1,5 @@
 #!/bin/sh
-# Renders the showcase and the feature scenes into demo/ (make demo; README.txt, THE DEMO).
+# Renders the showcase and the feature scenes into demo/ (make demo; docs/demo-scenes-models.md).
 # Usage: sh scenes/demo.sh /abs/path/to/raytracer [OUTDIR]
 # Exit status 1 when any render fails (the others are still rendered).
 set -u
@@ -29,7 +29,7 @@ render() {
 }
 
 echo "demo: rendering into $OUT"
-# The showcase: every feature at once (README.txt, THE DEMO lists what is where).
+# The showcase: every feature at once (docs/demo-scenes-models.md lists what is where).
 render showcase showcase.txt -size 400 300 -shadows -shade_back -bounces 5 -weight 0.01 -grid auto -stats
 sed -n '/RAY TRACING STATISTICS/,/^\*/p' "$OUT/showcase.log"
 

@@ -1,4 +1,4 @@
-/* imgdiff: compares two images with a tolerance (README.txt, IMAGES) and prints the
+/* imgdiff: compares two images with a tolerance (docs/images.md) and prints the
  * figures; exit 0 when enough pixels are within the threshold, 1 when not, 2 on a usage
  * or read error. Optionally writes an amplified difference image. */
 #include <errno.h>

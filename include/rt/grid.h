@@ -75,7 +75,7 @@ bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmi
 void grid_set_packing(Grid *g, bool on);
 bool grid_packing(const Grid *g);
 
-/* -grid auto: a resolution chosen from the scene (README.txt explains the rule). */
+/* -grid auto: a resolution chosen from the scene (docs/grid.md explains the rule). */
 void grid_choose_auto(const Scene *scene, int n[3]);
 
 /* Insertion API used by the leaves' insert_into_grid ops. path lists the Transforms

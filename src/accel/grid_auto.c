@@ -1,4 +1,4 @@
-/* -grid auto: a grid resolution chosen from the scene. The rule (README.txt, GRID ACCELERATION): about
+/* -grid auto: a grid resolution chosen from the scene. The rule (docs/grid.md): about
  * GRID_AUTO_LAMBDA cells per bounded primitive, with cells as close to cubes as the
  * box allows (resolution proportional to the box's sides). */
 #include <math.h>
@@ -7,7 +7,7 @@
 #include "rt/grid.h"
 #include "rt/scene.h"
 
-/* Cells per primitive. Measured on the course scenes (README.txt, GRID ACCELERATION). */
+/* Cells per primitive. Measured on the course scenes (docs/grid.md). */
 #define GRID_AUTO_LAMBDA 4.0
 #define GRID_AUTO_MAX_AXIS 512
 #define GRID_AUTO_MAX_CELLS (1 << 22)

@@ -59,7 +59,7 @@ void options_usage(FILE *out)
         "  -tessellation th ph      sphere tessellation of the preview (default 20 10)\n"
         "  -gouraud                 smooth sphere normals in the preview\n"
         "  -gui_snapshot file       draw one preview frame offscreen (OSMesa) into file\n"
-        "  -gui_keys \"keys\"         key script for the preview (see README.txt)\n"
+        "  -gui_keys \"keys\"         key script for the preview (README.txt, 7)\n"
         "Other\n"
         "  -h, --help               this text\n"
         "  --version                version and optional features\n"

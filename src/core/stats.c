@@ -55,7 +55,7 @@ void stats_print(FILE *out, const StatsReport *r)
     fprintf(out, "  total intersections        %llu\n", (unsigned long long)r->counts.intersections);
     fprintf(out, "  total cells traversed      %llu\n", (unsigned long long)r->counts.cells_traversed);
     /* Precise elapsed time here: the course's whole-second division would make this
-     * equal to the ray count for every sub-second render (README.txt). */
+     * equal to the ray count for every sub-second render (docs/statistics.md). */
     fprintf(out, "  rays per second            %0.1f\n", (double)rays / elapsed);
     fprintf(out, "  rays per pixel             %0.1f\n", ratio((double)rays, pixels));
     fprintf(out, "  intersections per ray      %0.1f\n",

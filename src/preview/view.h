@@ -47,7 +47,7 @@ void preview_view_cycle_grid(PreviewView *v, FILE *out);
 /* `c`: the current camera as a scene-file block. */
 void preview_view_print_camera(const PreviewView *v, FILE *out);
 
-/* -gui_keys: whitespace-separated commands (README.txt, OpenGL preview). */
+/* -gui_keys: whitespace-separated commands (docs/preview.md). */
 typedef enum KeyCmdKind {
     KEYCMD_RENDER,      /* r */
     KEYCMD_TRACE,       /* t (view centre) or t:I,J */

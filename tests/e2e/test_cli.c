@@ -380,7 +380,7 @@ static void test_stats_on_stdout(void)
     e2e_rmtree(f.dir);
 }
 
-/* The image comparison tool (README.txt, IMAGES): figures and exit statuses. */
+/* The image comparison tool (docs/images.md): figures and exit statuses. */
 static void test_imgdiff_tool(void)
 {
     const char *tools = getenv("RT_TOOLS");
