@@ -10,6 +10,10 @@ void diag_init(Diag *d, FILE *stream)
     d->stream = stream;
 }
 
+/* The format attribute lets the compiler check fmt where diag_error/diag_warning are
+ * called (they carry the same attribute in rt/diag.h) instead of here. */
+static void diag_emit(Diag *d, const SrcLoc *loc, const char *kind, const char *fmt,
+                      va_list ap) __attribute__((format(printf, 4, 0)));
 static void diag_emit(Diag *d, const SrcLoc *loc, const char *kind, const char *fmt,
                       va_list ap)
 {

@@ -46,7 +46,7 @@ bool mat4_inverse(const Mat4 *m, Mat4 *out)
     double a[4][8];
     for (int i = 0; i < 4; i++)
         for (int j = 0; j < 4; j++) {
-            a[i][j] = m->m[i][j];
+            a[i][j] = (double)m->m[i][j];
             a[i][j + 4] = (i == j) ? 1.0 : 0.0;
         }
     double scale = 0.0;

@@ -12,7 +12,7 @@
 static float wood_weight(const ProceduralBlend *b, Vec3 p)
 {
     Vec3 q = procedural_texture_point(&b->proc, p);
-    double x = q.x, y = q.y, z = q.z;
+    double x = (double)q.x, y = (double)q.y, z = (double)q.z;
     double n = perlin_octaves(x, 0.2 * y, z, b->octaves);
     double theta = (double)b->frequency * (sqrt(x * x + z * z) + 0.05 * y) +
                    (double)b->amplitude * n;

@@ -36,9 +36,9 @@ static double coord(double h)
     }
     int nudge = (int)(rnd() % 5) - 2;
     for (; nudge > 0; nudge--)
-        x = nextafter(x, INFINITY);
+        x = nextafter(x, HUGE_VAL);
     for (; nudge < 0; nudge++)
-        x = nextafter(x, -INFINITY);
+        x = nextafter(x, -HUGE_VAL);
     return sgn * x;
 }
 

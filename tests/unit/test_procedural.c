@@ -172,7 +172,7 @@ static double weight_of(const Material *m, Vec3 p)
 {
     Vec3 d = mat_diffuse_at(m, p);
     CHECK_NEAR(d.x + d.y, 1.0, 1e-6); /* a convex combination of the two */
-    return d.x;
+    return (double)d.x;
 }
 
 static void test_noise_weight(void)
@@ -195,7 +195,7 @@ static void test_noise_weight(void)
     CHECK_NEAR(weight_of(n3, v3(2, -3, 5)), 0.5, 1e-7);
     /* A general point against the octave sum itself: t = N + 0.5 in (0,1). */
     Vec3 p = v3(1.7f, -0.35f, 2.6f);
-    double want = perlin_octaves(p.x, p.y, p.z, 3) + 0.5;
+    double want = perlin_octaves((double)p.x, (double)p.y, (double)p.z, 3) + 0.5;
     CHECK(want > 0 && want < 1);
     CHECK_NEAR(weight_of(n3, p), want, 1e-6);
     /* ... and against the independent script of test_perlin.c: octs(1.7, -0.35, 2.6, 3)
@@ -209,7 +209,7 @@ static void test_noise_weight(void)
         Vec3 q = v3(0.013f * (float)i, 0.5f + 0.007f * (float)i, -0.011f * (float)i);
         double t = weight_of(n8, q);
         CHECK(t >= 0.0 && t <= 1.0);
-        double raw = perlin_octaves(q.x, q.y, q.z, 8) + 0.5;
+        double raw = perlin_octaves((double)q.x, (double)q.y, (double)q.z, 8) + 0.5;
         if (raw <= 0) {
             at0++;
             CHECK_NEAR(t, 0.0, 0.0);
@@ -234,7 +234,7 @@ static void test_noise_clamps(void)
     int low = 0, high = 0;
     for (int i = 0; i < 20000 && (low < 3 || high < 3); i++) {
         Vec3 q = v3(0.37f * (float)i, 0.29f * (float)(i % 97), 0.53f * (float)(i % 89));
-        double raw = perlin_noise3(q.x, q.y, q.z) + 0.5;
+        double raw = perlin_noise3((double)q.x, (double)q.y, (double)q.z) + 0.5;
         if (raw < 0) {
             CHECK_NEAR(weight_of(n1, q), 0.0, 0.0);
             low++;

@@ -266,8 +266,8 @@ static void test_depth_and_normals_images(void)
             float tt = 10.0f - (-0.5f * wx); /* ray from z = 10 down to z = -x/2 */
             float g = (11.0f - (tt < 9 ? 9 : tt > 11 ? 11 : tt)) / 2.0f;
             CHECK_NEAR(d.x, g, 1e-5);
-            CHECK_NEAR(nn.x, fabs(n.x), 1e-5);
-            CHECK_NEAR(nn.z, fabs(n.z), 1e-5);
+            CHECK_NEAR(nn.x, fabsf(n.x), 1e-5);
+            CHECK_NEAR(nn.z, fabsf(n.z), 1e-5);
         } else {
             CHECK_NEAR(d.x, 0, 0); /* background: black in both */
             CHECK_NEAR(nn.z, 0, 0);
