@@ -1,9 +1,13 @@
 /* raytracer: options -> scene -> grid -> render -> images -> statistics -> exit status.
- * Exit status: 0 images written, 1 input or output error, 2 usage error, 130 interrupted. */
+ * Exit status: 0 images written, 1 input or output error, 2 usage error, 128 + signal
+ * when stopped (130 Ctrl-C, 143 SIGTERM, 129 SIGHUP). */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "rt/grid.h"
 #include "rt/image.h"
@@ -15,15 +19,44 @@
 
 #define RT_VERSION "1.0.0"
 
-enum { EXIT_INPUT = 1, EXIT_USAGE = 2, EXIT_INTERRUPTED = 130 };
+enum { EXIT_INPUT = 1, EXIT_USAGE = 2 };
 
+/* The stopping signal received (SIGINT, SIGTERM, SIGHUP), 0 while none: the render
+ * polls it and stops early. */
 static volatile int g_cancel;
 
-static void on_sigint(int sig)
+/* Ctrl-C, kill and a closed terminal all end the run the same way: no image written,
+ * exit status 128 + signal. During the render the workers notice g_cancel; while the
+ * images are being written the handler removes the temporary files itself and ends
+ * the process at once (a write into a pipe may block for ever). */
+static void on_stop_signal(int sig)
 {
-    (void)sig;
-    g_cancel = 1;
+    g_cancel = sig;
+    if (image_write_abort()) {
+        static const char msg[] = "raytracer: interrupted; no image written\n";
+        ssize_t w = write(STDERR_FILENO, msg, sizeof msg - 1);
+        (void)w;
+        _exit(128 + sig);
+    }
 }
+
+static void install_signal_handlers(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+    /* A closed pipe on stdout (raytracer -stats | head) is an output error with a
+     * message and exit status 1, not a silent death by SIGPIPE. */
+    signal(SIGPIPE, SIG_IGN);
+}
+
+/* Exit status for a run stopped by the signal in g_cancel. */
+static int interrupted_status(void) { return 128 + g_cancel; }
 
 typedef struct App {
     Options opt;
@@ -57,6 +90,17 @@ static bool alloc_image(Image **slot, Image *storage, const char *want, int w, i
     return true;
 }
 
+/* Flushes stdout; false (with a message) when what was printed there was lost (a full
+ * disk, a closed stdout, a reader that went away). */
+static bool stdout_ok(Diag *d, const char *what)
+{
+    if (fflush(stdout) == 0 && !ferror(stdout))
+        return true;
+    diag_error(d, NULL, "cannot write %s to standard output: %s", what, strerror(errno));
+    clearerr(stdout);
+    return false;
+}
+
 /* Renders the requested images with camera and writes them (also the `r` key of the
  * preview). Returns an exit status. */
 static int render_and_write(void *user, const Camera *camera)
@@ -86,7 +130,7 @@ static int render_and_write(void *user, const Camera *camera)
     double t_render = clock_now() - t0;
     if (g_cancel) {
         fprintf(stderr, "raytracer: interrupted; no image written\n");
-        status = EXIT_INTERRUPTED;
+        status = interrupted_status();
         goto done;
     }
     if (!ok) {
@@ -96,11 +140,26 @@ static int render_and_write(void *user, const Camera *camera)
     }
 
     t0 = clock_now();
-    if ((target.color && !image_write(target.color, o->output, &app->diag)) ||
-        (target.depth && !image_write(target.depth, o->depth_file, &app->diag)) ||
-        (target.normals && !image_write(target.normals, o->normals_file, &app->diag)))
+    ImageOutput outs[3];
+    int nout = 0;
+    if (target.color)
+        outs[nout++] = (ImageOutput){target.color, o->output};
+    if (target.depth)
+        outs[nout++] = (ImageOutput){target.depth, o->depth_file};
+    if (target.normals)
+        outs[nout++] = (ImageOutput){target.normals, o->normals_file};
+    if (nout > 0 && !image_write_all(outs, nout, &app->diag)) {
         status = EXIT_INPUT;
+        goto done;
+    }
     double t_write = clock_now() - t0;
+    if (g_cancel) {
+        /* The signal came while the images were being renamed into place: they are
+         * complete, but the run was asked to stop. */
+        fprintf(stderr, "raytracer: interrupted after the images were written\n");
+        status = interrupted_status();
+        goto done;
+    }
 
     if (o->stats) {
         StatsReport r;
@@ -122,7 +181,8 @@ static int render_and_write(void *user, const Camera *camera)
         r.elapsed_seconds = t_render;
         r.counts = counts;
         stats_print(stdout, &r);
-        fflush(stdout);
+        if (!stdout_ok(&app->diag, "the statistics"))
+            status = EXIT_INPUT;
     }
     if (o->timings)
         fprintf(stderr, "timings: parse %.3f ms, grid %.3f ms, render %.3f ms, write %.3f ms\n",
@@ -227,9 +287,12 @@ int main(int argc, char **argv)
         return 0;
     }
     diag_init(&app.diag, stderr);
-    signal(SIGINT, on_sigint);
+    install_signal_handlers();
 
     int status = run(&app);
+    /* Anything else printed on stdout (the -grid auto line) must have arrived too. */
+    if (status == 0 && !stdout_ok(&app.diag, "the output"))
+        status = EXIT_INPUT;
     grid_free(app.grid);
     scene_free(app.scene);
     return status;

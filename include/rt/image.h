@@ -28,6 +28,23 @@ uint8_t color_to_byte(float c);
  * with libpng). Writes to a temporary file in the same folder and renames it, so a
  * failure leaves no file. Reports failures to diag. */
 bool image_write(const Image *img, const char *path, Diag *diag);
+
+/* Several images, all or nothing: each goes to its temporary file first (an existing
+ * pipe or device is written in place after those), and the temporary files are renamed
+ * into place only when every write succeeded; on failure none is renamed and all are
+ * removed. The caller refuses the same path twice. One write at a time per process. */
+enum { IMAGE_MAX_OUTPUTS = 8 };
+typedef struct ImageOutput {
+    const Image *image;
+    const char *path;
+} ImageOutput;
+bool image_write_all(const ImageOutput *outs, int n, Diag *diag);
+
+/* For a signal handler (async-signal-safe): when image_write_all is writing its
+ * temporary files, removes them and returns true (the caller then ends the process
+ * with _exit, and nothing has been renamed into place); false when no write is under
+ * way or the renames have begun (they finish: the images are then complete). */
+bool image_write_abort(void);
 /* Reads a .tga (uncompressed 24/32-bit, either row order) or .ppm (P6, 8-bit). */
 bool image_read(Image *img, const char *path, Diag *diag);
 

@@ -9,6 +9,7 @@
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 enum {
     MAX_IMAGE_SIDE = 32768,
@@ -131,6 +132,41 @@ static bool take_float(Cursor *c, const char *flag, float *out)
     return true;
 }
 
+/* The folder part of path resolved (symbolic links, "." and ".."), then its last
+ * component: two spellings of one file compare equal even before the file exists. */
+static char *canonical_name(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *base = slash ? slash + 1 : path;
+    char *dir = slash ? strndup(path, (size_t)(slash - path) + 1) : strdup(".");
+    char *real = dir ? realpath(dir, NULL) : NULL;
+    free(dir);
+    if (!real)
+        return NULL;
+    size_t n = strlen(real) + strlen(base) + 2;
+    char *out = malloc(n);
+    if (out)
+        snprintf(out, n, "%s/%s", real, base);
+    free(real);
+    return out;
+}
+
+/* True when a and b name one file: the same text, the same existing file, or the same
+ * name in the same folder. Devices and pipes (/dev/null twice) are not refused. */
+static bool same_file(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (strcmp(a, b) == 0)
+        return stat(a, &sa) != 0 || S_ISREG(sa.st_mode);
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
+        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino && S_ISREG(sa.st_mode);
+    char *ca = canonical_name(a), *cb = canonical_name(b);
+    bool same = ca && cb && strcmp(ca, cb) == 0;
+    free(ca);
+    free(cb);
+    return same;
+}
+
 bool options_parse(Options *o, int argc, char **argv, FILE *err)
 {
     Cursor c = {argc, 1, argv, err};
@@ -224,5 +260,13 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         return usage_error(&c, "no scene given: -input scene.txt is required");
     if (o->visualize_grid && !o->grid)
         return usage_error(&c, "-visualize_grid needs -grid nx ny nz (or -grid auto)");
+    /* Two images into one file: the second would silently replace the first. */
+    const char *names[3] = {"-output", "-depth", "-normals"};
+    const char *files[3] = {o->output, o->depth_file, o->normals_file};
+    for (int i = 0; i < 3; i++)
+        for (int j = i + 1; j < 3; j++)
+            if (files[i] && files[j] && same_file(files[i], files[j]))
+                return usage_error(&c, "%s and %s name the same file '%s'", names[i], names[j],
+                                   files[j]);
     return true;
 }

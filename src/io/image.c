@@ -6,6 +6,8 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <pthread.h>
+#include <signal.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -117,112 +119,127 @@ static bool write_all(int fd, const uint8_t *p, size_t n)
     return true;
 }
 
-/* Writes bytes to path through "<dir>/.<name>.XXXXXX" + rename(2): rename within one
- * folder is atomic, so readers (and a crash) see either no file or the whole file. */
-static bool write_atomically(const char *path, const uint8_t *data, size_t len, Diag *diag)
+/* The temporary files of the write in progress, for image_write_abort (called from a
+ * signal handler): fixed storage, so the handler reads no heap and calls only unlink.
+ * A slot's name is complete before `live` is set, and `live` is cleared before the
+ * name changes. */
+enum { TMP_NAME_MAX = 4096 + 32 };
+static char g_tmp_name[IMAGE_MAX_OUTPUTS][TMP_NAME_MAX];
+static volatile sig_atomic_t g_tmp_live[IMAGE_MAX_OUTPUTS];
+/* 1 while temporary files are being written, 2 while they are renamed into place. */
+static volatile sig_atomic_t g_write_phase;
+
+bool image_write_abort(void)
 {
+    if (g_write_phase != 1)
+        return false;
+    for (int i = 0; i < IMAGE_MAX_OUTPUTS; i++)
+        if (g_tmp_live[i])
+            unlink(g_tmp_name[i]);
+    return true;
+}
+
+/* Blocks the signals a user sends to stop a run (and restores them), so a temporary
+ * file is never created unregistered nor a set of renames cut in half. */
+static void block_stop_signals(sigset_t *old)
+{
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    sigaddset(&set, SIGHUP);
+    pthread_sigmask(SIG_BLOCK, &set, old);
+}
+
+static void restore_signals(const sigset_t *old) { pthread_sigmask(SIG_SETMASK, old, NULL); }
+
+/* One output of image_write_all on its way to its file. */
+typedef struct Pending {
+    const char *path;       /* as the user gave it (messages) */
+    char *target;           /* where the bytes go: path, or a symbolic link's target */
+    bool direct;            /* an existing device or pipe: written in place */
+    uint8_t *data;
+    size_t len;
+} Pending;
+
+/* Writes p's bytes to "<dir>/.<name>.XXXXXX" in slot `slot`; rename(2) within one
+ * folder is atomic, so readers (and a crash) later see either no file or the whole
+ * file. */
+static bool stage(Pending *p, int slot, Diag *diag)
+{
+    const char *path = p->target;
     size_t plen = strlen(path);
     const char *slash = strrchr(path, '/');
     size_t dirlen = slash ? (size_t)(slash - path) + 1 : 0;
-    char *tmp = malloc(plen + 16);
-    if (!tmp) {
-        report(diag, path, "cannot write image: ", strerror(ENOMEM));
+    if (plen + 9 > TMP_NAME_MAX) {
+        report(diag, p->path, "cannot write image: ", strerror(ENAMETOOLONG));
         return false;
     }
+    char *tmp = g_tmp_name[slot];
     memcpy(tmp, path, dirlen);
     tmp[dirlen] = '.';
     memcpy(tmp + dirlen + 1, path + dirlen, plen - dirlen);
     memcpy(tmp + plen + 1, ".XXXXXX", 8);
 
+    sigset_t old;
+    block_stop_signals(&old);
     int fd = mkstemp(tmp);
+    int e = errno;
+    if (fd >= 0)
+        g_tmp_live[slot] = 1;
+    restore_signals(&old);
     if (fd < 0) {
-        int e = errno;
-        report(diag, path, "cannot write image: ", strerror(e));
-        free(tmp);
+        report(diag, p->path, "cannot write image: ", strerror(e));
         return false;
     }
     /* mkstemp creates the file 0600; give it the permissions a plain fopen would. */
     mode_t mask = umask(0);
     umask(mask);
-    bool ok = fchmod(fd, (mode_t)(0666 & ~mask)) == 0 && write_all(fd, data, len);
-    int e = errno;
+    bool ok = fchmod(fd, (mode_t)(0666 & ~mask)) == 0 && write_all(fd, p->data, p->len);
+    e = errno;
     if (close(fd) != 0 && ok) {
         ok = false;
         e = errno;
     }
-    if (ok && rename(tmp, path) != 0) {
-        ok = false;
-        e = errno;
-    }
-    if (!ok) {
-        unlink(tmp);
-        report(diag, path, "cannot write image: ", strerror(e));
-    }
-    free(tmp);
+    if (!ok)
+        report(diag, p->path, "cannot write image: ", strerror(e));
     return ok;
 }
 
 /* Writes straight into an existing non-regular file (a pipe, /dev/stdout, /dev/null):
  * renaming over it would replace the device node instead of writing to it. */
-static bool write_direct(const char *path, const uint8_t *data, size_t len, Diag *diag)
+static bool write_direct(const Pending *p, Diag *diag)
 {
-    int fd = open(path, O_WRONLY | O_TRUNC);
+    int fd = open(p->path, O_WRONLY | O_TRUNC);
     if (fd < 0) {
-        report(diag, path, "cannot write image: ", strerror(errno));
+        report(diag, p->path, "cannot write image: ", strerror(errno));
         return false;
     }
-    bool ok = write_all(fd, data, len);
+    bool ok = write_all(fd, p->data, p->len);
     int e = errno;
     if (close(fd) != 0 && ok) {
         ok = false;
         e = errno;
     }
     if (!ok)
-        report(diag, path, "cannot write image: ", strerror(e));
+        report(diag, p->path, "cannot write image: ", strerror(e));
     return ok;
 }
 
-/* Chooses how to put the bytes at path: through a temporary file and rename for new or
- * regular files (following a symbolic link to its target, so the link stays a link),
- * directly for devices and pipes. Messages name the path the user gave. */
-static bool write_bytes(const char *path, const uint8_t *data, size_t len, Diag *diag)
+/* Encodes img for path by its extension into p->data. */
+static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
 {
-    struct stat st, lst;
-    if (stat(path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
-        return write_direct(path, data, len, diag);
-    if (lstat(path, &lst) == 0 && S_ISLNK(lst.st_mode)) {
-        char *target = realpath(path, NULL);
-        if (target) {
-            Diag quiet;
-            diag_init(&quiet, NULL);
-            bool ok = write_atomically(target, data, len, &quiet);
-            free(target);
-            if (!ok && diag) {
-                const char *why = strstr(quiet.last, "cannot write image: ");
-                report(diag, path, why ? why : "cannot write image", NULL);
-            }
-            return ok;
-        }
-    }
-    return write_atomically(path, data, len, diag);
-}
-
-bool image_write(const Image *img, const char *path, Diag *diag)
-{
-    uint8_t *buf = NULL;
-    size_t len = 0;
     bool ok = false;
-
     if (!img || !img->pixels || img->width <= 0 || img->height <= 0) {
         report(diag, path, "cannot write image: ", "empty image");
         return false;
     }
     switch (format_from_name(path)) {
     case FMT_TGA:
-        ok = tga_encode(img, &buf, &len);
+        ok = tga_encode(img, &p->data, &p->len);
         break;
     case FMT_PPM:
-        ok = ppm_encode(img, &buf, &len);
+        ok = ppm_encode(img, &p->data, &p->len);
         break;
     case FMT_PNG:
         if (!image_png_supported()) {
@@ -230,7 +247,7 @@ bool image_write(const Image *img, const char *path, Diag *diag)
                    "rebuild (make PNG=1), or write .tga or .ppm", NULL);
             return false;
         }
-        ok = png_encode(img, &buf, &len);
+        ok = png_encode(img, &p->data, &p->len);
         break;
     case FMT_UNKNOWN:
     default:
@@ -241,13 +258,82 @@ bool image_write(const Image *img, const char *path, Diag *diag)
         }
         return false;
     }
-    if (!ok) {
+    if (!ok)
         report(diag, path, "cannot write image: ", strerror(ENOMEM));
+    return ok;
+}
+
+/* Decides how the bytes reach path: in place for existing devices and pipes; through a
+ * temporary file and rename otherwise, following a symbolic link to its target so the
+ * link stays a link. */
+static bool plan(Pending *p, Diag *diag)
+{
+    struct stat st, lst;
+    if (stat(p->path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) {
+        p->direct = true;
+        return true;
+    }
+    if (lstat(p->path, &lst) == 0 && S_ISLNK(lst.st_mode))
+        p->target = realpath(p->path, NULL);
+    if (!p->target)
+        p->target = strdup(p->path);
+    if (!p->target) {
+        report(diag, p->path, "cannot write image: ", strerror(ENOMEM));
         return false;
     }
-    ok = write_bytes(path, buf, len, diag);
-    free(buf);
+    return true;
+}
+
+bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
+{
+    if (n < 0 || n > IMAGE_MAX_OUTPUTS) {
+        report(diag, n > 0 ? outs[0].path : "", "cannot write image: ", "too many outputs");
+        return false;
+    }
+    Pending pend[IMAGE_MAX_OUTPUTS];
+    memset(pend, 0, sizeof pend);
+    bool ok = true;
+    for (int i = 0; i < n && ok; i++) {
+        pend[i].path = outs[i].path;
+        ok = encode(outs[i].image, outs[i].path, &pend[i], diag) && plan(&pend[i], diag);
+    }
+    /* 1. Every file-backed image into its temporary file; 2. the pipes and devices;
+     * 3. only when all of that worked, the renames (with the stop signals held, so a
+     * signal sees either every temporary file or none). */
+    g_write_phase = 1;
+    for (int i = 0; i < n && ok; i++)
+        if (!pend[i].direct)
+            ok = stage(&pend[i], i, diag);
+    for (int i = 0; i < n && ok; i++)
+        if (pend[i].direct)
+            ok = write_direct(&pend[i], diag);
+    sigset_t old;
+    block_stop_signals(&old);
+    g_write_phase = 2;
+    for (int i = 0; i < n; i++) {
+        if (!g_tmp_live[i])
+            continue;
+        if (ok && rename(g_tmp_name[i], pend[i].target) != 0) {
+            report(diag, pend[i].path, "cannot write image: ", strerror(errno));
+            ok = false;
+        }
+        if (!ok)
+            unlink(g_tmp_name[i]);
+        g_tmp_live[i] = 0;
+    }
+    g_write_phase = 0;
+    restore_signals(&old);
+    for (int i = 0; i < n; i++) {
+        free(pend[i].data);
+        free(pend[i].target);
+    }
     return ok;
+}
+
+bool image_write(const Image *img, const char *path, Diag *diag)
+{
+    ImageOutput one = {img, path};
+    return image_write_all(&one, 1, diag);
 }
 
 /* ---- reading ------------------------------------------------------------------- */

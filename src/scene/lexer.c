@@ -42,8 +42,20 @@ static bool lex_scan(Lexer *lx, Token *t)
     t->loc.col = lx->col;
     t->text = lx->buf + lx->pos;
     size_t start = lx->pos;
-    while (lx->pos < lx->len && !is_space((unsigned char)lx->buf[lx->pos]))
+    while (lx->pos < lx->len && !is_space((unsigned char)lx->buf[lx->pos])) {
+        unsigned char c = (unsigned char)lx->buf[lx->pos];
+        /* Scene files are text: a NUL or other control byte is never part of a token
+         * (it would end a C string early, and it is never what the author meant). */
+        if (c < 0x20 || c == 0x7f) {
+            SrcLoc at = t->loc;
+            size_t col = (size_t)lx->col + (lx->pos - start);
+            at.col = col > INT_MAX ? INT_MAX : (int)col;
+            diag_error(lx->diag, &at, "control byte \\x%02x in the scene (scene files are text)",
+                       c);
+            return false;
+        }
         lx->pos++;
+    }
     t->len = lx->pos - start;
     /* Columns count bytes; a token never contains a newline. Saturate on absurd lines. */
     size_t col = (size_t)lx->col + t->len;

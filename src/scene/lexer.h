@@ -1,5 +1,7 @@
 /* Private to src/scene: the scene-file tokenizer (scene-format.md 1). Tokens are maximal
- * runs of non-whitespace bytes, each located file:line:col (1-based, col in bytes). */
+ * runs of non-whitespace bytes, each located file:line:col (1-based, col in bytes), and
+ * carry their length (they are not NUL-terminated). A control byte (below 0x20 other
+ * than whitespace, or 0x7f) is a located error. */
 #ifndef RT_SCENE_LEXER_H
 #define RT_SCENE_LEXER_H
 
@@ -34,11 +36,13 @@ bool lex_next(Lexer *lx, Token *t);
 /* The next token without consuming it. */
 bool lex_peek(Lexer *lx, Token *t);
 
+/* Compares the token's len bytes with the C string kw; never reads kw past its NUL,
+ * whatever bytes the token holds. */
 static inline bool tok_is(const Token *t, const char *kw)
 {
     size_t i = 0;
     for (; i < t->len; i++)
-        if (kw[i] != t->text[i])
+        if (kw[i] == '\0' || kw[i] != t->text[i])
             return false;
     return kw[i] == '\0';
 }

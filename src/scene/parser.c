@@ -273,6 +273,33 @@ static bool parse_transformation(Parser *p, const Token *t, Mat4 *m)
 
 static bool parse_object(Parser *p, const Token *kw, Object3D **out);
 
+/* Tells a truly singular transformation (a zero scale, a flattened Matrix) from one that
+ * float merely cannot invert (Scale 1e30: its inverse is fine in exact arithmetic). The
+ * rows of the 3x3 part are normalised first, so the test does not depend on the scale:
+ * their determinant is the volume of three unit vectors (1 for any rotation and
+ * scale). lo..hi: the shortest and longest row, the scale factors' span. */
+static bool linear_part_singular(const Mat4 *m, double *lo, double *hi)
+{
+    double r[3][3];
+    *lo = INFINITY;
+    *hi = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double len = 0.0;
+        for (int j = 0; j < 3; j++)
+            len = hypot(len, (double)m->m[i][j]);
+        *lo = fmin(*lo, len);
+        *hi = fmax(*hi, len);
+        if (!(len > 0.0) || !isfinite(len))
+            return true;
+        for (int j = 0; j < 3; j++)
+            r[i][j] = (double)m->m[i][j] / len;
+    }
+    double det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1]) -
+                 r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0]) +
+                 r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+    return !(fabs(det) > 1e-6);
+}
+
 static bool is_object(const Token *t)
 {
     return tok_is(t, "Group") || tok_is(t, "Sphere") || tok_is(t, "Plane") ||
@@ -397,8 +424,14 @@ static bool parse_transform(Parser *p, const Token *kw, Object3D **out)
     Object3D *x = transform_new(&p->s->arena, &m, child);
     if (!x) {
         Mat4 inv;
-        if (!mat4_inverse(&m, &inv))
-            return fail(p, &kw->loc, "singular transformation (the matrix has no inverse)");
+        if (!mat4_inverse(&m, &inv)) {
+            double lo, hi;
+            if (linear_part_singular(&m, &lo, &hi))
+                return fail(p, &kw->loc, "singular transformation (the matrix has no inverse)");
+            return fail(p, &kw->loc, "transformation too extreme to invert in float precision: "
+                        "its scale factors span %.3g..%.3g (keep them within 1e-12..1e12)",
+                        lo, hi);
+        }
         return out_of_memory(p, &kw->loc);
     }
     p->depth--;

@@ -263,6 +263,12 @@ case("rotate_without_braces", HEAD + group("    Transform {\n        Rotate @@0 
      "expected '{', found '0'")
 case("rotate_zero_axis", HEAD + group("    Transform {\n        Rotate { @@0 0 0 90 }\n" + SPHERE + "    }\n"),
      "Rotate axis is zero")
+# Invertible in exact arithmetic but not in float: not "singular", say what is wrong.
+case("transform_scale_1e30", HEAD + group("    @@Transform {\n        Scale 1e30 1e30 1e30\n" + SPHERE + "    }\n"),
+     "transformation too extreme to invert in float precision: its scale factors span 1e+30..1e+30")
+case("transform_matrix_1e38", HEAD + group("    @@Transform {\n        Matrix {\n            1e38 0 0 0\n            0 1 0 0\n"
+     "            0 0 1 0\n            0 0 0 1\n        }\n" + SPHERE + "    }\n"),
+     "transformation too extreme to invert in float precision: its scale factors span 1..1e+38")
 case("transform_overflow", HEAD + group("    Transform {\n        UniformScale 1e30\n        @@UniformScale 1e30\n" + SPHERE + "    }\n"),
      "transformation overflows (matrix is not finite)")
 case("transform_two_objects", HEAD + group("    Transform {\n" + SPHERE + "    @@Sphere {\n        center 1 0 0\n        radius 1\n    }\n    }\n"),
@@ -302,7 +308,17 @@ case("long_token", "@@" + "A" * 5000 + "\n", "token too long (5000 characters, t
 case("hash_comment", "@@# a comment: the course format has none\n" + HEAD, "unknown top-level block '#'")
 case("slash_comment", HEAD + "@@// trailing comment\n", "unknown top-level block '//'")
 case("binary_garbage", b"@@\x7fELF\x02\x01\x01\x00\x00garbage \xff\xfe\n",
-     "unknown top-level block '\\x7fELF\\x02\\x01\\x01\\x00\\x00garbage'")
+     "control byte \\x7f in the scene")
+# A keyword followed by NUL bytes once made the keyword comparison read past the end of
+# the keyword (the reproducers of the reliability issue, byte for byte).
+case("scene_tok_is_nul_overread", b"Lights@@\x00\x00x", "control byte \\x00 in the scene")
+case("scene_group_nul_overread",
+     b"OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+     b"Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
+     b"Materials { numMaterials 2 PhongMaterial { diffuseColor 1 0 0 } PhongMaterial { diffuseColor 0 1 0 } }\n"
+     b"Background { color 0 0 0 ambientLight 0.1 0.1 0.1 }\n"
+     b"Group@@\x00\x00\x00 { numObjects 0 }\n",
+     "control byte \\x00 in the scene")
 case("crlf_error", (HEAD + group("    Sphere {\r\n        center 0 0 0\r\n        @@rad 1\r\n    }\r\n")).replace("\n", "\r\n").replace("\r\r\n", "\r\n"),
      "expected 'radius', found 'rad'")
 case("utf8_keyword", "@@Gröup {\n", "unknown top-level block 'Gr\\xc3\\xb6up'")

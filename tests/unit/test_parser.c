@@ -814,8 +814,10 @@ static void test_errors_limits(void)
     Scene *s = load(buf);
     CHECK_MSG(s != NULL, "%s", g_diag.last);
     scene_free(s);
-    /* Binary garbage is shown escaped. */
-    EXPECT_ERROR("\x01\x02\xff", "t.txt:1:1: error: unknown top-level block '\\x01\\x02\\xff'");
+    /* Control bytes are refused where they are; other bytes are shown escaped. */
+    EXPECT_ERROR("\x01\x02\xff", "t.txt:1:1: error: control byte \\x01 in the scene");
+    EXPECT_ERROR("Group\x7f {", "t.txt:1:6: error: control byte \\x7f in the scene");
+    EXPECT_ERROR("\xfe\xff", "t.txt:1:1: error: unknown top-level block '\\xfe\\xff'");
     free(buf);
     CHECK_NO_LEAKS();
 }
