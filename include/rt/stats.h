@@ -27,9 +27,18 @@ typedef struct StatsReport {
     RtStats counts;
 } StatsReport;
 
-/* Prints the 15-line block. total time is the course's H:MM:SS (whole seconds, 0
- * bumped to 1 like the course); rays per second uses the precise elapsed time. */
+/* Prints the 15-line block, every figure the course's way: total time is H:MM:SS in
+ * whole seconds (stats_course_seconds), rays per second is
+ * stats_course_rays_per_second. */
 void stats_print(FILE *out, const StatsReport *r);
+/* The whole seconds the course prints as total time: floor(elapsed), and 1 when that
+ * is 0 (the course's time(NULL) difference, bumped from 0 to 1). */
+long stats_course_seconds(double elapsed_seconds);
+/* The course's rays per second: rays / stats_course_seconds(elapsed), divided in single
+ * precision like the course (so a render under a second shows the ray count). */
+double stats_course_rays_per_second(uint64_t rays, double elapsed_seconds);
+/* The precise rate (for -timings): rays / elapsed; 0 when elapsed is not positive. */
+double stats_rays_per_second(uint64_t rays, double elapsed_seconds);
 
 /* Monotonic clock in seconds. */
 double clock_now(void);

@@ -133,6 +133,23 @@ static inline bool batch_intersect(const Grid *g, const TriBatch *b, const RaySi
     }
     return found;
 }
+
+/* The shadow query's batch: true when a lane holds an occluder (t < h->t, as
+ * hit_accepts against the query's (tmax, id 0) takes it). Counts the tests the scalar
+ * loop would have made: up to and including the first occluding lane. */
+static inline bool batch_occluded(const Grid *g, const TriBatch *b, const RaySimd *r,
+                                  const Hit *h, RenderCtx *ctx)
+{
+    float t[4];
+    int mask = batch_test(g, b, r, t);
+    for (int i = 0; i < 4; i++)
+        if ((mask & (1 << i)) && t[i] < h->t) {
+            ctx->stats.intersections += (uint64_t)i + 1;
+            return true;
+        }
+    ctx->stats.intersections += 4;
+    return false;
+}
 #endif
 
 /* A fresh stamp for this ray, or 0 when there is no usable mailbox. Stamps wrap after
@@ -317,7 +334,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
             if (item & GRID_ITEM_TRI) {
                 batch.p[batch.n++] = GRID_ITEM_INDEX(item);
                 if (batch.n == 4) {
-                    if (batch_intersect(g, &batch, &rs, &h, ctx))
+                    if (batch_occluded(g, &batch, &rs, &h, ctx))
                         return true; /* the first occluder settles it */
                     batch.n = 0;
                 }

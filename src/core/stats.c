@@ -23,14 +23,33 @@ double clock_now(void)
 
 static double ratio(double a, double b) { return b > 0.0 ? a / b : 0.0; }
 
+long stats_course_seconds(double elapsed_seconds)
+{
+    /* Whole seconds, 0 bumped to 1, as the course's time(NULL) difference (NaN and
+     * absurd values are kept in range: the cast must not overflow). */
+    if (!(elapsed_seconds >= 1.0))
+        return 1;
+    if (elapsed_seconds > 1e15)
+        return 1000000000000000L;
+    return (long)floor(elapsed_seconds);
+}
+
+double stats_course_rays_per_second(uint64_t rays, double elapsed_seconds)
+{
+    /* The course: float(num_rays) / float(delta_time), delta_time the whole seconds it
+     * prints as total time. A render under a second therefore shows the ray count. */
+    return (double)((float)rays / (float)stats_course_seconds(elapsed_seconds));
+}
+
+double stats_rays_per_second(uint64_t rays, double elapsed_seconds)
+{
+    return elapsed_seconds > 0.0 ? (double)rays / elapsed_seconds : 0.0;
+}
+
 void stats_print(FILE *out, const StatsReport *r)
 {
-    /* Whole seconds, 0 bumped to 1, as the course's time(NULL) difference. */
-    long secs = (long)floor(r->elapsed_seconds);
-    if (secs <= 0)
-        secs = 1;
+    long secs = stats_course_seconds(r->elapsed_seconds);
     unsigned long long rays = r->counts.nonshadow_rays + r->counts.shadow_rays;
-    double elapsed = r->elapsed_seconds > 0.0 ? r->elapsed_seconds : 1e-9;
     double pixels = (double)r->width * (double)r->height;
 
     fprintf(out, "********************************************\n");
@@ -54,9 +73,8 @@ void stats_print(FILE *out, const StatsReport *r)
     fprintf(out, "  num shadow rays            %llu\n", (unsigned long long)r->counts.shadow_rays);
     fprintf(out, "  total intersections        %llu\n", (unsigned long long)r->counts.intersections);
     fprintf(out, "  total cells traversed      %llu\n", (unsigned long long)r->counts.cells_traversed);
-    /* Precise elapsed time here: the course's whole-second division would make this
-     * equal to the ray count for every sub-second render (docs/statistics.md). */
-    fprintf(out, "  rays per second            %0.1f\n", (double)rays / elapsed);
+    fprintf(out, "  rays per second            %0.1f\n",
+            stats_course_rays_per_second(rays, r->elapsed_seconds));
     fprintf(out, "  rays per pixel             %0.1f\n", ratio((double)rays, pixels));
     fprintf(out, "  intersections per ray      %0.1f\n",
             ratio((double)r->counts.intersections, (double)rays));

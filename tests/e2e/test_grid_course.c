@@ -23,6 +23,8 @@ typedef struct Opts {
     bool stats;              /* make sure -stats is there */
     const char *size;        /* replace -size's values by "w h" ("100 100"), or NULL */
     const char *extra;       /* one more flag, or NULL */
+    const char *more[4];     /* more arguments (NULL-terminated, if fewer than 4) */
+    bool drop_stats;         /* remove "-stats" (when stats is false) */
 } Opts;
 
 typedef struct Render {
@@ -54,6 +56,8 @@ static void render(const char *course, const E2eCourseLine *l, const char *dir, 
             args[n++] = a;
             args[n++] = r->out;
             i++;
+        } else if (strcmp(a, "-stats") == 0 && o->drop_stats && !o->stats) {
+            continue;
         } else if (strcmp(a, "-grid") == 0 && o->drop_grid) {
             i += 3;
         } else if (strcmp(a, "-size") == 0 && o->size && i + 2 < l->argc) {
@@ -69,6 +73,8 @@ static void render(const char *course, const E2eCourseLine *l, const char *dir, 
         args[n++] = "-stats";
     if (o->extra)
         args[n++] = o->extra;
+    for (int i = 0; i < 4 && o->more[i]; i++)
+        args[n++] = o->more[i];
     args[n] = NULL;
     if (!e2e_run_bin(harness_bin(), args, &r->run)) {
         CHECK_MSG(false, "cannot start %s", harness_bin());
@@ -151,7 +157,8 @@ static void check_grid_line(const char *id)
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gridcourse") != NULL);
     const char *size = !strcmp(id, "07") && sanitized_binary() ? "100 100" : NULL;
-    Opts with = {false, true, size, NULL}, without = {true, true, size, NULL};
+    Opts with = {false, true, size, NULL, {NULL}, false},
+         without = {true, true, size, NULL, {NULL}, false};
     Render g, b;
     render(course, &l, dir, "grid.tga", &with, &g);
     render(course, &l, dir, "nogrid.tga", &without, &b);
@@ -190,7 +197,7 @@ static void check_visualize(const char *course, const E2eCourseLine *l, const ch
     CHECK(e2e_course_has_arg(l, "-visualize_grid"));
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gridvis") != NULL);
-    Opts o = {false, false, NULL, NULL};
+    Opts o = {false, false, NULL, NULL, {NULL}, false};
     Render r;
     render(course, l, dir, "vis.tga", &o, &r);
     if (r.ok)
@@ -237,7 +244,8 @@ static void test_no_marking_same_image(void)
         return;
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gridmark") != NULL);
-    Opts on = {false, true, NULL, NULL}, off = {false, true, NULL, "-no_marking"};
+    Opts on = {false, true, NULL, NULL, {NULL}, false},
+         off = {false, true, NULL, "-no_marking", {NULL}, false};
     Render a, b;
     render(course, &l, dir, "on.tga", &on, &a);
     render(course, &l, dir, "off.tga", &off, &b);
@@ -257,8 +265,8 @@ static void test_no_marking_same_image(void)
 }
 
 /* Ray packets (the default with a grid) against -no_packets (every ray marched on its
- * own), through the binary: the same bytes and rays; only the counters of tests and
- * cells differ, by a few percent. */
+ * own), through the binary: the same bytes. Without -stats (dropped from 07's line),
+ * since -stats marches every ray on its own (check_stats_packets_threads). */
 static void check_no_packets_same_image(const char *id)
 {
     const char *course = e2e_course_or_skip();
@@ -268,23 +276,69 @@ static void check_no_packets_same_image(const char *id)
         return;
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gridpk") != NULL);
-    Opts on = {false, true, NULL, NULL}, off = {false, true, NULL, "-no_packets"};
+    Opts on = {false, false, NULL, NULL, {NULL}, true},
+         off = {false, false, NULL, "-no_packets", {NULL}, true};
     Render a, b;
     render(course, &l, dir, "packets.tga", &on, &a);
     render(course, &l, dir, "single.tga", &off, &b);
     CHECK(a.ok && b.ok);
-    if (a.ok && b.ok) {
+    if (a.ok && b.ok)
         CHECK(same_bytes(a.out, b.out));
-        CHECK_INT(a.stats.nonshadow, b.stats.nonshadow);
-        CHECK_INT(a.stats.shadow, b.stats.shadow);
-        printf("\n    %s intersections: %llu in packets, %llu ray by ray; cells %llu, %llu\n    ",
-               id, a.stats.intersections, b.stats.intersections, a.stats.cells, b.stats.cells);
-        /* Each ray tests only the cells its path spans: close to its own march. */
-        CHECK(a.stats.intersections < b.stats.intersections * 3 / 2);
-        CHECK(a.stats.cells < b.stats.cells * 3 / 2);
-    }
     e2e_run_free(&a.run);
     e2e_run_free(&b.run);
+    e2e_rmtree(dir);
+}
+
+/* -stats counts the course's way whatever the traversal: each ray's own march (one
+ * test per primitive it tests, one cell per cell it enters), so the counters are the
+ * same with packets and with -no_packets, on one thread and on two, and so are the
+ * images. */
+static void check_stats_packets_threads(const char *id)
+{
+    const char *course = e2e_course_or_skip();
+    E2eCourseLine l;
+    CHECK_MSG(e2e_course_line(course, id, &l), "line %s not in commands.txt", id);
+    if (harness_failures)
+        return;
+    CHECK(e2e_course_has_arg(&l, "-grid"));
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "gridstats") != NULL);
+    const char *size = !strcmp(id, "07") && sanitized_binary() ? "100 100" : NULL;
+    enum { RUNS = 4 };
+    static const char *names[RUNS] = {"p1.tga", "p2.tga", "s1.tga", "s2.tga"};
+    Opts o[RUNS] = {
+        {false, true, size, NULL, {"-threads", "1", NULL, NULL}, false},
+        {false, true, size, NULL, {"-threads", "2", NULL, NULL}, false},
+        {false, true, size, "-no_packets", {"-threads", "1", NULL, NULL}, false},
+        {false, true, size, "-no_packets", {"-threads", "2", NULL, NULL}, false},
+    };
+    Render r[RUNS];
+    bool all = true;
+    for (int i = 0; i < RUNS; i++) {
+        render(course, &l, dir, names[i], &o[i], &r[i]);
+        all = all && r[i].ok && r[i].stats.found;
+    }
+    CHECK(all);
+    if (all) {
+        printf("\n    %-4s rays %llu + %llu, intersections %llu, cells %llu", id,
+               r[0].stats.nonshadow, r[0].stats.shadow, r[0].stats.intersections,
+               r[0].stats.cells);
+        for (int i = 1; i < RUNS; i++) {
+            CHECK_MSG(same_bytes(r[0].out, r[i].out), "%s: %s differs from %s", id,
+                      names[i], names[0]);
+            CHECK_INT(r[i].stats.nonshadow, r[0].stats.nonshadow);
+            CHECK_INT(r[i].stats.shadow, r[0].stats.shadow);
+            CHECK_MSG(r[i].stats.intersections == r[0].stats.intersections,
+                      "%s: %llu intersections in %s, %llu in %s", id,
+                      r[i].stats.intersections, names[i], r[0].stats.intersections, names[0]);
+            CHECK_MSG(r[i].stats.cells == r[0].stats.cells,
+                      "%s: %llu cells in %s, %llu in %s", id, r[i].stats.cells, names[i],
+                      r[0].stats.cells, names[0]);
+        }
+    }
+    printf("\n    ");
+    for (int i = 0; i < RUNS; i++)
+        e2e_run_free(&r[i].run);
     e2e_rmtree(dir);
 }
 
@@ -380,6 +434,15 @@ GRID_LINE(04b) GRID_LINE(04d) GRID_LINE(05) GRID_LINE(06) GRID_LINE(07)
 GRID_LINE(08b) GRID_LINE(09b) GRID_LINE(10b) GRID_LINE(11b) GRID_LINE(12b)
 VIS_LINE(01c) VIS_LINE(02e) VIS_LINE(03e) VIS_LINE(04e) VIS_LINE(08c) VIS_LINE(09c)
 VIS_LINE(10c) VIS_LINE(11c) VIS_LINE(12c) VIS_LINE(17b) VIS_LINE(18b)
+#define STATS_LINE(id) \
+    static void test_stats_##id(void) { check_stats_packets_threads(#id); }
+STATS_LINE(01b) STATS_LINE(02b) STATS_LINE(02d) STATS_LINE(03b) STATS_LINE(03d)
+STATS_LINE(04b) STATS_LINE(04d) STATS_LINE(05) STATS_LINE(06) STATS_LINE(07)
+STATS_LINE(08b) STATS_LINE(09b) STATS_LINE(10b) STATS_LINE(11b) STATS_LINE(12b)
+STATS_LINE(14) STATS_LINE(17a) STATS_LINE(18a)
+STATS_LINE(01c) STATS_LINE(02e) STATS_LINE(03e) STATS_LINE(04e) STATS_LINE(08c)
+STATS_LINE(09c) STATS_LINE(10c) STATS_LINE(11c) STATS_LINE(12c) STATS_LINE(17b)
+STATS_LINE(18b)
 
 static const TestCase tests[] = {
     {"grid_01b", test_grid_01b}, {"grid_02b", test_grid_02b}, {"grid_02d", test_grid_02d},
@@ -392,6 +455,21 @@ static const TestCase tests[] = {
     {"vis_10c", test_vis_10c},   {"vis_11c", test_vis_11c},   {"vis_12c", test_vis_12c},
     {"vis_17b", test_vis_17b},   {"vis_18b", test_vis_18b},
     {"vis_bunny_40k_reference", test_vis_bunny_40k_reference},
+    {"stats_01b", test_stats_01b}, {"stats_02b", test_stats_02b},
+    {"stats_02d", test_stats_02d}, {"stats_03b", test_stats_03b},
+    {"stats_03d", test_stats_03d}, {"stats_04b", test_stats_04b},
+    {"stats_04d", test_stats_04d}, {"stats_05", test_stats_05},
+    {"stats_06", test_stats_06},   {"stats_07", test_stats_07},
+    {"stats_08b", test_stats_08b}, {"stats_09b", test_stats_09b},
+    {"stats_10b", test_stats_10b}, {"stats_11b", test_stats_11b},
+    {"stats_12b", test_stats_12b}, {"stats_14", test_stats_14},
+    {"stats_17a", test_stats_17a}, {"stats_18a", test_stats_18a},
+    {"stats_01c", test_stats_01c}, {"stats_02e", test_stats_02e},
+    {"stats_03e", test_stats_03e}, {"stats_04e", test_stats_04e},
+    {"stats_08c", test_stats_08c}, {"stats_09c", test_stats_09c},
+    {"stats_10c", test_stats_10c}, {"stats_11c", test_stats_11c},
+    {"stats_12c", test_stats_12c}, {"stats_17b", test_stats_17b},
+    {"stats_18b", test_stats_18b},
     {"no_marking_same_image", test_no_marking_same_image},
     {"no_packets_same_image_07", test_no_packets_07},
     {"no_packets_same_image_17a", test_no_packets_17a},

@@ -4,6 +4,7 @@
 #include "rt/options.h"
 #include "rt/stats.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 static bool parse(Options *o, const char *line, char *err, size_t errlen)
@@ -100,7 +101,7 @@ static void test_stats_block(void)
         "  num shadow rays            0\n"
         "  total intersections        40000\n"
         "  total cells traversed      0\n"
-        "  rays per second            160000.0\n"
+        "  rays per second            40000.0\n"
         "  rays per pixel             1.0\n"
         "  intersections per ray      1.0\n"
         "  cells traversed per ray    0.0\n"
@@ -119,10 +120,61 @@ static void test_stats_block(void)
     CHECK_CONTAINS(buf, "  cells traversed per ray    6.0\n");
 }
 
+/* The course's rays per second: rays over the whole seconds printed as total time (0
+ * bumped to 1), divided in single precision; the precise rate is for -timings. */
+static void test_stats_rays_per_second(void)
+{
+    char buf[64];
+    /* Course line 07: 106,902 rays in 0.07 s print as 106902.0 next to 0:00:01. */
+    snprintf(buf, sizeof buf, "%0.1f", stats_course_rays_per_second(106902, 0.074));
+    CHECK_STR(buf, "106902.0");
+    CHECK_INT(stats_course_seconds(0.074), 1);
+    /* 0 seconds measured: the course bumps the delta to 1. */
+    snprintf(buf, sizeof buf, "%0.1f", stats_course_rays_per_second(106902, 0.0));
+    CHECK_STR(buf, "106902.0");
+    CHECK_INT(stats_course_seconds(0.0), 1);
+    /* 2.9 s is 2 whole seconds. */
+    snprintf(buf, sizeof buf, "%0.1f", stats_course_rays_per_second(106902, 2.9));
+    CHECK_STR(buf, "53451.0");
+    CHECK_INT(stats_course_seconds(2.9), 2);
+    /* Single precision: 123456789 becomes 123456792.0f, and 123456792 / 7 =
+     * 17636684.57 rounds to the float 17636684 (floats are 2 apart there); a double
+     * division would print 17636684.1. */
+    snprintf(buf, sizeof buf, "%0.1f", stats_course_rays_per_second(123456789, 7.5));
+    CHECK_STR(buf, "17636684.0");
+    /* Hours: 150 rays in 3725 s. */
+    snprintf(buf, sizeof buf, "%0.1f", stats_course_rays_per_second(150, 3725.5));
+    CHECK_STR(buf, "0.0");
+    /* Out-of-range times stay in range. */
+    CHECK_INT(stats_course_seconds(-3.0), 1);
+    CHECK_INT(stats_course_seconds(NAN), 1);
+    /* The precise rate. */
+    snprintf(buf, sizeof buf, "%0.1f", stats_rays_per_second(106902, 0.5));
+    CHECK_STR(buf, "213804.0");
+    snprintf(buf, sizeof buf, "%0.1f", stats_rays_per_second(106902, 0.0));
+    CHECK_STR(buf, "0.0");
+
+    /* In the block: line 07's counts, under and over a second. */
+    char block[4096] = "";
+    FILE *f = fmemopen(block, sizeof block, "w");
+    StatsReport r = {200, 200, NULL, 40, 40, 33, 0.074, {40000, 66902, 2253921, 1060169, 0, 0}};
+    stats_print(f, &r);
+    fclose(f);
+    CHECK_CONTAINS(block, "  total time                 0:00:01\n");
+    CHECK_CONTAINS(block, "  rays per second            106902.0\n");
+    f = fmemopen(block, sizeof block, "w");
+    r.elapsed_seconds = 2.9;
+    stats_print(f, &r);
+    fclose(f);
+    CHECK_CONTAINS(block, "  total time                 0:00:02\n");
+    CHECK_CONTAINS(block, "  rays per second            53451.0\n");
+}
+
 static const TestCase tests[] = {
     {"options: a full course command line", test_course_line},
     {"options: defaults, repeats, -grid auto, -h", test_defaults_and_repeats},
     {"options: usage errors say why", test_usage_errors},
     {"stats: the course block, label for label", test_stats_block},
+    {"stats: rays per second, the course's formula", test_stats_rays_per_second},
 };
 RT_TEST_MAIN(tests)
