@@ -71,7 +71,7 @@ static void print_version(void)
 {
     printf("raytracer %s\n", RT_VERSION);
     printf("features: png %s, gui window %s, gui snapshot (osmesa) %s\n",
-           image_png_supported() ? "yes" : "no (apt-get install libpng-dev; rebuild)",
+           image_format_supported("png") ? "yes" : "no (apt-get install libpng-dev; rebuild)",
            preview_window_built() ? "yes" : "no (apt-get install libglut-dev; rebuild)",
            preview_snapshot_built() ? "yes" : "no (apt-get install libosmesa6-dev; rebuild)");
     printf("threads: %d by default (all cores)\n", render_default_threads());

@@ -19,7 +19,8 @@ typedef struct TestCase {
 extern int harness_failures;
 void harness_fail(const char *file, int line, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
-/* Ends the current test as skipped with a reason (exit code 77 in the child). */
+/* Ends the current test as skipped with a reason (exit code 77 in the child); a test
+ * with a failed check before the skip ends failed instead. */
 void harness_skip(const char *reason) __attribute__((noreturn));
 int harness_main(int argc, char **argv, const TestCase *tests, int count);
 

@@ -17,16 +17,18 @@ enum { DIFF_GAIN = 8 };
 
 static void usage(FILE *out)
 {
+    char formats[128];
+    image_format_list(formats, sizeof formats);
     fprintf(out,
             "usage: imgdiff [-t threshold] [-p min_percent] [-q] a.tga b.tga [-o diff.tga]\n"
-            "  Compares two images (.tga, .ppm%s) byte by byte per channel.\n"
+            "  Compares two images (%s) byte by byte per channel.\n"
             "  -t N   a pixel matches when its largest channel difference is <= N/255 "
             "(default 8)\n"
             "  -p P   pass when at least P%% of the pixels match (default 99.5)\n"
             "  -q     print nothing, only set the exit status\n"
             "  -o F   write the difference image (|a-b| x %d per channel) to F\n"
             "exit status: 0 pass, 1 images differ (or sizes differ), 2 usage or read error\n",
-            image_png_supported() ? ", .png" : "", DIFF_GAIN);
+            formats, DIFF_GAIN);
 }
 
 static bool parse_int(const char *s, int lo, int hi, int *out)

@@ -24,9 +24,9 @@ static inline Vec3 image_get(const Image *img, int x, int y) { return img->pixel
 /* The course quantisation: clamp(int(c * 255), 0, 255); NaN -> 0 (tga.md 3). */
 uint8_t color_to_byte(float c);
 
-/* Writes by file name extension: .tga (course layout), .ppm (P6), .png (when built
- * with libpng). Writes to a temporary file in the same folder and renames it, so a
- * failure leaves no file. Reports failures to diag. */
+/* Writes by file name extension (image_codec_for_path): .tga (course layout), .ppm (P6),
+ * .png (when built with libpng). Writes to a temporary file in the same folder and
+ * renames it, so a failure leaves no file. Reports failures to diag. */
 bool image_write(const Image *img, const char *path, Diag *diag);
 
 /* Several images, all or nothing: each goes to its temporary file first (an existing
@@ -45,22 +45,38 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag);
  * with _exit, and nothing has been renamed into place); false when no write is under
  * way or the renames have begun (they finish: the images are then complete). */
 bool image_write_abort(void);
-/* Reads a .tga (uncompressed 24/32-bit, either row order) or .ppm (P6, 8-bit). */
+/* Reads any format of the codec table: by its signature (PPM "P6", PNG), else as TGA
+ * (uncompressed 24/32-bit, either row order), the format without one. */
 bool image_read(Image *img, const char *path, Diag *diag);
 
-/* Lower-level: encode into a malloc'd buffer (tests check the bytes); the caller frees
- * *out. False only when out of memory. Decoders fill a fresh image (the caller frees it
- * with image_free) or return false with a one-line reason in err and img left empty;
- * they never read past data + len. */
-bool tga_encode(const Image *img, uint8_t **out, size_t *out_len);
-bool tga_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
-bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len);
-bool ppm_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
-/* PNG (8-bit RGB). Only functional when built with libpng (RT_HAVE_PNG, mk/png.mk);
- * otherwise they fail. Same contracts as the TGA pair. */
-bool png_encode(const Image *img, uint8_t **out, size_t *out_len);
-bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
-/* True when this build can write PNG. */
-bool image_png_supported(void);
+/* One image file format: a static const table in the format's own file (src/io/tga.c,
+ * ppm.c, png.c), listed in src/io/codec_table.c. Adding a format is one new file and one
+ * row there. */
+typedef struct ImageCodec {
+    const char *name;              /* "tga": lower case, what image_codec_find takes */
+    const char *const *extensions; /* NULL-terminated, with the dot: ".tga" */
+    /* True when data begins with the format's signature. NULL for a format without one
+     * (TGA): image_read decodes as that format when no signature matched. */
+    bool (*sniff)(const uint8_t *data, size_t len);
+    /* Encodes into a malloc'd buffer (the caller frees *out); false only when out of
+     * memory. */
+    bool (*encode)(const Image *img, uint8_t **out, size_t *out_len);
+    /* Fills a fresh image (the caller frees it with image_free) or returns false with a
+     * one-line reason in err and img left empty; never reads past data + len. */
+    bool (*decode)(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);
+    /* A format whose library this build lacks has NULL encode and decode, and this
+     * says how to get it ("install libpng-dev and rebuild (make PNG=1)"); else NULL. */
+    const char *missing;
+} ImageCodec;
+
+/* The codec called name, built in or not; NULL when there is none. */
+const ImageCodec *image_codec_find(const char *name);
+/* The codec whose extension ends path's file name (case-insensitive); NULL for none. */
+const ImageCodec *image_codec_for_path(const char *path);
+/* True when this build reads and writes the format called name. */
+bool image_format_supported(const char *name);
+/* The extensions this build writes, for messages: ".tga, .ppm, .png". Always
+ * NUL-terminated; when size is too small, only the entries that fit whole. */
+void image_format_list(char *buf, size_t size);
 
 #endif

@@ -1,10 +1,15 @@
-/* Private helper of the image decoders in src/io/: their error reporting. */
+/* Private to src/io/: the codec table and the decoders' error reporting. */
 #ifndef RT_IO_CODEC_H
 #define RT_IO_CODEC_H
 
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
+#include "rt/image.h"
+
+/* The codec that reads data: the first whose signature matches, else the one without a
+ * signature (TGA). Never NULL. */
+const ImageCodec *image_codec_for_data(const uint8_t *data, size_t len);
 
 /* Formats the reason a decoder refuses its input into err (if any); returns false so
  * decoders can write `return codec_fail(err, errlen, "...")`. */

@@ -1,94 +1,22 @@
-/* The in-memory Image, the course's float->byte quantisation, and writing/reading image
- * files by name: the format follows the extension, and a write goes to a temporary file
- * in the target folder that is renamed into place, so a failed run leaves no file. */
+/* Image files by name: the codec follows the extension when writing and the file's
+ * signature when reading (src/io/codec_table.c), and a write goes to a temporary file in
+ * the target folder that is renamed into place, so a failed run leaves no file. */
 #define _POSIX_C_SOURCE 200809L
 #include "rt/image.h"
+#include "codec.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
-#include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* Keeps a single allocation well below what size_t arithmetic or the TGA/PNG size fields
- * can describe; 65535 is also the TGA limit per side. */
-enum { IMAGE_MAX_SIDE = 65535 };
-
-bool image_init(Image *img, int width, int height)
-{
-    img->width = 0;
-    img->height = 0;
-    img->pixels = NULL;
-    if (width <= 0 || height <= 0 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE)
-        return false;
-    Vec3 *p = calloc((size_t)width * (size_t)height, sizeof *p);
-    if (!p)
-        return false;
-    img->width = width;
-    img->height = height;
-    img->pixels = p;
-    return true;
-}
-
-void image_free(Image *img)
-{
-    if (!img)
-        return;
-    free(img->pixels);
-    img->pixels = NULL;
-    img->width = img->height = 0;
-}
-
-void image_fill(Image *img, Vec3 c)
-{
-    long n = (long)img->width * img->height;
-    for (long i = 0; i < n; i++)
-        img->pixels[i] = c;
-}
-
-uint8_t color_to_byte(float c)
-{
-    /* tga.md 3: v = (int)(c * 255), then clamped to 0..255. The clamp happens in float
-     * first because converting NaN or a huge float to int is undefined in C; for every
-     * finite input the result equals the course's. */
-    float v = c * 255.0f;
-    if (!(v > 0.0f)) /* also catches NaN */
-        return 0;
-    if (v >= 255.0f)
-        return 255;
-    return (uint8_t)(int)v; /* truncation toward zero, like the course */
-}
-
-/* ---- file names ---------------------------------------------------------------- */
-
-typedef enum ImageFormat { FMT_UNKNOWN, FMT_TGA, FMT_PPM, FMT_PNG } ImageFormat;
-
-static ImageFormat format_from_name(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    const char *base = slash ? slash + 1 : path;
-    const char *dot = strrchr(base, '.');
-    if (!dot)
-        return FMT_UNKNOWN;
-    if (strcasecmp(dot, ".tga") == 0)
-        return FMT_TGA;
-    if (strcasecmp(dot, ".ppm") == 0)
-        return FMT_PPM;
-    if (strcasecmp(dot, ".png") == 0)
-        return FMT_PNG;
-    return FMT_UNKNOWN;
-}
-
-static const char *supported_list(void)
-{
-    return image_png_supported() ? ".tga, .ppm, .png" : ".tga, .ppm";
-}
+/* ---- messages ------------------------------------------------------------------ */
 
 static void report(Diag *diag, const char *path, const char *fmt_msg, const char *detail)
 {
@@ -96,6 +24,15 @@ static void report(Diag *diag, const char *path, const char *fmt_msg, const char
         return;
     SrcLoc loc = {path, 0, 0};
     diag_error(diag, &loc, "%s%s", fmt_msg, detail ? detail : "");
+}
+
+/* The format's name as messages write it: "PNG". */
+static void upper_name(const ImageCodec *codec, char *buf, size_t size)
+{
+    size_t i = 0;
+    for (; codec->name[i] && i + 1 < size; i++)
+        buf[i] = (char)toupper((unsigned char)codec->name[i]);
+    buf[i] = '\0';
 }
 
 /* ---- writing ------------------------------------------------------------------- */
@@ -234,30 +171,29 @@ static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
         report(diag, path, "cannot write image: ", "empty image");
         return false;
     }
-    switch (format_from_name(path)) {
-    case FMT_TGA:
-        ok = tga_encode(img, &p->data, &p->len);
-        break;
-    case FMT_PPM:
-        ok = ppm_encode(img, &p->data, &p->len);
-        break;
-    case FMT_PNG:
-        if (!image_png_supported()) {
-            report(diag, path, "PNG output is not built in: install libpng-dev and "
-                   "rebuild (make PNG=1), or write .tga or .ppm", NULL);
-            return false;
-        }
-        ok = png_encode(img, &p->data, &p->len);
-        break;
-    case FMT_UNKNOWN:
-    default:
+    const ImageCodec *codec = image_codec_for_path(path);
+    if (!codec) {
         if (diag) {
+            char list[128];
+            image_format_list(list, sizeof list);
             SrcLoc loc = {path, 0, 0};
             diag_error(diag, &loc, "unknown image format (file name must end in one of %s)",
-                       supported_list());
+                       list);
         }
         return false;
     }
+    if (!codec->encode) {
+        if (diag) {
+            char name[16], list[128];
+            upper_name(codec, name, sizeof name);
+            image_format_list(list, sizeof list);
+            SrcLoc loc = {path, 0, 0};
+            diag_error(diag, &loc, "%s output is not built in: %s, or write one of %s", name,
+                       codec->missing, list);
+        }
+        return false;
+    }
+    ok = codec->encode(img, &p->data, &p->len);
     if (!ok)
         report(diag, path, "cannot write image: ", strerror(ENOMEM));
     return ok;
@@ -403,20 +339,14 @@ bool image_read(Image *img, const char *path, Diag *diag)
         report(diag, path, "cannot read image: ", strerror(e));
         return false;
     }
-    /* PPM and PNG carry a signature; TGA has none, so it is the fallback. */
-    static const uint8_t png_sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-    if (len >= 2 && data[0] == 'P' && data[1] == '6') {
-        ok = ppm_decode(data, len, img, why, sizeof why);
-    } else if (len >= 8 && memcmp(data, png_sig, 8) == 0) {
-        if (image_png_supported())
-            ok = png_decode(data, len, img, why, sizeof why);
-        else {
-            snprintf(why, sizeof why, "PNG input is not built in (install libpng-dev and "
-                     "rebuild)");
-            ok = false;
-        }
+    const ImageCodec *codec = image_codec_for_data(data, len);
+    if (!codec->decode) {
+        char name[16];
+        upper_name(codec, name, sizeof name);
+        snprintf(why, sizeof why, "%s input is not built in: %s", name, codec->missing);
+        ok = false;
     } else {
-        ok = tga_decode(data, len, img, why, sizeof why);
+        ok = codec->decode(data, len, img, why, sizeof why);
     }
     free(data);
     if (!ok)

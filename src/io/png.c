@@ -1,41 +1,16 @@
 /* Optional PNG support through libpng (built when mk/png.mk defines RT_HAVE_PNG): 8-bit
  * RGB out, 8/16-bit grey/RGB/palette (with or without alpha) in. Without libpng the
- * functions exist but fail, and image_png_supported() says so. */
+ * codec has no encoder or decoder and says what to install. */
 #include "rt/image.h"
 
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef RT_HAVE_PNG
-
-bool image_png_supported(void) { return false; }
-
-bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
-{
-    (void)img;
-    *out = NULL;
-    *out_len = 0;
-    return false;
-}
-
-bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
-{
-    (void)data;
-    (void)len;
-    img->width = img->height = 0;
-    img->pixels = NULL;
-    if (err && errlen)
-        snprintf(err, errlen, "PNG is not built in (install libpng-dev and rebuild)");
-    return false;
-}
-
-#else
+#ifdef RT_HAVE_PNG
 
 #include <png.h>
 #include <setjmp.h>
-
-bool image_png_supported(void) { return true; }
 
 /* Growable output buffer for libpng's write callback. */
 typedef struct PngBuf {
@@ -81,7 +56,7 @@ static void quiet_warning(png_structp png, png_const_charp msg)
     (void)msg;
 }
 
-bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
+static bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
 {
     int w = img->width, h = img->height;
     PngBuf buf = {NULL, 0, 0, false};
@@ -138,7 +113,7 @@ static void src_read(png_structp png, png_bytep dst, png_size_t n)
     s->pos += n;
 }
 
-bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
+static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
 {
     PngSrc src = {data, len, 0};
     img->width = img->height = 0;
@@ -200,4 +175,21 @@ bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t e
     return true;
 }
 
+#endif
+
+/* The signature is known without libpng, so a PNG file is recognised (and refused with
+ * the remedy) even when the codec is not built in. */
+static bool png_sniff(const uint8_t *d, size_t len)
+{
+    static const uint8_t sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    return len >= sizeof sig && memcmp(d, sig, sizeof sig) == 0;
+}
+
+static const char *const png_extensions[] = {".png", NULL};
+
+#ifdef RT_HAVE_PNG
+const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, png_decode, NULL};
+#else
+const ImageCodec png_codec = {"png", png_extensions, png_sniff, NULL, NULL,
+                              "install libpng-dev and rebuild (make PNG=1)"};
 #endif

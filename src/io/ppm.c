@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
+static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
 {
     int w = img->width, h = img->height;
     char head[64];
@@ -68,7 +68,7 @@ static bool read_header_int(const uint8_t *d, size_t len, size_t *pos, long *val
     return true;
 }
 
-bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
 {
     img->width = img->height = 0;
     img->pixels = NULL;
@@ -108,3 +108,12 @@ bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errl
     }
     return true;
 }
+
+static bool ppm_sniff(const uint8_t *d, size_t len)
+{
+    return len >= 2 && d[0] == 'P' && d[1] == '6';
+}
+
+static const char *const ppm_extensions[] = {".ppm", NULL};
+
+const ImageCodec ppm_codec = {"ppm", ppm_extensions, ppm_sniff, ppm_encode, ppm_decode, NULL};

@@ -9,7 +9,7 @@
 
 enum { TGA_HEADER = 18 };
 
-bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
+static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
 {
     int w = img->width, h = img->height;
     size_t len = TGA_HEADER + (size_t)w * (size_t)h * 3;
@@ -39,7 +39,7 @@ bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     return true;
 }
 
-bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
 {
     img->width = img->height = 0;
     img->pixels = NULL;
@@ -86,3 +86,8 @@ bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errl
     }
     return true;
 }
+
+static const char *const tga_extensions[] = {".tga", NULL};
+
+/* No signature: TGA is what image_read assumes when no other format's matched. */
+const ImageCodec tga_codec = {"tga", tga_extensions, NULL, tga_encode, tga_decode, NULL};

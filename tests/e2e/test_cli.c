@@ -220,7 +220,7 @@ static void test_version(void)
      * feature flags as the raytracer */
     CHECK_MSG(ci_contains(r.out, "png"), "--version does not list the png feature: %s",
               r.out);
-    if (image_png_supported())
+    if (image_format_supported("png"))
         CHECK_MSG(ci_contains(r.out, "png yes") || ci_contains(r.out, "+png") ||
                   ci_contains(r.out, "png: yes"),
                   "--version does not say png is built in: %s", r.out);

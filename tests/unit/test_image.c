@@ -51,6 +51,37 @@ static void remove_tree(const char *dir)
     rmdir(dir);
 }
 
+/* The codecs reached through their table, as image_read and image_write reach them. */
+static const ImageCodec *codec(const char *name)
+{
+    const ImageCodec *c = image_codec_find(name);
+    if (!c) {
+        harness_fail(__FILE__, __LINE__, "no codec named %s", name);
+        harness_skip("cannot go on without the codec"); /* ends the test failed */
+    }
+    return c;
+}
+
+static bool tga_encode(const Image *img, uint8_t **out, size_t *len)
+{
+    return codec("tga")->encode(img, out, len);
+}
+
+static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+{
+    return codec("tga")->decode(d, len, img, err, errlen);
+}
+
+static bool ppm_encode(const Image *img, uint8_t **out, size_t *len)
+{
+    return codec("ppm")->encode(img, out, len);
+}
+
+static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+{
+    return codec("ppm")->decode(d, len, img, err, errlen);
+}
+
 /* 3x2 test picture with distinct values per channel, exercising the quantisation. */
 static void make_small(Image *img)
 {
@@ -297,27 +328,27 @@ static void test_ppm_comments_and_rejects(void)
 
 static void test_png_round_trip(void)
 {
-    if (!image_png_supported()) {
-        Image img;
-        uint8_t *buf = NULL;
-        size_t len = 0;
-        CHECK(image_init(&img, 1, 1));
-        CHECK(!png_encode(&img, &buf, &len));
-        image_free(&img);
+    const ImageCodec *png = codec("png");
+    if (!png->encode) {
+        /* Not built in: the codec still knows its files and says what to install. */
+        CHECK(png->decode == NULL);
+        CHECK(png->missing && strstr(png->missing, "libpng-dev"));
+        CHECK(!image_format_supported("png"));
         harness_skip("built without libpng (PNG=0 or libpng-dev missing)");
     }
+    CHECK(png->decode != NULL && png->missing == NULL);
     Image img, back;
     make_small(&img);
     uint8_t *buf = NULL;
     size_t len = 0;
     char err[256] = "";
-    CHECK(png_encode(&img, &buf, &len));
+    CHECK(png->encode(&img, &buf, &len));
     CHECK(len > 8 && memcmp(buf, "\x89PNG\r\n\x1a\n", 8) == 0);
-    CHECK_MSG(png_decode(buf, len, &back, err, sizeof err), "decode: %s", err);
+    CHECK_MSG(png->decode(buf, len, &back, err, sizeof err), "decode: %s", err);
     check_same_bytes(&img, &back);
     image_free(&back);
     for (size_t n = 0; n < len; n += 7)
-        CHECK_MSG(!png_decode(buf, n, &back, err, sizeof err), "accepted %zu bytes", n);
+        CHECK_MSG(!png->decode(buf, n, &back, err, sizeof err), "accepted %zu bytes", n);
     free(buf);
     image_free(&img);
 }
@@ -334,7 +365,7 @@ static void test_write_read_by_extension(void)
     diag_init(&diag, NULL);
     const char *exts[] = {"tga", "ppm", "png"};
     for (int i = 0; i < 3; i++) {
-        if (i == 2 && !image_png_supported())
+        if (i == 2 && !image_format_supported("png"))
             break;
         char path[256];
         snprintf(path, sizeof path, "%s/out.%s", dir, exts[i]);
@@ -349,7 +380,7 @@ static void test_write_read_by_extension(void)
         CHECK(st.st_mode & S_IRUSR);
     }
     /* only the finished files are left: no temporary files */
-    CHECK_INT(count_entries(dir), image_png_supported() ? 3 : 2);
+    CHECK_INT(count_entries(dir), image_format_supported("png") ? 3 : 2);
 
     /* unknown extension: error naming the supported ones, nothing written */
     char path[256];
@@ -360,8 +391,8 @@ static void test_write_read_by_extension(void)
     CHECK_CONTAINS(diag.last, "out.bmp");
     snprintf(path, sizeof path, "%s/noextension", dir);
     CHECK(!image_write(&img, path, &diag));
-    CHECK_INT(count_entries(dir), image_png_supported() ? 3 : 2);
-    if (!image_png_supported()) {
+    CHECK_INT(count_entries(dir), image_format_supported("png") ? 3 : 2);
+    if (!image_format_supported("png")) {
         snprintf(path, sizeof path, "%s/out.png", dir);
         CHECK(!image_write(&img, path, &diag));
         CHECK_CONTAINS(diag.last, "libpng");
@@ -550,7 +581,49 @@ static void test_compare_figures(void)
     image_free(&b);
 }
 
+/* The table: every codec is found by its name and by each of its extensions (in any
+ * case), signatures pick PPM and PNG, anything else reads as TGA, and the list of
+ * writable extensions follows what is built in. */
+static void test_codec_table(void)
+{
+    const char *names[] = {"tga", "ppm", "png"};
+    for (int i = 0; i < 3; i++) {
+        const ImageCodec *c = codec(names[i]);
+        CHECK_STR(c->name, names[i]);
+        CHECK(c->extensions && c->extensions[0]);
+        for (const char *const *e = c->extensions; *e; e++) {
+            char path[64], upper[64];
+            snprintf(path, sizeof path, "dir.x/out%s", *e);
+            CHECK(image_codec_for_path(path) == c);
+            size_t k = 0;
+            for (; path[k]; k++)
+                upper[k] = (char)(path[k] >= 'a' && path[k] <= 'z' ? path[k] - 32 : path[k]);
+            upper[k] = '\0';
+            CHECK_MSG(image_codec_for_path(upper) == c, "%s", upper);
+        }
+        CHECK_INT(image_format_supported(names[i]), c->encode && c->decode);
+        CHECK(c->encode || c->missing);
+    }
+    CHECK(image_codec_find("bmp") == NULL);
+    CHECK(image_codec_find("TGA") == NULL);
+    CHECK(image_codec_for_path("out.bmp") == NULL);
+    CHECK(image_codec_for_path("out") == NULL);
+    CHECK(image_codec_for_path("a.tga/out") == NULL); /* the dot must be in the file name */
+    CHECK(image_codec_find("tga")->sniff == NULL);
+    CHECK(image_codec_find("ppm")->sniff((const uint8_t *)"P6\n", 3));
+    CHECK(!image_codec_find("ppm")->sniff((const uint8_t *)"P5\n", 3));
+    CHECK(!image_codec_find("ppm")->sniff((const uint8_t *)"P", 1));
+    CHECK(image_codec_find("png")->sniff((const uint8_t *)"\x89PNG\r\n\x1a\n", 8));
+    CHECK(!image_codec_find("png")->sniff((const uint8_t *)"\x89PNG\r\n\x1a", 7));
+    char list[128];
+    image_format_list(list, sizeof list);
+    CHECK_STR(list, image_format_supported("png") ? ".tga, .ppm, .png" : ".tga, .ppm");
+    image_format_list(list, 8);
+    CHECK_STR(list, ".tga"); /* cut at a whole entry */
+}
+
 static const TestCase tests[] = {
+    {"image: codec table: names, extensions, signatures", test_codec_table},
     {"image: color_to_byte truncates and clamps", test_color_to_byte},
     {"image: TGA bytes of a 3x2 image", test_tga_exact_bytes},
     {"image: TGA size fields little-endian", test_tga_size_fields_little_endian},
