@@ -46,6 +46,7 @@ FEATURES       :=
 # Optional features register themselves here (PNG, preview, bench): each fragment may
 # add to FEATURE_CFLAGS, FEATURE_LIBS, FEATURES, EXTRA_SRCS and define its own targets.
 EXTRA_SRCS :=
+EXTRA_TEST_BINS :=
 include $(sort $(wildcard mk/*.mk))
 
 LIB_SRCS := $(sort $(wildcard src/core/*.c src/scene/*.c src/geom/*.c src/accel/*.c \
@@ -55,7 +56,7 @@ MAIN_OBJ := $(BUILD)/src/main.o
 LIB      := $(BUILD)/librt.a
 
 TEST_SRCS := $(sort $(wildcard tests/unit/test_*.c tests/e2e/test_*.c))
-TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRCS))
+TEST_BINS := $(patsubst tests/%.c,$(BUILD)/tests/%,$(TEST_SRCS)) $(EXTRA_TEST_BINS)
 HARNESS_OBJ := $(BUILD)/tests/harness.o
 
 TOOL_SRCS := $(sort $(wildcard tools/*.c))
@@ -136,7 +137,7 @@ demo: $(BIN)
 	$(Q)sh scenes/demo.sh $(abspath $(BIN))
 
 clean:
-	rm -rf build build-asan build-clang raytracer demo
+	rm -rf build build-asan build-clang build-fuzz raytracer demo
 
 -include $(LIB_OBJS:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_BINS:%=%.d) $(HARNESS_OBJ:.o=.d) \
          $(TOOL_BINS:%=%.d)

@@ -35,6 +35,10 @@ Scene *scene_load(const char *path, Diag *diag);
  * (NULL = working directory only). */
 Scene *scene_load_string(const char *text, const char *name, const char *base_dir,
                          Diag *diag);
+/* The same from len bytes of buf, which may hold any bytes (NUL included; it need not
+ * be NUL-terminated): the fuzz target's entry. */
+Scene *scene_load_buffer(const char *buf, size_t len, const char *name, const char *base_dir,
+                         Diag *diag);
 void scene_free(Scene *s);
 
 #endif

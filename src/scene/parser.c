@@ -281,7 +281,7 @@ static bool parse_object(Parser *p, const Token *kw, Object3D **out);
 static bool linear_part_singular(const Mat4 *m, double *lo, double *hi)
 {
     double r[3][3];
-    *lo = INFINITY;
+    *lo = (double)INFINITY;
     *hi = 0.0;
     for (int i = 0; i < 3; i++) {
         double len = 0.0;

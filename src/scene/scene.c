@@ -68,6 +68,12 @@ Scene *scene_load_string(const char *text, const char *name, const char *base_di
     return scene_from_buffer(text, strlen(text), name ? name : "<string>", base_dir, diag);
 }
 
+Scene *scene_load_buffer(const char *buf, size_t len, const char *name, const char *base_dir,
+                         Diag *diag)
+{
+    return scene_from_buffer(buf, len, name ? name : "<buffer>", base_dir, diag);
+}
+
 Scene *scene_load(const char *path, Diag *diag)
 {
     char *buf;
