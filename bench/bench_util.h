@@ -2,6 +2,8 @@
 #ifndef RT_BENCH_UTIL_H
 #define RT_BENCH_UTIL_H
 
+#include <pthread.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <time.h>
 
@@ -24,6 +26,27 @@ static inline double median(double *v, int n)
 {
     qsort(v, (size_t)n, sizeof *v, cmp_double);
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/* One pass of nthreads workers (at most 64): worker i runs fn(workers + i * stride),
+ * worker 0 on the calling thread. Returns the pass's wall time in seconds; a thread
+ * that cannot start ends the benchmark (tool names it). */
+static inline double bench_run_pass(void *(*fn)(void *), void *workers, size_t stride,
+                                    int nthreads, const char *tool)
+{
+    pthread_t th[64];
+    char *w = workers;
+    double t0 = now_s();
+    for (int i = 1; i < nthreads; i++) {
+        if (pthread_create(&th[i], NULL, fn, w + (size_t)i * stride) != 0) {
+            fprintf(stderr, "%s: cannot start threads\n", tool);
+            exit(1);
+        }
+    }
+    fn(w);
+    for (int i = 1; i < nthreads; i++)
+        pthread_join(th[i], NULL);
+    return now_s() - t0;
 }
 
 #endif

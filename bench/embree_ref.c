@@ -371,21 +371,11 @@ static void *worker_main(void *arg)
 /* One pass over the image with nthreads workers; returns its wall time. */
 static double run_pass(Job *jb, int pass, int nthreads)
 {
-    pthread_t th[64];
     Worker wk[64];
     atomic_store(&jb->next, 0);
-    double t0 = now_s();
-    for (int i = 0; i < nthreads; i++) {
+    for (int i = 0; i < nthreads; i++)
         wk[i].jb = jb, wk[i].pass = pass;
-        if (i > 0 && pthread_create(&th[i], NULL, worker_main, &wk[i]) != 0) {
-            fprintf(stderr, "embree_ref: cannot start threads\n");
-            exit(1);
-        }
-    }
-    worker_main(&wk[0]);
-    for (int i = 1; i < nthreads; i++)
-        pthread_join(th[i], NULL);
-    return now_s() - t0;
+    return bench_run_pass(worker_main, wk, sizeof *wk, nthreads, "embree_ref");
 }
 
 

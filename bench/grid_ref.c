@@ -147,20 +147,10 @@ static void *worker_main(void *arg)
 
 static double run_pass(Job *jb, Worker *wk, int pass, int nthreads)
 {
-    pthread_t th[64];
     atomic_store(&jb->next, 0);
-    double t0 = now_s();
-    for (int i = 0; i < nthreads; i++) {
+    for (int i = 0; i < nthreads; i++)
         wk[i].pass = pass;
-        if (i > 0 && pthread_create(&th[i], NULL, worker_main, &wk[i]) != 0) {
-            fprintf(stderr, "grid_ref: cannot start threads\n");
-            exit(1);
-        }
-    }
-    worker_main(&wk[0]);
-    for (int i = 1; i < nthreads; i++)
-        pthread_join(th[i], NULL);
-    return now_s() - t0;
+    return bench_run_pass(worker_main, wk, sizeof *wk, nthreads, "grid_ref");
 }
 
 

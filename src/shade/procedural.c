@@ -96,31 +96,31 @@ Vec3 procedural_blend_shade(const Procedural *pr, float t, const Ray *ray, const
                    mat_shade(pr->m2, ray, hit, dir_to_light, light_color), t);
 }
 
-Vec3 procedural_blend_diffuse(const Procedural *pr, float t, Vec3 p)
+/* The three colour accessors blend alike; only the child's accessor differs. */
+typedef Vec3 (*ColorAt)(const Material *m, Vec3 p);
+
+static Vec3 blend_color(const Procedural *pr, float t, Vec3 p, ColorAt at)
 {
     if (t >= 1.0f)
-        return mat_diffuse_at(pr->m1, p);
+        return at(pr->m1, p);
     if (t <= 0.0f)
-        return mat_diffuse_at(pr->m2, p);
-    return v3_lerp(mat_diffuse_at(pr->m1, p), mat_diffuse_at(pr->m2, p), t);
+        return at(pr->m2, p);
+    return v3_lerp(at(pr->m1, p), at(pr->m2, p), t);
+}
+
+Vec3 procedural_blend_diffuse(const Procedural *pr, float t, Vec3 p)
+{
+    return blend_color(pr, t, p, mat_diffuse_at);
 }
 
 Vec3 procedural_blend_reflective(const Procedural *pr, float t, Vec3 p)
 {
-    if (t >= 1.0f)
-        return mat_reflective_at(pr->m1, p);
-    if (t <= 0.0f)
-        return mat_reflective_at(pr->m2, p);
-    return v3_lerp(mat_reflective_at(pr->m1, p), mat_reflective_at(pr->m2, p), t);
+    return blend_color(pr, t, p, mat_reflective_at);
 }
 
 Vec3 procedural_blend_transparent(const Procedural *pr, float t, Vec3 p)
 {
-    if (t >= 1.0f)
-        return mat_transparent_at(pr->m1, p);
-    if (t <= 0.0f)
-        return mat_transparent_at(pr->m2, p);
-    return v3_lerp(mat_transparent_at(pr->m1, p), mat_transparent_at(pr->m2, p), t);
+    return blend_color(pr, t, p, mat_transparent_at);
 }
 
 float procedural_blend_ior(const Procedural *pr, float t, Vec3 p)

@@ -70,6 +70,15 @@ float procedural_blend_ior(const Procedural *pr, float t, Vec3 p);
 typedef float (*ProceduralWeightFn)(const ProceduralBlend *b, Vec3 p);
 float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn weight);
 
+/* One accessor of PROCEDURAL_BLEND_OPS: NAME_WHAT_at blends the children's WHAT
+ * (diffuse, reflective, transparent: Vec3; ior: float) by the weight at p. */
+#define PROCEDURAL_BLEND_AT(NAME, WHAT, TYPE, WEIGHT)                                      \
+    static TYPE NAME##_##WHAT##_at(const Material *self, Vec3 p)                           \
+    {                                                                                      \
+        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
+        return procedural_blend_##WHAT(&b->proc, procedural_weight(b, p, WEIGHT), p);     \
+    }
+
 /* Defines the static ops functions and the one static const ops table NAME_ops of a
  * blending material whose weight at world point p is WEIGHT(const ProceduralBlend *,
  * Vec3 p) -> float in [0,1]. */
@@ -78,28 +87,13 @@ float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn wei
                              Vec3 l, Vec3 c)                                                \
     {                                                                                      \
         const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_shade(&b->proc, procedural_weight(b, hit->point, WEIGHT), ray, hit, l, c);    \
+        return procedural_blend_shade(&b->proc, procedural_weight(b, hit->point, WEIGHT),  \
+                                      ray, hit, l, c);                                     \
     }                                                                                      \
-    static Vec3 NAME##_diffuse_at(const Material *self, Vec3 p)                            \
-    {                                                                                      \
-        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_diffuse(&b->proc, procedural_weight(b, p, WEIGHT), p);                        \
-    }                                                                                      \
-    static Vec3 NAME##_reflective_at(const Material *self, Vec3 p)                         \
-    {                                                                                      \
-        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_reflective(&b->proc, procedural_weight(b, p, WEIGHT), p);                     \
-    }                                                                                      \
-    static Vec3 NAME##_transparent_at(const Material *self, Vec3 p)                        \
-    {                                                                                      \
-        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_transparent(&b->proc, procedural_weight(b, p, WEIGHT), p);                    \
-    }                                                                                      \
-    static float NAME##_ior_at(const Material *self, Vec3 p)                               \
-    {                                                                                      \
-        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
-        return procedural_blend_ior(&b->proc, procedural_weight(b, p, WEIGHT), p);                            \
-    }                                                                                      \
+    PROCEDURAL_BLEND_AT(NAME, diffuse, Vec3, WEIGHT)                                       \
+    PROCEDURAL_BLEND_AT(NAME, reflective, Vec3, WEIGHT)                                    \
+    PROCEDURAL_BLEND_AT(NAME, transparent, Vec3, WEIGHT)                                   \
+    PROCEDURAL_BLEND_AT(NAME, ior, float, WEIGHT)                                          \
     static const MaterialOps NAME##_ops = {                                                \
         TYPE_NAME,        NAME##_shade,   NAME##_diffuse_at,  NAME##_reflective_at,        \
         NAME##_transparent_at, NAME##_ior_at, procedural_preview,                          \
