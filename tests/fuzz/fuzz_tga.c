@@ -1,9 +1,7 @@
 /* Fuzz target: the TGA decoder on raw bytes (and, when it accepts them, the encoder on
  * the decoded image: what we read we can write). */
-#include <stdlib.h>
-
 #include "fuzz.h"
-#include "rt/image.h"
+#include "fuzz_image.h"
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
@@ -14,14 +12,6 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    Image img;
-    char err[256];
-    if (tga_decode(data, size, &img, err, sizeof err)) {
-        uint8_t *out = NULL;
-        size_t len = 0;
-        if (tga_encode(&img, &out, &len))
-            free(out);
-        image_free(&img);
-    }
+    fuzz_codec("tga", data, size);
     return 0;
 }
