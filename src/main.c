@@ -9,6 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "rt/film.h"
 #include "rt/grid.h"
 #include "rt/image.h"
 #include "rt/options.h"
@@ -101,6 +102,36 @@ static bool stdout_ok(Diag *d, const char *what)
     return false;
 }
 
+/* Any antialiasing option: the render goes through the film (samplers, filters). */
+static bool antialiasing_requested(const Options *o)
+{
+    return o->sampler || o->adaptive || o->filter || o->samples_file || o->filter_file;
+}
+
+/* The film's sampler(s) and filter from the options (already validated by
+ * options_parse, so the inits cannot fail here). */
+static void film_setup(const Options *o, Sampler *sampler, Sampler *refine, Filter *filter,
+                       bool *adaptive)
+{
+    char why[160];
+    *adaptive = false;
+    if (o->adaptive) {
+        const SamplerOps *j = sampler_find("jittered");
+        sampler_init(sampler, j, o->adaptive_min, o->seed, why, sizeof why);
+        sampler_init(refine, j, o->adaptive_max, o->seed, why, sizeof why);
+        refine->stream = 1; /* independent of the first pass's draws */
+        *adaptive = true;
+    } else if (o->sampler) {
+        sampler_init(sampler, sampler_find(o->sampler), o->samples, o->seed, why, sizeof why);
+    } else {
+        sampler_init_center(sampler);
+    }
+    if (o->filter)
+        filter_init(filter, filter_find(o->filter), o->filter_param, why, sizeof why);
+    else
+        filter_init_default(filter);
+}
+
 /* Renders the requested images with camera and writes them (also the `r` key of the
  * preview). Returns an exit status. */
 static int render_and_write(void *user, const Camera *camera)
@@ -108,6 +139,8 @@ static int render_and_write(void *user, const Camera *camera)
     App *app = user;
     const Options *o = &app->opt;
     Image color, depth, normals;
+    Image samples_img, filter_img;
+    Image *samples = NULL, *filter_pic = NULL;
     RenderTarget target;
     memset(&target, 0, sizeof target);
     target.width = o->width;
@@ -123,10 +156,59 @@ static int render_and_write(void *user, const Camera *camera)
         goto done;
     }
 
+    Sampler sampler, refine;
+    Filter filter;
+    bool adaptive = false;
+    bool film = antialiasing_requested(o);
+    if (film) {
+        film_setup(o, &sampler, &refine, &filter, &adaptive);
+        if (o->samples_file) {
+            if (!image_init(&samples_img, o->width * o->samples_zoom,
+                            o->height * o->samples_zoom)) {
+                diag_error(&app->diag, NULL, "out of memory for the samples picture");
+                status = EXIT_INPUT;
+                goto done;
+            }
+            samples = &samples_img;
+        }
+        if (o->filter_file) {
+            if (!image_init(&filter_img, o->width * o->filter_zoom + 1,
+                            o->height * o->filter_zoom + 1)) {
+                diag_error(&app->diag, NULL, "out of memory for the filter picture");
+                status = EXIT_INPUT;
+                goto done;
+            }
+            filter_pic = &filter_img;
+            film_filter_picture(&filter, o->width, o->height, o->filter_zoom, filter_pic);
+        }
+    }
+
     RtStats counts;
+    memset(&counts, 0, sizeof counts);
     double t0 = clock_now();
-    bool ok = render_image(&app->rt, camera, &target, o->threads, &counts, NULL, NULL,
-                           &g_cancel);
+    bool ok = true;
+    if (!film) {
+        ok = render_image(&app->rt, camera, &target, o->threads, &counts, NULL, NULL,
+                          &g_cancel);
+    } else if (target.color || target.depth || target.normals || samples || !filter_pic) {
+        /* Only a filter picture needs no samples: nothing is traced then. */
+        FilmConfig fc;
+        memset(&fc, 0, sizeof fc);
+        fc.sampler = &sampler;
+        fc.filter = &filter;
+        fc.refine = adaptive ? &refine : NULL;
+        fc.threshold = o->adaptive_threshold;
+        fc.full_width = fc.width = o->width;
+        fc.full_height = fc.height = o->height;
+        fc.color = target.color;
+        fc.depth = target.depth;
+        fc.normals = target.normals;
+        fc.depth_min = o->depth_min;
+        fc.depth_max = o->depth_max;
+        fc.samples = samples;
+        fc.samples_zoom = o->samples_zoom;
+        ok = film_render(&app->rt, camera, &fc, o->threads, &counts, &g_cancel);
+    }
     double t_render = clock_now() - t0;
     if (g_cancel) {
         fprintf(stderr, "raytracer: interrupted; no image written\n");
@@ -140,7 +222,7 @@ static int render_and_write(void *user, const Camera *camera)
     }
 
     t0 = clock_now();
-    ImageOutput outs[3];
+    ImageOutput outs[5];
     int nout = 0;
     if (target.color)
         outs[nout++] = (ImageOutput){target.color, o->output};
@@ -148,6 +230,10 @@ static int render_and_write(void *user, const Camera *camera)
         outs[nout++] = (ImageOutput){target.depth, o->depth_file};
     if (target.normals)
         outs[nout++] = (ImageOutput){target.normals, o->normals_file};
+    if (samples)
+        outs[nout++] = (ImageOutput){samples, o->samples_file};
+    if (filter_pic)
+        outs[nout++] = (ImageOutput){filter_pic, o->filter_file};
     if (nout > 0 && !image_write_all(outs, nout, &app->diag)) {
         status = EXIT_INPUT;
         goto done;
@@ -197,6 +283,10 @@ done:
         image_free(target.depth);
     if (target.normals)
         image_free(target.normals);
+    if (samples)
+        image_free(samples);
+    if (filter_pic)
+        image_free(filter_pic);
     return status;
 }
 

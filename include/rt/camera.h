@@ -33,5 +33,9 @@ float camera_tmin(const Camera *c);
 /* Pixel centre (i, j), j from the bottom, of a W x H image -> screen (u, v):
  * u = ((i + 0.5) - W/2) / S + 0.5, S = max(W, H) (semantics.md 2.1). */
 void camera_pixel_to_screen(int i, int j, int width, int height, float *u, float *v);
+/* The same for the point at offset (px, py) in [0,1]^2 inside pixel (i, j) (A7 samples):
+ * u = ((i + px) - W/2) / S + 0.5 in float; (0.5, 0.5) gives camera_pixel_to_screen. */
+void camera_sample_to_screen(int i, int j, float px, float py, int width, int height,
+                             float *u, float *v);
 
 #endif

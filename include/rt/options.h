@@ -28,6 +28,23 @@ typedef struct Options {
     const char *gui_snapshot;    /* -gui_snapshot file.tga: headless preview frame */
     const char *gui_keys;        /* -gui_keys "script" */
     int threads;                 /* 0 = all cores */
+    /* Antialiasing (A7). The three course samplers and -nrooks_samples set one setting
+     * (the last wins); so do the filters. Checked here: counts, squares, radii, zooms. */
+    const char *sampler;         /* NULL: one centred sample; else "uniform", "random",
+                                    "jittered", "nrooks" (-<name>_samples n) */
+    int samples;                 /* its count */
+    bool adaptive;               /* -adaptive_samples min max threshold (jittered) */
+    int adaptive_min, adaptive_max;
+    float adaptive_threshold;
+    const char *filter;          /* NULL: box of radius 0.5; else "box", "tent",
+                                    "gaussian", "mitchell" (-<name>_filter r) */
+    float filter_param;          /* radius or sigma */
+    const char *samples_file;    /* -render_samples file zoom */
+    int samples_zoom;
+    const char *filter_file;     /* -render_filter file zoom */
+    int filter_zoom;
+    unsigned long long seed;     /* -seed n: the random samplers' seed (default 0) */
+    bool noise_cutoff;           /* -noise_cutoff: Perlin octaves limited by pixel size */
     bool help, version;
 } Options;
 

@@ -26,6 +26,24 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
                   int threads, RtStats *stats_out, RenderRowFn row_done, void *user,
                   volatile int *cancel);
 
+/* One job of a parallel run: job is in [0, jobs); ctx is the worker's own context
+ * (statistics, grid scratch). */
+typedef void (*RenderJobFn)(void *user, RenderCtx *ctx, int job);
+
+/* Runs fn(user, ctx, job) once for every job in [0, jobs) on `threads` workers (<= 0:
+ * all cores; the calling thread is one of them), jobs handed out in increasing order
+ * through an atomic counter. With rt non-NULL each worker gets a RenderCtx for rt (the
+ * merged counters go to stats_out, may be NULL); with rt NULL the contexts are empty
+ * (jobs that trace nothing). cancel as render_image. False on failure to allocate the
+ * contexts or when cancelled. */
+bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn, void *user,
+                     RtStats *stats_out, volatile int *cancel);
+
+/* What a hit puts into the -depth image (grey: t <= dmin white, t >= dmax black, no hit
+ * black) and into the -normals image (|nx| |ny| |nz|, no hit black). */
+Vec3 render_depth_color(const Hit *hit, float depth_min, float depth_max);
+Vec3 render_normal_color(const Hit *hit);
+
 /* Pixels are traced in RENDER_TILE x RENDER_TILE tiles (a power of two), each as one
  * ray packet with a grid, in Z (Morton) order: pixel k of a tile is (dx, dy) below.
  * Every quarter of the order is a quarter of the tile, which is how the grid splits a

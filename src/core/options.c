@@ -2,6 +2,8 @@
  * fixed number of arguments; the later of two occurrences wins, like the course loop.
  * Unlike the course (atoi/atof, assert), every value is validated. */
 #include "rt/options.h"
+#include "rt/filter.h"
+#include "rt/sampler.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -16,7 +18,9 @@ enum {
     MAX_GRID_SIDE = 2048,
     MAX_BOUNCES = 1000,
     MAX_THREADS = 1024,
-    MAX_TESSELLATION = 10000
+    MAX_TESSELLATION = 10000,
+    MAX_ZOOM = 100,
+    MAX_PICTURE = 16 * 1024 * 1024
 };
 
 void options_defaults(Options *o)
@@ -55,6 +59,22 @@ void options_usage(FILE *out)
         "  -no_marking              grid: test an object again in every cell (for analysis)\n"
         "  -no_packets              grid: march every ray on its own, no ray packets\n"
         "  -threads n               render threads (default: all cores)\n"
+        "Antialiasing (one centred sample and a box filter of radius 0.5 by default)\n"
+        "  -uniform_samples n       n = k*k samples per pixel on a regular k x k grid\n"
+        "  -jittered_samples n      n = k*k samples, one at random in each cell of a k x k grid\n"
+        "  -random_samples n        n samples per pixel at random positions\n"
+        "  -nrooks_samples n        n samples, one in each row and each column of an n x n grid\n"
+        "  -adaptive_samples a b t  a = k*k jittered samples; pixels whose samples differ by\n"
+        "                           more than t (0..1, any channel) get b = m*m instead\n"
+        "                           (counts 1..1024)\n"
+        "  -box_filter r            box filter of half-width r pixels (0 < r <= 16)\n"
+        "  -tent_filter r           tent (cone) filter of radius r\n"
+        "  -gaussian_filter s       Gaussian filter, standard deviation s (0 < s <= 16)\n"
+        "  -mitchell_filter r       Mitchell-Netravali cubic (B = C = 1/3) of radius r\n"
+        "  -render_samples file z   also write the sample positions, zoomed z times (1..100)\n"
+        "  -render_filter file z    also write the filter weights, zoomed z times (1..100)\n"
+        "  -seed n                  seed of the random samplers (default 0)\n"
+        "  -noise_cutoff            fewer Perlin octaves where a pixel covers many periods\n"
         "OpenGL preview (when built)\n"
         "  -gui                     open the interactive preview window\n"
         "  -tessellation th ph      sphere tessellation of the preview (default 20 10)\n"
@@ -246,6 +266,72 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         } else if (!strcmp(a, "-threads")) {
             if (!take_int(&c, a, 1, MAX_THREADS, &o->threads))
                 return false;
+        } else if (!strcmp(a, "-uniform_samples") || !strcmp(a, "-jittered_samples") ||
+                   !strcmp(a, "-random_samples") || !strcmp(a, "-nrooks_samples")) {
+            static const char *const names[] = {"uniform", "jittered", "random", "nrooks"};
+            const char *name = NULL;
+            for (int k = 0; k < 4 && !name; k++)
+                if (!strncmp(a + 1, names[k], strlen(names[k])))
+                    name = names[k];
+            if (!take_int(&c, a, INT_MIN, INT_MAX, &o->samples))
+                return false;
+            Sampler probe;
+            char why[160];
+            if (!sampler_init(&probe, sampler_find(name), o->samples, 0, why, sizeof why))
+                return usage_error(&c, "option %s: %s", a, why);
+            o->sampler = name;
+            o->adaptive = false;
+        } else if (!strcmp(a, "-adaptive_samples")) {
+            if (!take_int(&c, a, INT_MIN, INT_MAX, &o->adaptive_min) ||
+                !take_int(&c, a, INT_MIN, INT_MAX, &o->adaptive_max) ||
+                !take_float(&c, a, &o->adaptive_threshold))
+                return false;
+            Sampler probe;
+            char why[160];
+            if (!sampler_init(&probe, sampler_find("jittered"), o->adaptive_min, 0, why,
+                              sizeof why) ||
+                !sampler_init(&probe, sampler_find("jittered"), o->adaptive_max, 0, why,
+                              sizeof why))
+                return usage_error(&c, "option %s: %s", a, why);
+            if (o->adaptive_max <= o->adaptive_min)
+                return usage_error(&c, "option %s: the second count (%d) must be larger than "
+                                   "the first (%d)", a, o->adaptive_max, o->adaptive_min);
+            if (o->adaptive_threshold < 0.0f)
+                return usage_error(&c, "option %s: the threshold must be >= 0", a);
+            o->adaptive = true;
+            o->sampler = NULL;
+        } else if (!strcmp(a, "-box_filter") || !strcmp(a, "-tent_filter") ||
+                   !strcmp(a, "-gaussian_filter") || !strcmp(a, "-mitchell_filter")) {
+            char name[16];
+            snprintf(name, sizeof name, "%.*s", (int)(strchr(a, '_') - a - 1), a + 1);
+            const FilterOps *ops = filter_find(name);
+            if (!take_float(&c, a, &o->filter_param))
+                return false;
+            Filter probe;
+            char why[160];
+            if (!ops || !filter_init(&probe, ops, o->filter_param, why, sizeof why))
+                return usage_error(&c, "option %s: %s", a, why);
+            o->filter = ops->name;
+        } else if (!strcmp(a, "-render_samples")) {
+            if (!take(&c, a, &o->samples_file) ||
+                !take_int(&c, a, 1, MAX_ZOOM, &o->samples_zoom))
+                return false;
+        } else if (!strcmp(a, "-render_filter")) {
+            if (!take(&c, a, &o->filter_file) || !take_int(&c, a, 1, MAX_ZOOM, &o->filter_zoom))
+                return false;
+        } else if (!strcmp(a, "-seed")) {
+            const char *v = NULL;
+            if (!take(&c, a, &v))
+                return false;
+            char *end;
+            errno = 0;
+            unsigned long long n = strtoull(v, &end, 10);
+            if (end == v || *end != '\0' || errno == ERANGE || strchr(v, '-'))
+                return usage_error(&c, "option -seed expects an integer 0..%llu, got '%s'",
+                                   (unsigned long long)ULLONG_MAX, v);
+            o->seed = n;
+        } else if (!strcmp(a, "-noise_cutoff")) {
+            o->noise_cutoff = true;
         } else if (!strcmp(a, "-h") || !strcmp(a, "--help") || !strcmp(a, "-help")) {
             o->help = true;
         } else if (!strcmp(a, "--version") || !strcmp(a, "-version")) {
@@ -258,6 +344,15 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         return true;
     if (!o->input)
         return usage_error(&c, "no scene given: -input scene.txt is required");
+    /* The zoomed pictures are float images like the render: at most 16M pixels. */
+    if (o->samples_file &&
+        (long long)o->width * o->height * o->samples_zoom * o->samples_zoom > MAX_PICTURE)
+        return usage_error(&c, "-render_samples: %dx%d zoomed %d times is more than %d pixels",
+                           o->width, o->height, o->samples_zoom, MAX_PICTURE);
+    if (o->filter_file && (long long)(o->width * (long long)o->filter_zoom + 1) *
+                                  (o->height * (long long)o->filter_zoom + 1) > MAX_PICTURE)
+        return usage_error(&c, "-render_filter: %dx%d zoomed %d times is more than %d pixels",
+                           o->width, o->height, o->filter_zoom, MAX_PICTURE);
     if (o->visualize_grid && !o->grid)
         return usage_error(&c, "-visualize_grid needs -grid nx ny nz (or -grid auto)");
     /* Two images into one file: the second would silently replace the first. */

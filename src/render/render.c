@@ -10,22 +10,20 @@
 #include <string.h>
 #include <unistd.h>
 
-typedef struct RenderJob {
-    const RayTracer *rt;
-    const Camera *camera;
-    RenderTarget *target;
-    RenderRowFn row_done;
+/* A parallel run: jobs 0..n-1 handed out through an atomic counter. */
+typedef struct ParRun {
+    RenderJobFn fn;
     void *user;
+    int jobs;
     volatile int *cancel;
-    atomic_int next_row;  /* next band of TILE rows */
-    atomic_int failed;
+    atomic_int next;
     const struct Worker *first; /* worker 0, run by the calling thread */
-} RenderJob;
+} ParRun;
 
 /* Each worker on cache lines of its own: its counters change at every cell and test,
  * and two threads writing one line would bounce it between the cores. */
 typedef struct Worker {
-    _Alignas(128) RenderJob *job;
+    _Alignas(128) ParRun *run;
     RenderCtx ctx;
     pthread_t thread;
     bool started;
@@ -42,26 +40,31 @@ int render_default_threads(void)
 #define TILE RENDER_TILE
 _Static_assert(TILE * TILE <= GRID_PACKET_MAX, "a tile must fit in one ray packet");
 
+Vec3 render_depth_color(const Hit *hit, float depth_min, float depth_max)
+{
+    if (!(hit->material != NULL && isfinite(hit->t)))
+        return v3(0, 0, 0);
+    /* Near = white, far = black, linear between dmin and dmax (A1). */
+    float d = hit->t < depth_min ? depth_min : hit->t > depth_max ? depth_max : hit->t;
+    float g = (depth_max - d) / (depth_max - depth_min);
+    return v3(g, g, g);
+}
+
+Vec3 render_normal_color(const Hit *hit)
+{
+    if (!(hit->material != NULL && isfinite(hit->t)))
+        return v3(0, 0, 0);
+    return v3(fabsf(hit->normal.x), fabsf(hit->normal.y), fabsf(hit->normal.z));
+}
+
 static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
 {
     if (t->color)
         image_set(t->color, x, y, c);
-    bool any = hit->material != NULL && isfinite(hit->t);
-    if (t->depth) {
-        float g = 0.0f;
-        if (any) {
-            /* Near = white, far = black, linear between dmin and dmax (A1). */
-            float d = hit->t < t->depth_min ? t->depth_min
-                    : hit->t > t->depth_max ? t->depth_max : hit->t;
-            g = (t->depth_max - d) / (t->depth_max - t->depth_min);
-        }
-        image_set(t->depth, x, y, v3(g, g, g));
-    }
-    if (t->normals) {
-        Vec3 n = any ? v3(fabsf(hit->normal.x), fabsf(hit->normal.y), fabsf(hit->normal.z))
-                     : v3(0, 0, 0);
-        image_set(t->normals, x, y, n);
-    }
+    if (t->depth)
+        image_set(t->depth, x, y, render_depth_color(hit, t->depth_min, t->depth_max));
+    if (t->normals)
+        image_set(t->normals, x, y, render_normal_color(hit));
 }
 
 void render_tile_order(int k, int *dx, int *dy)
@@ -75,7 +78,15 @@ void render_tile_order(int k, int *dx, int *dy)
     *dy = y;
 }
 
-static void render_band(RenderJob *job, RenderCtx *ctx, int y0, int y1)
+typedef struct ImageJob {
+    const RayTracer *rt;
+    const Camera *camera;
+    RenderTarget *target;
+    RenderRowFn row_done;
+    void *user;
+} ImageJob;
+
+static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
 {
     RenderTarget *t = job->target;
     float tmin = camera_tmin(job->camera);
@@ -103,49 +114,53 @@ static void render_band(RenderJob *job, RenderCtx *ctx, int y0, int y1)
     }
 }
 
+static void image_band(void *user, RenderCtx *ctx, int band)
+{
+    const ImageJob *job = user;
+    int h = job->target->height;
+    int y0 = band * TILE, y1 = y0 + TILE < h ? y0 + TILE : h;
+    render_band(job, ctx, y0, y1);
+    if (job->row_done)
+        for (int y = y0; y < y1; y++)
+            job->row_done(job->user, y);
+}
+
 static void *worker_main(void *arg)
 {
     Worker *w = arg;
-    if (w != w->job->first)
+    ParRun *run = w->run;
+    if (w != run->first)
         par_thread_release_cpus(); /* started off the creator's CPU; now free */
-    RenderJob *job = w->job;
     for (;;) {
-        if (job->cancel && *job->cancel)
+        if (run->cancel && *run->cancel)
             break;
-        int band = atomic_fetch_add(&job->next_row, 1);
-        int h = job->target->height;
-        if (band >= (h + TILE - 1) / TILE)
+        int job = atomic_fetch_add(&run->next, 1);
+        if (job >= run->jobs)
             break;
-        int y0 = band * TILE, y1 = y0 + TILE < h ? y0 + TILE : h;
-        render_band(job, &w->ctx, y0, y1);
-        if (job->row_done)
-            for (int y = y0; y < y1; y++)
-                job->row_done(job->user, y);
+        run->fn(run->user, &w->ctx, job);
     }
     return NULL;
 }
 
-bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *target,
-                  int threads, RtStats *stats_out, RenderRowFn row_done, void *user,
-                  volatile int *cancel)
+bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn, void *user,
+                     RtStats *stats_out, volatile int *cancel)
 {
     if (threads <= 0)
         threads = render_default_threads();
-    int bands = (target->height + TILE - 1) / TILE;
-    if (threads > bands && bands > 0)
-        threads = bands;
+    if (threads > jobs && jobs > 0)
+        threads = jobs;
     if (threads < 1)
         threads = 1;
 
-    RenderJob job = {rt, camera, target, row_done, user, cancel, 0, 0, NULL};
+    ParRun run = {fn, user, jobs, cancel, 0, NULL};
     Worker *workers = aligned_alloc(_Alignof(Worker), (size_t)threads * sizeof *workers);
     if (!workers)
         return false;
     memset(workers, 0, (size_t)threads * sizeof *workers);
     bool ok = true;
     for (int i = 0; i < threads; i++) {
-        workers[i].job = &job;
-        if (!render_ctx_init(&workers[i].ctx, rt)) {
+        workers[i].run = &run;
+        if (rt && !render_ctx_init(&workers[i].ctx, rt)) {
             ok = false;
             break;
         }
@@ -155,7 +170,7 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         /* The workers start on other CPUs than this one (rt/par.h): on a small image
          * a worker sharing this CPU for its first milliseconds would cost more than
          * it brings. */
-        job.first = &workers[0];
+        run.first = &workers[0];
         pthread_attr_t attr;
         bool attr_ok = pthread_attr_init(&attr) == 0;
         if (attr_ok)
@@ -166,7 +181,7 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         if (attr_ok)
             pthread_attr_destroy(&attr);
         worker_main(&workers[0]);
-        /* A thread that failed to start loses nothing: the others take its rows. */
+        /* A thread that failed to start loses nothing: the others take its jobs. */
         for (int i = 1; i < threads; i++)
             if (workers[i].started)
                 pthread_join(workers[i].thread, NULL);
@@ -174,7 +189,8 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
     RtStats total = {0};
     for (int i = 0; i < threads; i++) {
         stats_merge(&total, &workers[i].ctx.stats);
-        render_ctx_free(&workers[i].ctx);
+        if (rt)
+            render_ctx_free(&workers[i].ctx);
     }
     free(workers);
     if (stats_out)
@@ -182,4 +198,13 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
     if (cancel && *cancel)
         return false;
     return ok;
+}
+
+bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *target,
+                  int threads, RtStats *stats_out, RenderRowFn row_done, void *user,
+                  volatile int *cancel)
+{
+    ImageJob job = {rt, camera, target, row_done, user};
+    int bands = (target->height + TILE - 1) / TILE;
+    return render_parallel(rt, threads, bands, image_band, &job, stats_out, cancel);
 }

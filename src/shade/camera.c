@@ -82,7 +82,14 @@ float camera_tmin(const Camera *c)
 
 void camera_pixel_to_screen(int i, int j, int width, int height, float *u, float *v)
 {
+    camera_sample_to_screen(i, j, 0.5f, 0.5f, width, height, u, v);
+}
+
+void camera_sample_to_screen(int i, int j, float px, float py, int width, int height,
+                             float *u, float *v)
+{
+    /* In float and in this order, so (0.5, 0.5) is the pixel-centre ray to the bit. */
     float s = (float)(width > height ? width : height);
-    *u = (((float)i + 0.5f) - (float)width / 2.0f) / s + 0.5f;
-    *v = (((float)j + 0.5f) - (float)height / 2.0f) / s + 0.5f;
+    *u = (((float)i + px) - (float)width / 2.0f) / s + 0.5f;
+    *v = (((float)j + py) - (float)height / 2.0f) / s + 0.5f;
 }

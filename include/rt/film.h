@@ -1,0 +1,64 @@
+/* The film (A7): every sample of a pixel -- its offset in the pixel and its colours --
+ * is kept until the filter has used it, because a filter reaches into neighbouring
+ * pixels. The film renders a requested rectangle of the full image: the samples of the
+ * rectangle plus the filter's margin of R pixels on each side (cropped at the image
+ * border) are traced, the rectangle's pixels are filtered, the margin is discarded. A
+ * rectangle's pixels are therefore exactly the bytes of the same pixels of the full
+ * render (every sample depends only on its pixel, index and seed; every sum runs in
+ * one fixed order).
+ *
+ * Memory stays bounded: the rectangle is filtered in strips of rows; only the sample
+ * rows a strip needs (its rows plus R above and below) are held, within a budget
+ * (FILM_DEFAULT_BUDGET), and the R rows shared with the next strip are kept, not traced
+ * again: every sample is traced exactly once. */
+#ifndef RT_FILM_H
+#define RT_FILM_H
+
+#include <stddef.h>
+#include "rt/camera.h"
+#include "rt/filter.h"
+#include "rt/image.h"
+#include "rt/raytracer.h"
+#include "rt/sampler.h"
+
+/* Bytes of samples held at once by default (strips are sized to fit). */
+#define FILM_DEFAULT_BUDGET ((size_t)256 << 20)
+
+typedef struct FilmConfig {
+    const Sampler *sampler;    /* required */
+    const Filter *filter;      /* required */
+    /* Adaptive sampling: when refine is non-NULL, a pixel whose first samples (from
+     * sampler) differ by more than threshold in some channel (largest minus smallest
+     * value) is sampled again with refine, whose samples replace the first ones. Each
+     * pixel's samples then weigh 1/count each, so a pixel counts as one pixel's area
+     * in its neighbours' sums however many samples it has. */
+    const Sampler *refine;
+    float threshold;
+    int full_width, full_height;      /* the whole image W x H (the camera mapping) */
+    int x0, y0, width, height;        /* the rectangle, inside the image; y from the bottom */
+    /* Outputs, each width x height (the rectangle), or NULL when not wanted. Depth and
+     * normal images are filtered like the colour (each sample's grey depth, |normal|). */
+    Image *color, *depth, *normals;
+    float depth_min, depth_max;
+    /* The samples picture of the rectangle, (width*zoom) x (height*zoom), or NULL: pixel
+     * blocks grey (0.2) and black like a checkerboard, (0,0) grey, each sample a dot of
+     * its colour at floor((i + px) * zoom), floor((j + py) * zoom). */
+    Image *samples;
+    int samples_zoom;
+    size_t budget;                    /* 0: FILM_DEFAULT_BUDGET */
+} FilmConfig;
+
+/* Renders cfg's rectangle with camera on `threads` workers (<= 0: all cores); images
+ * must be allocated at their sizes. Counters of every ray cast go to stats_out (may be
+ * NULL). cancel as render_image. False on a bad configuration, out of memory or cancel. */
+bool film_render(const RayTracer *rt, const Camera *camera, const FilmConfig *cfg,
+                 int threads, RtStats *stats_out, volatile int *cancel);
+
+/* The filter picture (-render_filter file zoom) of a W x H image: out must be allocated
+ * at (W*zoom + 1) x (H*zoom + 1). Medium blue (0,0,0.5); the weights for the centre pixel
+ * c = (W/2, W/2) (both from the width, as the course does) over its (2R+1)^2 support
+ * pixels (cropped at the border), sampled zoom x zoom per pixel, as grey; then a blue
+ * (0,0,1) grid line at every multiple of zoom. Independent of the scene and sampler. */
+void film_filter_picture(const Filter *f, int width, int height, int zoom, Image *out);
+
+#endif

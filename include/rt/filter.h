@@ -1,0 +1,50 @@
+/* Reconstruction filters (A7): a weight function of the offset (x, y) in pixels from
+ * the centre of the pixel being computed, and the integer support radius R: only the
+ * samples of pixels i-R..i+R, j-R..j+R can have a non-zero weight for pixel (i, j). */
+#ifndef RT_FILTER_H
+#define RT_FILTER_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+/* Largest radius (box, tent, Mitchell) or sigma (Gaussian) accepted: the support then
+ * spans at most 33 x 33 pixels, (2R+1)^2 neighbours per output pixel. */
+#define FILTER_MAX_RADIUS 16.0f
+
+typedef struct Filter Filter;
+
+typedef struct FilterOps {
+    const char *name;          /* the option is -<name>_filter ("box") */
+    const char *param;         /* what its argument is: "radius" or "sigma" */
+    /* The weight at (x, y). Evaluated as the course's images require: box compared in
+     * float; tent and Gaussian with d^2 = x*x + y*y and d in float, the formula in double,
+     * the weight rounded to float. May be negative (Mitchell). */
+    float (*weight)(const Filter *f, float x, float y);
+    /* Non-NULL when the filter is separable: weight(x, y) == w1(x) * w1(y) up to float
+     * rounding. The film uses it for random sample positions (2(2R+1) evaluations per
+     * sample instead of (2R+1)^2). */
+    float (*weight_1d)(const Filter *f, float x);
+    /* Half-width beyond which the weight is negligible or zero: r, or 2 sigma. */
+    double (*extent)(const Filter *f);
+} FilterOps;
+
+struct Filter {
+    const FilterOps *ops;
+    float r;                   /* radius or sigma (float, like the course's atof) */
+    int support;               /* R = ceil(extent - 0.5), at least 0 */
+};
+
+/* The filter whose option is -<name>_filter; NULL when unknown. */
+const FilterOps *filter_find(const char *name);
+/* Sets up a filter; false with a one-line reason in why unless 0 < r <= FILTER_MAX_RADIUS. */
+bool filter_init(Filter *f, const FilterOps *ops, float r, char *why, size_t whylen);
+/* The default when no filter option is given: box of radius 0.5, the plain average of the
+ * pixel's own samples (one centred sample: the A6 pixel exactly). */
+void filter_init_default(Filter *f);
+
+static inline float filter_weight(const Filter *f, float x, float y)
+{
+    return f->ops->weight(f, x, y);
+}
+
+#endif

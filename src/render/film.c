@@ -1,0 +1,407 @@
+/* The film (A7): samples traced in packets, held strip by strip within a memory budget,
+ * filtered into the requested rectangle; and the course's two diagnostic pictures. */
+#include "rt/film.h"
+#include "rt/render.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define TILE RENDER_TILE
+
+/* One strip's worth of samples: film rows y0 .. y0+rows-1 (image rows), columns
+ * sx0 .. sx0+fw-1. Pixel p = (y - y0) * fw + (x - sx0) holds count[p] samples in slots
+ * of `stride` floats: offset x, y; colour; depth grey and |normal| when wanted; the
+ * separable filter's weights towards the 2R+1 columns and rows around (when used). */
+typedef struct Film {
+    const FilmConfig *cfg;
+    const RayTracer *rt;
+    const Camera *camera;
+    float tmin;
+    int R;
+    int sx0, sx1, sy0, sy1, fw;
+    int slots;                  /* most samples a pixel can hold */
+    int stride;                 /* floats per sample */
+    int off_depth, off_normal;  /* -1: not stored */
+    int off_wx, off_wy;         /* -1: weights not precomputed */
+    int rows_cap;               /* film rows the buffer holds */
+    int y0, rows;               /* film rows held now */
+    float *data;
+    int *count;
+    float *table;               /* fixed offsets: the weights, [(a-i+R)(2R+1) + (b-j+R)][s] */
+    int r0, r1;                 /* rows being traced (film_band) */
+    int out0;                   /* first output row of the strip being filtered */
+} Film;
+
+static float *film_sample(const Film *f, int x, int y, int s)
+{
+    size_t p = (size_t)(y - f->y0) * (size_t)f->fw + (size_t)(x - f->sx0);
+    return f->data + (p * (size_t)f->slots + (size_t)s) * (size_t)f->stride;
+}
+
+static int *film_count(const Film *f, int x, int y)
+{
+    return f->count + (size_t)(y - f->y0) * (size_t)f->fw + (size_t)(x - f->sx0);
+}
+
+/* Rays waiting to be traced as one packet, and the sample each belongs to. */
+typedef struct Stream {
+    int n;
+    Ray rays[GRID_PACKET_MAX];
+    float *dest[GRID_PACKET_MAX];
+} Stream;
+
+static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
+{
+    if (st->n == 0)
+        return;
+    Vec3 colors[GRID_PACKET_MAX];
+    Hit hits[GRID_PACKET_MAX];
+    raytracer_trace_packet(f->rt, ctx, st->rays, st->n, f->tmin, colors, hits);
+    for (int i = 0; i < st->n; i++) {
+        float *d = st->dest[i];
+        d[2] = colors[i].x;
+        d[3] = colors[i].y;
+        d[4] = colors[i].z;
+        if (f->off_depth >= 0) {
+            Vec3 g = render_depth_color(&hits[i], f->cfg->depth_min, f->cfg->depth_max);
+            d[f->off_depth] = g.x;
+            d[f->off_depth + 1] = g.y;
+            d[f->off_depth + 2] = g.z;
+        }
+        if (f->off_normal >= 0) {
+            Vec3 n = render_normal_color(&hits[i]);
+            d[f->off_normal] = n.x;
+            d[f->off_normal + 1] = n.y;
+            d[f->off_normal + 2] = n.z;
+        }
+    }
+    st->n = 0;
+}
+
+/* Places the samples of pixel (x, y) with sampler s and queues their rays. */
+static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sampler *s,
+                             int x, int y)
+{
+    float xy[2 * SAMPLER_MAX_COUNT];
+    sampler_pixel(s, x, y, xy);
+    *film_count(f, x, y) = s->count;
+    const FilmConfig *c = f->cfg;
+    for (int i = 0; i < s->count; i++) {
+        float *d = film_sample(f, x, y, i);
+        d[0] = xy[2 * i];
+        d[1] = xy[2 * i + 1];
+        if (f->off_wx >= 0) {
+            const Filter *flt = c->filter;
+            for (int k = 0; k <= 2 * f->R; k++) {
+                d[f->off_wx + k] = flt->ops->weight_1d(flt, (float)((double)(k - f->R) +
+                                                                    (double)d[0] - 0.5));
+                d[f->off_wy + k] = flt->ops->weight_1d(flt, (float)((double)(k - f->R) +
+                                                                    (double)d[1] - 0.5));
+            }
+        }
+        float u, v;
+        camera_sample_to_screen(x, y, d[0], d[1], c->full_width, c->full_height, &u, &v);
+        st->rays[st->n] = camera_generate_ray(f->camera, u, v);
+        st->dest[st->n++] = d;
+        if (st->n == GRID_PACKET_MAX)
+            stream_flush(f, ctx, st);
+    }
+}
+
+/* Adaptive sampling: do the pixel's samples disagree by more than the threshold? */
+static bool film_disagrees(const Film *f, int x, int y)
+{
+    int n = *film_count(f, x, y);
+    float lo[3], hi[3];
+    for (int s = 0; s < n; s++) {
+        const float *c = film_sample(f, x, y, s) + 2;
+        for (int k = 0; k < 3; k++) {
+            if (s == 0 || c[k] < lo[k])
+                lo[k] = c[k];
+            if (s == 0 || c[k] > hi[k])
+                hi[k] = c[k];
+        }
+    }
+    for (int k = 0; k < 3 && n > 0; k++)
+        if (hi[k] - lo[k] > f->cfg->threshold)
+            return true;
+    return false;
+}
+
+/* The samples picture of pixel (x, y): its block, then its dots. A dot whose position
+ * rounds onto the next block (px just below 1) is not drawn: in the course's drawing
+ * order (i outer, j inner) that block is painted later and covers it. */
+static void film_draw_samples(const Film *f, int x, int y)
+{
+    const FilmConfig *c = f->cfg;
+    int z = c->samples_zoom;
+    int bx = (x - c->x0) * z, by = (y - c->y0) * z;
+    Vec3 bg = ((x + y) & 1) == 0 ? v3(0.2f, 0.2f, 0.2f) : v3(0, 0, 0);
+    for (int j = 0; j < z; j++)
+        for (int i = 0; i < z; i++)
+            image_set(c->samples, bx + i, by + j, bg);
+    int n = *film_count(f, x, y);
+    int maxx = c->full_width * z - 1, maxy = c->full_height * z - 1;
+    for (int s = 0; s < n; s++) {
+        const float *d = film_sample(f, x, y, s);
+        int X = (int)floorf(((float)x + d[0]) * (float)z);
+        int Y = (int)floorf(((float)y + d[1]) * (float)z);
+        X = X > maxx ? maxx : X;
+        Y = Y > maxy ? maxy : Y;
+        X -= c->x0 * z;
+        Y -= c->y0 * z;
+        if (X >= bx && X < bx + z && Y >= by && Y < by + z)
+            image_set(c->samples, X, Y, v3(d[2], d[3], d[4]));
+    }
+}
+
+static void film_band(void *user, RenderCtx *ctx, int band)
+{
+    const Film *f = user;
+    const FilmConfig *c = f->cfg;
+    int y0 = f->r0 + band * TILE, y1 = y0 + TILE < f->r1 ? y0 + TILE : f->r1;
+    Stream st;
+    st.n = 0;
+    /* Tiles of 8 x 8 pixels in Morton order, each pixel's samples in a row: the rays of
+     * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block). */
+    for (int x0 = f->sx0; x0 < f->sx1; x0 += TILE)
+        for (int k = 0; k < TILE * TILE; k++) {
+            int dx, dy;
+            render_tile_order(k, &dx, &dy);
+            int x = x0 + dx, y = y0 + dy;
+            if (x < f->sx1 && y < y1)
+                film_queue_pixel(f, ctx, &st, c->sampler, x, y);
+        }
+    stream_flush(f, ctx, &st);
+    if (c->refine) {
+        for (int x0 = f->sx0; x0 < f->sx1; x0 += TILE)
+            for (int k = 0; k < TILE * TILE; k++) {
+                int dx, dy;
+                render_tile_order(k, &dx, &dy);
+                int x = x0 + dx, y = y0 + dy;
+                if (x < f->sx1 && y < y1 && film_disagrees(f, x, y))
+                    film_queue_pixel(f, ctx, &st, c->refine, x, y);
+            }
+        stream_flush(f, ctx, &st);
+    }
+    if (c->samples)
+        for (int y = y0 > c->y0 ? y0 : c->y0; y < y1 && y < c->y0 + c->height; y++)
+            for (int x = c->x0; x < c->x0 + c->width; x++)
+                film_draw_samples(f, x, y);
+}
+
+/* The weight of sample s (data d) of pixel (a, b) for output pixel (i, j). */
+static inline float film_weight(const Film *f, const float *d, int a, int b, int i, int j,
+                                int s)
+{
+    int R = f->R;
+    if (f->table)
+        return f->table[((a - i + R) * (2 * R + 1) + (b - j + R)) * f->slots + s];
+    if (f->off_wx >= 0)
+        return d[f->off_wx + a - i + R] * d[f->off_wy + b - j + R];
+    /* The exact offset from the centre of pixel (i, j), rounded to float once. */
+    float dx = (float)((double)(a - i) + (double)d[0] - 0.5);
+    float dy = (float)((double)(b - j) + (double)d[1] - 0.5);
+    return filter_weight(f->cfg->filter, dx, dy);
+}
+
+/* Output row (out0 + job) of the rectangle: every pixel is the weighted average of the
+ * samples of its support (cropped at the image border), columns outer, rows inner,
+ * samples innermost, in float, divided by the sum of the weights used. */
+static void film_filter_row(void *user, RenderCtx *ctx, int job)
+{
+    (void)ctx;
+    const Film *f = user;
+    const FilmConfig *c = f->cfg;
+    int j = f->out0 + job, R = f->R;
+    int b0 = j - R > 0 ? j - R : 0;
+    int b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    bool adaptive = c->refine != NULL;
+    for (int i = c->x0; i < c->x0 + c->width; i++) {
+        int a0 = i - R > 0 ? i - R : 0;
+        int a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
+        Vec3 sum = v3(0, 0, 0), sum_d = v3(0, 0, 0), sum_n = v3(0, 0, 0);
+        float wsum = 0.0f;
+        for (int a = a0; a <= a1; a++)
+            for (int b = b0; b <= b1; b++) {
+                int n = *film_count(f, a, b);
+                /* Adaptive: each pixel weighs as one pixel's area, however many samples. */
+                float share = adaptive ? 1.0f / (float)n : 1.0f;
+                for (int s = 0; s < n; s++) {
+                    const float *d = film_sample(f, a, b, s);
+                    float w = film_weight(f, d, a, b, i, j, s);
+                    if (adaptive)
+                        w *= share;
+                    sum = v3_add(sum, v3_scale(v3(d[2], d[3], d[4]), w));
+                    if (f->off_depth >= 0)
+                        sum_d = v3_add(sum_d, v3_scale(v3(d[f->off_depth], d[f->off_depth + 1],
+                                                          d[f->off_depth + 2]), w));
+                    if (f->off_normal >= 0)
+                        sum_n = v3_add(sum_n,
+                                       v3_scale(v3(d[f->off_normal], d[f->off_normal + 1],
+                                                   d[f->off_normal + 2]), w));
+                    wsum += w;
+                }
+            }
+        int x = i - c->x0, y = j - c->y0;
+        /* No weight at all (a filter whose support misses every sample): black. */
+        Vec3 zero = v3(0, 0, 0);
+        if (c->color)
+            image_set(c->color, x, y,
+                      wsum != 0.0f ? v3(sum.x / wsum, sum.y / wsum, sum.z / wsum) : zero);
+        if (c->depth)
+            image_set(c->depth, x, y,
+                      wsum != 0.0f ? v3(sum_d.x / wsum, sum_d.y / wsum, sum_d.z / wsum) : zero);
+        if (c->normals)
+            image_set(c->normals, x, y,
+                      wsum != 0.0f ? v3(sum_n.x / wsum, sum_n.y / wsum, sum_n.z / wsum) : zero);
+    }
+}
+
+static bool film_check(const FilmConfig *c)
+{
+    return c->sampler && c->filter && c->full_width > 0 && c->full_height > 0 &&
+           c->x0 >= 0 && c->y0 >= 0 && c->width > 0 && c->height > 0 &&
+           c->x0 + c->width <= c->full_width && c->y0 + c->height <= c->full_height &&
+           (!c->refine || c->refine->count >= 1) && (!c->samples || c->samples_zoom >= 1);
+}
+
+bool film_render(const RayTracer *rt, const Camera *camera, const FilmConfig *cfg,
+                 int threads, RtStats *stats_out, volatile int *cancel)
+{
+    if (stats_out)
+        memset(stats_out, 0, sizeof *stats_out);
+    if (!film_check(cfg))
+        return false;
+    Film f;
+    memset(&f, 0, sizeof f);
+    f.cfg = cfg;
+    f.rt = rt;
+    f.camera = camera;
+    f.tmin = camera_tmin(camera);
+    int R = f.R = cfg->filter->support;
+    f.sx0 = cfg->x0 - R > 0 ? cfg->x0 - R : 0;
+    f.sx1 = cfg->x0 + cfg->width + R < cfg->full_width ? cfg->x0 + cfg->width + R
+                                                       : cfg->full_width;
+    f.sy0 = cfg->y0 - R > 0 ? cfg->y0 - R : 0;
+    f.sy1 = cfg->y0 + cfg->height + R < cfg->full_height ? cfg->y0 + cfg->height + R
+                                                         : cfg->full_height;
+    f.fw = f.sx1 - f.sx0;
+    f.slots = cfg->sampler->count;
+    if (cfg->refine && cfg->refine->count > f.slots)
+        f.slots = cfg->refine->count;
+    f.stride = 5;
+    f.off_depth = f.off_normal = f.off_wx = f.off_wy = -1;
+    if (cfg->depth) {
+        f.off_depth = f.stride;
+        f.stride += 3;
+    }
+    if (cfg->normals) {
+        f.off_normal = f.stride;
+        f.stride += 3;
+    }
+    bool fixed = cfg->sampler->ops->fixed && !cfg->refine;
+    if (fixed) {
+        /* The same offsets in every pixel: every weight is known before rendering. */
+        float xy[2 * SAMPLER_MAX_COUNT];
+        sampler_pixel(cfg->sampler, 0, 0, xy);
+        int side = 2 * R + 1;
+        f.table = malloc((size_t)side * (size_t)side * (size_t)f.slots * sizeof *f.table);
+        if (!f.table)
+            return false;
+        for (int da = -R; da <= R; da++)
+            for (int db = -R; db <= R; db++)
+                for (int s = 0; s < f.slots; s++) {
+                    float dx = (float)((double)da + (double)xy[2 * s] - 0.5);
+                    float dy = (float)((double)db + (double)xy[2 * s + 1] - 0.5);
+                    f.table[((da + R) * side + (db + R)) * f.slots + s] =
+                        filter_weight(cfg->filter, dx, dy);
+                }
+    } else if (cfg->filter->ops->weight_1d && R > 0) {
+        f.off_wx = f.stride;
+        f.off_wy = f.stride + 2 * R + 1;
+        f.stride += 2 * (2 * R + 1);
+    }
+
+    /* Strip height from the budget; at least 2R + 1 rows so a strip makes progress. */
+    size_t budget = cfg->budget ? cfg->budget : FILM_DEFAULT_BUDGET;
+    size_t row_bytes = (size_t)f.fw * ((size_t)f.slots * (size_t)f.stride * sizeof(float) +
+                                       sizeof(int));
+    size_t cap = budget / row_bytes;
+    if (cap < (size_t)(2 * R + 1))
+        cap = (size_t)(2 * R + 1);
+    if (cap > (size_t)(f.sy1 - f.sy0))
+        cap = (size_t)(f.sy1 - f.sy0);
+    f.rows_cap = (int)cap;
+    f.data = malloc(cap * (size_t)f.fw * (size_t)f.slots * (size_t)f.stride * sizeof(float));
+    f.count = malloc(cap * (size_t)f.fw * sizeof(int));
+    bool ok = f.data && f.count;
+
+    RtStats total = {0};
+    f.y0 = f.sy0;
+    f.rows = 0;
+    for (int oy = cfg->y0; ok && oy < cfg->y0 + cfg->height;) {
+        /* Drop the rows no later output row needs; keep the rest (the shared margin). */
+        int need0 = oy - R > f.sy0 ? oy - R : f.sy0;
+        if (need0 > f.y0) {
+            int drop = need0 - f.y0, keep = f.rows - drop;
+            if (keep > 0) {
+                size_t px = (size_t)drop * (size_t)f.fw;
+                size_t per = (size_t)f.slots * (size_t)f.stride;
+                memmove(f.data, f.data + px * per,
+                        (size_t)keep * (size_t)f.fw * per * sizeof(float));
+                memmove(f.count, f.count + px, (size_t)keep * (size_t)f.fw * sizeof(int));
+            }
+            f.y0 = need0;
+            f.rows = keep > 0 ? keep : 0;
+        }
+        /* The strip's output rows: all the rest when the remaining film rows fit,
+         * else as many as leave room for their R rows above. */
+        int out1 = cfg->y0 + cfg->height;
+        if (f.sy1 - f.y0 > f.rows_cap && f.y0 + f.rows_cap - R < out1)
+            out1 = f.y0 + f.rows_cap - R;
+        int need1 = out1 + R < f.sy1 ? out1 + R : f.sy1;
+        f.r0 = f.y0 + f.rows;
+        f.r1 = need1;
+        if (f.r1 > f.r0) {
+            RtStats st;
+            int bands = (f.r1 - f.r0 + TILE - 1) / TILE;
+            ok = render_parallel(rt, threads, bands, film_band, &f, &st, cancel);
+            stats_merge(&total, &st);
+            f.rows = f.r1 - f.y0;
+        }
+        f.out0 = oy;
+        if (ok)
+            ok = render_parallel(NULL, threads, out1 - oy, film_filter_row, &f, NULL, cancel);
+        oy = out1;
+    }
+    free(f.data);
+    free(f.count);
+    free(f.table);
+    if (stats_out)
+        *stats_out = total;
+    return ok;
+}
+
+void film_filter_picture(const Filter *f, int width, int height, int zoom, Image *out)
+{
+    image_fill(out, v3(0, 0, 0.5f));
+    int R = f->support;
+    int c = width / 2; /* both coordinates from the width, as the course's film.C */
+    for (int i = c - R; i <= c + R; i++)
+        for (int j = c - R; j <= c + R; j++) {
+            if (i < 0 || j < 0 || i >= width || j >= height)
+                continue;
+            for (int i2 = 0; i2 < zoom; i2++)
+                for (int j2 = 0; j2 < zoom; j2++) {
+                    float x = (float)((double)i + (double)i2 / zoom - ((double)c + 0.5));
+                    float y = (float)((double)j + (double)j2 / zoom - ((double)c + 0.5));
+                    float w = filter_weight(f, x, y);
+                    image_set(out, i * zoom + i2, j * zoom + j2, v3(w, w, w));
+                }
+        }
+    for (int y = 0; y < out->height; y++)
+        for (int x = 0; x < out->width; x++)
+            if (x % zoom == 0 || y % zoom == 0)
+                image_set(out, x, y, v3(0, 0, 1.0f));
+}

@@ -1,0 +1,163 @@
+/* Samplers (A7 and its extra credit): centre, uniform, random, jittered, n-rooks. One
+ * ops table each, looked up by the name the option carries. */
+#include "rt/sampler.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+/* splitmix64's finaliser (Steele, Lea, Flood 2014): a bijection of 64-bit words whose
+ * output bits all depend on all input bits, so hashing the sample's counters gives
+ * independent-looking draws without any generator state to share between threads. */
+static uint64_t mix64(uint64_t z)
+{
+    z += 0x9e3779b97f4a7c15ULL;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+float sampler_random(uint64_t seed, uint32_t stream, int x, int y, uint32_t index,
+                     uint32_t dim)
+{
+    uint64_t h = mix64(seed);
+    h = mix64(h ^ ((uint64_t)(uint32_t)x << 32 | (uint32_t)y));
+    h = mix64(h ^ ((uint64_t)stream << 48 | (uint64_t)(dim & 0xffff) << 32 | index));
+    /* The top 24 bits: every value k * 2^-24 is exact in float and below 1. */
+    return (float)(h >> 40) * 0x1p-24f;
+}
+
+/* (a + xi) / k in float, kept inside the stratum [a/k, (a+1)/k): a + xi can round up to
+ * a + 1 in float when a >= 1. */
+static float in_stratum(int a, float xi, int k)
+{
+    float v = ((float)a + xi) / (float)k;
+    float hi = (float)(a + 1) / (float)k;
+    return v < hi ? v : nextafterf(hi, 0.0f);
+}
+
+static void center_pixel(const Sampler *s, int x, int y, float *xy)
+{
+    (void)s;
+    (void)x;
+    (void)y;
+    xy[0] = 0.5f;
+    xy[1] = 0.5f;
+}
+
+/* The centres of a k x k grid, sample s = a + k*b in column a, row b (the course's
+ * order, which fixes the order of the filter's sums). */
+static void uniform_pixel(const Sampler *s, int x, int y, float *xy)
+{
+    (void)x;
+    (void)y;
+    int k = s->k;
+    for (int b = 0, i = 0; b < k; b++)
+        for (int a = 0; a < k; a++, i++) {
+            xy[2 * i] = ((float)a + 0.5f) / (float)k;
+            xy[2 * i + 1] = ((float)b + 0.5f) / (float)k;
+        }
+}
+
+static void random_pixel(const Sampler *s, int x, int y, float *xy)
+{
+    for (int i = 0; i < s->count; i++) {
+        xy[2 * i] = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 0);
+        xy[2 * i + 1] = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 1);
+    }
+}
+
+/* One random position in each cell of the k x k grid, cells in the uniform order. */
+static void jittered_pixel(const Sampler *s, int x, int y, float *xy)
+{
+    int k = s->k;
+    for (int b = 0, i = 0; b < k; b++)
+        for (int a = 0; a < k; a++, i++) {
+            float u = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 0);
+            float v = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 1);
+            xy[2 * i] = in_stratum(a, u, k);
+            xy[2 * i + 1] = in_stratum(b, v, k);
+        }
+}
+
+/* N-rooks (Shirley 1991): sample s lies in row stratum s of n and in column stratum
+ * perm(s), perm a random permutation per pixel, so both projections are stratified for
+ * any n, not only squares. */
+static void nrooks_pixel(const Sampler *s, int x, int y, float *xy)
+{
+    int n = s->count;
+    int perm[SAMPLER_MAX_COUNT];
+    for (int i = 0; i < n; i++)
+        perm[i] = i;
+    /* Fisher-Yates with draws from dimension 2 (0 and 1 are the positions). */
+    for (int i = n - 1; i > 0; i--) {
+        float r = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 2);
+        int j = (int)(r * (float)(i + 1));
+        if (j > i)
+            j = i;
+        int t = perm[i];
+        perm[i] = perm[j];
+        perm[j] = t;
+    }
+    for (int i = 0; i < n; i++) {
+        float u = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 0);
+        float v = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 1);
+        xy[2 * i] = in_stratum(perm[i], u, n);
+        xy[2 * i + 1] = in_stratum(i, v, n);
+    }
+}
+
+static const SamplerOps center_ops = {"center", false, true, center_pixel};
+static const SamplerOps uniform_ops = {"uniform", true, true, uniform_pixel};
+static const SamplerOps random_ops = {"random", false, false, random_pixel};
+static const SamplerOps jittered_ops = {"jittered", true, false, jittered_pixel};
+static const SamplerOps nrooks_ops = {"nrooks", false, false, nrooks_pixel};
+
+static const SamplerOps *const all_samplers[] = {&center_ops, &uniform_ops, &random_ops,
+                                                 &jittered_ops, &nrooks_ops};
+
+const SamplerOps *sampler_find(const char *name)
+{
+    for (size_t i = 0; i < sizeof all_samplers / sizeof all_samplers[0]; i++)
+        if (strcmp(all_samplers[i]->name, name) == 0)
+            return all_samplers[i];
+    return NULL;
+}
+
+void sampler_init_center(Sampler *s)
+{
+    memset(s, 0, sizeof *s);
+    s->ops = &center_ops;
+    s->count = 1;
+    s->k = 1;
+}
+
+bool sampler_init(Sampler *s, const SamplerOps *ops, int count, uint64_t seed, char *why,
+                  size_t whylen)
+{
+    memset(s, 0, sizeof *s);
+    if (count < 1 || count > SAMPLER_MAX_COUNT) {
+        snprintf(why, whylen, "%d samples per pixel is out of range 1..%d", count,
+                 SAMPLER_MAX_COUNT);
+        return false;
+    }
+    int k = 1;
+    if (ops->square) {
+        while ((k + 1) * (k + 1) <= count)
+            k++;
+        if (k * k != count) {
+            snprintf(why, whylen, "%d is not a square number of samples (1, 4, 9, 16, ...; "
+                     "nearest: %d or %d)", count, k * k, (k + 1) * (k + 1));
+            return false;
+        }
+    }
+    if (ops == &center_ops && count != 1) {
+        snprintf(why, whylen, "the centre sampler takes exactly one sample");
+        return false;
+    }
+    s->ops = ops;
+    s->count = count;
+    s->k = k;
+    s->seed = seed;
+    return true;
+}
