@@ -356,10 +356,12 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
     if (o->visualize_grid && !o->grid)
         return usage_error(&c, "-visualize_grid needs -grid nx ny nz (or -grid auto)");
     /* Two images into one file: the second would silently replace the first. */
-    const char *names[3] = {"-output", "-depth", "-normals"};
-    const char *files[3] = {o->output, o->depth_file, o->normals_file};
-    for (int i = 0; i < 3; i++)
-        for (int j = i + 1; j < 3; j++)
+    const char *names[5] = {"-output", "-depth", "-normals", "-render_samples",
+                            "-render_filter"};
+    const char *files[5] = {o->output, o->depth_file, o->normals_file, o->samples_file,
+                            o->filter_file};
+    for (int i = 0; i < 5; i++)
+        for (int j = i + 1; j < 5; j++)
             if (files[i] && files[j] && same_file(files[i], files[j]))
                 return usage_error(&c, "%s and %s name the same file '%s'", names[i], names[j],
                                    files[j]);
