@@ -387,6 +387,91 @@ static void make_blob(Mesh *m, int level, unsigned long seed)
     }
 }
 
+/* ---- uneven scenes for the benchmarks ---------------------------------------------- */
+
+/* Appends src scaled by s and moved by (tx, ty, tz) to dst. */
+static void mesh_append(Mesh *dst, const Mesh *src, double s, double tx, double ty, double tz)
+{
+    uint32_t base = (uint32_t)dst->nv;
+    for (size_t i = 0; i < src->nv; i++)
+        mesh_vertex(dst, s * src->v[3 * i] + tx, s * src->v[3 * i + 1] + ty,
+                    s * src->v[3 * i + 2] + tz);
+    for (size_t i = 0; i < src->nf; i++)
+        mesh_face(dst, base + src->f[3 * i], base + src->f[3 * i + 1], base + src->f[3 * i + 2]);
+}
+
+/* A big sparse room: a square floor of side size at height y0 (two triangles, facing
+ * up) and a ring of n wall quads (2n triangles) of radius size/2 and height size/3,
+ * facing the centre. With a small dense mesh inside, the "teapot in a stadium". */
+static void make_room(Mesh *m, double size, int n, double y0)
+{
+    double h = size / 2.0, top = y0 + size / 3.0;
+    uint32_t a = mesh_vertex(m, -h, y0, -h), b = mesh_vertex(m, h, y0, -h);
+    uint32_t c = mesh_vertex(m, h, y0, h), d = mesh_vertex(m, -h, y0, h);
+    /* (-h,-h) -> (-h,h) -> (h,h): (0,0,2h) x (2h,0,0) points up */
+    mesh_face(m, a, d, c);
+    mesh_face(m, a, c, b);
+    uint32_t first = (uint32_t)m->nv;
+    for (int i = 0; i < n; i++) {
+        double ang = 2.0 * M_PI * i / n;
+        mesh_vertex(m, h * cos(ang), y0, h * sin(ang));
+        mesh_vertex(m, h * cos(ang), top, h * sin(ang));
+    }
+    for (int i = 0; i < n; i++) {
+        uint32_t lo0 = first + 2u * (uint32_t)i, hi0 = lo0 + 1;
+        uint32_t lo1 = first + 2u * (uint32_t)((i + 1) % n), hi1 = lo1 + 1;
+        /* counter-clockwise seen from the centre */
+        mesh_face(m, lo0, hi0, lo1);
+        mesh_face(m, lo1, hi0, hi1);
+    }
+}
+
+/* k seeded blobs (make_blob, level) of radius radius, far apart: centres drawn in a
+ * cube of side spread, at least 4 radii from each other where possible. */
+static void make_clusters(Mesh *m, int k, int level, double spread, double radius)
+{
+    double (*c)[3] = calloc((size_t)k, sizeof *c);
+    if (!c)
+        die_oom();
+    rng_state = 0x853C49E6748FEA9Bull;
+    for (int i = 0; i < k; i++) {
+        for (int tries = 0; tries < 200; tries++) {
+            for (int a = 0; a < 3; a++)
+                c[i][a] = spread * (rng_uniform() - 0.5);
+            int ok = 1;
+            for (int j = 0; j < i && ok; j++) {
+                double d2 = 0.0;
+                for (int a = 0; a < 3; a++)
+                    d2 += (c[i][a] - c[j][a]) * (c[i][a] - c[j][a]);
+                ok = d2 >= 16.0 * radius * radius;
+            }
+            if (ok)
+                break;
+        }
+    }
+    for (int i = 0; i < k; i++) {
+        Mesh b = {0};
+        uint64_t keep = rng_state;
+        make_blob(&b, level, (unsigned long)(i + 1));
+        rng_state = keep;
+        mesh_append(m, &b, radius, c[i][0], c[i][1], c[i][2]);
+        mesh_free(&b);
+    }
+    free(c);
+}
+
+/* A long thin scene: k blobs of radius 1 (make_blob, level) in a row along +x, centres
+ * from 0 to length. */
+static void make_row(Mesh *m, int k, int level, double length)
+{
+    for (int i = 0; i < k; i++) {
+        Mesh b = {0};
+        make_blob(&b, level, (unsigned long)(i + 1));
+        mesh_append(m, &b, 1.0, k > 1 ? length * i / (k - 1) : 0.0, 0.0, 0.0);
+        mesh_free(&b);
+    }
+}
+
 /* ---- command line ------------------------------------------------------------------ */
 
 static void usage(FILE *out)
@@ -405,6 +490,11 @@ static void usage(FILE *out)
           "                               +y, optionally with gentle waves of AMPLITUDE\n"
           "  blob LEVEL [SEED]            icosphere displaced by seeded bumps (SEED default\n"
           "                               1): LEVEL 8 gives 1,310,720 triangles (benchmarks)\n"
+          "  room SIZE N [Y0]             floor of side SIZE at height Y0 (default 0) and a\n"
+          "                               ring of N wall quads, facing in (uneven scenes)\n"
+          "  clusters K LEVEL SPREAD R    K blobs of radius R far apart in a cube of side\n"
+          "                               SPREAD, 20*4^LEVEL triangles each\n"
+          "  row K LEVEL LENGTH           K blobs of radius 1 in a row along x, LENGTH long\n"
           "\n"
           "options:\n"
           "  -o FILE   write to FILE (written to FILE.tmp, then renamed)\n"
@@ -519,6 +609,33 @@ int main(int argc, char **argv)
         if (ok)
             make_blob(&m, level, (unsigned long)seed);
         decimals = 5; /* keeps the 1.3M-triangle file near 50 MB */
+    } else if (!strcmp(model, "room")) {
+        NEED(2, 3);
+        int n;
+        double size, y0 = 0.0;
+        ok = parse_double(args[0], 1e-6, 1e6, &size) && parse_int(args[1], 3, 4096, &n) &&
+             (nargs < 3 || parse_double(args[2], -1e6, 1e6, &y0));
+        if (ok)
+            make_room(&m, size, n, y0);
+    } else if (!strcmp(model, "clusters")) {
+        NEED(4, 4);
+        int k, level;
+        double spread, radius;
+        ok = parse_int(args[0], 1, 4096, &k) && parse_int(args[1], 0, 7, &level) &&
+             parse_double(args[2], 0.0, 1e6, &spread) &&
+             parse_double(args[3], 1e-6, 1e6, &radius);
+        if (ok)
+            make_clusters(&m, k, level, spread, radius);
+        decimals = 5;
+    } else if (!strcmp(model, "row")) {
+        NEED(3, 3);
+        int k, level;
+        double length;
+        ok = parse_int(args[0], 1, 65536, &k) && parse_int(args[1], 0, 7, &level) &&
+             parse_double(args[2], 0.0, 1e6, &length);
+        if (ok)
+            make_row(&m, k, level, length);
+        decimals = 5;
     } else {
         fprintf(stderr, "modelgen: unknown model '%s' (try -h)\n", model);
         return 2;
