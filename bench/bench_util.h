@@ -7,11 +7,23 @@
 #include <stdlib.h>
 #include <time.h>
 
+#include "rt/camera.h"
+
 /* Monotonic clock, seconds. */
 static inline double now_s(void)
 {
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* CPU time of the whole process (all threads), seconds: on a loaded machine the rate
+ * per CPU second is the steadier figure (rays / CPU time = rays per second per core
+ * while the process runs). */
+static inline double cpu_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
@@ -47,6 +59,20 @@ static inline double bench_run_pass(void *(*fn)(void *), void *workers, size_t s
     for (int i = 1; i < nthreads; i++)
         pthread_join(th[i], NULL);
     return now_s() - t0;
+}
+
+/* The primary ray of every pixel (row by row), made once before the timed passes of
+ * both tracers: ray generation is the harness's work, not the traversal's. */
+static inline void bench_make_rays(const Camera *cam, int w, int h, Vec3 *org, Vec3 *dir)
+{
+    for (int j = 0; j < h; j++)
+        for (int i = 0; i < w; i++) {
+            float u, v;
+            camera_pixel_to_screen(i, j, w, h, &u, &v);
+            Ray r = camera_generate_ray(cam, u, v);
+            org[(size_t)j * w + i] = r.origin;
+            dir[(size_t)j * w + i] = r.dir;
+        }
 }
 
 #endif

@@ -145,11 +145,12 @@ typedef struct Job {
     const Geo *geo;
     int w, h, packets, shade_back;
     float tmin;
-    /* per pixel, from the primary pass */
+    /* per pixel: the primary ray, made before the timed passes (ray generation is
+     * not Embree's work), then what the primary pass stores: exactly what
+     * bench/grid_ref stores on our side (t and the shadow flag) */
+    Vec3 *org, *dir;
     float *t;
-    Vec3 *n;            /* facing-tested normal (unit) of the hit */
     unsigned char *lit; /* 1: front-facing hit (or shade_back): shadow rays are cast */
-    Vec3 *org, *dir;    /* primary ray */
     atomic_int next;    /* next block of rows */
     atomic_llong shadow_rays, blocked;
 } Job;
@@ -157,7 +158,10 @@ typedef struct Job {
 enum { ROWS_PER_BLOCK = 4 };
 
 
-static void plane_hit(const Geo *g, Vec3 o, Vec3 d, float tmin, float *t, Vec3 *n)
+/* The nearest plane hit below *t; *facing becomes the sign source n.d of the hit
+ * (the normal as given: only its side matters here). */
+static inline void plane_hit(const Geo *g, Vec3 o, Vec3 d, float tmin, float *t,
+                             float *facing)
 {
     for (size_t i = 0; i < g->npl; i++) {
         float den = v3_dot(g->pl[i].n, d);
@@ -166,7 +170,7 @@ static void plane_hit(const Geo *g, Vec3 o, Vec3 d, float tmin, float *t, Vec3 *
         float tt = (g->pl[i].d - v3_dot(g->pl[i].n, o)) / den;
         if (tt > tmin && tt < *t) {
             *t = tt;
-            *n = v3_normalize(g->pl[i].n);
+            *facing = den;
         }
     }
 }
@@ -184,71 +188,59 @@ static int plane_blocks(const Geo *g, Vec3 o, Vec3 d, float tmin, float tmax)
     return 0;
 }
 
-/* Stores the primary hit of pixel (i, j) given Embree's answer. */
-static void finish_primary(Job *jb, int idx, Vec3 o, Vec3 d, float t, unsigned geom,
-                           unsigned prim)
+/* Stores the primary hit of pixel idx given Embree's answer: its t and whether it
+ * faces the ray (the sign of n.d, from our unit triangle normals or the sphere's
+ * radius vector: nothing normalised, nothing else stored). */
+static inline void finish_primary(Job *jb, size_t idx, Vec3 o, Vec3 d, float t,
+                                  unsigned geom, unsigned prim)
 {
     const Geo *g = jb->geo;
-    Vec3 n = {0, 0, 0};
-    if (geom == 0)
-        n = g->tn[prim];
-    else if (geom == 1) {
+    float facing = 0.0f;
+    if (geom == 0) {
+        facing = v3_dot(g->tn[prim], d);
+    } else if (geom == 1) {
         const float *s = g->sp + 4 * prim;
-        n = v3_normalize(v3_sub(ray_at(&(Ray){o, d}, t), v3(s[0], s[1], s[2])));
-    }
-    if (geom == RTC_INVALID_GEOMETRY_ID)
+        Vec3 p = v3_madd(o, d, t);
+        facing = v3_dot(v3_sub(p, v3(s[0], s[1], s[2])), d);
+    } else {
         t = INFINITY;
-    plane_hit(g, o, d, jb->tmin, &t, &n);
+    }
+    if (g->npl)
+        plane_hit(g, o, d, jb->tmin, &t, &facing);
     jb->t[idx] = t;
-    jb->org[idx] = o;
-    jb->dir[idx] = d;
-    int front = v3_dot(n, d) <= 0.0f;
-    if (!front && jb->shade_back)
-        n = v3_neg(n), front = 1;
-    jb->n[idx] = n;
-    jb->lit[idx] = isfinite(t) && front;
+    jb->lit[idx] = isfinite(t) && (facing <= 0.0f || jb->shade_back);
 }
 
 static void primary_rows(Job *jb, struct RTCIntersectContext *ctx, int y0, int y1)
 {
-    const Camera *cam = &jb->sc->camera;
     if (!jb->packets) {
-        for (int j = y0; j < y1; j++)
-            for (int i = 0; i < jb->w; i++) {
-                float u, v;
-                camera_pixel_to_screen(i, j, jb->w, jb->h, &u, &v);
-                Ray r = camera_generate_ray(cam, u, v);
-                struct RTCRayHit rh;
-                rh.ray.org_x = r.origin.x, rh.ray.org_y = r.origin.y, rh.ray.org_z = r.origin.z;
-                rh.ray.dir_x = r.dir.x, rh.ray.dir_y = r.dir.y, rh.ray.dir_z = r.dir.z;
-                rh.ray.tnear = jb->tmin, rh.ray.tfar = INFINITY;
-                rh.ray.mask = 0xFFFFFFFFu, rh.ray.flags = 0, rh.ray.time = 0.0f, rh.ray.id = 0;
-                rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-                rtcIntersect1(jb->scene, ctx, &rh);
-                finish_primary(jb, j * jb->w + i, r.origin, r.dir, rh.ray.tfar, rh.hit.geomID,
-                               rh.hit.primID);
-            }
+        for (size_t idx = (size_t)y0 * jb->w; idx < (size_t)y1 * jb->w; idx++) {
+            Vec3 o = jb->org[idx], d = jb->dir[idx];
+            struct RTCRayHit rh;
+            rh.ray.org_x = o.x, rh.ray.org_y = o.y, rh.ray.org_z = o.z;
+            rh.ray.dir_x = d.x, rh.ray.dir_y = d.y, rh.ray.dir_z = d.z;
+            rh.ray.tnear = jb->tmin, rh.ray.tfar = INFINITY;
+            rh.ray.mask = 0xFFFFFFFFu, rh.ray.flags = 0, rh.ray.time = 0.0f, rh.ray.id = 0;
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            rtcIntersect1(jb->scene, ctx, &rh);
+            finish_primary(jb, idx, o, d, rh.ray.tfar, rh.hit.geomID, rh.hit.primID);
+        }
         return;
     }
     /* packets of 16 = 4 x 4 pixel tiles (coherent rays) */
     for (int j0 = y0; j0 < y1; j0 += 4)
         for (int i0 = 0; i0 < jb->w; i0 += 4) {
-            struct RTCRayHit16 rh;
-            int valid[16], idx[16];
-            Vec3 org[16], dir[16];
+            struct RTCRayHit16 rh __attribute__((aligned(64)));
+            int valid[16] __attribute__((aligned(64)));
+            size_t idx[16];
             for (int k = 0; k < 16; k++) {
                 int i = i0 + (k & 3), j = j0 + (k >> 2);
                 valid[k] = (i < jb->w && j < y1) ? -1 : 0;
-                idx[k] = j * jb->w + i;
-                float u = 0.5f, v = 0.5f;
-                if (valid[k])
-                    camera_pixel_to_screen(i, j, jb->w, jb->h, &u, &v);
-                Ray r = camera_generate_ray(cam, u, v);
-                org[k] = r.origin, dir[k] = r.dir;
-                rh.ray.org_x[k] = r.origin.x, rh.ray.org_y[k] = r.origin.y;
-                rh.ray.org_z[k] = r.origin.z;
-                rh.ray.dir_x[k] = r.dir.x, rh.ray.dir_y[k] = r.dir.y, rh.ray.dir_z[k] = r.dir.z;
+                idx[k] = valid[k] ? (size_t)j * jb->w + i : (size_t)y0 * jb->w;
+                Vec3 o = jb->org[idx[k]], d = jb->dir[idx[k]];
+                rh.ray.org_x[k] = o.x, rh.ray.org_y[k] = o.y, rh.ray.org_z[k] = o.z;
+                rh.ray.dir_x[k] = d.x, rh.ray.dir_y[k] = d.y, rh.ray.dir_z[k] = d.z;
                 rh.ray.tnear[k] = jb->tmin, rh.ray.tfar[k] = INFINITY;
                 rh.ray.mask[k] = 0xFFFFFFFFu, rh.ray.flags[k] = 0, rh.ray.time[k] = 0.0f;
                 rh.ray.id[k] = (unsigned)k;
@@ -258,8 +250,8 @@ static void primary_rows(Job *jb, struct RTCIntersectContext *ctx, int y0, int y
             rtcIntersect16(valid, jb->scene, ctx, &rh);
             for (int k = 0; k < 16; k++)
                 if (valid[k])
-                    finish_primary(jb, idx[k], org[k], dir[k], rh.ray.tfar[k], rh.hit.geomID[k],
-                                   rh.hit.primID[k]);
+                    finish_primary(jb, idx[k], jb->org[idx[k]], jb->dir[idx[k]], rh.ray.tfar[k],
+                                   rh.hit.geomID[k], rh.hit.primID[k]);
         }
 }
 
@@ -305,8 +297,8 @@ static void shadow_rows(Job *jb, struct RTCIntersectContext *ctx, int y0, int y1
                     valid0[k] = -1;
                 }
                 for (int l = 0; l < sc->num_lights; l++) {
-                    struct RTCRay16 r;
-                    int valid[16], any = 0;
+                        struct RTCRay16 r __attribute__((aligned(64)));
+                    int valid[16] __attribute__((aligned(64))), any = 0;
                     Vec3 L[16];
                     float dist[16];
                     for (int k = 0; k < 16; k++) {
@@ -369,13 +361,16 @@ static void *worker_main(void *arg)
 }
 
 /* One pass over the image with nthreads workers; returns its wall time. */
-static double run_pass(Job *jb, int pass, int nthreads)
+static double run_pass(Job *jb, int pass, int nthreads, double *cpu)
 {
     Worker wk[64];
     atomic_store(&jb->next, 0);
     for (int i = 0; i < nthreads; i++)
         wk[i].jb = jb, wk[i].pass = pass;
-    return bench_run_pass(worker_main, wk, sizeof *wk, nthreads, "embree_ref");
+    double c0 = cpu_s();
+    double t = bench_run_pass(worker_main, wk, sizeof *wk, nthreads, "embree_ref");
+    *cpu = cpu_s() - c0;
+    return t;
 }
 
 
@@ -495,23 +490,24 @@ int main(int argc, char **argv)
     /* Embree needs tnear >= 0: orthographic cameras (tmin = -inf in the course) get 0 */
     jb.tmin = camera_tmin(&sc->camera) > 0.0f ? camera_tmin(&sc->camera) : 0.0f;
     jb.t = malloc(np * sizeof *jb.t);
-    jb.n = malloc(np * sizeof *jb.n);
     jb.lit = malloc(np);
     jb.dir = malloc(np * sizeof *jb.dir);
     jb.org = malloc(np * sizeof *jb.org);
-    if (!jb.t || !jb.n || !jb.lit || !jb.dir || !jb.org) {
+    if (!jb.t || !jb.lit || !jb.dir || !jb.org) {
         fprintf(stderr, "embree_ref: out of memory\n");
         return 1;
     }
+    bench_make_rays(&sc->camera, w, h, jb.org, jb.dir);
     double *tp = malloc((size_t)repeat * sizeof *tp), *ts = malloc((size_t)repeat * sizeof *ts);
+    double *cp = malloc((size_t)repeat * sizeof *cp), *cs = malloc((size_t)repeat * sizeof *cs);
     long long shadow_rays = 0, blocked = 0;
     for (int r = 0; r < repeat; r++) {
-        tp[r] = run_pass(&jb, 0, threads);
-        ts[r] = 0.0;
+        tp[r] = run_pass(&jb, 0, threads, &cp[r]);
+        ts[r] = cs[r] = 0.0;
         if (shadows) {
             atomic_store(&jb.shadow_rays, 0);
             atomic_store(&jb.blocked, 0);
-            ts[r] = run_pass(&jb, 1, threads);
+            ts[r] = run_pass(&jb, 1, threads, &cs[r]);
             shadow_rays = atomic_load(&jb.shadow_rays);
             blocked = atomic_load(&jb.blocked);
         }
@@ -541,16 +537,18 @@ int main(int argc, char **argv)
             return 1;
     }
     double mp = median(tp, repeat), ms = median(ts, repeat);
+    double mcp = median(cp, repeat), mcs = median(cs, repeat);
     printf("embree mode=%s threads=%d size=%dx%d triangles=%zu spheres=%zu planes=%zu "
            "skipped=%zu load_ms=%.3f build_ms=%.3f primary_rays=%zu primary_hits=%zu "
            "primary_ms=%.3f primary_mrays=%.3f shadow_rays=%lld shadow_blocked=%lld shadow_ms=%.3f "
-           "shadow_mrays=%.3f\n",
+           "shadow_mrays=%.3f primary_mrays_cpu=%.3f shadow_mrays_cpu=%.3f\n",
            packets ? "packet" : "single", threads, w, h, geo.ntri, geo.nsph, geo.npl, geo.skipped,
            t_load * 1e3, t_build * 1e3, np, hits, mp * 1e3, (double)np / mp * 1e-6,
-           shadow_rays, blocked, ms * 1e3, ms > 0 ? (double)shadow_rays / ms * 1e-6 : 0.0);
+           shadow_rays, blocked, ms * 1e3, ms > 0 ? (double)shadow_rays / ms * 1e-6 : 0.0,
+           (double)np / mcp * 1e-6, mcs > 0 ? (double)shadow_rays / mcs * 1e-6 : 0.0);
     rtcReleaseScene(scene);
     rtcReleaseDevice(dev);
-    free(tp), free(ts), free(jb.t), free(jb.n), free(jb.lit), free(jb.dir), free(jb.org);
+    free(tp), free(ts), free(cp), free(cs), free(jb.t), free(jb.lit), free(jb.dir), free(jb.org);
     free(geo.tv), free(geo.tn), free(geo.sp), free(geo.pl);
     scene_free(sc);
     return 0;
