@@ -72,6 +72,9 @@ stat_of() { sed -n "s/^  $1  *\([0-9.]*\).*/\1/p" "$TMP/run.out" | tail -n 1 | g
 # from the last embree_ref run: key=value
 emb_of() { tr ' ' '\n' <"$TMP/run.out" | sed -n "s/^$1=//p" | head -n 1; }
 
+# BENCH_ONLY=letters: only those sections (a b c e; b includes d), e.g. BENCH_ONLY=e
+want() { case "${BENCH_ONLY:-abce}" in *"$1"*) return 0 ;; esac; return 1; }
+
 HAS_TIMINGS=0
 "$BIN" -h 2>&1 | grep -q -- '-timings' && HAS_TIMINGS=1
 TIMINGS=
@@ -96,7 +99,7 @@ say ""
 # ---------------------------------------------------------------------------------
 # (a) the course suite
 # ---------------------------------------------------------------------------------
-if [ -f "$COURSE/commands.txt" ]; then
+if want a && [ -f "$COURSE/commands.txt" ]; then
     say "== (a) course suite: $COURSE/commands.txt (outputs into a temporary folder)"
     say "   wall/cpu: whole process, ms; parse (incl. OBJ load), grid build, render: from -timings"
     if [ "$BRUTE" = 1 ]; then
@@ -172,7 +175,7 @@ if [ -f "$COURSE/commands.txt" ]; then
     done <"$COURSE/commands.txt"
     say "   total: wall $tot_wall ms, cpu $tot_cpu ms (sum of the medians)"
     say ""
-else
+elif want a; then
     say "== (a) course suite: SKIPPED ($COURSE/commands.txt not found; set RT_COURSE)"
     say ""
 fi
@@ -180,6 +183,7 @@ fi
 # ---------------------------------------------------------------------------------
 # (b)+(d) trace throughput, ours and Embree's, paired
 # ---------------------------------------------------------------------------------
+if want b || want c; then
 if [ ! -f "$OUT/blob.obj" ]; then
     note "bench: generating bench/out/blob.obj (modelgen blob 8: 1,310,720 triangles)"
     "$TOOLS/modelgen" -o "$OUT/blob.obj" blob 8 || exit 1
@@ -197,7 +201,9 @@ if [ -f "$COURSE/commands.txt" ]; then
     cases+=("bunny40k/auto|$COURSE/scene6_07_bunny_mesh_40k.txt|-grid auto|0.6 1.2")
 fi
 cases+=("blob1.3M|$ROOT/bench/blob.txt|-grid auto|4 9")
+fi
 
+if want b; then
 say "== (b) trace throughput (Mrays/s) with (d) Embree on the same rays"
 say "   render: the raytracer, render time from -timings (shading included, image"
 say "   writing excluded); primary = W*H / render time without -shadows; shadow = shadow"
@@ -280,10 +286,12 @@ fi
 [ -f "$TMP/notes.txt" ] && tee -a "$R" <"$TMP/notes.txt"
 say "   (per core: divide the 2-thread figures by 2; the machine has $(nproc) cores)"
 say ""
+fi
 
 # ---------------------------------------------------------------------------------
 # (c) set-up costs; whole-program pairing of course line 07
 # ---------------------------------------------------------------------------------
+if want c; then
 say "== (c) set-up costs (ms, median; -size 1 1 runs with -timings)"
 say "$(printf '   %-14s %9s %9s %10s %12s %12s' case triangles parse grid emb-load emb-build)"
 for c in "${cases[@]}"; do
@@ -330,6 +338,61 @@ if [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ]; then
     else
         say "   ours $o"
     fi
+    say ""
+fi
+fi
+
+# ---------------------------------------------------------------------------------
+# (e) uneven scenes: whole process, ours (-grid auto) against Embree single rays
+# ---------------------------------------------------------------------------------
+# The scenes are made by tools/modelgen into bench/out (the bunny is linked from the
+# course folder): stadium = the 40k bunny in a room 100x its size (floor and 66 wall
+# triangles), clusters = 8 blobs of 5,120 triangles far apart, row = 48 blobs of 1,280
+# triangles in a row 480 long.
+if want e && [ -f "$COURSE/bunny_40k.obj" ]; then
+    ln -sfn "$COURSE/bunny_40k.obj" "$OUT/bunny_40k.obj"
+    [ -f "$OUT/room.obj" ] || "$TOOLS/modelgen" -q -o "$OUT/room.obj" room 31 33 0.06 || exit 1
+    [ -f "$OUT/clusters.obj" ] || "$TOOLS/modelgen" -q -o "$OUT/clusters.obj" clusters 8 4 60 2 || exit 1
+    [ -f "$OUT/row.obj" ] || "$TOOLS/modelgen" -q -o "$OUT/row.obj" row 48 3 480 || exit 1
+    say "== (e) uneven scenes, whole process (parse, build, trace; ours also shades and writes),"
+    say "   200x200 -shadows, paired runs interleaved (ours, Embree, uniform), median of $RUNS."
+    say "   ours: -grid auto (two-level where crowded); uniform: the uniform grid -grid auto"
+    say "   chose before (its resolution from grid_ref); Embree: embree_ref -mode single."
+    say "   cpu = user + system CPU ms (steadier than wall on a shared machine); x = ours /"
+    say "   Embree (target <= 1.5); tests = intersections per ray (-stats), ours / uniform."
+    say "$(printf '   %-9s %2s %8s %8s %8s %8s %8s %8s %6s %6s %9s %9s' scene th wall emb-w uni-w cpu emb-c uni-c x-wall x-cpu tests uni-tests)"
+    for sc in stadium clusters row; do
+        scene=$ROOT/bench/$sc.txt
+        udims=
+        if [ -n "$GREF" ]; then
+            run_timed "$GREF" -input "$scene" -size 1 1 -grid auto
+            udims=$(tr ' ' '\n' <"$TMP/run.out" | sed -n 's/^cells=//p' | tr x ' ')
+        fi
+        for th in 1 2; do
+            ow=() oc=() ew=() ec=() uw=() uc=()
+            otests=- utests=-
+            for ((k = 0; k < RUNS; k++)); do
+                run_timed "$BIN" -input "$scene" -output "$TMP/o.tga" -size 200 200 -grid auto -shadows -threads $th -stats
+                [ "$STATUS" = 0 ] || { note "bench: $sc failed: $(head -c 300 "$TMP/run.err")"; break; }
+                ow+=("$WALL") oc+=("$CPU") otests=$(stat_of "intersections per ray")
+                if [ -n "$EMB" ]; then
+                    run_timed "$EMB" -input "$scene" -size 200 200 -threads $th -mode single -shadows
+                    ew+=("$WALL") ec+=("$CPU")
+                fi
+                if [ -n "$udims" ]; then
+                    run_timed "$BIN" -input "$scene" -output "$TMP/u.tga" -size 200 200 -grid $udims -shadows -threads $th -stats
+                    uw+=("$WALL") uc+=("$CPU") utests=$(stat_of "intersections per ray")
+                    cmp -s "$TMP/o.tga" "$TMP/u.tga" || note "bench: $sc: -grid auto and the uniform grid differ"
+                fi
+            done
+            [ "$STATUS" = 0 ] || continue
+            w=$(median "${ow[@]}") c=$(median "${oc[@]}")
+            e_w=- e_c=- u_w=- u_c=-
+            [ ${#ew[@]} -gt 0 ] && e_w=$(median "${ew[@]}") e_c=$(median "${ec[@]}")
+            [ ${#uw[@]} -gt 0 ] && u_w=$(median "${uw[@]}") u_c=$(median "${uc[@]}")
+            say "$(printf '   %-9s %2s %8s %8s %8s %8s %8s %8s %6s %6s %9s %9s' "$sc" "$th" "$w" "$e_w" "$u_w" "$c" "$e_c" "$u_c" "$(div "$w" "$e_w")" "$(div "$c" "$e_c")" "$otests" "$utests")"
+        done
+    done
     say ""
 fi
 

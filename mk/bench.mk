@@ -2,7 +2,8 @@
 #   make models   regenerate the committed OBJ models in models/ with build/tools/modelgen
 #   make bench    the full benchmark: course suite, throughput, set-up, Embree pairing;
 #                 BENCH_RUNS=N (median of N, default 3), BENCH_QUICK=1 (a short run),
-#                 BENCH_BRUTE=0 (skip the brute-force column of the course suite)
+#                 BENCH_BRUTE=0 (skip the brute-force column of the course suite),
+#                 BENCH_ONLY=letters (only those sections of the report, e.g. e)
 # The Embree reference (bench/embree_ref.c) is built only when Debian's libembree-dev is
 # installed; nothing else in the build needs it.
 
@@ -16,6 +17,7 @@ GRID_REF      := $(BUILD)/bench/grid_ref
 BENCH_RUNS    ?= 3
 BENCH_QUICK   ?= 0
 BENCH_BRUTE   ?= 1
+BENCH_ONLY    ?= abce
 
 .PHONY: models bench embree_ref grid_ref
 
@@ -33,7 +35,7 @@ bench:
 	$(Q)$(MAKE) --no-print-directory all grid_ref
 	$(Q)if [ "$(HAVE_EMBREE)" = 1 ]; then $(MAKE) --no-print-directory embree_ref; \
 	    else echo "bench: libembree-dev not installed: no Embree pairing (apt-get install libembree-dev)"; fi
-	$(Q)BENCH_RUNS=$(BENCH_RUNS) BENCH_QUICK=$(BENCH_QUICK) BENCH_BRUTE=$(BENCH_BRUTE) \
+	$(Q)BENCH_RUNS=$(BENCH_RUNS) BENCH_QUICK=$(BENCH_QUICK) BENCH_BRUTE=$(BENCH_BRUTE) BENCH_ONLY=$(BENCH_ONLY) \
 	    RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) GRID_REF=$(abspath $(GRID_REF)) \
 	    EMBREE_REF=$(if $(filter 1,$(HAVE_EMBREE)),$(abspath $(EMBREE_REF))) \
 	    bash bench/run.sh
