@@ -1,0 +1,301 @@
+/* Unit tests of antialiasing: sampler positions (range, strata, lattice, n-rooks rows
+ * and columns, determinism, seeds), filter weights (symmetry, support radii), and the
+ * film: a pixel rectangle equals the crop of the full render, a tiny memory budget
+ * (many strips) gives the same bytes, and one centred sample with the default box is
+ * the plain image loop's image. */
+#include "harness.h"
+#include "rt/film.h"
+#include "rt/grid.h"
+#include "rt/render.h"
+#include "rt/scene.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+static void make_sampler(Sampler *s, const char *name, int n, uint64_t seed)
+{
+    char why[160];
+    CHECK_MSG(sampler_init(s, sampler_find(name), n, seed, why, sizeof why), "%s", why);
+}
+
+static void test_sampler_ranges_and_strata(void)
+{
+    static const char *names[] = {"uniform", "random", "jittered", "nrooks"};
+    static const int counts[] = {1, 4, 9, 16, 36, 7};
+    float xy[2 * SAMPLER_MAX_COUNT];
+    for (int k = 0; k < 4; k++)
+        for (int c = 0; c < 6; c++) {
+            Sampler s;
+            char why[160];
+            bool ok = sampler_init(&s, sampler_find(names[k]), counts[c], 3, why, sizeof why);
+            CHECK(ok == (counts[c] != 7 || !sampler_find(names[k])->square));
+            if (!ok)
+                continue;
+            for (int y = -2; y < 40; y += 7)
+                for (int x = 0; x < 300; x += 13) {
+                    sampler_pixel(&s, x, y, xy);
+                    int n = s.count, kk = s.k;
+                    for (int i = 0; i < n; i++) {
+                        float px = xy[2 * i], py = xy[2 * i + 1];
+                        CHECK(px >= 0.0f && px < 1.0f && py >= 0.0f && py < 1.0f);
+                        int a = i % kk, b = i / kk;
+                        if (!strcmp(names[k], "uniform")) {
+                            CHECK(px == ((float)a + 0.5f) / (float)kk);
+                            CHECK(py == ((float)b + 0.5f) / (float)kk);
+                        } else if (!strcmp(names[k], "jittered")) {
+                            CHECK(px >= (float)a / (float)kk && px < (float)(a + 1) / (float)kk);
+                            CHECK(py >= (float)b / (float)kk && py < (float)(b + 1) / (float)kk);
+                        } else if (!strcmp(names[k], "nrooks")) {
+                            CHECK(py >= (float)i / (float)n && py < (float)(i + 1) / (float)n);
+                        }
+                    }
+                    if (!strcmp(names[k], "nrooks")) {
+                        /* one sample in every column stratum */
+                        int cols[64] = {0};
+                        for (int i = 0; i < n; i++) {
+                            int col = (int)(xy[2 * i] * (float)n);
+                            col = col >= n ? n - 1 : col;
+                            cols[col]++;
+                        }
+                        for (int i = 0; i < n; i++)
+                            CHECK(cols[i] == 1 || n > 64);
+                    }
+                }
+        }
+}
+
+/* Positions depend only on (pixel, index, seed): the same call twice gives the same
+ * bits, another pixel or seed other positions; the mean of many draws is near 0.5. */
+static void test_sampler_determinism(void)
+{
+    Sampler a, b;
+    make_sampler(&a, "jittered", 16, 0);
+    make_sampler(&b, "jittered", 16, 1);
+    float x1[32], x2[32], x3[32], x4[32];
+    sampler_pixel(&a, 10, 20, x1);
+    sampler_pixel(&a, 11, 20, x3);
+    sampler_pixel(&a, 10, 20, x2);
+    sampler_pixel(&b, 10, 20, x4);
+    CHECK(memcmp(x1, x2, sizeof x1) == 0);
+    CHECK(memcmp(x1, x3, sizeof x1) != 0);
+    CHECK(memcmp(x1, x4, sizeof x1) != 0);
+    double sum = 0;
+    for (int i = 0; i < 100000; i++)
+        sum += (double)sampler_random(5, 0, i % 317, i / 317, (uint32_t)i, 0);
+    CHECK_NEAR(sum / 100000, 0.5, 0.01);
+}
+
+static void test_filter_symmetry_and_support(void)
+{
+    static const char *names[] = {"box", "tent", "gaussian", "mitchell"};
+    static const float params[] = {0.5f, 1.5f, 1.7f, 2.3f, 0.4f, 1.0f};
+    char why[160];
+    for (int k = 0; k < 4; k++)
+        for (int p = 0; p < 6; p++) {
+            Filter f;
+            CHECK(filter_init(&f, filter_find(names[k]), params[p], why, sizeof why));
+            for (float x = -3.0f; x <= 3.0f; x += 0.37f)
+                for (float y = -3.0f; y <= 3.0f; y += 0.29f) {
+                    float w = filter_weight(&f, x, y);
+                    CHECK(w == filter_weight(&f, -x, y));
+                    CHECK(w == filter_weight(&f, x, -y));
+                    CHECK(w == filter_weight(&f, y, x));
+                    /* nothing beyond the support: a sample of pixel i+R+1 lies at least
+                     * R + 0.5 away */
+                    if (fabsf(x) > (float)f.support + 0.5f && k != 2)
+                        CHECK(w == 0.0f);
+                }
+            CHECK(filter_weight(&f, 0, 0) > 0.99f);
+        }
+    /* The support radii the course's filter pictures show. */
+    static const struct { const char *n; float r; int R; } sup[] = {
+        {"box", 0.5f, 0}, {"box", 1.5f, 1}, {"box", 1.7f, 2}, {"box", 2.3f, 2},
+        {"tent", 1.5f, 1}, {"tent", 2.3f, 2}, {"gaussian", 0.5f, 1}, {"gaussian", 0.6f, 1},
+        {"gaussian", 1.0f, 2}, {"gaussian", 1.7f, 3}, {"gaussian", 2.3f, 5},
+        {"gaussian", 0.4f, 1}};
+    for (size_t i = 0; i < sizeof sup / sizeof sup[0]; i++) {
+        Filter f;
+        CHECK(filter_init(&f, filter_find(sup[i].n), sup[i].r, why, sizeof why));
+        CHECK_MSG(f.support == sup[i].R, "%s %g: R = %d, want %d", sup[i].n, (double)sup[i].r,
+                  f.support, sup[i].R);
+    }
+    Filter f;
+    CHECK(!filter_init(&f, filter_find("box"), 0.0f, why, sizeof why));
+    CHECK(!filter_init(&f, filter_find("gaussian"), -1.0f, why, sizeof why));
+    CHECK(!filter_init(&f, filter_find("tent"), 17.0f, why, sizeof why));
+    CHECK(filter_find("lanczos") == NULL);
+}
+
+/* ---- the film on a course scene --------------------------------------------------- */
+
+typedef struct Fixture {
+    Scene *scene;
+    Grid *grid;
+    RayTracer rt;
+} Fixture;
+
+static bool fixture_open(Fixture *fx, const char *name, bool grid)
+{
+    memset(fx, 0, sizeof *fx);
+    const char *course = harness_course_dir();
+    if (!course)
+        harness_skip("course folder absent");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/a7/%s", course, name);
+    Diag d;
+    diag_init(&d, NULL);
+    fx->scene = scene_load(path, &d);
+    CHECK_MSG(fx->scene != NULL, "%s", d.last);
+    if (!fx->scene)
+        return false;
+    fx->rt.scene = fx->scene;
+    fx->rt.shadows = true;
+    fx->rt.bounces = 2;
+    fx->rt.weight = 0.01f;
+    fx->rt.shade_back = true;
+    if (grid) {
+        fx->grid = grid_build(fx->scene, 15, 30, 15, &d);
+        fx->rt.grid = fx->grid;
+    }
+    return true;
+}
+
+static void fixture_close(Fixture *fx)
+{
+    grid_free(fx->grid);
+    scene_free(fx->scene);
+}
+
+static bool same_pixels(const Image *a, const Image *b, int ox, int oy)
+{
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            Vec3 p = image_get(a, x, y), q = image_get(b, x + ox, y + oy);
+            if (memcmp(&p, &q, sizeof p) != 0)
+                return false;
+        }
+    return true;
+}
+
+static void render_rect(Fixture *fx, const Sampler *s, const Filter *f, const Sampler *refine,
+                        int W, int H, int x0, int y0, int w, int h, size_t budget,
+                        int threads, Image *color, Image *depth)
+{
+    CHECK(image_init(color, w, h));
+    CHECK(image_init(depth, w, h));
+    FilmConfig fc;
+    memset(&fc, 0, sizeof fc);
+    fc.sampler = s;
+    fc.filter = f;
+    fc.refine = refine;
+    fc.threshold = 0.05f;
+    fc.full_width = W;
+    fc.full_height = H;
+    fc.x0 = x0;
+    fc.y0 = y0;
+    fc.width = w;
+    fc.height = h;
+    fc.color = color;
+    fc.depth = depth;
+    fc.depth_min = 5;
+    fc.depth_max = 15;
+    fc.budget = budget;
+    CHECK(film_render(&fx->rt, &fx->scene->camera, &fc, threads, NULL, NULL));
+}
+
+/* A rectangle (also at the borders, where the margin is cut) is exactly the crop of
+ * the full render; so is the full render made strip by strip in a tiny budget. */
+static void test_film_region_and_budget(void)
+{
+    Fixture fx;
+    if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
+        return;
+    Sampler jit, rnd, ada;
+    make_sampler(&jit, "jittered", 9, 0);
+    make_sampler(&rnd, "random", 5, 2);
+    make_sampler(&ada, "jittered", 16, 0);
+    ada.stream = 1;
+    Filter gauss, tent;
+    char why[160];
+    CHECK(filter_init(&gauss, filter_find("gaussian"), 0.9f, why, sizeof why));
+    CHECK(filter_init(&tent, filter_find("tent"), 1.5f, why, sizeof why));
+    const int W = 61, H = 47;
+    struct { const Sampler *s; const Filter *f; const Sampler *refine; } cases[] = {
+        {&jit, &gauss, NULL}, {&rnd, &tent, NULL}, {&jit, &tent, &ada}};
+    for (int c = 0; c < 3; c++) {
+        Image full, full_d;
+        render_rect(&fx, cases[c].s, cases[c].f, cases[c].refine, W, H, 0, 0, W, H, 0, 2,
+                    &full, &full_d);
+        static const int rects[][4] = {{0, 0, 10, 7}, {20, 13, 17, 9}, {50, 40, 11, 7},
+                                       {0, 30, 61, 1}, {60, 0, 1, 47}};
+        for (int r = 0; r < 5; r++) {
+            Image part, part_d;
+            render_rect(&fx, cases[c].s, cases[c].f, cases[c].refine, W, H, rects[r][0],
+                        rects[r][1], rects[r][2], rects[r][3], 0, 1, &part, &part_d);
+            CHECK_MSG(same_pixels(&part, &full, rects[r][0], rects[r][1]) &&
+                          same_pixels(&part_d, &full_d, rects[r][0], rects[r][1]),
+                      "case %d: rectangle %d differs from the crop of the full render", c, r);
+            image_free(&part);
+            image_free(&part_d);
+        }
+        /* the smallest budget (2R + 1 rows held: a strip per output row) and one of a
+         * few rows: many strips, the shared margin rows kept, not traced again */
+        Image strip, strip_d;
+        for (int b = 0; b < 2; b++) {
+            render_rect(&fx, cases[c].s, cases[c].f, cases[c].refine, W, H, 0, 0, W, H,
+                        b == 0 ? 1 : (size_t)W * 9 * 18 * 4 * 9, 2, &strip, &strip_d);
+            CHECK_MSG(same_pixels(&strip, &full, 0, 0) && same_pixels(&strip_d, &full_d, 0, 0),
+                      "case %d: the strip-by-strip render (budget %d) differs", c, b);
+            image_free(&strip);
+            image_free(&strip_d);
+        }
+        image_free(&full);
+        image_free(&full_d);
+    }
+    fixture_close(&fx);
+}
+
+/* One centred sample with the default box filter: the image loop's bytes, with and
+ * without the grid. */
+static void test_film_default_is_image_loop(void)
+{
+    for (int g = 0; g < 2; g++) {
+        Fixture fx;
+        if (!fixture_open(&fx, "scene7_03_marble_vase.txt", g == 1))
+            return;
+        Sampler c;
+        sampler_init_center(&c);
+        Filter box;
+        filter_init_default(&box);
+        Image film, film_d, plain, plain_d;
+        render_rect(&fx, &c, &box, NULL, 40, 30, 0, 0, 40, 30, 0, 2, &film, &film_d);
+        CHECK(image_init(&plain, 40, 30) && image_init(&plain_d, 40, 30));
+        RenderTarget t;
+        memset(&t, 0, sizeof t);
+        t.width = 40;
+        t.height = 30;
+        t.color = &plain;
+        t.depth = &plain_d;
+        t.depth_min = 5;
+        t.depth_max = 15;
+        CHECK(render_image(&fx.rt, &fx.scene->camera, &t, 2, NULL, NULL, NULL, NULL));
+        CHECK(same_pixels(&film, &plain, 0, 0));
+        CHECK(same_pixels(&film_d, &plain_d, 0, 0));
+        image_free(&film);
+        image_free(&film_d);
+        image_free(&plain);
+        image_free(&plain_d);
+        fixture_close(&fx);
+    }
+}
+
+static const TestCase tests[] = {
+    {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
+    {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
+    {"filters: symmetric weights, support radii, bad radii", test_filter_symmetry_and_support},
+    {"film: rectangle == crop of the full render; tiny budget == one strip",
+     test_film_region_and_budget},
+    {"film: one centred sample + box 0.5 == the image loop", test_film_default_is_image_loop},
+};
+
+RT_TEST_MAIN(tests)
