@@ -396,6 +396,11 @@ if want e && [ -f "$COURSE/bunny_40k.obj" ]; then
     say ""
 fi
 
+# (e) antialiasing: 16 samples against 1 (bench/aa.sh)
+if [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ]; then
+    bash "$ROOT/bench/aa.sh" "$BIN" "$COURSE" "$RUNS" | tee -a "$R"
+fi
+
 mv "$R" "$REPORT.tmp" && mv "$REPORT.tmp" "$REPORT"
 trap - EXIT
 rm -rf "$TMP"

@@ -30,7 +30,9 @@ render() {
 
 echo "demo: rendering into $OUT"
 # The showcase: every feature at once (docs/demo-scenes-models.md lists what is where).
-render showcase showcase.txt -size 400 300 -shadows -shade_back -bounces 5 -weight 0.01 -grid auto -stats
+# Antialiased: 16 jittered samples per pixel and a Gaussian filter (README.txt, 9).
+render showcase showcase.txt -size 400 300 -shadows -shade_back -bounces 5 -weight 0.01 -grid auto -stats \
+    -jittered_samples 16 -gaussian_filter 0.5
 sed -n '/RAY TRACING STATISTICS/,/^\*/p' "$OUT/showcase.log"
 
 render feat_ortho feat_ortho.txt -size 200 200 -shadows \

@@ -22,7 +22,7 @@
 #include "rt/sampler.h"
 
 /* Bytes of samples held at once by default (strips are sized to fit). */
-#define FILM_DEFAULT_BUDGET ((size_t)256 << 20)
+#define FILM_DEFAULT_BUDGET ((size_t)8 << 20)
 
 typedef struct FilmConfig {
     const Sampler *sampler;    /* required */
@@ -46,12 +46,15 @@ typedef struct FilmConfig {
     Image *samples;
     int samples_zoom;
     size_t budget;                    /* 0: FILM_DEFAULT_BUDGET */
+    /* Out: CPU seconds the calling thread spent tracing and filtering (with one
+     * thread, the whole cost of each phase; for -timings and the benchmark). */
+    double trace_cpu, filter_cpu;
 } FilmConfig;
 
 /* Renders cfg's rectangle with camera on `threads` workers (<= 0: all cores); images
  * must be allocated at their sizes. Counters of every ray cast go to stats_out (may be
  * NULL). cancel as render_image. False on a bad configuration, out of memory or cancel. */
-bool film_render(const RayTracer *rt, const Camera *camera, const FilmConfig *cfg,
+bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
                  int threads, RtStats *stats_out, volatile int *cancel);
 
 /* The filter picture (-render_filter file zoom) of a W x H image: out must be allocated

@@ -44,7 +44,6 @@ typedef struct Options {
     const char *filter_file;     /* -render_filter file zoom */
     int filter_zoom;
     unsigned long long seed;     /* -seed n: the random samplers' seed (default 0) */
-    bool noise_cutoff;           /* -noise_cutoff: Perlin octaves limited by pixel size */
     bool help, version;
 } Options;
 

@@ -74,7 +74,6 @@ void options_usage(FILE *out)
         "  -render_samples file z   also write the sample positions, zoomed z times (1..100)\n"
         "  -render_filter file z    also write the filter weights, zoomed z times (1..100)\n"
         "  -seed n                  seed of the random samplers (default 0)\n"
-        "  -noise_cutoff            fewer Perlin octaves where a pixel covers many periods\n"
         "OpenGL preview (when built)\n"
         "  -gui                     open the interactive preview window\n"
         "  -tessellation th ph      sphere tessellation of the preview (default 20 10)\n"
@@ -330,8 +329,6 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return usage_error(&c, "option -seed expects an integer 0..%llu, got '%s'",
                                    (unsigned long long)ULLONG_MAX, v);
             o->seed = n;
-        } else if (!strcmp(a, "-noise_cutoff")) {
-            o->noise_cutoff = true;
         } else if (!strcmp(a, "-h") || !strcmp(a, "--help") || !strcmp(a, "-help")) {
             o->help = true;
         } else if (!strcmp(a, "--version") || !strcmp(a, "-version")) {
