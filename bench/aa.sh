@@ -1,5 +1,5 @@
 #!/bin/bash
-# Antialiasing benchmark (make bench, section (e); docs/benchmarks.md): course lines 07 and
+# Antialiasing benchmark (make bench, section (f); docs/benchmarks.md): course lines 07 and
 # 17a at 400x400 on one thread, one sample per pixel against 16 (uniform with the box,
 # jittered with the Gaussian 0.4 of the course's lines). Figures are CPU times (the machine
 # may be shared): the render is the whole process's CPU minus that of the same command at
@@ -17,7 +17,7 @@ cpu_ms() { # runs the command, prints user+sys ms; leaves stderr in $TMP/err
     t=$( { time "$@" >/dev/null 2>"$TMP/err"; } 2>&1 | tail -n 1)
     echo "$t" | awk '{ printf "%.1f", ($1 + $2) * 1000 }'
 }
-echo "== (e) antialiasing: 16 samples per pixel against 1, course lines at 400x400, -threads 1"
+echo "== (f) antialiasing: 16 samples per pixel against 1, course lines at 400x400, -threads 1"
 echo "   CPU ms, median of $RUNS; render = process CPU minus the same command at -size 1 1;"
 echo "   trace/filter: the film's phases (-timings). Target: 16 samples <= 12x one sample,"
 echo "   filtering < 10% of the render."

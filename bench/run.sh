@@ -72,8 +72,8 @@ stat_of() { sed -n "s/^  $1  *\([0-9.]*\).*/\1/p" "$TMP/run.out" | tail -n 1 | g
 # from the last embree_ref run: key=value
 emb_of() { tr ' ' '\n' <"$TMP/run.out" | sed -n "s/^$1=//p" | head -n 1; }
 
-# BENCH_ONLY=letters: only those sections (a b c e; b includes d), e.g. BENCH_ONLY=e
-want() { case "${BENCH_ONLY:-abce}" in *"$1"*) return 0 ;; esac; return 1; }
+# BENCH_ONLY=letters: only those sections (a b c e f; b includes d), e.g. BENCH_ONLY=e
+want() { case "${BENCH_ONLY:-abcef}" in *"$1"*) return 0 ;; esac; return 1; }
 
 HAS_TIMINGS=0
 "$BIN" -h 2>&1 | grep -q -- '-timings' && HAS_TIMINGS=1
@@ -396,8 +396,8 @@ if want e && [ -f "$COURSE/bunny_40k.obj" ]; then
     say ""
 fi
 
-# (e) antialiasing: 16 samples against 1 (bench/aa.sh)
-if [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ]; then
+# (f) antialiasing: 16 samples against 1 (bench/aa.sh)
+if want f && [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ]; then
     bash "$ROOT/bench/aa.sh" "$BIN" "$COURSE" "$RUNS" | tee -a "$R"
 fi
 
