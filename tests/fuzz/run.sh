@@ -12,7 +12,7 @@ set -u
 build=$1 seconds=$2 jobs=$3
 shift 3
 root=$(pwd)
-build=$root/$build   # absolute: the targets change folder
+case $build in /*) ;; *) build=$root/$build ;; esac   # absolute: the targets change folder
 max_seed=65536
 
 seed() { # seed NAME FILE...: copies the small readable files into the corpus
