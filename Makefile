@@ -137,7 +137,7 @@ demo: $(BIN)
 	$(Q)sh scenes/demo.sh $(abspath $(BIN))
 
 clean:
-	rm -rf build build-asan build-clang build-fuzz raytracer demo
+	rm -rf build build-asan build-clang build-fuzz build-tsan raytracer demo
 
 -include $(LIB_OBJS:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_BINS:%=%.d) $(HARNESS_OBJ:.o=.d) \
          $(TOOL_BINS:%=%.d)

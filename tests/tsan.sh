@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# `make tsan`: the threaded code under ThreadSanitizer (binaries of build-tsan/). The
+# set-up helpers (rt/par.h), grid binning and OBJ pieces, the property test (ray
+# packets against single rays), renders through the binary on 2 threads (tiles,
+# packets, shadows, the per-thread statistics merge), the OSMesa snapshot's render key
+# and the GLUT window's background render under Xvfb. Any report fails.
+set -u
+bin=${RT_BIN:?}
+tests=${RT_TESTS:?}
+out=$(mktemp -d "${TMPDIR:-/tmp}/rt_tsan.XXXXXX")
+trap 'rm -rf "$out"' EXIT
+export TSAN_OPTIONS="halt_on_error=1 exitcode=66 second_deadlock_stack=1"
+failed=0 n=0
+check() { # check NAME ARGS...
+    local name=$1
+    shift
+    n=$((n + 1))
+    "$@" >"$out/log" 2>&1
+    local st=$?
+    if [ $st -ne 0 ] || grep -q "ThreadSanitizer" "$out/log"; then
+        echo "tsan $name: exit $st"
+        grep -A30 -m1 "WARNING: ThreadSanitizer\|FAIL" "$out/log" | sed 's/^/    /' | head -40
+        failed=$((failed + 1))
+    else
+        echo "tsan $name: ok ($(tail -n 1 "$out/log"))"
+    fi
+}
+check unit_setup_par "$tests/unit/test_setup_par"
+check unit_setup_build "$tests/unit/test_setup_build"
+check unit_grid_property "$tests/unit/test_grid_property"
+check render_showcase "$bin" -input scenes/showcase.txt -size 64 48 -output "$out/a.tga" \
+    -shadows -bounces 3 -grid auto -stats -threads 2
+check render_mesh "$bin" -input scenes/feat_mesh_transform.txt -size 64 64 -output "$out/b.tga" \
+    -shadows -grid 16 16 16 -threads 2
+check render_no_grid "$bin" -input scenes/tex_nested.txt -size 48 48 -output "$out/c.tga" -threads 2
+check preview_snapshots env RT_BIN="$bin" "$tests/unit/test_preview"
+if command -v xvfb-run >/dev/null 2>&1; then
+    check preview_window env RT_BIN="$bin" "$tests/e2e/test_gui_xvfb"
+else
+    echo "tsan preview_window: xvfb-run missing (apt-get install xvfb xauth)"
+    failed=$((failed + 1))
+fi
+echo "make tsan: $n runs, $failed failed"
+[ $failed -eq 0 ]
