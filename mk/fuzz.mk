@@ -40,3 +40,6 @@ fuzz:
 	$(Q)$(MAKE) --no-print-directory BUILD=$(FUZZ_BUILD) CC=$(FUZZ_CC) OPT=-O1 \
 	    SAN_FLAGS='-fsanitize=fuzzer-no-link $(FUZZ_SAN)' FUZZ_TARGETS='$(FUZZ_TARGETS)' fuzz-bins
 	$(Q)bash tests/fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SECONDS) $(FUZZ_JOBS) $(FUZZ_TARGETS)
+
+# The targets' objects are not named after their binaries: include their dependencies.
+-include $(FUZZ_NAMES:%=$(BUILD)/tests/fuzz/fuzz_%.d) $(BUILD)/tests/fuzz/replay.d
