@@ -508,7 +508,7 @@ static void test_deterministic(void)
         {"-threads", "2", "-no_packets", "-grid", "15", "30"}};
     unsigned long long rays[6] = {0};
     for (int v = 0; v < 6; v++) {
-        char name[16];
+        char name[32];
         snprintf(name, sizeof name, "o%d.tga", v);
         e2e_join(out[v], PATH_MAX, dir, name);
         const char *args[40] = {"-input", scene, "-size", "48", "40", "-shadows", "-bounces",
