@@ -1,7 +1,8 @@
 /* Acceptance test of the core: every course command line without a grid, the GUI or a
  * procedural material, rendered by the binary and compared with the course's official
- * image (>= 99.5% of pixels within 8/255) and, where an independent implementation's
- * -stats output exists, with its counters; a few lines also with -threads 1 and 2. */
+ * image (>= 99.5% of pixels within 8/255) and its counters: against an independent
+ * implementation's -stats output for the lines with -stats, against the counts the
+ * course's rules predict for the others; a few lines also with -threads 1 and 2. */
 #define _POSIX_C_SOURCE 200809L
 #include "../harness.h"
 #include "e2e_util.h"
@@ -73,6 +74,89 @@ static bool within(unsigned long long got, unsigned long long want, double tol)
     return fabs(g - w) <= tol * (w > 1.0 ? w : 1.0);
 }
 
+/* Faces of an OBJ file (lines "f a b c"); -1 when unreadable or a face is not a
+ * triangle (the count would then not be the number of primitives). */
+static long obj_triangles(const char *path)
+{
+    char *text = e2e_read_file(path, NULL);
+    if (!text)
+        return -1;
+    long n = 0;
+    char *save = NULL;
+    for (char *line = strtok_r(text, "\n", &save); line; line = strtok_r(NULL, "\n", &save)) {
+        if (line[0] != 'f' || line[1] != ' ')
+            continue;
+        int a, b, c, used = 0;
+        if (sscanf(line + 2, "%d %d %d %n", &a, &b, &c, &used) != 3 || line[2 + used] != '\0') {
+            n = -1;
+            break;
+        }
+        n++;
+    }
+    free(text);
+    return n;
+}
+
+/* The primitives of a course scene: one per Sphere, Plane and Triangle keyword, and one
+ * per face of each TriangleMesh's OBJ file (found next to the scene). -1 when an OBJ
+ * file cannot be counted. */
+static long scene_primitives(const char *course, const char *scene)
+{
+    char path[PATH_MAX];
+    char *text = e2e_read_file(e2e_join(path, sizeof path, course, scene), NULL);
+    if (!text)
+        return -1;
+    long n = 0;
+    bool want_obj = false;
+    const char *sep = " \t\r\n";
+    char *save = NULL;
+    for (char *tok = strtok_r(text, sep, &save); tok && n >= 0; tok = strtok_r(NULL, sep, &save)) {
+        if (want_obj) {
+            long f = obj_triangles(e2e_join(path, sizeof path, course, tok));
+            n = f < 0 ? -1 : n + f;
+            want_obj = false;
+        } else if (!strcmp(tok, "Sphere") || !strcmp(tok, "Plane") || !strcmp(tok, "Triangle")) {
+            n++;
+        } else if (!strcmp(tok, "obj_file")) {
+            want_obj = true;
+        }
+    }
+    free(text);
+    return n;
+}
+
+/* A line without -stats, rendered again with it: without a grid, shadows or bounces the
+ * course's counting rules predict the counters exactly. Every pixel casts one
+ * non-shadow ray, no shadow ray is cast, every ray is tested against every primitive
+ * once (brute force), and no cell is traversed. */
+static void check_predicted_stats(const char *course, const E2eCourseLine *cl, const char *dir)
+{
+    CHECK(!e2e_course_has_arg(cl, "-shadows") && !e2e_course_has_arg(cl, "-bounces"));
+    const char *scene = NULL;
+    for (int i = 0; i + 1 < cl->argc; i++)
+        if (strcmp(cl->argv[i], "-input") == 0)
+            scene = cl->argv[i + 1];
+    CHECK(scene != NULL);
+    long prims = scene ? scene_primitives(course, scene) : -1;
+    CHECK_MSG(prims > 0, "%s: cannot count the primitives of %s", cl->id, scene);
+    const char *extra[] = {"-stats", NULL};
+    Render r;
+    render_line(course, cl, dir, "stats.tga", extra, &r);
+    if (r.ok && prims > 0) {
+        unsigned long long w = (unsigned long long)int_after(cl, "-size", 0, 100);
+        unsigned long long h = (unsigned long long)int_after(cl, "-size", 1, 100);
+        CHECK_MSG(r.stats.found, "%s: no -stats block", cl->id);
+        printf("\n    %-4s stats: non-shadow %llu, shadow %llu, intersections %llu "
+               "(predicted %llu, 0, %llu x %ld primitives)", cl->id, r.stats.nonshadow,
+               r.stats.shadow, r.stats.intersections, w * h, w * h, prims);
+        CHECK_INT(r.stats.nonshadow, w * h);
+        CHECK_INT(r.stats.shadow, 0);
+        CHECK_INT(r.stats.intersections, w * h * (unsigned long long)prims);
+        CHECK_INT(r.stats.cells, 0);
+    }
+    e2e_run_free(&r.run);
+}
+
 static void check_course_id(const char *id)
 {
     const char *course = e2e_course_or_skip();
@@ -139,6 +223,8 @@ static void check_course_id(const char *id)
         snprintf(rel, sizeof rel, "peer-stats/%s.stats.txt", id);
         char *peer_text = e2e_read_file(e2e_join(peer_path, sizeof peer_path, course, rel),
                                         NULL);
+        /* Every course line with -stats has its peer's output in the course data. */
+        CHECK_MSG(peer_text != NULL, "%s: cannot read %s", id, peer_path);
         if (peer_text) {
             E2eStats peer;
             CHECK_MSG(e2e_stats_parse(peer_text, &peer), "%s: unreadable", peer_path);
@@ -159,6 +245,8 @@ static void check_course_id(const char *id)
                       r.stats.intersections, peer.intersections);
             free(peer_text);
         }
+    } else {
+        check_predicted_stats(course, &cl, dir);
     }
     printf("\n    ");
     e2e_run_free(&r.run);

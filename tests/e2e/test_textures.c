@@ -26,8 +26,11 @@ static void make_tmpdir(void)
 {
     const char *base = getenv("TMPDIR");
     snprintf(tmpdir, sizeof tmpdir, "%s/rt_textures_XXXXXX", base && *base ? base : "/tmp");
-    if (!mkdtemp(tmpdir))
-        harness_skip("cannot create a temporary folder");
+    if (!mkdtemp(tmpdir)) {
+        harness_fail(__FILE__, __LINE__, "cannot create a temporary folder %s", tmpdir);
+        fflush(stdout);
+        _exit(1);
+    }
 }
 
 /* Removes the files this test wrote (all directly inside tmpdir) and the folder. */
@@ -236,16 +239,27 @@ static void check_line_conditioned(const char *id) { check_line_mode(id, true); 
 static void compare_conditioned(const Cmd *cmd, const char *course, const char *scene,
                                 const char *ours, const char *official);
 
-static void check_line_mode(const char *id, bool conditioned)
+/* The course folder with line id of its commands.txt in cmd. Skips the test only when
+ * the course data is absent; a missing binary or an unknown line id (a typo here) fails
+ * it (NULL). */
+static const char *course_line(const char *id, Cmd *cmd)
 {
     const char *course = course_abs();
     if (!course)
         harness_skip("course folder absent (set RT_COURSE)");
-    if (access(harness_bin(), X_OK) != 0)
-        harness_skip("raytracer binary absent (set RT_BIN)");
+    CHECK_MSG(access(harness_bin(), X_OK) == 0, "binary under test %s not found (run make "
+              "first or set RT_BIN)", harness_bin());
+    CHECK_MSG(read_command(course, id, cmd), "line %s not found in %s/commands.txt", id,
+              course);
+    return harness_failures ? NULL : course;
+}
+
+static void check_line_mode(const char *id, bool conditioned)
+{
     Cmd cmd;
-    if (!read_command(course, id, &cmd))
-        harness_skip("line missing in commands.txt");
+    const char *course = course_line(id, &cmd);
+    if (!course)
+        return;
     int in = find_arg(&cmd, "-input");
     CHECK(in >= 0 && in + 1 < cmd.argc);
     if (in < 0 || in + 1 >= cmd.argc)
@@ -380,14 +394,10 @@ static bool write_swapped_logo(const char *course, const char *scene_name, char 
 
 static void test_line18a(void)
 {
-    const char *course = course_abs();
-    if (!course)
-        harness_skip("course folder absent (set RT_COURSE)");
-    if (access(harness_bin(), X_OK) != 0)
-        harness_skip("raytracer binary absent (set RT_BIN)");
     Cmd cmd;
-    if (!read_command(course, "18a", &cmd))
-        harness_skip("line missing in commands.txt");
+    const char *course = course_line("18a", &cmd);
+    if (!course)
+        return;
     int in = find_arg(&cmd, "-input");
     CHECK(in >= 0 && in + 1 < cmd.argc);
     if (in < 0 || in + 1 >= cmd.argc)
