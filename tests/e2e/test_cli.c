@@ -4,6 +4,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include <signal.h>
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 #include "../harness.h"
@@ -243,13 +244,20 @@ static void test_missing_scene(void)
     e2e_rmtree(f.dir);
 }
 
-/* Ctrl-C during a render: exit status 130, no image and no temporary file. */
+/* Ctrl-C: exit status 130, no image and no temporary file. No sleeping: the scene is a
+ * FIFO, so the test's open() returns only once the program is reading it (its signal
+ * handlers are installed before); the signal then comes while the scene is parsed or
+ * the 6000x6000 image (36M pixels, seconds of work) is rendered, and either way the
+ * run must stop with nothing written. */
 static void test_interrupt(void)
 {
     Fixture f;
     fixture_init(&f);
+    char fifo[PATH_MAX];
+    e2e_join(fifo, sizeof fifo, f.dir, "scene.fifo");
+    CHECK(mkfifo(fifo, 0600) == 0);
     int before = e2e_count_entries(f.dir);
-    const char *args[] = {harness_bin(), "-input", f.scene, "-output", f.out, "-size", "6000",
+    const char *args[] = {harness_bin(), "-input", fifo, "-output", f.out, "-size", "6000",
                           "6000", "-threads", "1", NULL};
     fflush(stdout);
     fflush(stderr);
@@ -266,7 +274,13 @@ static void test_interrupt(void)
     CHECK(pid > 0);
     if (pid <= 0)
         return;
-    usleep(400 * 1000); /* well inside the render (36M pixels take seconds) */
+    int fd = open(fifo, O_WRONLY); /* blocks until the program opens its scene */
+    CHECK(fd >= 0);
+    if (fd >= 0) {
+        size_t len = strlen(SCENE);
+        CHECK(write(fd, SCENE, len) == (ssize_t)len);
+        close(fd);
+    }
     kill(pid, SIGINT);
     int status = 0;
     while (waitpid(pid, &status, 0) < 0) {

@@ -129,40 +129,44 @@ static void test_concurrent_callers(void)
     par_set_helpers(-1);
 }
 
-/* With one helper, a helper does take chunks (it may need a while to get a CPU: chunk
- * 0 waits up to 5 s for another worker to show up). */
+/* With one helper, a helper does take chunks. Chunk 0, on the caller, waits for the
+ * event "a helper ran a chunk" (a condition variable, no clock): chunks 1-3 are left to
+ * take, so a working helper always ends the wait. The 60 s bound only turns a broken
+ * helper into a failure instead of a hung test. */
 typedef struct Join {
-    atomic_int helper_seen;
+    pthread_mutex_t lock;
+    pthread_cond_t seen_cond;
+    bool helper_seen;
+    bool gave_up;
 } Join;
-
-static double now_s(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
 
 static void join_chunk(void *ctx, int i, int worker)
 {
     Join *j = ctx;
-    if (worker != 0)
-        atomic_store(&j->helper_seen, 1);
-    if (i == 0 && worker == 0) {
-        double t0 = now_s();
-        while (!atomic_load(&j->helper_seen) && now_s() - t0 < 5.0)
-            ;
+    pthread_mutex_lock(&j->lock);
+    if (worker != 0) {
+        j->helper_seen = true;
+        pthread_cond_broadcast(&j->seen_cond);
+    } else if (i == 0) {
+        struct timespec limit;
+        clock_gettime(CLOCK_REALTIME, &limit);
+        limit.tv_sec += 60;
+        while (!j->helper_seen && !j->gave_up)
+            if (pthread_cond_timedwait(&j->seen_cond, &j->lock, &limit) != 0)
+                j->gave_up = true;
     }
+    pthread_mutex_unlock(&j->lock);
 }
 
 static void test_helper_joins_in(void)
 {
     for (int round = 0; round < 2; round++) {
         par_set_helpers(1);
-        Join j;
-        atomic_init(&j.helper_seen, 0);
+        Join j = {PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER, false, false};
         par_for(4, join_chunk, &j);
-        CHECK_MSG(atomic_load(&j.helper_seen), "no helper ran a chunk within 5 s (round %d)",
-                  round);
+        CHECK_MSG(j.helper_seen && !j.gave_up, "no helper ran a chunk (round %d)", round);
+        pthread_cond_destroy(&j.seen_cond);
+        pthread_mutex_destroy(&j.lock);
         /* After a release the helpers exit; the next loop starts them again. */
         par_release();
     }
