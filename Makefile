@@ -139,5 +139,6 @@ demo: $(BIN)
 clean:
 	rm -rf build build-asan build-clang build-fuzz build-tsan raytracer demo
 
--include $(LIB_OBJS:.o=.d) $(MAIN_OBJ:.o=.d) $(TEST_BINS:%=%.d) $(HARNESS_OBJ:.o=.d) \
-         $(TOOL_BINS:%=%.d)
+# Every dependency file of this build folder, whichever rule (or mk/ fragment) made the
+# object: a header change must rebuild the fuzz replays and benchmark tools too.
+-include $(wildcard $(BUILD)/*.d $(BUILD)/*/*.d $(BUILD)/*/*/*.d $(BUILD)/*/*/*/*.d)
