@@ -339,7 +339,13 @@ static void test_palette(void)
     check_rgb(grid_palette_material(16), 1, 0.3f, 0);
     check_rgb(grid_palette_material(17), 1, 0, 0);
     check_rgb(grid_palette_material(1000), 1, 0, 0);
-    CHECK(grid_palette_material(4) == grid_palette_material(4)); /* made once */
+    /* One material per colour, made once: counts past 17 share the last one, and
+     * neighbouring counts are different materials. */
+    CHECK(grid_palette_material(17) == grid_palette_material(1000));
+    CHECK(grid_palette_material(0) == grid_palette_material(1));
+    for (int c = 1; c < 17; c++)
+        CHECK_MSG(grid_palette_material(c) != grid_palette_material(c + 1),
+                  "counts %d and %d share a material", c, c + 1);
 }
 
 /* The visualisation hit: first non-empty course cell, t = its entry, entered face. */
@@ -382,7 +388,7 @@ static void test_auto_resolution(void)
 {
     TestScene t;
     ts_init(&t);
-    /* 40 small spheres along a 4 x 2 x 1 box. */
+    /* 16 spheres of radius 0.5 filling a 4.75 x 2 x 1 box. */
     for (int i = 0; i < 16; i++)
         ts_add(&t, sphere_new(&t.s.arena, v3(0.25f * (float)i, (float)(i % 2), 0), 0.5f, t.mat));
     ts_finish(&t);
@@ -390,8 +396,10 @@ static void test_auto_resolution(void)
     grid_choose_auto(&t.s, n);
     for (int a = 0; a < 3; a++)
         CHECK(n[a] >= 1);
-    /* Box 4.75 x 2 x 1: the resolution follows the sides' proportions. */
-    CHECK(n[0] >= n[1] && n[1] >= n[2]);
+    /* The rule of docs/grid.md: 4 cells per primitive (64), near-cubic cells:
+     * k = (64 / (4.75 * 2 * 1))^(1/3) = 1.889, n = round(side * k) = 9, 4, 2. */
+    CHECK_MSG(n[0] == 9 && n[1] == 4 && n[2] == 2, "%dx%dx%d, expected 9x4x2", n[0], n[1],
+              n[2]);
     ts_free(&t);
 
     TestScene f;
@@ -400,7 +408,8 @@ static void test_auto_resolution(void)
     ts_finish(&f);
     grid_choose_auto(&f.s, n);
     CHECK_INT(n[2], 1); /* flat axis: one cell */
-    CHECK(n[0] >= 1 && n[0] == n[1]);
+    /* A 10 x 10 square, one primitive: 4 cells as 2 x 2 (k = sqrt(4 / 100) = 0.2). */
+    CHECK_MSG(n[0] == 2 && n[1] == 2, "%dx%d, expected 2x2", n[0], n[1]);
     ts_free(&f);
 }
 
