@@ -177,7 +177,7 @@ bool file_read_reusable(const char *path, char **out, size_t *len)
     return read_all(path, out, len, true);
 }
 
-void obj_mesh_free(ObjMesh *m)
+void objfile_mesh_free(ObjMesh *m)
 {
     free(m->verts);
     free(m->tris);
@@ -191,7 +191,7 @@ static const float k_pow10f[] = {1e0f, 1e1f, 1e2f, 1e3f, 1e4f, 1e5f,
 static bool is_digit(char c) { return c >= '0' && c <= '9'; }
 static bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
 
-bool obj_parse_float(const char **pp, const char *end, float *out)
+bool objfile_parse_float(const char **pp, const char *end, float *out)
 {
     const char *p = *pp;
     const char *s = p;
@@ -292,7 +292,7 @@ typedef struct ObjReader {
     long excess;    /* max over the piece's face indices of index - nverts so far */
 } ObjReader;
 
-static SrcLoc obj_loc(const ObjReader *r, const char *at)
+static SrcLoc objfile_loc(const ObjReader *r, const char *at)
 {
     SrcLoc l = {r->name, r->line, (int)(at - r->line_start) + 1};
     return l;
@@ -330,12 +330,12 @@ static bool read_vertex(ObjReader *r)
     for (int i = 0; i < 3; i++) {
         skip_blanks(r);
         const char *at = r->p;
-        SrcLoc l = obj_loc(r, at);
+        SrcLoc l = objfile_loc(r, at);
         if (at_eol(r)) {
             diag_error(r->diag, &l, "vertex needs 3 coordinates, found %d", i);
             return false;
         }
-        if (!obj_parse_float(&r->p, r->end, &c[i]) || !at_sep(r)) {
+        if (!objfile_parse_float(&r->p, r->end, &c[i]) || !at_sep(r)) {
             const char *e = at;
             while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
                 e++;
@@ -351,7 +351,7 @@ static bool read_vertex(ObjReader *r)
     if (r->m->nverts >= r->cap_v &&
         (r->m->nverts == INT_MAX ||
          !grow((void **)&r->m->verts, &r->cap_v, r->m->nverts + 1, sizeof(Vec3)))) {
-        SrcLoc l = obj_loc(r, r->line_start);
+        SrcLoc l = objfile_loc(r, r->line_start);
         diag_error(r->diag, &l, "out of memory (too many vertices)");
         return false;
     }
@@ -387,7 +387,7 @@ static bool read_face(ObjReader *r, const char *f_at)
         if (at_eol(r) || *r->p == '#') /* a trailing comment ends the face */
             break;
         const char *at = r->p;
-        SrcLoc l = obj_loc(r, at);
+        SrcLoc l = objfile_loc(r, at);
         long idx, ignored;
         bool ok = read_index(r, &idx);
         /* v, v/vt, v/vt/vn, v//vn: only the vertex index matters here. */
@@ -438,7 +438,7 @@ static bool read_face(ObjReader *r, const char *f_at)
         count++;
     }
     if (count < 3) {
-        SrcLoc l = obj_loc(r, f_at);
+        SrcLoc l = objfile_loc(r, f_at);
         diag_error(r->diag, &l, "face with %d vertices (at least 3 needed)", count);
         return false;
     }
@@ -565,7 +565,7 @@ static void place_piece(void *ctx, int i, int worker)
     if (pc->mesh.ntris)
         memcpy(job->out->tris + pc->tbefore, pc->mesh.tris,
                (size_t)pc->mesh.ntris * sizeof *pc->mesh.tris);
-    obj_mesh_free(&pc->mesh);
+    objfile_mesh_free(&pc->mesh);
 }
 
 /* The whole of buf read as pieces: exactly the mesh the serial reader makes, or false
@@ -629,12 +629,12 @@ static bool parse_pieces(const char *buf, size_t len, ObjMesh *out)
         par_for(np - 1, place_piece, &job);
     }
     for (int k = 0; k < np; k++)
-        obj_mesh_free(&piece[k].mesh);
+        objfile_mesh_free(&piece[k].mesh);
     free(piece);
     return ok;
 }
 
-bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag)
+bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag)
 {
     memset(out, 0, sizeof *out);
     /* The scanners stop at the terminating NUL instead of comparing with the end on
@@ -649,7 +649,7 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
                 r.line++;
                 r.line_start = q + 1;
             }
-        SrcLoc l = obj_loc(&r, z);
+        SrcLoc l = objfile_loc(&r, z);
         diag_error(diag, &l, "NUL byte: not a text OBJ file");
         return false;
     }
@@ -657,13 +657,13 @@ bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag
         return true;
     ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0, false, 0};
     if (!parse_lines(&r)) {
-        obj_mesh_free(out);
+        objfile_mesh_free(out);
         return false;
     }
     return true;
 }
 
-Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m, void *block)
+Object3D *objfile_build_group(Arena *a, const ObjMesh *mesh, const Material *m, void *block)
 {
     return triangle_mesh_new_in(a, block, mesh->verts, (const int(*)[3])mesh->tris,
                                 mesh->ntris, m);

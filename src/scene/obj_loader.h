@@ -1,5 +1,6 @@
 /* Private to src/scene: the OBJ reader behind TriangleMesh (scene-format.md 7.4).
- * Line-oriented; v and f records only, everything else ignored. */
+ * Line-oriented; v and f records only, everything else ignored. Its functions are
+ * objfile_*: the prefix obj_ belongs to Object3D (rt/object3d.h). */
 #ifndef RT_SCENE_OBJ_LOADER_H
 #define RT_SCENE_OBJ_LOADER_H
 
@@ -21,23 +22,23 @@ typedef struct ObjMesh {
  * located messages. Faces with n > 3 vertices become the fan (v0, vi, vi+1); negative
  * indices count back from the last vertex read so far. False after reporting an error
  * (nothing left allocated). */
-bool obj_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag);
-void obj_mesh_free(ObjMesh *m);
+bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag);
+void objfile_mesh_free(ObjMesh *m);
 
 /* Reads a whole file into a malloc'd, NUL-terminated buffer. False with errno set. */
 bool file_read_all(const char *path, char **out, size_t *len);
 /* The same into an arena buffer (rt/arena.h; arena_buffer_free), which
- * obj_build_group can reuse for the triangles. */
+ * objfile_build_group can reuse for the triangles. */
 bool file_read_reusable(const char *path, char **out, size_t *len);
 
 /* A Group of one Triangle per face, all with material m, from arena a. block: NULL, or
  * the file's arena buffer (file_read_reusable), no longer needed, which is taken over
  * (triangle_mesh_new_in) in every case. NULL when out of memory. */
-Object3D *obj_build_group(Arena *a, const ObjMesh *mesh, const Material *m, void *block);
+Object3D *objfile_build_group(Arena *a, const ObjMesh *mesh, const Material *m, void *block);
 
 /* The float conversion used for OBJ numbers: exactly strtof's result, with a fast path
  * for short decimals. *p advances past the number; false if none starts at *p. The text
  * must be NUL-terminated at or before end. */
-bool obj_parse_float(const char **p, const char *end, float *out);
+bool objfile_parse_float(const char **p, const char *end, float *out);
 
 #endif

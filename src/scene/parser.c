@@ -538,7 +538,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
                  strerror(first_errno));
         ok = false;
     } else {
-        ok = obj_parse(buf, len, tried[used], &mesh, p->diag);
+        ok = objfile_parse(buf, len, tried[used], &mesh, p->diag);
         if (ok && mesh.ntris == 0) {
             char shown[256];
             fail(p, &name.loc, "OBJ file '%s' has no faces", tok_show(&name, shown, sizeof shown));
@@ -546,13 +546,13 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
         }
         if (ok) {
             /* The text is parsed: its pages become the triangles' (arena.h). */
-            *out = obj_build_group(&p->s->arena, &mesh, p->current, buf);
+            *out = objfile_build_group(&p->s->arena, &mesh, p->current, buf);
             buf = NULL;
             if (!*out)
                 ok = out_of_memory(p, &name.loc);
         }
     }
-    obj_mesh_free(&mesh);
+    objfile_mesh_free(&mesh);
     arena_buffer_free(buf);
     free(tried[0]);
     free(tried[1]);

@@ -17,7 +17,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    /* obj_parse wants buf[len] == '\0' (file_read_all's contract). */
+    /* objfile_parse wants buf[len] == '\0' (file_read_all's contract). */
     char *buf = malloc(size + 1);
     if (!buf)
         return 0;
@@ -26,14 +26,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     Diag d;
     diag_init(&d, NULL);
     ObjMesh mesh;
-    if (obj_parse(buf, size, "fuzz.obj", &mesh, &d)) {
+    if (objfile_parse(buf, size, "fuzz.obj", &mesh, &d)) {
         Arena a;
         arena_init(&a);
         PhongParams p = phong_defaults();
         const Material *m = phong_new(&a, &p);
         if (m)
-            obj_build_group(&a, &mesh, m, NULL);
-        obj_mesh_free(&mesh);
+            objfile_build_group(&a, &mesh, m, NULL);
+        objfile_mesh_free(&mesh);
         arena_free(&a);
     }
     free(buf);

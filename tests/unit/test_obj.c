@@ -12,7 +12,7 @@ static Diag g_diag;
 static bool parse(const char *text, ObjMesh *m)
 {
     diag_init(&g_diag, NULL);
-    return obj_parse(text, strlen(text), "m.obj", m, &g_diag);
+    return objfile_parse(text, strlen(text), "m.obj", m, &g_diag);
 }
 
 #define EXPECT_OBJ_ERROR(text, msg) \
@@ -42,12 +42,12 @@ static void test_basic(void)
     check_tri(&m, 0, 0, 1, 2);
     CHECK_NEAR(m.verts[1].x, 1, 0);
     CHECK_NEAR(m.verts[2].y, 1, 0);
-    obj_mesh_free(&m);
+    objfile_mesh_free(&m);
     /* Empty input: nothing, no error (the scene parser rejects a mesh without faces). */
     CHECK(parse("", &m));
     CHECK_INT(m.nverts, 0);
     CHECK_INT(m.ntris, 0);
-    obj_mesh_free(&m);
+    objfile_mesh_free(&m);
 }
 
 static void test_slash_forms(void)
@@ -59,7 +59,7 @@ static void test_slash_forms(void)
     check_tri(&m, 0, 0, 1, 2);
     check_tri(&m, 1, 1, 3, 2);
     check_tri(&m, 2, 0, 2, 3);
-    obj_mesh_free(&m);
+    objfile_mesh_free(&m);
 }
 
 static void test_polygon_fan(void)
@@ -70,7 +70,7 @@ static void test_polygon_fan(void)
     check_tri(&m, 0, 0, 1, 2);
     check_tri(&m, 1, 0, 2, 3);
     check_tri(&m, 2, 0, 3, 4);
-    obj_mesh_free(&m);
+    objfile_mesh_free(&m);
 }
 
 static void test_negative_indices(void)
@@ -81,7 +81,7 @@ static void test_negative_indices(void)
     CHECK_INT(m.ntris, 2);
     check_tri(&m, 0, 0, 1, 2);
     check_tri(&m, 1, 3, 1, 0);
-    obj_mesh_free(&m);
+    objfile_mesh_free(&m);
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nf -1 -2 -3\n",
                      "m.obj:3:9: error: vertex index -3 out of range (2 vertices)");
 }
@@ -99,7 +99,7 @@ static void test_crlf_comments_ignored_records(void)
     CHECK_INT(m.ntris, 2);
     check_tri(&m, 1, 0, 1, 2);
     CHECK_NEAR(m.verts[1].x, 1, 0);
-    obj_mesh_free(&m);
+    objfile_mesh_free(&m);
 }
 
 static void test_errors(void)
@@ -125,16 +125,16 @@ static void test_errors(void)
     EXPECT_OBJ_ERROR("v 0 0 0\r\nf 1 1 1\r\nf 1 1 2\r\n", "m.obj:3:7: error: vertex index 2 out of range (1 vertices)");
     ObjMesh m;
     diag_init(&g_diag, NULL);
-    CHECK(!obj_parse("v 0 0 0\nv 1\0 0 0\n", 17, "m.obj", &m, &g_diag));
+    CHECK(!objfile_parse("v 0 0 0\nv 1\0 0 0\n", 17, "m.obj", &m, &g_diag));
     CHECK_CONTAINS(g_diag.last, "m.obj:2:4: error: NUL byte: not a text OBJ file");
 }
 
-/* obj_parse_float must give exactly strtof's float (fscanf %f) for every input. */
+/* objfile_parse_float must give exactly strtof's float (fscanf %f) for every input. */
 static void check_float_same(const char *s)
 {
     const char *p = s;
     float got = 0;
-    bool ok = obj_parse_float(&p, s + strlen(s), &got);
+    bool ok = objfile_parse_float(&p, s + strlen(s), &got);
     char *e;
     float want = strtof(s, &e);
     CHECK_MSG(ok == (e != s), "'%s': ok %d", s, ok);
@@ -238,7 +238,7 @@ static void test_official_meshes(void)
         CHECK_MSG(file_read_all(path, &buf, &len), "%s: cannot read", k[i].name);
         ObjMesh m, ref;
         diag_init(&g_diag, NULL);
-        bool ok = obj_parse(buf, len, path, &m, &g_diag);
+        bool ok = objfile_parse(buf, len, path, &m, &g_diag);
         free(buf);
         CHECK_MSG(ok, "%s: %s", k[i].name, g_diag.last);
         if (!ok)
@@ -254,8 +254,8 @@ static void test_official_meshes(void)
         if (ref.ntris == m.ntris)
             CHECK_MSG(memcmp(ref.tris, m.tris, (size_t)m.ntris * sizeof(int[3])) == 0,
                       "%s: faces differ from the course reader's", k[i].name);
-        obj_mesh_free(&m);
-        obj_mesh_free(&ref);
+        objfile_mesh_free(&m);
+        objfile_mesh_free(&ref);
     }
 }
 

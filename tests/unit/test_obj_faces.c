@@ -12,7 +12,7 @@ static Diag g_diag;
 static bool parse(const char *text, ObjMesh *m)
 {
     diag_init(&g_diag, NULL);
-    return obj_parse(text, strlen(text), "m.obj", m, &g_diag);
+    return objfile_parse(text, strlen(text), "m.obj", m, &g_diag);
 }
 
 #define VERTS "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
@@ -33,9 +33,9 @@ static void same_faces(const char *text1, const char *text2)
                       "'%s' and '%s' give different triangles", text1, text2);
     }
     if (ok1)
-        obj_mesh_free(&a);
+        objfile_mesh_free(&a);
     if (ok2)
-        obj_mesh_free(&b);
+        objfile_mesh_free(&b);
 }
 
 static void same_error(const char *text, const char *msg)

@@ -125,7 +125,7 @@ static bool parse_with(int h, const char *text, size_t len, ObjMesh *m, Diag *d)
 {
     par_set_helpers(h);
     diag_init(d, NULL);
-    bool ok = obj_parse(text, len, "big.obj", m, d);
+    bool ok = objfile_parse(text, len, "big.obj", m, d);
     par_set_helpers(-1);
     return ok;
 }
@@ -153,9 +153,9 @@ static void check_same_parse(const char *text, size_t len, const char *what)
                           memcmp(m.tris, ref.tris, (size_t)m.ntris * sizeof *m.tris) == 0,
                       "%s, %d helpers: faces differ", what, k_helpers[i]);
         }
-        obj_mesh_free(&m);
+        objfile_mesh_free(&m);
     }
-    obj_mesh_free(&ref);
+    objfile_mesh_free(&ref);
 }
 
 static void test_obj_pieces_match_serial(void)
@@ -167,7 +167,7 @@ static void test_obj_pieces_match_serial(void)
         Diag d;
         CHECK_MSG(parse_with(0, text, len, &m, &d), "generated OBJ: %s", d.last);
         CHECK(m.ntris > 1000);
-        obj_mesh_free(&m);
+        objfile_mesh_free(&m);
         check_same_parse(text, len, "valid file");
         free(text);
     }
