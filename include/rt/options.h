@@ -47,6 +47,10 @@ typedef struct Options {
     bool help, version;
 } Options;
 
+/* The one limit on a grid's cells (nx * ny * nz), checked with the options (-grid) and
+ * by the grid builder itself. */
+enum { RT_GRID_MAX_CELLS = 1 << 24 };
+
 void options_defaults(Options *o);
 /* Parses argv. On a usage error prints one line "raytracer: <why>" (and a hint to run
  * -h) on err and returns false; the caller exits 2. */

@@ -3,6 +3,7 @@
  * -visualize_grid shows) and tighter, rounding-padded lists (what the march tests); the
  * binning runs on the set-up threads (rt/par.h), with the same result on any number. */
 #include "grid_internal.h"
+#include "rt/options.h"
 #include "grid_build.h"
 
 #include <limits.h>
@@ -15,7 +16,8 @@
 #include "rt/scene.h"
 
 /* Upper bound on nx*ny*nz: 16M cells keep the offsets and counts under 128 MB. */
-#define GRID_MAX_CELLS (1u << 24)
+/* The limit users see with -grid (rt/options.h), so no size passes one check and fails the other. */
+#define GRID_MAX_CELLS ((uint32_t)RT_GRID_MAX_CELLS)
 
 typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE } RecKind;
 

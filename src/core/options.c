@@ -236,8 +236,10 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 for (int k = 0; k < 3; k++)
                     if (!take_int(&c, a, 1, MAX_GRID_SIDE, &o->grid_n[k]))
                         return false;
-                if ((long long)o->grid_n[0] * o->grid_n[1] * o->grid_n[2] > 64LL * 1024 * 1024)
-                    return usage_error(&c, "option -grid: more than 64M cells");
+                if ((long long)o->grid_n[0] * o->grid_n[1] * o->grid_n[2] > RT_GRID_MAX_CELLS)
+                    return usage_error(&c, "option -grid: %lld cells, the limit is %d",
+                                       (long long)o->grid_n[0] * o->grid_n[1] * o->grid_n[2],
+                                       (int)RT_GRID_MAX_CELLS);
             }
         } else if (!strcmp(a, "-visualize_grid")) {
             o->visualize_grid = true;

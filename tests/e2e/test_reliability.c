@@ -268,7 +268,24 @@ static void test_repro_grid_scenes(void)
 }
 #endif
 
+/* One grid-size limit, checked with the options: 2048 x 2048 x 16 (64 M cells) once
+ * passed the option check and failed later with exit 1 and no location. */
+static void test_grid_limit_with_options(void)
+{
+    char scene[PATH_MAX];
+    repro(scene, sizeof scene, "planes_only.txt");
+    E2eRun r;
+    const char *a1[] = {"-input", scene, "-grid", "2048", "2048", "16", NULL};
+    CHECK_INT(run(a1, &r), 2);
+    CHECK_CONTAINS(r.err, "cells, the limit is 16777216");
+    e2e_run_free(&r);
+    const char *a2[] = {"-input", scene, "-grid", "256", "256", "256", "-size", "4", "4", NULL};
+    CHECK_INT(run(a2, &r), 0); /* exactly the limit: accepted (only planes: no grid) */
+    e2e_run_free(&r);
+}
+
 static const TestCase tests[] = {
+    {"grid_limit_with_options", test_grid_limit_with_options},
     {"sigterm_during_write", test_sigterm_during_write},
     {"sighup_during_write", test_sighup_during_write},
     {"sigint_during_write", test_sigint_during_write},
