@@ -67,7 +67,10 @@ static inline bool triangle_ray_t(Vec3 v0, Vec3 e1, Vec3 e2, const Ray *ray, flo
 void triangle_vertices(const Object3D *tri, Vec3 out[3]);
 Vec3 triangle_normal(const Object3D *tri);  /* normalize((v1-v0) x (v2-v0)) */
 
-/* Transform with matrix m (object -> parent space). Returns NULL when m is singular. */
+/* Transform with matrix m (object -> parent space). Returns NULL when m is singular.
+ * Its intersect keeps t in the parent's units (the direction is not renormalised) but
+ * treats a positive tmin as a distance in the child's space: the child gets
+ * tmin * |parent direction| / |child direction|. */
 Object3D *transform_new(Arena *a, const Mat4 *m, Object3D *child);
 const Mat4 *transform_matrix(const Object3D *xf);          /* object -> parent */
 const Mat4 *transform_inverse(const Object3D *xf);         /* parent -> object */

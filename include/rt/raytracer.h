@@ -6,7 +6,8 @@
 #include "rt/grid.h"
 #include "rt/scene.h"
 
-/* epsilon for shadow, reflected and refracted rays (semantics.md 4.1). */
+/* epsilon for shadow, reflected and refracted rays: a distance along the (unit) ray,
+ * measured in the space of the primitive hit (Transforms rescale it, rt/geom.h). */
 #define RT_EPSILON 1e-3f
 
 typedef struct RayTracer {

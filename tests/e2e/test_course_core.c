@@ -14,9 +14,14 @@
  * 1/255; 8/255 leaves room for float-order differences on grazing pixels). */
 enum { REF_THRESHOLD = 8 };
 static const double REF_MIN_PERCENT = 99.5;
-/* Shadow rays and intersections may differ from the peer's by rays grazing
- * silhouettes (course README); non-shadow rays must be exact. */
-static const double COUNT_TOLERANCE = 0.005;
+/* The counters of every line without a grid equal the independent implementation's
+ * exactly. The course README allows for rays grazing silhouettes; none differ. Line
+ * 11a used to have 6 shadow rays and 228 tests fewer: three reflected rays leave the
+ * mirror floor 0.0006 to 0.0009 in front of the red cube (scaled by 0.25), closer than
+ * the epsilon of 0.001 in world units, so they missed its front face, went on inside
+ * and met the back of the far face (black, no shadow rays); the peer and the course's
+ * picture see the red face (2 lights x 38 triangles per ray). The epsilon is a distance
+ * in the primitive's own space (transform.c), where the face is 0.0024 away. */
 
 static int int_after(const E2eCourseLine *cl, const char *flag, int which, int fallback)
 {
@@ -68,11 +73,6 @@ static void render_line(const char *course, const E2eCourseLine *cl, const char 
     r->ok = r->run.status == 0 && e2e_exists(r->out_path);
 }
 
-static bool within(unsigned long long got, unsigned long long want, double tol)
-{
-    double g = (double)got, w = (double)want;
-    return fabs(g - w) <= tol * (w > 1.0 ? w : 1.0);
-}
 
 /* Faces of an OBJ file (lines "f a b c"); -1 when unreadable or a face is not a
  * triangle (the count would then not be the number of primitives). */
@@ -237,12 +237,11 @@ static void check_course_id(const char *id)
             CHECK_MSG(r.stats.nonshadow == peer.nonshadow,
                       "%s: %llu non-shadow rays, peer %llu", id, r.stats.nonshadow,
                       peer.nonshadow);
-            CHECK_MSG(within(r.stats.shadow, peer.shadow, COUNT_TOLERANCE),
-                      "%s: %llu shadow rays, peer %llu (> 0.5%% apart)", id, r.stats.shadow,
-                      peer.shadow);
-            CHECK_MSG(within(r.stats.intersections, peer.intersections, COUNT_TOLERANCE),
-                      "%s: %llu intersections, peer %llu (> 0.5%% apart)", id,
-                      r.stats.intersections, peer.intersections);
+            CHECK_MSG(r.stats.shadow == peer.shadow, "%s: %llu shadow rays, peer %llu", id,
+                      r.stats.shadow, peer.shadow);
+            CHECK_MSG(r.stats.intersections == peer.intersections,
+                      "%s: %llu intersections, peer %llu", id, r.stats.intersections,
+                      peer.intersections);
             free(peer_text);
         }
     } else {

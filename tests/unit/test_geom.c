@@ -138,6 +138,50 @@ static void test_transform_nonuniform(void)
     CHECK(transform_new(&arena, &z, s) == NULL);
 }
 
+/* A positive tmin (the epsilon of secondary rays) is a distance in the space of the
+ * primitive hit: under a scale of 0.25 along x, a face 0.0006 ahead in the world is
+ * 0.0024 ahead in its own space, beyond an epsilon of 0.001 (course scene 11's cubes,
+ * output6_11a); the flattened path of the grid agrees. Camera rays (tmin 0) are not
+ * affected. */
+static void test_transform_tmin_object_space(void)
+{
+    setup();
+    RenderCtx ctx = {0};
+    /* A triangle in the plane x = 1, facing -x; scaled by 0.25 it sits at x = 0.25. */
+    Object3D *tri = triangle_new(&arena, v3(1, -1, -1), v3(1, 1, -1), v3(1, 0, 2), mat);
+    Mat4 sc = mat4_scale(v3(0.25f, 1, 1));
+    Object3D *x = transform_new(&arena, &sc, tri);
+    object_assign_ids(x);
+    XformPath path = {{x}, 1};
+    Object3D *plain = triangle_new(&arena, v3(0.25f, -1, -1), v3(0.25f, 1, -1),
+                                   v3(0.25f, 0, 2), mat);
+    object_assign_ids(plain);
+    const float eps = 1e-3f;
+    struct {
+        float gap;      /* world distance from the origin to the face */
+        bool hit;       /* through the transform, with tmin = eps */
+    } cases[] = {{0.0006f, true}, {0.0002f, false}, {0.01f, true}};
+    for (int i = 0; i < 3; i++) {
+        Ray r = ray(v3(0.25f - cases[i].gap, 0, 0), v3(1, 0, 0));
+        Hit h1 = hit_none(), h2 = hit_none(), h3 = hit_none();
+        bool b1 = obj_intersect(x, &r, &h1, eps, &ctx);
+        bool b2 = xform_path_intersect(&path, tri, &r, &h2, eps, &ctx);
+        CHECK_MSG(b1 == cases[i].hit, "gap %g: hit %d, want %d", (double)cases[i].gap, b1,
+                  cases[i].hit);
+        CHECK(b1 == b2);
+        if (b1 && b2) {
+            CHECK_NEAR(h1.t, cases[i].gap, 1e-6);
+            CHECK(h1.t == h2.t);
+        }
+        /* The untransformed twin compares t with the epsilon directly. */
+        CHECK(obj_intersect(plain, &r, &h3, eps, &ctx) == (cases[i].gap > eps));
+    }
+    /* tmin 0 stays 0: a face 0.0002 ahead is hit. */
+    Ray r = ray(v3(0.25f - 0.0002f, 0, 0), v3(1, 0, 0));
+    Hit h = hit_none();
+    CHECK(obj_intersect(x, &r, &h, 0.0f, &ctx));
+}
+
 static void test_path_matches_tree(void)
 {
     setup();
@@ -206,6 +250,7 @@ static const TestCase tests[] = {
     {"geom: plane", test_plane},
     {"geom: triangle hit, miss, edge, parallel", test_triangle},
     {"geom: transform with non-uniform scale", test_transform_nonuniform},
+    {"geom: transform: tmin is a distance in the primitive's space", test_transform_tmin_object_space},
     {"geom: flattened path == nested transforms", test_path_matches_tree},
     {"geom: group nearest hit, tie-break, counting", test_group_and_ties},
 };
