@@ -78,14 +78,25 @@ static void print_version(void)
     printf("threads: %d by default (all cores)\n", render_default_threads());
 }
 
-static bool alloc_image(Image **slot, Image *storage, const char *want, int w, int h, Diag *d)
+/* Allocates the image of the rendered rectangle; a part image (-region, -tile) records
+ * where it sits in the full image. */
+static bool alloc_image(Image **slot, Image *storage, const char *want, const Options *o,
+                        Diag *d)
 {
     *slot = NULL;
     if (!want)
         return true;
+    int w = o->region ? o->region_w : o->width, h = o->region ? o->region_h : o->height;
     if (!image_init(storage, w, h)) {
         diag_error(d, NULL, "out of memory for a %dx%d image", w, h);
         return false;
+    }
+    if (o->region) {
+        storage->has_region = true;
+        storage->region.x = o->region_x;
+        storage->region.y = o->region_y;
+        storage->region.full_width = o->width;
+        storage->region.full_height = o->height;
     }
     *slot = storage;
     return true;
@@ -147,11 +158,16 @@ static int render_and_write(void *user, const Camera *camera)
     target.height = o->height;
     target.depth_min = o->depth_min;
     target.depth_max = o->depth_max;
+    if (o->region) { /* the options count rows from the top, the renderer from the bottom */
+        target.x0 = o->region_x;
+        target.y0 = o->height - o->region_y - o->region_h;
+        target.w = o->region_w;
+        target.h = o->region_h;
+    }
     int status = 0;
-    if (!alloc_image(&target.color, &color, o->output, o->width, o->height, &app->diag) ||
-        !alloc_image(&target.depth, &depth, o->depth_file, o->width, o->height, &app->diag) ||
-        !alloc_image(&target.normals, &normals, o->normals_file, o->width, o->height,
-                     &app->diag)) {
+    if (!alloc_image(&target.color, &color, o->output, o, &app->diag) ||
+        !alloc_image(&target.depth, &depth, o->depth_file, o, &app->diag) ||
+        !alloc_image(&target.normals, &normals, o->normals_file, o, &app->diag)) {
         status = EXIT_INPUT;
         goto done;
     }
@@ -250,8 +266,8 @@ static int render_and_write(void *user, const Camera *camera)
     if (o->stats) {
         StatsReport r;
         memset(&r, 0, sizeof r);
-        r.width = o->width;
-        r.height = o->height;
+        r.width = target.w; /* the pixels rendered: the region's, with -region */
+        r.height = target.h;
         BBox bounds = app->scene->bounds;
         if (app->grid) {
             bounds = grid_bounds(app->grid);
@@ -374,6 +390,18 @@ static int run(App *app)
 
 int main(int argc, char **argv)
 {
+    /* raytracer -merge out part...: its own small command (README.txt). */
+    if (argc >= 2 && strcmp(argv[1], "-merge") == 0) {
+        if (argc < 4) {
+            fprintf(stderr, "raytracer: usage: raytracer -merge out.tga part... (raytracer -h "
+                    "for help)\n");
+            return EXIT_USAGE;
+        }
+        Diag d;
+        diag_init(&d, stderr);
+        return image_merge(argv[2], (const char *const *)(argv + 3), argc - 3, &d)
+                   ? 0 : EXIT_INPUT;
+    }
     App app;
     memset(&app, 0, sizeof app);
     options_defaults(&app.opt);

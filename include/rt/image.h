@@ -9,9 +9,22 @@
 #include "rt/diag.h"
 #include "rt/vec.h"
 
+/* Where a part image sits in the full image it was cut from (-region, -tile): its
+ * top-left pixel (x, y), counted from the full image's top-left corner as files store
+ * images, and the full image's size. Files carry it as one line of text (REGION_TAG
+ * x y w h full_width full_height): the TGA image ID field, a PNG tEXt chunk with the
+ * keyword REGION_TAG, or a PPM comment line "# REGION_TAG ...". */
+typedef struct ImageRegion {
+    int x, y;
+    int full_width, full_height;
+} ImageRegion;
+#define IMAGE_REGION_TAG "raytracer-region"
+
 typedef struct Image {
     int width, height;
     Vec3 *pixels;       /* width*height, row y = 0 (bottom) first */
+    bool has_region;    /* false: a whole image (no record written or found) */
+    ImageRegion region; /* when has_region: this image is region x y width height */
 } Image;
 
 /* Allocates a black image; false on bad size or out of memory. */
@@ -20,6 +33,14 @@ void image_free(Image *img);
 void image_fill(Image *img, Vec3 c);
 static inline void image_set(Image *img, int x, int y, Vec3 c) { img->pixels[(long)y * img->width + x] = c; }
 static inline Vec3 image_get(const Image *img, int x, int y) { return img->pixels[(long)y * img->width + x]; }
+
+/* The record's text "x y w h full_width full_height" (without the tag) into buf;
+ * false if it does not fit. */
+bool image_region_format(const Image *img, char *buf, size_t size);
+/* Parses that text for an image of w x h pixels; false (with a reason in err) when it is
+ * malformed or the rectangle does not lie inside the full size. */
+bool image_region_parse(const char *text, size_t len, int w, int h, ImageRegion *out,
+                        char *err, size_t errlen);
 
 /* The course quantisation: clamp(int(c * 255), 0, 255); NaN -> 0 (tga.md 3). */
 uint8_t color_to_byte(float c);
@@ -78,5 +99,11 @@ bool image_format_supported(const char *name);
 /* The extensions this build writes, for messages: ".tga, .ppm, .png". Always
  * NUL-terminated; when size is too small, only the entries that fit whole. */
 void image_format_list(char *buf, size_t size);
+
+/* raytracer -merge: reads the n part images (each with a region record), checks that
+ * they are parts of one full size, do not overlap and leave no gap, and writes the full
+ * image to out (without a region record). Any problem is reported to diag naming the
+ * file, and nothing is written. */
+bool image_merge(const char *out, const char *const *parts, int n, Diag *diag);
 
 #endif

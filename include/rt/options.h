@@ -44,6 +44,13 @@ typedef struct Options {
     const char *filter_file;     /* -render_filter file zoom */
     int filter_zoom;
     unsigned long long seed;     /* -seed n: the random samplers' seed (default 0) */
+    /* -region x y w h / -tile k n: render only this rectangle of the -size image, x y
+     * its top-left pixel counted from the image's top-left corner. options_parse turns
+     * -tile into the region (options_tile_rows) and checks it lies inside the image. */
+    bool region;
+    int region_x, region_y, region_w, region_h;
+    bool tile;                   /* the region came from -tile k n */
+    int tile_k, tile_n;
     bool help, version;
 } Options;
 
@@ -56,5 +63,12 @@ void options_defaults(Options *o);
  * -h) on err and returns false; the caller exits 2. */
 bool options_parse(Options *o, int argc, char **argv, FILE *err);
 void options_usage(FILE *out);
+
+/* Band k (0 = top) of n horizontal bands of an image of height rows: its first row from
+ * the top and its number of rows. The bands cover the image without overlap; when
+ * n <= ceil(height / 8) their edges fall on the renderer's 8-row packet bands (counted
+ * from the bottom row), so a split render traces the same ray packets as a whole one.
+ * Needs 1 <= n <= height and 0 <= k < n. */
+void options_tile_rows(int k, int n, int height, int *y, int *h);
 
 #endif

@@ -7,19 +7,24 @@
 #include "rt/raytracer.h"
 
 typedef struct RenderTarget {
-    int width, height;
+    int width, height;         /* the full image: the camera's screen */
     Image *color;              /* NULL: not requested */
     Image *depth;              /* -depth */
     float depth_min, depth_max;
     Image *normals;            /* -normals */
+    /* The rectangle rendered: columns x0..x0+w-1 and rows y0..y0+h-1 of the full image,
+     * y0 counted from the bottom row like Image. w or h = 0 (zero-initialised) means the whole
+     * image. The images are w x h and hold exactly those pixels, with the values the
+     * whole render gives them. */
+    int x0, y0, w, h;
 } RenderTarget;
 
-/* Called from a worker thread after row y (0 = bottom) is complete (rows finish in
- * bands of 8); may be NULL. */
+/* Called from a worker thread after row y (0 = bottom, of the full image) is complete
+ * (rows finish in bands of 8); may be NULL. */
 typedef void (*RenderRowFn)(void *user, int y);
 
-/* Renders every pixel of target with camera; images must be allocated at the target
- * size. threads <= 0 means all cores. Merged counters go to stats_out (may be NULL).
+/* Renders every pixel of target's rectangle with camera; images must be allocated at
+ * the rectangle's size. threads <= 0 means all cores. Merged counters go to stats_out (may be NULL).
  * cancel, if non-NULL, is polled between rows: a non-zero value stops early (returns
  * false). Returns false on failure to start threads or allocate contexts. */
 bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *target,

@@ -74,6 +74,10 @@ void options_usage(FILE *out)
         "  -render_samples file z   also write the sample positions, zoomed z times (1..100)\n"
         "  -render_filter file z    also write the filter weights, zoomed z times (1..100)\n"
         "  -seed n                  seed of the random samplers (default 0)\n"
+        "Splitting a render (README.txt: Splitting a render)\n"
+        "  -region x y w h          render only the w x h rectangle at (x, y) (top-left)\n"
+        "  -tile k n                render only band k (0 = top) of n horizontal bands\n"
+        "  -merge out part...       (first option) assemble -region/-tile parts into out\n"
         "OpenGL preview (when built)\n"
         "  -gui                     open the interactive preview window\n"
         "  -tessellation th ph      sphere tessellation of the preview (default 20 10)\n"
@@ -331,6 +335,25 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return usage_error(&c, "option -seed expects an integer 0..%llu, got '%s'",
                                    (unsigned long long)ULLONG_MAX, v);
             o->seed = n;
+        } else if (!strcmp(a, "-region")) {
+            if (!take_int(&c, a, 0, MAX_IMAGE_SIDE - 1, &o->region_x) ||
+                !take_int(&c, a, 0, MAX_IMAGE_SIDE - 1, &o->region_y) ||
+                !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->region_w) ||
+                !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->region_h))
+                return false;
+            o->region = true;
+            o->tile = false;
+        } else if (!strcmp(a, "-tile")) {
+            if (!take_int(&c, a, 0, MAX_IMAGE_SIDE - 1, &o->tile_k) ||
+                !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->tile_n))
+                return false;
+            if (o->tile_k >= o->tile_n)
+                return usage_error(&c, "option -tile k n: k must be below n (0-based), got %d %d",
+                                   o->tile_k, o->tile_n);
+            o->tile = true;
+            o->region = false;
+        } else if (!strcmp(a, "-merge")) {
+            return usage_error(&c, "-merge must come first: raytracer -merge out.tga part...");
         } else if (!strcmp(a, "-h") || !strcmp(a, "--help") || !strcmp(a, "-help")) {
             o->help = true;
         } else if (!strcmp(a, "--version") || !strcmp(a, "-version")) {
@@ -364,5 +387,42 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (files[i] && files[j] && same_file(files[i], files[j]))
                 return usage_error(&c, "%s and %s name the same file '%s'", names[i], names[j],
                                    files[j]);
+    if (o->tile) {
+        if (o->tile_n > o->height)
+            return usage_error(&c, "option -tile k n: n = %d bands is more than the %d rows "
+                               "of the image", o->tile_n, o->height);
+        o->region = true;
+        o->region_x = 0;
+        o->region_w = o->width;
+        options_tile_rows(o->tile_k, o->tile_n, o->height, &o->region_y, &o->region_h);
+    }
+    if (o->region) {
+        if (o->region_x + o->region_w > o->width || o->region_y + o->region_h > o->height)
+            return usage_error(&c, "option -region %d %d %d %d does not lie inside the %dx%d "
+                               "image (-size)", o->region_x, o->region_y, o->region_w,
+                               o->region_h, o->width, o->height);
+        if (o->gui || o->gui_snapshot)
+            return usage_error(&c, "-region and -tile render files only; not with -gui or "
+                               "-gui_snapshot");
+    }
     return true;
+}
+
+void options_tile_rows(int k, int n, int height, int *y, int *h)
+{
+    int blocks = (height + 7) / 8;
+    if (n > blocks) { /* too thin for whole packet bands: split the rows evenly */
+        int s = (int)((long long)k * height / n), e = (int)((long long)(k + 1) * height / n);
+        *y = s;
+        *h = e - s;
+        return;
+    }
+    /* Block b covers rows 8b..8b+7 counted from the bottom (the last one may be short);
+     * band k takes blocks [blocks - e, blocks - s) so band 0 is at the top. */
+    int s = (int)((long long)k * blocks / n), e = (int)((long long)(k + 1) * blocks / n);
+    int lo = (blocks - e) * 8, hi = (blocks - s) * 8;
+    if (hi > height)
+        hi = height;
+    *y = height - hi;
+    *h = hi - lo;
 }

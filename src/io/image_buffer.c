@@ -1,8 +1,10 @@
-/* The in-memory Image (the course's Image class) and the course's float->byte
- * quantisation: what every codec builds on. It calls no codec. */
+/* The in-memory Image (the course's Image class), the course's float->byte
+ * quantisation and the text of the region record: what every codec builds on. It calls no codec. */
 #include "rt/image.h"
 
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* Keeps a single allocation well below what size_t arithmetic or the TGA/PNG size fields
  * can describe; 65535 is also the TGA limit per side. */
@@ -13,6 +15,8 @@ bool image_init(Image *img, int width, int height)
     img->width = 0;
     img->height = 0;
     img->pixels = NULL;
+    img->has_region = false;
+    memset(&img->region, 0, sizeof img->region);
     if (width <= 0 || height <= 0 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE)
         return false;
     Vec3 *p = calloc((size_t)width * (size_t)height, sizeof *p);
@@ -51,4 +55,60 @@ uint8_t color_to_byte(float c)
     if (v >= 255.0f)
         return 255;
     return (uint8_t)(int)v; /* truncation toward zero, like the course */
+}
+
+/* ---- the region record --------------------------------------------------------- */
+
+bool image_region_format(const Image *img, char *buf, size_t size)
+{
+    const ImageRegion *r = &img->region;
+    int n = snprintf(buf, size, "%d %d %d %d %d %d", r->x, r->y, img->width, img->height,
+                     r->full_width, r->full_height);
+    return n > 0 && (size_t)n < size;
+}
+
+bool image_region_parse(const char *text, size_t len, int w, int h, ImageRegion *out,
+                        char *err, size_t errlen)
+{
+    /* Six decimal numbers separated by single spaces, nothing else: the record is ours,
+     * so anything looser is a damaged file. */
+    long v[6];
+    size_t i = 0;
+    for (int k = 0; k < 6; k++) {
+        if (k > 0) {
+            if (i >= len || text[i] != ' ')
+                goto bad;
+            i++;
+        }
+        long x = 0;
+        int digits = 0;
+        while (i < len && text[i] >= '0' && text[i] <= '9' && digits < 7) {
+            x = x * 10 + (text[i++] - '0');
+            digits++;
+        }
+        if (digits == 0)
+            goto bad;
+        v[k] = x;
+    }
+    if (i != len)
+        goto bad;
+    if (v[2] != w || v[3] != h) {
+        snprintf(err, errlen, "region record says %ldx%ld but the image is %dx%d", v[2], v[3],
+                 w, h);
+        return false;
+    }
+    if (v[4] < 1 || v[5] < 1 || v[4] > IMAGE_MAX_SIDE || v[5] > IMAGE_MAX_SIDE ||
+        v[0] + v[2] > v[4] || v[1] + v[3] > v[5]) {
+        snprintf(err, errlen, "region %ld %ld %ldx%ld does not lie inside the full %ldx%ld image",
+                 v[0], v[1], v[2], v[3], v[4], v[5]);
+        return false;
+    }
+    out->x = (int)v[0];
+    out->y = (int)v[1];
+    out->full_width = (int)v[4];
+    out->full_height = (int)v[5];
+    return true;
+bad:
+    snprintf(err, errlen, "malformed region record '%.*s'", len > 80 ? 80 : (int)len, text);
+    return false;
 }

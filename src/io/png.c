@@ -81,6 +81,19 @@ static bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
     png_set_write_fn(png, &buf, buf_write, buf_flush);
     png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGB,
                  PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    /* A part image (-region) names its place in a tEXt chunk before the pixels. */
+    char rec[96];
+    if (img->has_region) {
+        if (!image_region_format(img, rec, sizeof rec))
+            png_error(png, "region record");
+        png_text text;
+        memset(&text, 0, sizeof text);
+        text.compression = PNG_TEXT_COMPRESSION_NONE;
+        text.key = (png_charp)IMAGE_REGION_TAG;
+        text.text = rec;
+        text.text_length = strlen(rec);
+        png_set_text(png, info, &text, 1);
+    }
     png_write_info(png, info);
     for (int y = h - 1; y >= 0; y--) { /* PNG stores the top row first */
         for (int x = 0; x < w; x++) {
@@ -118,6 +131,7 @@ static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, s
     PngSrc src = {data, len, 0};
     img->width = img->height = 0;
     img->pixels = NULL;
+    img->has_region = false;
     /* volatile: these change between setjmp and a possible longjmp. */
     uint8_t *volatile row = NULL;
     png_bytep *volatile rows = NULL;
@@ -145,6 +159,25 @@ static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, s
     png_set_user_limits(png, 65535, 65535);
     png_read_info(png, info);
     png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+    /* Our region record, if any (a tEXt chunk before the pixels). */
+    volatile bool has_region = false;
+    ImageRegion region;
+    png_textp texts = NULL;
+    int ntexts = 0;
+    png_get_text(png, info, &texts, &ntexts);
+    for (int i = 0; i < ntexts; i++) {
+        if (strcmp(texts[i].key, IMAGE_REGION_TAG) != 0)
+            continue;
+        char why[160];
+        if (!image_region_parse(texts[i].text, texts[i].text_length, (int)w, (int)h, &region,
+                                why, sizeof why)) {
+            png_destroy_read_struct(&png, &info, NULL);
+            if (err && errlen)
+                snprintf(err, errlen, "%s", why);
+            return false;
+        }
+        has_region = true;
+    }
     /* Normalise every colour type and depth to 8-bit RGB. */
     png_set_expand(png);
     png_set_strip_16(png);
@@ -172,6 +205,9 @@ static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, s
     png_destroy_read_struct(&png, &info, NULL);
     free(rows);
     free(row);
+    img->has_region = has_region;
+    if (has_region)
+        img->region = region;
     return true;
 }
 

@@ -10,8 +10,13 @@
 static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
 {
     int w = img->width, h = img->height;
-    char head[64];
-    int n = snprintf(head, sizeof head, "P6\n%d %d\n255\n", w, h);
+    /* A part image (-region) names its place in a comment line after the magic. */
+    char head[192], rec[96] = "";
+    if (img->has_region && !image_region_format(img, rec, sizeof rec))
+        return false;
+    int n = snprintf(head, sizeof head, "P6\n%s%s%s%d %d\n255\n",
+                     img->has_region ? "# " IMAGE_REGION_TAG " " : "", rec,
+                     img->has_region ? "\n" : "", w, h);
     if (n < 0 || (size_t)n >= sizeof head)
         return false;
     size_t len = (size_t)n + (size_t)w * (size_t)h * 3;
@@ -72,8 +77,20 @@ static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size
 {
     img->width = img->height = 0;
     img->pixels = NULL;
+    img->has_region = false;
     if (len < 2 || d[0] != 'P' || d[1] != '6')
         return codec_fail(err, errlen, "not a binary PPM file (expected \"P6\")");
+    /* Our region record, if any, is the comment line right after the magic. */
+    static const char tag[] = "\n# " IMAGE_REGION_TAG " ";
+    const char *rec = NULL;
+    size_t rec_len = 0;
+    if (len > sizeof tag + 1 && memcmp(d + 2, tag, sizeof tag - 1) == 0) {
+        rec = (const char *)d + 2 + sizeof tag - 1;
+        const char *nl = memchr(rec, '\n', len - 2 - (sizeof tag - 1));
+        if (!nl)
+            return codec_fail(err, errlen, "malformed PPM header");
+        rec_len = (size_t)(nl - rec);
+    }
     size_t pos = 2;
     long w, h, maxval;
     if (!read_header_int(d, len, &pos, &w) || !read_header_int(d, len, &pos, &h) ||
@@ -92,8 +109,14 @@ static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size
     if (len - pos < need)
         return codec_fail(err, errlen, "truncated PPM file: %ldx%ld needs %zu pixel bytes, "
                     "file has %zu", w, h, need, len - pos);
+    ImageRegion region;
+    if (rec && !image_region_parse(rec, rec_len, (int)w, (int)h, &region, err, errlen))
+        return false;
     if (!image_init(img, (int)w, (int)h))
         return codec_fail(err, errlen, "out of memory for a %ldx%ld image", w, h);
+    img->has_region = rec != NULL;
+    if (rec)
+        img->region = region;
     const uint8_t *p = d + pos;
     for (long r = 0; r < h; r++) {
         int y = (int)(h - 1 - r);

@@ -12,11 +12,23 @@ enum { TGA_HEADER = 18 };
 static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
 {
     int w = img->width, h = img->height;
-    size_t len = TGA_HEADER + (size_t)w * (size_t)h * 3;
+    /* A part image (-region) names its place in the image ID field, which the format
+     * reserves for such free text (at most 255 bytes). */
+    char id[128] = "";
+    size_t id_len = 0;
+    if (img->has_region) {
+        char rec[96];
+        if (!image_region_format(img, rec, sizeof rec))
+            return false;
+        id_len = (size_t)snprintf(id, sizeof id, "%s %s", IMAGE_REGION_TAG, rec);
+    }
+    size_t len = TGA_HEADER + id_len + (size_t)w * (size_t)h * 3;
     uint8_t *b = calloc(len, 1);
     if (!b)
         return false;
-    /* tga.md 2: no ID, no colour map, type 2 (uncompressed true colour), origin 0,0,
+    b[0] = (uint8_t)id_len;
+    memcpy(b + TGA_HEADER, id, id_len);
+    /* tga.md 2: no ID (except the region record), no colour map, type 2 (uncompressed true colour), origin 0,0,
      * little-endian width and height, 24 bits per pixel, descriptor 0x20 (top row first). */
     b[2] = 2;
     b[12] = (uint8_t)(w & 0xff);
@@ -25,7 +37,7 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     b[15] = (uint8_t)((h >> 8) & 0xff);
     b[16] = 24;
     b[17] = 0x20;
-    uint8_t *p = b + TGA_HEADER;
+    uint8_t *p = b + TGA_HEADER + id_len;
     for (int y = h - 1; y >= 0; y--) { /* the image's top row (y = h-1) is stored first */
         for (int x = 0; x < w; x++) {
             Vec3 c = image_get(img, x, y);
@@ -43,6 +55,7 @@ static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size
 {
     img->width = img->height = 0;
     img->pixels = NULL;
+    img->has_region = false;
     if (len < TGA_HEADER)
         return codec_fail(err, errlen, "not a TGA file (only %zu bytes)", len);
     unsigned id_len = d[0], cmap_type = d[1], type = d[2];
@@ -68,8 +81,20 @@ static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size
     if (len < need)
         return codec_fail(err, errlen, "truncated TGA file: %dx%d needs %zu bytes, file has %zu",
                     w, h, need, len);
+    ImageRegion region;
+    bool has_region = false;
+    const char *id = (const char *)d + TGA_HEADER;
+    size_t tag = sizeof IMAGE_REGION_TAG - 1;
+    if (id_len > tag && memcmp(id, IMAGE_REGION_TAG " ", tag + 1) == 0) {
+        if (!image_region_parse(id + tag + 1, id_len - tag - 1, w, h, &region, err, errlen))
+            return false;
+        has_region = true;
+    }
     if (!image_init(img, w, h))
         return codec_fail(err, errlen, "out of memory for a %dx%d image", w, h);
+    img->has_region = has_region;
+    if (has_region)
+        img->region = region;
 
     /* Descriptor bit 5: first stored row is the top one; bit 4: pixels run right to left. */
     bool top_down = (desc & 0x20) != 0;

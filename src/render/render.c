@@ -57,8 +57,11 @@ Vec3 render_normal_color(const Hit *hit)
     return v3(fabsf(hit->normal.x), fabsf(hit->normal.y), fabsf(hit->normal.z));
 }
 
+/* (x, y) is a pixel of the full image; the images hold the target's rectangle. */
 static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
 {
+    x -= t->x0;
+    y -= t->y0;
     if (t->color)
         image_set(t->color, x, y, c);
     if (t->depth)
@@ -86,6 +89,9 @@ typedef struct ImageJob {
     void *user;
 } ImageJob;
 
+/* Rows y0..y1-1 of the rectangle. Tiles stay on the full image's 8 x 8 grid, so a
+ * rectangle on that grid traces the very packets of the whole render; pixels of a
+ * tile outside the rectangle are left out of its packet. */
 static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
 {
     RenderTarget *t = job->target;
@@ -94,13 +100,15 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
     Hit hits[TILE * TILE];
     Vec3 colors[TILE * TILE];
     int px[TILE * TILE], py[TILE * TILE];
-    for (int x0 = 0; x0 < t->width; x0 += TILE) {
+    int ylo = y0 < t->y0 ? t->y0 : y0;
+    int xlo = t->x0, xhi = t->x0 + t->w;
+    for (int x0 = xlo / TILE * TILE; x0 < xhi; x0 += TILE) {
         int n = 0;
         for (int k = 0; k < TILE * TILE; k++) {
             int dx, dy;
             render_tile_order(k, &dx, &dy);
             int x = x0 + dx, y = y0 + dy;
-            if (x >= t->width || y >= y1)
+            if (x < xlo || x >= xhi || y < ylo || y >= y1)
                 continue;
             float u, v;
             camera_pixel_to_screen(x, y, t->width, t->height, &u, &v);
@@ -116,9 +124,11 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
 
 static void image_band(void *user, RenderCtx *ctx, int band)
 {
+    /* Bands of the full image's 8-row grid that meet the rectangle. */
     const ImageJob *job = user;
-    int h = job->target->height;
-    int y0 = band * TILE, y1 = y0 + TILE < h ? y0 + TILE : h;
+    const RenderTarget *t = job->target;
+    int top = t->y0 + t->h;
+    int y0 = (t->y0 / TILE + band) * TILE, y1 = y0 + TILE < top ? y0 + TILE : top;
     render_band(job, ctx, y0, y1);
     if (job->row_done)
         for (int y = y0; y < y1; y++)
@@ -204,7 +214,12 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
                   int threads, RtStats *stats_out, RenderRowFn row_done, void *user,
                   volatile int *cancel)
 {
+    if (target->w <= 0 || target->h <= 0) {
+        target->x0 = target->y0 = 0;
+        target->w = target->width;
+        target->h = target->height;
+    }
     ImageJob job = {rt, camera, target, row_done, user};
-    int bands = (target->height + TILE - 1) / TILE;
+    int bands = (target->y0 + target->h + TILE - 1) / TILE - target->y0 / TILE;
     return render_parallel(rt, threads, bands, image_band, &job, stats_out, cancel);
 }

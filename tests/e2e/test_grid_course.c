@@ -393,7 +393,7 @@ static void check_marking_counters(const char *scene_name, int bounces, bool sha
         grid_set_packing(grid, pass % 4 >= 2);
         RayTracer rt = {scene, grid, shadows, false, bounces, 0.01f, false, pass >= 4};
         CHECK(image_init(&img[pass], 64, 64));
-        RenderTarget target = {64, 64, &img[pass], NULL, 0.0f, 1.0f, NULL};
+        RenderTarget target = {64, 64, &img[pass], NULL, 0.0f, 1.0f, NULL, 0, 0, 0, 0};
         CHECK(render_image(&rt, &scene->camera, &target, 2, &st[pass], NULL, NULL, NULL));
     }
     if (grid) {

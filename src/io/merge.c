@@ -1,0 +1,143 @@
+/* raytracer -merge: assembles part images (-region, -tile) into the full image. Every
+ * part is read and checked before anything is written, so a refused merge writes
+ * nothing. */
+#include "rt/image.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+/* The part's rectangle in the full image's top-left coordinates. */
+typedef struct Part {
+    const char *path;
+    Image img;
+    int x0, y0, x1, y1; /* columns x0..x1-1, rows y0..y1-1 from the top */
+} Part;
+
+static bool rects_overlap(const Part *a, const Part *b)
+{
+    return a->x0 < b->x1 && b->x0 < a->x1 && a->y0 < b->y1 && b->y0 < a->y1;
+}
+
+/* The first pixel no part covers (row-major from the top-left); false if none. Only
+ * called when the areas do not add up, to say where the gap is. */
+static bool find_gap(const Part *parts, int n, int w, int h, int *gx, int *gy)
+{
+    unsigned char *seen = calloc((size_t)w * (size_t)h, 1);
+    if (!seen)
+        return false;
+    for (int i = 0; i < n; i++)
+        for (int y = parts[i].y0; y < parts[i].y1; y++)
+            memset(seen + (size_t)y * (size_t)w + (size_t)parts[i].x0, 1,
+                   (size_t)(parts[i].x1 - parts[i].x0));
+    bool found = false;
+    for (size_t k = 0; k < (size_t)w * (size_t)h && !found; k++)
+        if (!seen[k]) {
+            *gx = (int)(k % (size_t)w);
+            *gy = (int)(k / (size_t)w);
+            found = true;
+        }
+    free(seen);
+    return found;
+}
+
+static void part_describe(const Part *p, char *buf, size_t size)
+{
+    snprintf(buf, size, "region %d %d %dx%d", p->x0, p->y0, p->x1 - p->x0, p->y1 - p->y0);
+}
+
+bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
+{
+    if (n < 1) {
+        SrcLoc loc = {out, 0, 0};
+        diag_error(diag, &loc, "no parts to merge");
+        return false;
+    }
+    Part *parts = calloc((size_t)n, sizeof *parts);
+    if (!parts) {
+        diag_error(diag, NULL, "out of memory");
+        return false;
+    }
+    bool ok = true;
+    int loaded = 0;
+    int fw = 0, fh = 0;
+    long long area = 0;
+    for (int i = 0; i < n && ok; i++) {
+        Part *p = &parts[i];
+        p->path = paths[i];
+        SrcLoc loc = {p->path, 0, 0};
+        if (!image_read(&p->img, p->path, diag)) {
+            ok = false;
+            break;
+        }
+        loaded++;
+        if (!p->img.has_region) {
+            diag_error(diag, &loc, "not a part image: it has no region record (write parts "
+                       "with -region or -tile)");
+            ok = false;
+            break;
+        }
+        const ImageRegion *r = &p->img.region;
+        p->x0 = r->x;
+        p->y0 = r->y;
+        p->x1 = r->x + p->img.width;
+        p->y1 = r->y + p->img.height;
+        if (i == 0) {
+            fw = r->full_width;
+            fh = r->full_height;
+        } else if (r->full_width != fw || r->full_height != fh) {
+            diag_error(diag, &loc, "part of a %dx%d image, but %s is part of a %dx%d image",
+                       r->full_width, r->full_height, parts[0].path, fw, fh);
+            ok = false;
+            break;
+        }
+        for (int j = 0; j < i && ok; j++) {
+            if (rects_overlap(p, &parts[j])) {
+                char a[80], b[80];
+                part_describe(p, a, sizeof a);
+                part_describe(&parts[j], b, sizeof b);
+                diag_error(diag, &loc, "%s overlaps %s (%s)", a, parts[j].path, b);
+                ok = false;
+            }
+        }
+        area += (long long)p->img.width * p->img.height;
+    }
+    /* Inside the full image and pairwise disjoint: they cover it exactly when the areas
+     * add up to its size. */
+    if (ok && area != (long long)fw * fh) {
+        int gx = 0, gy = 0;
+        SrcLoc loc = {out, 0, 0};
+        if (find_gap(parts, n, fw, fh, &gx, &gy))
+            diag_error(diag, &loc, "the %d part(s) do not cover the %dx%d image: no part has "
+                       "pixel (%d, %d) (x, y from the top-left); nothing written", n, fw, fh,
+                       gx, gy);
+        else
+            diag_error(diag, &loc, "the %d part(s) do not cover the %dx%d image; nothing "
+                       "written", n, fw, fh);
+        ok = false;
+    }
+    Image full;
+    memset(&full, 0, sizeof full);
+    if (ok && !image_init(&full, fw, fh)) {
+        diag_error(diag, NULL, "out of memory for a %dx%d image", fw, fh);
+        ok = false;
+    }
+    if (ok) {
+        /* Decoded pixels are byte / 255, which quantise back to the same byte. */
+        for (int i = 0; i < n; i++) {
+            const Part *p = &parts[i];
+            for (int y = 0; y < p->img.height; y++) {
+                /* Image rows count from the bottom, regions from the top. */
+                int fy = fh - 1 - (p->y0 + (p->img.height - 1 - y));
+                memcpy(&full.pixels[(size_t)fy * (size_t)fw + (size_t)p->x0],
+                       &p->img.pixels[(size_t)y * (size_t)p->img.width],
+                       (size_t)p->img.width * sizeof(Vec3));
+            }
+        }
+        ok = image_write(&full, out, diag);
+    }
+    image_free(&full);
+    for (int i = 0; i < loaded; i++)
+        image_free(&parts[i].img);
+    free(parts);
+    return ok;
+}
