@@ -91,7 +91,10 @@ all: $(BIN) tools
 tools: $(TOOL_BINS)
 tests: $(TEST_BINS)
 
-$(BIN): $(MAIN_OBJ) $(LIB) $(FLAGS_FILE)
+# ./raytracer runs alone (src/dist/dist_local.c); mk/mpi.mk links the same main with
+# src/dist/dist_mpi.c into ./raytracer-mpi.
+DIST_LOCAL_OBJ := $(BUILD)/src/dist/dist_local.o
+$(BIN): $(MAIN_OBJ) $(DIST_LOCAL_OBJ) $(LIB) $(FLAGS_FILE)
 	$(say) LINK $@
 	$(Q)$(CC) -o $@ $(filter-out $(FLAGS_FILE),$^) $(LDLIBS_ALL)
 
@@ -137,7 +140,7 @@ demo: $(BIN)
 	$(Q)sh scenes/demo.sh $(abspath $(BIN))
 
 clean:
-	rm -rf build build-asan build-clang build-fuzz build-tsan raytracer demo
+	rm -rf build build-asan build-clang build-fuzz build-tsan raytracer raytracer-mpi demo
 
 # Every dependency file of this build folder, whichever rule (or mk/ fragment) made the
 # object: a header change must rebuild the fuzz replays and benchmark tools too.

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "rt/dist.h"
 #include "rt/film.h"
 #include "rt/grid.h"
 #include "rt/image.h"
@@ -76,6 +77,7 @@ static void print_version(void)
            preview_window_built() ? "yes" : "no (apt-get install libglut-dev; rebuild)",
            preview_snapshot_built() ? "yes" : "no (apt-get install libosmesa6-dev; rebuild)");
     printf("threads: %d by default (all cores)\n", render_default_threads());
+    printf("mpi: %s\n", dist_describe());
 }
 
 /* Allocates the image of the rendered rectangle; a part image (-region, -tile) records
@@ -87,6 +89,13 @@ static bool alloc_image(Image **slot, Image *storage, const char *want, const Op
     if (!want)
         return true;
     int w = o->region ? o->region_w : o->width, h = o->region ? o->region_h : o->height;
+    if (!dist_is_root()) { /* only the root gathers pixels: the others say what is wanted */
+        memset(storage, 0, sizeof *storage);
+        storage->width = w;
+        storage->height = h;
+        *slot = storage;
+        return true;
+    }
     if (!image_init(storage, w, h)) {
         diag_error(d, NULL, "out of memory for a %dx%d image", w, h);
         return false;
@@ -143,6 +152,56 @@ static void film_setup(const Options *o, Sampler *sampler, Sampler *refine, Filt
         filter_init_default(filter);
 }
 
+/* One rectangle of the image for dist_render: the plain renderer, or the film with
+ * antialiasing (fc, with everything but the rectangle and its images set). */
+typedef struct RectJob {
+    App *app;
+    const Camera *camera;
+    FilmConfig *fc;            /* NULL: no antialiasing; its CPU times add up here */
+} RectJob;
+
+static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, Image *depth,
+                        Image *normals, RtStats *stats, volatile int *cancel)
+{
+    const RectJob *rj = user;
+    const Options *o = &rj->app->opt;
+    RtStats st;
+    memset(&st, 0, sizeof st);
+    bool ok;
+    if (!rj->fc) {
+        RenderTarget t;
+        memset(&t, 0, sizeof t);
+        t.width = o->width;
+        t.height = o->height;
+        t.depth_min = o->depth_min;
+        t.depth_max = o->depth_max;
+        t.x0 = x0;
+        t.y0 = y0;
+        t.w = w;
+        t.h = h;
+        t.color = color;
+        t.depth = depth;
+        t.normals = normals;
+        ok = render_image(&rj->app->rt, rj->camera, &t, o->threads, &st, NULL, NULL, cancel);
+    } else {
+        FilmConfig fc = *rj->fc;
+        fc.x0 = x0;
+        fc.y0 = y0;
+        fc.width = w;
+        fc.height = h;
+        fc.color = color;
+        fc.depth = depth;
+        fc.normals = normals;
+        fc.trace_cpu = fc.filter_cpu = 0.0;
+        ok = film_render(&rj->app->rt, rj->camera, &fc, o->threads, &st, cancel);
+        rj->fc->trace_cpu += fc.trace_cpu;
+        rj->fc->filter_cpu += fc.filter_cpu;
+    }
+    if (ok)
+        stats_merge(stats, &st);
+    return ok;
+}
+
 /* Renders the requested images with camera and writes them (also the `r` key of the
  * preview). Returns an exit status. */
 static int render_and_write(void *user, const Camera *camera)
@@ -158,6 +217,8 @@ static int render_and_write(void *user, const Camera *camera)
     target.height = o->height;
     target.depth_min = o->depth_min;
     target.depth_max = o->depth_max;
+    target.w = o->width;
+    target.h = o->height;
     if (o->region) { /* the options count rows from the top, the renderer from the bottom */
         target.x0 = o->region_x;
         target.y0 = o->height - o->region_y - o->region_h;
@@ -165,9 +226,10 @@ static int render_and_write(void *user, const Camera *camera)
         target.h = o->region_h;
     }
     int status = 0;
-    if (!alloc_image(&target.color, &color, o->output, o, &app->diag) ||
-        !alloc_image(&target.depth, &depth, o->depth_file, o, &app->diag) ||
-        !alloc_image(&target.normals, &normals, o->normals_file, o, &app->diag)) {
+    bool allocated = alloc_image(&target.color, &color, o->output, o, &app->diag) &&
+                     alloc_image(&target.depth, &depth, o->depth_file, o, &app->diag) &&
+                     alloc_image(&target.normals, &normals, o->normals_file, o, &app->diag);
+    if (!dist_all(allocated)) {
         status = EXIT_INPUT;
         goto done;
     }
@@ -205,29 +267,42 @@ static int render_and_write(void *user, const Camera *camera)
     bool ok = true;
     FilmConfig fc;
     memset(&fc, 0, sizeof fc);
-    if (!film) {
-        ok = render_image(&app->rt, camera, &target, o->threads, &counts, NULL, NULL,
-                          &g_cancel);
-    } else if (target.color || target.depth || target.normals || samples || !filter_pic) {
-        /* Only a filter picture needs no samples: nothing is traced then. */
-        fc.sampler = &sampler;
-        fc.filter = &filter;
-        fc.refine = adaptive ? &refine : NULL;
-        fc.threshold = o->adaptive_threshold;
-        fc.full_width = fc.width = o->width;
-        fc.full_height = fc.height = o->height;
-        fc.color = target.color;
-        fc.depth = target.depth;
-        fc.normals = target.normals;
-        fc.depth_min = o->depth_min;
-        fc.depth_max = o->depth_max;
-        fc.samples = samples;
-        fc.samples_zoom = o->samples_zoom;
-        ok = film_render(&app->rt, camera, &fc, o->threads, &counts, &g_cancel);
+    /* Only a filter picture needs no samples: nothing is traced then. */
+    if (!film || target.color || target.depth || target.normals || samples || !filter_pic) {
+        if (film) {
+            fc.sampler = &sampler;
+            fc.filter = &filter;
+            fc.refine = adaptive ? &refine : NULL;
+            fc.threshold = o->adaptive_threshold;
+            fc.full_width = o->width;
+            fc.full_height = o->height;
+            fc.depth_min = o->depth_min;
+            fc.depth_max = o->depth_max;
+            fc.samples = samples; /* only without -region and MPI (options, run) */
+            fc.samples_zoom = o->samples_zoom;
+        }
+        RectJob rj = {app, camera, film ? &fc : NULL};
+        DistJob job;
+        memset(&job, 0, sizeof job);
+        job.x0 = target.x0;
+        job.y0 = target.y0;
+        job.w = target.w;
+        job.h = target.h;
+        job.color = target.color;
+        job.depth = target.depth;
+        job.normals = target.normals;
+        job.threads = o->threads;
+        /* A film tile traces the filter's margin again: tiles of 32 rows or more keep
+         * that small (docs/distributed.md). */
+        job.min_tile_rows = film ? 32 : 0;
+        job.render = render_rect;
+        job.user = &rj;
+        ok = dist_render(&job, &counts, &g_cancel);
     }
     double t_render = clock_now() - t0;
     if (g_cancel) {
-        fprintf(stderr, "raytracer: interrupted; no image written\n");
+        if (dist_is_root())
+            fprintf(stderr, "raytracer: interrupted; no image written\n");
         status = interrupted_status();
         goto done;
     }
@@ -236,6 +311,11 @@ static int render_and_write(void *user, const Camera *camera)
         status = EXIT_INPUT;
         goto done;
     }
+    /* -timings under MPI: each phase's longest time over the ranks. A collective, so
+     * before the root alone writes (and perhaps fails). */
+    double phases[3] = {app->t_parse, app->t_grid, t_render};
+    if (o->timings)
+        dist_max(phases, 3);
 
     t0 = clock_now();
     ImageOutput outs[5];
@@ -250,7 +330,7 @@ static int render_and_write(void *user, const Camera *camera)
         outs[nout++] = (ImageOutput){samples, o->samples_file};
     if (filter_pic)
         outs[nout++] = (ImageOutput){filter_pic, o->filter_file};
-    if (nout > 0 && !image_write_all(outs, nout, &app->diag)) {
+    if (dist_is_root() && nout > 0 && !image_write_all(outs, nout, &app->diag)) {
         status = EXIT_INPUT;
         goto done;
     }
@@ -263,7 +343,7 @@ static int render_and_write(void *user, const Camera *camera)
         goto done;
     }
 
-    if (o->stats) {
+    if (o->stats && dist_is_root()) {
         StatsReport r;
         memset(&r, 0, sizeof r);
         r.width = target.w; /* the pixels rendered: the region's, with -region */
@@ -287,21 +367,21 @@ static int render_and_write(void *user, const Camera *camera)
             status = EXIT_INPUT;
     }
     /* The precise rate goes here; the -stats block has the course's whole-second one. */
-    if (o->timings)
+    if (o->timings && dist_is_root())
         fprintf(stderr, "timings: parse %.3f ms, grid %.3f ms, render %.3f ms, write %.3f ms, "
-                "rays per second %.1f\n", app->t_parse * 1e3, app->t_grid * 1e3,
-                t_render * 1e3, t_write * 1e3,
-                stats_rays_per_second(counts.nonshadow_rays + counts.shadow_rays, t_render));
-    if (o->timings && film)
+                "rays per second %.1f\n", phases[0] * 1e3, phases[1] * 1e3,
+                phases[2] * 1e3, t_write * 1e3,
+                stats_rays_per_second(counts.nonshadow_rays + counts.shadow_rays, phases[2]));
+    if (o->timings && film && dist_is_root())
         fprintf(stderr, "timings: film: tracing %.3f ms, filtering %.3f ms (CPU time of the "
                 "calling thread: the whole cost with -threads 1)\n", fc.trace_cpu * 1e3,
                 fc.filter_cpu * 1e3);
 done:
-    if (target.color)
+    if (target.color && target.color->pixels)
         image_free(target.color);
-    if (target.depth)
+    if (target.depth && target.depth->pixels)
         image_free(target.depth);
-    if (target.normals)
+    if (target.normals && target.normals->pixels)
         image_free(target.normals);
     if (samples)
         image_free(samples);
@@ -317,7 +397,7 @@ static int run(App *app)
     if (o->threads > 0)
         par_set_helpers(o->threads - 1 < PAR_MAX_WORKERS - 1 ? o->threads - 1 : PAR_MAX_WORKERS - 1);
     double t0 = clock_now();
-    app->scene = scene_load(o->input, &app->diag);
+    app->scene = dist_scene_load(o->input, &app->diag);
     app->t_parse = clock_now() - t0;
     if (!app->scene)
         return EXIT_INPUT;
@@ -357,7 +437,7 @@ static int run(App *app)
             return EXIT_INPUT;
         if (!app->grid)
             diag_warning(&app->diag, &file, "nothing bounded to put in a grid (only planes): rendering without one");
-        else if (o->stats && o->grid_auto)
+        else if (o->stats && o->grid_auto && dist_is_root())
             printf("grid auto: %d x %d x %d cells\n", n[0], n[1], n[2]);
         if (app->grid)
             grid_set_marking(app->grid, !o->no_marking);
@@ -365,6 +445,11 @@ static int run(App *app)
     app->rt.grid = app->grid;
     app->rt.visualize_grid = o->visualize_grid && app->grid;
 
+    if ((o->gui || o->gui_snapshot || o->samples_file) && dist_size() > 1) {
+        diag_error(&app->diag, NULL, "the preview (-gui, -gui_snapshot) and -render_samples "
+                   "run in one process, not under MPI");
+        return EXIT_USAGE;
+    }
     if (o->gui || o->gui_snapshot) {
         PreviewConfig cfg;
         memset(&cfg, 0, sizeof cfg);
@@ -402,20 +487,29 @@ int main(int argc, char **argv)
         return image_merge(argv[2], (const char *const *)(argv + 3), argc - 3, &d)
                    ? 0 : EXIT_INPUT;
     }
+    if (!dist_init(&argc, &argv))
+        return EXIT_INPUT;
+    /* Under MPI every rank runs this with the same options; only the root speaks. */
+    FILE *err = dist_is_root() ? stderr : NULL;
+    FILE *quiet = err ? NULL : fopen("/dev/null", "w");
     App app;
     memset(&app, 0, sizeof app);
     options_defaults(&app.opt);
-    if (!options_parse(&app.opt, argc, argv, stderr))
-        return EXIT_USAGE;
-    if (app.opt.help) {
-        options_usage(stdout);
-        return 0;
+    bool parsed = options_parse(&app.opt, argc, argv, err ? err : quiet ? quiet : stderr);
+    if (quiet)
+        fclose(quiet);
+    if (!parsed)
+        return dist_finish(EXIT_USAGE);
+    if (app.opt.help || app.opt.version) {
+        if (dist_is_root()) {
+            if (app.opt.help)
+                options_usage(stdout);
+            else
+                print_version();
+        }
+        return dist_finish(0);
     }
-    if (app.opt.version) {
-        print_version();
-        return 0;
-    }
-    diag_init(&app.diag, stderr);
+    diag_init(&app.diag, err);
     install_signal_handlers();
 
     int status = run(&app);
@@ -424,5 +518,5 @@ int main(int argc, char **argv)
         status = EXIT_INPUT;
     grid_free(app.grid);
     scene_free(app.scene);
-    return status;
+    return dist_finish(status);
 }

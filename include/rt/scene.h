@@ -3,12 +3,21 @@
 #define RT_SCENE_H
 
 #include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
 #include "rt/arena.h"
 #include "rt/camera.h"
 #include "rt/diag.h"
 #include "rt/light.h"
 #include "rt/material.h"
 #include "rt/object3d.h"
+
+/* The files a scene load reads (the scene file and its OBJ files), by the path the
+ * loader tried. A recording set reads from disk and keeps a copy of each file and of
+ * each failed read; a replaying set (scene_files_new(false), scene_files_unpack)
+ * serves only what it holds, so another process builds the very same scene without
+ * the files (raytracer-mpi: rank 0 records and broadcasts, the others replay). */
+typedef struct SceneFiles SceneFiles;
 
 typedef struct Scene {
     Arena arena;                /* owns everything below */
@@ -25,6 +34,7 @@ typedef struct Scene {
     uint32_t num_primitives;    /* leaves, ids 0..n-1 (object_assign_ids) */
     BBox bounds;                /* root's box; empty when nothing is bounded */
     bool no_lights;             /* the zero-lights rule fired (WARNING printed by main) */
+    SceneFiles *files;          /* while loading: where files come from (NULL: the disk) */
 } Scene;
 
 /* Parses path (scene-format.md). On error reports a located message to diag and
@@ -40,5 +50,18 @@ Scene *scene_load_string(const char *text, const char *name, const char *base_di
 Scene *scene_load_buffer(const char *buf, size_t len, const char *name, const char *base_dir,
                          Diag *diag);
 void scene_free(Scene *s);
+
+/* scene_load reading every file through files (NULL: the disk, as scene_load). */
+Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag);
+
+SceneFiles *scene_files_new(bool record);
+void scene_files_free(SceneFiles *f);   /* NULL allowed */
+/* One file through the set (NULL: straight from the disk): a malloc'd buffer, or an
+ * arena buffer when reusable (rt/arena.h), NUL-terminated. False with errno set. */
+bool scene_files_read(SceneFiles *f, const char *path, bool reusable, char **out,
+                      size_t *len);
+/* The set as one malloc'd block, and back (NULL when malformed or out of memory). */
+bool scene_files_pack(const SceneFiles *f, uint8_t **out, size_t *len);
+SceneFiles *scene_files_unpack(const uint8_t *data, size_t len);
 
 #endif

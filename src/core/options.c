@@ -404,6 +404,9 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         if (o->gui || o->gui_snapshot)
             return usage_error(&c, "-region and -tile render files only; not with -gui or "
                                "-gui_snapshot");
+        if (o->samples_file)
+            return usage_error(&c, "-region and -tile: -render_samples draws the whole "
+                               "image; render it without them");
     }
     return true;
 }

@@ -520,7 +520,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     size_t len = 0;
     int used = -1, first_errno = 0;
     for (int i = 0; i < ntried && used < 0; i++) {
-        if (file_read_reusable(tried[i], &buf, &len))
+        if (scene_files_read(p->s->files, tried[i], true, &buf, &len))
             used = i;
         else if (!first_errno)
             first_errno = errno;

@@ -37,7 +37,7 @@ void scene_free(Scene *s)
 }
 
 static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
-                                const char *base_dir, Diag *diag)
+                                const char *base_dir, SceneFiles *files, Diag *diag)
 {
     Scene *s = scene_new(name);
     if (!s) {
@@ -45,7 +45,10 @@ static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
         diag_error(diag, &loc, "out of memory");
         return NULL;
     }
-    if (!scene_parse(s, buf, len, s->path, base_dir, diag)) {
+    s->files = files;
+    bool parsed = scene_parse(s, buf, len, s->path, base_dir, diag);
+    s->files = NULL;
+    if (!parsed) {
         scene_free(s);
         return NULL;
     }
@@ -65,20 +68,26 @@ static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
 Scene *scene_load_string(const char *text, const char *name, const char *base_dir,
                          Diag *diag)
 {
-    return scene_from_buffer(text, strlen(text), name ? name : "<string>", base_dir, diag);
+    return scene_from_buffer(text, strlen(text), name ? name : "<string>", base_dir, NULL,
+                             diag);
 }
 
 Scene *scene_load_buffer(const char *buf, size_t len, const char *name, const char *base_dir,
                          Diag *diag)
 {
-    return scene_from_buffer(buf, len, name ? name : "<buffer>", base_dir, diag);
+    return scene_from_buffer(buf, len, name ? name : "<buffer>", base_dir, NULL, diag);
 }
 
 Scene *scene_load(const char *path, Diag *diag)
 {
+    return scene_load_from(path, NULL, diag);
+}
+
+Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag)
+{
     char *buf;
     size_t len;
-    if (!file_read_all(path, &buf, &len)) {
+    if (!scene_files_read(files, path, false, &buf, &len)) {
         SrcLoc loc = {path, 0, 0};
         diag_error(diag, &loc, "cannot open scene file: %s", strerror(errno));
         return NULL;
@@ -98,7 +107,7 @@ Scene *scene_load(const char *path, Diag *diag)
         memcpy(dir, path, n);
         dir[n] = '\0';
     }
-    Scene *s = scene_from_buffer(buf, len, path, dir, diag);
+    Scene *s = scene_from_buffer(buf, len, path, dir, files, diag);
     free(dir);
     free(buf);
     return s;

@@ -1,0 +1,428 @@
+/* The MPI side of rt/dist.h, linked into ./raytracer-mpi (mk/mpi.mk): image-parallel
+ * rendering of a replicated scene. Rank 0 reads the scene and its OBJ files and
+ * broadcasts their bytes; every rank builds the same scene and grid; rank 0 hands out
+ * bands of rows first-come first-served (a work queue: a rank that draws an expensive
+ * band simply asks for fewer), renders bands itself on a second thread, and gathers
+ * the pixels. Only rank 0's main thread calls MPI besides the workers' main threads
+ * (MPI_THREAD_FUNNELED). docs/distributed.md describes the protocol and its costs. */
+#define _POSIX_C_SOURCE 200809L
+#include "rt/dist.h"
+#include "rt/image.h"
+
+#include <mpi.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { TAG_RESULT = 1, TAG_WORK = 2 };
+
+static int g_rank, g_size;
+static char g_describe[96];
+
+/* ---- job start, end, abort ---------------------------------------------------------- */
+
+/* mpirun ends a job whose rank died (or that was interrupted) by sending SIGTERM to
+ * the rest; rank 0 says so once. Images are only ever renamed into place whole, so
+ * nothing half-written is left under the output's name. */
+static void on_abort(int sig)
+{
+    (void)sig;
+    image_write_abort(); /* a temporary file being written goes too */
+    if (g_rank == 0) {
+        static const char msg[] = "raytracer-mpi: the job was aborted (a rank died or mpirun "
+                                  "was interrupted); no image written\n";
+        ssize_t n = write(2, msg, sizeof msg - 1);
+        (void)n;
+    }
+    _exit(1);
+}
+
+bool dist_init(int *argc, char ***argv)
+{
+    int provided = 0;
+    if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
+        fprintf(stderr, "raytracer-mpi: error: MPI_Init failed\n");
+        return false;
+    }
+    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    char version[MPI_MAX_LIBRARY_VERSION_STRING];
+    int len = 0;
+    MPI_Get_library_version(version, &len);
+    version[strcspn(version, ",\n")] = '\0';
+    snprintf(g_describe, sizeof g_describe, "yes, %d rank(s) (%.60s)", g_size, version);
+    return true;
+}
+
+int dist_finish(int status)
+{
+    /* The root's status is everyone's: a write error on rank 0 fails the whole job. */
+    MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    MPI_Finalize();
+    return status;
+}
+
+bool dist_is_root(void) { return g_rank == 0; }
+int dist_size(void) { return g_size; }
+const char *dist_describe(void) { return g_describe; }
+
+bool dist_all(bool ok)
+{
+    int mine = ok ? 1 : 0, all = 0;
+    MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
+    return all != 0;
+}
+
+void dist_max(double *v, int n)
+{
+    if (g_rank == 0)
+        MPI_Reduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+    else
+        MPI_Reduce(v, NULL, n, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+}
+
+/* Something only this rank can see went wrong (out of memory): end the whole job. */
+static void die(const char *what)
+{
+    fprintf(stderr, "raytracer-mpi: error: rank %d: %s; aborting the job\n", g_rank, what);
+    MPI_Abort(MPI_COMM_WORLD, 1);
+    _exit(1);
+}
+
+/* ---- the scene, broadcast --------------------------------------------------------- */
+
+/* MPI counts are ints: big blocks go in pieces. */
+static void bcast_bytes(uint8_t *p, size_t n)
+{
+    const size_t piece = (size_t)1 << 30;
+    for (size_t off = 0; off < n; off += piece) {
+        size_t k = n - off < piece ? n - off : piece;
+        MPI_Bcast(p + off, (int)k, MPI_BYTE, 0, MPI_COMM_WORLD);
+    }
+}
+
+/* The job's signal handling, set when the job starts its work (main installs its own
+ * stop handlers after dist_init; these replace two of them). SIGTERM is how mpirun
+ * ends a job whose rank died or that was interrupted: stop at once, since the others
+ * are going too. Ctrl-C from a terminal reaches every rank: only rank 0 acts on it
+ * (main's handler: it hands out no more tiles and tells the others). */
+static void job_signals(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_abort;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGTERM, &sa, NULL);
+    if (g_rank != 0)
+        signal(SIGINT, SIG_IGN);
+}
+
+Scene *dist_scene_load(const char *path, Diag *diag)
+{
+    if (g_size == 1)
+        return scene_load(path, diag);
+    job_signals();
+    uint64_t len = 0;
+    uint8_t *packed = NULL;
+    Scene *s = NULL;
+    if (g_rank == 0) {
+        SceneFiles *files = scene_files_new(true);
+        if (!files)
+            die("out of memory");
+        s = scene_load_from(path, files, diag);
+        size_t n = 0;
+        if (s && !scene_files_pack(files, &packed, &n))
+            die("out of memory");
+        scene_files_free(files);
+        len = s ? (uint64_t)n : 0; /* 0: the scene failed; rank 0 has said why */
+    }
+    MPI_Bcast(&len, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    if (len == 0)
+        return s;
+    if (g_rank != 0 && !(packed = malloc(len)))
+        die("out of memory for the scene files");
+    bcast_bytes(packed, len);
+    if (g_rank != 0) {
+        SceneFiles *files = scene_files_unpack(packed, len);
+        if (!files)
+            die("could not unpack the scene files");
+        Diag quiet;
+        diag_init(&quiet, NULL);
+        s = scene_load_from(path, files, &quiet);
+        scene_files_free(files);
+        if (!s)
+            die(quiet.last[0] ? quiet.last : "the scene failed to load from rank 0's bytes");
+    }
+    free(packed);
+    return s;
+}
+
+/* ---- rendering -------------------------------------------------------------------- */
+
+/* The rectangle is cut into bands of whole 8-row packet bands of the full image (so
+ * the counters add up to a single process's exactly), as many packet bands per tile
+ * as the root has threads: each band keeps that many render threads busy. */
+typedef struct Farm {
+    const DistJob *full;     /* the whole rectangle (and the root's images) */
+    int tile_rows, ntiles;
+    int first_row;           /* the rectangle's first row rounded down to a packet band */
+    atomic_int next;         /* the work queue: next tile to hand out */
+    atomic_int done;         /* tiles finished (progress) */
+    volatile int *cancel;
+    RtStats local;           /* the root's own tiles */
+    bool local_failed;
+} Farm;
+
+/* Tile t: rows [*y0, *y1) of the full image, inside the rectangle. */
+static void tile_rows(const Farm *f, int t, int *y0, int *y1)
+{
+    int lo = f->first_row + t * f->tile_rows, hi = lo + f->tile_rows;
+    int top = f->full->y0 + f->full->h;
+    *y0 = lo < f->full->y0 ? f->full->y0 : lo;
+    *y1 = hi > top ? top : hi;
+}
+
+/* The images of one tile, rendered; pixels in *buf: colour, depth, normals (those
+ * requested), each w x rows Vec3 bottom row first. */
+static bool render_tile(Farm *f, int t, Vec3 *buf, RtStats *stats)
+{
+    const DistJob *full = f->full;
+    int y0, y1;
+    tile_rows(f, t, &y0, &y1);
+    int w = full->w, rows = y1 - y0;
+    size_t n = (size_t)w * (size_t)rows;
+    Image img[3];
+    Image *want[3] = {full->color, full->depth, full->normals}, *out[3] = {NULL, NULL, NULL};
+    Vec3 *p = buf;
+    for (int k = 0; k < 3; k++) {
+        if (!want[k])
+            continue;
+        img[k] = (Image){w, rows, p, false, {0, 0, 0, 0}};
+        out[k] = &img[k];
+        p += n;
+    }
+    return full->render(full->user, full->x0, y0, w, rows, out[0], out[1], out[2], stats,
+                        NULL);
+}
+
+static int outputs(const DistJob *t)
+{
+    return (t->color != NULL) + (t->depth != NULL) + (t->normals != NULL);
+}
+
+/* Copies a tile's pixels (render_tile's layout) into the root's images. */
+static void place_tile(Farm *f, int t, const Vec3 *buf)
+{
+    const DistJob *full = f->full;
+    int y0, y1;
+    tile_rows(f, t, &y0, &y1);
+    size_t n = (size_t)full->w * (size_t)(y1 - y0);
+    Image *imgs[3] = {full->color, full->depth, full->normals};
+    for (int k = 0; k < 3; k++) {
+        if (!imgs[k])
+            continue;
+        memcpy(imgs[k]->pixels + (size_t)(y0 - full->y0) * (size_t)full->w, buf,
+               n * sizeof *buf);
+        buf += n;
+    }
+}
+
+/* Rank 0's own rendering thread: it takes tiles from the same queue as the others. */
+static void *local_main(void *arg)
+{
+    Farm *f = arg;
+    size_t cap = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
+    Vec3 *buf = malloc((cap ? cap : 1) * sizeof *buf);
+    if (!buf) {
+        f->local_failed = true;
+        return NULL;
+    }
+    for (;;) {
+        if (*f->cancel)
+            break;
+        int t = atomic_fetch_add(&f->next, 1);
+        if (t >= f->ntiles)
+            break;
+        if (!render_tile(f, t, buf, &f->local)) {
+            f->local_failed = true;
+            break;
+        }
+        place_tile(f, t, buf);
+        atomic_fetch_add(&f->done, 1);
+    }
+    free(buf);
+    return NULL;
+}
+
+/* "tiles done" on a terminal, rewritten in place; nothing when stderr is a file. */
+static void progress(const Farm *f, int *shown, bool last)
+{
+    int d = atomic_load(&f->done);
+    if (d == *shown && !last)
+        return;
+    *shown = d;
+    fprintf(stderr, "\rraytracer-mpi: %d/%d tiles on %d ranks%s", d, f->ntiles, g_size,
+            last ? "\n" : "");
+    fflush(stderr);
+}
+
+/* Rank 0: serves tile requests until every other rank has been told there is no more
+ * work, while local_main renders on its own thread. The header of a message is two
+ * ints: the tile just finished (-1: none yet) and, from the root, the next tile
+ * (-1: no more). */
+static void serve(Farm *f)
+{
+    size_t tile_floats = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
+    size_t cap = 2 * sizeof(int) + tile_floats * sizeof(Vec3);
+    uint8_t *msg = malloc(cap);
+    if (!msg)
+        die("out of memory");
+    bool tty = isatty(2) == 1;
+    int shown = -1;
+    int active = g_size - 1;
+    while (active > 0) {
+        int flag = 0;
+        MPI_Status st;
+        MPI_Iprobe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &flag, &st);
+        if (!flag) {
+            /* Sleep rather than spin: this thread shares the CPUs with the renderers. */
+            struct timespec ts = {0, 100 * 1000};
+            nanosleep(&ts, NULL);
+            if (tty)
+                progress(f, &shown, false);
+            continue;
+        }
+        int count = 0;
+        MPI_Get_count(&st, MPI_BYTE, &count);
+        if (count < (int)sizeof(int) || (size_t)count > cap)
+            die("malformed message from a rank");
+        MPI_Recv(msg, count, MPI_BYTE, st.MPI_SOURCE, TAG_RESULT, MPI_COMM_WORLD,
+                 MPI_STATUS_IGNORE);
+        int finished;
+        memcpy(&finished, msg, sizeof finished);
+        if (finished >= 0 && finished < f->ntiles) {
+            place_tile(f, finished, (const Vec3 *)(void *)(msg + 2 * sizeof(int)));
+            atomic_fetch_add(&f->done, 1);
+        }
+        int next = *f->cancel ? f->ntiles : atomic_fetch_add(&f->next, 1);
+        if (next >= f->ntiles) {
+            next = -1;
+            active--;
+        }
+        MPI_Send(&next, 1, MPI_INT, st.MPI_SOURCE, TAG_WORK, MPI_COMM_WORLD);
+        if (tty)
+            progress(f, &shown, false);
+    }
+    free(msg);
+    if (tty)
+        progress(f, &shown, false);
+}
+
+/* Other ranks: ask for a tile, render it, send it back with the next request. */
+static void work(Farm *f, RtStats *stats)
+{
+    size_t tile_floats = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
+    uint8_t *msg = malloc(2 * sizeof(int) + tile_floats * sizeof(Vec3));
+    if (!msg)
+        die("out of memory");
+    /* Fault injection for the tests (tests/e2e/test_mpi.c): this rank dies on its first
+     * tile, as a crashed or killed node would. */
+    const char *kill_rank = getenv("RT_MPI_TEST_KILL_RANK");
+    bool die_on_tile = kill_rank && atoi(kill_rank) == g_rank;
+    int finished = -1;
+    size_t len = 2 * sizeof(int);
+    for (;;) {
+        memcpy(msg, &finished, sizeof finished);
+        MPI_Send(msg, (int)len, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
+        int t;
+        MPI_Recv(&t, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (t < 0)
+            break;
+        if (die_on_tile)
+            raise(SIGKILL);
+        Vec3 *pix = (Vec3 *)(void *)(msg + 2 * sizeof(int));
+        if (!render_tile(f, t, pix, stats))
+            die("could not render a tile (out of memory?)");
+        int y0, y1;
+        tile_rows(f, t, &y0, &y1);
+        len = 2 * sizeof(int) +
+              (size_t)f->full->w * (size_t)(y1 - y0) * (size_t)outputs(f->full) * sizeof(Vec3);
+        finished = t;
+    }
+    free(msg);
+}
+
+bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
+{
+    static volatile int never;
+    if (!cancel)
+        cancel = &never;
+    if (g_size == 1) {
+        RtStats st;
+        memset(&st, 0, sizeof st);
+        bool ok = job->render(job->user, job->x0, job->y0, job->w, job->h, job->color,
+                              job->depth, job->normals, &st, cancel);
+        if (stats_out)
+            *stats_out = st;
+        return ok;
+    }
+    Farm f;
+    memset(&f, 0, sizeof f);
+    f.full = job;
+    f.cancel = cancel;
+    /* Everyone must cut the same tiles: rank 0's thread count decides. */
+    int root_threads = job->threads > 0 ? job->threads : render_default_threads();
+    MPI_Bcast(&root_threads, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    f.tile_rows = RENDER_TILE * (root_threads < 64 ? root_threads : 64);
+    while (f.tile_rows < job->min_tile_rows)
+        f.tile_rows += RENDER_TILE;
+    f.first_row = job->y0 / RENDER_TILE * RENDER_TILE;
+    f.ntiles = (job->y0 + job->h - f.first_row + f.tile_rows - 1) / f.tile_rows;
+    atomic_init(&f.next, 0);
+    atomic_init(&f.done, 0);
+
+    RtStats mine;
+    memset(&mine, 0, sizeof mine);
+    int cancelled = 0;
+    if (g_rank == 0) {
+        pthread_t th;
+        bool started = pthread_create(&th, NULL, local_main, &f) == 0;
+        serve(&f);
+        if (started)
+            pthread_join(th, NULL);
+        else
+            local_main(&f); /* no thread: render what is left here */
+        if (f.local_failed)
+            die("could not render a tile (out of memory?)");
+        if (isatty(2)) {
+            int shown = -1;
+            progress(&f, &shown, true);
+        }
+        mine = f.local;
+        cancelled = *cancel; /* the signal that stopped rank 0, for everyone's status */
+    } else {
+        work(&f, &mine);
+    }
+    MPI_Bcast(&cancelled, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    /* RtStats is plain 64-bit counters (rt/stats.h): summed as an array. */
+    enum { NCOUNTS = sizeof(RtStats) / sizeof(uint64_t) };
+    _Static_assert(sizeof(RtStats) == NCOUNTS * sizeof(uint64_t), "RtStats: counters only");
+    uint64_t counts[NCOUNTS], sums[NCOUNTS];
+    memcpy(counts, &mine, sizeof mine);
+    MPI_Reduce(counts, sums, NCOUNTS, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
+    if (stats_out) {
+        memset(stats_out, 0, sizeof *stats_out);
+        if (g_rank == 0)
+            memcpy(stats_out, sums, sizeof *stats_out);
+    }
+    if (cancelled) {
+        *cancel = cancelled;
+        return false;
+    }
+    return true;
+}
