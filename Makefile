@@ -131,6 +131,7 @@ $(BUILD)/tools/%: $(BUILD)/tools/%.o $(LIB) $(FLAGS_FILE)
 # this build's binaries.
 test: $(BIN) tools $(TEST_BINS)
 	$(Q)RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
+	    RT_MPI_BIN=$(abspath $(MPI_BIN)) \
 	    sh tests/run_tests.sh $(TEST_BINS)
 
 asan:

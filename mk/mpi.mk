@@ -2,7 +2,8 @@
 # OpenMPI (Debian: libopenmpi-dev openmpi-bin). Only built when asked for, so the
 # default build and CI without MPI never need it. MPICC names the wrapper compiler.
 MPICC   ?= mpicc
-MPI_BIN := raytracer-mpi
+# Beside ./raytracer for the default build folder, inside any other (like BIN).
+MPI_BIN := $(if $(filter build,$(BUILD)),raytracer-mpi,$(BUILD)/raytracer-mpi)
 MPI_OBJ := $(BUILD)/mpi/dist_mpi.o
 
 .PHONY: mpi
@@ -18,5 +19,8 @@ $(MPI_OBJ): src/dist/dist_mpi.c $(BUILD)/flags
 $(MPI_BIN): $(BUILD)/src/main.o $(MPI_OBJ) $(BUILD)/librt.a $(BUILD)/flags
 	$(say) LINK $@
 	$(Q)$(MPICC) -o $@ $(filter-out $(BUILD)/flags,$^) $(LDLIBS_ALL)
+
+# Once built, `make test` keeps it up to date and tests it (tests/e2e/test_mpi.c).
+test: $(if $(wildcard $(MPI_BIN)),$(MPI_BIN))
 
 -include $(MPI_OBJ:.o=.d)

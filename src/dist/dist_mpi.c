@@ -330,8 +330,9 @@ static void work(Farm *f, RtStats *stats)
     uint8_t *msg = malloc(2 * sizeof(int) + tile_floats * sizeof(Vec3));
     if (!msg)
         die("out of memory");
-    /* Fault injection for the tests (tests/e2e/test_mpi.c): this rank dies on its first
-     * tile, as a crashed or killed node would. */
+    /* Fault injection for the tests (tests/e2e/test_mpi.c): this rank dies on rank 0's
+     * first answer (a tile, or no more work), as a crashed or killed node would; always
+     * before the counters are gathered, so the job can never complete. */
     const char *kill_rank = getenv("RT_MPI_TEST_KILL_RANK");
     bool die_on_tile = kill_rank && atoi(kill_rank) == g_rank;
     int finished = -1;
@@ -341,10 +342,10 @@ static void work(Farm *f, RtStats *stats)
         MPI_Send(msg, (int)len, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
         int t;
         MPI_Recv(&t, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        if (t < 0)
-            break;
         if (die_on_tile)
             raise(SIGKILL);
+        if (t < 0)
+            break;
         Vec3 *pix = (Vec3 *)(void *)(msg + 2 * sizeof(int));
         if (!render_tile(f, t, pix, stats))
             die("could not render a tile (out of memory?)");

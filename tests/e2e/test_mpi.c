@@ -1,0 +1,317 @@
+/* End-to-end tests of ./raytracer-mpi (make mpi) under mpirun --oversubscribe: the same
+ * bytes and -stats counters as ./raytracer for 1, 2 and 3 ranks on course lines, one
+ * message and exit 1 on a scene error, a clean abort with no image when a rank dies.
+ * They run when RT_MPI_BIN names a built binary and mpirun is on PATH; otherwise they
+ * are skipped, unless RT_REQUIRE_MPI=1 (CI), which makes a missing build a failure. */
+#define _POSIX_C_SOURCE 200809L
+#include "../harness.h"
+#include "e2e_util.h"
+
+static char g_mpirun[PATH_MAX];
+
+/* The MPI binary and mpirun, or a skip (a failure under RT_REQUIRE_MPI=1). */
+static const char *mpi_or_skip(void)
+{
+    const char *bin = getenv("RT_MPI_BIN");
+    bool have_bin = bin && *bin && access(bin, X_OK) == 0;
+    bool have_run = false;
+    const char *path = getenv("PATH");
+    char copy[4096];
+    snprintf(copy, sizeof copy, "%s", path ? path : "/usr/bin:/bin");
+    for (char *d = strtok(copy, ":"); d && !have_run; d = strtok(NULL, ":")) {
+        e2e_join(g_mpirun, sizeof g_mpirun, d, "mpirun");
+        have_run = access(g_mpirun, X_OK) == 0;
+    }
+    const char *req = getenv("RT_REQUIRE_MPI");
+    bool required = req && strcmp(req, "1") == 0;
+    if (!have_bin || !have_run) {
+        const char *why = !have_bin ? "raytracer-mpi not built (make mpi)"
+                                    : "mpirun not found (apt-get install openmpi-bin)";
+        if (required) {
+            harness_fail(__FILE__, __LINE__, "RT_REQUIRE_MPI=1 but %s", why);
+            fflush(stdout);
+            _exit(1);
+        }
+        harness_skip(why);
+    }
+    /* CI runs as root; OpenMPI refuses that unless told. */
+    setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+    setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+    return bin;
+}
+
+typedef struct Cmd {
+    const char *v[128];
+    int n;
+} Cmd;
+
+static void add(Cmd *c, const char *s)
+{
+    if (c->n < 126)
+        c->v[c->n++] = s;
+}
+
+static void mpirun_prefix(Cmd *c, const char *np)
+{
+    c->n = 0;
+    add(c, g_mpirun);
+    add(c, "--oversubscribe");
+    add(c, "-np");
+    add(c, np);
+}
+
+static int run(Cmd *c, E2eRun *r)
+{
+    c->v[c->n] = NULL;
+    if (!e2e_run((char *const *)c->v, r))
+        return -1;
+    return r->status;
+}
+
+static bool same_file(const char *a, const char *b)
+{
+    size_t la = 0, lb = 0;
+    char *da = e2e_read_file(a, &la), *db = e2e_read_file(b, &lb);
+    bool same = da && db && la == lb && memcmp(da, db, la) == 0;
+    free(da);
+    free(db);
+    return same;
+}
+
+/* The -stats lines that depend on time are left out. */
+static void stats_counts(const char *out, char *buf, size_t size)
+{
+    E2eStats s;
+    buf[0] = '\0';
+    if (!e2e_stats_parse(out, &s))
+        return;
+    for (int k = 0; k < E2E_STATS_LABELS; k++)
+        if (k != 0 && k != 8) {
+            size_t len = strlen(buf);
+            snprintf(buf + len, size - len, "%s=%s;", e2e_stats_labels[k], s.values[k]);
+        }
+}
+
+/* Course line id with -output, -depth and -normals: raytracer-mpi on 1, 2 and 3 ranks
+ * against ./raytracer, file by file, and the -stats counters. extra: more arguments. */
+static void check_line(const char *id, const char *const *extra)
+{
+    const char *mpi = mpi_or_skip();
+    const char *course = e2e_course_or_skip();
+    E2eCourseLine cl;
+    CHECK_MSG(e2e_course_line(course, id, &cl), "line %s not found", id);
+    if (harness_failures)
+        return;
+    char dir[PATH_MAX], input[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpi") != NULL);
+    static const char *const kinds[3] = {"color", "depth", "normals"};
+    char ref[3][PATH_MAX];
+    for (int np = 0; np <= 3; np++) { /* 0: ./raytracer itself */
+        Cmd c;
+        char nps[8];
+        snprintf(nps, sizeof nps, "%d", np);
+        if (np == 0) {
+            c.n = 0;
+            add(&c, harness_bin());
+        } else {
+            mpirun_prefix(&c, nps);
+            add(&c, mpi);
+        }
+        for (int i = 0; i < cl.argc; i++) {
+            if (strcmp(cl.argv[i], "-output") == 0) {
+                i++;
+            } else if (strcmp(cl.argv[i], "-input") == 0 && i + 1 < cl.argc) {
+                add(&c, "-input");
+                add(&c, e2e_join(input, sizeof input, course, cl.argv[++i]));
+            } else {
+                add(&c, cl.argv[i]);
+            }
+        }
+        for (int i = 0; extra && extra[i]; i++)
+            add(&c, extra[i]);
+        char out[3][PATH_MAX];
+        for (int k = 0; k < 3; k++) {
+            char name[64];
+            snprintf(name, sizeof name, "np%d_%s.tga", np, kinds[k]);
+            e2e_join(out[k], sizeof out[k], dir, name);
+        }
+        add(&c, "-stats");
+        add(&c, "-output");
+        add(&c, out[0]);
+        add(&c, "-depth");
+        add(&c, "3");
+        add(&c, "20");
+        add(&c, out[1]);
+        add(&c, "-normals");
+        add(&c, out[2]);
+        E2eRun r;
+        int st = run(&c, &r);
+        char why[512];
+        CHECK_MSG(st == 0, "%s, %d rank(s): %s", id, np, e2e_describe(&r, why, sizeof why));
+        static char ref_stats[2048];
+        char stats[2048];
+        stats_counts(r.out, stats, sizeof stats);
+        /* exactly one block, whatever the number of ranks */
+        const char *first = strstr(r.out, "RAY TRACING STATISTICS");
+        CHECK_MSG(first && !strstr(first + 1, "RAY TRACING STATISTICS"),
+                  "%s, %d rank(s): %s statistics blocks", id, np, first ? "several" : "no");
+        if (np == 0) {
+            memcpy(ref, out, sizeof ref);
+            snprintf(ref_stats, sizeof ref_stats, "%s", stats);
+        } else {
+            for (int k = 0; k < 3; k++)
+                CHECK_MSG(same_file(out[k], ref[k]), "%s, %d rank(s): %s image differs from "
+                          "./raytracer's", id, np, kinds[k]);
+            CHECK_MSG(strcmp(stats, ref_stats) == 0, "%s, %d rank(s): statistics differ:\n"
+                      "      mpi:  %s\n      alone: %s", id, np, stats, ref_stats);
+        }
+        e2e_run_free(&r);
+        if (harness_failures)
+            break;
+    }
+    e2e_rmtree(dir);
+}
+
+static void test_mpi_03d(void) { check_line("03d", NULL); }
+static void test_mpi_11b(void) { check_line("11b", NULL); }
+static void test_mpi_12a(void) { check_line("12a", (const char *const[]){"-threads", "1", NULL}); }
+static void test_mpi_17a(void) { check_line("17a", NULL); }
+static void test_mpi_18a_region(void)
+{
+    check_line("18a", (const char *const[]){"-region", "13", "37", "301", "121", NULL});
+}
+
+static const char BAD_SCENE[] =
+    "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+    "Group {\n"
+    "    numObjects 1\n"
+    "    Sphere { center 0 0 0 radius oops }\n"
+    "}\n";
+
+static const char SCENE[] =
+    "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+    "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+    "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n";
+
+static int count(const char *hay, const char *needle)
+{
+    int n = 0;
+    for (const char *p = strstr(hay, needle); p; p = strstr(p + 1, needle))
+        n++;
+    return n;
+}
+
+static void test_mpi_scene_error(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpibad") != NULL);
+    e2e_join(scene, sizeof scene, dir, "bad.txt");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, BAD_SCENE));
+    Cmd c;
+    mpirun_prefix(&c, "3");
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-output");
+    add(&c, out);
+    E2eRun r;
+    int st = run(&c, &r);
+    CHECK_MSG(st == 1, "exit %d, expected 1", st);
+    CHECK_MSG(count(r.err, "bad.txt:4:") == 1, "the located message appears %d times, "
+              "expected once:\n%s", count(r.err, "bad.txt:4:"), r.err);
+    CHECK(!e2e_exists(out));
+    e2e_run_free(&r);
+    /* a usage error, once */
+    mpirun_prefix(&c, "2");
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-bogus");
+    st = run(&c, &r);
+    CHECK_MSG(st == 2, "usage error: exit %d, expected 2", st);
+    CHECK_INT(count(r.err, "unknown option '-bogus'"), 1);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
+/* Rank 1 dies (SIGKILL) on rank 0's first answer (RT_MPI_TEST_KILL_RANK), before
+ * the counters are gathered, however the tiles were shared out: the job
+ * ends non-zero, rank 0 says why, and no image (nor a temporary file) is left. */
+static void test_mpi_killed_rank(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpikill") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    setenv("RT_MPI_TEST_KILL_RANK", "1", 1);
+    Cmd c;
+    mpirun_prefix(&c, "3");
+    add(&c, "-x");
+    add(&c, "RT_MPI_TEST_KILL_RANK");
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-size");
+    add(&c, "64");
+    add(&c, "640");
+    add(&c, "-threads");
+    add(&c, "1");
+    add(&c, "-output");
+    add(&c, out);
+    E2eRun r;
+    int st = run(&c, &r);
+    unsetenv("RT_MPI_TEST_KILL_RANK");
+    CHECK_MSG(st != 0 && !r.timed_out, "exit %d%s, expected a failure", st,
+              r.timed_out ? " (timed out)" : "");
+    CHECK_CONTAINS(r.err, "raytracer-mpi: the job was aborted");
+    CHECK_MSG(!e2e_exists(out), "an image was written");
+    CHECK_MSG(e2e_count_entries(dir) == 1, "files left behind in %s", dir);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
+/* -timings prints one line (the maximum over the ranks), --version names MPI. */
+static void test_mpi_timings_version(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpitime") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    Cmd c;
+    mpirun_prefix(&c, "2");
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-timings");
+    add(&c, "-output");
+    add(&c, out);
+    E2eRun r;
+    CHECK_INT(run(&c, &r), 0);
+    CHECK_INT(count(r.err, "timings: parse"), 1);
+    e2e_run_free(&r);
+    mpirun_prefix(&c, "2");
+    add(&c, mpi);
+    add(&c, "--version");
+    CHECK_INT(run(&c, &r), 0);
+    CHECK_INT(count(r.out, "mpi: yes, 2 rank(s)"), 1);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
+static const TestCase tests[] = {
+    {"mpi_03d", test_mpi_03d},
+    {"mpi_11b", test_mpi_11b},
+    {"mpi_12a_one_thread", test_mpi_12a},
+    {"mpi_17a", test_mpi_17a},
+    {"mpi_18a_region", test_mpi_18a_region},
+    {"mpi_scene_error", test_mpi_scene_error},
+    {"mpi_killed_rank", test_mpi_killed_rank},
+    {"mpi_timings_version", test_mpi_timings_version},
+};
+RT_TEST_MAIN(tests)
