@@ -1,0 +1,251 @@
+/* The split-render recipes of README.txt section 8, end to end: GNU parallel (locally,
+ * and in the across-machines form with the local machine as the only login), the Slurm
+ * scripts in their fallback mode (no Slurm: a plain loop, mpirun), and tiles.sbatch's
+ * array mode driven by Slurm's variables with a stand-in sbatch. Each result must be the
+ * whole render's bytes. Tools that are missing skip their test, unless RT_REQUIRE_MPI=1
+ * (CI installs them all). */
+#define _POSIX_C_SOURCE 200809L
+#include "../harness.h"
+#include "e2e_util.h"
+
+static const char SCENE[] =
+    "PerspectiveCamera { center 0 1 8 direction 0 -0.1 -1 up 0 1 0 angle 35 }\n"
+    "Lights { numLights 1 DirectionalLight { direction -0.5 -1 -0.5 color 1 1 1 } }\n"
+    "Background { color 0.2 0.3 0.4 ambientLight 0.1 0.1 0.1 }\n"
+    "Materials { numMaterials 2\n"
+    "  PhongMaterial { diffuseColor 0.9 0.2 0.2 specularColor 1 1 1 exponent 20 }\n"
+    "  PhongMaterial { diffuseColor 0.5 0.5 0.5 reflectiveColor 0.3 0.3 0.3 } }\n"
+    "Group { numObjects 3\n"
+    "  MaterialIndex 0 Sphere { center -1 0.5 0 radius 1 }\n"
+    "  Sphere { center 1.2 0.3 -1 radius 0.8 }\n"
+    "  MaterialIndex 1 Plane { normal 0 1 0 offset -0.5 } }\n";
+
+static const char *const SIZE_W = "96", *const SIZE_H = "72";
+
+/* A folder with the scene and the whole render (ref.tga), made with the binary. */
+typedef struct Setup {
+    char dir[PATH_MAX], scene[PATH_MAX], ref[PATH_MAX], bin[PATH_MAX], root[PATH_MAX];
+} Setup;
+
+static bool setup(Setup *s, const char *tag)
+{
+    CHECK(e2e_tmpdir(s->dir, sizeof s->dir, tag) != NULL);
+    e2e_join(s->scene, sizeof s->scene, s->dir, "scene.txt");
+    e2e_join(s->ref, sizeof s->ref, s->dir, "ref.tga");
+    CHECK(e2e_write_file(s->scene, SCENE));
+    CHECK(e2e_abspath(harness_bin(), s->bin, sizeof s->bin));
+    CHECK(e2e_abspath(harness_root(), s->root, sizeof s->root));
+    const char *args[] = {"-input", s->scene, "-size", SIZE_W, SIZE_H, "-shadows", "-bounces",
+                          "2", "-output", s->ref, NULL};
+    E2eRun r;
+    char why[512];
+    bool ok = e2e_run_bin(harness_bin(), args, &r) && r.status == 0;
+    CHECK_MSG(ok, "whole render: %s", e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    /* Never let a Slurm environment of the machine running the tests leak in. */
+    unsetenv("SLURM_JOB_ID");
+    unsetenv("SLURM_ARRAY_JOB_ID");
+    return ok && !harness_failures;
+}
+
+static bool same_file(const char *a, const char *b)
+{
+    size_t la = 0, lb = 0;
+    char *da = e2e_read_file(a, &la), *db = e2e_read_file(b, &lb);
+    bool same = da && db && la == lb && memcmp(da, db, la) == 0;
+    free(da);
+    free(db);
+    return same;
+}
+
+/* Runs a shell command in dir; true on exit status 0. */
+static bool shell(const char *dir, const char *cmd, E2eRun *r)
+{
+    char full[8 * PATH_MAX];
+    snprintf(full, sizeof full, "cd '%s' && %s", dir, cmd);
+    char *argv[] = {(char *)"/bin/sh", (char *)"-c", full, NULL};
+    if (!e2e_run(argv, r))
+        return false;
+    char why[1024];
+    CHECK_MSG(r->status == 0, "'%s': %s", cmd, e2e_describe(r, why, sizeof why));
+    return r->status == 0;
+}
+
+static bool have(const char *tool)
+{
+    char cmd[256];
+    snprintf(cmd, sizeof cmd, "command -v %s >/dev/null 2>&1", tool);
+    char *argv[] = {(char *)"/bin/sh", (char *)"-c", cmd, NULL};
+    E2eRun r;
+    bool ok = e2e_run(argv, &r) && r.status == 0;
+    e2e_run_free(&r);
+    return ok;
+}
+
+static void need(const char *tool, const char *package)
+{
+    if (have(tool))
+        return;
+    const char *req = getenv("RT_REQUIRE_MPI");
+    char why[256];
+    snprintf(why, sizeof why, "%s not installed (apt-get install %s)", tool, package);
+    if (req && strcmp(req, "1") == 0) {
+        harness_fail(__FILE__, __LINE__, "RT_REQUIRE_MPI=1 but %s", why);
+        fflush(stdout);
+        _exit(1);
+    }
+    harness_skip(why);
+}
+
+static void test_parallel_one_machine(void)
+{
+    need("parallel", "parallel");
+    Setup s;
+    if (!setup(&s, "parallel"))
+        return;
+    char cmd[6 * PATH_MAX];
+    snprintf(cmd, sizeof cmd,
+             "parallel '%s' -input scene.txt -size %s %s -shadows -bounces 2 -tile {} 8 "
+             "-output part{}.tga ::: 0 1 2 3 4 5 6 7 && '%s' -merge frame.tga part?.tga",
+             s.bin, SIZE_W, SIZE_H, s.bin);
+    E2eRun r;
+    if (shell(s.dir, cmd, &r)) {
+        char out[PATH_MAX];
+        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
+                  "GNU parallel: merged frame differs from the whole render");
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(s.dir);
+}
+
+/* The across-machines form of README.txt with ":" (this machine) as the login. */
+static void test_parallel_sshlogin_form(void)
+{
+    need("parallel", "parallel");
+    Setup s;
+    if (!setup(&s, "parssh"))
+        return;
+    char cmd[6 * PATH_MAX];
+    snprintf(cmd, sizeof cmd,
+             "parallel --sshlogin 2/: --basefile scene.txt --workdir . --return part{}.tga "
+             "--cleanup '%s' -input scene.txt -size %s %s -shadows -bounces 2 -tile {} 5 "
+             "-output part{}.tga ::: 0 1 2 3 4 && '%s' -merge frame.tga part*.tga",
+             s.bin, SIZE_W, SIZE_H, s.bin);
+    E2eRun r;
+    if (shell(s.dir, cmd, &r)) {
+        char out[PATH_MAX];
+        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
+                  "parallel --sshlogin: merged frame differs from the whole render");
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(s.dir);
+}
+
+static void test_tiles_sbatch_fallback(void)
+{
+    need("bash", "bash");
+    Setup s;
+    if (!setup(&s, "tilesfb"))
+        return;
+    char cmd[6 * PATH_MAX];
+    snprintf(cmd, sizeof cmd,
+             "TILES=6 RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt frame.tga "
+             "-size %s %s -shadows -bounces 2", s.bin, s.root, SIZE_W, SIZE_H);
+    E2eRun r;
+    if (shell(s.dir, cmd, &r)) {
+        char out[PATH_MAX];
+        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
+                  "tiles.sbatch (no Slurm): frame differs from the whole render");
+        CHECK_MSG(e2e_count_entries(s.dir) == 3, "tiles.sbatch left its parts behind");
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(s.dir);
+}
+
+/* The array path as Slurm runs it: one run per task with Slurm's variables (in a
+ * scrambled order), a stand-in sbatch that records the merge job it is given, then
+ * that job's command. */
+static void test_tiles_sbatch_array_mode(void)
+{
+    need("bash", "bash");
+    Setup s;
+    if (!setup(&s, "tilesarr"))
+        return;
+    char fake[PATH_MAX], cmd[6 * PATH_MAX];
+    e2e_join(fake, sizeof fake, s.dir, "sbatch");
+    CHECK(e2e_write_file(fake, "#!/bin/sh\nprintf '%s\\n' \"$@\" > sbatch.args\n"));
+    CHECK(chmod(fake, 0755) == 0);
+    static const int order[4] = {2, 0, 3, 1};
+    E2eRun r;
+    for (int i = 0; i < 4 && !harness_failures; i++) {
+        snprintf(cmd, sizeof cmd,
+                 "PATH=\"$PWD:$PATH\" SLURM_ARRAY_JOB_ID=4242 SLURM_ARRAY_TASK_MIN=10 "
+                 "SLURM_ARRAY_TASK_COUNT=4 SLURM_ARRAY_TASK_ID=%d RAYTRACER='%s' "
+                 "bash '%s/scripts/slurm/tiles.sbatch' scene.txt frame.tga -size %s %s "
+                 "-shadows -bounces 2", 10 + order[i], s.bin, s.root, SIZE_W, SIZE_H);
+        shell(s.dir, cmd, &r);
+        e2e_run_free(&r);
+    }
+    char args_path[PATH_MAX];
+    char *args = e2e_read_file(e2e_join(args_path, sizeof args_path, s.dir, "sbatch.args"),
+                               NULL);
+    CHECK_MSG(args != NULL, "the first task did not submit the merge job");
+    if (args) {
+        CHECK_CONTAINS(args, "--dependency=afterok:4242\n");
+        const char *wrap = strstr(args, "--wrap=");
+        CHECK(wrap != NULL);
+        if (wrap) {
+            char merge[2048];
+            snprintf(merge, sizeof merge, "%s", wrap + 7);
+            merge[strcspn(merge, "\n")] = '\0';
+            if (shell(s.dir, merge, &r)) {
+                char out[PATH_MAX];
+                CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
+                          "tiles.sbatch (array): merged frame differs from the whole render");
+            }
+            e2e_run_free(&r);
+        }
+        free(args);
+    }
+    e2e_rmtree(s.dir);
+}
+
+static void test_render_sbatch_fallback(void)
+{
+    need("mpirun", "openmpi-bin");
+    const char *mpi = getenv("RT_MPI_BIN");
+    if (!mpi || access(mpi, X_OK) != 0) {
+        const char *req = getenv("RT_REQUIRE_MPI");
+        if (req && strcmp(req, "1") == 0) {
+            CHECK_MSG(false, "RT_REQUIRE_MPI=1 but raytracer-mpi is not built (make mpi)");
+            return;
+        }
+        harness_skip("raytracer-mpi not built (make mpi)");
+    }
+    Setup s;
+    if (!setup(&s, "renderfb"))
+        return;
+    char cmd[6 * PATH_MAX], abs_mpi[PATH_MAX];
+    CHECK(e2e_abspath(mpi, abs_mpi, sizeof abs_mpi));
+    snprintf(cmd, sizeof cmd,
+             "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 NP=3 RAYTRACER_MPI='%s' "
+             "bash '%s/scripts/slurm/render.sbatch' scene.txt frame.tga -size %s %s -shadows "
+             "-bounces 2", abs_mpi, s.root, SIZE_W, SIZE_H);
+    E2eRun r;
+    if (shell(s.dir, cmd, &r)) {
+        char out[PATH_MAX];
+        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
+                  "render.sbatch (mpirun -np 3): frame differs from the whole render");
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(s.dir);
+}
+
+static const TestCase tests[] = {
+    {"parallel_one_machine", test_parallel_one_machine},
+    {"parallel_sshlogin_form", test_parallel_sshlogin_form},
+    {"tiles_sbatch_fallback", test_tiles_sbatch_fallback},
+    {"tiles_sbatch_array_mode", test_tiles_sbatch_array_mode},
+    {"render_sbatch_fallback", test_render_sbatch_fallback},
+};
+RT_TEST_MAIN(tests)
