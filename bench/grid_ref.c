@@ -221,13 +221,20 @@ int main(int argc, char **argv)
         scene_free(sc);
         return 1;
     }
-    if (n[0] < 0)
-        grid_choose_auto(sc, n);
     double t0 = now_s();
-    Grid *grid = grid_build(sc, n[0], n[1], n[2], &diag);
+    PrimTable prims;
+    if (!prim_table_build(&prims, sc)) {
+        fprintf(stderr, "grid_ref: out of memory\n");
+        scene_free(sc);
+        return 1;
+    }
+    if (n[0] < 0)
+        grid_choose_auto(&prims, n);
+    Grid *grid = grid_build_table(&prims, n[0], n[1], n[2], &diag);
     double t_build = now_s() - t0;
     if (!grid) {
         fprintf(stderr, "grid_ref: no grid (nothing bounded, or out of memory)\n");
+        prim_table_free(&prims);
         scene_free(sc);
         return 1;
     }
@@ -236,7 +243,8 @@ int main(int argc, char **argv)
     Job jb = {.sc = sc, .grid = grid, .w = w, .h = h, .packets = packets,
               .shade_back = shade_back, .tmin = camera_tmin(&sc->camera)};
     jb.rt.scene = sc;
-    jb.rt.grid = grid;
+    Accel acc = grid_as_accel(grid);
+    jb.rt.accel = &acc;
     jb.rt.single_rays = !packets;
     jb.t = malloc(np * sizeof *jb.t);
     jb.org = malloc(np * sizeof *jb.org);
@@ -287,6 +295,7 @@ int main(int argc, char **argv)
     free(wk), free(tp), free(ts), free(cp), free(cs);
     free(jb.t), free(jb.org), free(jb.dir), free(jb.lit);
     grid_free(grid);
+    prim_table_free(&prims);
     scene_free(sc);
     return 0;
 }

@@ -12,6 +12,7 @@
 #include "rt/dist.h"
 #include "rt/film.h"
 #include "rt/grid.h"
+#include "rt/accel.h"
 #include "rt/image.h"
 #include "rt/options.h"
 #include "rt/par.h"
@@ -64,7 +65,8 @@ typedef struct App {
     Options opt;
     Diag diag;
     Scene *scene;
-    Grid *grid;
+    PrimTable prims;    /* the scene's leaves, flattened once */
+    Accel accel;        /* built over prims */
     RayTracer rt;
     double t_parse, t_grid;
 } App;
@@ -349,17 +351,10 @@ static int render_and_write(void *user, const Camera *camera)
         r.width = target.w; /* the pixels rendered: the region's, with -region */
         r.height = target.h;
         BBox bounds = app->scene->bounds;
-        if (app->grid) {
-            bounds = grid_bounds(app->grid);
-            int n[3];
-            grid_dims(app->grid, n);
-            r.nx = n[0];
-            r.ny = n[1];
-            r.nz = n[2];
-        }
-        /* Without a grid the course gives no rule; we print the scene box (NULL when
-         * nothing is bounded), as most implementations do (stats.md 4). */
+        /* The scene box (NULL when nothing is bounded): the grid's box, and without a
+         * grid the course gives no rule, so we print it as most implementations do. */
         r.bounds = bbox_is_empty(&bounds) ? NULL : &bounds;
+        accel_report(&app->accel, &r);
         r.elapsed_seconds = t_render;
         r.counts = counts;
         stats_print(stdout, &r);
@@ -425,25 +420,33 @@ static int run(App *app)
      * -no_packets, docs/statistics.md). */
     app->rt.single_rays = o->no_packets || o->stats;
 
-    if (o->grid) {
-        int n[3] = {o->grid_n[0], o->grid_n[1], o->grid_n[2]};
-        if (o->grid_auto)
-            grid_choose_auto(s, n);
-        t0 = clock_now();
-        int errors = app->diag.errors;
-        app->grid = grid_build(s, n[0], n[1], n[2], &app->diag);
-        app->t_grid = clock_now() - t0;
-        if (!app->grid && app->diag.errors > errors)
-            return EXIT_INPUT;
-        if (!app->grid)
-            diag_warning(&app->diag, &file, "nothing bounded to put in a grid (only planes): rendering without one");
-        else if (o->stats && o->grid_auto && dist_is_root())
-            printf("grid auto: %d x %d x %d cells\n", n[0], n[1], n[2]);
-        if (app->grid)
-            grid_set_marking(app->grid, !o->no_marking);
+    t0 = clock_now();
+    if (!prim_table_build(&app->prims, s)) {
+        diag_error(&app->diag, NULL, "out of memory flattening the scene");
+        return EXIT_INPUT;
     }
-    app->rt.grid = app->grid;
-    app->rt.visualize_grid = o->visualize_grid && app->grid;
+    const AccelOps *ops = accel_find(o->accel ? o->accel : o->grid ? "grid" : "none");
+    AccelConfig acfg;
+    memset(&acfg, 0, sizeof acfg);
+    memcpy(acfg.grid_n, o->grid_n, sizeof acfg.grid_n);
+    acfg.grid_auto = o->grid_auto;
+    acfg.no_marking = o->no_marking;
+    acfg.visualize = o->visualize_grid;
+    int errors = app->diag.errors;
+    if (!accel_init(&app->accel, ops, &app->prims, &acfg, &app->diag)) {
+        if (app->diag.errors > errors)
+            return EXIT_INPUT;
+        diag_warning(&app->diag, &file, "nothing bounded to put in a %s (only planes): rendering without one", ops->name);
+        if (!accel_init(&app->accel, &accel_none_ops, &app->prims, &acfg, &app->diag))
+            return EXIT_INPUT;
+    } else if (o->stats && o->grid_auto && dist_is_root()) {
+        StatsReport r;
+        memset(&r, 0, sizeof r);
+        accel_report(&app->accel, &r);
+        printf("grid auto: %d x %d x %d cells\n", r.nx, r.ny, r.nz);
+    }
+    app->t_grid = clock_now() - t0;
+    app->rt.accel = &app->accel;
 
     if ((o->gui || o->gui_snapshot || o->samples_file) && dist_size() > 1) {
         diag_error(&app->diag, NULL, "the preview (-gui, -gui_snapshot) and -render_samples "
@@ -516,7 +519,8 @@ int main(int argc, char **argv)
     /* Anything else printed on stdout (the -grid auto line) must have arrived too. */
     if (status == 0 && !stdout_ok(&app.diag, "the output"))
         status = EXIT_INPUT;
-    grid_free(app.grid);
+    accel_free(&app.accel);
+    prim_table_free(&app.prims);
     scene_free(app.scene);
     return dist_finish(status);
 }

@@ -77,7 +77,12 @@ const Mat4 *transform_inverse(const Object3D *xf);         /* parent -> object *
 const Object3D *transform_child(const Object3D *xf);
 
 /* The exact arithmetic of nested Transform::intersect, for a primitive reached through
- * path (grid flattening): bit-identical t and normal to the tree walk. */
+ * path (the flat primitive table): bit-identical t and normal to the tree walk. The two
+ * halves: the ray in the primitive's object space (and *tmin rescaled as each Transform
+ * does: a positive tmin is a distance in the primitive's own space), and an object-space
+ * normal back in world space (normalised at every level, as the tree walk does). */
+Ray xform_path_to_object(const XformPath *path, const Ray *ray, float *tmin);
+Vec3 xform_path_normal_to_world(const XformPath *path, Vec3 n);
 bool xform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
                           Hit *hit, float tmin, RenderCtx *ctx);
 

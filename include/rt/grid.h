@@ -6,14 +6,20 @@
 
 #include <stdbool.h>
 #include "rt/diag.h"
+#include "rt/accel.h"
 #include "rt/object3d.h"
 
 typedef struct Scene Scene;
+typedef struct PrimTable PrimTable;
+typedef struct Grid Grid;
 
-/* Builds an nx*ny*nz grid over scene->bounds and flattens the scene into it through
- * the objects' insert_into_grid ops. Returns NULL and reports to diag on failure (out
- * of memory, absurd resolution). Returns NULL WITHOUT an error when the scene has no
- * bounded primitive (only planes): then there is simply no grid (cli.md). */
+/* Builds an nx*ny*nz grid over the table's scene box with the table's bounded
+ * primitives in its cells (t is borrowed: it must outlive the grid). Returns NULL and
+ * reports to diag on failure (out of memory, absurd resolution). Returns NULL WITHOUT
+ * an error when the table has no bounded primitive (only planes): then there is simply
+ * no grid. */
+Grid *grid_build_table(const PrimTable *t, int nx, int ny, int nz, Diag *diag);
+/* The same over a primitive table of scene's that the grid builds and owns. */
 Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag);
 void grid_free(Grid *g);
 
@@ -49,7 +55,7 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
  * cell counts once per packet visit, a test once per ray it is run for. Rays that do
  * not fit the packet (other direction, grazing, far origin) go through the single-ray
  * march. Without ctx->packet_rays every ray goes through it. */
-#define GRID_PACKET_MAX 64
+#define GRID_PACKET_MAX ACCEL_PACKET_MAX
 /* Nearest hits: for every i < n, like grid_intersect(g, &rays[i], &hits[i], tmin, ctx)
  * (hits are in/out, as there). Returns the mask of rays that found a hit (bit i). */
 uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits, float tmin,
@@ -75,13 +81,15 @@ bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmi
 void grid_set_packing(Grid *g, bool on);
 bool grid_packing(const Grid *g);
 
-/* -grid auto: a resolution chosen from the scene (docs/grid.md explains the rule). */
-void grid_choose_auto(const Scene *scene, int n[3]);
+/* -grid auto: a resolution chosen from the table's scene box and number of bounded
+ * primitives (docs/grid.md explains the rule). */
+void grid_choose_auto(const PrimTable *t, int n[3]);
+/* The grid behind an accelerator built by "grid" (for drawing its cells); NULL for any
+ * other accelerator. */
+const Grid *grid_of_accel(const Accel *a);
+/* The accelerator "grid" over a grid built by the caller (tests, tools), who keeps
+ * owning it: free the grid, never this Accel. */
+Accel grid_as_accel(Grid *g);
 
-/* Insertion API used by the leaves' insert_into_grid ops. path lists the Transforms
- * above the primitive (depth 0: none). */
-void grid_insert_sphere(Grid *g, const Object3D *sphere, const XformPath *path);
-void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path);
-void grid_insert_unbounded(Grid *g, const Object3D *prim, const XformPath *path);
 
 #endif

@@ -9,7 +9,6 @@
 #include "rt/ray.h"
 #include "rt/render_ctx.h"
 
-typedef struct Grid Grid;
 typedef struct Arena Arena;
 
 typedef enum ObjKind {
@@ -23,7 +22,8 @@ typedef enum ObjKind {
 /* Maximum nesting of Groups/Transforms the parser accepts (and the grid flattens). */
 enum { RT_MAX_NESTING = 64 };
 
-/* The chain of Transform objects above a primitive, outermost first (grid flattening). */
+/* The chain of Transform objects above a primitive, outermost first (the flat primitive
+ * table, rt/prim.h). */
 typedef struct XformPath {
     const Object3D *xf[RT_MAX_NESTING];
     int depth;
@@ -37,9 +37,10 @@ typedef struct Object3DOps {
      * ctx->stats; groups and transforms do not count. Never writes to self. */
     bool (*intersect)(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
                       RenderCtx *ctx);
-    /* Flattening into the grid: leaves call grid_insert_*, groups recurse, transforms
-     * push themselves onto path. path is the caller's; it may be modified and restored. */
-    void (*insert_into_grid)(const Object3D *self, Grid *grid, XformPath *path);
+    /* Leaves: the world-space box of the leaf placed by to_world (object -> world; NULL:
+     * the identity); empty when unbounded. Groups and transforms: NULL (the primitive
+     * table walks them, rt/prim.h). */
+    BBox (*bounds)(const Object3D *self, const Mat4 *to_world);
 } Object3DOps;
 
 struct Object3D {
@@ -54,10 +55,6 @@ static inline bool obj_intersect(const Object3D *o, const Ray *r, Hit *h, float 
                                  RenderCtx *ctx)
 {
     return o->ops->intersect(o, r, h, tmin, ctx);
-}
-static inline void obj_insert_into_grid(const Object3D *o, Grid *g, XformPath *path)
-{
-    o->ops->insert_into_grid(o, g, path);
 }
 static inline ObjKind obj_kind(const Object3D *o) { return o->ops->kind; }
 

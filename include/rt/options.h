@@ -23,6 +23,8 @@ typedef struct Options {
     bool visualize_grid, visualize_grid_count;
     bool no_marking;             /* -no_marking: grid without mailboxing (analysis) */
     bool no_packets;             /* -no_packets: every ray marched alone (comparisons) */
+    const char *accel;           /* -accel NAME (a registered one, rt/accel.h); NULL:
+                                    "grid" when -grid is given, else "none" */
     bool gui, gouraud;
     int tess_theta, tess_phi;    /* default 20 10 */
     const char *gui_snapshot;    /* -gui_snapshot file.tga: headless preview frame */

@@ -3,7 +3,7 @@
 #ifndef RT_RAYTRACER_H
 #define RT_RAYTRACER_H
 
-#include "rt/grid.h"
+#include "rt/accel.h"
 #include "rt/scene.h"
 
 /* epsilon for shadow, reflected and refracted rays: a distance along the (unit) ray,
@@ -12,13 +12,13 @@
 
 typedef struct RayTracer {
     const Scene *scene;
-    const Grid *grid;          /* NULL: brute-force RayCast over the scene */
+    const Accel *accel;        /* finds the hits (rt/accel.h; "none" is brute force);
+                                  built over scene's primitive table, borrowed */
     bool shadows;
     bool shade_back;
     int bounces;               /* max recursion depth; 0 = no secondary rays */
     float weight;              /* cutoff: secondary rays with weight < cutoff not traced */
-    bool visualize_grid;       /* needs grid */
-    bool single_rays;          /* true: no ray packets, every ray marched on its own
+    bool single_rays;          /* true: no ray packets, every ray traced on its own
                                   (hidden option -no_packets, for comparisons) */
 } RayTracer;
 
@@ -27,17 +27,18 @@ typedef struct RayTracer {
 Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin,
                      int depth, float weight, float ior, Hit *hit_out);
 /* raytracer_trace(rt, ctx, &rays[i], tmin, 0, 1, 1, &hits[i]) for every i < n
- * (n <= GRID_PACKET_MAX): the same colours and hits to the bit, but with a grid the
- * rays and their first shadow rays go through the grid as packets (grid.h). */
+ * (n <= ACCEL_PACKET_MAX): the same colours and hits to the bit, but when the
+ * accelerator has packet queries the rays and their first shadow rays go through it as
+ * packets. */
 void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
                             float tmin, Vec3 *colors, Hit *hits);
-/* Nearest hit (grid march, visualisation or brute force as configured). */
+/* Nearest hit (through rt->accel). */
 bool raytracer_cast(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, Hit *hit);
 /* True when something lies on the ray with tmin < t < dist. Counts one shadow ray. */
 bool raytracer_occluded(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin,
                         float dist);
 
-/* Per-thread context: allocates the grid mailbox when rt->grid is set. */
+/* Per-thread context: allocates the accelerator's per-thread scratch (mailbox). */
 bool render_ctx_init(RenderCtx *ctx, const RayTracer *rt);
 void render_ctx_free(RenderCtx *ctx);
 

@@ -25,7 +25,7 @@ typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE } RecKind;
  * (bin_part) from the walk's GridPrim and kept on its stack. */
 struct GridBuildRec {
     const Object3D *obj;
-    const GridPath *gp;   /* NULL: no Transform above it */
+    const PrimXform *gp;  /* NULL: no Transform above it */
     RecKind kind;
     Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world vertices */
     float r;              /* sphere radius (object space) */
@@ -44,117 +44,21 @@ typedef struct BinPart {
     bool oom, too_many;
 } BinPart;
 
-/* ---- interning of transformation paths ---- */
-
-static bool path_equal(const XformPath *a, const XformPath *b)
-{
-    return a->depth == b->depth &&
-           memcmp(a->xf, b->xf, (size_t)a->depth * sizeof a->xf[0]) == 0;
-}
-
-/* The interned copy of path (with composed matrices). A depth-first walk returns to a
- * path of depth d only after visiting deeper ones, so remembering the last path seen
- * at each depth finds every repeat. */
-static const GridPath *intern_path(Grid *g, const XformPath *path)
-{
-    if (path->depth <= 0)
-        return NULL;
-    int d = path->depth > RT_MAX_NESTING ? RT_MAX_NESTING : path->depth;
-    const GridPath *last = g->last_at_depth[d];
-    if (last && path_equal(&last->path, path))
-        return last;
-    if (g->num_paths == g->cap_paths) {
-        uint32_t cap = g->cap_paths ? 2 * g->cap_paths : 16;
-        GridPath **p = realloc(g->paths, cap * sizeof *p);
-        if (!p) {
-            g->oom = true;
-            return NULL;
-        }
-        g->paths = p;
-        g->cap_paths = cap;
-    }
-    GridPath *gp = malloc(sizeof *gp);
-    if (!gp) {
-        g->oom = true;
-        return NULL;
-    }
-    memset(gp, 0, sizeof *gp);
-    gp->path.depth = d;
-    memcpy(gp->path.xf, path->xf, (size_t)d * sizeof path->xf[0]);
-    /* M = M1 * ... * Mk maps object space to world; its inverse is Mk^-1 * ... * M1^-1. */
-    gp->m = mat4_identity();
-    gp->inv = mat4_identity();
-    for (int i = 0; i < d; i++) {
-        gp->m = mat4_mul(&gp->m, transform_matrix(path->xf[i]));
-        gp->inv = mat4_mul(transform_inverse(path->xf[i]), &gp->inv);
-    }
-    g->paths[g->num_paths++] = gp;
-    g->last_at_depth[d] = gp;
-    return gp;
-}
-
-/* Whether the insertion API may run: only inside grid_build (prim_ncells is build-time
- * state) and before any failure. */
-static bool building(const Grid *g) { return !g->oom && !g->too_many && g->prim_ncells; }
-
-/* Appends a bounded primitive to prims. The walk only collects them (binning them is
- * the parallel part of the build): its kind waits in prim_ncells until bin_part
+/* Appends a bounded primitive to prims. Its kind waits in prim_ncells until bin_part
  * replaces it by the primitive's cell count. */
-static void append_prim(Grid *g, const Object3D *obj, const GridPath *gp, RecKind kind)
+static void append_prim(Grid *g, const Prim *p, RecKind kind)
 {
-    if (g->num_prims == g->cap_prims) {
-        uint32_t cap = g->cap_prims ? 2 * g->cap_prims : 256;
-        if (cap <= g->cap_prims || cap > UINT32_MAX / 2) {
-            g->oom = true;
-            return;
-        }
-        GridPrim *p = realloc(g->prims, (size_t)cap * sizeof *p);
-        if (p)
-            g->prims = p;
-        uint32_t *nc = p ? realloc(g->prim_ncells, (size_t)cap * sizeof *nc) : NULL;
-        if (!nc) {
-            g->oom = true;
-            return;
-        }
-        g->prim_ncells = nc;
-        g->cap_prims = cap;
-    }
-    g->prims[g->num_prims].obj = obj;
-    g->prims[g->num_prims].path = gp ? &gp->path : NULL;
+    g->prims[g->num_prims].obj = p->obj;
+    g->prims[g->num_prims].xf = p->xf;
     g->prim_ncells[g->num_prims] = (uint32_t)kind;
     g->num_prims++;
-}
-
-/* ---- insertion API called by the leaves' insert_into_grid ops ---- */
-
-void grid_insert_sphere(Grid *g, const Object3D *sphere, const XformPath *path)
-{
-    if (!building(g))
-        return;
-    const GridPath *gp = intern_path(g, path);
-    if (g->oom)
-        return;
-    append_prim(g, sphere, gp, gp ? REC_SPHERE_XF : REC_SPHERE);
-}
-
-void grid_insert_triangle(Grid *g, const Object3D *tri, const XformPath *path)
-{
-    if (!building(g))
-        return;
-    const GridPath *gp = intern_path(g, path);
-    if (g->oom)
-        return;
-    append_prim(g, tri, gp, REC_TRIANGLE);
 }
 
 /* The record of a primitive of kind kind. */
 static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
 {
     rec->obj = gp->obj;
-    /* GridPrim.path points at the path member of an interned GridPath. */
-    rec->gp = gp->path ? (const GridPath *)((const char *)gp->path -
-                                            offsetof(GridPath, path))
-                       : NULL;
+    rec->gp = gp->xf;
     rec->kind = kind;
     rec->r = 0.0f;
     if (rec->kind == REC_TRIANGLE) {
@@ -172,28 +76,6 @@ static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
 static void make_rec(const Grid *g, uint32_t p, GridBuildRec *rec)
 {
     make_rec_of(&g->prims[p], (RecKind)g->prim_ncells[p], rec);
-}
-
-void grid_insert_unbounded(Grid *g, const Object3D *prim, const XformPath *path)
-{
-    if (!building(g))
-        return;
-    const GridPath *gp = intern_path(g, path);
-    if (g->oom)
-        return;
-    if (g->num_unbounded == g->cap_unbounded) {
-        uint32_t cap = g->cap_unbounded ? 2 * g->cap_unbounded : 8;
-        GridPrim *u = realloc(g->unbounded, (size_t)cap * sizeof *u);
-        if (!u) {
-            g->oom = true;
-            return;
-        }
-        g->unbounded = u;
-        g->cap_unbounded = cap;
-    }
-    g->unbounded[g->num_unbounded].obj = prim;
-    g->unbounded[g->num_unbounded].path = gp ? &gp->path : NULL;
-    g->num_unbounded++;
 }
 
 /* ---- the course's occupancy rules (semantics.md 7.2), in float like the course ---- */
@@ -977,9 +859,7 @@ void grid_free(Grid *g)
     free(g->course_count);
     free(g->prims);
     free(g->unbounded);
-    for (uint32_t i = 0; i < g->num_paths; i++)
-        free(g->paths[i]);
-    free(g->paths);
+    prim_table_free(&g->own_table);
     free(g);
 }
 
@@ -1017,7 +897,7 @@ static void setup_geometry(Grid *g)
     g->box_mag = mag;
 }
 
-static Grid *build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
+static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
 {
     if (nx < 1 || ny < 1 || nz < 1) {
         diag_error(diag, NULL, "grid resolution must be positive, got %dx%dx%d", nx, ny, nz);
@@ -1029,15 +909,15 @@ static Grid *build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
                    ny, nz, GRID_MAX_CELLS);
         return NULL;
     }
-    if (!v3_isfinite(scene->bounds.min) || !v3_isfinite(scene->bounds.max) ||
-        !v3_isfinite(v3_sub(scene->bounds.max, scene->bounds.min))) {
+    if (!v3_isfinite(t->scene_bounds.min) || !v3_isfinite(t->scene_bounds.max) ||
+        !v3_isfinite(v3_sub(t->scene_bounds.max, t->scene_bounds.min))) {
         diag_error(diag, NULL, "cannot build a grid: the scene's bounding box is not finite");
         return NULL;
     }
     Grid *g = calloc(1, sizeof *g);
     if (!g)
         goto oom;
-    g->bounds = scene->bounds;
+    g->bounds = t->scene_bounds;
     g->n[0] = nx;
     g->n[1] = ny;
     g->n[2] = nz;
@@ -1051,22 +931,27 @@ static Grid *build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
 
     if (!setup_cell_axis(g))
         goto oom;
-    /* Sized for the scene's primitives (planes included, so an upper bound) and about
-     * two cells each, so the walk rarely reallocates. */
-    g->cap_prims = scene->num_primitives > 0 && scene->num_primitives < UINT32_MAX / 4
-                       ? scene->num_primitives
-                       : 256;
-    g->prims = malloc((size_t)g->cap_prims * sizeof *g->prims);
-    g->prim_ncells = malloc((size_t)g->cap_prims * sizeof *g->prim_ncells);
-    if (!g->prims || !g->prim_ncells)
+    uint32_t nb = t->num_bounded, nu = t->num_prims - t->num_bounded;
+    g->prims = malloc((nb ? nb : 1) * sizeof *g->prims);
+    g->prim_ncells = malloc((nb ? nb : 1) * sizeof *g->prim_ncells);
+    g->unbounded = malloc((nu ? nu : 1) * sizeof *g->unbounded);
+    if (!g->prims || !g->prim_ncells || !g->unbounded)
         goto oom;
-
-    /* The walk collects the bounded primitives in depth-first order (grid_insert_*). */
-    XformPath path;
-    path.depth = 0;
-    obj_insert_into_grid(scene->root, g, &path);
-    if (g->oom)
-        goto oom;
+    /* The bounded primitives go into cells in table (depth-first) order; the others are
+     * tested for every ray. */
+    for (uint32_t i = 0; i < t->num_prims; i++) {
+        const Prim *p = &t->prims[i];
+        if (p->bounded) {
+            RecKind kind = obj_kind(p->obj) == OBJ_TRIANGLE ? REC_TRIANGLE
+                           : p->xf                          ? REC_SPHERE_XF
+                                                            : REC_SPHERE;
+            append_prim(g, p, kind);
+        } else {
+            g->unbounded[g->num_unbounded].obj = p->obj;
+            g->unbounded[g->num_unbounded].xf = p->xf;
+            g->num_unbounded++;
+        }
+    }
     if (!bin_fill_pack(g)) {
         if (!g->too_many)
             goto oom;
@@ -1083,16 +968,33 @@ oom:
     return NULL;
 }
 
+Grid *grid_build_table(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
+{
+    if (!t || t->num_bounded == 0 || bbox_is_empty(&t->scene_bounds))
+        return NULL;
+    /* Wake the binning helpers now: the set-up gives them time to get a CPU. */
+    if (t->num_bounded >= 2 * BIN_CHUNK)
+        par_prepare();
+    Grid *g = build(t, nx, ny, nz, diag);
+    /* The grid is the last step before the render, which wants the cores. */
+    par_release();
+    return g;
+}
+
 Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
 {
     if (!scene || !scene->root || bbox_is_empty(&scene->bounds))
         return NULL;
-    /* Wake the binning helpers now: the walk gives them time to get a CPU. */
-    if (scene->num_primitives >= 2 * BIN_CHUNK)
-        par_prepare();
-    Grid *g = build(scene, nx, ny, nz, diag);
-    /* The grid is the last step before the render, which wants the cores. */
-    par_release();
+    PrimTable t;
+    if (!prim_table_build(&t, scene)) {
+        diag_error(diag, NULL, "out of memory building a %dx%dx%d grid", nx, ny, nz);
+        return NULL;
+    }
+    Grid *g = grid_build_table(&t, nx, ny, nz, diag);
+    if (g)
+        g->own_table = t;  /* the grid's prims point into it */
+    else
+        prim_table_free(&t);
     return g;
 }
 

@@ -3,47 +3,26 @@
  * box allows (resolution proportional to the box's sides). */
 #include <math.h>
 
-#include "rt/geom.h"
 #include "rt/grid.h"
-#include "rt/scene.h"
+#include "rt/prim.h"
 
 /* Cells per primitive. Measured on the course scenes (docs/grid.md). */
 #define GRID_AUTO_LAMBDA 4.0
 #define GRID_AUTO_MAX_AXIS 512
 #define GRID_AUTO_MAX_CELLS (1 << 22)
 
-/* Leaves that go into cells (everything but planes). */
-static uint64_t count_bounded(const Object3D *o, int depth)
-{
-    if (!o || depth > RT_MAX_NESTING)
-        return 0;
-    switch (obj_kind(o)) {
-    case OBJ_GROUP: {
-        uint64_t n = 0;
-        for (int i = 0; i < group_count(o); i++)
-            n += count_bounded(group_child(o, i), depth + 1);
-        return n;
-    }
-    case OBJ_TRANSFORM:
-        return count_bounded(transform_child(o), depth + 1);
-    case OBJ_PLANE:
-        return 0;
-    default:
-        return 1;
-    }
-}
-
-void grid_choose_auto(const Scene *scene, int n[3])
+void grid_choose_auto(const PrimTable *t, int n[3])
 {
     n[0] = n[1] = n[2] = 1;
-    if (!scene || !scene->root || bbox_is_empty(&scene->bounds))
+    if (!t || bbox_is_empty(&t->scene_bounds))
         return;
-    double prims = (double)count_bounded(scene->root, 0);
+    /* The leaves that go into cells (everything but planes). */
+    double prims = (double)t->num_bounded;
     if (prims < 1.0)
         prims = 1.0;
     double e[3], emax = 0.0;
     for (int a = 0; a < 3; a++) {
-        e[a] = (double)v3_comp(scene->bounds.max, a) - (double)v3_comp(scene->bounds.min, a);
+        e[a] = (double)v3_comp(t->scene_bounds.max, a) - (double)v3_comp(t->scene_bounds.min, a);
         if (!isfinite(e[a]) || e[a] < 0.0)
             return;
         emax = fmax(emax, e[a]);

@@ -7,21 +7,14 @@
 #include "rt/grid.h"
 #include "rt/marching_info.h"
 #include "rt/geom.h"
+#include "rt/prim.h"
 
-/* One flattened primitive: the leaf and the Transforms above it (NULL: none). Its index
- * in Grid.prims is its mailbox slot. */
+/* One primitive of the table as the march reads it: the leaf and the Transforms above it
+ * (NULL: none). Its index in Grid.prims is its mailbox slot. */
 typedef struct GridPrim {
     const Object3D *obj;
-    const XformPath *path;
+    const PrimXform *xf;
 } GridPrim;
-
-/* An interned transformation path with its composed matrices (build time and after:
- * GridPrim.path points into it). */
-typedef struct GridPath {
-    XformPath path;
-    Mat4 m;    /* object -> world: M1 * M2 * ... * Mk (outermost first) */
-    Mat4 inv;  /* world -> object */
-} GridPath;
 
 typedef struct GridBuildRec GridBuildRec;
 
@@ -58,18 +51,12 @@ struct Grid {
     PackedTri *tri;
     bool packing_off;       /* grid_set_packing(g, false): every entry via its ops */
 
-    /* Interned paths (live as long as the grid). */
-    GridPath **paths;
-    uint32_t num_paths, cap_paths;
+    /* The primitive table of grid_build (grid_build_table borrows the caller's). */
+    PrimTable own_table;
 
     /* Build-time state (NULL after grid_build returns). */
-    uint32_t cap_unbounded;
-    uint32_t *pairs;        /* cells of each record's marching set, in record order */
-    size_t num_pairs, cap_pairs;
-    const GridPath *last_at_depth[RT_MAX_NESTING + 1];
     bool oom;
     bool too_many;          /* more marching entries than a uint32_t index can hold */
-    uint32_t cap_prims;     /* prims is filled during the walk (grid.c) */
     uint32_t *prim_ncells;  /* per prim: cells of its marching set (its run in pairs) */
     double *cell_axis;      /* per axis and cell: padded bounds, centre, half sizes */
 };
@@ -91,8 +78,7 @@ static inline uint32_t grid_cell_index(const Grid *g, int i, int j, int k)
 static inline bool grid_test_prim(const GridPrim *p, const Ray *ray, Hit *hit, float tmin,
                                   RenderCtx *ctx)
 {
-    return p->path ? xform_path_intersect(p->path, p->obj, ray, hit, tmin, ctx)
-                   : obj_intersect(p->obj, ray, hit, tmin, ctx);
+    return prim_intersect(p->obj, p->xf, ray, hit, tmin, ctx);
 }
 
 /* grid_cast.c, for the packet traversal (grid_packet.c): */

@@ -70,7 +70,7 @@ bool grid_pack(Grid *g)
     for (uint32_t p = 0; p < g->num_prims; p++) {
         const GridPrim *gp = &g->prims[p];
         PackedTri *pt = &g->tri[p];
-        if (gp->path || obj_kind(gp->obj) != OBJ_TRIANGLE) {
+        if (gp->xf || obj_kind(gp->obj) != OBJ_TRIANGLE) {
             pt->id = RT_NO_ID; /* not packed */
             continue;
         }

@@ -4,6 +4,7 @@
 #include "rt/options.h"
 #include "rt/filter.h"
 #include "rt/sampler.h"
+#include "rt/accel.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -58,6 +59,11 @@ void options_usage(FILE *out)
         "  -visualize_grid_count    same as -visualize_grid (cells are coloured by count)\n"
         "  -no_marking              grid: test an object again in every cell (for analysis)\n"
         "  -no_packets              grid: march every ray on its own, no ray packets\n"
+        "  -accel NAME              accelerator by name (-accel grid: -grid auto):\n",
+        out);
+    for (int i = 0; accel_registry[i]; i++)
+        fprintf(out, "      %-20s %s\n", accel_registry[i]->name, accel_registry[i]->summary);
+    fputs(
         "  -threads n               render threads (default: all cores)\n"
         "Antialiasing (one centred sample and a box filter of radius 0.5 by default)\n"
         "  -uniform_samples n       n = k*k samples per pixel on a regular k x k grid\n"
@@ -245,6 +251,12 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                                        (long long)o->grid_n[0] * o->grid_n[1] * o->grid_n[2],
                                        (int)RT_GRID_MAX_CELLS);
             }
+        } else if (!strcmp(a, "-accel")) {
+            if (!take(&c, a, &o->accel))
+                return false;
+            if (!accel_find(o->accel))
+                return usage_error(&c, "option -accel: unknown accelerator '%s' (known: %s)",
+                                   o->accel, accel_names());
         } else if (!strcmp(a, "-visualize_grid")) {
             o->visualize_grid = true;
         } else if (!strcmp(a, "-visualize_grid_count")) {
@@ -375,6 +387,10 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                                   (o->height * (long long)o->filter_zoom + 1) > MAX_PICTURE)
         return usage_error(&c, "-render_filter: %dx%d zoomed %d times is more than %d pixels",
                            o->width, o->height, o->filter_zoom, MAX_PICTURE);
+    if (o->accel && strcmp(o->accel, "grid") != 0 && o->grid)
+        return usage_error(&c, "option -grid goes with -accel grid, not -accel %s", o->accel);
+    if (o->accel && strcmp(o->accel, "grid") == 0 && !o->grid)
+        o->grid = o->grid_auto = true;
     if (o->visualize_grid && !o->grid)
         return usage_error(&c, "-visualize_grid needs -grid nx ny nz (or -grid auto)");
     /* Two images into one file: the second would silently replace the first. */

@@ -1,7 +1,6 @@
 /* Group (A1): a list of objects; intersects all children, keeps the nearest hit. */
 #include "rt/geom.h"
 #include "rt/arena.h"
-#include "rt/grid.h"
 
 #include "group_internal.h"
 
@@ -16,15 +15,7 @@ static bool group_intersect(const Object3D *self, const Ray *ray, Hit *hit, floa
     return any;
 }
 
-static void group_insert(const Object3D *self, Grid *grid, XformPath *path)
-{
-    const Group *g = (const Group *)self;
-    for (int i = 0; i < g->count; i++)
-        if (g->children[i])
-            obj_insert_into_grid(g->children[i], grid, path);
-}
-
-static const Object3DOps group_ops = {"Group", OBJ_GROUP, group_intersect, group_insert};
+static const Object3DOps group_ops = {"Group", OBJ_GROUP, group_intersect, NULL};
 
 Object3D *group_new(Arena *a, int capacity)
 {

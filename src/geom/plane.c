@@ -1,7 +1,6 @@
 /* Plane (A2): points P with P.n = offset; infinite, so never inside the grid. */
 #include "rt/geom.h"
 #include "rt/arena.h"
-#include "rt/grid.h"
 
 typedef struct Plane {
     Object3D base;
@@ -28,12 +27,15 @@ static bool plane_intersect(const Object3D *self, const Ray *ray, Hit *hit, floa
     return true;
 }
 
-static void plane_insert(const Object3D *self, Grid *grid, XformPath *path)
+/* Infinite: no box (accelerators test it for every ray). */
+static BBox plane_bounds(const Object3D *self, const Mat4 *to_world)
 {
-    grid_insert_unbounded(grid, self, path);
+    (void)self;
+    (void)to_world;
+    return bbox_empty();
 }
 
-static const Object3DOps plane_ops = {"Plane", OBJ_PLANE, plane_intersect, plane_insert};
+static const Object3DOps plane_ops = {"Plane", OBJ_PLANE, plane_intersect, plane_bounds};
 
 Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m)
 {

@@ -1,7 +1,6 @@
 /* Sphere (A1): |o + t d - c|^2 = r^2, solved for any (non-unit) direction. */
 #include "rt/geom.h"
 #include "rt/arena.h"
-#include "rt/grid.h"
 
 typedef struct Sphere {
     Object3D base;
@@ -53,12 +52,14 @@ static bool sphere_intersect(const Object3D *self, const Ray *ray, Hit *hit, flo
     return true;
 }
 
-static void sphere_insert(const Object3D *self, Grid *grid, XformPath *path)
+/* The box of the ball, mapped by to_world (its 8 corners' box: not tight under
+ * rotation, but it encloses the ellipsoid). */
+static BBox sphere_bounds(const Object3D *self, const Mat4 *to_world)
 {
-    grid_insert_sphere(grid, self, path);
+    return to_world ? bbox_transform(&self->bbox, to_world) : self->bbox;
 }
 
-static const Object3DOps sphere_ops = {"Sphere", OBJ_SPHERE, sphere_intersect, sphere_insert};
+static const Object3DOps sphere_ops = {"Sphere", OBJ_SPHERE, sphere_intersect, sphere_bounds};
 
 Object3D *sphere_new(Arena *a, Vec3 center, float radius, const Material *m)
 {

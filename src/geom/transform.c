@@ -2,7 +2,6 @@
  * renormalised, so the object-space t is the world t; only tmin is rescaled. */
 #include "rt/geom.h"
 #include "rt/arena.h"
-#include "rt/grid.h"
 
 typedef struct Transform {
     Object3D base;
@@ -50,18 +49,8 @@ static bool transform_intersect(const Object3D *self, const Ray *ray, Hit *hit, 
     return true;
 }
 
-static void transform_insert(const Object3D *self, Grid *grid, XformPath *path)
-{
-    const Transform *x = (const Transform *)self;
-    if (path->depth >= RT_MAX_NESTING)
-        return; /* the parser rejects deeper nesting */
-    path->xf[path->depth++] = self;
-    obj_insert_into_grid(x->child, grid, path);
-    path->depth--;
-}
-
 static const Object3DOps transform_ops = {"Transform", OBJ_TRANSFORM, transform_intersect,
-                                          transform_insert};
+                                          NULL};
 
 Object3D *transform_new(Arena *a, const Mat4 *m, Object3D *child)
 {
@@ -85,18 +74,30 @@ const Mat4 *transform_matrix(const Object3D *o) { return &((const Transform *)o)
 const Mat4 *transform_inverse(const Object3D *o) { return &((const Transform *)o)->inv; }
 const Object3D *transform_child(const Object3D *o) { return ((const Transform *)o)->child; }
 
-bool xform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
-                          Hit *hit, float tmin, RenderCtx *ctx)
+Ray xform_path_to_object(const XformPath *path, const Ray *ray, float *tmin)
 {
     Ray r = *ray;
     for (int i = 0; i < path->depth; i++) {
         Ray local = to_object((const Transform *)path->xf[i], &r);
-        tmin = tmin_to_object(tmin, r.dir, local.dir);
+        *tmin = tmin_to_object(*tmin, r.dir, local.dir);
         r = local;
     }
+    return r;
+}
+
+Vec3 xform_path_normal_to_world(const XformPath *path, Vec3 n)
+{
+    for (int i = path->depth - 1; i >= 0; i--)
+        n = normal_to_parent((const Transform *)path->xf[i], n);
+    return n;
+}
+
+bool xform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
+                          Hit *hit, float tmin, RenderCtx *ctx)
+{
+    Ray r = xform_path_to_object(path, ray, &tmin);
     if (!obj_intersect(prim, &r, hit, tmin, ctx))
         return false;
-    for (int i = path->depth - 1; i >= 0; i--)
-        hit->normal = normal_to_parent((const Transform *)path->xf[i], hit->normal);
+    hit->normal = xform_path_normal_to_world(path, hit->normal);
     return true;
 }

@@ -1,7 +1,6 @@
 /* Triangle (A2): Moller-Trumbore (geom.h) with precomputed edges; normal from the winding. */
 #include "rt/geom.h"
 #include "rt/arena.h"
-#include "rt/grid.h"
 
 #include "triangle_internal.h"
 
@@ -22,13 +21,20 @@ static bool triangle_intersect(const Object3D *self, const Ray *ray, Hit *hit, f
     return true;
 }
 
-static void triangle_insert(const Object3D *self, Grid *grid, XformPath *path)
+/* The box of the three vertices mapped to world space. */
+static BBox triangle_bounds(const Object3D *self, const Mat4 *to_world)
 {
-    grid_insert_triangle(grid, self, path);
+    const Triangle *t = (const Triangle *)self;
+    if (!to_world)
+        return self->bbox;
+    BBox b = bbox_empty();
+    b = bbox_add_point(b, mat4_point(to_world, t->v0));
+    b = bbox_add_point(b, mat4_point(to_world, t->v1));
+    return bbox_add_point(b, mat4_point(to_world, t->v2));
 }
 
 const Object3DOps triangle_ops = {"Triangle", OBJ_TRIANGLE, triangle_intersect,
-                                  triangle_insert};
+                                  triangle_bounds};
 
 Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m)
 {

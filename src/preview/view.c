@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "rt/matrix.h"
+#include "rt/grid.h"
 #include "rt/raytracer.h"
 #include "rt/scene.h"
 
@@ -36,7 +37,7 @@ bool preview_view_init(PreviewView *v, const PreviewConfig *cfg, Diag *diag)
         v->pivot = v3_scale(v3_add(b->min, b->max), 0.5f);
     else
         v->pivot = v3_madd(v->camera.center, v->camera.direction, 10.0f);
-    v->mode = (cfg->visualize_grid && cfg->tracer->grid) ? PREVIEW_GRID : PREVIEW_OBJECTS;
+    v->mode = (cfg->visualize_grid && grid_of_accel(cfg->tracer->accel)) ? PREVIEW_GRID : PREVIEW_OBJECTS;
     v->tree = malloc(sizeof *v->tree);
     if (!v->tree) {
         diag_error(diag, NULL, "out of memory for the preview's ray tree");
@@ -109,7 +110,7 @@ bool preview_view_trace(PreviewView *v, int i, int j, int w, int h)
 
 void preview_view_cycle_grid(PreviewView *v, FILE *out)
 {
-    if (!v->cfg->tracer->grid) {
+    if (!grid_of_accel(v->cfg->tracer->accel)) {
         if (out)
             fprintf(out, "no grid to show: run with -grid nx ny nz\n");
         v->mode = PREVIEW_OBJECTS;

@@ -1,5 +1,5 @@
-/* RayTracer (A4-A6): Whitted recursion exactly as semantics.md 4, over either the
- * brute-force scene loop (RayCast) or the grid march (RayCastFast). */
+/* RayTracer (A4-A6): Whitted recursion exactly as semantics.md 4, over the accelerator
+ * (rt/accel.h): brute force (RayCast), the grid march (RayCastFast) or any other. */
 #include "rt/raytracer.h"
 
 #include <stdlib.h>
@@ -7,37 +7,14 @@
 
 bool raytracer_cast(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, Hit *hit)
 {
-    if (rt->grid) {
-        if (rt->visualize_grid)
-            return grid_visualize_intersect(rt->grid, ray, hit, tmin, ctx);
-        return grid_intersect(rt->grid, ray, hit, tmin, ctx);
-    }
-    if (!rt->scene->root)
-        return false;
-    return obj_intersect(rt->scene->root, ray, hit, tmin, ctx);
+    return accel_intersect(rt->accel, ray, hit, tmin, ctx);
 }
 
 bool raytracer_occluded(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin,
                         float dist)
 {
     ctx->stats.shadow_rays++;
-    if (rt->grid) {
-        if (rt->visualize_grid) {
-            /* The visualised cells are the scene in this mode, so they cast the shadows. */
-            Hit h = hit_none();
-            return grid_visualize_intersect(rt->grid, ray, &h, tmin, ctx) && h.t < dist;
-        }
-        return grid_occluded(rt->grid, ray, tmin, dist, ctx);
-    }
-    if (!rt->scene->root)
-        return false;
-    /* Hits at t >= dist do not count: start the search at t = dist with id 0, which
-     * hit_accepts never lets an equal t beat. The course's loop tests every object
-     * (no early exit), and the statistics follow it. */
-    Hit h = hit_none();
-    h.t = dist;
-    h.id = 0;
-    return obj_intersect(rt->scene->root, ray, &h, tmin, ctx);
+    return accel_occluded(rt->accel, ray, tmin, dist, ctx);
 }
 
 /* The shading of one hit (semantics.md 4), in three parts so the packet path can cast
@@ -172,8 +149,8 @@ Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float 
 void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
                             float tmin, Vec3 *colors, Hit *hits)
 {
-    if (!rt->grid || rt->visualize_grid || ctx->tree || !ctx->packet_rays ||
-        n > GRID_PACKET_MAX) {
+    if (!accel_has_packets(rt->accel) || ctx->tree || !ctx->packet_rays ||
+        n > ACCEL_PACKET_MAX) {
         for (int i = 0; i < n; i++)
             colors[i] = trace(rt, ctx, &rays[i], tmin, 0, 1.0f, 1.0f, &hits[i], RAYSEG_MAIN);
         return;
@@ -182,9 +159,9 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     ctx->stats.nonshadow_rays += (uint64_t)n;
     for (int i = 0; i < n; i++)
         hits[i] = hit_none();
-    uint64_t found = grid_intersect_packet(rt->grid, rays, n, hits, tmin, ctx);
+    uint64_t found = accel_intersect_packet(rt->accel, rays, n, hits, tmin, ctx);
 
-    ShadeState st[GRID_PACKET_MAX];
+    ShadeState st[ACCEL_PACKET_MAX];
     uint64_t live = 0;
     for (int i = 0; i < n; i++) {
         if (!(found >> i & 1)) {
@@ -198,9 +175,9 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             colors[i] = st[i].color;
     }
     for (int li = 0; li < scene->num_lights && live; li++) {
-        Ray srays[GRID_PACKET_MAX];
-        Vec3 lcol[GRID_PACKET_MAX];
-        float dist[GRID_PACKET_MAX];
+        Ray srays[ACCEL_PACKET_MAX];
+        Vec3 lcol[ACCEL_PACKET_MAX];
+        float dist[ACCEL_PACKET_MAX];
         for (uint64_t m = live; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             srays[i].origin = hits[i].point;
@@ -210,7 +187,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         uint64_t blocked = 0;
         if (rt->shadows) {
             ctx->stats.shadow_rays += (uint64_t)__builtin_popcountll(live);
-            blocked = grid_occluded_packet(rt->grid, srays, live, RT_EPSILON, dist, ctx);
+            blocked = accel_occluded_packet(rt->accel, srays, live, RT_EPSILON, dist, ctx);
         }
         for (uint64_t m = live & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
@@ -227,19 +204,17 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
 bool render_ctx_init(RenderCtx *ctx, const RayTracer *rt)
 {
     memset(ctx, 0, sizeof *ctx);
-    if (rt->grid) {
-        uint32_t n = grid_mailbox_size(rt->grid);
-        if (n) {
-            ctx->mailbox = calloc(n, sizeof *ctx->mailbox);
-            if (!ctx->mailbox)
+    uint32_t n = accel_scratch_size(rt->accel);
+    if (n) {
+        ctx->mailbox = calloc(n, sizeof *ctx->mailbox);
+        if (!ctx->mailbox)
+            return false;
+        ctx->num_mailbox = n;
+        if (!rt->single_rays && accel_has_packets(rt->accel)) {
+            ctx->packet_rays = malloc((size_t)n * sizeof *ctx->packet_rays);
+            if (!ctx->packet_rays) {
+                render_ctx_free(ctx);
                 return false;
-            ctx->num_mailbox = n;
-            if (!rt->single_rays) {
-                ctx->packet_rays = malloc((size_t)n * sizeof *ctx->packet_rays);
-                if (!ctx->packet_rays) {
-                    render_ctx_free(ctx);
-                    return false;
-                }
             }
         }
     }

@@ -38,7 +38,7 @@ int render_default_threads(void)
 /* Rows are rendered in bands of TILE rows, each band in TILE x TILE tiles: a tile's
  * primary rays (and then their shadow rays) go through the grid as one packet. */
 #define TILE RENDER_TILE
-_Static_assert(TILE * TILE <= GRID_PACKET_MAX, "a tile must fit in one ray packet");
+_Static_assert(TILE * TILE <= ACCEL_PACKET_MAX, "a tile must fit in one ray packet");
 
 Vec3 render_depth_color(const Hit *hit, float depth_min, float depth_max)
 {

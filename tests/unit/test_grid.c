@@ -393,7 +393,10 @@ static void test_auto_resolution(void)
         ts_add(&t, sphere_new(&t.s.arena, v3(0.25f * (float)i, (float)(i % 2), 0), 0.5f, t.mat));
     ts_finish(&t);
     int n[3];
-    grid_choose_auto(&t.s, n);
+    PrimTable pt;
+    CHECK(prim_table_build(&pt, &t.s));
+    grid_choose_auto(&pt, n);
+    prim_table_free(&pt);
     for (int a = 0; a < 3; a++)
         CHECK(n[a] >= 1);
     /* The rule of docs/grid.md: 4 cells per primitive (64), near-cubic cells:
@@ -406,7 +409,9 @@ static void test_auto_resolution(void)
     ts_init(&f);
     ts_add(&f, triangle_new(&f.s.arena, v3(0, 0, 0), v3(10, 0, 0), v3(0, 10, 0), f.mat));
     ts_finish(&f);
-    grid_choose_auto(&f.s, n);
+    CHECK(prim_table_build(&pt, &f.s));
+    grid_choose_auto(&pt, n);
+    prim_table_free(&pt);
     CHECK_INT(n[2], 1); /* flat axis: one cell */
     /* A 10 x 10 square, one primitive: 4 cells as 2 x 2 (k = sqrt(4 / 100) = 0.2). */
     CHECK_MSG(n[0] == 2 && n[1] == 2, "%dx%d, expected 2x2", n[0], n[1]);

@@ -51,6 +51,13 @@ static void test_defaults_and_repeats(void)
     CHECK_INT(o.bounces, 0);
     CHECK(o.grid_auto);
     CHECK(parse(&o, "-h", err, sizeof err) && o.help);
+    /* -accel grid alone is -grid auto; with -grid it keeps the resolution. */
+    CHECK(parse(&o, "-input a.txt -accel grid", err, sizeof err));
+    CHECK(o.grid && o.grid_auto && o.accel); /* (o.accel points into parse's buffer) */
+    CHECK(parse(&o, "-input a.txt -grid 3 4 5 -accel grid", err, sizeof err));
+    CHECK(o.grid && !o.grid_auto && o.grid_n[2] == 5);
+    CHECK(parse(&o, "-input a.txt -accel none", err, sizeof err));
+    CHECK(!o.grid && o.accel);
     CHECK(parse(&o, "--version", err, sizeof err) && o.version);
 }
 
@@ -71,6 +78,10 @@ static void test_usage_errors(void)
         {"-input s.txt -visualize_grid", "needs -grid"},
         {"-output o.tga", "-input scene.txt is required"},
         {"-input s.txt -threads 0", "out of range"},
+        {"-input s.txt -accel bvh", "unknown accelerator 'bvh' (known: none, grid)"},
+        {"-input s.txt -accel", "needs more arguments"},
+        {"-input s.txt -accel none -grid 4 4 4", "-grid goes with -accel grid"},
+        {"-input s.txt -accel none -visualize_grid", "needs -grid"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         Options o;

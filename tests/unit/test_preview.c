@@ -83,6 +83,8 @@ static const char *ORTHO_SPHERE =
 
 typedef struct Fixture {
     Scene *scene;
+    PrimTable prims;
+    Accel accel;
     RayTracer rt;
     PreviewConfig cfg;
     PreviewView view;
@@ -96,7 +98,11 @@ static bool fixture_init(Fixture *f, const char *text)
     f->scene = scene_load_string(text, "fixture.txt", NULL, &d);
     if (!f->scene)
         return false;
+    if (!prim_table_build(&f->prims, f->scene) ||
+        !accel_init(&f->accel, &accel_none_ops, &f->prims, NULL, &d))
+        return false;
     f->rt.scene = f->scene;
+    f->rt.accel = &f->accel;
     f->rt.shadows = true;
     f->cfg.scene = f->scene;
     f->cfg.tracer = &f->rt;
@@ -107,6 +113,8 @@ static bool fixture_init(Fixture *f, const char *text)
 static void fixture_free(Fixture *f)
 {
     preview_view_free(&f->view);
+    accel_free(&f->accel);
+    prim_table_free(&f->prims);
     scene_free(f->scene);
 }
 

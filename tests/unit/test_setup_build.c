@@ -298,7 +298,7 @@ static uint64_t grid_hash(const Grid *g)
     MIX(g->course_count, g->num_cells * sizeof *g->course_count);
     for (uint32_t i = 0; i < g->num_prims; i++) {
         MIX(&g->prims[i].obj->id, sizeof g->prims[i].obj->id);
-        int depth = g->prims[i].path ? g->prims[i].path->depth : -1;
+        int depth = g->prims[i].xf ? g->prims[i].xf->path.depth : -1;
         MIX(&depth, sizeof depth);
     }
     MIX(&g->num_unbounded, sizeof g->num_unbounded);

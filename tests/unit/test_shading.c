@@ -113,11 +113,19 @@ static void mini_set_root(Mini *m, Object3D *root)
     m->s.bounds = root->bbox;
 }
 
+/* The tracer of a finished scene, brute force ("none"); one per test (each test runs
+ * in its own process), reachable until it exits. */
+static PrimTable tracer_prims;
+static Accel tracer_accel;
+
 static RayTracer tracer(const Scene *s)
 {
     RayTracer rt;
     memset(&rt, 0, sizeof rt);
     rt.scene = s;
+    CHECK(prim_table_build(&tracer_prims, s));
+    CHECK(accel_init(&tracer_accel, &accel_none_ops, &tracer_prims, NULL, NULL));
+    rt.accel = &tracer_accel;
     return rt;
 }
 

@@ -1,0 +1,56 @@
+/* The flat primitive table: the scene tree flattened once (scene -> table) into its
+ * leaves, each with its shape, the Transforms above it (interned, with their composed
+ * matrices), its world-space box and its id. Every accelerator is built from it
+ * (rt/accel.h); nothing in it changes after prim_table_build. */
+#ifndef RT_PRIM_H
+#define RT_PRIM_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include "rt/geom.h"
+
+typedef struct Scene Scene;
+
+/* A chain of Transforms shared by the leaves below it, with the composed matrices the
+ * accelerators' build geometry uses. Intersection goes through path step by step
+ * (xform_path_intersect), so hits are bit-identical to the tree walk. */
+typedef struct PrimXform {
+    XformPath path;   /* outermost first; depth >= 1 */
+    Mat4 m;           /* object -> world: M1 * M2 * ... * Mk */
+    Mat4 inv;         /* world -> object: Mk^-1 * ... * M1^-1 */
+} PrimXform;
+
+/* One leaf of the scene. */
+typedef struct Prim {
+    const Object3D *obj;   /* the leaf (Sphere, Triangle, Plane, ...) */
+    const PrimXform *xf;   /* the Transforms above it; NULL when there are none */
+    BBox bounds;           /* world space (obj->ops->bounds); empty when unbounded */
+    uint32_t id;           /* obj->id: depth-first index, the hit tie-breaker */
+    bool bounded;          /* false for Plane: no box, tested for every ray */
+} Prim;
+
+typedef struct PrimTable {
+    Prim *prims;             /* every leaf in depth-first order */
+    uint32_t num_prims;
+    uint32_t num_bounded;    /* how many of them are bounded */
+    BBox scene_bounds;       /* the scene's box (the root's, built up the tree as the
+                                course does: a Transform boxes its child's box) */
+    PrimXform **xforms;      /* the interned chains (owned) */
+    uint32_t num_xforms, cap_xforms;
+} PrimTable;
+
+/* Flattens scene->root (NULL root: an empty table). False when out of memory (the table
+ * is then empty and needs no prim_table_free). */
+bool prim_table_build(PrimTable *t, const Scene *scene);
+void prim_table_free(PrimTable *t);
+
+/* The leaf's intersect, through its Transforms when it has any (the tree walk's
+ * arithmetic). */
+static inline bool prim_intersect(const Object3D *obj, const PrimXform *xf, const Ray *ray,
+                                  Hit *hit, float tmin, RenderCtx *ctx)
+{
+    return xf ? xform_path_intersect(&xf->path, obj, ray, hit, tmin, ctx)
+              : obj_intersect(obj, ray, hit, tmin, ctx);
+}
+
+#endif

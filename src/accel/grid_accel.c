@@ -1,0 +1,103 @@
+/* The accelerator "grid": the course's uniform grid (rt/grid.h) behind AccelOps, and its
+ * visualisation (-visualize_grid), which draws the occupied cells instead of the scene. */
+#include "rt/accel.h"
+#include "rt/grid.h"
+
+static void *grid_create(const PrimTable *t, const AccelConfig *cfg, Diag *diag)
+{
+    int n[3] = {cfg->grid_n[0], cfg->grid_n[1], cfg->grid_n[2]};
+    if (cfg->grid_auto)
+        grid_choose_auto(t, n);
+    Grid *g = grid_build_table(t, n[0], n[1], n[2], diag);
+    if (g)
+        grid_set_marking(g, !cfg->no_marking);
+    return g;
+}
+
+static void grid_destroy(void *self) { grid_free(self); }
+
+static bool grid_accel_intersect(const void *self, const Ray *ray, Hit *hit, float tmin,
+                                 RenderCtx *ctx)
+{
+    return grid_intersect(self, ray, hit, tmin, ctx);
+}
+
+static bool grid_accel_occluded(const void *self, const Ray *ray, float tmin, float tmax,
+                                RenderCtx *ctx)
+{
+    return grid_occluded(self, ray, tmin, tmax, ctx);
+}
+
+static uint64_t grid_accel_intersect_packet(const void *self, const Ray *rays, int n,
+                                            Hit *hits, float tmin, RenderCtx *ctx)
+{
+    return grid_intersect_packet(self, rays, n, hits, tmin, ctx);
+}
+
+static uint64_t grid_accel_occluded_packet(const void *self, const Ray *rays, uint64_t mask,
+                                           float tmin, const float *tmax, RenderCtx *ctx)
+{
+    return grid_occluded_packet(self, rays, mask, tmin, tmax, ctx);
+}
+
+static uint32_t grid_accel_scratch(const void *self) { return grid_mailbox_size(self); }
+
+/* The course's statistics print the grid's resolution (its box is the scene's). */
+static void grid_accel_report(const void *self, StatsReport *r)
+{
+    int n[3];
+    grid_dims(self, n);
+    r->nx = n[0];
+    r->ny = n[1];
+    r->nz = n[2];
+}
+
+static bool grid_cells_intersect(const void *self, const Ray *ray, Hit *hit, float tmin,
+                                 RenderCtx *ctx)
+{
+    return grid_visualize_intersect(self, ray, hit, tmin, ctx);
+}
+
+/* The visualised cells are the scene in this mode, so they cast the shadows. */
+static bool grid_cells_occluded(const void *self, const Ray *ray, float tmin, float tmax,
+                                RenderCtx *ctx)
+{
+    Hit h = hit_none();
+    return grid_visualize_intersect(self, ray, &h, tmin, ctx) && h.t < tmax;
+}
+
+static const AccelOps grid_cells_ops = {
+    .name = "grid",
+    .summary = "the grid's occupied cells, coloured by count (-visualize_grid)",
+    .create = grid_create,
+    .destroy = grid_destroy,
+    .intersect = grid_cells_intersect,
+    .occluded = grid_cells_occluded,
+    .scratch_size = grid_accel_scratch,
+    .report = grid_accel_report,
+};
+
+const AccelOps accel_grid_ops = {
+    .name = "grid",
+    .summary = "uniform grid (-grid nx ny nz, or a resolution chosen from the scene)",
+    .create = grid_create,
+    .destroy = grid_destroy,
+    .intersect = grid_accel_intersect,
+    .occluded = grid_accel_occluded,
+    .intersect_packet = grid_accel_intersect_packet,
+    .occluded_packet = grid_accel_occluded_packet,
+    .scratch_size = grid_accel_scratch,
+    .report = grid_accel_report,
+    .visualize = &grid_cells_ops,
+};
+
+Accel grid_as_accel(Grid *g)
+{
+    Accel a = {&accel_grid_ops, g};
+    return a;
+}
+
+const Grid *grid_of_accel(const Accel *a)
+{
+    return a && (a->ops == &accel_grid_ops || a->ops == &grid_cells_ops) ? a->self : NULL;
+}

@@ -1,0 +1,148 @@
+/* The flat primitive table (rt/prim.h): one depth-first walk of the scene tree collects
+ * the leaves and interns the Transform chains above them. */
+#include "rt/prim.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "rt/scene.h"
+
+typedef struct Walk {
+    PrimTable *t;
+    uint32_t cap;
+    /* The last chain interned at each depth: a depth-first walk returns to a chain of
+     * depth d only after visiting deeper ones, so this finds every repeat. */
+    const PrimXform *last_at_depth[RT_MAX_NESTING + 1];
+    bool oom;
+} Walk;
+
+static bool path_equal(const XformPath *a, const XformPath *b)
+{
+    return a->depth == b->depth &&
+           memcmp(a->xf, b->xf, (size_t)a->depth * sizeof a->xf[0]) == 0;
+}
+
+/* The interned copy of path with its composed matrices; NULL for depth 0 or when out
+ * of memory (w->oom). */
+static const PrimXform *intern(Walk *w, const XformPath *path)
+{
+    if (path->depth <= 0)
+        return NULL;
+    int d = path->depth > RT_MAX_NESTING ? RT_MAX_NESTING : path->depth;
+    const PrimXform *last = w->last_at_depth[d];
+    if (last && path_equal(&last->path, path))
+        return last;
+    PrimTable *t = w->t;
+    if (t->num_xforms == t->cap_xforms) {
+        uint32_t cap = t->cap_xforms ? 2 * t->cap_xforms : 16;
+        PrimXform **p = realloc(t->xforms, cap * sizeof *p);
+        if (!p) {
+            w->oom = true;
+            return NULL;
+        }
+        t->xforms = p;
+        t->cap_xforms = cap;
+    }
+    PrimXform *x = calloc(1, sizeof *x);
+    if (!x) {
+        w->oom = true;
+        return NULL;
+    }
+    x->path.depth = d;
+    memcpy(x->path.xf, path->xf, (size_t)d * sizeof path->xf[0]);
+    /* M = M1 * ... * Mk maps object space to world; its inverse is Mk^-1 * ... * M1^-1. */
+    x->m = mat4_identity();
+    x->inv = mat4_identity();
+    for (int i = 0; i < d; i++) {
+        x->m = mat4_mul(&x->m, transform_matrix(path->xf[i]));
+        x->inv = mat4_mul(transform_inverse(path->xf[i]), &x->inv);
+    }
+    t->xforms[t->num_xforms++] = x;
+    w->last_at_depth[d] = x;
+    return x;
+}
+
+static void add_leaf(Walk *w, const Object3D *o, const XformPath *path)
+{
+    PrimTable *t = w->t;
+    if (t->num_prims == w->cap) {
+        uint32_t cap = w->cap ? 2 * w->cap : 256;
+        Prim *p = cap > w->cap && cap < UINT32_MAX / 2 ? realloc(t->prims, (size_t)cap * sizeof *p)
+                                                       : NULL;
+        if (!p) {
+            w->oom = true;
+            return;
+        }
+        t->prims = p;
+        w->cap = cap;
+    }
+    const PrimXform *xf = intern(w, path);
+    if (w->oom)
+        return;
+    Prim *p = &t->prims[t->num_prims++];
+    p->obj = o;
+    p->xf = xf;
+    p->id = o->id;
+    p->bounded = o->bounded;
+    p->bounds = o->ops->bounds(o, xf ? &xf->m : NULL);
+    t->num_bounded += p->bounded;
+}
+
+/* Groups recurse, Transforms push themselves onto path, leaves are added. */
+static void walk(Walk *w, const Object3D *o, XformPath *path)
+{
+    if (!o || w->oom)
+        return;
+    switch (obj_kind(o)) {
+    case OBJ_GROUP:
+        for (int i = 0; i < group_count(o); i++)
+            walk(w, group_child(o, i), path);
+        return;
+    case OBJ_TRANSFORM:
+        if (path->depth >= RT_MAX_NESTING)
+            return; /* the parser rejects deeper nesting */
+        path->xf[path->depth++] = o;
+        walk(w, transform_child(o), path);
+        path->depth--;
+        return;
+    default:
+        add_leaf(w, o, path);
+        return;
+    }
+}
+
+bool prim_table_build(PrimTable *t, const Scene *scene)
+{
+    memset(t, 0, sizeof *t);
+    Walk w;
+    memset(&w, 0, sizeof w);
+    w.t = t;
+    if (scene && scene->root && scene->num_primitives > 0 && scene->num_primitives < UINT32_MAX / 4) {
+        w.cap = scene->num_primitives;
+        t->prims = malloc((size_t)w.cap * sizeof *t->prims);
+        if (!t->prims)
+            w.cap = 0;
+    }
+    XformPath path;
+    path.depth = 0;
+    t->scene_bounds = bbox_empty();
+    if (scene) {
+        t->scene_bounds = scene->bounds;
+        walk(&w, scene->root, &path);
+    }
+    if (w.oom) {
+        prim_table_free(t);
+        return false;
+    }
+    return true;
+}
+
+void prim_table_free(PrimTable *t)
+{
+    free(t->prims);
+    for (uint32_t i = 0; i < t->num_xforms; i++)
+        free(t->xforms[i]);
+    free(t->xforms);
+    memset(t, 0, sizeof *t);
+    t->scene_bounds = bbox_empty();
+}
