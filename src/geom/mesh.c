@@ -45,8 +45,7 @@ static void mesh_chunk(void *ctx, int c, int worker)
     int i0 = c * job->chunk, n = job->n - i0 > job->chunk ? i0 + job->chunk : job->n;
     /* group_finish's fold, bbox_union in child order, written out: min/max by the same
      * compares (v3_min/v3_max), so the box is the same to the bit. */
-    const BBox empty = bbox_empty();
-    BBox box = empty;
+    BBox box = bbox_empty();
     for (int i = i0; i < n; i++) {
         Triangle *t = &job->tris[i];
         /* Faces index the vertex array out of order: ask for the vertices of a face a
@@ -59,24 +58,10 @@ static void mesh_chunk(void *ctx, int c, int worker)
         Vec3 v0 = verts[faces[i][0]], v1 = verts[faces[i][1]], v2 = verts[faces[i][2]];
         if (job->clear)
             memset(t, 0, sizeof *t);
-        /* triangle_new, field by field. */
-        t->base.ops = &triangle_ops;
-        t->base.material = job->m;
-        t->base.bounded = true;
-        t->base.id = RT_NO_ID;
-        BBox tb = empty;
-        tb.min = v3_min(v3_min(v3_min(tb.min, v0), v1), v2);
-        tb.max = v3_max(v3_max(v3_max(tb.max, v0), v1), v2);
-        t->base.bbox = tb;
-        t->v0 = v0;
-        t->v1 = v1;
-        t->v2 = v2;
-        t->e1 = v3_sub(v1, v0);
-        t->e2 = v3_sub(v2, v0);
-        t->normal = v3_normalize(v3_cross(t->e1, t->e2));
+        triangle_init(t, v0, v1, v2, job->m);
         job->g->children[i] = &t->base;
-        box.min = v3_min(box.min, tb.min);
-        box.max = v3_max(box.max, tb.max);
+        box.min = v3_min(box.min, t->base.bbox.min);
+        box.max = v3_max(box.max, t->base.bbox.max);
     }
     job->box[c] = box;
 }

@@ -41,17 +41,7 @@ Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m)
     Triangle *t = arena_alloc(a, sizeof *t);
     if (!t)
         return NULL;
-    t->base.ops = &triangle_ops;
-    t->base.material = m;
-    t->base.bounded = true;
-    t->base.id = RT_NO_ID;
-    t->base.bbox = bbox_add_point(bbox_add_point(bbox_add_point(bbox_empty(), v0), v1), v2);
-    t->v0 = v0;
-    t->v1 = v1;
-    t->v2 = v2;
-    t->e1 = v3_sub(v1, v0);
-    t->e2 = v3_sub(v2, v0);
-    t->normal = v3_normalize(v3_cross(t->e1, t->e2));
+    triangle_init(t, v0, v1, v2, m);
     return &t->base;
 }
 
