@@ -1,9 +1,89 @@
-/* Private to src/accel and its tests: the triangle/cell overlap of the grid build
- * (grid.c), exported so a test can hold the fast path to the reference test. */
+/* Private to src/accel: the grid build's parts (grid.c lifecycle, grid_bin.c the
+ * parallel binning, grid_course.c the course's occupancy counts, grid_cells.c the
+ * marching sets) and, for its tests, the triangle/cell overlap of the marching sets. */
 #ifndef RT_ACCEL_GRID_BUILD_H
 #define RT_ACCEL_GRID_BUILD_H
 
 #include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "grid_internal.h"
+
+/* Primitives per chunk of the binning passes: enough to make handing out a chunk cheap,
+ * few enough that the threads finish close together (40 chunks on the 40k bunny). */
+enum { BIN_CHUNK = 1024 };
+
+typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE } RecKind;
+
+/* A primitive with what its insertion needs in world space, made by the binning pass
+ * (bin_part) from the walk's GridPrim and kept on its stack. */
+struct GridBuildRec {
+    const Object3D *obj;
+    const PrimXform *gp;  /* NULL: no Transform above it */
+    RecKind kind;
+    Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world vertices */
+    float r;              /* sphere radius (object space) */
+};
+
+/* One binning worker's scratch (rt/par.h): its own counts and cell list, so workers
+ * share nothing they write (worker 0 writes the grid's arrays). Which worker bins which primitives varies from run to run;
+ * the result does not: the counts are sums, and the fill pass reads the chunks' cell
+ * lists in primitive order. */
+typedef struct BinPart {
+    const Grid *g;
+    uint32_t *course;     /* per cell: course counts (worker 0: g->course_count) */
+    uint32_t *count;      /* per cell: marching entries (worker 0: g->cell_start + 1) */
+    uint32_t *pairs;      /* cells of each binned primitive's marching set, in order */
+    size_t num_pairs, cap_pairs;
+    bool oom, too_many;
+} BinPart;
+
+typedef struct CellRange {
+    int lo[3], hi[3];
+} CellRange;
+
+/* The cell ranges below are ceil(y) - 1 and floor(z), clamped to [0, n-1], where NaN
+ * and everything below 0 give 0. Written with compares and one conversion instead of
+ * ceil/floor (libm calls without SSE4.1), with the same result for every input:
+ * ceil(y) - 1 >= 0 iff y > 0, ceil(y) - 1 >= n - 1 iff y > n - 1, floor(z) >= 0 iff
+ * z >= 0, floor(z) >= n - 1 iff z >= n - 1; in between, y and z are small positive
+ * numbers whose conversion truncates exactly. n <= 2^24, so n - 1 is exact. The course's
+ * float rule passes its floats widened: the same compares, the same answers. */
+static inline int grid_range_lo(double y, int n)
+{
+    if (!(y > 0.0))
+        return 0;
+    if (y > (double)(n - 1))
+        return n - 1;
+    int i = (int)y;
+    return (double)i < y ? i : i - 1;
+}
+
+static inline int grid_range_hi(double z, int n)
+{
+    if (!(z >= 0.0))
+        return 0;
+    if (z >= (double)(n - 1))
+        return n - 1;
+    return (int)z;
+}
+
+/* grid_bin.c: the marching sets, the CSR arrays, the course counts and grid_pack, on the
+ * set-up threads. False when out of memory, or with g->too_many when the entries
+ * overflow a uint32_t. */
+bool grid_bin_fill_pack(Grid *g);
+/* Frees the build-time arrays (prim_ncells, cell_axis). */
+void grid_free_build_state(Grid *g);
+
+/* grid_course.c: adds rec's cells by the course's rules to course[] (per-cell counts). */
+void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec);
+
+/* grid_cells.c: the per-axis cell tables of the triangle fast path (false: out of
+ * memory), and the marching set of rec: its cells counted into bp->count and listed in
+ * bp->pairs (false when out of memory or out of entries). */
+bool grid_setup_cell_axis(Grid *g);
+bool grid_tight_insert(BinPart *bp, const GridBuildRec *rec, uint32_t *ncells);
 
 /* The reference: separating-axis test of the triangle v (relative to the box centre)
  * against the box of half extents h (Akenine-Moller 2001). */

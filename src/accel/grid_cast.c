@@ -228,6 +228,56 @@ static bool brute_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
     return found;
 }
 
+/* The one cell loop of both queries: tests the entries of cell c not yet tested for
+ * this ray, packed triangles four at a time. any (a constant at each call, so each
+ * query gets its own copy of the loop): return at the first hit, the shadow query's
+ * early exit. */
+static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint32_t c,
+                                                             const Ray *ray, Hit *hit,
+                                                             float tmin, RenderCtx *ctx,
+                                                             uint32_t *mb, uint32_t stamp,
+                                                             const void *rsimd, bool any)
+{
+    bool found = false;
+    const uint32_t *items = g->cell_items;
+#if RT_GRID_SIMD
+    const RaySimd *rs = rsimd;
+    TriBatch batch;
+    batch.n = 0;
+#else
+    (void)rsimd;
+#endif
+    for (uint32_t e = g->cell_start[c], end = g->cell_start[c + 1]; e < end; e++) {
+        uint32_t item = items[e];
+        if (!should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx))
+            continue;
+#if RT_GRID_SIMD
+        if (item & GRID_ITEM_TRI) {
+            batch.p[batch.n++] = GRID_ITEM_INDEX(item);
+            if (batch.n == 4) {
+                if (any && batch_occluded(g, &batch, rs, hit, ctx))
+                    return true; /* the first occluder settles it */
+                if (!any)
+                    found |= batch_intersect(g, &batch, rs, hit, ctx);
+                batch.n = 0;
+            }
+            continue;
+        }
+#endif
+        found |= test_entry(g, item, ray, hit, tmin, ctx);
+        if (any && found)
+            return true;
+    }
+#if RT_GRID_SIMD
+    for (int i = 0; i < batch.n; i++) { /* the last one to three: scalar */
+        found |= test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, hit, tmin, ctx);
+        if (any && found)
+            return true;
+    }
+#endif
+    return found;
+}
+
 /* Everything of grid_intersect after the unbounded primitives: the march (or the
  * brute-force loop for rays too far out), updating hit. */
 static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
@@ -244,37 +294,16 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
 #if RT_GRID_SIMD
     RaySimd rs = ray_simd(ray, tmin);
+    const void *rsimd = &rs;
+#else
+    const void *rsimd = NULL;
 #endif
-    const uint32_t *start = g->cell_start, *items = g->cell_items;
     do {
         /* 4. The cell starts beyond the best hit: nothing in it or later is nearer. */
         if (mi.t > hit->t)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
-#if RT_GRID_SIMD
-        TriBatch batch;
-        batch.n = 0;
-#endif
-        for (uint32_t e = start[c], end = start[c + 1]; e < end; e++) {
-            uint32_t item = items[e];
-            if (!should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx))
-                continue;
-#if RT_GRID_SIMD
-            if (item & GRID_ITEM_TRI) {
-                batch.p[batch.n++] = GRID_ITEM_INDEX(item);
-                if (batch.n == 4) {
-                    found |= batch_intersect(g, &batch, &rs, hit, ctx);
-                    batch.n = 0;
-                }
-                continue;
-            }
-#endif
-            found |= test_entry(g, item, ray, hit, tmin, ctx);
-        }
-#if RT_GRID_SIMD
-        for (int i = 0; i < batch.n; i++) /* the last one to three: scalar */
-            found |= test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, hit, tmin, ctx);
-#endif
+        found |= test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
         /* 3. A hit inside this cell or an earlier one is final: every primitive that
          * could be hit sooner lies in a cell already tested (cells are padded, so this
          * holds up to float rounding at borders). A hit beyond it stays a candidate. */
@@ -298,9 +327,8 @@ bool grid_march_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, R
     return march_intersect(g, ray, hit, tmin, ctx);
 }
 
-/* The shadow query repeats grid_intersect's cell loop with an early return instead of
- * sharing it: a shared always-inline version with an any-hit flag measured 15% slower
- * on course line 07 (best of 8, interleaved), so the two loops stay written out. */
+/* The shadow query: the same march and cell loop, stopping at the first occluder
+ * (hp->t = tmax, id 0: hit_accepts takes exactly the hits with t < tmax). */
 static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
                                                                   const Ray *ray, Hit *hp,
                                                                   float tmin, float tmax,
@@ -316,39 +344,16 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
 #if RT_GRID_SIMD
     RaySimd rs = ray_simd(ray, tmin);
+    const void *rsimd = &rs;
+#else
+    const void *rsimd = NULL;
 #endif
-    const uint32_t *start = g->cell_start, *items = g->cell_items;
     do {
         if (mi.t > tmax)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
-#if RT_GRID_SIMD
-        TriBatch batch;
-        batch.n = 0;
-#endif
-        for (uint32_t e = start[c], end = start[c + 1]; e < end; e++) {
-            uint32_t item = items[e];
-            if (!should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx))
-                continue;
-#if RT_GRID_SIMD
-            if (item & GRID_ITEM_TRI) {
-                batch.p[batch.n++] = GRID_ITEM_INDEX(item);
-                if (batch.n == 4) {
-                    if (batch_occluded(g, &batch, &rs, &h, ctx))
-                        return true; /* the first occluder settles it */
-                    batch.n = 0;
-                }
-                continue;
-            }
-#endif
-            if (test_entry(g, item, ray, &h, tmin, ctx))
-                return true; /* the first occluder settles it */
-        }
-#if RT_GRID_SIMD
-        for (int i = 0; i < batch.n; i++)
-            if (test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, &h, tmin, ctx))
-                return true;
-#endif
+        if (test_cell(g, c, ray, &h, tmin, ctx, mb, stamp, rsimd, true))
+            return true; /* the first occluder settles it */
     } while (march_next(&mi, ctx));
     return false;
 }

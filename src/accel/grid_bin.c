@@ -1,0 +1,228 @@
+/* The grid's binning: every primitive's marching cells in parallel chunks on the set-up
+ * threads (rt/par.h), the CSR arrays, then the course counts next to grid_pack. The
+ * result is the same on any number of threads. */
+#include "grid_build.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "rt/par.h"
+
+/* The record of a primitive of kind kind. */
+static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
+{
+    rec->obj = gp->obj;
+    rec->gp = gp->xf;
+    rec->kind = kind;
+    rec->r = 0.0f;
+    if (rec->kind == REC_TRIANGLE) {
+        triangle_vertices(rec->obj, rec->v);
+        if (rec->gp)
+            for (int i = 0; i < 3; i++)
+                rec->v[i] = mat4_point(&rec->gp->m, rec->v[i]);
+    } else {
+        rec->v[0] = sphere_center(rec->obj);
+        rec->r = sphere_radius(rec->obj);
+    }
+}
+
+/* The record of prims[p] as the walk left it (kind in prim_ncells[p]). */
+static void make_rec(const Grid *g, uint32_t p, GridBuildRec *rec)
+{
+    make_rec_of(&g->prims[p], (RecKind)g->prim_ncells[p], rec);
+}
+
+void grid_free_build_state(Grid *g)
+{
+    free(g->prim_ncells);
+    g->prim_ncells = NULL;
+    free(g->cell_axis);
+    g->cell_axis = NULL;
+}
+
+
+typedef struct BinChunk {
+    size_t off, len;      /* its run in the pairs of the worker that binned it */
+    int worker;
+} BinChunk;
+
+/* The binning job: the marching cells of every primitive (bin_chunk), then the course
+ * counts (course_chunk) next to grid_pack (pack_chunk). */
+typedef struct BinJob {
+    Grid *g;
+    uint32_t nchunks;
+    BinPart part[PAR_MAX_WORKERS];
+    BinChunk *chunk;
+    /* The primitives in walk order with their kinds, for the course counts: grid_pack
+     * renumbers g->prims while they are counted. */
+    GridPrim *snap;
+    uint8_t *kind;
+    bool pack_failed;
+} BinJob;
+
+/* Worker w's per-cell array in part->*field: worker 0 uses the grid's own, the others
+ * fresh zero pages (faulted in by the worker itself). */
+static uint32_t *part_cells(BinJob *job, int worker, uint32_t **field, uint32_t *own)
+{
+    if (!*field) {
+        if (worker == 0) {
+            *field = own;
+        } else {
+            *field = calloc(job->g->num_cells, sizeof **field);
+        }
+    }
+    return *field;
+}
+
+/* The marching cells of chunk i of prims; prim_ncells[p] becomes p's cell count. */
+static void bin_chunk(void *ctx, int i, int worker)
+{
+    BinJob *job = ctx;
+    Grid *g = job->g;
+    BinPart *bp = &job->part[worker];
+    if (bp->oom || bp->too_many)
+        return;
+    if (!bp->pairs) {
+        bp->g = g;
+        /* About two cells per primitive, so the list rarely grows. */
+        bp->cap_pairs = 2 * (size_t)g->num_prims + 1024;
+        bp->pairs = malloc(bp->cap_pairs * sizeof *bp->pairs);
+        if (!bp->pairs || !part_cells(job, worker, &bp->count, g->cell_start + 1)) {
+            bp->oom = true;
+            return;
+        }
+    }
+    uint32_t p0 = (uint32_t)i * BIN_CHUNK;
+    uint32_t p1 = g->num_prims - p0 > BIN_CHUNK ? p0 + BIN_CHUNK : g->num_prims;
+    size_t off = bp->num_pairs;
+    for (uint32_t p = p0; p < p1; p++) {
+        GridBuildRec rec;
+        make_rec(g, p, &rec);
+        job->snap[p] = g->prims[p];
+        job->kind[p] = (uint8_t)rec.kind;
+        uint32_t ncells = 0;
+        if (!grid_tight_insert(bp, &rec, &ncells))
+            return;
+        g->prim_ncells[p] = ncells;
+    }
+    job->chunk[i].off = off;
+    job->chunk[i].len = bp->num_pairs - off;
+    job->chunk[i].worker = worker;
+}
+
+/* Chunk 0: grid_pack (one thread); chunk i > 0: the course counts of chunk i - 1 of
+ * the primitives. The counts are sums, so they do not depend on who adds what. */
+static void course_chunk(void *ctx, int i, int worker)
+{
+    BinJob *job = ctx;
+    Grid *g = job->g;
+    if (i == 0) {
+        job->pack_failed = !grid_pack(g);
+        return;
+    }
+    BinPart *bp = &job->part[worker];
+    if (bp->oom)
+        return;
+    uint32_t *course = part_cells(job, worker, &bp->course, g->course_count);
+    if (!course) {
+        bp->oom = true;
+        return;
+    }
+    uint32_t p0 = (uint32_t)(i - 1) * BIN_CHUNK;
+    uint32_t p1 = g->num_prims - p0 > BIN_CHUNK ? p0 + BIN_CHUNK : g->num_prims;
+    for (uint32_t p = p0; p < p1; p++) {
+        GridBuildRec rec;
+        make_rec_of(&job->snap[p], (RecKind)job->kind[p], &rec);
+        grid_course_insert(g, course, &rec);
+    }
+}
+
+static bool parts_ok(const BinJob *job)
+{
+    for (int w = 0; w < PAR_MAX_WORKERS; w++)
+        if (job->part[w].oom || job->part[w].too_many)
+            return false;
+    return true;
+}
+
+/* The marching cells of every primitive (bin_chunk, in parallel), the CSR arrays, then
+ * the course counts in parallel with grid_pack. The CSR fill adds the workers' counts
+ * up into offsets and writes the entries chunk by chunk, i.e. in primitive order within
+ * every cell, as one sequential pass writes them. False when out of memory, or with
+ * g->too_many when the entries overflow a uint32_t. */
+bool grid_bin_fill_pack(Grid *g)
+{
+    uint32_t n = g->num_prims, cells = g->num_cells;
+    BinJob job;
+    memset(&job, 0, sizeof job);
+    job.g = g;
+    job.nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
+    job.chunk = calloc(job.nchunks ? job.nchunks : 1, sizeof *job.chunk);
+    job.snap = malloc((n ? n : 1) * sizeof *job.snap);
+    job.kind = malloc(n ? n : 1);
+    bool ok = job.chunk && job.snap && job.kind;
+    uint64_t total = 0;
+    if (ok) {
+        par_for((int)job.nchunks, bin_chunk, &job);
+        for (int w = 0; w < PAR_MAX_WORKERS; w++) {
+            g->too_many = g->too_many || job.part[w].too_many;
+            total += job.part[w].num_pairs;
+        }
+        ok = parts_ok(&job);
+        if (total > UINT32_MAX - 1u) {
+            g->too_many = true;
+            ok = false;
+        }
+    }
+    if (ok) {
+        /* Offsets; cell_start[c] is the fill cursor. */
+        uint32_t *start = g->cell_start, run = 0;
+        for (uint32_t c = 0; c < cells; c++) {
+            uint32_t m = start[c + 1];
+            for (int w = 1; w < PAR_MAX_WORKERS; w++)
+                if (job.part[w].count)
+                    m += job.part[w].count[c];
+            start[c] = run;
+            run += m;
+        }
+        g->cell_items = malloc(((size_t)total + 1) * sizeof *g->cell_items);
+        ok = g->cell_items != NULL;
+    }
+    if (ok) {
+        uint32_t *items = g->cell_items, *cursor = g->cell_start;
+        for (uint32_t k = 0; k < job.nchunks; k++) {
+            const uint32_t *cell = job.part[job.chunk[k].worker].pairs + job.chunk[k].off;
+            uint32_t p1 = n - k * BIN_CHUNK > BIN_CHUNK ? (k + 1) * BIN_CHUNK : n;
+            for (uint32_t p = k * BIN_CHUNK; p < p1; p++)
+                for (uint32_t j = g->prim_ncells[p]; j > 0; j--)
+                    items[cursor[*cell++]++] = p;
+        }
+        /* Each cursor now stands at the start of the next cell. */
+        memmove(g->cell_start + 1, g->cell_start, (size_t)cells * sizeof *g->cell_start);
+        g->cell_start[0] = 0;
+        grid_free_build_state(g);
+    }
+    for (int w = 0; w < PAR_MAX_WORKERS; w++) {
+        free(job.part[w].pairs);
+        job.part[w].pairs = NULL;
+        if (w > 0)
+            free(job.part[w].count);
+        job.part[w].count = NULL;
+    }
+    if (ok) {
+        /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c),
+         * while the course counts are made. */
+        par_for((int)job.nchunks + 1, course_chunk, &job);
+        ok = !job.pack_failed && parts_ok(&job);
+        for (int w = 1; ok && w < PAR_MAX_WORKERS; w++)
+            if (job.part[w].course)
+                for (uint32_t c = 0; c < cells; c++)
+                    g->course_count[c] += job.part[w].course[c];
+    }
+    for (int w = 1; w < PAR_MAX_WORKERS; w++)
+        free(job.part[w].course);
+    free(job.chunk);
+    free(job.snap);
+    free(job.kind);
+    return ok;
+}
