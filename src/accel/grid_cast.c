@@ -228,6 +228,28 @@ static bool brute_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
     return found;
 }
 
+/* How a query proceeds: the ray misses the grid's box, marches its cells, or starts
+ * too far out for the march (grid_ray_too_far) and tests every bounded primitive. */
+typedef enum MarchStart { MARCH_NONE, MARCH_CELLS, MARCH_ALL } MarchStart;
+
+/* The set-up both queries share: the march's first cell and the ray's mailbox stamp
+ * (mb NULL: no marking). */
+static inline __attribute__((always_inline)) MarchStart march_start(const Grid *g,
+                                                                    const Ray *ray, float tmin,
+                                                                    RenderCtx *ctx,
+                                                                    MarchingInfo *mi,
+                                                                    uint32_t *stamp,
+                                                                    uint32_t **mb)
+{
+    if (grid_ray_too_far(g, ray, tmin))
+        return MARCH_ALL;
+    if (!march_init(mi, &g->box, g->n, g->pad, ray, tmin, ctx))
+        return MARCH_NONE;
+    *stamp = grid_begin_ray(g, ctx);
+    *mb = *stamp ? ctx->mailbox : NULL;
+    return MARCH_CELLS;
+}
+
 /* The one cell loop of both queries: tests the entries of cell c not yet tested for
  * this ray, packed triangles four at a time. any (a constant at each call, so each
  * query gets its own copy of the loop): return at the first hit, the shadow query's
@@ -285,13 +307,11 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
                                                                   float tmin, RenderCtx *ctx)
 {
     bool found = false;
-    if (grid_ray_too_far(g, ray, tmin))
-        return brute_intersect(g, ray, hit, tmin, ctx);
     MarchingInfo mi;
-    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
-        return false;
-    uint32_t stamp = grid_begin_ray(g, ctx);
-    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    uint32_t stamp, *mb;
+    MarchStart start = march_start(g, ray, tmin, ctx, &mi, &stamp, &mb);
+    if (start != MARCH_CELLS)
+        return start == MARCH_ALL && brute_intersect(g, ray, hit, tmin, ctx);
 #if RT_GRID_SIMD
     RaySimd rs = ray_simd(ray, tmin);
     const void *rsimd = &rs;
@@ -335,13 +355,11 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
                                                                   RenderCtx *ctx)
 {
     Hit h = *hp;
-    if (grid_ray_too_far(g, ray, tmin))
-        return brute_intersect(g, ray, &h, tmin, ctx);
     MarchingInfo mi;
-    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
-        return false;
-    uint32_t stamp = grid_begin_ray(g, ctx);
-    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    uint32_t stamp, *mb;
+    MarchStart start = march_start(g, ray, tmin, ctx, &mi, &stamp, &mb);
+    if (start != MARCH_CELLS)
+        return start == MARCH_ALL && brute_intersect(g, ray, &h, tmin, ctx);
 #if RT_GRID_SIMD
     RaySimd rs = ray_simd(ray, tmin);
     const void *rsimd = &rs;
