@@ -19,11 +19,12 @@
 
 /* Appends a bounded primitive to prims. Its kind waits in prim_ncells until bin_part
  * replaces it by the primitive's cell count. */
-static void append_prim(Grid *g, const Prim *p, RecKind kind)
+static void append_prim(GridBuild *b, const Prim *p, RecKind kind)
 {
+    Grid *g = b->g;
     g->prims[g->num_prims].obj = p->obj;
     g->prims[g->num_prims].xf = p->xf;
-    g->prim_ncells[g->num_prims] = (uint32_t)kind;
+    b->prim_ncells[g->num_prims] = (uint32_t)kind;
     g->num_prims++;
 }
 
@@ -31,7 +32,6 @@ void grid_free(Grid *g)
 {
     if (!g)
         return;
-    grid_free_build_state(g);
     free(g->cell_start);
     free(g->cell_items);
     grid_pack_free(g);
@@ -93,7 +93,9 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
         diag_error(diag, NULL, "cannot build a grid: the scene's bounding box is not finite");
         return NULL;
     }
-    Grid *g = calloc(1, sizeof *g);
+    GridBuild b;
+    memset(&b, 0, sizeof b);
+    Grid *g = b.g = calloc(1, sizeof *g);
     if (!g)
         goto oom;
     g->bounds = t->scene_bounds;
@@ -108,13 +110,13 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     if (!g->cell_start || !g->course_count)
         goto oom;
 
-    if (!grid_setup_cell_axis(g))
+    if (!grid_setup_cell_axis(&b))
         goto oom;
     uint32_t nb = t->num_bounded, nu = t->num_prims - t->num_bounded;
     g->prims = malloc((nb ? nb : 1) * sizeof *g->prims);
-    g->prim_ncells = malloc((nb ? nb : 1) * sizeof *g->prim_ncells);
+    b.prim_ncells = malloc((nb ? nb : 1) * sizeof *b.prim_ncells);
     g->unbounded = malloc((nu ? nu : 1) * sizeof *g->unbounded);
-    if (!g->prims || !g->prim_ncells || !g->unbounded)
+    if (!g->prims || !b.prim_ncells || !g->unbounded)
         goto oom;
     /* The bounded primitives go into cells in table (depth-first) order; the others are
      * tested for every ray. */
@@ -124,25 +126,28 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
             RecKind kind = obj_kind(p->obj) == OBJ_TRIANGLE ? REC_TRIANGLE
                            : p->xf                          ? REC_SPHERE_XF
                                                             : REC_SPHERE;
-            append_prim(g, p, kind);
+            append_prim(&b, p, kind);
         } else {
             g->unbounded[g->num_unbounded].obj = p->obj;
             g->unbounded[g->num_unbounded].xf = p->xf;
             g->num_unbounded++;
         }
     }
-    if (!grid_bin_fill_pack(g)) {
-        if (!g->too_many)
+    if (!grid_bin_fill_pack(&b)) {
+        if (!b.too_many)
             goto oom;
         diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",
                    nx, ny, nz);
+        grid_free_build_state(&b);
         grid_free(g);
         return NULL;
     }
+    grid_free_build_state(&b);
     return g;
 
 oom:
     diag_error(diag, NULL, "out of memory building a %dx%dx%d grid", nx, ny, nz);
+    grid_free_build_state(&b);
     grid_free(g);
     return NULL;
 }

@@ -27,17 +27,17 @@ static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
 }
 
 /* The record of prims[p] as the walk left it (kind in prim_ncells[p]). */
-static void make_rec(const Grid *g, uint32_t p, GridBuildRec *rec)
+static void make_rec(const GridBuild *b, uint32_t p, GridBuildRec *rec)
 {
-    make_rec_of(&g->prims[p], (RecKind)g->prim_ncells[p], rec);
+    make_rec_of(&b->g->prims[p], (RecKind)b->prim_ncells[p], rec);
 }
 
-void grid_free_build_state(Grid *g)
+void grid_free_build_state(GridBuild *b)
 {
-    free(g->prim_ncells);
-    g->prim_ncells = NULL;
-    free(g->cell_axis);
-    g->cell_axis = NULL;
+    free(b->prim_ncells);
+    b->prim_ncells = NULL;
+    free(b->cell_axis);
+    b->cell_axis = NULL;
 }
 
 
@@ -50,6 +50,7 @@ typedef struct BinChunk {
  * counts (course_chunk) next to grid_pack (pack_chunk). */
 typedef struct BinJob {
     Grid *g;
+    GridBuild *b;
     uint32_t nchunks;
     BinPart part[PAR_MAX_WORKERS];
     BinChunk *chunk;
@@ -84,6 +85,7 @@ static void bin_chunk(void *ctx, int i, int worker)
         return;
     if (!bp->pairs) {
         bp->g = g;
+        bp->cell_axis = job->b->cell_axis;
         /* About two cells per primitive, so the list rarely grows. */
         bp->cap_pairs = 2 * (size_t)g->num_prims + 1024;
         bp->pairs = malloc(bp->cap_pairs * sizeof *bp->pairs);
@@ -97,13 +99,13 @@ static void bin_chunk(void *ctx, int i, int worker)
     size_t off = bp->num_pairs;
     for (uint32_t p = p0; p < p1; p++) {
         GridBuildRec rec;
-        make_rec(g, p, &rec);
+        make_rec(job->b, p, &rec);
         job->snap[p] = g->prims[p];
         job->kind[p] = (uint8_t)rec.kind;
         uint32_t ncells = 0;
         if (!grid_tight_insert(bp, &rec, &ncells))
             return;
-        g->prim_ncells[p] = ncells;
+        job->b->prim_ncells[p] = ncells;
     }
     job->chunk[i].off = off;
     job->chunk[i].len = bp->num_pairs - off;
@@ -149,13 +151,15 @@ static bool parts_ok(const BinJob *job)
  * the course counts in parallel with grid_pack. The CSR fill adds the workers' counts
  * up into offsets and writes the entries chunk by chunk, i.e. in primitive order within
  * every cell, as one sequential pass writes them. False when out of memory, or with
- * g->too_many when the entries overflow a uint32_t. */
-bool grid_bin_fill_pack(Grid *g)
+ * b->too_many when the entries overflow a uint32_t. */
+bool grid_bin_fill_pack(GridBuild *b)
 {
+    Grid *g = b->g;
     uint32_t n = g->num_prims, cells = g->num_cells;
     BinJob job;
     memset(&job, 0, sizeof job);
     job.g = g;
+    job.b = b;
     job.nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
     job.chunk = calloc(job.nchunks ? job.nchunks : 1, sizeof *job.chunk);
     job.snap = malloc((n ? n : 1) * sizeof *job.snap);
@@ -165,12 +169,12 @@ bool grid_bin_fill_pack(Grid *g)
     if (ok) {
         par_for((int)job.nchunks, bin_chunk, &job);
         for (int w = 0; w < PAR_MAX_WORKERS; w++) {
-            g->too_many = g->too_many || job.part[w].too_many;
+            b->too_many = b->too_many || job.part[w].too_many;
             total += job.part[w].num_pairs;
         }
         ok = parts_ok(&job);
         if (total > UINT32_MAX - 1u) {
-            g->too_many = true;
+            b->too_many = true;
             ok = false;
         }
     }
@@ -194,13 +198,13 @@ bool grid_bin_fill_pack(Grid *g)
             const uint32_t *cell = job.part[job.chunk[k].worker].pairs + job.chunk[k].off;
             uint32_t p1 = n - k * BIN_CHUNK > BIN_CHUNK ? (k + 1) * BIN_CHUNK : n;
             for (uint32_t p = k * BIN_CHUNK; p < p1; p++)
-                for (uint32_t j = g->prim_ncells[p]; j > 0; j--)
+                for (uint32_t j = b->prim_ncells[p]; j > 0; j--)
                     items[cursor[*cell++]++] = p;
         }
         /* Each cursor now stands at the start of the next cell. */
         memmove(g->cell_start + 1, g->cell_start, (size_t)cells * sizeof *g->cell_start);
         g->cell_start[0] = 0;
-        grid_free_build_state(g);
+        grid_free_build_state(b);
     }
     for (int w = 0; w < PAR_MAX_WORKERS; w++) {
         free(job.part[w].pairs);

@@ -32,6 +32,7 @@ struct GridBuildRec {
  * lists in primitive order. */
 typedef struct BinPart {
     const Grid *g;
+    const double *cell_axis; /* GridBuild.cell_axis */
     uint32_t *course;     /* per cell: course counts (worker 0: g->course_count) */
     uint32_t *count;      /* per cell: marching entries (worker 0: g->cell_start + 1) */
     uint32_t *pairs;      /* cells of each binned primitive's marching set, in order */
@@ -69,12 +70,22 @@ static inline int grid_range_hi(double z, int n)
     return (int)z;
 }
 
+/* The build-time state of one grid (grid.c keeps it on its stack while it builds; the
+ * Grid holds only what the queries read). */
+typedef struct GridBuild {
+    Grid *g;
+    uint32_t *prim_ncells;  /* per prim: its RecKind until binned, then the number of
+                               cells of its marching set */
+    double *cell_axis;      /* per axis and cell: padded bounds, centre, half sizes */
+    bool too_many;          /* more marching entries than a uint32_t index can hold */
+} GridBuild;
+
 /* grid_bin.c: the marching sets, the CSR arrays, the course counts and grid_pack, on the
- * set-up threads. False when out of memory, or with g->too_many when the entries
+ * set-up threads. False when out of memory, or with b->too_many when the entries
  * overflow a uint32_t. */
-bool grid_bin_fill_pack(Grid *g);
+bool grid_bin_fill_pack(GridBuild *b);
 /* Frees the build-time arrays (prim_ncells, cell_axis). */
-void grid_free_build_state(Grid *g);
+void grid_free_build_state(GridBuild *b);
 
 /* grid_course.c: adds rec's cells by the course's rules to course[] (per-cell counts). */
 void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec);
@@ -82,7 +93,7 @@ void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec
 /* grid_cells.c: the per-axis cell tables of the triangle fast path (false: out of
  * memory), and the marching set of rec: its cells counted into bp->count and listed in
  * bp->pairs (false when out of memory or out of entries). */
-bool grid_setup_cell_axis(Grid *g);
+bool grid_setup_cell_axis(GridBuild *b);
 bool grid_tight_insert(BinPart *bp, const GridBuildRec *rec, uint32_t *ncells);
 
 /* The reference: separating-axis test of the triangle v (relative to the box centre)

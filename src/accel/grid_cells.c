@@ -265,13 +265,14 @@ static bool push_pair(BinPart *bp, uint32_t cell)
 enum { CA_LO, CA_HI, CA_MID, CA_H, CA_HIN, CELL_AXIS_STRIDE };
 #define INSIDE_SHRINK (1.0 - 0x1p-30)
 
-bool grid_setup_cell_axis(Grid *g)
+bool grid_setup_cell_axis(GridBuild *b)
 {
+    const Grid *g = b->g;
     size_t n = (size_t)g->n[0] + (size_t)g->n[1] + (size_t)g->n[2];
-    g->cell_axis = malloc(n * CELL_AXIS_STRIDE * sizeof *g->cell_axis);
-    if (!g->cell_axis)
+    b->cell_axis = malloc(n * CELL_AXIS_STRIDE * sizeof *b->cell_axis);
+    if (!b->cell_axis)
         return false;
-    double *e = g->cell_axis;
+    double *e = b->cell_axis;
     for (int a = 0; a < 3; a++) {
         double mn = (double)v3_comp(g->box.min, a), s = (double)g->size[a],
                p = (double)g->pad[a];
@@ -289,11 +290,11 @@ bool grid_setup_cell_axis(Grid *g)
 
 /* Centre, half size and shrunk half size of cell c on axis a, as cell_box + tight_cell
  * compute them for a triangle with box [bmin, bmax] (border cells stretched). */
-static inline void cell_axis(const Grid *g, int a, int c, double bmin, double bmax,
-                             double out[3])
+static inline void cell_axis(const Grid *g, const double *table, int a, int c, double bmin,
+                             double bmax, double out[3])
 {
     size_t off = a == 0 ? 0 : a == 1 ? (size_t)g->n[0] : (size_t)g->n[0] + (size_t)g->n[1];
-    const double *e = &g->cell_axis[(off + (size_t)c) * CELL_AXIS_STRIDE];
+    const double *e = &table[(off + (size_t)c) * CELL_AXIS_STRIDE];
     double lo = e[CA_LO], hi = e[CA_HI];
     bool stretch = false;
     if (c == 0 && bmin < lo) {
@@ -380,19 +381,19 @@ static bool tight_insert_triangle(BinPart *bp, const GridBuildRec *rec, uint32_t
     double v[3][3], ax[3][3], h[3];
     bool in2[3], in12[3], in[3];
     for (int k2 = r.lo[2]; k2 <= r.hi[2]; k2++) {
-        cell_axis(g, 2, k2, bmin[2], bmax[2], ax[2]);
+        cell_axis(g, bp->cell_axis, 2, k2, bmin[2], bmax[2], ax[2]);
         for (int k = 0; k < 3; k++) {
             v[k][2] = P[k][2] - ax[2][0];
             in2[k] = fabs(v[k][2]) <= ax[2][2];
         }
         for (int j = r.lo[1]; j <= r.hi[1]; j++) {
-            cell_axis(g, 1, j, bmin[1], bmax[1], ax[1]);
+            cell_axis(g, bp->cell_axis, 1, j, bmin[1], bmax[1], ax[1]);
             for (int k = 0; k < 3; k++) {
                 v[k][1] = P[k][1] - ax[1][0];
                 in12[k] = in2[k] && fabs(v[k][1]) <= ax[1][2];
             }
             for (int i = r.lo[0]; i <= r.hi[0]; i++) {
-                cell_axis(g, 0, i, bmin[0], bmax[0], ax[0]);
+                cell_axis(g, bp->cell_axis, 0, i, bmin[0], bmax[0], ax[0]);
                 for (int k = 0; k < 3; k++) {
                     v[k][0] = P[k][0] - ax[0][0];
                     in[k] = in12[k] && fabs(v[k][0]) <= ax[0][2];

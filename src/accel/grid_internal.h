@@ -53,12 +53,6 @@ struct Grid {
 
     /* The primitive table of grid_build (grid_build_table borrows the caller's). */
     PrimTable own_table;
-
-    /* Build-time state (NULL after grid_build returns). */
-    bool oom;
-    bool too_many;          /* more marching entries than a uint32_t index can hold */
-    uint32_t *prim_ncells;  /* per prim: cells of its marching set (its run in pairs) */
-    double *cell_axis;      /* per axis and cell: padded bounds, centre, half sizes */
 };
 
 /* Tag bit on cell_items entries: the primitive is a packed triangle. */
