@@ -123,9 +123,11 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     for (uint32_t i = 0; i < t->num_prims; i++) {
         const Prim *p = &t->prims[i];
         if (p->bounded) {
-            RecKind kind = obj_kind(p->obj) == OBJ_TRIANGLE ? REC_TRIANGLE
-                           : p->xf                          ? REC_SPHERE_XF
-                                                            : REC_SPHERE;
+            ObjKind k = obj_kind(p->obj);
+            RecKind kind = k == OBJ_TRIANGLE ? REC_TRIANGLE
+                           : k != OBJ_SPHERE ? REC_BOX
+                           : p->xf           ? REC_SPHERE_XF
+                                             : REC_SPHERE;
             append_prim(&b, p, kind);
         } else {
             g->unbounded[g->num_unbounded].obj = p->obj;

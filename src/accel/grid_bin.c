@@ -20,6 +20,10 @@ static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
         if (rec->gp)
             for (int i = 0; i < 3; i++)
                 rec->v[i] = mat4_point(&rec->gp->m, rec->v[i]);
+    } else if (rec->kind == REC_BOX) {
+        BBox b = rec->obj->ops->bounds(rec->obj, rec->gp ? &rec->gp->m : NULL);
+        rec->v[0] = b.min;
+        rec->v[1] = b.max;
     } else {
         rec->v[0] = sphere_center(rec->obj);
         rec->r = sphere_radius(rec->obj);

@@ -14,7 +14,10 @@
  * few enough that the threads finish close together (40 chunks on the 40k bunny). */
 enum { BIN_CHUNK = 1024 };
 
-typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE } RecKind;
+/* How a primitive is binned: the course's rules for its spheres and triangles, and for
+ * any other bounded leaf its world box (ops->bounds): every cell the box meets, in both
+ * cell sets (a new primitive needs no code here). */
+typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE, REC_BOX } RecKind;
 
 /* A primitive with what its insertion needs in world space, made by the binning pass
  * (bin_part) from the walk's GridPrim and kept on its stack. */
@@ -22,7 +25,8 @@ struct GridBuildRec {
     const Object3D *obj;
     const PrimXform *gp;  /* NULL: no Transform above it */
     RecKind kind;
-    Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world vertices */
+    Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world
+                             vertices; box: v[0], v[1] = world box min, max */
     float r;              /* sphere radius (object space) */
 };
 

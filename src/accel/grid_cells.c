@@ -192,6 +192,11 @@ static void tight_bounds(const GridBuildRec *rec, double bmin[3], double bmax[3]
             bmin[a] = min3(x0, x1, x2);
             bmax[a] = max3(x0, x1, x2);
         }
+    } else if (rec->kind == REC_BOX) {
+        for (int a = 0; a < 3; a++) {
+            bmin[a] = (double)v3_comp(rec->v[0], a);
+            bmax[a] = (double)v3_comp(rec->v[1], a);
+        }
     } else if (rec->kind == REC_SPHERE) {
         for (int a = 0; a < 3; a++) {
             double c = (double)v3_comp(rec->v[0], a), r = fabs((double)rec->r);
@@ -230,7 +235,9 @@ static bool tight_cell(const GridBuildRec *rec, const double lo[3], const double
     }
     if (rec->kind == REC_SPHERE)
         return tight_sphere_cell(rec, lo, hi);
-    return tight_sphere_xf_cell(rec, lo, hi);
+    if (rec->kind == REC_SPHERE_XF)
+        return tight_sphere_xf_cell(rec, lo, hi);
+    return true; /* REC_BOX: every cell its padded box meets */
 }
 
 /* Appends one cell index to the part's pair list (cells of each primitive, in

@@ -1,6 +1,6 @@
 /* Property test of the accelerator interface (rt/accel.h): on seeded random scenes
  * (spheres, triangles, meshes with shared edges, nested Transforms with rotations and
- * non-uniform scales, planes, some under Transforms), EVERY registered accelerator, at
+ * non-uniform scales, planes, and a primitive of a kind no accelerator knows), EVERY registered accelerator, at
  * several settings, returns bit for bit the answer of "none" (t, normal, material,
  * primitive id; same found flag) for nearest-hit and occlusion queries, for single rays
  * and, where it has them, for packets. "none" itself is held to the scene tree's own
@@ -48,6 +48,62 @@ static Vec3 direction(void)
         if (len > 0.1f && len <= 1.0f)
             return v3_scale(d, 1.0f / len);
     }
+}
+
+/* A primitive no accelerator knows (a kind past the last one), as a new primitive would
+ * be: an axis-aligned cube given by centre and half size, with only intersect and
+ * bounds. Accelerators must bin it by its bounds and still agree with "none". */
+typedef struct Cube {
+    Object3D base;
+    Vec3 c;
+    float h;
+} Cube;
+
+static bool cube_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
+                           RenderCtx *ctx)
+{
+    const Cube *q = (const Cube *)self;
+    ctx->stats.intersections++;
+    float t0, t1;
+    if (!bbox_ray_interval(&self->bbox, ray->origin, ray->dir, &t0, &t1))
+        return false;
+    float t = t0 > tmin ? t0 : t1;
+    if (!(t > tmin) || !hit_accepts(hit, t, self->id))
+        return false;
+    /* The face hit: the axis along which the point is farthest out. */
+    Vec3 d = v3_sub(ray_at(ray, t), q->c);
+    int a = fabsf(d.x) >= fabsf(d.y) && fabsf(d.x) >= fabsf(d.z) ? 0 : fabsf(d.y) >= fabsf(d.z) ? 1 : 2;
+    float s = v3_comp(d, a) < 0.0f ? -1.0f : 1.0f;
+    hit->t = t;
+    hit->normal = v3(a == 0 ? s : 0.0f, a == 1 ? s : 0.0f, a == 2 ? s : 0.0f);
+    hit->material = self->material;
+    hit->id = self->id;
+    return true;
+}
+
+static BBox cube_bounds(const Object3D *self, const Mat4 *to_world)
+{
+    return to_world ? bbox_transform(&self->bbox, to_world) : self->bbox;
+}
+
+static const Object3DOps cube_ops = {"Cube", (ObjKind)(OBJ_TRANSFORM + 1), cube_intersect,
+                                     cube_bounds};
+
+static Object3D *cube_new(Arena *a, Vec3 c, float h, const Material *m)
+{
+    Cube *q = arena_alloc(a, sizeof *q);
+    if (!q)
+        return NULL;
+    memset(q, 0, sizeof *q);
+    q->base.ops = &cube_ops;
+    q->base.material = m;
+    q->base.bounded = true;
+    q->base.id = RT_NO_ID;
+    q->base.bbox.min = v3_sub(c, v3(h, h, h));
+    q->base.bbox.max = v3_add(c, v3(h, h, h));
+    q->c = c;
+    q->h = h;
+    return &q->base;
 }
 
 typedef struct World {
@@ -106,8 +162,10 @@ static Object3D *some_object(World *w, int depth)
     const Material *m = w->mat[pick(3)];
     switch (pick(depth < 3 ? 7 : 5)) {
     case 0:
-    case 1:
         return sphere_new(a, point_in(-2, 2), uniform(0.1f, 0.8f), m);
+    case 1:
+        return pick(2) ? sphere_new(a, point_in(-2, 2), uniform(0.1f, 0.8f), m)
+                       : cube_new(a, point_in(-2, 2), uniform(0.1f, 0.6f), m);
     case 2: {
         Vec3 c = point_in(-2, 2);
         return triangle_new(a, v3_add(c, point_in(-1, 1)), v3_add(c, point_in(-1, 1)),
