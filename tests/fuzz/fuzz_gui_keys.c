@@ -27,7 +27,8 @@ static const char SCENE[] =
     "  Transform { Translate -2 0 0 TriangleMesh { obj_file cube.obj } } }\n";
 
 static Scene *g_scene;
-static Grid *g_grid;
+static PrimTable g_prims;
+static Accel g_accel;
 static RayTracer g_rt;
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
@@ -40,10 +41,13 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     g_scene = dir ? scene_load_string(SCENE, "keys.txt", dir, &d) : NULL;
     if (!g_scene)
         abort(); /* the harness's own scene */
-    g_grid = grid_build(g_scene, 6, 6, 6, &d);
+    AccelConfig cfg = {{6, 6, 6}, false, false, false};
+    if (!prim_table_build(&g_prims, g_scene) ||
+        !accel_init(&g_accel, accel_find("grid"), &g_prims, &cfg, &d))
+        abort(); /* the harness's own scene */
     memset(&g_rt, 0, sizeof g_rt);
     g_rt.scene = g_scene;
-    g_rt.grid = g_grid;
+    g_rt.accel = &g_accel;
     g_rt.shadows = true;
     g_rt.bounces = 4;
     return 0;

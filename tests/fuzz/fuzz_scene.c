@@ -25,17 +25,16 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     return 0;
 }
 
-static void render_tiny(const Scene *s, const Grid *g, bool visualize)
+static void render_tiny(const Scene *s, const Accel *a)
 {
     RayTracer rt;
     memset(&rt, 0, sizeof rt);
     rt.scene = s;
-    rt.grid = g;
+    rt.accel = a;
     rt.shadows = true;
     rt.shade_back = true;
     rt.bounces = 3;
     rt.weight = 0.01f;
-    rt.visualize_grid = visualize && g;
     Image color, depth, normals;
     if (!image_init(&color, 4, 4))
         return;
@@ -73,14 +72,24 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (s->has_camera && s->root) {
         /* The grid resolution from the input's size and last byte: stable per input. */
         unsigned h = (unsigned)size * 2654435761u ^ (size ? data[size - 1] : 0u);
-        int n[3] = {1 + (int)(h % 64), 1 + (int)((h >> 6) % 64), 1 + (int)((h >> 12) % 64)};
-        if (h & 0x40000)
-            grid_choose_auto(s, n);
-        Grid *g = grid_build(s, n[0], n[1], n[2], &d);
-        render_tiny(s, NULL, false);
-        if (g) {
-            render_tiny(s, g, (h >> 19) & 1);
-            grid_free(g);
+        AccelConfig cfg;
+        memset(&cfg, 0, sizeof cfg);
+        cfg.grid_n[0] = 1 + (int)(h % 64);
+        cfg.grid_n[1] = 1 + (int)((h >> 6) % 64);
+        cfg.grid_n[2] = 1 + (int)((h >> 12) % 64);
+        cfg.grid_auto = (h & 0x40000) != 0;
+        PrimTable t;
+        if (prim_table_build(&t, s)) {
+            /* Every registered accelerator, the grid also as its visualisation. */
+            for (int i = 0; accel_registry[i]; i++) {
+                Accel a;
+                cfg.visualize = (h >> 19) & 1;
+                if (accel_init(&a, accel_registry[i], &t, &cfg, &d)) {
+                    render_tiny(s, &a);
+                    accel_free(&a);
+                }
+            }
+            prim_table_free(&t);
         }
     }
     scene_free(s);
