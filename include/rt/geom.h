@@ -36,10 +36,6 @@ Object3D *triangle_mesh_new(Arena *a, const Vec3 *verts, const int (*faces)[3], 
 Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
                                const int (*faces)[3], int n, const Material *m);
 
-/* Moller-Trumbore ("Fast, Minimum Storage Ray/Triangle Intersection", 1997) on
- * v0 and the edges e1 = v1 - v0, e2 = v2 - v0: the t of the ray's crossing of the
- * closed triangle, false when it misses or is parallel. The one formula of
- * Triangle::intersect and of the grid's packed triangles, so both give the same t. */
 /* Edges are inclusive with a tolerance in barycentric units (the course's A7 images
  * count every sample that lies on an edge in exact arithmetic as a hit, and the floor of
  * its checkerboard scene reaches exactly this far beyond its edges): u, v >= -1e-5 and
@@ -47,20 +43,41 @@ Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
  * a pixel 6.8e-6 beyond it empty). */
 #define RT_TRI_EDGE_TOL 1e-5f
 #define RT_TRI_FAR_TOL 1e-6f
+
+/* Moller-Trumbore ("Fast, Minimum Storage Ray/Triangle Intersection", 1997) on v0 and
+ * the edges e1 = v1 - v0, e2 = v2 - v0, written once for every width: T is float, or a
+ * GCC vector of floats (the grid's 4-lane batches, grid_cast.c; the packets' 8 lanes,
+ * grid_packet_kernel.h), and the arguments may mix scalars and vectors of T. Declares
+ * det, u, v and t (the names given) in the enclosing block: the ray crosses the
+ * triangle at t when det != 0, u >= -RT_TRI_EDGE_TOL, v >= -RT_TRI_EDGE_TOL and
+ * u + v <= 1 + RT_TRI_FAR_TOL (every width tests exactly these). Each lane does
+ * the same IEEE operations in the same order (never fused), so every width gives the
+ * scalar's bits. A zero det (parallel ray or degenerate triangle) makes u, v infinite or
+ * NaN, which every one of those comparisons rejects. */
+#define RT_MOLLER_TRUMBORE(T, one, ox, oy, oz, dx, dy, dz, v0x, v0y, v0z, e1x, e1y, e1z, \
+                           e2x, e2y, e2z, det, u, v, t)                                 \
+    T mt_px_ = (dy) * (e2z) - (dz) * (e2y), mt_py_ = (dz) * (e2x) - (dx) * (e2z);       \
+    T mt_pz_ = (dx) * (e2y) - (dy) * (e2x);                                             \
+    T det = (e1x) * mt_px_ + (e1y) * mt_py_ + (e1z) * mt_pz_;                           \
+    T mt_inv_ = (one) / det;                                                            \
+    T mt_sx_ = (ox) - (v0x), mt_sy_ = (oy) - (v0y), mt_sz_ = (oz) - (v0z);              \
+    T u = (mt_sx_ * mt_px_ + mt_sy_ * mt_py_ + mt_sz_ * mt_pz_) * mt_inv_;              \
+    T mt_qx_ = mt_sy_ * (e1z) - mt_sz_ * (e1y), mt_qy_ = mt_sz_ * (e1x) - mt_sx_ * (e1z); \
+    T mt_qz_ = mt_sx_ * (e1y) - mt_sy_ * (e1x);                                         \
+    T v = ((dx) * mt_qx_ + (dy) * mt_qy_ + (dz) * mt_qz_) * mt_inv_;                    \
+    T t = ((e2x) * mt_qx_ + (e2y) * mt_qy_ + (e2z) * mt_qz_) * mt_inv_
+
+/* The scalar width: the t of the ray's crossing of the closed triangle, false when it
+ * misses or is parallel. The one formula of Triangle::intersect and of the grid's
+ * packed triangles, so both give the same t. Everything is computed, then the tests
+ * are combined without branches: the outcome of the u, v tests is close to random over
+ * a cell's triangles, so branches on them mispredict. */
 static inline bool triangle_ray_t(Vec3 v0, Vec3 e1, Vec3 e2, const Ray *ray, float *t_out)
 {
-    /* Everything is computed, then the tests are combined without branches: the
-     * outcome of u, v tests is close to random over a cell's triangles, so branches on
-     * them mispredict. A zero det (parallel ray or degenerate triangle) makes u, v
-     * infinite or NaN, which every comparison below rejects. */
-    Vec3 p = v3_cross(ray->dir, e2);
-    float det = v3_dot(e1, p);
-    float inv = 1.0f / det;
-    Vec3 s = v3_sub(ray->origin, v0);
-    float u = v3_dot(s, p) * inv;
-    Vec3 q = v3_cross(s, e1);
-    float v = v3_dot(ray->dir, q) * inv;
-    *t_out = v3_dot(e2, q) * inv;
+    const Vec3 o = ray->origin, d = ray->dir;
+    RT_MOLLER_TRUMBORE(float, 1.0f, o.x, o.y, o.z, d.x, d.y, d.z, v0.x, v0.y, v0.z, e1.x,
+                       e1.y, e1.z, e2.x, e2.y, e2.z, det, u, v, t);
+    *t_out = t;
     return (det != 0.0f) & (u >= -RT_TRI_EDGE_TOL) & (v >= -RT_TRI_EDGE_TOL) &
            (u + v <= 1.0f + RT_TRI_FAR_TOL);
 }

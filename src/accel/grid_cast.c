@@ -77,27 +77,9 @@ static inline int batch_test(const Grid *g, const TriBatch *b, const RaySimd *r,
     _MM_TRANSPOSE4_PS(c0, c1, c2, c3); /* e2z id pad pad */
     __m128 v0x = a0, v0y = a1, v0z = a2, e1x = a3, e1y = b0, e1z = b1, e2x = b2, e2y = b3,
            e2z = c0;
-    /* p = cross(d, e2) */
-    __m128 px = _mm_sub_ps(_mm_mul_ps(r->dy, e2z), _mm_mul_ps(r->dz, e2y));
-    __m128 py = _mm_sub_ps(_mm_mul_ps(r->dz, e2x), _mm_mul_ps(r->dx, e2z));
-    __m128 pz = _mm_sub_ps(_mm_mul_ps(r->dx, e2y), _mm_mul_ps(r->dy, e2x));
-    __m128 det = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e1x, px), _mm_mul_ps(e1y, py)),
-                            _mm_mul_ps(e1z, pz));
-    __m128 inv = _mm_div_ps(_mm_set1_ps(1.0f), det);
-    __m128 sx = _mm_sub_ps(r->ox, v0x), sy = _mm_sub_ps(r->oy, v0y), sz = _mm_sub_ps(r->oz, v0z);
-    __m128 u = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(sx, px), _mm_mul_ps(sy, py)),
-                                     _mm_mul_ps(sz, pz)),
-                          inv);
-    /* q = cross(s, e1) */
-    __m128 qx = _mm_sub_ps(_mm_mul_ps(sy, e1z), _mm_mul_ps(sz, e1y));
-    __m128 qy = _mm_sub_ps(_mm_mul_ps(sz, e1x), _mm_mul_ps(sx, e1z));
-    __m128 qz = _mm_sub_ps(_mm_mul_ps(sx, e1y), _mm_mul_ps(sy, e1x));
-    __m128 v = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(r->dx, qx), _mm_mul_ps(r->dy, qy)),
-                                     _mm_mul_ps(r->dz, qz)),
-                          inv);
-    __m128 tt = _mm_mul_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(e2x, qx), _mm_mul_ps(e2y, qy)),
-                                      _mm_mul_ps(e2z, qz)),
-                           inv);
+    /* triangle_ray_t's formula, 4 lanes wide (rt/geom.h) */
+    RT_MOLLER_TRUMBORE(__m128, _mm_set1_ps(1.0f), r->ox, r->oy, r->oz, r->dx, r->dy, r->dz,
+                       v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, det, u, v, tt);
     __m128 zero = _mm_setzero_ps(), lo = _mm_set1_ps(-RT_TRI_EDGE_TOL);
     __m128 hi = _mm_set1_ps(1.0f + RT_TRI_FAR_TOL);
     __m128 ok = _mm_cmpneq_ps(det, zero);

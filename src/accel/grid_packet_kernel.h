@@ -108,19 +108,9 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
         if (!byte)
             continue;
         pk_f8 dx = pk->d[0][gi], dy = pk->d[1][gi], dz = pk->d[2][gi];
-        /* triangle_ray_t, term by term */
-        pk_f8 px = dy * e2z - dz * e2y;
-        pk_f8 py = dz * e2x - dx * e2z;
-        pk_f8 pz = dx * e2y - dy * e2x;
-        pk_f8 det = e1x * px + e1y * py + e1z * pz;
-        pk_f8 inv = one / det;
-        pk_f8 sx = pk->o[0][gi] - v0x, sy = pk->o[1][gi] - v0y, sz = pk->o[2][gi] - v0z;
-        pk_f8 u = (sx * px + sy * py + sz * pz) * inv;
-        pk_f8 qx = sy * e1z - sz * e1y;
-        pk_f8 qy = sz * e1x - sx * e1z;
-        pk_f8 qz = sx * e1y - sy * e1x;
-        pk_f8 v = (dx * qx + dy * qy + dz * qz) * inv;
-        pk_f8 t = (e2x * qx + e2y * qy + e2z * qz) * inv;
+        /* triangle_ray_t's formula, 8 lanes wide (rt/geom.h) */
+        RT_MOLLER_TRUMBORE(pk_f8, one, pk->o[0][gi], pk->o[1][gi], pk->o[2][gi], dx, dy, dz,
+                           v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, det, u, v, t);
         pk_i8 ok = (det != zero) & (u >= lo) & (v >= lo) & (u + v <= hi) &
                    (t > tmin) & pk_lanes(byte);
         pk_f8 bt = pk->best_t[gi];
