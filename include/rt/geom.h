@@ -82,6 +82,10 @@ static inline bool triangle_ray_t(Vec3 v0, Vec3 e1, Vec3 e2, const Ray *ray, flo
            (u + v <= 1.0f + RT_TRI_FAR_TOL);
 }
 void triangle_vertices(const Object3D *tri, Vec3 out[3]);
+/* Separating-axis test of the triangle v (vertices relative to the box centre) against
+ * the box of half extents h: the exact answer in double (Triangle's overlaps_box and
+ * the grid's triangle fast path). */
+bool triangle_box_overlap(double v[3][3], const double h[3]);
 Vec3 triangle_normal(const Object3D *tri);  /* normalize((v1-v0) x (v2-v0)) */
 
 /* Transform with matrix m (object -> parent space). Returns NULL when m is singular.

@@ -10,6 +10,7 @@
 #include "rt/render_ctx.h"
 
 typedef struct Arena Arena;
+typedef struct PrimXform PrimXform;
 
 typedef enum ObjKind {
     OBJ_GROUP,
@@ -41,6 +42,16 @@ typedef struct Object3DOps {
      * the identity); empty when unbounded. Groups and transforms: NULL (the primitive
      * table walks them, rt/prim.h). */
     BBox (*bounds)(const Object3D *self, const Mat4 *to_world);
+    /* Cell occupancy, for accelerators that bin leaves into boxes (the grid's marching
+     * sets); xf: the Transforms above the leaf (NULL: none). Both may be NULL: then the
+     * leaf occupies every box its bounds meet. cell_bounds: a tight world box, in
+     * double, holding every point intersect can return. overlaps_box: whether the
+     * surface may cross the closed world box [lo, hi] (with rounding slack: never false
+     * for a box holding a point intersect can return). */
+    void (*cell_bounds)(const Object3D *self, const PrimXform *xf, double lo[3],
+                        double hi[3]);
+    bool (*overlaps_box)(const Object3D *self, const PrimXform *xf, const double lo[3],
+                         const double hi[3]);
 } Object3DOps;
 
 struct Object3D {

@@ -44,4 +44,26 @@ static inline Vec3 v3_min(Vec3 a, Vec3 b) { return v3(rt_minf(a.x, b.x), rt_minf
 static inline Vec3 v3_max(Vec3 a, Vec3 b) { return v3(rt_maxf(a.x, b.x), rt_maxf(a.y, b.y), rt_maxf(a.z, b.z)); }
 static inline bool v3_isfinite(Vec3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
 
+/* Double-precision 3-vectors as arrays (the build geometry of accelerators). */
+static inline double d3_dot(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+static inline void d3_cross(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+static inline double d_min3(double a, double b, double c)
+{
+    double m = a < b ? a : b;
+    return m < c ? m : c;
+}
+static inline double d_max3(double a, double b, double c)
+{
+    double m = a > b ? a : b;
+    return m > c ? m : c;
+}
+
 #endif

@@ -124,10 +124,9 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
         const Prim *p = &t->prims[i];
         if (p->bounded) {
             ObjKind k = obj_kind(p->obj);
-            RecKind kind = k == OBJ_TRIANGLE ? REC_TRIANGLE
-                           : k != OBJ_SPHERE ? REC_BOX
-                           : p->xf           ? REC_SPHERE_XF
-                                             : REC_SPHERE;
+            RecKind kind = k == OBJ_TRIANGLE            ? REC_TRIANGLE
+                           : k == OBJ_SPHERE && !p->xf ? REC_SPHERE
+                                                       : REC_BOX;
             append_prim(&b, p, kind);
         } else {
             g->unbounded[g->num_unbounded].obj = p->obj;

@@ -14,10 +14,13 @@
  * few enough that the threads finish close together (40 chunks on the 40k bunny). */
 enum { BIN_CHUNK = 1024 };
 
-/* How a primitive is binned: the course's rules for its spheres and triangles, and for
- * any other bounded leaf its world box (ops->bounds): every cell the box meets, in both
- * cell sets (a new primitive needs no code here). */
-typedef enum RecKind { REC_SPHERE, REC_SPHERE_XF, REC_TRIANGLE, REC_BOX } RecKind;
+/* How a primitive is binned. The course's occupancy rules: an untransformed sphere
+ * occupies the cells whose centre lies within r + half a cell diagonal of its centre
+ * (REC_SPHERE); anything else the cells its world box touches (a triangle: of its world
+ * vertices, REC_TRIANGLE; any other leaf: its bounds op, REC_BOX). The marching sets:
+ * triangles by the fast path of grid_cells.c, anything else by its cell_bounds and
+ * overlaps_box ops. A new primitive needs no code here. */
+typedef enum RecKind { REC_SPHERE, REC_TRIANGLE, REC_BOX } RecKind;
 
 /* A primitive with what its insertion needs in world space, made by the binning pass
  * (bin_part) from the walk's GridPrim and kept on its stack. */
@@ -25,9 +28,9 @@ struct GridBuildRec {
     const Object3D *obj;
     const PrimXform *gp;  /* NULL: no Transform above it */
     RecKind kind;
-    Vec3 v[3];            /* sphere: v[0] = centre (object space); triangle: world
-                             vertices; box: v[0], v[1] = world box min, max */
-    float r;              /* sphere radius (object space) */
+    Vec3 v[3];            /* sphere: v[0] = centre; triangle: world vertices; box:
+                             v[0], v[1] = world box min, max */
+    float r;              /* sphere radius */
 };
 
 /* One binning worker's scratch (rt/par.h): its own counts and cell list, so workers

@@ -6,16 +6,6 @@
 #include <math.h>
 #include <stdlib.h>
 
-typedef struct DVec {
-    double x[3];
-} DVec;
-
-static DVec dvec(Vec3 v)
-{
-    DVec d = {{(double)v.x, (double)v.y, (double)v.z}};
-    return d;
-}
-
 /* Cells whose padded box meets [bmin, bmax]. */
 static CellRange tight_range(const Grid *g, const double bmin[3], const double bmax[3])
 {
@@ -47,197 +37,28 @@ static void cell_box(const Grid *g, const int c[3], const double bmin[3],
     }
 }
 
-static double dot3(const double a[3], const double b[3])
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void cross3(const double a[3], const double b[3], double out[3])
-{
-    out[0] = a[1] * b[2] - a[2] * b[1];
-    out[1] = a[2] * b[0] - a[0] * b[2];
-    out[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-static inline double min3(double a, double b, double c)
-{
-    double m = a < b ? a : b;
-    return m < c ? m : c;
-}
-
-static inline double max3(double a, double b, double c)
-{
-    double m = a > b ? a : b;
-    return m > c ? m : c;
-}
-
-/* Whether the projections p0..p2 of the triangle onto an axis miss [-rad, rad]. */
-static inline bool separated(double p0, double p1, double p2, double rad)
-{
-    return min3(p0, p1, p2) > rad || max3(p0, p1, p2) < -rad;
-}
-
-/* Separating-axis test of a triangle against a box given by centre-relative vertices
- * v[3] and half extents h (Akenine-Moller, "Fast 3D Triangle-Box Overlap Testing",
- * 2001): the 3 box normals first (cheapest, they reject most candidates), the triangle
- * normal, then the 9 directions edge x box axis, written out since the box axes are
- * unit vectors: e x X = (0, ez, -ey), e x Y = (-ez, 0, ex), e x Z = (ey, -ex, 0). */
-static bool tri_box_overlap(double v[3][3], const double h[3])
-{
-    for (int a = 0; a < 3; a++)
-        if (separated(v[0][a], v[1][a], v[2][a], h[a]))
-            return false;
-    double e[3][3];
-    for (int a = 0; a < 3; a++) {
-        e[0][a] = v[1][a] - v[0][a];
-        e[1][a] = v[2][a] - v[1][a];
-        e[2][a] = v[0][a] - v[2][a];
-    }
-    double nrm[3];
-    cross3(e[0], e[1], nrm);
-    double rad = h[0] * fabs(nrm[0]) + h[1] * fabs(nrm[1]) + h[2] * fabs(nrm[2]);
-    if (fabs(dot3(nrm, v[0])) > rad)
-        return false;
-    for (int i = 0; i < 3; i++) {
-        double ex = e[i][0], ey = e[i][1], ez = e[i][2];
-        double fx = fabs(ex), fy = fabs(ey), fz = fabs(ez);
-        if (separated(ez * v[0][1] - ey * v[0][2], ez * v[1][1] - ey * v[1][2],
-                      ez * v[2][1] - ey * v[2][2], h[1] * fz + h[2] * fy))
-            return false;
-        if (separated(ex * v[0][2] - ez * v[0][0], ex * v[1][2] - ez * v[1][0],
-                      ex * v[2][2] - ez * v[2][0], h[0] * fz + h[2] * fx))
-            return false;
-        if (separated(ey * v[0][0] - ex * v[0][1], ey * v[1][0] - ex * v[1][1],
-                      ey * v[2][0] - ex * v[2][1], h[0] * fy + h[1] * fx))
-            return false;
-    }
-    return true;
-}
-
-/* Relative slack for the sphere surface tests: the hit point of a quadratic solve lies
- * within a few float ulps of the surface; 1e-5 of the size is far above that. */
-#define SURFACE_SLACK 1e-5
-
-static bool tight_sphere_cell(const GridBuildRec *rec, const double lo[3],
-                              const double hi[3])
-{
-    DVec c = dvec(rec->v[0]);
-    double r = (double)rec->r;
-    double eta = SURFACE_SLACK * (fabs(r) + fabs(c.x[0]) + fabs(c.x[1]) + fabs(c.x[2]));
-    double dmin2 = 0.0, dmax2 = 0.0;
-    for (int a = 0; a < 3; a++) {
-        double below = lo[a] - c.x[a], above = c.x[a] - hi[a];
-        double out = below > 0 ? below : above > 0 ? above : 0.0;
-        dmin2 += out * out;
-        double far = fmax(fabs(c.x[a] - lo[a]), fabs(hi[a] - c.x[a]));
-        dmax2 += far * far;
-    }
-    /* Only the surface can be hit: skip cells wholly outside, or wholly inside. */
-    return sqrt(dmin2) <= r + eta && sqrt(dmax2) >= r - eta;
-}
-
-/* A transformed sphere (ellipsoid) against a cell, tested in the sphere's object space
- * where the cell becomes a parallelepiped: out if even its bounding sphere misses the
- * sphere, out if all 8 corners lie inside (convexity: then the whole cell does). */
-static bool tight_sphere_xf_cell(const GridBuildRec *rec, const double lo[3],
-                                 const double hi[3])
-{
-    const Mat4 *inv = &rec->gp->inv;
-    DVec c = dvec(rec->v[0]);
-    double r = (double)rec->r;
-    double frob = 0.0;
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            frob += (double)inv->m[i][j] * (double)inv->m[i][j];
-    frob = sqrt(frob);
-    double mid[3], half = 0.0;
-    for (int a = 0; a < 3; a++) {
-        mid[a] = 0.5 * (lo[a] + hi[a]);
-        half += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-    }
-    half = sqrt(half);
-    double q[3], d2 = 0.0;
-    for (int i = 0; i < 3; i++) {
-        q[i] = (double)inv->m[i][3];
-        for (int j = 0; j < 3; j++)
-            q[i] += (double)inv->m[i][j] * mid[j];
-        d2 += (q[i] - c.x[i]) * (q[i] - c.x[i]);
-    }
-    double slack = SURFACE_SLACK * (fabs(r) + fabs(c.x[0]) + fabs(c.x[1]) + fabs(c.x[2]));
-    if (sqrt(d2) > r + frob * half + slack)
-        return false;
-    for (int corner = 0; corner < 8; corner++) {
-        double p[3] = {(corner & 1) ? hi[0] : lo[0], (corner & 2) ? hi[1] : lo[1],
-                       (corner & 4) ? hi[2] : lo[2]};
-        double e2 = 0.0;
-        for (int i = 0; i < 3; i++) {
-            double qi = (double)inv->m[i][3];
-            for (int j = 0; j < 3; j++)
-                qi += (double)inv->m[i][j] * p[j];
-            e2 += (qi - c.x[i]) * (qi - c.x[i]);
-        }
-        if (sqrt(e2) >= r - slack)
-            return true; /* a corner outside: the surface may cross the cell */
-    }
-    return false;
-}
-
-/* World-space box around the primitive for the tight range. */
+/* World-space box around a primitive other than a triangle (those take the fast path
+ * below) for the tight range: its cell_bounds op, or its bounds op when it has none. */
 static void tight_bounds(const GridBuildRec *rec, double bmin[3], double bmax[3])
 {
-    if (rec->kind == REC_TRIANGLE) {
-        for (int a = 0; a < 3; a++) {
-            double x0 = (double)v3_comp(rec->v[0], a), x1 = (double)v3_comp(rec->v[1], a),
-                   x2 = (double)v3_comp(rec->v[2], a);
-            bmin[a] = min3(x0, x1, x2);
-            bmax[a] = max3(x0, x1, x2);
-        }
-    } else if (rec->kind == REC_BOX) {
-        for (int a = 0; a < 3; a++) {
-            bmin[a] = (double)v3_comp(rec->v[0], a);
-            bmax[a] = (double)v3_comp(rec->v[1], a);
-        }
-    } else if (rec->kind == REC_SPHERE) {
-        for (int a = 0; a < 3; a++) {
-            double c = (double)v3_comp(rec->v[0], a), r = fabs((double)rec->r);
-            bmin[a] = c - r;
-            bmax[a] = c + r;
-        }
-    } else {
-        /* Exact AABB of the ellipsoid M(S): centre M c, half extent r * |row a of M|. */
-        const Mat4 *m = &rec->gp->m;
-        DVec c = dvec(rec->v[0]);
-        for (int a = 0; a < 3; a++) {
-            double w = (double)m->m[a][3], len = 0.0;
-            for (int j = 0; j < 3; j++) {
-                w += (double)m->m[a][j] * c.x[j];
-                len += (double)m->m[a][j] * (double)m->m[a][j];
-            }
-            double e = fabs((double)rec->r) * sqrt(len);
-            bmin[a] = w - e * (1.0 + SURFACE_SLACK);
-            bmax[a] = w + e * (1.0 + SURFACE_SLACK);
-        }
+    const Object3D *o = rec->obj;
+    if (o->ops->cell_bounds) {
+        o->ops->cell_bounds(o, rec->gp, bmin, bmax);
+        return;
+    }
+    BBox b = o->ops->bounds(o, rec->gp ? &rec->gp->m : NULL);
+    for (int a = 0; a < 3; a++) {
+        bmin[a] = (double)v3_comp(b.min, a);
+        bmax[a] = (double)v3_comp(b.max, a);
     }
 }
 
-/* Whether rec's surface may cross the padded cell box [lo, hi]. */
+/* Whether the surface of a primitive other than a triangle may cross the padded cell
+ * box [lo, hi]: its overlaps_box op (every cell of its box when it has none). */
 static bool tight_cell(const GridBuildRec *rec, const double lo[3], const double hi[3])
 {
-    if (rec->kind == REC_TRIANGLE) {
-        double v[3][3], h[3];
-        for (int a = 0; a < 3; a++) {
-            double mid = 0.5 * (lo[a] + hi[a]);
-            h[a] = 0.5 * (hi[a] - lo[a]);
-            for (int k = 0; k < 3; k++)
-                v[k][a] = (double)v3_comp(rec->v[k], a) - mid;
-        }
-        return tri_box_overlap(v, h);
-    }
-    if (rec->kind == REC_SPHERE)
-        return tight_sphere_cell(rec, lo, hi);
-    if (rec->kind == REC_SPHERE_XF)
-        return tight_sphere_xf_cell(rec, lo, hi);
-    return true; /* REC_BOX: every cell its padded box meets */
+    const Object3D *o = rec->obj;
+    return !o->ops->overlaps_box || o->ops->overlaps_box(o, rec->gp, lo, hi);
 }
 
 /* Appends one cell index to the part's pair list (cells of each primitive, in
@@ -323,7 +144,7 @@ static inline void cell_axis(const Grid *g, const double *table, int a, int c, d
     out[2] = out[1] * INSIDE_SHRINK;
 }
 
-/* tri_box_overlap(v, h), the same answer for every input, cheaper when a vertex lies
+/* triangle_box_overlap(v, h), the same answer for every input, cheaper when a vertex lies
  * well inside the box (the common case: a small triangle straddling a cell border has
  * a vertex in most of its cells). in[k]: |v[k][a]| <= (1 - d) h[a] on every axis,
  * d = 2^-30. Why the answer is the same: such a vertex alone keeps every box axis and
@@ -331,25 +152,25 @@ static inline void cell_axis(const Grid *g, const double *table, int a, int c, d
  * is ez*vy - ey*vz (and the like), at most (1 - d) times the exact radius
  * h1|ez| + h2|ey| in size, and the rounding of the projection and of the radius is a
  * few 2^-53 of that radius, far below d. The normal axis projects v0 only, so the same
- * bound covers it when k = 0; for k = 1, 2 the normal is tested as tri_box_overlap
+ * bound covers it when k = 0; for k = 1, 2 the normal is tested as triangle_box_overlap
  * tests it, operation for operation. */
 static bool tri_cell_overlap(double v[3][3], const double h[3], const bool in[3])
 {
     if (in[0])
         return true;
     if (!in[1] && !in[2])
-        return tri_box_overlap(v, h);
+        return triangle_box_overlap(v, h);
     double e0[3], e1[3], nrm[3];
     for (int a = 0; a < 3; a++) {
         e0[a] = v[1][a] - v[0][a];
         e1[a] = v[2][a] - v[1][a];
     }
-    cross3(e0, e1, nrm);
+    d3_cross(e0, e1, nrm);
     double rad = h[0] * fabs(nrm[0]) + h[1] * fabs(nrm[1]) + h[2] * fabs(nrm[2]);
-    return !(fabs(dot3(nrm, v[0])) > rad);
+    return !(fabs(d3_dot(nrm, v[0])) > rad);
 }
 
-bool grid_tri_box_overlap(double v[3][3], const double h[3]) { return tri_box_overlap(v, h); }
+bool grid_tri_box_overlap(double v[3][3], const double h[3]) { return triangle_box_overlap(v, h); }
 
 bool grid_tri_cell_overlap(double v[3][3], const double h[3])
 {
@@ -373,8 +194,8 @@ static bool tight_insert_triangle(BinPart *bp, const GridBuildRec *rec, uint32_t
         for (int a = 0; a < 3; a++)
             P[k][a] = (double)v3_comp(rec->v[k], a);
     for (int a = 0; a < 3; a++) {
-        bmin[a] = min3(P[0][a], P[1][a], P[2][a]);
-        bmax[a] = max3(P[0][a], P[1][a], P[2][a]);
+        bmin[a] = d_min3(P[0][a], P[1][a], P[2][a]);
+        bmax[a] = d_max3(P[0][a], P[1][a], P[2][a]);
     }
     CellRange r = tight_range(g, bmin, bmax);
     if (r.lo[0] == r.hi[0] && r.lo[1] == r.hi[1] && r.lo[2] == r.hi[2]) {

@@ -63,10 +63,6 @@ void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec
     if (rec->kind == REC_BOX) {
         b.min = rec->v[0];
         b.max = rec->v[1];
-    } else if (rec->kind == REC_SPHERE_XF) {
-        Vec3 e = v3(rec->r, rec->r, rec->r);
-        BBox local = {v3_sub(rec->v[0], e), v3_add(rec->v[0], e)};
-        b = bbox_transform(&local, &rec->gp->m);
     } else {
         b.min = v3_min(v3_min(rec->v[0], rec->v[1]), rec->v[2]);
         b.max = v3_max(v3_max(rec->v[0], rec->v[1]), rec->v[2]);

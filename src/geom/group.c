@@ -15,7 +15,8 @@ static bool group_intersect(const Object3D *self, const Ray *ray, Hit *hit, floa
     return any;
 }
 
-static const Object3DOps group_ops = {"Group", OBJ_GROUP, group_intersect, NULL};
+static const Object3DOps group_ops = {.type_name = "Group", .kind = OBJ_GROUP,
+                                      .intersect = group_intersect};
 
 Object3D *group_new(Arena *a, int capacity)
 {

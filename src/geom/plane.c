@@ -35,7 +35,9 @@ static BBox plane_bounds(const Object3D *self, const Mat4 *to_world)
     return bbox_empty();
 }
 
-static const Object3DOps plane_ops = {"Plane", OBJ_PLANE, plane_intersect, plane_bounds};
+/* Unbounded: never binned, so no occupancy ops. */
+static const Object3DOps plane_ops = {.type_name = "Plane", .kind = OBJ_PLANE,
+                                      .intersect = plane_intersect, .bounds = plane_bounds};
 
 Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m)
 {

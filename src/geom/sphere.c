@@ -1,5 +1,6 @@
 /* Sphere (A1): |o + t d - c|^2 = r^2, solved for any (non-unit) direction. */
 #include "rt/geom.h"
+#include "rt/prim.h"
 #include "rt/arena.h"
 
 typedef struct Sphere {
@@ -59,7 +60,123 @@ static BBox sphere_bounds(const Object3D *self, const Mat4 *to_world)
     return to_world ? bbox_transform(&self->bbox, to_world) : self->bbox;
 }
 
-static const Object3DOps sphere_ops = {"Sphere", OBJ_SPHERE, sphere_intersect, sphere_bounds};
+/* ---- cell occupancy (accelerators that bin into boxes), in double precision ---- */
+
+typedef struct DVec {
+    double x[3];
+} DVec;
+
+static DVec dvec(Vec3 v)
+{
+    DVec d = {{(double)v.x, (double)v.y, (double)v.z}};
+    return d;
+}
+
+/* Relative slack for the sphere surface tests: the hit point of a quadratic solve lies
+ * within a few float ulps of the surface; 1e-5 of the size is far above that. */
+#define SURFACE_SLACK 1e-5
+
+/* The sphere's surface against the box [lo, hi] (world = object space). */
+static bool surface_overlaps_box(const Sphere *s, const double lo[3], const double hi[3])
+{
+    DVec c = dvec(s->center);
+    double r = (double)s->radius;
+    double eta = SURFACE_SLACK * (fabs(r) + fabs(c.x[0]) + fabs(c.x[1]) + fabs(c.x[2]));
+    double dmin2 = 0.0, dmax2 = 0.0;
+    for (int a = 0; a < 3; a++) {
+        double below = lo[a] - c.x[a], above = c.x[a] - hi[a];
+        double out = below > 0 ? below : above > 0 ? above : 0.0;
+        dmin2 += out * out;
+        double far = fmax(fabs(c.x[a] - lo[a]), fabs(hi[a] - c.x[a]));
+        dmax2 += far * far;
+    }
+    /* Only the surface can be hit: skip cells wholly outside, or wholly inside. */
+    return sqrt(dmin2) <= r + eta && sqrt(dmax2) >= r - eta;
+}
+
+/* A transformed sphere (ellipsoid) against a cell, tested in the sphere's object space
+ * where the cell becomes a parallelepiped: out if even its bounding sphere misses the
+ * sphere, out if all 8 corners lie inside (convexity: then the whole cell does). */
+static bool ellipsoid_overlaps_box(const Sphere *s, const PrimXform *xf, const double lo[3],
+                                   const double hi[3])
+{
+    const Mat4 *inv = &xf->inv;
+    DVec c = dvec(s->center);
+    double r = (double)s->radius;
+    double frob = 0.0;
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            frob += (double)inv->m[i][j] * (double)inv->m[i][j];
+    frob = sqrt(frob);
+    double mid[3], half = 0.0;
+    for (int a = 0; a < 3; a++) {
+        mid[a] = 0.5 * (lo[a] + hi[a]);
+        half += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    }
+    half = sqrt(half);
+    double q[3], d2 = 0.0;
+    for (int i = 0; i < 3; i++) {
+        q[i] = (double)inv->m[i][3];
+        for (int j = 0; j < 3; j++)
+            q[i] += (double)inv->m[i][j] * mid[j];
+        d2 += (q[i] - c.x[i]) * (q[i] - c.x[i]);
+    }
+    double slack = SURFACE_SLACK * (fabs(r) + fabs(c.x[0]) + fabs(c.x[1]) + fabs(c.x[2]));
+    if (sqrt(d2) > r + frob * half + slack)
+        return false;
+    for (int corner = 0; corner < 8; corner++) {
+        double p[3] = {(corner & 1) ? hi[0] : lo[0], (corner & 2) ? hi[1] : lo[1],
+                       (corner & 4) ? hi[2] : lo[2]};
+        double e2 = 0.0;
+        for (int i = 0; i < 3; i++) {
+            double qi = (double)inv->m[i][3];
+            for (int j = 0; j < 3; j++)
+                qi += (double)inv->m[i][j] * p[j];
+            e2 += (qi - c.x[i]) * (qi - c.x[i]);
+        }
+        if (sqrt(e2) >= r - slack)
+            return true; /* a corner outside: the surface may cross the cell */
+    }
+    return false;
+}
+
+/* A tight world box: the ball's, or under Transforms the exact box of the ellipsoid
+ * M(S) (centre M c, half extent r * |row a of M|) with the surface slack. */
+static void sphere_cell_bounds(const Object3D *self, const PrimXform *xf, double lo[3],
+                               double hi[3])
+{
+    const Sphere *s = (const Sphere *)self;
+    if (!xf) {
+        for (int a = 0; a < 3; a++) {
+            double c = (double)v3_comp(s->center, a), r = fabs((double)s->radius);
+            lo[a] = c - r;
+            hi[a] = c + r;
+        }
+        return;
+    }
+    const Mat4 *m = &xf->m;
+    DVec c = dvec(s->center);
+    for (int a = 0; a < 3; a++) {
+        double w = (double)m->m[a][3], len = 0.0;
+        for (int j = 0; j < 3; j++) {
+            w += (double)m->m[a][j] * c.x[j];
+            len += (double)m->m[a][j] * (double)m->m[a][j];
+        }
+        double e = fabs((double)s->radius) * sqrt(len);
+        lo[a] = w - e * (1.0 + SURFACE_SLACK);
+        hi[a] = w + e * (1.0 + SURFACE_SLACK);
+    }
+}
+
+static bool sphere_overlaps_box(const Object3D *self, const PrimXform *xf, const double lo[3],
+                                const double hi[3])
+{
+    const Sphere *s = (const Sphere *)self;
+    return xf ? ellipsoid_overlaps_box(s, xf, lo, hi) : surface_overlaps_box(s, lo, hi);
+}
+
+static const Object3DOps sphere_ops = {"Sphere",      OBJ_SPHERE,         sphere_intersect,
+                                       sphere_bounds, sphere_cell_bounds, sphere_overlaps_box};
 
 Object3D *sphere_new(Arena *a, Vec3 center, float radius, const Material *m)
 {

@@ -49,8 +49,8 @@ static bool transform_intersect(const Object3D *self, const Ray *ray, Hit *hit, 
     return true;
 }
 
-static const Object3DOps transform_ops = {"Transform", OBJ_TRANSFORM, transform_intersect,
-                                          NULL};
+static const Object3DOps transform_ops = {.type_name = "Transform", .kind = OBJ_TRANSFORM,
+                                          .intersect = transform_intersect};
 
 Object3D *transform_new(Arena *a, const Mat4 *m, Object3D *child)
 {

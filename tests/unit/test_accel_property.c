@@ -86,8 +86,8 @@ static BBox cube_bounds(const Object3D *self, const Mat4 *to_world)
     return to_world ? bbox_transform(&self->bbox, to_world) : self->bbox;
 }
 
-static const Object3DOps cube_ops = {"Cube", (ObjKind)(OBJ_TRANSFORM + 1), cube_intersect,
-                                     cube_bounds};
+static const Object3DOps cube_ops = {.type_name = "Cube", .kind = (ObjKind)(OBJ_TRANSFORM + 1),
+                                     .intersect = cube_intersect, .bounds = cube_bounds};
 
 static Object3D *cube_new(Arena *a, Vec3 c, float h, const Material *m)
 {
