@@ -47,16 +47,16 @@ static int *film_count(const Film *f, int x, int y)
 /* Rays waiting to be traced as one packet, and the sample each belongs to. */
 typedef struct Stream {
     int n;
-    Ray rays[GRID_PACKET_MAX];
-    float *dest[GRID_PACKET_MAX];
+    Ray rays[ACCEL_PACKET_MAX];
+    float *dest[ACCEL_PACKET_MAX];
 } Stream;
 
 static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
 {
     if (st->n == 0)
         return;
-    Vec3 colors[GRID_PACKET_MAX];
-    Hit hits[GRID_PACKET_MAX];
+    Vec3 colors[ACCEL_PACKET_MAX];
+    Hit hits[ACCEL_PACKET_MAX];
     raytracer_trace_packet(f->rt, ctx, st->rays, st->n, f->tmin, colors, hits);
     for (int i = 0; i < st->n; i++) {
         float *d = st->dest[i];
@@ -104,7 +104,7 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
         camera_sample_to_screen(x, y, d[0], d[1], c->full_width, c->full_height, &u, &v);
         st->rays[st->n] = camera_generate_ray(f->camera, u, v);
         st->dest[st->n++] = d;
-        if (st->n == GRID_PACKET_MAX)
+        if (st->n == ACCEL_PACKET_MAX)
             stream_flush(f, ctx, st);
     }
 }
