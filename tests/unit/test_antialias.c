@@ -130,7 +130,8 @@ static void test_filter_symmetry_and_support(void)
 
 typedef struct Fixture {
     Scene *scene;
-    Grid *grid;
+    PrimTable prims;
+    Accel accel;
     RayTracer rt;
 } Fixture;
 
@@ -153,16 +154,18 @@ static bool fixture_open(Fixture *fx, const char *name, bool grid)
     fx->rt.bounces = 2;
     fx->rt.weight = 0.01f;
     fx->rt.shade_back = true;
-    if (grid) {
-        fx->grid = grid_build(fx->scene, 15, 30, 15, &d);
-        fx->rt.grid = fx->grid;
-    }
+    AccelConfig cfg = {{15, 30, 15}, false, false, false};
+    CHECK(prim_table_build(&fx->prims, fx->scene));
+    CHECK(accel_init(&fx->accel, grid ? accel_find("grid") : &accel_none_ops, &fx->prims,
+                     &cfg, &d));
+    fx->rt.accel = &fx->accel;
     return true;
 }
 
 static void fixture_close(Fixture *fx)
 {
-    grid_free(fx->grid);
+    accel_free(&fx->accel);
+    prim_table_free(&fx->prims);
     scene_free(fx->scene);
 }
 
