@@ -158,7 +158,7 @@ static void test_stats_rays_per_second(void)
     CHECK_STR(buf, "0.0");
     /* Out-of-range times stay in range. */
     CHECK_INT(stats_course_seconds(-3.0), 1);
-    CHECK_INT(stats_course_seconds(NAN), 1);
+    CHECK_INT(stats_course_seconds((double)NAN), 1);
     /* The precise rate. */
     snprintf(buf, sizeof buf, "%0.1f", stats_rays_per_second(106902, 0.5));
     CHECK_STR(buf, "213804.0");
