@@ -108,7 +108,7 @@ static void check_line(const char *id, const char *const *extra)
     char ref[3][PATH_MAX];
     for (int np = 0; np <= 3; np++) { /* 0: ./raytracer itself */
         Cmd c;
-        char nps[8];
+        char nps[16];
         snprintf(nps, sizeof nps, "%d", np);
         if (np == 0) {
             c.n = 0;

@@ -312,7 +312,7 @@ static void test_tile_stats_add_up(void)
     unsigned long long sum[4] = {0, 0, 0, 0};
     for (int k = 0; k < 5; k++) {
         Args b = base;
-        char ks[8];
+        char ks[16];
         snprintf(ks, sizeof ks, "%d", k);
         add(&b, "-tile");
         add(&b, ks);
