@@ -50,6 +50,12 @@ uint8_t color_to_byte(float c);
  * renames it, so a failure leaves no file. Reports failures to diag. */
 bool image_write(const Image *img, const char *path, Diag *diag);
 
+/* Before any work: whether image_write could write path, judged without writing: the
+ * extension names a format this build writes, and path is no folder and lies in an
+ * existing folder that takes new files (or is an existing pipe or device that takes
+ * writes). False with the reason reported to diag. */
+bool image_check_output(const char *path, Diag *diag);
+
 /* Several images, all or nothing: each goes to its temporary file first (an existing
  * pipe or device is written in place after those), and the temporary files are renamed
  * into place only when every write succeeded; on failure none is renamed and all are

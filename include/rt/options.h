@@ -6,6 +6,8 @@
 #include <stdbool.h>
 #include <stdio.h>
 
+#include "rt/progress.h"
+
 typedef struct Options {
     const char *input;           /* required unless help/version */
     const char *output;          /* NULL: no colour image */
@@ -27,6 +29,7 @@ typedef struct Options {
                                     "grid" when -grid is given, else "none" */
     bool gui, gouraud;
     int tess_theta, tess_phi;    /* default 20 10 */
+    bool tessellation_given;     /* -tessellation was given */
     const char *gui_snapshot;    /* -gui_snapshot file.tga: headless preview frame */
     const char *gui_keys;        /* -gui_keys "script" */
     int threads;                 /* 0 = all cores */
@@ -53,6 +56,8 @@ typedef struct Options {
     int region_x, region_y, region_w, region_h;
     bool tile;                   /* the region came from -tile k n */
     int tile_k, tile_n;
+    ProgressMode progress;       /* -progress ALWAYS, -quiet NEVER, else AUTO */
+    bool quiet;                  /* -quiet: no progress line, no hints */
     bool help, version;
 } Options;
 
@@ -65,6 +70,12 @@ void options_defaults(Options *o);
  * -h) on err and returns false; the caller exits 2. */
 bool options_parse(Options *o, int argc, char **argv, FILE *err);
 void options_usage(FILE *out);
+/* Warnings for options that do nothing here (preview options without a preview,
+ * -threads far above the cores), each one line on err. */
+void options_warn(const Options *o, int cores, FILE *err);
+/* The option names of the usage text, in its order ("-input", ..., "-h", "--help"):
+ * up to max into names; returns how many there are. */
+int options_names(const char **names, int max);
 
 /* Band k (0 = top) of n horizontal bands of an image of height rows: its first row from
  * the top and its number of rows. The bands cover the image without overlap; when

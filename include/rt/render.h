@@ -4,6 +4,7 @@
 #define RT_RENDER_H
 
 #include "rt/image.h"
+#include "rt/progress.h"
 #include "rt/raytracer.h"
 
 typedef struct RenderTarget {
@@ -17,6 +18,7 @@ typedef struct RenderTarget {
      * image. The images are w x h and hold exactly those pixels, with the values the
      * whole render gives them. */
     int x0, y0, w, h;
+    Progress *progress;        /* NULL, or gets each finished row and its rays */
 } RenderTarget;
 
 /* Called from a worker thread after row y (0 = bottom, of the full image) is complete

@@ -5,6 +5,7 @@
 #include "rt/filter.h"
 #include "rt/sampler.h"
 #include "rt/accel.h"
+#include "rt/suggest.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -35,18 +36,23 @@ void options_defaults(Options *o)
     o->tess_phi = 10;
 }
 
-void options_usage(FILE *out)
-{
-    fputs(
+/* The one list of options: -h prints it, and "did you mean", the extra-value message,
+ * the man page test and the bash completion all read the option names from it (an
+ * option line starts with two blanks and a dash; the names before the first double
+ * blank are its synopsis). A new option needs only its line here. */
+static const char usage_text[] =
         "usage: raytracer -input scene.txt [options]\n"
         "\n"
-        "Output\n"
+        "Input and output\n"
+        "  -input file              the scene file (required)\n"
         "  -output file             shaded image (.tga; .ppm; .png when built with libpng)\n"
         "  -size w h                image size in pixels (default 100 100)\n"
         "  -depth dmin dmax file    depth image: near dmin white, far dmax black\n"
         "  -normals file            normal image: |nx| |ny| |nz| as RGB\n"
         "  -stats                   print the RAY TRACING STATISTICS block on stdout\n"
         "  -timings                 print parse/grid/render/write times on stderr\n"
+        "  -progress                show the progress line even when stderr is not a terminal\n"
+        "  -quiet                   no progress line and no hints on stderr\n"
         "Shading\n"
         "  -shadows                 cast shadow rays toward every light\n"
         "  -shade_back              shade back faces (flipped normal); else they are black\n"
@@ -59,11 +65,7 @@ void options_usage(FILE *out)
         "  -visualize_grid_count    same as -visualize_grid (cells are coloured by count)\n"
         "  -no_marking              grid: test an object again in every cell (for analysis)\n"
         "  -no_packets              grid: march every ray on its own, no ray packets\n"
-        "  -accel NAME              accelerator by name (-accel grid: -grid auto):\n",
-        out);
-    for (int i = 0; accel_registry[i]; i++)
-        fprintf(out, "      %-20s %s\n", accel_registry[i]->name, accel_registry[i]->summary);
-    fputs(
+        "  -accel NAME              accelerator by name (-accel grid: -grid auto):\n"
         "  -threads n               render threads (default: all cores)\n"
         "Antialiasing (one centred sample and a box filter of radius 0.5 by default)\n"
         "  -uniform_samples n       n = k*k samples per pixel on a regular k x k grid\n"
@@ -95,15 +97,97 @@ void options_usage(FILE *out)
         "  --version                version and optional features\n"
         "\n"
         "Exit status: 0 image(s) written, 1 input or output error, 2 usage error,\n"
-        "130 interrupted.\n",
-        out);
+        "130 interrupted.\n";
+
+void options_usage(FILE *out)
+{
+    /* The accelerators are listed from their registry, under the -accel line. */
+    const char *acc = strstr(usage_text, "  -accel NAME");
+    const char *eol = acc ? strchr(acc, '\n') : NULL;
+    if (!eol) {
+        fputs(usage_text, out);
+        return;
+    }
+    fwrite(usage_text, 1, (size_t)(eol + 1 - usage_text), out);
+    for (int i = 0; accel_registry[i]; i++)
+        fprintf(out, "      %-20s %s\n", accel_registry[i]->name, accel_registry[i]->summary);
+    fputs(eol + 1, out);
 }
 
 typedef struct Cursor {
     int argc, i;
     char **argv;
     FILE *err;
+    int opt, prev;   /* where the current and the previous option began (0: none) */
+    bool hinted;     /* the message already says what to do: no "-h for help" */
 } Cursor;
+
+enum { MAX_OPTION_NAMES = 256 };
+
+/* The option names of usage_text, in order ("-h" and "--help" both). */
+int options_names(const char **names, int max)
+{
+    static char store[sizeof usage_text];
+    static const char *found[MAX_OPTION_NAMES];
+    static int count = -1;
+    if (count < 0) {
+        count = 0;
+        size_t used = 0;
+        for (const char *line = usage_text; *line;) {
+            const char *eol = strchr(line, '\n');
+            if (!eol)
+                eol = line + strlen(line);
+            const char *p = line;
+            if (p[0] == ' ' && p[1] == ' ' && p[2] == '-') {
+                p += 2;
+                /* "-h, --help   ..." lists two names; a synopsis ends at two blanks. */
+                while (*p == '-' && count < MAX_OPTION_NAMES) {
+                    size_t n = strcspn(p, " ,\n");
+                    memcpy(store + used, p, n);
+                    store[used + n] = '\0';
+                    bool seen = false; /* -grid has two lines */
+                    for (int k = 0; k < count && !seen; k++)
+                        seen = !strcmp(found[k], store + used);
+                    if (!seen) {
+                        found[count++] = store + used;
+                        used += n + 1;
+                    }
+                    p += n;
+                    if (p[0] == ',' && p[1] == ' ')
+                        p += 2;
+                    else
+                        break;
+                }
+            }
+            line = *eol ? eol + 1 : eol;
+        }
+    }
+    int n = count < max ? count : max;
+    for (int i = 0; i < n; i++)
+        names[i] = found[i];
+    return count;
+}
+
+/* The synopsis of option name from usage_text ("-size w h"), into buf; "" if none. */
+static void option_synopsis(const char *name, char *buf, size_t size)
+{
+    size_t len = strlen(name);
+    buf[0] = '\0';
+    for (const char *line = usage_text; *line;) {
+        const char *eol = strchr(line, '\n');
+        if (!eol)
+            eol = line + strlen(line);
+        if (!strncmp(line, "  ", 2) && !strncmp(line + 2, name, len) &&
+            (line[2 + len] == ' ' || line[2 + len] == ',')) {
+            const char *start = line + 2, *end = strstr(start, "  ");
+            if (!end || end > eol)
+                end = eol;
+            snprintf(buf, size, "%.*s", (int)(end - start), start);
+            return;
+        }
+        line = *eol ? eol + 1 : eol;
+    }
+}
 
 static bool usage_error(Cursor *c, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
@@ -114,7 +198,7 @@ static bool usage_error(Cursor *c, const char *fmt, ...)
     va_start(ap, fmt);
     vfprintf(c->err, fmt, ap);
     va_end(ap);
-    fputs(" (raytracer -h for help)\n", c->err);
+    fputs(c->hinted ? "\n" : " (raytracer -h for help)\n", c->err);
     return false;
 }
 
@@ -196,10 +280,56 @@ static bool same_file(const char *a, const char *b)
     return same;
 }
 
+static bool looks_like_number(const char *s)
+{
+    char *end;
+    errno = 0;
+    (void)strtod(s, &end);
+    return end != s && *end == '\0';
+}
+
+static bool looks_like_scene(const char *s)
+{
+    size_t n = strlen(s);
+    struct stat st;
+    return (n > 4 && !strcmp(s + n - 4, ".txt")) || (stat(s, &st) == 0 && S_ISREG(st.st_mode));
+}
+
+/* argv[c->opt] is no option: say what it probably is. */
+static bool unknown_argument(Cursor *c, const Options *o)
+{
+    const char *a = c->argv[c->opt];
+    if (a[0] == '-' && a[1] != '\0' && !looks_like_number(a)) {
+        const char *names[MAX_OPTION_NAMES];
+        int n = options_names(names, MAX_OPTION_NAMES);
+        char hint[256];
+        suggest_format(hint, sizeof hint, a, names, (size_t)(n < MAX_OPTION_NAMES ? n : MAX_OPTION_NAMES));
+        c->hinted = hint[0] != '\0';
+        return usage_error(c, "unknown option '%s'%s", a, hint);
+    }
+    int values = c->prev > 0 ? c->opt - c->prev - 1 : 0;
+    if (values > 0) {
+        char synopsis[128], given[256];
+        option_synopsis(c->argv[c->prev], synopsis, sizeof synopsis);
+        size_t used = (size_t)snprintf(given, sizeof given, "%s", c->argv[c->prev]);
+        for (int k = c->prev + 1; k < c->opt && used < sizeof given; k++)
+            used += (size_t)snprintf(given + used, sizeof given - used, " %s", c->argv[k]);
+        return usage_error(c, "extra value '%s' after '%s': %s takes %d value%s (%s)", a,
+                           given, c->argv[c->prev], values, values == 1 ? "" : "s",
+                           synopsis[0] ? synopsis : c->argv[c->prev]);
+    }
+    c->hinted = true;
+    if (!o->input && looks_like_scene(a))
+        return usage_error(c, "unexpected argument '%s' (did you mean -input %s?)", a, a);
+    return usage_error(c, "unexpected argument '%s': options start with '-'", a);
+}
+
 bool options_parse(Options *o, int argc, char **argv, FILE *err)
 {
-    Cursor c = {argc, 1, argv, err};
+    Cursor c = {argc, 1, argv, err, 0, 0, false};
     for (; c.i < argc; c.i++) {
+        c.prev = c.opt;
+        c.opt = c.i;
         const char *a = argv[c.i];
         if (!strcmp(a, "-input")) {
             if (!take(&c, a, &o->input))
@@ -274,6 +404,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (!take_int(&c, a, 3, MAX_TESSELLATION, &o->tess_theta) ||
                 !take_int(&c, a, 2, MAX_TESSELLATION, &o->tess_phi))
                 return false;
+            o->tessellation_given = true;
         } else if (!strcmp(a, "-gui_snapshot")) {
             if (!take(&c, a, &o->gui_snapshot))
                 return false;
@@ -370,8 +501,13 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             o->help = true;
         } else if (!strcmp(a, "--version") || !strcmp(a, "-version")) {
             o->version = true;
+        } else if (!strcmp(a, "-progress")) {
+            o->progress = PROGRESS_ALWAYS;
+        } else if (!strcmp(a, "-quiet")) {
+            o->progress = PROGRESS_NEVER;
+            o->quiet = true;
         } else {
-            return usage_error(&c, "unknown option '%s'", a);
+            return unknown_argument(&c, o);
         }
     }
     if (o->help || o->version)
@@ -424,6 +560,14 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             return usage_error(&c, "-region and -tile: -render_samples draws the whole "
                                "image; render it without them");
     }
+    /* A run that writes and shows nothing would render for nothing. Every option that
+     * produces a result belongs in this test. */
+    if (!o->output && !o->depth_file && !o->normals_file && !o->gui && !o->gui_snapshot &&
+        !o->stats && !o->samples_file && !o->filter_file) {
+        c.hinted = true;
+        return usage_error(&c, "nothing to write: give -output FILE (or -depth, -normals, "
+                           "-stats, -render_samples, -render_filter, -gui, -gui_snapshot)");
+    }
     return true;
 }
 
@@ -444,4 +588,21 @@ void options_tile_rows(int k, int n, int height, int *y, int *h)
         hi = height;
     *y = height - hi;
     *h = hi - lo;
+}
+
+void options_warn(const Options *o, int cores, FILE *err)
+{
+    if (!o->gui && !o->gui_snapshot) {
+        static const char *const preview_only[] = {"-gui_keys", "-tessellation", "-gouraud"};
+        bool given[3] = {o->gui_keys != NULL, o->tessellation_given, o->gouraud};
+        for (int i = 0; i < 3; i++)
+            if (given[i])
+                fprintf(err, "raytracer: warning: %s has no effect without -gui or "
+                        "-gui_snapshot\n", preview_only[i]);
+    }
+    /* A few threads more than cores can even out uneven rows; many more only cost. */
+    if (o->threads > 4 * cores && o->threads > cores + 8)
+        fprintf(err, "raytracer: warning: -threads %d on %d core%s: the extra threads only "
+                "wait their turn (the image is the same)\n", o->threads, cores,
+                cores == 1 ? "" : "s");
 }

@@ -8,6 +8,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
@@ -163,14 +164,9 @@ static bool write_direct(const Pending *p, Diag *diag)
     return ok;
 }
 
-/* Encodes img for path by its extension into p->data. */
-static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
+/* The codec that writes path (by its extension), or NULL with the reason reported. */
+static const ImageCodec *codec_for_writing(const char *path, Diag *diag)
 {
-    bool ok = false;
-    if (!img || !img->pixels || img->width <= 0 || img->height <= 0) {
-        report(diag, path, "cannot write image: ", "empty image");
-        return false;
-    }
     const ImageCodec *codec = image_codec_for_path(path);
     if (!codec) {
         if (diag) {
@@ -180,7 +176,7 @@ static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
             diag_error(diag, &loc, "unknown image format (file name must end in one of %s)",
                        list);
         }
-        return false;
+        return NULL;
     }
     if (!codec->encode) {
         if (diag) {
@@ -191,8 +187,68 @@ static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
             diag_error(diag, &loc, "%s output is not built in: %s, or write one of %s", name,
                        codec->missing, list);
         }
+        return NULL;
+    }
+    return codec;
+}
+
+bool image_check_output(const char *path, Diag *diag)
+{
+    struct stat st;
+    bool exists = stat(path, &st) == 0;
+    if (exists && S_ISDIR(st.st_mode)) {
+        report(diag, path, "cannot write image: ", "it is a folder");
         return false;
     }
+    if (!codec_for_writing(path, diag))
+        return false;
+    if (exists) {
+        /* A pipe or a device is written in place: it must take writes itself. */
+        if (!S_ISREG(st.st_mode)) {
+            if (access(path, W_OK) != 0) {
+                report(diag, path, "cannot write image: ", strerror(errno));
+                return false;
+            }
+            return true;
+        }
+    }
+    /* A file (new or replaced) is made in its folder and renamed: the folder must exist
+     * and take new files. */
+    const char *slash = strrchr(path, '/');
+    char *dir = slash ? strndup(path, slash == path ? 1 : (size_t)(slash - path)) : strdup(".");
+    if (!dir) {
+        report(diag, path, "cannot write image: ", strerror(ENOMEM));
+        return false;
+    }
+    bool ok = true;
+    char why[64 + PATH_MAX];
+    if (stat(dir, &st) != 0) {
+        snprintf(why, sizeof why, "folder '%s': %s", dir, strerror(errno));
+        ok = false;
+    } else if (!S_ISDIR(st.st_mode)) {
+        snprintf(why, sizeof why, "'%s' is not a folder", dir);
+        ok = false;
+    } else if (access(dir, W_OK | X_OK) != 0) {
+        snprintf(why, sizeof why, "folder '%s' is not writable: %s", dir, strerror(errno));
+        ok = false;
+    }
+    if (!ok)
+        report(diag, path, "cannot write image: ", why);
+    free(dir);
+    return ok;
+}
+
+/* Encodes img for path by its extension into p->data. */
+static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
+{
+    bool ok = false;
+    if (!img || !img->pixels || img->width <= 0 || img->height <= 0) {
+        report(diag, path, "cannot write image: ", "empty image");
+        return false;
+    }
+    const ImageCodec *codec = codec_for_writing(path, diag);
+    if (!codec)
+        return false;
     ok = codec->encode(img, &p->data, &p->len);
     if (!ok)
         report(diag, path, "cannot write image: ", strerror(ENOMEM));

@@ -129,7 +129,12 @@ static void image_band(void *user, RenderCtx *ctx, int band)
     const RenderTarget *t = job->target;
     int top = t->y0 + t->h;
     int y0 = (t->y0 / TILE + band) * TILE, y1 = y0 + TILE < top ? y0 + TILE : top;
+    const RtStats *st = &ctx->stats;
+    uint64_t rays = st->nonshadow_rays + st->shadow_rays;
     render_band(job, ctx, y0, y1);
+    int lo = y0 > t->y0 ? y0 : t->y0; /* the rows of this band inside the rectangle */
+    progress_add(t->progress, (uint64_t)(y1 - lo),
+                 st->nonshadow_rays + st->shadow_rays - rays);
     if (job->row_done)
         for (int y = y0; y < y1; y++)
             job->row_done(job->user, y);

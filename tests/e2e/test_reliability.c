@@ -279,7 +279,8 @@ static void test_grid_limit_with_options(void)
     CHECK_INT(run(a1, &r), 2);
     CHECK_CONTAINS(r.err, "cells, the limit is 16777216");
     e2e_run_free(&r);
-    const char *a2[] = {"-input", scene, "-grid", "256", "256", "256", "-size", "4", "4", NULL};
+    const char *a2[] = {"-input", scene, "-grid", "256", "256", "256", "-size", "4", "4", "-stats",
+                        NULL};
     CHECK_INT(run(a2, &r), 0); /* exactly the limit: accepted (only planes: no grid) */
     e2e_run_free(&r);
 }

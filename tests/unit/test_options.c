@@ -45,18 +45,18 @@ static void test_defaults_and_repeats(void)
 {
     Options o;
     char err[512] = "";
-    CHECK(parse(&o, "-input a.txt -input b.txt -grid auto", err, sizeof err));
+    CHECK(parse(&o, "-input a.txt -input b.txt -grid auto -output o.tga", err, sizeof err));
     CHECK_STR(o.input, "b.txt"); /* the later occurrence wins */
     CHECK_INT(o.width, 100);
     CHECK_INT(o.bounces, 0);
     CHECK(o.grid_auto);
     CHECK(parse(&o, "-h", err, sizeof err) && o.help);
     /* -accel grid alone is -grid auto; with -grid it keeps the resolution. */
-    CHECK(parse(&o, "-input a.txt -accel grid", err, sizeof err));
+    CHECK(parse(&o, "-input a.txt -output o.tga -accel grid", err, sizeof err));
     CHECK(o.grid && o.grid_auto && o.accel); /* (o.accel points into parse's buffer) */
-    CHECK(parse(&o, "-input a.txt -grid 3 4 5 -accel grid", err, sizeof err));
+    CHECK(parse(&o, "-input a.txt -output o.tga -grid 3 4 5 -accel grid", err, sizeof err));
     CHECK(o.grid && !o.grid_auto && o.grid_n[2] == 5);
-    CHECK(parse(&o, "-input a.txt -accel none", err, sizeof err));
+    CHECK(parse(&o, "-input a.txt -output o.tga -accel none", err, sizeof err));
     CHECK(!o.grid && o.accel);
     CHECK(parse(&o, "--version", err, sizeof err) && o.version);
 }

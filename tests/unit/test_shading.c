@@ -262,7 +262,7 @@ static void test_depth_and_normals_images(void)
     Image depth, normals;
     CHECK(image_init(&depth, 8, 8));
     CHECK(image_init(&normals, 8, 8));
-    RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals, 0, 0, 0, 0};
+    RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals, 0, 0, 0, 0, NULL};
     CHECK(render_image(&rt, &m.s.camera, &target, 2, NULL, NULL, NULL, NULL));
     Vec3 n = v3_normalize(v3(0.5f, 0, 1)); /* the triangle's plane: z = -x/2 */
     for (int x = 0; x < 8; x++) {

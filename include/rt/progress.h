@@ -1,0 +1,44 @@
+/* A progress line for long work: "rendering  37%  2.10 Mrays/s  0:05 elapsed, 0:08
+ * left", redrawn in place on a terminal by one drawing thread at most 10 times a
+ * second, and erased when the work ends. Workers only add to two atomic counters, so
+ * it costs them nothing measurable; anything that counts units of work (image rows,
+ * MPI tiles, samples) can use it. */
+#ifndef RT_PROGRESS_H
+#define RT_PROGRESS_H
+
+#include <stdbool.h>
+#include <stdint.h>
+#include <stdio.h>
+
+typedef enum ProgressMode {
+    PROGRESS_AUTO,     /* draw only when out is a terminal (pipes, files, tests stay clean) */
+    PROGRESS_ALWAYS,   /* -progress: draw even into a pipe or a file */
+    PROGRESS_NEVER     /* -quiet */
+} ProgressMode;
+
+typedef struct Progress Progress;
+
+/* Whether mode draws on out (AUTO: out is a terminal). */
+bool progress_wanted(ProgressMode mode, FILE *out);
+
+/* Starts a line "<what> 0%" on out for total units of work (total > 0) and the thread
+ * that redraws it. Returns NULL when nothing is to be drawn (progress_wanted is false,
+ * total is 0, or no memory or thread): every function below accepts NULL and then does
+ * nothing, so callers need no test. what is borrowed until progress_finish. */
+Progress *progress_start(ProgressMode mode, FILE *out, const char *what, uint64_t total);
+
+/* Adds units of finished work and the rays they traced (0 when rays are not the
+ * measure: the line then shows no rate). Safe from any thread, lock-free. */
+void progress_add(Progress *p, uint64_t units, uint64_t rays);
+
+/* Stops the drawing thread, erases the line (out is left where the line began) and
+ * frees p. Call it before anything else is printed on out's terminal. */
+void progress_finish(Progress *p);
+
+/* The text of the line for the given state, into buf (for the drawer and the tests):
+ * percentage of total done, rays per second when rays > 0, elapsed time and, once
+ * something is done, an estimate of the time left. */
+void progress_format(char *buf, size_t size, const char *what, uint64_t done, uint64_t total,
+                     uint64_t rays, double elapsed_seconds);
+
+#endif

@@ -1,0 +1,345 @@
+/* The user's side of the command line: the progress line (under a pseudo-terminal it
+ * appears and is erased at the end; into a pipe it is absent unless -progress), hints,
+ * warnings, "did you mean" suggestions and the usage error for a run with nothing to
+ * write. */
+#define _XOPEN_SOURCE 600
+#include <fcntl.h>
+#include <poll.h>
+#include <stdlib.h>
+#include <sys/wait.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include "../harness.h"
+#include "e2e_util.h"
+
+#include "rt/progress.h"
+#include "rt/suggest.h"
+
+/* Runs the binary with args, its stderr on a new pseudo-terminal (stdout to /dev/null),
+ * and returns what the terminal received (malloc'd) and the exit status. */
+static char *run_on_pty(const char *const *args, int *status)
+{
+    *status = -1;
+    int master = posix_openpt(O_RDWR | O_NOCTTY);
+    if (master < 0 || grantpt(master) != 0 || unlockpt(master) != 0)
+        return NULL;
+    const char *slave_name = ptsname(master);
+    if (!slave_name)
+        return NULL;
+    char *argv[64];
+    int n = 0;
+    argv[n++] = (char *)harness_bin();
+    for (int i = 0; args[i] && n < 63; i++)
+        argv[n++] = (char *)args[i];
+    argv[n] = NULL;
+    fflush(stdout);
+    fflush(stderr);
+    pid_t pid = fork();
+    if (pid == 0) {
+        setsid();
+        int slave = open(slave_name, O_RDWR);
+        int devnull = open("/dev/null", O_RDWR);
+        if (slave < 0 || devnull < 0)
+            _exit(126);
+        /* Raw output: the bytes arrive as written (no \n -> \r\n). */
+        struct termios tio;
+        if (tcgetattr(slave, &tio) == 0) {
+            tio.c_oflag &= ~(tcflag_t)OPOST;
+            tcsetattr(slave, TCSANOW, &tio);
+        }
+        dup2(devnull, 0);
+        dup2(devnull, 1);
+        dup2(slave, 2);
+        close(master);
+        execv(argv[0], argv);
+        _exit(127);
+    }
+    size_t len = 0, cap = 0;
+    char *text = NULL;
+    e2e_append(&text, &len, &cap, "", 0);
+    char buf[4096];
+    for (;;) {
+        ssize_t got = read(master, buf, sizeof buf);
+        if (got > 0)
+            e2e_append(&text, &len, &cap, buf, (size_t)got);
+        else if (got < 0 && errno == EINTR)
+            continue;
+        else
+            break; /* EIO: the last holder of the terminal's other side has gone */
+    }
+    close(master);
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+    }
+    *status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    return text;
+}
+
+typedef struct Paths {
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+} Paths;
+
+static void paths_init(Paths *p)
+{
+    CHECK(e2e_tmpdir(p->dir, sizeof p->dir, "ux") != NULL);
+    char rel[PATH_MAX];
+    e2e_join(rel, sizeof rel, harness_root(), "scenes/showcase.txt");
+    CHECK(e2e_abspath(rel, p->scene, sizeof p->scene));
+    e2e_join(p->out, sizeof p->out, p->dir, "out.tga");
+}
+
+/* The text left on the terminal's line: what follows the last carriage return. */
+static const char *last_segment(const char *text)
+{
+    const char *cr = strrchr(text, '\r');
+    return cr ? cr + 1 : text;
+}
+
+static void test_progress_on_terminal(void)
+{
+    Paths p;
+    paths_init(&p);
+    const char *args[] = {"-input", p.scene, "-output", p.out, "-size", "160", "120",
+                          "-shadows", "-grid", "auto", NULL};
+    int status;
+    char *text = run_on_pty(args, &status);
+    CHECK(text != NULL);
+    CHECK_INT(status, 0);
+    if (text) {
+        CHECK_CONTAINS(text, "\rrendering ");
+        CHECK_CONTAINS(text, "% ");
+        CHECK_CONTAINS(text, "elapsed");
+        /* Ends cleanly: the last redraw is blanks over the longest line, then a carriage
+         * return, and nothing is printed after it. */
+        size_t n = strlen(text);
+        CHECK_MSG(n >= 2 && text[n - 1] == '\r', "the line is not erased at the end: '%s'",
+                  text);
+        if (n >= 2 && text[n - 1] == '\r') {
+            text[n - 1] = '\0';
+            const char *blank = last_segment(text);
+            CHECK_MSG(strspn(blank, " ") == strlen(blank) && strlen(blank) >= 20,
+                      "the last segment is not the erasing blanks: '%s'", blank);
+        }
+    }
+    free(text);
+    CHECK(e2e_exists(p.out));
+    e2e_rmtree(p.dir);
+}
+
+static void test_quiet_on_terminal(void)
+{
+    Paths p;
+    paths_init(&p);
+    const char *args[] = {"-input", p.scene, "-output", p.out, "-size", "40", "30", "-quiet",
+                          NULL};
+    int status;
+    char *text = run_on_pty(args, &status);
+    CHECK_INT(status, 0);
+    CHECK_MSG(text && text[0] == '\0', "-quiet printed '%s'", text ? text : "(null)");
+    free(text);
+    e2e_rmtree(p.dir);
+}
+
+static void test_no_progress_into_pipe(void)
+{
+    Paths p;
+    paths_init(&p);
+    const char *args[] = {"-input", p.scene, "-output", p.out, "-size", "40", "30", "-grid",
+                          "auto", NULL};
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(r.err_len == 0, "stderr into a pipe: '%s'", r.err);
+    e2e_run_free(&r);
+    /* -progress forces it, and it is still erased at the end. */
+    const char *forced[] = {"-input", p.scene, "-output", p.out, "-size", "40", "30",
+                            "-grid", "auto", "-progress", NULL};
+    CHECK(e2e_run_bin(harness_bin(), forced, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_CONTAINS(r.err, "\rrendering ");
+    CHECK(r.err_len > 0 && r.err[r.err_len - 1] == '\r');
+    e2e_run_free(&r);
+    e2e_rmtree(p.dir);
+}
+
+static void test_progress_format(void)
+{
+    char buf[160];
+    progress_format(buf, sizeof buf, "rendering", 25, 100, 3000000, 2.0);
+    CHECK_STR(buf, "rendering  25%  1.50 Mrays/s  0:02 elapsed, 0:06 left");
+    progress_format(buf, sizeof buf, "tiles", 0, 8, 0, 0.0);
+    CHECK_STR(buf, "tiles   0%  0:00 elapsed");
+    progress_format(buf, sizeof buf, "rendering", 100, 100, 5000, 3725.0);
+    CHECK_STR(buf, "rendering 100%  1 rays/s  1:02:05 elapsed");
+    progress_format(buf, sizeof buf, "rendering", 3, 4, 45000, 1.0);
+    CHECK_STR(buf, "rendering  75%  45 krays/s  0:01 elapsed, 0:00 left");
+    /* Nothing is drawn where nothing is wanted, and NULL is accepted everywhere. */
+    CHECK(progress_start(PROGRESS_NEVER, stderr, "x", 10) == NULL);
+    CHECK(progress_start(PROGRESS_ALWAYS, stderr, "x", 0) == NULL);
+    progress_add(NULL, 1, 1);
+    progress_finish(NULL);
+}
+
+static void test_suggestions(void)
+{
+    static const char *const names[] = {"-shadows", "-shade_back", "-size", "-grid", "-gui",
+                                        "-h", "--help"};
+    const size_t n = sizeof names / sizeof names[0];
+    char buf[200];
+    suggest_format(buf, sizeof buf, "-shadow", names, n);
+    CHECK_STR(buf, " (did you mean -shadows?)");
+    suggest_format(buf, sizeof buf, "-sha", names, n);
+    CHECK_STR(buf, " (did you mean -shadows or -shade_back?)");
+    suggest_format(buf, sizeof buf, "-gird", names, n);
+    CHECK_STR(buf, " (did you mean -grid?)");
+    suggest_format(buf, sizeof buf, "-zzzzzz", names, n);
+    CHECK_STR(buf, "");
+    CHECK_INT(suggest_distance("Phongmaterial", "PhongMaterial"), 0);
+    CHECK_INT(suggest_distance("Sphre", "Sphere"), 1);
+    CHECK_INT(suggest_distance("-sahdows", "-shadows"), 1);
+    CHECK_INT(suggest_distance("", "abc"), 3);
+}
+
+/* Runs with args and expects status and a message containing want. */
+static void expect_run(const char *const *args, int status, const char *want)
+{
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    char why[512];
+    CHECK_MSG(r.status == status, "%s: %s", args[0], e2e_describe(&r, why, sizeof why));
+    CHECK_CONTAINS(r.err, want);
+    e2e_run_free(&r);
+}
+
+static void test_usage_suggestions(void)
+{
+    Paths p;
+    paths_init(&p);
+    const char *a1[] = {"-input", p.scene, "-output", p.out, "-shadow", NULL};
+    expect_run(a1, 2, "unknown option '-shadow' (did you mean -shadows?)");
+    const char *a2[] = {p.scene, "-output", p.out, NULL};
+    char want[PATH_MAX + 64];
+    snprintf(want, sizeof want, "(did you mean -input %s?)", p.scene);
+    expect_run(a2, 2, want);
+    const char *a3[] = {"-input", p.scene, "-output", p.out, "-size", "200", "200", "300", NULL};
+    expect_run(a3, 2, "extra value '300' after '-size 200 200': -size takes 2 values");
+    const char *a4[] = {"-input", p.scene, NULL};
+    expect_run(a4, 2, "nothing to write: give -output FILE");
+    const char *a5[] = {"-input", p.scene, "-output", p.out, "-sha", NULL};
+    expect_run(a5, 2, "(did you mean -shadows or -shade_back?)");
+    CHECK(!e2e_exists(p.out));
+    e2e_rmtree(p.dir);
+}
+
+static void test_warnings_and_hint(void)
+{
+    Paths p;
+    paths_init(&p);
+    const char *a1[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8", "-gouraud",
+                        "-tessellation", "8", "4", "-gui_keys", "r", "-threads", "1000", NULL};
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), a1, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_CONTAINS(r.err, "warning: -gouraud has no effect without -gui");
+    CHECK_CONTAINS(r.err, "warning: -tessellation has no effect");
+    CHECK_CONTAINS(r.err, "warning: -gui_keys has no effect");
+    CHECK_CONTAINS(r.err, "warning: -threads 1000 on ");
+    e2e_run_free(&r);
+
+    /* A mesh of 1280 triangles without -grid: one hint; with -grid or -quiet none. */
+    char scene[PATH_MAX], model[PATH_MAX], text[PATH_MAX + 512];
+    e2e_join(model, sizeof model, harness_root(), "models/icosphere.obj");
+    char abs_model[PATH_MAX];
+    CHECK(e2e_abspath(model, abs_model, sizeof abs_model));
+    snprintf(text, sizeof text,
+             "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 3 }\n"
+             "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
+             "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+             "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file %s } }\n",
+             abs_model);
+    e2e_join(scene, sizeof scene, p.dir, "mesh.txt");
+    CHECK(e2e_write_file(scene, text));
+    const char *a2[] = {"-input", scene, "-output", p.out, "-size", "8", "8", NULL};
+    CHECK(e2e_run_bin(harness_bin(), a2, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_CONTAINS(r.err, "hint: 1280 primitives and no -grid: add -grid auto");
+    e2e_run_free(&r);
+    const char *a3[] = {"-input", scene, "-output", p.out, "-size", "8", "8", "-grid", "auto",
+                        NULL};
+    CHECK(e2e_run_bin(harness_bin(), a3, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(r.err_len == 0, "stderr: %s", r.err);
+    e2e_run_free(&r);
+    const char *a4[] = {"-input", scene, "-output", p.out, "-size", "8", "8", "-quiet", NULL};
+    CHECK(e2e_run_bin(harness_bin(), a4, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(r.err_len == 0, "stderr: %s", r.err);
+    e2e_run_free(&r);
+    e2e_rmtree(p.dir);
+}
+
+/* Output problems are found before the scene is opened: with a scene file that does
+ * not exist, the only message is the output's (opening the scene first would report
+ * the scene). */
+static void test_outputs_checked_first(void)
+{
+    Paths p;
+    paths_init(&p);
+    char missing_scene[PATH_MAX], in_missing_dir[PATH_MAX], jpg[PATH_MAX];
+    e2e_join(missing_scene, sizeof missing_scene, p.dir, "no_such_scene.txt");
+    e2e_join(in_missing_dir, sizeof in_missing_dir, p.dir, "nodir/a.tga");
+    e2e_join(jpg, sizeof jpg, p.dir, "a.jpg");
+    struct {
+        const char *flag, *path, *want;
+    } cases[] = {
+        {"-output", jpg, "unknown image format"},
+        {"-output", in_missing_dir, "No such file or directory"},
+        {"-output", p.dir, "it is a folder"},
+        {"-depth", in_missing_dir, "No such file or directory"},
+        {"-normals", jpg, "unknown image format"},
+        {"-gui_snapshot", jpg, "unknown image format"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const char *args[10];
+        int n = 0;
+        args[n++] = "-input";
+        args[n++] = missing_scene;
+        args[n++] = cases[i].flag;
+        if (!strcmp(cases[i].flag, "-depth")) {
+            args[n++] = "1";
+            args[n++] = "2";
+        }
+        args[n++] = cases[i].path;
+        args[n] = NULL;
+        E2eRun r;
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        CHECK_MSG(r.status == 1, "%s %s: exit %d", cases[i].flag, cases[i].path, r.status);
+        CHECK_CONTAINS(r.err, cases[i].want);
+        CHECK_MSG(!strstr(r.err, "scene"), "%s %s: the scene was opened: %s", cases[i].flag,
+                  cases[i].path, r.err);
+        e2e_run_free(&r);
+    }
+    /* With a real scene, the same: one line, nothing written. */
+    const char *args[] = {"-input", p.scene, "-output", p.out, "-normals", jpg, NULL};
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    CHECK_INT(r.status, 1);
+    CHECK_CONTAINS(r.err, "a.jpg: error: unknown image format");
+    CHECK_MSG(strchr(r.err, '\n') == r.err + r.err_len - 1, "more than one line: %s", r.err);
+    e2e_run_free(&r);
+    CHECK_INT(e2e_count_entries(p.dir), 0);
+    e2e_rmtree(p.dir);
+}
+
+static const TestCase tests[] = {
+    {"ux: outputs are checked before the scene is read", test_outputs_checked_first},
+    {"ux: progress line on a terminal, erased at the end", test_progress_on_terminal},
+    {"ux: -quiet on a terminal prints nothing", test_quiet_on_terminal},
+    {"ux: no progress into a pipe; -progress forces it", test_no_progress_into_pipe},
+    {"ux: progress line text", test_progress_format},
+    {"ux: edit distance and suggestions", test_suggestions},
+    {"ux: usage errors suggest the fix", test_usage_suggestions},
+    {"ux: warnings for options without effect, the grid hint", test_warnings_and_hint},
+};
+RT_TEST_MAIN(tests)
