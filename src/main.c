@@ -165,7 +165,8 @@ typedef struct RectJob {
     App *app;
     const Camera *camera;
     FilmConfig *fc;            /* NULL: no antialiasing; its CPU times add up here */
-    Progress *progress;        /* NULL, or gets the rows rendered (no antialiasing) */
+    Progress *progress;        /* NULL, or gets the rows rendered (no antialiasing; the
+                                  film reports through fc->progress) */
 } RectJob;
 
 static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, Image *depth,
@@ -273,18 +274,19 @@ static int render_and_write(void *user, const Camera *camera)
     RtStats counts;
     memset(&counts, 0, sizeof counts);
     /* The preview shows its rows in the window; a terminal line would only interleave
-     * with its key messages. The film (antialiasing) and MPI ranks do not report rows
-     * yet, so they get no line rather than one that never moves. */
+     * with its key messages. MPI ranks do not report their tiles yet, so they get no
+     * line rather than one that never moves. */
     bool preview = o->gui || o->gui_snapshot;
-    target.progress = preview || film || dist_size() > 1
-                          ? NULL
-                          : progress_start(o->progress, stderr, "rendering", (uint64_t)target.h);
+    bool show_progress = !preview && dist_size() == 1;
     double t0 = clock_now();
     bool ok = true;
     FilmConfig fc;
     memset(&fc, 0, sizeof fc);
     /* Only a filter picture needs no samples: nothing is traced then. */
     if (!film || target.color || target.depth || target.normals || samples || !filter_pic) {
+        if (!film && show_progress) /* units: image rows */
+            target.progress = progress_start(o->progress, stderr, "rendering",
+                                             (uint64_t)target.h);
         if (film) {
             fc.sampler = &sampler;
             fc.filter = &filter;
@@ -296,6 +298,16 @@ static int render_and_write(void *user, const Camera *camera)
             fc.depth_max = o->depth_max;
             fc.samples = samples; /* only without -region and MPI (options, run) */
             fc.samples_zoom = o->samples_zoom;
+            /* Units: the film's traced pixels, margins included (one rectangle here:
+             * the local run renders the target in one piece). */
+            fc.x0 = target.x0;
+            fc.y0 = target.y0;
+            fc.width = target.w;
+            fc.height = target.h;
+            if (show_progress)
+                target.progress = progress_start(o->progress, stderr, "rendering",
+                                                 film_traced_pixels(&fc));
+            fc.progress = target.progress;
         }
         RectJob rj = {app, camera, film ? &fc : NULL, target.progress};
         DistJob job;

@@ -18,6 +18,7 @@
 #include "rt/camera.h"
 #include "rt/filter.h"
 #include "rt/image.h"
+#include "rt/progress.h"
 #include "rt/raytracer.h"
 #include "rt/sampler.h"
 
@@ -46,6 +47,9 @@ typedef struct FilmConfig {
     Image *samples;
     int samples_zoom;
     size_t budget;                    /* 0: FILM_DEFAULT_BUDGET */
+    /* NULL, or gets every traced pixel (the rectangle and its filter margin, see
+     * film_traced_pixels) and the rays it cast, as each band of rows is traced. */
+    Progress *progress;
     /* Out: CPU seconds the calling thread spent tracing and filtering (with one
      * thread, the whole cost of each phase; for -timings and the benchmark). */
     double trace_cpu, filter_cpu;
@@ -56,6 +60,10 @@ typedef struct FilmConfig {
  * NULL). cancel as render_image. False on a bad configuration, out of memory or cancel. */
 bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
                  int threads, RtStats *stats_out, volatile int *cancel);
+
+/* Pixels film_render traces for cfg's rectangle: the rectangle widened by the filter's
+ * support R on each side, cropped at the image border (the progress line's total). */
+uint64_t film_traced_pixels(const FilmConfig *cfg);
 
 /* The filter picture (-render_filter file zoom) of a W x H image: out must be allocated
  * at (W*zoom + 1) x (H*zoom + 1). Medium blue (0,0,0.5); the weights for the centre pixel

@@ -31,6 +31,9 @@ Progress *progress_start(ProgressMode mode, FILE *out, const char *what, uint64_
  * measure: the line then shows no rate). Safe from any thread, lock-free. */
 void progress_add(Progress *p, uint64_t units, uint64_t rays);
 
+/* Units added so far (0 for NULL): for callers that check their totals, and tests. */
+uint64_t progress_done(const Progress *p);
+
 /* Stops the drawing thread, erases the line (out is left where the line began) and
  * frees p. Call it before anything else is printed on out's terminal. */
 void progress_finish(Progress *p);

@@ -157,6 +157,11 @@ void progress_add(Progress *p, uint64_t units, uint64_t rays)
         atomic_fetch_add_explicit(&p->rays, rays, memory_order_relaxed);
 }
 
+uint64_t progress_done(const Progress *p)
+{
+    return p ? atomic_load_explicit(&((Progress *)p)->done, memory_order_relaxed) : 0;
+}
+
 void progress_finish(Progress *p)
 {
     if (!p)

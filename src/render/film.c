@@ -161,6 +161,7 @@ static void film_band(void *user, RenderCtx *ctx, int band)
     const Film *f = user;
     const FilmConfig *c = f->cfg;
     int y0 = f->r0 + band * TILE, y1 = y0 + TILE < f->r1 ? y0 + TILE : f->r1;
+    uint64_t rays0 = ctx->stats.nonshadow_rays + ctx->stats.shadow_rays;
     Stream st;
     st.n = 0;
     /* Tiles of 8 x 8 pixels in Morton order, each pixel's samples in a row: the rays of
@@ -185,6 +186,8 @@ static void film_band(void *user, RenderCtx *ctx, int band)
             }
         stream_flush(f, ctx, &st);
     }
+    progress_add(c->progress, (uint64_t)(y1 - y0) * (uint64_t)f->fw,
+                 ctx->stats.nonshadow_rays + ctx->stats.shadow_rays - rays0);
     if (c->samples)
         for (int y = y0 > c->y0 ? y0 : c->y0; y < y1 && y < c->y0 + c->height; y++)
             for (int x = c->x0; x < c->x0 + c->width; x++)
@@ -285,6 +288,13 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
     }
 }
 
+/* The traced columns or rows [lo, hi) of a span [x0, x0 + n) of an image of `full`. */
+static void film_margin(int x0, int n, int R, int full, int *lo, int *hi)
+{
+    *lo = x0 - R > 0 ? x0 - R : 0;
+    *hi = x0 + n + R < full ? x0 + n + R : full;
+}
+
 static bool film_check(const FilmConfig *c)
 {
     return c->sampler && c->filter && c->full_width > 0 && c->full_height > 0 &&
@@ -316,12 +326,8 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     f.camera = camera;
     f.tmin = camera_tmin(camera);
     int R = f.R = cfg->filter->support;
-    f.sx0 = cfg->x0 - R > 0 ? cfg->x0 - R : 0;
-    f.sx1 = cfg->x0 + cfg->width + R < cfg->full_width ? cfg->x0 + cfg->width + R
-                                                       : cfg->full_width;
-    f.sy0 = cfg->y0 - R > 0 ? cfg->y0 - R : 0;
-    f.sy1 = cfg->y0 + cfg->height + R < cfg->full_height ? cfg->y0 + cfg->height + R
-                                                         : cfg->full_height;
+    film_margin(cfg->x0, cfg->width, R, cfg->full_width, &f.sx0, &f.sx1);
+    film_margin(cfg->y0, cfg->height, R, cfg->full_height, &f.sy0, &f.sy1);
     f.fw = f.sx1 - f.sx0;
     f.slots = cfg->sampler->count;
     if (cfg->refine && cfg->refine->count > f.slots)
@@ -422,6 +428,16 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     if (stats_out)
         *stats_out = total;
     return ok;
+}
+
+uint64_t film_traced_pixels(const FilmConfig *cfg)
+{
+    if (!film_check(cfg))
+        return 0;
+    int R = cfg->filter->support, x0, x1, y0, y1;
+    film_margin(cfg->x0, cfg->width, R, cfg->full_width, &x0, &x1);
+    film_margin(cfg->y0, cfg->height, R, cfg->full_height, &y0, &y1);
+    return (uint64_t)(x1 - x0) * (uint64_t)(y1 - y0);
 }
 
 void film_filter_picture(const Filter *f, int width, int height, int zoom, Image *out)

@@ -96,12 +96,14 @@ static const char *last_segment(const char *text)
     return cr ? cr + 1 : text;
 }
 
-static void test_progress_on_terminal(void)
+static void check_progress_on_terminal(bool antialiased)
 {
     Paths p;
     paths_init(&p);
     const char *args[] = {"-input", p.scene, "-output", p.out, "-size", "160", "120",
-                          "-shadows", "-grid", "auto", NULL};
+                          "-shadows", "-grid", "auto",
+                          antialiased ? "-jittered_samples" : NULL, "4", "-gaussian_filter",
+                          "0.6", NULL};
     int status;
     char *text = run_on_pty(args, &status);
     CHECK(text != NULL);
@@ -126,6 +128,11 @@ static void test_progress_on_terminal(void)
     CHECK(e2e_exists(p.out));
     e2e_rmtree(p.dir);
 }
+
+static void test_progress_on_terminal(void) { check_progress_on_terminal(false); }
+
+/* The film counts its traced pixels: the same line while antialiasing. */
+static void test_progress_antialiased(void) { check_progress_on_terminal(true); }
 
 static void test_quiet_on_terminal(void)
 {
@@ -335,6 +342,7 @@ static void test_outputs_checked_first(void)
 static const TestCase tests[] = {
     {"ux: outputs are checked before the scene is read", test_outputs_checked_first},
     {"ux: progress line on a terminal, erased at the end", test_progress_on_terminal},
+    {"ux: progress line while antialiasing", test_progress_antialiased},
     {"ux: -quiet on a terminal prints nothing", test_quiet_on_terminal},
     {"ux: no progress into a pipe; -progress forces it", test_no_progress_into_pipe},
     {"ux: progress line text", test_progress_format},

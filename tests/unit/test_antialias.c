@@ -292,6 +292,53 @@ static void test_film_default_is_image_loop(void)
     }
 }
 
+/* The progress line counts every traced pixel once -- the rectangle and its filter
+ * margin, strip after strip -- and ends at film_traced_pixels. */
+static void test_film_progress(void)
+{
+    Fixture fx;
+    if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
+        return;
+    Sampler jit;
+    make_sampler(&jit, "jittered", 4, 0);
+    Filter gauss;
+    char why[160];
+    CHECK(filter_init(&gauss, filter_find("gaussian"), 0.9f, why, sizeof why)); /* R = 2 */
+    FILE *sink = tmpfile();
+    CHECK(sink != NULL);
+    static const int rects[][4] = {{0, 0, 61, 47}, {20, 13, 17, 9}, {55, 0, 6, 5}};
+    static const uint64_t traced[] = {61 * 47, 21 * 13, 8 * 7};
+    for (int r = 0; r < 3 && sink; r++) {
+        Image color;
+        CHECK(image_init(&color, rects[r][2], rects[r][3]));
+        FilmConfig fc;
+        memset(&fc, 0, sizeof fc);
+        fc.sampler = &jit;
+        fc.filter = &gauss;
+        fc.full_width = 61;
+        fc.full_height = 47;
+        fc.x0 = rects[r][0];
+        fc.y0 = rects[r][1];
+        fc.width = rects[r][2];
+        fc.height = rects[r][3];
+        fc.color = &color;
+        fc.budget = 1; /* a strip per output row: many strips, margins shared */
+        CHECK_MSG(film_traced_pixels(&fc) == traced[r], "rectangle %d: %llu traced pixels", r,
+                  (unsigned long long)film_traced_pixels(&fc));
+        fc.progress = progress_start(PROGRESS_ALWAYS, sink, "rendering", traced[r]);
+        CHECK(fc.progress != NULL);
+        CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, 2, NULL, NULL));
+        CHECK_MSG(progress_done(fc.progress) == traced[r], "rectangle %d: progress %llu of %llu",
+                  r, (unsigned long long)progress_done(fc.progress),
+                  (unsigned long long)traced[r]);
+        progress_finish(fc.progress);
+        image_free(&color);
+    }
+    if (sink)
+        fclose(sink);
+    fixture_close(&fx);
+}
+
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
@@ -299,6 +346,7 @@ static const TestCase tests[] = {
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
     {"film: one centred sample + box 0.5 == the image loop", test_film_default_is_image_loop},
+    {"film: progress counts every traced pixel once", test_film_progress},
 };
 
 RT_TEST_MAIN(tests)
