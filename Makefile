@@ -1,4 +1,4 @@
-# raytracer: plain GNU make, no configure step (DESIGN.md 8).
+# raytracer: plain GNU make, no configure step (docs/design.md).
 #   make          build ./raytracer and the tools
 #   make test     build and run every test (ends with "N passed, N failed")
 #   make asan     the same suite under AddressSanitizer + UndefinedBehaviorSanitizer

@@ -516,7 +516,7 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < np; i++)
         hits += isfinite(jb.t[i]);
     if (depth_file) {
-        /* semantics.md 8: clamp t to [dmin, dmax], near white; no hit black */
+        /* -depth: clamp t to [dmin, dmax], near white; no hit black */
         Image img;
         if (!(dmax > dmin) || !image_init(&img, w, h)) {
             fprintf(stderr, "embree_ref: bad -depth range or out of memory\n");

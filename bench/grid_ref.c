@@ -260,7 +260,7 @@ int main(int argc, char **argv)
     bench_make_rays(&sc->camera, w, h, jb.org, jb.dir);
     for (int i = 0; i < threads; i++) {
         wk[i].jb = &jb;
-        if (!render_ctx_init(&wk[i].ctx, &jb.rt)) {
+        if (!raytracer_ctx_init(&wk[i].ctx, &jb.rt)) {
             fprintf(stderr, "grid_ref: out of memory\n");
             return 1;
         }
@@ -291,7 +291,7 @@ int main(int argc, char **argv)
            shadow_rays, blocked, ms * 1e3, ms > 0 ? (double)shadow_rays / ms * 1e-6 : 0.0,
            (double)np / mcp * 1e-6, mcs > 0 ? (double)shadow_rays / mcs * 1e-6 : 0.0);
     for (int i = 0; i < threads; i++)
-        render_ctx_free(&wk[i].ctx);
+        raytracer_ctx_free(&wk[i].ctx);
     free(wk), free(tp), free(ts), free(cp), free(cs);
     free(jb.t), free(jb.org), free(jb.dir), free(jb.lit);
     grid_free(grid);

@@ -9,6 +9,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "rt/clock.h"
 #include "rt/dist.h"
 #include "rt/film.h"
 #include "rt/grid.h"

@@ -152,7 +152,8 @@ int main(int argc, char **argv)
                     float cb[3] = {b.pixels[i].x, b.pixels[i].y, b.pixels[i].z};
                     float c[3];
                     for (int k = 0; k < 3; k++) {
-                        int diff = abs(color_to_byte(ca[k]) - color_to_byte(cb[k])) * DIFF_GAIN;
+                        int diff = abs(image_color_to_byte(ca[k]) -
+                                       image_color_to_byte(cb[k])) * DIFF_GAIN;
                         c[k] = (float)(diff > 255 ? 255 : diff) / 255.0f;
                     }
                     out.pixels[i] = v3(c[0], c[1], c[2]);

@@ -18,8 +18,9 @@ typedef struct Camera {
     float tan_half;     /* tanf(angle / 2), set by the init functions and camera_rebasis */
 } Camera;
 
-/* Build the basis (semantics.md 2.2). False when direction is zero or up is parallel
- * to it, or size/angle is out of range (size <= 0; angle not in (0, pi)). */
+/* Build the basis (direction, up made orthogonal to it, horizontal = direction x up, all
+ * unit). False when direction is zero or up is parallel to it, or size/angle is out of
+ * range (size <= 0; angle not in (0, pi)). */
 bool camera_init_orthographic(Camera *c, Vec3 center, Vec3 direction, Vec3 up, float size);
 bool camera_init_perspective(Camera *c, Vec3 center, Vec3 direction, Vec3 up,
                              float angle_radians);
@@ -31,7 +32,8 @@ Ray camera_generate_ray(const Camera *c, float u, float v);
 float camera_tmin(const Camera *c);
 
 /* Pixel centre (i, j), j from the bottom, of a W x H image -> screen (u, v):
- * u = ((i + 0.5) - W/2) / S + 0.5, S = max(W, H) (semantics.md 2.1). */
+ * u = ((i + 0.5) - W/2) / S + 0.5, S = max(W, H) (the course's square screen on the
+ * larger side). */
 void camera_pixel_to_screen(int i, int j, int width, int height, float *u, float *v);
 /* The same for the point at offset (px, py) in [0,1]^2 inside pixel (i, j) (A7 samples):
  * u = ((i + px) - W/2) / S + 0.5 in float; (0.5, 0.5) gives camera_pixel_to_screen. */

@@ -102,12 +102,12 @@ const Object3D *transform_child(const Object3D *xf);
  * halves: the ray in the primitive's object space (and *tmin rescaled as each Transform
  * does: a positive tmin is a distance in the primitive's own space), and an object-space
  * normal back in world space (normalised at every level, as the tree walk does). */
-Ray xform_path_to_object(const XformPath *path, const Ray *ray, float *tmin);
-Vec3 xform_path_normal_to_world(const XformPath *path, Vec3 n);
-bool xform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
-                          Hit *hit, float tmin, RenderCtx *ctx);
+Ray transform_path_to_object(const XformPath *path, const Ray *ray, float *tmin);
+Vec3 transform_path_normal_to_world(const XformPath *path, Vec3 n);
+bool transform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
+                              Hit *hit, float tmin, RenderCtx *ctx);
 
 /* Numbers every leaf primitive in depth-first order (0..n-1) and returns n. */
-uint32_t object_assign_ids(Object3D *root);
+uint32_t group_assign_ids(Object3D *root);
 
 #endif

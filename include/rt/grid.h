@@ -74,6 +74,10 @@ bool grid_packet_use_kernel(const char *name);
  * normal = entered face, material = palette colour of its count). Planes not drawn. */
 bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
                               RenderCtx *ctx);
+/* The palette of -visualize_grid: a diffuse, non-specular material per entry count,
+ * 1 white, then magenta, blue, cyan, green, yellow, orange towards red at 17 and more
+ * (count 0 and below take count 1's). Built once, shared, freed at exit. */
+const Material *grid_palette_material(int count);
 
 /* Packed triangles (on by default): untransformed triangles are intersected inline from
  * a packed copy instead of through their ops. Same hits either way; tests that count

@@ -42,8 +42,8 @@ bool image_region_format(const Image *img, char *buf, size_t size);
 bool image_region_parse(const char *text, size_t len, int w, int h, ImageRegion *out,
                         char *err, size_t errlen);
 
-/* The course quantisation: clamp(int(c * 255), 0, 255); NaN -> 0 (tga.md 3). */
-uint8_t color_to_byte(float c);
+/* The course quantisation: clamp(int(c * 255), 0, 255); NaN -> 0 (docs/images.md). */
+uint8_t image_color_to_byte(float c);
 
 /* Writes by file name extension (image_codec_for_path): .tga (course layout), .ppm (P6),
  * .png (when built with libpng). Writes to a temporary file in the same folder and

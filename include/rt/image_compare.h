@@ -18,7 +18,7 @@ typedef struct ImageDiff {
     long identical;         /* pixels with all bytes equal */
 } ImageDiff;
 
-/* Compares a and b after the course quantisation (color_to_byte). */
+/* Compares a and b after the course quantisation (image_color_to_byte). */
 ImageDiff image_compare(const Image *a, const Image *b, int threshold);
 
 #endif

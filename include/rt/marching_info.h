@@ -1,6 +1,6 @@
 /* MarchingInfo: the 3D-DDA of Amanatides & Woo ("A Fast Voxel Traversal Algorithm for
  * Ray Tracing", 1987) over a uniform grid of nx*ny*nz cells (course class MarchingInfo,
- * semantics.md 7.3). Pure arithmetic: it knows the grid only by its box and resolution. */
+ * docs/grid.md). Pure arithmetic: it knows the grid only by its box and resolution. */
 #ifndef RT_MARCHING_INFO_H
 #define RT_MARCHING_INFO_H
 
@@ -80,9 +80,10 @@ static inline void march_enter_cell(const MarchingInfo *mi, RenderCtx *ctx)
     }
 }
 
-/* Moves to the next cell along the ray (the axis with the smallest t_next; ties go to
- * x, then y, then z). Returns false when the ray leaves the grid. A cell entered is
- * counted and recorded like the first one (every visited cell counts once; stats.md 4). */
+/* Moves to the next cell along the ray (the axis with the smallest t_next; ties go to x,
+ * then y, then z). Returns false when the ray leaves the grid. A cell entered is counted
+ * and recorded like the first one (every visited cell counts once in -stats' cells
+ * traversed). */
 static inline bool march_next(MarchingInfo *mi, RenderCtx *ctx)
 {
     int a = 0;

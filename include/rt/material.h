@@ -37,7 +37,8 @@ static inline Vec3 mat_transparent_at(const Material *m, Vec3 p) { return m->ops
 static inline float mat_ior_at(const Material *m, Vec3 p) { return m->ops->ior_at(m, p); }
 static inline const Material *mat_preview(const Material *m) { return m->ops->preview_material(m); }
 
-/* PhongMaterial (A3/A4), Blinn-Phong with the course's n.L step (semantics.md 4.2). */
+/* PhongMaterial (A3/A4), Blinn-Phong with the course's n.L step
+ * (no diffuse or specular term from a light behind the surface). */
 typedef struct PhongParams {
     Vec3 diffuse;       /* default (1,1,1) */
     Vec3 specular;      /* default 0 */
@@ -52,7 +53,7 @@ Material *phong_new(Arena *a, const PhongParams *p);
 /* Copies the parameters of a PhongMaterial; false for any other material type. */
 bool phong_params(const Material *m, PhongParams *out);
 
-/* Procedural solid textures (A6, semantics.md 5). texture_xf maps world points to
+/* Procedural solid textures (A6, docs/textures.md). texture_xf maps world points to
  * texture space; NULL means identity. m1, m2 are borrowed and may be procedural. */
 Material *checkerboard_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
                            const Material *m2);
@@ -62,8 +63,5 @@ Material *marble_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
                      const Material *m2, int octaves, float frequency, float amplitude);
 Material *wood_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
                    const Material *m2, int octaves, float frequency, float amplitude);
-
-/* Diffuse palette material of the grid visualisation (semantics.md 7.6). */
-const Material *grid_palette_material(int count);
 
 #endif

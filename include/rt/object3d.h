@@ -1,5 +1,5 @@
 /* Object3D: the polymorphic scene object (course class Object3D) as a C struct with a
- * static const ops table per concrete type (SQLite's vtable shape, DESIGN.md 2). */
+ * static const ops table per concrete type (SQLite's vtable shape; docs/architecture.md). */
 #ifndef RT_OBJECT3D_H
 #define RT_OBJECT3D_H
 

@@ -1,4 +1,4 @@
-/* Command line (spec cli.md): the course's flags with their exact spelling, plus
+/* Command line (README.txt lists it): the course's flags with their exact spelling, plus
  * -threads, -h/--help, --version and the preview's -gui_snapshot/-gui_keys. */
 #ifndef RT_OPTIONS_H
 #define RT_OPTIONS_H

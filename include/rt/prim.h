@@ -13,7 +13,7 @@ typedef struct Scene Scene;
 
 /* A chain of Transforms shared by the leaves below it, with the composed matrices the
  * accelerators' build geometry uses. Intersection goes through path step by step
- * (xform_path_intersect), so hits are bit-identical to the tree walk. */
+ * (transform_path_intersect), so hits are bit-identical to the tree walk. */
 typedef struct PrimXform {
     XformPath path;   /* outermost first; depth >= 1 */
     Mat4 m;           /* object -> world: M1 * M2 * ... * Mk */
@@ -49,7 +49,7 @@ void prim_table_free(PrimTable *t);
 static inline bool prim_intersect(const Object3D *obj, const PrimXform *xf, const Ray *ray,
                                   Hit *hit, float tmin, RenderCtx *ctx)
 {
-    return xf ? xform_path_intersect(&xf->path, obj, ray, hit, tmin, ctx)
+    return xf ? transform_path_intersect(&xf->path, obj, ray, hit, tmin, ctx)
               : obj_intersect(obj, ray, hit, tmin, ctx);
 }
 

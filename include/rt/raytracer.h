@@ -1,5 +1,5 @@
 /* RayTracer (A4-A6): Whitted recursion with shadows, reflection, refraction, as in
- * semantics.md 4. Read-only during rendering; all writes go to the RenderCtx. */
+ * the course's traceRay. Read-only during rendering; all writes go to the RenderCtx. */
 #ifndef RT_RAYTRACER_H
 #define RT_RAYTRACER_H
 
@@ -39,7 +39,7 @@ bool raytracer_occluded(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, flo
                         float dist);
 
 /* Per-thread context: allocates the accelerator's per-thread scratch (mailbox). */
-bool render_ctx_init(RenderCtx *ctx, const RayTracer *rt);
-void render_ctx_free(RenderCtx *ctx);
+bool raytracer_ctx_init(RenderCtx *ctx, const RayTracer *rt);
+void raytracer_ctx_free(RenderCtx *ctx);
 
 #endif

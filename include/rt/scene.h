@@ -31,13 +31,13 @@ typedef struct Scene {
     int num_materials;
     Material **materials;
     Object3D *root;             /* the Group; NULL when the file has none */
-    uint32_t num_primitives;    /* leaves, ids 0..n-1 (object_assign_ids) */
+    uint32_t num_primitives;    /* leaves, ids 0..n-1 (group_assign_ids) */
     BBox bounds;                /* root's box; empty when nothing is bounded */
     bool no_lights;             /* the zero-lights rule fired (WARNING printed by main) */
     SceneFiles *files;          /* while loading: where files come from (NULL: the disk) */
 } Scene;
 
-/* Parses path (scene-format.md). On error reports a located message to diag and
+/* Parses path (docs/scene-format.md). On error reports a located message to diag and
  * returns NULL with nothing leaked. obj_file names resolve against the scene file's
  * folder first, then the working directory. */
 Scene *scene_load(const char *path, Diag *diag);

@@ -1,5 +1,5 @@
 /* Ray-tracing statistics: per-thread counters merged by the driver, and the course's
- * RAY TRACING STATISTICS block (spec stats.md), label for label. */
+ * RAY TRACING STATISTICS block (docs/statistics.md), label for label. */
 #ifndef RT_STATS_H
 #define RT_STATS_H
 
@@ -39,8 +39,5 @@ long stats_course_seconds(double elapsed_seconds);
 double stats_course_rays_per_second(uint64_t rays, double elapsed_seconds);
 /* The precise rate (for -timings): rays / elapsed; 0 when elapsed is not positive. */
 double stats_rays_per_second(uint64_t rays, double elapsed_seconds);
-
-/* Monotonic clock in seconds. */
-double clock_now(void);
 
 #endif

@@ -24,7 +24,7 @@ static inline Vec3 v3_cross(Vec3 a, Vec3 b)
 static inline float v3_length(Vec3 a) { return sqrtf(v3_dot(a, a)); }
 /* a + s*b, the ray-point form. */
 static inline Vec3 v3_madd(Vec3 a, Vec3 b, float s) { return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
-/* Unit vector; a zero vector stays zero (spec: semantics.md, notation). */
+/* Unit vector; a zero vector stays zero (no division by zero, no NaN). */
 static inline Vec3 v3_normalize(Vec3 a)
 {
     float l = v3_length(a);

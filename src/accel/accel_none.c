@@ -19,12 +19,12 @@ static bool none_intersect(const void *self, const Ray *ray, Hit *hit, float tmi
             continue;
         }
         float tmin_local = tmin;
-        Ray local = xform_path_to_object(&xf->path, ray, &tmin_local);
+        Ray local = transform_path_to_object(&xf->path, ray, &tmin_local);
         bool run = false;
         for (; p < end && p->xf == xf; p++)
             run |= obj_intersect(p->obj, &local, hit, tmin_local, ctx);
         if (run)
-            hit->normal = xform_path_normal_to_world(&xf->path, hit->normal);
+            hit->normal = transform_path_normal_to_world(&xf->path, hit->normal);
         found |= run;
     }
     return found;

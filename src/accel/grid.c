@@ -1,7 +1,7 @@
-/* The grid's lifecycle (semantics.md 7.1): geometry of the cells, the build from the
- * primitive table (its parts: grid_bin.c, grid_course.c, grid_cells.c), accessors, free.
- * Two cell sets are built: the course's occupancy counts (what -visualize_grid shows)
- * and tighter, rounding-padded lists (what the march tests). */
+/* The grid's lifecycle (docs/grid.md, How it works): geometry of the cells, the build
+ * from the primitive table (its parts: grid_bin.c, grid_course.c, grid_cells.c),
+ * accessors, free. Two cell sets are built: the course's occupancy counts (what
+ * -visualize_grid shows) and tighter, rounding-padded lists (what the march tests). */
 #include "grid_build.h"
 #include "rt/options.h"
 
@@ -43,7 +43,7 @@ void grid_free(Grid *g)
 }
 
 /* Sets the box the cells tile and the rounding pad. Zero-thickness axes (a flat scene)
- * get a small symmetric thickness so cell sizes stay positive (semantics.md 7.1). */
+ * get a small symmetric thickness so cell sizes stay positive. */
 static void setup_geometry(Grid *g)
 {
     float ext_max = 0.0f, mag = 0.0f;

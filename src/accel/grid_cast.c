@@ -1,6 +1,7 @@
-/* RayCastFast (semantics.md 7.5): nearest hit and shadow queries through the grid's
- * cells, front to back, with marking (mailboxing) so a primitive spanning many cells is
- * intersected at most once per ray. Reads the grid only; per-ray state is in ctx. */
+/* RayCastFast (the course's grid cast; docs/grid.md): nearest hit and shadow queries
+ * through the grid's cells, front to back, with marking (mailboxing) so a primitive
+ * spanning many cells is intersected at most once per ray. Reads the grid only; per-ray
+ * state is in ctx. */
 #include "grid_internal.h"
 
 #include <float.h>

@@ -1,5 +1,5 @@
-/* The course's occupancy rules (semantics.md 7.2), in float like the course: the per-cell
- * counts that -visualize_grid colours and the statistics report. */
+/* The course's occupancy rules (docs/grid.md, How it works), in float like the course:
+ * the per-cell counts that -visualize_grid colours and the statistics report. */
 #include "grid_build.h"
 
 /* Box rule: every cell whose closed box meets the closed box [bmin, bmax], touching

@@ -38,7 +38,7 @@ struct Grid {
     uint32_t num_cells;
     uint32_t *cell_start;   /* num_cells + 1 offsets into cell_items (CSR) */
     uint32_t *cell_items;   /* indices into prims: the marching sets (tight insertion) */
-    uint32_t *course_count; /* per cell: entries by the course rules (semantics.md 7.2),
+    uint32_t *course_count; /* per cell: entries by the course rules (grid_course.c),
                                the -visualize_grid count */
     GridPrim *prims;        /* bounded primitives, depth-first order */
     uint32_t num_prims;

@@ -1,5 +1,5 @@
-/* -visualize_grid (semantics.md 7.6): the first occupied cell along a ray as a hit,
- * coloured by the course palette of its entry count. */
+/* -visualize_grid: the first occupied cell along a ray as a hit (t = the cell's entry,
+ * normal = the face entered), coloured by the course palette of its entry count. */
 #include "grid_internal.h"
 
 #include <pthread.h>

@@ -1,5 +1,5 @@
 /* The 3D-DDA (Amanatides & Woo 1987) that walks a ray through the grid's cells in order
- * (semantics.md 7.3). Used by RayCastFast, the shadow query and -visualize_grid. */
+ * (docs/grid.md). Used by RayCastFast, the shadow query and -visualize_grid. */
 #include "rt/marching_info.h"
 
 bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],

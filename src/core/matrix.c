@@ -140,7 +140,7 @@ Mat4 mat4_rotate_z(float degrees)
 }
 
 /* Rodrigues' formula with the axis components as given, like the course's
- * Matrix::MakeAxisRotation (which does not normalise; scene-format.md 8). */
+ * Matrix::MakeAxisRotation (which does not normalise the axis). */
 Mat4 mat4_rotate_axis(Vec3 a, float degrees)
 {
     float t = deg2rad(degrees), c = cosf(t), s = sinf(t), k = 1.0f - c;

@@ -1,6 +1,6 @@
-/* Command-line parsing (spec cli.md): one pass over argv, each flag followed by its
- * fixed number of arguments; the later of two occurrences wins, like the course loop.
- * Unlike the course (atoi/atof, assert), every value is validated. */
+/* Command-line parsing (README.txt lists the options): one pass over argv, each flag
+ * followed by its fixed number of arguments; the later of two occurrences wins, like the
+ * course loop. Unlike the course (atoi/atof, assert), every value is validated. */
 #include "rt/options.h"
 #include "rt/filter.h"
 #include "rt/sampler.h"

@@ -9,7 +9,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "rt/stats.h"
+#include "rt/clock.h"
 
 /* At most ten redraws a second: smooth enough to read, too few to cost anything. */
 #define PROGRESS_PERIOD_NS 100000000L

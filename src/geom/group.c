@@ -87,4 +87,4 @@ static uint32_t assign(Object3D *o, uint32_t next)
     }
 }
 
-uint32_t object_assign_ids(Object3D *root) { return assign(root, 0); }
+uint32_t group_assign_ids(Object3D *root) { return assign(root, 0); }

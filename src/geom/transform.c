@@ -74,7 +74,7 @@ const Mat4 *transform_matrix(const Object3D *o) { return &((const Transform *)o)
 const Mat4 *transform_inverse(const Object3D *o) { return &((const Transform *)o)->inv; }
 const Object3D *transform_child(const Object3D *o) { return ((const Transform *)o)->child; }
 
-Ray xform_path_to_object(const XformPath *path, const Ray *ray, float *tmin)
+Ray transform_path_to_object(const XformPath *path, const Ray *ray, float *tmin)
 {
     Ray r = *ray;
     for (int i = 0; i < path->depth; i++) {
@@ -85,19 +85,19 @@ Ray xform_path_to_object(const XformPath *path, const Ray *ray, float *tmin)
     return r;
 }
 
-Vec3 xform_path_normal_to_world(const XformPath *path, Vec3 n)
+Vec3 transform_path_normal_to_world(const XformPath *path, Vec3 n)
 {
     for (int i = path->depth - 1; i >= 0; i--)
         n = normal_to_parent((const Transform *)path->xf[i], n);
     return n;
 }
 
-bool xform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
-                          Hit *hit, float tmin, RenderCtx *ctx)
+bool transform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
+                              Hit *hit, float tmin, RenderCtx *ctx)
 {
-    Ray r = xform_path_to_object(path, ray, &tmin);
+    Ray r = transform_path_to_object(path, ray, &tmin);
     if (!obj_intersect(prim, &r, hit, tmin, ctx))
         return false;
-    hit->normal = xform_path_normal_to_world(path, hit->normal);
+    hit->normal = transform_path_normal_to_world(path, hit->normal);
     return true;
 }

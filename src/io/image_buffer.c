@@ -44,9 +44,9 @@ void image_fill(Image *img, Vec3 c)
         img->pixels[i] = c;
 }
 
-uint8_t color_to_byte(float c)
+uint8_t image_color_to_byte(float c)
 {
-    /* tga.md 3: v = (int)(c * 255), then clamped to 0..255. The clamp happens in float
+    /* The course: v = (int)(c * 255), then clamped to 0..255. The clamp happens in float
      * first because converting NaN or a huge float to int is undefined in C; for every
      * finite input the result equals the course's. */
     float v = c * 255.0f;

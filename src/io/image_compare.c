@@ -23,8 +23,10 @@ ImageDiff image_compare(const Image *a, const Image *b, int threshold)
     long within_1 = 0, within_8 = 0, within_t = 0;
     for (long i = 0; i < n; i++) {
         Vec3 pa = a->pixels[i], pb = b->pixels[i];
-        int da[3] = {color_to_byte(pa.x), color_to_byte(pa.y), color_to_byte(pa.z)};
-        int db[3] = {color_to_byte(pb.x), color_to_byte(pb.y), color_to_byte(pb.z)};
+        int da[3] = {image_color_to_byte(pa.x), image_color_to_byte(pa.y),
+                     image_color_to_byte(pa.z)};
+        int db[3] = {image_color_to_byte(pb.x), image_color_to_byte(pb.y),
+                     image_color_to_byte(pb.z)};
         int worst = 0;
         for (int k = 0; k < 3; k++) {
             int diff = abs(da[k] - db[k]);

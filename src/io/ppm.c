@@ -1,5 +1,5 @@
 /* Binary PPM (P6, 8 bits per channel) in memory: the course Image class's other format
- * (spec tga.md 4). Rows top-down, R G B. The reader accepts '#' comments in the header. */
+ * (docs/images.md). Rows top-down, R G B. The reader accepts '#' comments in the header. */
 #include "rt/image.h"
 #include "codec.h"
 
@@ -28,9 +28,9 @@ static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
     for (int y = h - 1; y >= 0; y--) {
         for (int x = 0; x < w; x++) {
             Vec3 c = image_get(img, x, y);
-            *p++ = color_to_byte(c.x);
-            *p++ = color_to_byte(c.y);
-            *p++ = color_to_byte(c.z);
+            *p++ = image_color_to_byte(c.x);
+            *p++ = image_color_to_byte(c.y);
+            *p++ = image_color_to_byte(c.z);
         }
     }
     *out = b;

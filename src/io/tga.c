@@ -1,4 +1,4 @@
-/* Targa files in memory: the course's exact layout on output (spec tga.md 2) and a
+/* Targa files in memory: the course's exact layout on output (below) and a
  * tolerant reader for uncompressed true-colour files (24/32 bits, either row order). */
 #include "rt/image.h"
 #include "codec.h"
@@ -28,8 +28,9 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
         return false;
     b[0] = (uint8_t)id_len;
     memcpy(b + TGA_HEADER, id, id_len);
-    /* tga.md 2: no ID (except the region record), no colour map, type 2 (uncompressed true colour), origin 0,0,
-     * little-endian width and height, 24 bits per pixel, descriptor 0x20 (top row first). */
+    /* The course's header: no ID (except the region record), no colour map, type 2
+     * (uncompressed true colour), origin 0,0, little-endian width and height, 24 bits per
+     * pixel, descriptor 0x20 (top row first). */
     b[2] = 2;
     b[12] = (uint8_t)(w & 0xff);
     b[13] = (uint8_t)((w >> 8) & 0xff);
@@ -41,9 +42,9 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     for (int y = h - 1; y >= 0; y--) { /* the image's top row (y = h-1) is stored first */
         for (int x = 0; x < w; x++) {
             Vec3 c = image_get(img, x, y);
-            *p++ = color_to_byte(c.z); /* B, G, R */
-            *p++ = color_to_byte(c.y);
-            *p++ = color_to_byte(c.x);
+            *p++ = image_color_to_byte(c.z); /* B, G, R */
+            *p++ = image_color_to_byte(c.y);
+            *p++ = image_color_to_byte(c.x);
         }
     }
     *out = b;

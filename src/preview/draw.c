@@ -1,4 +1,4 @@
-/* Fixed-function OpenGL drawing of the preview (course GLCanvas/paint(), cli.md 4):
+/* Fixed-function OpenGL drawing of the preview (course GLCanvas/paint(), docs/preview.md):
  * objects with their Phong parameters, lights, grid cells, ray tree, traced rows. */
 #if defined(RT_HAVE_GLUT) || defined(RT_HAVE_OSMESA)
 #include "draw.h"
@@ -18,7 +18,7 @@
 /* Half size of the quad standing in for an infinite plane (the course uses a huge
  * quad, big < 1e6); far beyond the far clipping plane, small enough for floats. */
 #define PLANE_HALF_SIZE 1.0e4f
-/* Course near plane and minimum far plane (cli.md 4). */
+/* The course GLCanvas's near plane and minimum far plane. */
 #define NEAR_PLANE 0.5f
 #define MIN_FAR_PLANE 40.0f
 
@@ -76,8 +76,8 @@ static void draw_sphere(DrawCtx *d, const Object3D *o)
     Vec3 c = sphere_center(o);
     float r = sphere_radius(o);
     set_phong(d, o->material);
-    /* theta 0..360 degrees, phi -90..90 (cli.md 4); flat facets use the normal at the
-     * facet's middle, -gouraud the sphere's normal at each vertex. */
+    /* theta 0..360 degrees, phi -90..90 (the course's tessellation); flat facets use the
+     * normal at the facet's middle, -gouraud the sphere's normal at each vertex. */
     gl->Begin(GL_QUADS);
     for (int b = 0; b < np; b++) {
         float p0 = (float)(-M_PI / 2 + M_PI * b / np);
@@ -210,7 +210,7 @@ static float far_plane(const Camera *c, const BBox *b)
     return far;
 }
 
-/* Projection and camera placement matching the ray tracer exactly (semantics.md 2):
+/* Projection and camera placement matching the ray tracer exactly (rt/camera.h):
  * the square screen spans the LARGER window side, the smaller one is cropped. */
 static void setup_camera(const GlApi *gl, const Camera *c, const BBox *bounds, int w, int h)
 {
@@ -528,7 +528,7 @@ void preview_draw_frame(const GlApi *gl, const PreviewView *v, int w, int h,
     gl->Viewport(0, 0, w, h);
     gl->ClearColor(s->background.x, s->background.y, s->background.z, 1.0f);
     gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-    /* The GLCanvas state (cli.md 4). */
+    /* The course GLCanvas's state: depth test, smooth shading. */
     gl->Enable(GL_DEPTH_TEST);
     gl->ShadeModel(GL_SMOOTH);
     gl->Enable(GL_LIGHTING);

@@ -1,4 +1,4 @@
-/* Preview state without GL: camera controls of the course GLCanvas (cli.md 4), the
+/* Preview state without GL: camera controls of the course GLCanvas (docs/preview.md), the
  * `t` ray tree, the grid display mode and the -gui_keys script parser. */
 #include "view.h"
 
@@ -16,7 +16,7 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-/* The course GLCanvas constants (cli.md 4). */
+/* The course GLCanvas constants: radians and units per pixel of mouse drag. */
 #define ROTATE_RAD_PER_PIXEL 0.005f
 #define TRUCK_PER_PIXEL 0.05f
 #define DOLLY_PER_PIXEL 0.05f
@@ -94,16 +94,16 @@ bool preview_view_trace(PreviewView *v, int i, int j, int w, int h)
 {
     const RayTracer *rt = v->cfg->tracer;
     RenderCtx ctx;
-    if (!render_ctx_init(&ctx, rt))
+    if (!raytracer_ctx_init(&ctx, rt))
         return false;
     ray_tree_clear(v->tree);
     ctx.tree = v->tree;
     float u, s;
     camera_pixel_to_screen(i, j, w, h, &u, &s);
     Ray ray = camera_generate_ray(&v->camera, u, s);
-    /* A fresh primary ray: depth 0, weight 1, in air (semantics.md 4.1). */
+    /* A fresh primary ray: depth 0, weight 1, in air (index of refraction 1). */
     (void)raytracer_trace(rt, &ctx, &ray, camera_tmin(&v->camera), 0, 1.0f, 1.0f, NULL);
-    render_ctx_free(&ctx);
+    raytracer_ctx_free(&ctx);
     v->has_tree = true;
     return true;
 }

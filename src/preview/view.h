@@ -1,5 +1,5 @@
 /* The preview's state without any GL: the moved camera, the mouse controls of the
- * course GLCanvas (cli.md 4), the traced ray tree, the grid display mode and the
+ * course GLCanvas (docs/preview.md), the traced ray tree, the grid display mode and the
  * -gui_keys script. Shared by the GLUT window and the OSMesa snapshot. */
 #ifndef RT_PREVIEW_VIEW_H
 #define RT_PREVIEW_VIEW_H
@@ -32,7 +32,7 @@ typedef struct PreviewView {
 bool preview_view_init(PreviewView *v, const PreviewConfig *cfg, Diag *diag);
 void preview_view_free(PreviewView *v);
 
-/* Mouse drags in window pixels (dx right, dy DOWN, like the mouse), cli.md 4:
+/* Mouse drags in window pixels (dx right, dy DOWN, like the mouse), as the course GLCanvas:
  * rotate 0.005 rad/pixel about the pivot (tilt kept away from the poles), truck 0.05
  * units/pixel across the view, dolly 0.05 units/pixel along it. */
 void preview_view_rotate(PreviewView *v, float dx, float dy);

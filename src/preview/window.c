@@ -311,10 +311,11 @@ static void script_step(int value)
     glutTimerFunc(SCRIPT_STEP_MS, script_step, 0);
 }
 
-/* freeglut exit()s when it cannot open the display or find a GL visual; ask first,
- * so the failure is reported like any other (DESIGN.md 4). Returns the connection
- * (NULL on failure), to be closed only after glutInit has made its own: an X server
- * may reset when its last client leaves (Xvfb does), refusing the next one meanwhile. */
+/* freeglut exit()s when it cannot open the display or find a GL visual; ask first, so the
+ * failure is reported like any other (a message, exit status 1 from main, no exit below
+ * it). Returns the connection (NULL on failure), to be closed only after glutInit has
+ * made its own: an X server may reset when its last client leaves (Xvfb does), refusing
+ * the next one meanwhile. */
 static Display *display_open(Diag *diag)
 {
     const char *name = getenv("DISPLAY");

@@ -1,4 +1,4 @@
-/* RayTracer (A4-A6): Whitted recursion exactly as semantics.md 4, over the accelerator
+/* RayTracer (A4-A6): Whitted recursion as the course's traceRay, over the accelerator
  * (rt/accel.h): brute force (RayCast), the grid march (RayCastFast) or any other. */
 #include "rt/raytracer.h"
 
@@ -17,11 +17,12 @@ bool raytracer_occluded(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, flo
     return accel_occluded(rt->accel, ray, tmin, dist, ctx);
 }
 
-/* The shading of one hit (semantics.md 4), in three parts so the packet path can cast
- * the shadow rays of a whole tile together between them: begin (facing normal,
- * ambient), one light after another (shade_light), finish (reflection, refraction).
- * The single-ray and the packet paths run the same parts in the same order per ray,
- * so their colours are the same bits. */
+/* The shading of one hit (ambient, then each light's Phong term unless shadowed, then
+ * reflection and refraction, each weighted by the material), in three parts so the packet
+ * path can cast the shadow rays of a whole tile together between them: begin (facing
+ * normal, ambient), one light after another (shade_light), finish (reflection,
+ * refraction). The single-ray and the packet paths run the same parts in the same order
+ * per ray, so their colours are the same bits. */
 typedef struct ShadeState {
     Hit sh;          /* the hit, its normal turned to face the ray */
     Vec3 color;
@@ -201,7 +202,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     }
 }
 
-bool render_ctx_init(RenderCtx *ctx, const RayTracer *rt)
+bool raytracer_ctx_init(RenderCtx *ctx, const RayTracer *rt)
 {
     memset(ctx, 0, sizeof *ctx);
     uint32_t n = accel_scratch_size(rt->accel);
@@ -213,7 +214,7 @@ bool render_ctx_init(RenderCtx *ctx, const RayTracer *rt)
         if (!rt->single_rays && accel_has_packets(rt->accel)) {
             ctx->packet_rays = malloc((size_t)n * sizeof *ctx->packet_rays);
             if (!ctx->packet_rays) {
-                render_ctx_free(ctx);
+                raytracer_ctx_free(ctx);
                 return false;
             }
         }
@@ -221,7 +222,7 @@ bool render_ctx_init(RenderCtx *ctx, const RayTracer *rt)
     return true;
 }
 
-void render_ctx_free(RenderCtx *ctx)
+void raytracer_ctx_free(RenderCtx *ctx)
 {
     free(ctx->mailbox);
     ctx->mailbox = NULL;

@@ -175,7 +175,7 @@ bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn,
     bool ok = true;
     for (int i = 0; i < threads; i++) {
         workers[i].run = &run;
-        if (rt && !render_ctx_init(&workers[i].ctx, rt)) {
+        if (rt && !raytracer_ctx_init(&workers[i].ctx, rt)) {
             ok = false;
             break;
         }
@@ -205,7 +205,7 @@ bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn,
     for (int i = 0; i < threads; i++) {
         stats_merge(&total, &workers[i].ctx.stats);
         if (rt)
-            render_ctx_free(&workers[i].ctx);
+            raytracer_ctx_free(&workers[i].ctx);
     }
     free(workers);
     if (stats_out)

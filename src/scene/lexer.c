@@ -1,5 +1,5 @@
 /* Scene-file tokenizer: whitespace-separated tokens with file:line:col locations and
- * strict whole-token number conversion (scene-format.md 1). */
+ * strict whole-token number conversion (docs/scene-format.md). */
 #include "lexer.h"
 
 #include <errno.h>

@@ -1,4 +1,4 @@
-/* Private to src/scene: the scene-file tokenizer (scene-format.md 1). Tokens are maximal
+/* Private to src/scene: the scene-file tokenizer (docs/scene-format.md). Tokens are maximal
  * runs of non-whitespace bytes, each located file:line:col (1-based, col in bytes), and
  * carry their length (they are not NUL-terminated). A control byte (below 0x20 other
  * than whitespace, or 0x7f) is a located error. */
@@ -52,8 +52,8 @@ static inline bool tok_eof(const Token *t) { return t->len == 0; }
  * long tokens cut with "...". "end of file" for the EOF token. */
 const char *tok_show(const Token *t, char *out, size_t size);
 
-/* Number conversions of a whole token (scene-format.md 1: fscanf "%f" / "%d", but the
- * entire token must be the number). They report located errors themselves. */
+/* Number conversions of a whole token (what the course's fscanf "%f" / "%d" accept, but
+ * the entire token must be the number). They report located errors themselves. */
 typedef enum NumResult { NUM_OK, NUM_NOT_A_NUMBER, NUM_NOT_INTEGER, NUM_RANGE } NumResult;
 NumResult tok_to_float(const Token *t, float *out);
 NumResult tok_to_int(const Token *t, int *out);

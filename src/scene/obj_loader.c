@@ -1,181 +1,23 @@
-/* OBJ reader for TriangleMesh (scene-format.md 7.4): one read of the whole file, then a
+/* OBJ reader for TriangleMesh (docs/scene-format.md): one read of the whole file, then a
  * single line-oriented pass over memory. Same triangles as the course reader on the
  * official files; also slash forms, polygons (fanned), negative indices and CRLF. */
 #include "obj_loader.h"
 
 #include <assert.h>
-#include <errno.h>
 #include <limits.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
-#include <stdatomic.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
-#include "rt/arena.h"
+#include "rt/file.h"
 #include "rt/geom.h"
 #include "rt/par.h"
 
-/* Inputs above this are refused (EFBIG) rather than exhausting memory: /dev/zero or an
- * endless pipe given as a file must end in an error, not in the OOM killer. 256 MiB is
- * an OBJ of several million triangles. */
-#define RT_MAX_INPUT_BYTES ((size_t)256 << 20)
-
 /* Files from this size on are read in pieces of about OBJ_PIECE_BYTES, each ending at a
  * line end: some 20 pieces for the 40k bunny (1.3 MB). */
-#define OBJ_PAR_MIN_BYTES ((size_t)256 << 10)
+#define OBJ_PAR_MIN_BYTES RT_FILE_PAR_MIN_BYTES
 #define OBJ_PIECE_BYTES ((size_t)64 << 10)
-
-/* The buffer functions of file_read_all (malloc) or file_read_reusable (arena buffer). */
-static void *buf_alloc(size_t n, bool reusable)
-{
-    return reusable ? arena_buffer_new(n) : malloc(n);
-}
-static void *buf_realloc(void *p, size_t n, bool reusable)
-{
-    return reusable ? arena_buffer_resize(p, n) : realloc(p, n);
-}
-static void buf_free(void *p, bool reusable)
-{
-    if (reusable)
-        arena_buffer_free(p);
-    else
-        free(p);
-}
-
-/* A big regular file is read by pread in chunks, in parallel (rt/par.h): the page
- * faults of the fresh buffer are most of the cost, and they are taken by two CPUs. */
-enum { READ_CHUNK = 128 << 10 };
-
-typedef struct ReadJob {
-    int fd;
-    char *buf;
-    size_t size;
-    atomic_bool failed;   /* a chunk came short (the file changed) or failed */
-} ReadJob;
-
-static void read_chunk(void *ctx, int i, int worker)
-{
-    (void)worker;
-    ReadJob *job = ctx;
-    size_t off = (size_t)i * READ_CHUNK, end = job->size - off > READ_CHUNK ? off + READ_CHUNK
-                                                                            : job->size;
-    while (off < end) {
-        ssize_t got = pread(job->fd, job->buf + off, end - off, (off_t)off);
-        if (got <= 0) {
-            if (got < 0 && errno == EINTR)
-                continue;
-            atomic_store(&job->failed, true);
-            return;
-        }
-        off += (size_t)got;
-    }
-}
-
-/* The whole regular file of size bytes into buf by read_chunk; false when it did not
- * work out (the caller then reads it the ordinary way, from the start). */
-static bool read_parallel(FILE *f, char *buf, size_t size)
-{
-    ReadJob job;
-    job.fd = fileno(f);
-    job.buf = buf;
-    job.size = size;
-    atomic_init(&job.failed, false);
-    par_for((int)(size / READ_CHUNK + (size % READ_CHUNK != 0)), read_chunk, &job);
-    if (atomic_load(&job.failed))
-        return false;
-    char c;
-    return pread(job.fd, &c, 1, (off_t)size) == 0; /* nothing was appended meanwhile */
-}
-
-static bool read_all(const char *path, char **out, size_t *len, bool reusable)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return false;
-    struct stat st;
-    if (fstat(fileno(f), &st) != 0) {
-        int e = errno;
-        fclose(f);
-        errno = e;
-        return false;
-    }
-    if (S_ISDIR(st.st_mode)) {
-        fclose(f);
-        errno = EISDIR;
-        return false;
-    }
-    if (S_ISREG(st.st_mode) && (uintmax_t)st.st_size > RT_MAX_INPUT_BYTES) {
-        fclose(f);
-        errno = EFBIG;
-        return false;
-    }
-    /* A big OBJ is read in parallel next (parse_pieces): wake the helpers now, so the
-     * read gives them time to get a CPU. */
-    if (S_ISREG(st.st_mode) && (uintmax_t)st.st_size >= OBJ_PAR_MIN_BYTES)
-        par_prepare();
-    /* Regular files: one fread of the known size. Pipes and the like: grow as we go. */
-    size_t cap = S_ISREG(st.st_mode) && st.st_size > 0 ? (size_t)st.st_size + 1 : 65536;
-    char *buf = buf_alloc(cap, reusable);
-    size_t n = 0;
-    if (!buf) {
-        fclose(f);
-        errno = ENOMEM;
-        return false;
-    }
-    bool whole = S_ISREG(st.st_mode) && (uintmax_t)st.st_size >= OBJ_PAR_MIN_BYTES &&
-                 par_threads() > 1 && read_parallel(f, buf, cap - 1);
-    if (whole)
-        n = cap - 1;
-    while (!whole) {
-        if (n + 1 >= cap) {
-            if (cap >= RT_MAX_INPUT_BYTES) {
-                buf_free(buf, reusable);
-                fclose(f);
-                errno = EFBIG;
-                return false;
-            }
-            char *nb = buf_realloc(buf, cap * 2, reusable);
-            if (!nb) {
-                buf_free(buf, reusable);
-                fclose(f);
-                errno = ENOMEM;
-                return false;
-            }
-            buf = nb;
-            cap *= 2;
-        }
-        size_t got = fread(buf + n, 1, cap - 1 - n, f);
-        n += got;
-        if (got == 0) {
-            if (ferror(f)) {
-                int e = errno ? errno : EIO;
-                buf_free(buf, reusable);
-                fclose(f);
-                errno = e;
-                return false;
-            }
-            break;
-        }
-    }
-    fclose(f);
-    buf[n] = '\0';
-    *out = buf;
-    *len = n;
-    return true;
-}
-
-bool file_read_all(const char *path, char **out, size_t *len)
-{
-    return read_all(path, out, len, false);
-}
-
-bool file_read_reusable(const char *path, char **out, size_t *len)
-{
-    return read_all(path, out, len, true);
-}
 
 void objfile_mesh_free(ObjMesh *m)
 {

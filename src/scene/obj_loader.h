@@ -1,4 +1,4 @@
-/* Private to src/scene: the OBJ reader behind TriangleMesh (scene-format.md 7.4).
+/* Private to src/scene: the OBJ reader behind TriangleMesh (docs/scene-format.md).
  * Line-oriented; v and f records only, everything else ignored. Its functions are
  * objfile_*: the prefix obj_ belongs to Object3D (rt/object3d.h). */
 #ifndef RT_SCENE_OBJ_LOADER_H
@@ -17,19 +17,13 @@ typedef struct ObjMesh {
     int ntris;
 } ObjMesh;
 
-/* Parses an OBJ text of len bytes; buf[len] must be '\0' (file_read_all provides it:
- * the scanners use it as the end sentinel). name is used in
- * located messages. Faces with n > 3 vertices become the fan (v0, vi, vi+1); negative
+/* Parses an OBJ text of len bytes; buf[len] must be '\0' (file_read_all, rt/file.h,
+ * provides it: the scanners use it as the end sentinel). name is used in located
+ * messages. Faces with n > 3 vertices become the fan (v0, vi, vi+1); negative
  * indices count back from the last vertex read so far. False after reporting an error
  * (nothing left allocated). */
 bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag);
 void objfile_mesh_free(ObjMesh *m);
-
-/* Reads a whole file into a malloc'd, NUL-terminated buffer. False with errno set. */
-bool file_read_all(const char *path, char **out, size_t *len);
-/* The same into an arena buffer (rt/arena.h; arena_buffer_free), which
- * objfile_build_group can reuse for the triangles. */
-bool file_read_reusable(const char *path, char **out, size_t *len);
 
 /* A Group of one Triangle per face, all with material m, from arena a. block: NULL, or
  * the file's arena buffer (file_read_reusable), no longer needed, which is taken over

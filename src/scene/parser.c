@@ -1,4 +1,4 @@
-/* Recursive-descent parser of the A1-A6 scene format (scene-format.md), building the
+/* Recursive-descent parser of the A1-A6 scene format (docs/scene-format.md), building the
  * scene through the geom/material/camera constructors. Stops at the first error with a
  * located message; where the course parser asserted or trusted the input, we check. */
 #include "parser.h"

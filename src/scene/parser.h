@@ -1,5 +1,5 @@
 /* Private to src/scene: the recursive-descent parser of the scene grammar
- * (scene-format.md 11), filling a Scene whose arena is already initialised. */
+ * (docs/scene-format.md), filling a Scene whose arena is already initialised. */
 #ifndef RT_SCENE_PARSER_H
 #define RT_SCENE_PARSER_H
 

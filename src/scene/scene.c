@@ -1,5 +1,5 @@
 /* Scene lifetime: load a scene file (or string) into one arena, apply the post-parse
- * rules (zero-lights rule, primitive ids, bounds: scene-format.md 2), free it. */
+ * rules (zero-lights rule, primitive ids, bounds; docs/scene-format.md), free it. */
 #include "rt/scene.h"
 
 #include <errno.h>
@@ -22,7 +22,7 @@ static Scene *scene_new(const char *name)
         free(s);
         return NULL;
     }
-    s->background = v3(0.5f, 0.5f, 0.5f); /* defaults of scene-format.md 2 */
+    s->background = v3(0.5f, 0.5f, 0.5f); /* the Background block's defaults */
     s->ambient = v3(0.0f, 0.0f, 0.0f);
     s->bounds = bbox_empty();
     return s;
@@ -58,7 +58,7 @@ static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
         s->no_lights = true;
     }
     if (s->root) {
-        s->num_primitives = object_assign_ids(s->root);
+        s->num_primitives = group_assign_ids(s->root);
         if (s->root->bounded)
             s->bounds = s->root->bbox;
     }

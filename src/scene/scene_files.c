@@ -7,7 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "obj_loader.h"
+#include "rt/file.h"
 
 typedef struct SceneFile {
     char *name;         /* the path the loader tried, as it tried it */

@@ -1,4 +1,5 @@
-/* Orthographic and perspective cameras (A1, A2; semantics.md 2). */
+/* Orthographic and perspective cameras (A1, A2): the orthonormal basis from direction
+ * and up, and the ray through a screen point (rt/camera.h states the formulas). */
 #include "rt/camera.h"
 
 #include <float.h>

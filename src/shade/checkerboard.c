@@ -1,5 +1,5 @@
 /* Checkerboard (A6): unit 3D checker cells in texture space, each cell delegating every
- * query to one of the two child materials (semantics.md 5.1). */
+ * query to one of the two child materials (docs/textures.md). */
 #include <math.h>
 
 #include "procedural.h"

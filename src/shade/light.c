@@ -1,4 +1,5 @@
-/* Directional and point lights (A2, A4; semantics.md 4.3). */
+/* Directional and point lights (A2, A4): direction towards the light, colour, and for
+ * point lights the distance and the course's attenuation. */
 #include "rt/light.h"
 
 void light_illuminate(const Light *l, Vec3 p, Vec3 *dir_to_light, Vec3 *color, float *dist)

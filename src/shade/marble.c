@@ -1,5 +1,5 @@
 /* Marble (A6): veins from sin(frequency*x + amplitude*N(q)), blending the two children
- * (semantics.md 5.4). */
+ * (docs/textures.md). */
 #include <math.h>
 
 #include "rt/perlin.h"

@@ -1,5 +1,5 @@
 /* Noise (A6): interpolates its two children with the clamped Perlin octave sum as the
- * weight (semantics.md 5.3). */
+ * weight (docs/textures.md). */
 #include "rt/perlin.h"
 #include "procedural.h"
 

@@ -1,5 +1,5 @@
 /* Ken Perlin's improved noise (SIGGRAPH 2002, "Improving Noise"), in double precision as
- * the course's perlin_noise.C, plus the A6 octave sum (semantics.md 5.2). */
+ * the course's perlin_noise.C, plus the A6 octave sum (docs/textures.md). */
 #include "rt/perlin.h"
 
 #include <math.h>
@@ -49,9 +49,9 @@ static inline double grad(int hash, double x, double y, double z)
 double perlin_noise3(double x, double y, double z)
 {
     double fx = floor(x), fy = floor(y), fz = floor(z);
-    /* The lattice cell modulo 256, also for negative coordinates: floor then AND with
-     * 255 on the two's-complement integer (semantics.md 5.2). Coordinates far beyond
-     * the int range are meaningless for a texture; clamp before converting so the
+    /* The lattice cell modulo 256, also for negative coordinates: floor then AND with 255
+     * on the two's-complement integer (the course's int arithmetic). Coordinates far
+     * beyond the int range are meaningless for a texture; clamp before converting so the
      * conversion is defined (no UB on huge or non-finite input). */
     if (!(fabs(fx) < 1e9) || !(fabs(fy) < 1e9) || !(fabs(fz) < 1e9))
         return 0.0;

@@ -1,4 +1,5 @@
-/* PhongMaterial (A3/A4): Blinn-Phong with the course's step at n.L <= 0 (semantics.md 4.2). */
+/* PhongMaterial (A3/A4): Blinn-Phong with the course's step at n.L <= 0:
+ * no diffuse or specular term from a light behind the surface. */
 #include "rt/material.h"
 #include "rt/arena.h"
 

@@ -1,4 +1,4 @@
-/* Shared parts of the procedural solid textures (semantics.md 5): allocation with the
+/* Shared parts of the procedural solid textures (docs/textures.md): allocation with the
  * texture matrix copied in, the GL preview rule, and the weighted blend of two children. */
 #include "procedural.h"
 
@@ -125,7 +125,7 @@ Vec3 procedural_blend_transparent(const Procedural *pr, float t, Vec3 p)
 
 float procedural_blend_ior(const Procedural *pr, float t, Vec3 p)
 {
-    /* Interpolated like the colours (semantics.md 5.6, unverified by the references). */
+    /* Interpolated like the colours (no official image shows a refracting blend). */
     if (t >= 1.0f)
         return mat_ior_at(pr->m1, p);
     if (t <= 0.0f)

@@ -1,4 +1,4 @@
-/* Private base of the procedural solid textures (A6, semantics.md 5): a texture-space
+/* Private base of the procedural solid textures (A6, docs/textures.md): a texture-space
  * matrix and two borrowed child materials, plus the shared "blend by weight t" ops
  * that Noise, Marble and Wood generate with PROCEDURAL_BLEND_OPS. */
 #ifndef RT_SHADE_PROCEDURAL_H
@@ -44,16 +44,16 @@ Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *tex
                                const Material *m1, const Material *m2, int octaves,
                                float frequency, float amplitude);
 
-/* The texture-space point of world point p (semantics.md 5: q = M p). */
+/* The texture-space point of world point p: q = M p. */
 static inline Vec3 procedural_texture_point(const Procedural *pr, Vec3 p)
 {
     return pr->has_xf ? mat4_point(&pr->xf, p) : p;
 }
 
-/* The GL preview shows the first child's material, recursively (semantics.md 5.6). */
+/* The GL preview shows the first child's material, recursively. */
 const Material *procedural_preview(const Material *self);
 
-/* Shading and accessors of a blend with weight t on m1 (semantics.md 5.6): the
+/* Shading and accessors of a blend with weight t on m1: the
  * children's RESULTS are interpolated, t*m1 + (1-t)*m2, both evaluated at world p. */
 Vec3 procedural_blend_shade(const Procedural *pr, float t, const Ray *ray, const Hit *hit,
                             Vec3 dir_to_light, Vec3 light_color);

@@ -1,5 +1,5 @@
 /* Wood (A6 extra credit): rings around the texture-space y axis, perturbed by noise,
- * blending the two children (semantics.md 5.5). */
+ * blending the two children (docs/textures.md). */
 #include <math.h>
 
 #include "rt/perlin.h"

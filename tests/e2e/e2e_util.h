@@ -296,7 +296,7 @@ static inline const char *e2e_describe(const E2eRun *r, char *buf, size_t size)
     return buf;
 }
 
-/* ---- the -stats block (spec stats.md 2) ----------------------------------------- */
+/* ---- the -stats block (docs/statistics.md) -------------------------------------- */
 
 /* Writes a reason into why and returns false (vsnprintf: a long reason is cut). */
 static inline bool e2e_why(char *why, size_t size, const char *fmt, ...)
@@ -366,9 +366,10 @@ static inline bool e2e_stats_parse(const char *text, E2eStats *s)
     return true;
 }
 
-/* Checks the exact layout of stats.md 2: 15 lines, 44 asterisks around, the title, the
- * labels with their values in column 30, the formats of time/pixels/bounds/grid cells/
- * counters/ratios. Writes the first problem into why and returns false. */
+/* Checks the exact layout of the course's block: 15 lines, 44 asterisks around, the
+ * title, the labels with their values in column 30, the formats of
+ * time/pixels/bounds/grid cells/ counters/ratios. Writes the first problem into why and
+ * returns false. */
 static inline bool e2e_stats_layout_ok(const E2eStats *s, int width, int height, char *why,
                                        size_t size)
 {
@@ -435,7 +436,7 @@ static inline bool e2e_stats_layout_ok(const E2eStats *s, int width, int height,
         if (!ok && strcmp(v, "nan") != 0 && strcmp(v, "-nan") != 0)
             return e2e_why(why, size, "%s '%s' is not %%0.1f", e2e_stats_labels[k], v);
     }
-    /* The ratios follow from the counters (stats.md 3); allow printf rounding. */
+    /* The ratios follow from the counters; allow printf rounding. */
     double rays = (double)(s->nonshadow + s->shadow);
     double pix = (double)width * height;
     double expect[3] = {rays / pix, rays > 0 ? (double)s->intersections / rays : 0.0,

@@ -203,17 +203,17 @@ static void check_random_line(const char *a7, const char *dir, const RandLine *l
                     if (xx < 0 || yy < 0 || xx >= W || yy >= H)
                         continue;
                     Vec3 o = image_get(&plain, xx, yy);
-                    flat = color_to_byte(o.x) == color_to_byte(c.x) &&
-                           color_to_byte(o.y) == color_to_byte(c.y) &&
-                           color_to_byte(o.z) == color_to_byte(c.z);
+                    flat = image_color_to_byte(o.x) == image_color_to_byte(c.x) &&
+                           image_color_to_byte(o.y) == image_color_to_byte(c.y) &&
+                           image_color_to_byte(o.z) == image_color_to_byte(c.z);
                 }
             if (!flat)
                 continue;
             smooth++;
             Vec3 a = image_get(&mine, x, y), b = image_get(&ref, x, y);
-            int dm = abs(color_to_byte(a.x) - color_to_byte(b.x));
-            int dg = abs(color_to_byte(a.y) - color_to_byte(b.y));
-            int db = abs(color_to_byte(a.z) - color_to_byte(b.z));
+            int dm = abs(image_color_to_byte(a.x) - image_color_to_byte(b.x));
+            int dg = abs(image_color_to_byte(a.y) - image_color_to_byte(b.y));
+            int db = abs(image_color_to_byte(a.z) - image_color_to_byte(b.z));
             if (dm > 2 || dg > 2 || db > 2)
                 smooth_bad++;
         }
@@ -296,8 +296,8 @@ static Dots count_dots(const Image *img, int zoom, int k)
             for (int y = 0; y < zoom; y++)
                 for (int x = 0; x < zoom; x++) {
                     Vec3 c = image_get(img, i * zoom + x, j * zoom + y);
-                    if (color_to_byte(c.x) == bg && color_to_byte(c.y) == bg &&
-                        color_to_byte(c.z) == bg)
+                    if (image_color_to_byte(c.x) == bg && image_color_to_byte(c.y) == bg &&
+                        image_color_to_byte(c.z) == bg)
                         continue;
                     dots++;
                     int cx = x * k / zoom, cy = y * k / zoom;
@@ -478,8 +478,9 @@ static void test_constant_scene(void)
             for (int y = 0; y < img.height; y++)
                 for (int x = 0; x < img.width; x++) {
                     Vec3 c = image_get(&img, x, y);
-                    off += color_to_byte(c.x) != 102 || color_to_byte(c.y) != 153 ||
-                           color_to_byte(c.z) != 51;
+                    off += image_color_to_byte(c.x) != 102 ||
+                           image_color_to_byte(c.y) != 153 ||
+                           image_color_to_byte(c.z) != 51;
                 }
             CHECK_MSG(off == 0, "%s %s %s: %ld pixels not (102, 153, 51)",
                       samplers[s][0] ? samplers[s][0] : "(default)",

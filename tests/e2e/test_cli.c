@@ -1,5 +1,5 @@
 /* End-to-end tests of the command line: exit statuses (0 written, 1 input/output error,
- * 2 usage error; DESIGN.md 4), help and version output, and that a failed run leaves
+ * 2 usage error; README.txt), help and version output, and that a failed run leaves
  * no output file. Scenes are written by the tests into a temporary folder. */
 #define _POSIX_C_SOURCE 200809L
 #include <signal.h>
@@ -116,8 +116,8 @@ static void test_good_render(void)
     CHECK_INT(img.height, 10);
     if (img.pixels) {
         /* corner: background (0.1 0.2 0.3); centre: the lit red sphere */
-        CHECK_INT(color_to_byte(image_get(&img, 0, 0).z), color_to_byte(0.3f));
-        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), color_to_byte(0.1f));
+        CHECK_INT(image_color_to_byte(image_get(&img, 0, 0).z), image_color_to_byte(0.3f));
+        CHECK_INT(image_color_to_byte(image_get(&img, 0, 0).x), image_color_to_byte(0.1f));
         Vec3 c = image_get(&img, 6, 5);
         CHECK(c.x > 0.2f && c.y == 0.0f && c.z == 0.0f);
     }
@@ -385,7 +385,7 @@ static void test_stats_on_stdout(void)
     CHECK_MSG(e2e_stats_parse(r.out, &s), "no statistics block on stdout: %.300s", r.out);
     char why[512] = "";
     CHECK_MSG(e2e_stats_layout_ok(&s, 20, 10, why, sizeof why), "%s", why);
-    /* one sphere, no shadows, no bounces: one ray and one test per pixel (stats.md 4) */
+    /* one sphere, no shadows, no bounces: one ray and one test per pixel */
     CHECK_INT(s.nonshadow, 200);
     CHECK_INT(s.shadow, 0);
     CHECK_INT(s.intersections, 200);
@@ -443,8 +443,8 @@ static void test_imgdiff_tool(void)
     e2e_run_free(&r);
     CHECK(image_read(&img, d, &diag));
     if (img.pixels) {
-        CHECK_INT(color_to_byte(image_get(&img, 3, 4).x), 160); /* 20 x 8 */
-        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), 0);
+        CHECK_INT(image_color_to_byte(image_get(&img, 3, 4).x), 160); /* 20 x 8 */
+        CHECK_INT(image_color_to_byte(image_get(&img, 0, 0).x), 0);
     }
     image_free(&img);
 

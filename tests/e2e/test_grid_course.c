@@ -232,7 +232,7 @@ static void check_visualize_line(const char *id)
 }
 
 /* The 40k-triangle bunny's occupancy counts against the independent implementation
- * that reproduces the course's own A5 picture of this mesh (course/reference/README.md):
+ * that reproduces the course's own A5 picture of this mesh:
  * a dense untransformed mesh, where binning vertices with a tolerance would add cells
  * (vertices within a rounding distance of a cell border). */
 static void test_vis_bunny_40k_reference(void)

@@ -94,9 +94,9 @@ static bool same_as_crop(const Image *full, const Image *part, int x, int y, cha
         int fy = full->height - 1 - (y + (part->height - 1 - py));
         for (int px = 0; px < part->width; px++) {
             Vec3 a = image_get(part, px, py), b = image_get(full, x + px, fy);
-            if (color_to_byte(a.x) != color_to_byte(b.x) ||
-                color_to_byte(a.y) != color_to_byte(b.y) ||
-                color_to_byte(a.z) != color_to_byte(b.z)) {
+            if (image_color_to_byte(a.x) != image_color_to_byte(b.x) ||
+                image_color_to_byte(a.y) != image_color_to_byte(b.y) ||
+                image_color_to_byte(a.z) != image_color_to_byte(b.z)) {
                 snprintf(why, size, "pixel (%d, %d) of the part differs from the full image",
                          px, part->height - 1 - py);
                 return false;
@@ -496,7 +496,7 @@ static void test_region_record_formats(void)
         CHECK_INT(back.region.y, 7);
         CHECK_INT(back.region.full_width, 20);
         CHECK_INT(back.region.full_height, 10);
-        CHECK_INT(color_to_byte(image_get(&back, 1, 0).y), 127);
+        CHECK_INT(image_color_to_byte(image_get(&back, 1, 0).y), 127);
         image_free(&back);
         free(buf);
     }

@@ -203,7 +203,7 @@ static void world_make(World *w, uint64_t seed, int objects)
         group_set_child(root, i, some_object(w, 0));
     group_finish(root);
     w->s.root = root;
-    w->s.num_primitives = object_assign_ids(root);
+    w->s.num_primitives = group_assign_ids(root);
     w->s.bounds = root->bounded ? root->bbox : bbox_empty();
 }
 
@@ -250,12 +250,12 @@ static bool tracer_init(Tracer *tr, const AccelOps *ops, const PrimTable *t,
     if (!accel_init(&tr->accel, ops, t, cfg, &d))
         return false;
     tr->rt.accel = &tr->accel;
-    return render_ctx_init(&tr->ctx, &tr->rt);
+    return raytracer_ctx_init(&tr->ctx, &tr->rt);
 }
 
 static void tracer_free(Tracer *tr)
 {
-    render_ctx_free(&tr->ctx);
+    raytracer_ctx_free(&tr->ctx);
     accel_free(&tr->accel);
 }
 

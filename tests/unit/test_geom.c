@@ -26,7 +26,7 @@ static void test_sphere(void)
     setup();
     RenderCtx ctx = {0};
     Object3D *s = sphere_new(&arena, v3(0, 0, 0), 1, mat);
-    object_assign_ids(s);
+    group_assign_ids(s);
     Hit h = hit_none();
     Ray r = ray(v3(0, 0, 5), v3(0, 0, -1));
     CHECK(obj_intersect(s, &r, &h, 0, &ctx));
@@ -68,7 +68,7 @@ static void test_plane(void)
     setup();
     RenderCtx ctx = {0};
     Object3D *p = plane_new(&arena, v3(0, 2, 0), 2, mat); /* y = 1, normal not unit */
-    object_assign_ids(p);
+    group_assign_ids(p);
     CHECK(!p->bounded);
     Hit h = hit_none();
     Ray down = ray(v3(0, 5, 0), v3(0, -1, 0));
@@ -87,7 +87,7 @@ static void test_triangle(void)
     setup();
     RenderCtx ctx = {0};
     Object3D *t = triangle_new(&arena, v3(0, 0, 0), v3(1, 0, 0), v3(0, 1, 0), mat);
-    object_assign_ids(t);
+    group_assign_ids(t);
     Vec3 n = triangle_normal(t);
     CHECK_NEAR(n.z, 1, 0); /* counter-clockwise seen from +z */
     Hit h = hit_none();
@@ -116,7 +116,7 @@ static void test_transform_nonuniform(void)
     Mat4 m = mat4_mul(&t, &sc);
     Object3D *x = transform_new(&arena, &m, s);
     CHECK(x != NULL);
-    object_assign_ids(x);
+    group_assign_ids(x);
     CHECK_NEAR(x->bbox.min.x, 3, 1e-6);
     CHECK_NEAR(x->bbox.max.x, 7, 1e-6);
     Hit h = hit_none();
@@ -151,11 +151,11 @@ static void test_transform_tmin_object_space(void)
     Object3D *tri = triangle_new(&arena, v3(1, -1, -1), v3(1, 1, -1), v3(1, 0, 2), mat);
     Mat4 sc = mat4_scale(v3(0.25f, 1, 1));
     Object3D *x = transform_new(&arena, &sc, tri);
-    object_assign_ids(x);
+    group_assign_ids(x);
     XformPath path = {{x}, 1};
     Object3D *plain = triangle_new(&arena, v3(0.25f, -1, -1), v3(0.25f, 1, -1),
                                    v3(0.25f, 0, 2), mat);
-    object_assign_ids(plain);
+    group_assign_ids(plain);
     const float eps = 1e-3f;
     struct {
         float gap;      /* world distance from the origin to the face */
@@ -165,7 +165,7 @@ static void test_transform_tmin_object_space(void)
         Ray r = ray(v3(0.25f - cases[i].gap, 0, 0), v3(1, 0, 0));
         Hit h1 = hit_none(), h2 = hit_none(), h3 = hit_none();
         bool b1 = obj_intersect(x, &r, &h1, eps, &ctx);
-        bool b2 = xform_path_intersect(&path, tri, &r, &h2, eps, &ctx);
+        bool b2 = transform_path_intersect(&path, tri, &r, &h2, eps, &ctx);
         CHECK_MSG(b1 == cases[i].hit, "gap %g: hit %d, want %d", (double)cases[i].gap, b1,
                   cases[i].hit);
         CHECK(b1 == b2);
@@ -192,7 +192,7 @@ static void test_path_matches_tree(void)
     Object3D *inner = transform_new(&arena, &b, tri);
     Object3D *mid = transform_new(&arena, &a, inner);
     Object3D *outer = transform_new(&arena, &c, mid);
-    object_assign_ids(outer);
+    group_assign_ids(outer);
     XformPath path = {{outer, mid, inner}, 3};
     int agree = 0, hits = 0;
     for (int i = 0; i < 400; i++) {
@@ -200,7 +200,7 @@ static void test_path_matches_tree(void)
         Ray r = ray(v3(u, v, 5), v3(0.01f * u, -0.02f, -1));
         Hit h1 = hit_none(), h2 = hit_none();
         bool b1 = obj_intersect(outer, &r, &h1, 0, &ctx);
-        bool b2 = xform_path_intersect(&path, tri, &r, &h2, 0, &ctx);
+        bool b2 = transform_path_intersect(&path, tri, &r, &h2, 0, &ctx);
         hits += b1;
         if (b1 == b2 && (!b1 || (h1.t == h2.t && h1.normal.x == h2.normal.x &&
                                  h1.normal.y == h2.normal.y && h1.normal.z == h2.normal.z)))
@@ -223,7 +223,7 @@ static void test_group_and_ties(void)
     group_set_child(g, 1, t1);
     group_set_child(g, 2, t0);
     group_finish(g);
-    CHECK_INT(object_assign_ids(g), 3);
+    CHECK_INT(group_assign_ids(g), 3);
     CHECK_INT(s->id, 0);
     CHECK_INT(t1->id, 1);
     CHECK_INT(t0->id, 2);

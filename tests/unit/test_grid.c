@@ -1,5 +1,5 @@
-/* Grid construction on small hand-made scenes: the course occupancy rules of
- * semantics.md 7.2 (sphere distance rule, touching boxes, transformed triangles and
+/* Grid construction on small hand-made scenes: the course occupancy rules
+ * (sphere distance rule, touching boxes, transformed triangles and
  * spheres), the tighter marching sets, planes, degenerate boxes, the palette, the
  * visualisation hit and -grid auto. */
 #include <string.h>
@@ -41,7 +41,7 @@ static void ts_finish(TestScene *t)
         group_set_child(root, i, t->kids[i]);
     group_finish(root);
     t->s.root = root;
-    t->s.num_primitives = object_assign_ids(root);
+    t->s.num_primitives = group_assign_ids(root);
     t->s.bounds = root->bounded ? root->bbox : bbox_empty();
 }
 
@@ -195,7 +195,8 @@ static void test_transformed_sphere(void)
     ts_free(&t);
 }
 
-/* An identity Transform still switches a sphere to the box rule (semantics.md 7.2). */
+/* An identity Transform still switches a sphere to the box rule (the course
+ * tests a transformed sphere by its transformed box). */
 static void test_identity_transform_sphere_uses_box_rule(void)
 {
     TestScene t;

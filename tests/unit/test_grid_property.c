@@ -204,7 +204,7 @@ static void rscene_make(RScene *r, int num_objects, int num_planes)
         group_set_child(root, k++, sphere_new(&r->s.arena, vrand(-2, 2), 0.3f, r->mats[0]));
     group_finish(root);
     r->s.root = root;
-    r->s.num_primitives = object_assign_ids(root);
+    r->s.num_primitives = group_assign_ids(root);
     r->s.bounds = root->bounded ? root->bbox : bbox_empty();
 }
 

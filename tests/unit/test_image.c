@@ -1,5 +1,6 @@
-/* Unit tests of src/io: the course TGA bytes (tga.md), PPM/PNG round trips, decoders on
- * damaged input, the temp-file-and-rename writer, and image_compare's figures. */
+/* Unit tests of src/io: the course TGA bytes (docs/images.md), PPM/PNG round trips,
+ * decoders on damaged input, the temp-file-and-rename writer, and image_compare's
+ * figures. */
 #define _POSIX_C_SOURCE 200809L
 #include "../harness.h"
 
@@ -98,24 +99,24 @@ static void make_small(Image *img)
 
 static void test_color_to_byte(void)
 {
-    CHECK_INT(color_to_byte(0.7f), 178);
-    CHECK_INT(color_to_byte(0.2f), 51);
-    CHECK_INT(color_to_byte(0.5f), 127);
-    CHECK_INT(color_to_byte(1.0f), 255);
-    CHECK_INT(color_to_byte(1.0001f), 255);
-    CHECK_INT(color_to_byte(7.0f), 255);
-    CHECK_INT(color_to_byte(0.0f), 0);
-    CHECK_INT(color_to_byte(-0.001f), 0);
-    CHECK_INT(color_to_byte(-5.0f), 0);
-    CHECK_INT(color_to_byte(NAN), 0);
-    CHECK_INT(color_to_byte(INFINITY), 255);
-    CHECK_INT(color_to_byte(-INFINITY), 0);
-    CHECK_INT(color_to_byte(1e30f), 255);
+    CHECK_INT(image_color_to_byte(0.7f), 178);
+    CHECK_INT(image_color_to_byte(0.2f), 51);
+    CHECK_INT(image_color_to_byte(0.5f), 127);
+    CHECK_INT(image_color_to_byte(1.0f), 255);
+    CHECK_INT(image_color_to_byte(1.0001f), 255);
+    CHECK_INT(image_color_to_byte(7.0f), 255);
+    CHECK_INT(image_color_to_byte(0.0f), 0);
+    CHECK_INT(image_color_to_byte(-0.001f), 0);
+    CHECK_INT(image_color_to_byte(-5.0f), 0);
+    CHECK_INT(image_color_to_byte(NAN), 0);
+    CHECK_INT(image_color_to_byte(INFINITY), 255);
+    CHECK_INT(image_color_to_byte(-INFINITY), 0);
+    CHECK_INT(image_color_to_byte(1e30f), 255);
     /* truncation, not rounding: 0.999 * 255 = 254.7 -> 254 */
-    CHECK_INT(color_to_byte(0.999f), 254);
+    CHECK_INT(image_color_to_byte(0.999f), 254);
     /* every stored byte value survives byte -> b/255 -> byte */
     for (int b = 0; b < 256; b++)
-        CHECK_INT(color_to_byte((float)b / 255.0f), b);
+        CHECK_INT(image_color_to_byte((float)b / 255.0f), b);
 }
 
 static void test_tga_exact_bytes(void)
@@ -210,11 +211,11 @@ static void test_tga_decode_bottom_up_and_32bit(void)
     CHECK_INT(img.width, 2);
     CHECK_INT(img.height, 2);
     if (img.pixels) {
-        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), 30);
-        CHECK_INT(color_to_byte(image_get(&img, 0, 0).z), 10);
-        CHECK_INT(color_to_byte(image_get(&img, 1, 0).y), 50);
-        CHECK_INT(color_to_byte(image_get(&img, 0, 1).x), 90);
-        CHECK_INT(color_to_byte(image_get(&img, 1, 1).z), 100);
+        CHECK_INT(image_color_to_byte(image_get(&img, 0, 0).x), 30);
+        CHECK_INT(image_color_to_byte(image_get(&img, 0, 0).z), 10);
+        CHECK_INT(image_color_to_byte(image_get(&img, 1, 0).y), 50);
+        CHECK_INT(image_color_to_byte(image_get(&img, 0, 1).x), 90);
+        CHECK_INT(image_color_to_byte(image_get(&img, 1, 1).z), 100);
     }
     image_free(&img);
 }
@@ -308,8 +309,8 @@ static void test_ppm_comments_and_rejects(void)
     CHECK_INT(img.width, 2);
     CHECK_INT(img.height, 1);
     if (img.pixels) {
-        CHECK_INT(color_to_byte(image_get(&img, 0, 0).x), 1);
-        CHECK_INT(color_to_byte(image_get(&img, 1, 0).z), 0xfc);
+        CHECK_INT(image_color_to_byte(image_get(&img, 0, 0).x), 1);
+        CHECK_INT(image_color_to_byte(image_get(&img, 1, 0).z), 0xfc);
     }
     image_free(&img);
 
@@ -403,7 +404,7 @@ static void test_write_read_by_extension(void)
     CHECK(image_write(&img, path, &diag));
     CHECK(image_read(&back, path, &diag));
     if (back.pixels)
-        CHECK_INT(color_to_byte(image_get(&back, 0, 0).x), 0);
+        CHECK_INT(image_color_to_byte(image_get(&back, 0, 0).x), 0);
     image_free(&back);
 
     image_free(&img);
@@ -624,7 +625,7 @@ static void test_codec_table(void)
 
 static const TestCase tests[] = {
     {"image: codec table: names, extensions, signatures", test_codec_table},
-    {"image: color_to_byte truncates and clamps", test_color_to_byte},
+    {"image: image_color_to_byte truncates and clamps", test_color_to_byte},
     {"image: TGA bytes of a 3x2 image", test_tga_exact_bytes},
     {"image: TGA size fields little-endian", test_tga_size_fields_little_endian},
     {"image: TGA round trip", test_tga_round_trip},

@@ -24,7 +24,8 @@ static void test_rotations_right_handed(void)
 
 static void test_composition_order(void)
 {
-    /* scene-format.md 8: "Translate 1 0 0" then "Scale 2 2 2" = T * S: scale first. */
+    /* Transforms apply last-written first: "Translate 1 0 0" then "Scale 2 2 2" = T * S:
+     * scale first. */
     Mat4 t = mat4_translate(v3(1, 0, 0)), s = mat4_scale(v3(2, 2, 2));
     Mat4 m = mat4_mul(&t, &s);
     check_vec(mat4_point(&m, v3(1, 1, 1)), v3(3, 2, 2), 0);

@@ -6,6 +6,7 @@
 
 #include "../harness.h"
 #include "../../src/scene/obj_loader.h"
+#include "rt/file.h"
 
 static Diag g_diag;
 
@@ -183,7 +184,7 @@ static void test_float_matches_strtof(void)
     }
 }
 
-/* The course reader (scene-format.md 7.4): one character at a time, 'v' -> %f %f %f,
+/* The course reader: one character at a time, 'v' -> %f %f %f,
  * 'f' -> %d %d %d. Right for the official files, which contain only v and f lines. */
 static bool course_read(const char *path, ObjMesh *m)
 {

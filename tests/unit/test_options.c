@@ -1,4 +1,5 @@
-/* Unit tests of the command line (spec cli.md) and of the statistics block layout. */
+/* Unit tests of the command line (README.txt's options) and of the statistics block
+ * layout. */
 #define _GNU_SOURCE
 #include "harness.h"
 #include "rt/options.h"

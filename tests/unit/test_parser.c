@@ -321,7 +321,8 @@ static void test_transform_order(void)
 {
     const char *mats = "Materials { numMaterials 1 PhongMaterial { } }\n";
     char buf[2048];
-    /* scene-format.md 8: Translate then Scale = scale about the origin, then move +1 x. */
+    /* Transforms apply last-written first: Translate then Scale = scale about the origin,
+     * then move +1 x. */
     snprintf(buf, sizeof buf,
              "%sGroup { numObjects 1 MaterialIndex 0 Transform { Translate 1 0 0 Scale 2 2 2 "
              "Sphere { center 0 0 0 radius 1 } } }", mats);

@@ -1,4 +1,4 @@
-/* Unit tests of Perlin's improved noise and the A6 octave sum (semantics.md 5.2). */
+/* Unit tests of Perlin's improved noise and the A6 octave sum (docs/textures.md). */
 #include <math.h>
 
 #include "../harness.h"
@@ -8,12 +8,12 @@
  * - noise(3.14, 42, 7) = 0.13691995878400012 is the value of Ken Perlin's reference Java
  *   implementation quoted by the Rosetta Code task "Perlin noise".
  * - The others were computed by an independent Python script (below), written from
- *   the spec's description in a different shape than src/shade/perlin.c: the gradient
+ *   Perlin's published algorithm in a different shape than src/shade/perlin.c: the gradient
  *   rule is turned into explicit vectors, and the trilinear interpolation is written
  *   as a weighted sum over the eight corners instead of nested lerps. It reproduces
  *   the Rosetta Code value to the last digit.
  *
- *   P = <Perlin's 256 numbers from semantics.md 5.2>; P = P + P
+ *   P = <Perlin's 256-entry permutation, src/shade/perlin.c>; P = P + P
  *   def gvec(h):
  *       h &= 15; g = [0, 0, 0]
  *       pi = 0 if h < 8 else 1

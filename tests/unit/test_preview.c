@@ -224,7 +224,7 @@ static float max_diff(Vec3 a, Vec3 b)
     return fmaxf(fabsf(a.x - b.x), fmaxf(fabsf(a.y - b.y), fabsf(a.z - b.z)));
 }
 
-/* Pixel of world point p in a w x h view (inverse of semantics.md 2). */
+/* Pixel of world point p in a w x h view (inverse of camera_pixel_to_screen). */
 static void project(const Camera *c, Vec3 p, int w, int h, int *i, int *j)
 {
     Vec3 q = v3_sub(p, c->center);
@@ -348,7 +348,7 @@ static void test_snapshot_course_04(void)
 }
 
 /* The project's own scene: orthographic, a checkerboard sphere (the preview shows the
- * FIRST material, cli.md 4) and a transformed triangle, light from the viewer. */
+ * FIRST material, as the course's) and a transformed triangle, light from the viewer. */
 static const char *CHECKER_SCENE =
     "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 6 }\n"
     "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"

@@ -1,4 +1,4 @@
-/* Unit tests of the procedural materials (semantics.md 5, 6): Checkerboard parity,
+/* Unit tests of the procedural materials (docs/textures.md): Checkerboard parity,
  * the Noise/Marble/Wood weights, delegation of every accessor, nesting. The children
  * are stub materials of this file, so the tests do not depend on PhongMaterial. */
 #include <math.h>

@@ -12,6 +12,7 @@
 #include "../harness.h"
 #include "../../src/accel/grid_internal.h"
 #include "../../src/scene/obj_loader.h"
+#include "rt/file.h"
 #include "rt/arena.h"
 #include "rt/geom.h"
 #include "rt/par.h"

@@ -109,7 +109,7 @@ static void mini_init(Mini *m)
 static void mini_set_root(Mini *m, Object3D *root)
 {
     m->s.root = root;
-    m->s.num_primitives = object_assign_ids(root);
+    m->s.num_primitives = group_assign_ids(root);
     m->s.bounds = root->bbox;
 }
 
