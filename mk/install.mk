@@ -1,0 +1,31 @@
+# `make install` and `make uninstall` (README.txt: Installing). PREFIX (default
+# /usr/local) and DESTDIR (staging root for packagers and tests) as in the GNU coding
+# standards. Installs ./raytracer (and ./raytracer-mpi when `make mpi` built it), the
+# manual page man/raytracer.1 and the bash completion completion/raytracer.bash.
+PREFIX  ?= /usr/local
+DESTDIR ?=
+BINDIR  ?= $(PREFIX)/bin
+MANDIR  ?= $(PREFIX)/share/man
+BASHCOMPDIR ?= $(PREFIX)/share/bash-completion/completions
+INSTALL ?= install
+
+.PHONY: install uninstall
+# (the binaries by name: this file is read before the Makefile defines BIN)
+RT_INSTALL_BIN = $(if $(filter build,$(BUILD)),raytracer,$(BUILD)/raytracer)
+RT_INSTALL_MPI = $(wildcard $(if $(filter build,$(BUILD)),raytracer-mpi,$(BUILD)/raytracer-mpi))
+
+install: all
+	$(say) INSTALL $(DESTDIR)$(PREFIX)
+	$(Q)$(INSTALL) -d '$(DESTDIR)$(BINDIR)' '$(DESTDIR)$(MANDIR)/man1' '$(DESTDIR)$(BASHCOMPDIR)'
+	$(Q)$(INSTALL) -m 755 $(RT_INSTALL_BIN) $(RT_INSTALL_MPI) '$(DESTDIR)$(BINDIR)/'
+	$(Q)$(INSTALL) -m 644 man/raytracer.1 '$(DESTDIR)$(MANDIR)/man1/raytracer.1'
+	$(Q)$(INSTALL) -m 644 completion/raytracer.bash '$(DESTDIR)$(BASHCOMPDIR)/raytracer'
+	$(Q)if [ -n '$(RT_INSTALL_MPI)' ]; then \
+	    ln -sf raytracer '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi'; fi
+
+# Removes exactly what install puts there (the folders stay: others share them).
+uninstall:
+	$(say) UNINST $(DESTDIR)$(PREFIX)
+	$(Q)rm -f '$(DESTDIR)$(BINDIR)/raytracer' '$(DESTDIR)$(BINDIR)/raytracer-mpi' \
+	    '$(DESTDIR)$(MANDIR)/man1/raytracer.1' '$(DESTDIR)$(BASHCOMPDIR)/raytracer' \
+	    '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi'

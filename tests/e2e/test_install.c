@@ -1,0 +1,374 @@
+/* make install / make uninstall into a DESTDIR: the binary (the one under test, byte
+ * for byte), the manual page (formatted by man -l and groff -ww without a warning, and
+ * naming every option of raytracer -h) and the bash completion (sourced in bash: -sha
+ * completes to -shadows and -shade_back, -input offers scenes, -output images, every
+ * option of -h is offered; loaded from DESTDIR by bash-completion's own loader).
+ * A missing tool (man, groff, bash-completion) skips its test with the reason printed,
+ * unless RT_REQUIRE_TOOLS=1 (CI), which makes it a failure. */
+#define _POSIX_C_SOURCE 200809L
+#include "../harness.h"
+#include "e2e_util.h"
+
+/* A skip, or a failure when CI requires every tool. */
+static void missing_tool(const char *why)
+{
+    const char *req = getenv("RT_REQUIRE_TOOLS");
+    if (req && strcmp(req, "1") == 0) {
+        harness_fail(__FILE__, __LINE__, "RT_REQUIRE_TOOLS=1 but %s", why);
+        fflush(stdout);
+        _exit(1);
+    }
+    harness_skip(why);
+}
+
+/* The full path of program on PATH into buf; false when it is not there. */
+static bool find_program(const char *program, char *buf, size_t size)
+{
+    const char *path = getenv("PATH");
+    char copy[4096];
+    snprintf(copy, sizeof copy, "%s", path ? path : "/usr/bin:/bin");
+    for (char *d = strtok(copy, ":"); d; d = strtok(NULL, ":")) {
+        e2e_join(buf, size, d, program);
+        if (access(buf, X_OK) == 0)
+            return true;
+    }
+    return false;
+}
+
+static void need_program(const char *program, const char *package, char *buf, size_t size)
+{
+    if (!find_program(program, buf, size)) {
+        char why[256];
+        snprintf(why, sizeof why, "%s not found (apt-get install %s)", program, package);
+        missing_tool(why);
+    }
+}
+
+/* The nested make gets the outer make's variables (BUILD, SAN, CC, ... after "--" in
+ * MAKEFLAGS), so it installs the binary under test without rebuilding; the outer job
+ * server's descriptors are not passed on. */
+static void nested_make_env(void)
+{
+    const char *mf = getenv("MAKEFLAGS");
+    const char *vars = mf ? strstr(mf, " -- ") : NULL;
+    if (vars)
+        setenv("MAKEFLAGS", vars, 1);
+    else
+        unsetenv("MAKEFLAGS");
+    unsetenv("MFLAGS");
+}
+
+/* Runs make TARGET DESTDIR=dest PREFIX=/usr/local in the project's root. */
+static bool run_make(const char *target, const char *dest, E2eRun *r)
+{
+    char make[PATH_MAX], destvar[PATH_MAX + 16];
+    if (!find_program("make", make, sizeof make)) {
+        CHECK_MSG(false, "make not found");
+        return false;
+    }
+    nested_make_env();
+    snprintf(destvar, sizeof destvar, "DESTDIR=%s", dest);
+    char *argv[] = {make, (char *)"--no-print-directory", (char *)"-C", (char *)harness_root(),
+                    (char *)target, destvar, (char *)"PREFIX=/usr/local", NULL};
+    if (!e2e_run(argv, r))
+        return false;
+    char why[512];
+    CHECK_MSG(r->status == 0, "make %s: %s; stdout: %.300s", target,
+              e2e_describe(r, why, sizeof why), r->out);
+    return r->status == 0;
+}
+
+/* Installs into a fresh DESTDIR (dest); false on failure (already reported). */
+static bool install_to(char *dest, size_t size)
+{
+    if (!e2e_tmpdir(dest, size, "install")) {
+        CHECK_MSG(false, "cannot make a temporary folder");
+        return false;
+    }
+    E2eRun r;
+    bool ok = run_make("install", dest, &r);
+    e2e_run_free(&r);
+    return ok;
+}
+
+static const char *const k_installed[] = {
+    "usr/local/bin/raytracer",
+    "usr/local/share/man/man1/raytracer.1",
+    "usr/local/share/bash-completion/completions/raytracer",
+};
+
+static bool same_bytes(const char *a, const char *b)
+{
+    size_t la = 0, lb = 0;
+    char *da = e2e_read_file(a, &la), *db = e2e_read_file(b, &lb);
+    bool same = da && db && la == lb && memcmp(da, db, la) == 0;
+    free(da);
+    free(db);
+    return same;
+}
+
+static void test_install_uninstall(void)
+{
+    char dest[PATH_MAX], path[PATH_MAX];
+    if (!install_to(dest, sizeof dest))
+        return;
+    for (size_t i = 0; i < sizeof k_installed / sizeof k_installed[0]; i++) {
+        e2e_join(path, sizeof path, dest, k_installed[i]);
+        CHECK_MSG(e2e_exists(path), "make install did not install %s", k_installed[i]);
+    }
+    e2e_join(path, sizeof path, dest, k_installed[0]);
+    CHECK_MSG(access(path, X_OK) == 0, "%s is not executable", path);
+    CHECK_MSG(same_bytes(path, harness_bin()), "the installed binary is not %s",
+              harness_bin());
+    const char *args[] = {"--version", NULL};
+    E2eRun r;
+    CHECK(e2e_run_bin(path, args, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_CONTAINS(r.out, "raytracer ");
+    e2e_run_free(&r);
+    /* raytracer-mpi goes with it exactly when make mpi built it. */
+    const char *mpi = getenv("RT_MPI_BIN");
+    bool have_mpi = mpi && *mpi && access(mpi, X_OK) == 0;
+    e2e_join(path, sizeof path, dest, "usr/local/bin/raytracer-mpi");
+    CHECK_MSG(e2e_exists(path) == have_mpi, "raytracer-mpi %s installed, %s built",
+              e2e_exists(path) ? "is" : "is not", have_mpi ? "is" : "is not");
+
+    if (run_make("uninstall", dest, &r)) {
+        for (size_t i = 0; i < sizeof k_installed / sizeof k_installed[0]; i++) {
+            e2e_join(path, sizeof path, dest, k_installed[i]);
+            CHECK_MSG(!e2e_exists(path), "make uninstall left %s", k_installed[i]);
+        }
+        e2e_join(path, sizeof path, dest, "usr/local/bin/raytracer-mpi");
+        CHECK_MSG(!e2e_exists(path), "make uninstall left raytracer-mpi");
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(dest);
+}
+
+/* The option names of raytracer -h (lines "  -name ..."; "-h, --help" gives two), each
+ * as a separate malloc'd string; returns how many. */
+static int help_options(char **names, int max)
+{
+    const char *args[] = {"-h", NULL};
+    E2eRun r;
+    int n = 0;
+    if (!e2e_run_bin(harness_bin(), args, &r) || r.status != 0) {
+        CHECK_MSG(false, "raytracer -h failed");
+        e2e_run_free(&r);
+        return 0;
+    }
+    for (char *line = r.out; line && *line;) {
+        char *eol = strchr(line, '\n');
+        if (eol)
+            *eol = '\0';
+        if (!strncmp(line, "  -", 3)) {
+            char *p = line + 2;
+            while (*p == '-' && n < max) {
+                size_t len = strcspn(p, " ,");
+                names[n] = strndup(p, len);
+                bool dup = false;
+                for (int k = 0; k < n && !dup; k++)
+                    dup = !strcmp(names[k], names[n]);
+                if (dup)
+                    free(names[n]);
+                else
+                    n++;
+                p += len;
+                if (!strncmp(p, ", ", 2))
+                    p += 2;
+                else
+                    break;
+            }
+        }
+        line = eol ? eol + 1 : NULL;
+    }
+    e2e_run_free(&r);
+    return n;
+}
+
+/* True when text holds word as a whole option name (not followed by a name
+ * character: -grid is not found in -grid_x alone). */
+static bool has_option(const char *text, const char *word)
+{
+    size_t n = strlen(word);
+    for (const char *p = strstr(text, word); p; p = strstr(p + 1, word)) {
+        char next = p[n];
+        bool before_ok = p == text || !(p[-1] == '-' || p[-1] == '_' ||
+                                        (p[-1] >= 'a' && p[-1] <= 'z'));
+        if (before_ok && !(next == '_' || next == '-' || (next >= 'a' && next <= 'z')))
+            return true;
+    }
+    return false;
+}
+
+static void test_man_page(void)
+{
+    char man[PATH_MAX], groff[PATH_MAX];
+    need_program("man", "man-db", man, sizeof man);
+    need_program("groff", "groff", groff, sizeof groff);
+    char dest[PATH_MAX], page[PATH_MAX];
+    if (!install_to(dest, sizeof dest))
+        return;
+    e2e_join(page, sizeof page, dest, "usr/local/share/man/man1/raytracer.1");
+
+    /* Every warning groff knows (-ww) is a failure: the page must be clean roff. */
+    char *gargv[] = {groff, (char *)"-man", (char *)"-Tutf8", (char *)"-ww", page, NULL};
+    E2eRun r;
+    CHECK(e2e_run(gargv, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(r.err_len == 0, "groff -ww warns: %.600s", r.err);
+    CHECK_MSG(r.out_len > 2000, "groff wrote only %zu bytes", r.out_len);
+    e2e_run_free(&r);
+
+    setenv("MANWIDTH", "100", 1);
+    setenv("MAN_DISABLE_SECCOMP", "1", 1); /* man-db's sandbox may not exist in containers */
+    char *margv[] = {man, (char *)"-l", page, NULL};
+    CHECK(e2e_run(margv, &r));
+    char why[512];
+    CHECK_MSG(r.status == 0, "man -l: %s", e2e_describe(&r, why, sizeof why));
+    CHECK_MSG(r.err_len == 0, "man -l printed on stderr: %.600s", r.err);
+    static const char *const sections[] = {"NAME", "SYNOPSIS", "DESCRIPTION", "OPTIONS",
+                                           "EXIT STATUS", "FILES", "EXAMPLES"};
+    for (size_t i = 0; i < sizeof sections / sizeof sections[0]; i++)
+        CHECK_MSG(strstr(r.out, sections[i]) != NULL, "the manual page has no %s section",
+                  sections[i]);
+    /* Every option of the program is documented. */
+    char *names[256];
+    int n = help_options(names, 256);
+    CHECK_MSG(n > 40, "raytracer -h lists only %d options", n);
+    for (int i = 0; i < n; i++) {
+        CHECK_MSG(has_option(r.out, names[i]), "the manual page does not document %s",
+                  names[i]);
+        free(names[i]);
+    }
+    /* and every exit status */
+    for (const char *s = "0\0" "1\0" "2\0" "130\0"; *s; s += strlen(s) + 1) {
+        char line[32];
+        snprintf(line, sizeof line, "\n       %s  ", s);
+        CHECK_MSG(strstr(r.out, line) != NULL, "the manual page does not list exit status %s",
+                  s);
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(dest);
+}
+
+/* Runs a bash script (text) and returns its stdout in r. */
+static bool run_bash(const char *bash, const char *dir, const char *text, E2eRun *r)
+{
+    char script[PATH_MAX];
+    e2e_join(script, sizeof script, dir, "test.sh");
+    if (!e2e_write_file(script, text))
+        return false;
+    char *argv[] = {(char *)bash, (char *)"--norc", (char *)"--noprofile", script, NULL};
+    return e2e_run(argv, r);
+}
+
+/* The completion function, then comp WORDS...: the candidates for the last word,
+ * sorted, on one line. */
+static const char k_comp_helper[] =
+    "comp() { COMP_WORDS=(\"$@\"); COMP_CWORD=$(( $# - 1 )); COMP_LINE=\"$*\";\n"
+    "  COMP_POINT=${#COMP_LINE}; COMPREPLY=(); $fn \"$1\" \"${COMP_WORDS[COMP_CWORD]}\"\n"
+    "  printf '%s\\n' \"${COMPREPLY[@]}\" | LC_ALL=C sort | tr '\\n' ' '; echo; }\n";
+
+static void test_bash_completion(void)
+{
+    char bash[PATH_MAX];
+    need_program("bash", "bash", bash, sizeof bash);
+    char dest[PATH_MAX], file[PATH_MAX], bin[PATH_MAX], path[PATH_MAX];
+    if (!install_to(dest, sizeof dest))
+        return;
+    e2e_join(file, sizeof file, dest, "usr/local/share/bash-completion/completions/raytracer");
+    e2e_join(bin, sizeof bin, dest, "usr/local/bin/raytracer");
+    /* Files to complete (in DESTDIR/files): a scene, images, a model, a folder. */
+    char work[PATH_MAX];
+    e2e_join(work, sizeof work, dest, "files");
+    CHECK(mkdir(work, 0755) == 0);
+    static const char *const files[] = {"a.txt", "b.tga", "c.png", "d.obj", "e.ppm"};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
+        e2e_join(path, sizeof path, work, files[i]);
+        CHECK(e2e_write_file(path, "x"));
+    }
+    e2e_join(path, sizeof path, work, "sub");
+    CHECK(mkdir(path, 0755) == 0);
+
+    static char text[5 * PATH_MAX + 16 * PATH_MAX];
+    snprintf(text, sizeof text,
+             "cd '%s' || exit 1\n. '%s' || exit 1\n"
+             "fn=$(complete -p raytracer | sed 's/.*-F \\([^ ]*\\) .*/\\1/')\n"
+             "[ -n \"$fn\" ] || { echo 'no completion for raytracer'; exit 1; }\n%s"
+             "comp '%s' -sha\n"
+             "comp '%s' -input ''\n"
+             "comp '%s' -input a.txt -output ''\n"
+             "comp '%s' -depth 1 2 ''\n"
+             "comp '%s' -depth 1 ''\n"
+             "comp '%s' -accel ''\n"
+             "comp '%s' -merge out.tga ''\n"
+             "comp '%s' -input a.txt -grid auto -shad\n"
+             "comp '%s' -\n",
+             work, file, k_comp_helper, bin, bin, bin, bin, bin, bin, bin, bin, bin);
+    E2eRun r;
+    CHECK(run_bash(bash, dest, text, &r));
+    char why[512];
+    CHECK_MSG(r.status == 0, "bash: %s; stdout: %.300s", e2e_describe(&r, why, sizeof why),
+              r.out);
+    char *lines[16] = {0};
+    int n = 0;
+    for (char *p = r.out; p && *p && n < 16;) {
+        lines[n++] = p;
+        char *eol = strchr(p, '\n');
+        if (eol)
+            *eol = '\0';
+        p = eol ? eol + 1 : NULL;
+    }
+    CHECK_INT(n, 9);
+    if (n == 9) {
+        CHECK_STR(lines[0], "-shade_back -shadows ");
+        CHECK_STR(lines[1], "a.txt sub ");
+        CHECK_STR(lines[2], "b.tga c.png e.ppm sub ");
+        CHECK_STR(lines[3], "b.tga c.png e.ppm sub ");
+        CHECK_STR(lines[4], " ");                 /* dmax: a number, nothing offered */
+        CHECK_STR(lines[5], "grid none ");
+        CHECK_STR(lines[6], "b.tga c.png e.ppm sub ");
+        CHECK_STR(lines[7], "-shade_back -shadows ");
+        /* every option of -h, once */
+        char *names[256];
+        int k = help_options(names, 256);
+        for (int i = 0; i < k; i++) {
+            char word[80];
+            snprintf(word, sizeof word, "%s ", names[i]);
+            CHECK_MSG(strstr(lines[8], word) != NULL, "completing '-' does not offer %s",
+                      names[i]);
+            free(names[i]);
+        }
+    }
+    e2e_run_free(&r);
+
+    /* The way a user gets it: bash-completion finds the file under DESTDIR's share/
+     * (XDG_DATA_DIRS) when raytracer is first completed. */
+    const char *loader = "/usr/share/bash-completion/bash_completion";
+    if (!e2e_exists(loader)) {
+        e2e_rmtree(dest);
+        missing_tool("bash-completion not found (apt-get install bash-completion)");
+    }
+    snprintf(text, sizeof text,
+             "cd '%s' || exit 1\nexport XDG_DATA_DIRS='%s/usr/local/share'\n"
+             "shopt -s progcomp\n. %s\n"
+             "__load_completion raytracer || { echo 'not loaded'; exit 1; }\n"
+             "fn=$(complete -p raytracer | sed 's/.*-F \\([^ ]*\\) .*/\\1/')\n%s"
+             "comp '%s' -sha\n",
+             work, dest, loader, k_comp_helper, bin);
+    CHECK(run_bash(bash, dest, text, &r));
+    CHECK_MSG(r.status == 0, "bash with bash-completion: %s; stdout: %.300s",
+              e2e_describe(&r, why, sizeof why), r.out);
+    CHECK_STR(r.out, "-shade_back -shadows \n");
+    e2e_run_free(&r);
+    e2e_rmtree(dest);
+}
+
+static const TestCase tests[] = {
+    {"install_uninstall", test_install_uninstall},
+    {"install_man_page", test_man_page},
+    {"install_bash_completion", test_bash_completion},
+};
+
+RT_TEST_MAIN(tests)
