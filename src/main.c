@@ -130,6 +130,24 @@ static bool stdout_ok(Diag *d, const char *what)
     return false;
 }
 
+/* True when an image goes to standard output (an output file "-"). */
+static bool image_to_stdout(const Options *o)
+{
+    const char *files[] = {o->output, o->depth_file, o->normals_file, o->samples_file,
+                           o->filter_file, o->gui_snapshot};
+    for (size_t i = 0; i < sizeof files / sizeof files[0]; i++)
+        if (files[i] && strcmp(files[i], IMAGE_STDOUT) == 0)
+            return true;
+    return false;
+}
+
+/* The format of an image written to path: -format for standard output, else NULL (the
+ * extension decides). */
+static const char *stdout_format(const Options *o, const char *path)
+{
+    return path && strcmp(path, IMAGE_STDOUT) == 0 ? o->format : NULL;
+}
+
 /* Any antialiasing option: the render goes through the film (samplers, filters). */
 static bool antialiasing_requested(const Options *o)
 {
@@ -352,15 +370,19 @@ static int render_and_write(void *user, const Camera *camera)
     ImageOutput outs[5];
     int nout = 0;
     if (target.color)
-        outs[nout++] = (ImageOutput){target.color, o->output};
+        outs[nout++] = (ImageOutput){target.color, o->output, stdout_format(o, o->output)};
     if (target.depth)
-        outs[nout++] = (ImageOutput){target.depth, o->depth_file};
+        outs[nout++] = (ImageOutput){target.depth, o->depth_file,
+                                     stdout_format(o, o->depth_file)};
     if (target.normals)
-        outs[nout++] = (ImageOutput){target.normals, o->normals_file};
+        outs[nout++] = (ImageOutput){target.normals, o->normals_file,
+                                     stdout_format(o, o->normals_file)};
     if (samples)
-        outs[nout++] = (ImageOutput){samples, o->samples_file};
+        outs[nout++] = (ImageOutput){samples, o->samples_file,
+                                     stdout_format(o, o->samples_file)};
     if (filter_pic)
-        outs[nout++] = (ImageOutput){filter_pic, o->filter_file};
+        outs[nout++] = (ImageOutput){filter_pic, o->filter_file,
+                                     stdout_format(o, o->filter_file)};
     if (dist_is_root() && nout > 0 && !image_write_all(outs, nout, &app->diag)) {
         status = EXIT_INPUT;
         goto done;
@@ -386,9 +408,14 @@ static int render_and_write(void *user, const Camera *camera)
         accel_report(&app->accel, &r);
         r.elapsed_seconds = t_render;
         r.counts = counts;
-        stats_print(stdout, &r);
-        if (!stdout_ok(&app->diag, "the statistics"))
-            status = EXIT_INPUT;
+        /* Standard output carries the image (-output -): the block goes to stderr. */
+        if (image_to_stdout(o)) {
+            stats_print(stderr, &r);
+        } else {
+            stats_print(stdout, &r);
+            if (!stdout_ok(&app->diag, "the statistics"))
+                status = EXIT_INPUT;
+        }
     }
     /* The precise rate goes here; the -stats block has the course's whole-second one. */
     if (o->timings && dist_is_root())
@@ -425,7 +452,10 @@ static int run(App *app)
     const char *outputs[] = {o->output, o->depth_file, o->normals_file, o->gui_snapshot,
                              o->samples_file, o->filter_file};
     for (size_t i = 0; i < sizeof outputs / sizeof outputs[0]; i++)
-        if (outputs[i] && !image_check_output(outputs[i], &app->diag))
+        if (outputs[i] && !image_check_output(outputs[i], outputs[i] == o->gui_snapshot
+                                                              ? NULL /* always TGA */
+                                                              : stdout_format(o, outputs[i]),
+                                              &app->diag))
             return EXIT_INPUT;
     double t0 = clock_now();
     app->scene = dist_scene_load(o->input, &app->diag);
@@ -433,7 +463,7 @@ static int run(App *app)
     if (!app->scene)
         return EXIT_INPUT;
     Scene *s = app->scene;
-    SrcLoc file = {o->input, 0, 0};
+    SrcLoc file = {s->path, 0, 0};
     if (!s->has_camera) {
         diag_error(&app->diag, &file, "the scene has no camera (OrthographicCamera or PerspectiveCamera)");
         return EXIT_INPUT;

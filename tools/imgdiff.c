@@ -21,7 +21,8 @@ static void usage(FILE *out)
     image_format_list(formats, sizeof formats);
     fprintf(out,
             "usage: imgdiff [-t threshold] [-p min_percent] [-q] a.tga b.tga [-o diff.tga]\n"
-            "  Compares two images (%s) byte by byte per channel.\n"
+            "  Compares two images (%s) byte by byte per channel; - reads one of them\n"
+            "  from standard input.\n"
             "  -t N   a pixel matches when its largest channel difference is <= N/255 "
             "(default 8)\n"
             "  -p P   pass when at least P%% of the pixels match (default 99.5)\n"
@@ -103,6 +104,10 @@ int main(int argc, char **argv)
         usage(stderr);
         return 2;
     }
+    if (strcmp(files[0], "-") == 0 && strcmp(files[1], "-") == 0) {
+        fprintf(stderr, "imgdiff: only one image can come from standard input\n");
+        return 2;
+    }
 
     Diag diag;
     diag_init(&diag, stderr);
@@ -131,8 +136,10 @@ int main(int argc, char **argv)
             printf("max diff        %d /255\n", d.max_diff);
             printf("within 1/255    %.3f%%\n", d.pct_within_1);
             printf("within 8/255    %.3f%%\n", d.pct_within_8);
-            printf("within %d/255%*s%.3f%%\n", threshold, threshold >= 100 ? 2
-                   : threshold >= 10 ? 3 : 4, "", d.pct_within_t);
+            /* The threshold's own line, unless it is one of the two above. */
+            if (threshold != 1 && threshold != 8)
+                printf("within %d/255%*s%.3f%%\n", threshold, threshold >= 100 ? 2
+                       : threshold >= 10 ? 3 : 4, "", d.pct_within_t);
             if (isinf(d.psnr))
                 printf("psnr            inf\n");
             else

@@ -16,6 +16,7 @@
 #define RT_FILE_PAR_MIN_BYTES ((size_t)256 << 10)
 
 /* Reads a whole file into a malloc'd, NUL-terminated buffer; *len excludes the NUL.
+ * The path "-" reads standard input (the scene of -input -).
  * False with errno set (EISDIR, EFBIG past RT_FILE_MAX_BYTES, ENOMEM, or fopen's). */
 bool file_read_all(const char *path, char **out, size_t *len);
 /* The same into an arena buffer (rt/arena.h; arena_buffer_free), which

@@ -47,14 +47,20 @@ uint8_t image_color_to_byte(float c);
 
 /* Writes by file name extension (image_codec_for_path): .tga (course layout), .ppm (P6),
  * .png (when built with libpng). Writes to a temporary file in the same folder and
- * renames it, so a failure leaves no file. Reports failures to diag. */
+ * renames it, so a failure leaves no file. The path "-" (IMAGE_STDOUT) is standard
+ * output, in TGA. Reports failures to diag. */
 bool image_write(const Image *img, const char *path, Diag *diag);
 
-/* Before any work: whether image_write could write path, judged without writing: the
- * extension names a format this build writes, and path is no folder and lies in an
- * existing folder that takes new files (or is an existing pipe or device that takes
- * writes). False with the reason reported to diag. */
-bool image_check_output(const char *path, Diag *diag);
+/* The file name that means standard output (-output -). */
+#define IMAGE_STDOUT "-"
+
+/* Before any work: whether image_write_all could write path in format (a codec's name;
+ * NULL: by the extension, TGA for standard output), judged without writing: the format
+ * is one this build writes, a file's extension names that format, and path is no
+ * folder and lies in an existing folder that takes new files (or is an existing pipe or
+ * device that takes writes); standard output must be open and not a terminal (binary
+ * bytes would garble it). False with the reason reported to diag. */
+bool image_check_output(const char *path, const char *format, Diag *diag);
 
 /* Several images, all or nothing: each goes to its temporary file first (an existing
  * pipe or device is written in place after those), and the temporary files are renamed
@@ -63,7 +69,8 @@ bool image_check_output(const char *path, Diag *diag);
 enum { IMAGE_MAX_OUTPUTS = 8 };
 typedef struct ImageOutput {
     const Image *image;
-    const char *path;
+    const char *path;     /* IMAGE_STDOUT: standard output, written after the files */
+    const char *format;   /* a codec's name; NULL: by the extension (TGA for stdout) */
 } ImageOutput;
 bool image_write_all(const ImageOutput *outs, int n, Diag *diag);
 
@@ -73,7 +80,8 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag);
  * way or the renames have begun (they finish: the images are then complete). */
 bool image_write_abort(void);
 /* Reads any format of the codec table: by its signature (PPM "P6", PNG), else as TGA
- * (uncompressed 24/32-bit, either row order), the format without one. */
+ * (uncompressed 24/32-bit, either row order), the format without one. The path "-"
+ * reads standard input. */
 bool image_read(Image *img, const char *path, Diag *diag);
 
 /* One image file format: a static const table in the format's own file (src/io/tga.c,

@@ -10,7 +10,10 @@
 
 typedef struct Options {
     const char *input;           /* required unless help/version */
-    const char *output;          /* NULL: no colour image */
+    const char *output;          /* NULL: no colour image; "-": standard output */
+    const char *format;          /* -format NAME: a codec's name for images written to
+                                    standard output (NULL: TGA); a file's extension must
+                                    name the same format */
     int width, height;           /* default 100 100 */
     const char *depth_file;      /* -depth dmin dmax file */
     float depth_min, depth_max;

@@ -37,9 +37,13 @@ typedef struct Scene {
     SceneFiles *files;          /* while loading: where files come from (NULL: the disk) */
 } Scene;
 
+/* The scene path that means standard input (-input -). */
+#define SCENE_STDIN "-"
+
 /* Parses path (docs/scene-format.md). On error reports a located message to diag and
  * returns NULL with nothing leaked. obj_file names resolve against the scene file's
- * folder first, then the working directory. */
+ * folder first, then the working directory. SCENE_STDIN reads standard input (named
+ * "<stdin>" in messages; obj_file names then resolve in the working directory). */
 Scene *scene_load(const char *path, Diag *diag);
 /* The same from a string (tests); name is used in messages and base_dir for obj_file
  * (NULL = working directory only). */

@@ -75,11 +75,17 @@ static bool read_parallel(FILE *f, char *buf, size_t size)
     return pread(job.fd, &c, 1, (off_t)size) == 0; /* nothing was appended meanwhile */
 }
 
-static bool read_all(const char *path, char **out, size_t *len, bool reusable)
+static bool read_all(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    /* "-" is standard input for the scene (file_read_all) only; a duplicate, so
+     * fclose leaves descriptor 0 open. An OBJ file may really be called "-". */
+    int in = stdin_ok && strcmp(path, "-") == 0 ? dup(STDIN_FILENO) : -1;
+    FILE *f = in >= 0 ? fdopen(in, "rb") : fopen(path, "rb");
+    if (!f) {
+        if (in >= 0)
+            close(in);
         return false;
+    }
     struct stat st;
     if (fstat(fileno(f), &st) != 0) {
         int e = errno;
@@ -154,10 +160,10 @@ static bool read_all(const char *path, char **out, size_t *len, bool reusable)
 
 bool file_read_all(const char *path, char **out, size_t *len)
 {
-    return read_all(path, out, len, false);
+    return read_all(path, out, len, false, true);
 }
 
 bool file_read_reusable(const char *path, char **out, size_t *len)
 {
-    return read_all(path, out, len, true);
+    return read_all(path, out, len, true, false);
 }

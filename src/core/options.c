@@ -5,6 +5,7 @@
 #include "rt/filter.h"
 #include "rt/sampler.h"
 #include "rt/accel.h"
+#include "rt/image.h"
 #include "rt/suggest.h"
 
 #include <errno.h>
@@ -44,8 +45,11 @@ static const char usage_text[] =
         "usage: raytracer -input scene.txt [options]\n"
         "\n"
         "Input and output\n"
-        "  -input file              the scene file (required)\n"
-        "  -output file             shaded image (.tga; .ppm; .png when built with libpng)\n"
+        "  -input file              the scene file (required; - reads standard input)\n"
+        "  -output file             shaded image (.tga; .ppm; .png when built with libpng;\n"
+        "                           - writes standard output)\n"
+        "  -format name             tga, ppm or png: the format of an image written to\n"
+        "                           standard output (default tga)\n"
         "  -size w h                image size in pixels (default 100 100)\n"
         "  -depth dmin dmax file    depth image: near dmin white, far dmax black\n"
         "  -normals file            normal image: |nx| |ny| |nz| as RGB\n"
@@ -337,6 +341,17 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         } else if (!strcmp(a, "-output")) {
             if (!take(&c, a, &o->output))
                 return false;
+        } else if (!strcmp(a, "-format")) {
+            if (!take(&c, a, &o->format))
+                return false;
+            const ImageCodec *codec = image_codec_find(o->format);
+            if (!codec || !codec->encode) {
+                char list[128];
+                image_format_list(list, sizeof list);
+                return usage_error(&c, "option -format: %s '%s' (this build writes %s)",
+                                   codec ? "not built in:" : "unknown format", o->format,
+                                   list);
+            }
         } else if (!strcmp(a, "-size")) {
             if (!take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->width) ||
                 !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->height))
@@ -547,6 +562,20 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         o->region_x = 0;
         o->region_w = o->width;
         options_tile_rows(o->tile_k, o->tile_n, o->height, &o->region_y, &o->region_h);
+    }
+    /* Standard output carries the image: the preview's c key prints there. */
+    bool to_stdout = false;
+    for (int i = 0; i < 5; i++)
+        to_stdout = to_stdout || (files[i] && !strcmp(files[i], IMAGE_STDOUT));
+    if (to_stdout && o->gui)
+        return usage_error(&c, "-gui prints on standard output (the c key): an image "
+                           "cannot go there too (-output -)");
+    if (o->format && o->output && strcmp(o->output, IMAGE_STDOUT) != 0) {
+        const ImageCodec *codec = image_codec_for_path(o->output);
+        if (codec != image_codec_find(o->format))
+            return usage_error(&c, "-format %s, but -output %s is %s: -format is for "
+                               "-output - (a file's extension gives its format)", o->format,
+                               o->output, codec ? codec->name : "no known format");
     }
     if (o->region) {
         if (o->region_x + o->region_w > o->width || o->region_y + o->region_h > o->height)

@@ -19,11 +19,16 @@
 
 /* ---- messages ------------------------------------------------------------------ */
 
+static bool is_stdout(const char *path) { return strcmp(path, IMAGE_STDOUT) == 0; }
+
+/* How messages name path: standard output by that name. */
+static const char *shown(const char *path) { return is_stdout(path) ? "<stdout>" : path; }
+
 static void report(Diag *diag, const char *path, const char *fmt_msg, const char *detail)
 {
     if (!diag)
         return;
-    SrcLoc loc = {path, 0, 0};
+    SrcLoc loc = {shown(path), 0, 0};
     diag_error(diag, &loc, "%s%s", fmt_msg, detail ? detail : "");
 }
 
@@ -93,7 +98,8 @@ static void restore_signals(const sigset_t *old) { pthread_sigmask(SIG_SETMASK, 
 
 /* One output of image_write_all on its way to its file. */
 typedef struct Pending {
-    const char *path;       /* as the user gave it (messages) */
+    const char *path;       /* as the user gave it (messages); IMAGE_STDOUT */
+    const char *format;     /* ImageOutput.format */
     char *target;           /* where the bytes go: path, or a symbolic link's target */
     bool direct;            /* an existing device or pipe: written in place */
     uint8_t *data;
@@ -148,6 +154,14 @@ static bool stage(Pending *p, int slot, Diag *diag)
  * renaming over it would replace the device node instead of writing to it. */
 static bool write_direct(const Pending *p, Diag *diag)
 {
+    if (is_stdout(p->path)) {
+        /* stdio may hold bytes of its own for standard output: they go first. */
+        if (fflush(stdout) != 0 || !write_all(STDOUT_FILENO, p->data, p->len)) {
+            report(diag, p->path, "cannot write image: ", strerror(errno));
+            return false;
+        }
+        return true;
+    }
     int fd = open(p->path, O_WRONLY | O_TRUNC);
     if (fd < 0) {
         report(diag, p->path, "cannot write image: ", strerror(errno));
@@ -164,17 +178,31 @@ static bool write_direct(const Pending *p, Diag *diag)
     return ok;
 }
 
-/* The codec that writes path (by its extension), or NULL with the reason reported. */
-static const ImageCodec *codec_for_writing(const char *path, Diag *diag)
+/* The codec that writes path in format (NULL: by its extension; TGA for standard
+ * output), or NULL with the reason reported. */
+static const ImageCodec *codec_for_writing(const char *path, const char *format, Diag *diag)
 {
-    const ImageCodec *codec = image_codec_for_path(path);
+    const ImageCodec *codec = format ? image_codec_find(format)
+                              : is_stdout(path) ? image_codec_find("tga")
+                                                : image_codec_for_path(path);
     if (!codec) {
         if (diag) {
             char list[128];
             image_format_list(list, sizeof list);
+            SrcLoc loc = {shown(path), 0, 0};
+            if (format)
+                diag_error(diag, &loc, "unknown image format '%s'", format);
+            else
+                diag_error(diag, &loc, "unknown image format (file name must end in one "
+                           "of %s)", list);
+        }
+        return NULL;
+    }
+    if (format && !is_stdout(path) && image_codec_for_path(path) != codec) {
+        if (diag) {
             SrcLoc loc = {path, 0, 0};
-            diag_error(diag, &loc, "unknown image format (file name must end in one of %s)",
-                       list);
+            diag_error(diag, &loc, "the file name does not end in the extension of the "
+                       "format %s (%s)", codec->name, codec->extensions[0]);
         }
         return NULL;
     }
@@ -183,7 +211,7 @@ static const ImageCodec *codec_for_writing(const char *path, Diag *diag)
             char name[16], list[128];
             upper_name(codec, name, sizeof name);
             image_format_list(list, sizeof list);
-            SrcLoc loc = {path, 0, 0};
+            SrcLoc loc = {shown(path), 0, 0};
             diag_error(diag, &loc, "%s output is not built in: %s, or write one of %s", name,
                        codec->missing, list);
         }
@@ -192,15 +220,29 @@ static const ImageCodec *codec_for_writing(const char *path, Diag *diag)
     return codec;
 }
 
-bool image_check_output(const char *path, Diag *diag)
+bool image_check_output(const char *path, const char *format, Diag *diag)
 {
     struct stat st;
+    if (is_stdout(path)) {
+        if (!codec_for_writing(path, format, diag))
+            return false;
+        if (fstat(STDOUT_FILENO, &st) != 0) {
+            report(diag, path, "cannot write image: ", strerror(errno));
+            return false;
+        }
+        if (isatty(STDOUT_FILENO)) {
+            report(diag, path, "cannot write image: ", "standard output is a terminal "
+                   "(pipe it into a program or redirect it into a file)");
+            return false;
+        }
+        return true;
+    }
     bool exists = stat(path, &st) == 0;
     if (exists && S_ISDIR(st.st_mode)) {
         report(diag, path, "cannot write image: ", "it is a folder");
         return false;
     }
-    if (!codec_for_writing(path, diag))
+    if (!codec_for_writing(path, format, diag))
         return false;
     if (exists) {
         /* A pipe or a device is written in place: it must take writes itself. */
@@ -246,7 +288,7 @@ static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
         report(diag, path, "cannot write image: ", "empty image");
         return false;
     }
-    const ImageCodec *codec = codec_for_writing(path, diag);
+    const ImageCodec *codec = codec_for_writing(path, p->format, diag);
     if (!codec)
         return false;
     ok = codec->encode(img, &p->data, &p->len);
@@ -261,7 +303,8 @@ static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
 static bool plan(Pending *p, Diag *diag)
 {
     struct stat st, lst;
-    if (stat(p->path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)) {
+    if (is_stdout(p->path) ||
+        (stat(p->path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))) {
         p->direct = true;
         return true;
     }
@@ -287,6 +330,7 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
     bool ok = true;
     for (int i = 0; i < n && ok; i++) {
         pend[i].path = outs[i].path;
+        pend[i].format = outs[i].format;
         ok = encode(outs[i].image, outs[i].path, &pend[i], diag) && plan(&pend[i], diag);
     }
     /* 1. Every file-backed image into its temporary file; 2. the pipes and devices;
@@ -324,7 +368,7 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
 
 bool image_write(const Image *img, const char *path, Diag *diag)
 {
-    ImageOutput one = {img, path};
+    ImageOutput one = {img, path, NULL};
     return image_write_all(&one, 1, diag);
 }
 
@@ -333,9 +377,13 @@ bool image_write(const Image *img, const char *path, Diag *diag)
 /* Reads a whole regular file; sets errno-style text in err on failure. */
 static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err)
 {
-    FILE *f = fopen(path, "rb");
+    /* "-": standard input, through a duplicate so that fclose leaves it open. */
+    int in = is_stdout(path) ? dup(STDIN_FILENO) : -1;
+    FILE *f = in >= 0 ? fdopen(in, "rb") : fopen(path, "rb");
     if (!f) {
         *err = errno;
+        if (in >= 0)
+            close(in);
         return false;
     }
     size_t cap = 1 << 16, len = 0;
@@ -392,7 +440,7 @@ bool image_read(Image *img, const char *path, Diag *diag)
     img->width = img->height = 0;
     img->pixels = NULL;
     if (!read_file(path, &data, &len, &e)) {
-        report(diag, path, "cannot read image: ", strerror(e));
+        report(diag, is_stdout(path) ? "<stdin>" : path, "cannot read image: ", strerror(e));
         return false;
     }
     const ImageCodec *codec = image_codec_for_data(data, len);
@@ -406,6 +454,6 @@ bool image_read(Image *img, const char *path, Diag *diag)
     }
     free(data);
     if (!ok)
-        report(diag, path, "cannot read image: ", why);
+        report(diag, is_stdout(path) ? "<stdin>" : path, "cannot read image: ", why);
     return ok;
 }

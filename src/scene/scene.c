@@ -87,13 +87,17 @@ Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag)
 {
     char *buf;
     size_t len;
+    /* "-": standard input (file_read_all), named so in messages; its obj_file names
+     * resolve in the working directory (no folder to look in first). */
+    bool from_stdin = strcmp(path, SCENE_STDIN) == 0;
+    const char *name = from_stdin ? "<stdin>" : path;
     if (!scene_files_read(files, path, false, &buf, &len)) {
-        SrcLoc loc = {path, 0, 0};
+        SrcLoc loc = {name, 0, 0};
         diag_error(diag, &loc, "cannot open scene file: %s", strerror(errno));
         return NULL;
     }
     /* obj_file names resolve against the scene file's folder first. */
-    const char *slash = strrchr(path, '/');
+    const char *slash = from_stdin ? NULL : strrchr(path, '/');
     char *dir = NULL;
     if (slash) {
         size_t n = slash == path ? 1 : (size_t)(slash - path);
@@ -107,7 +111,7 @@ Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag)
         memcpy(dir, path, n);
         dir[n] = '\0';
     }
-    Scene *s = scene_from_buffer(buf, len, path, dir, files, diag);
+    Scene *s = scene_from_buffer(buf, len, name, dir, files, diag);
     free(dir);
     free(buf);
     return s;
