@@ -12,6 +12,7 @@
 #include "lexer.h"
 #include "obj_loader.h"
 #include "rt/geom.h"
+#include "rt/suggest.h"
 
 /* Counts above this are typos or attacks, not scenes (numLights/numMaterials/numObjects). */
 enum { MAX_COUNT = 10000000 };
@@ -46,22 +47,113 @@ static bool fail(Parser *p, const SrcLoc *loc, const char *fmt, ...)
     return false;
 }
 
-/* "expected WHAT, found 'tok'", or "unexpected end of file, expected WHAT". */
+/* ---- hints: what the writer probably meant ------------------------------------------ */
+
+/* The keywords that may stand where each kind of fail_unknown is reported; a misspelt
+ * one is answered with the nearest of its own kind (rt/suggest.h). */
+static const char *const k_objects[] = {"Group", "Sphere", "Plane", "Triangle", "TriangleMesh",
+                                        "Transform", "MaterialIndex", NULL};
+static const char *const k_lights[] = {"DirectionalLight", "PointLight", NULL};
+static const char *const k_materials[] = {"PhongMaterial", "Material", "Checkerboard", "Noise",
+                                          "Marble", "Wood", NULL};
+static const char *const k_transformations[] = {"Scale", "UniformScale", "Translate",
+                                                "XRotate", "YRotate", "ZRotate", "Rotate",
+                                                "Matrix", NULL};
+static const char *const k_phong_fields[] = {"diffuseColor", "specularColor", "exponent",
+                                             "reflectiveColor", "transparentColor",
+                                             "indexOfRefraction", NULL};
+static const char *const k_background_fields[] = {"color", "ambientLight", NULL};
+static const char *const k_top_level[] = {"OrthographicCamera", "PerspectiveCamera",
+                                          "Background", "Lights", "Materials", "Group", NULL};
+
+static size_t name_count(const char *const *names)
+{
+    size_t n = 0;
+    while (names[n])
+        n++;
+    return n;
+}
+
+/* A keyword of any kind that shown (a token, NUL-terminated) starts with, followed by a
+ * brace: "Sphere{" is the keyword Sphere written without its space. */
+static const char *glued_keyword(const char *shown)
+{
+    static const char *const *const lists[] = {k_objects, k_lights, k_materials,
+                                               k_transformations, k_top_level};
+    for (size_t l = 0; l < sizeof lists / sizeof lists[0]; l++)
+        for (const char *const *k = lists[l]; *k; k++) {
+            size_t n = strlen(*k);
+            if (!strncmp(shown, *k, n) && (shown[n] == '{' || shown[n] == '}'))
+                return *k;
+        }
+    return NULL;
+}
+
+/* Into buf: a hint for token shown, or "". Tokens are separated by white space only,
+ * so a brace touching a word makes one token with it ("Sphere{", "0}"): that is said
+ * first; then the nearest names of the list (NULL: none). */
+static void token_hint(char *buf, size_t size, const char *shown, const char *const *names)
+{
+    buf[0] = '\0';
+    size_t len = strlen(shown);
+    if (len > 1 && strpbrk(shown, "{}")) {
+        const char *kw = glued_keyword(shown);
+        if (kw)
+            snprintf(buf, size, " (missing space: write '%s %c', braces are tokens of their "
+                     "own)", kw, shown[strlen(kw)]);
+        else
+            snprintf(buf, size, " (braces are tokens of their own: put white space around "
+                     "them)");
+        return;
+    }
+    if (names)
+        suggest_format(buf, size, shown, names, name_count(names));
+}
+
+/* "expected WHAT, found 'tok'", or "unexpected end of file, expected WHAT". When WHAT
+ * is one quoted keyword, a token close to it is named as the likely misspelling. */
 static bool fail_expected(Parser *p, const Token *t, const char *what)
 {
     char shown[256];
     if (tok_eof(t))
         return fail(p, &t->loc, "unexpected end of file, expected %s", what);
-    return fail(p, &t->loc, "expected %s, found '%s'", what, tok_show(t, shown, sizeof shown));
+    tok_show(t, shown, sizeof shown);
+    char kw[64] = "", hint[160];
+    size_t n = strlen(what);
+    if (n > 2 && n < sizeof kw + 2 && what[0] == '\'' && what[n - 1] == '\'' &&
+        !memchr(what + 1, '\'', n - 2))
+        snprintf(kw, sizeof kw, "%.*s", (int)(n - 2), what + 1);
+    const char *one[] = {kw, NULL};
+    token_hint(hint, sizeof hint, shown, kw[0] && kw[0] != '{' && kw[0] != '}' ? one : NULL);
+    return fail(p, &t->loc, "expected %s, found '%s'%s", what, shown, hint);
 }
 
-/* "unknown KIND 'tok'", or the end-of-file message when the file just stops. */
+/* "unknown KIND 'tok'" with the nearest names of the kind when the token looks like a
+ * misspelling of one, or the end-of-file message when the file just stops. */
 static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char *eof_what)
 {
-    char shown[256];
+    static const struct {
+        const char *kind;
+        const char *const *names;
+    } kinds[] = {
+        {"object", k_objects},
+        {"light", k_lights},
+        {"material", k_materials},
+        {"transformation", k_transformations},
+        {"PhongMaterial field", k_phong_fields},
+        {"Background field", k_background_fields},
+        {"top-level block", k_top_level},
+    };
+    char shown[256], hint[160];
     if (tok_eof(t))
         return fail(p, &t->loc, "unexpected end of file, expected %s", eof_what);
-    return fail(p, &t->loc, "unknown %s '%s'", kind, tok_show(t, shown, sizeof shown));
+    tok_show(t, shown, sizeof shown);
+    const char *const *names = NULL;
+    for (size_t i = 0; i < sizeof kinds / sizeof kinds[0] && !names; i++)
+        if (!strcmp(kinds[i].kind, kind))
+            names = kinds[i].names;
+    token_hint(hint, sizeof hint, shown, names);
+    return fail(p, &t->loc, "unknown %s '%s'%s", kind, shown, hint);
 }
 
 static bool next(Parser *p, Token *t) { return lex_next(&p->lx, t); }
@@ -126,8 +218,10 @@ static bool num_error(Parser *p, const Token *t, NumResult r, bool want_int)
     tok_show(t, shown, sizeof shown);
     if (r == NUM_RANGE)
         return fail(p, &t->loc, "number out of range: '%s'", shown);
-    return fail(p, &t->loc, "expected %s, found '%s'", want_int ? "an integer" : "a number",
-                shown);
+    char hint[160];
+    token_hint(hint, sizeof hint, shown, NULL);
+    return fail(p, &t->loc, "expected %s, found '%s'%s", want_int ? "an integer" : "a number",
+                shown, hint);
 }
 
 static bool read_float(Parser *p, float *out)
@@ -983,8 +1077,7 @@ bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
             if (ok)
                 s->root = root;   /* a second Group replaces the first (2) */
         } else {
-            char shown[256];
-            ok = fail(&p, &t.loc, "unknown top-level block '%s'", tok_show(&t, shown, sizeof shown));
+            ok = fail_unknown(&p, &t, "top-level block", "a block");
         }
         if (!ok)
             break;
