@@ -290,6 +290,10 @@ static int render_and_write(void *user, const Camera *camera)
         }
     }
 
+    /* -noise_cutoff: the pixel's cone for this camera (the preview may have moved it). */
+    if (o->noise_cutoff)
+        raytracer_set_pixel_cone(&app->rt, camera, o->width, o->height);
+
     RtStats counts;
     memset(&counts, 0, sizeof counts);
     /* The preview shows its rows in the window; a terminal line would only interleave

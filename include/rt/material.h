@@ -37,6 +37,16 @@ static inline Vec3 mat_transparent_at(const Material *m, Vec3 p) { return m->ops
 static inline float mat_ior_at(const Material *m, Vec3 p) { return m->ops->ior_at(m, p); }
 static inline const Material *mat_preview(const Material *m) { return m->ops->preview_material(m); }
 
+/* The footprint of the point being shaded (-noise_cutoff): the world-space width of
+ * the pixel's cone where it meets the surface. Procedural textures leave out the detail
+ * finer than it (rt/perlin.h, perlin_octave_weight). 0, the default, means full detail:
+ * every image without -noise_cutoff is the same bits as without this mechanism.
+ * The accessors above take a point only, so the footprint travels beside them: it is
+ * per thread, and the tracer sets it before each question it asks a material about a
+ * hit (a nested trace sets its own, so the caller sets it again after one). */
+void mat_set_footprint(float world_width);
+float mat_footprint(void);
+
 /* PhongMaterial (A3/A4), Blinn-Phong with the course's n.L step
  * (no diffuse or specular term from a light behind the surface). */
 typedef struct PhongParams {

@@ -19,6 +19,7 @@ typedef struct Options {
     float depth_min, depth_max;
     const char *normals_file;
     bool shade_back, shadows, stats;
+    bool noise_cutoff;           /* -noise_cutoff: noise octaves finer than a pixel left out */
     bool timings;                /* -timings: phase times on stderr */
     int bounces;                 /* default 0 */
     float weight;                /* default 0 */

@@ -6,5 +6,14 @@
 double perlin_noise3(double x, double y, double z);
 /* N(p) = sum_{i<octaves} noise(2^i p) / 2^i; 0 when octaves <= 0 (A6 page). */
 double perlin_octaves(double x, double y, double z, int octaves);
+/* The weight of octave i (lattice period 2^-i) for a pixel footprint of `width` texture
+ * units (-noise_cutoff): 1 while a lattice cell spans two footprints or more, 0 once the
+ * footprint covers a whole cell (the octave's detail would alias: it averages out to
+ * 0 over the pixel, which is what the noise's mean is), and a smoothstep in between
+ * so no seam shows where an octave leaves. width <= 0: 1 for every octave. */
+double perlin_octave_weight(double width, int i);
+/* perlin_octaves with each octave scaled by perlin_octave_weight(width, i); octaves of
+ * weight 0 are not evaluated. width <= 0 gives perlin_octaves' bits exactly. */
+double perlin_octaves_cutoff(double x, double y, double z, int octaves, double width);
 
 #endif

@@ -4,6 +4,7 @@
 #define RT_RAYTRACER_H
 
 #include "rt/accel.h"
+#include "rt/camera.h"
 #include "rt/scene.h"
 
 /* epsilon for shadow, reflected and refracted rays: a distance along the (unit) ray,
@@ -20,7 +21,16 @@ typedef struct RayTracer {
     float weight;              /* cutoff: secondary rays with weight < cutoff not traced */
     bool single_rays;          /* true: no ray packets, every ray traced on its own
                                   (hidden option -no_packets, for comparisons) */
+    /* -noise_cutoff: the pixel's cone, whose width at a hit is its footprint
+     * (mat_set_footprint): pixel_width at the camera (orthographic: the world width of a
+     * pixel) growing by pixel_spread per unit of distance along the path (perspective:
+     * the angle a pixel spans). Both 0 (the default): textures at full detail. */
+    float pixel_width, pixel_spread;
 } RayTracer;
+
+/* Sets rt's pixel cone for camera and a W x H image (-noise_cutoff): a pixel is 1/S of
+ * the square screen, S = max(W, H). */
+void raytracer_set_pixel_cone(RayTracer *rt, const Camera *camera, int width, int height);
 
 /* traceRay: colour seen along ray; counts one non-shadow ray. If hit_out is non-NULL it
  * receives the ray's nearest hit (t = +inf when none) with the unflipped normal. */

@@ -62,6 +62,8 @@ static const char usage_text[] =
         "  -shade_back              shade back faces (flipped normal); else they are black\n"
         "  -bounces n               maximum reflection/refraction depth (default 0)\n"
         "  -weight w                do not trace secondary rays weighing less than w (default 0)\n"
+        "  -noise_cutoff            Noise/Marble/Wood: leave out the noise octaves finer than\n"
+        "                           a pixel (distant textures stop shimmering)\n"
         "Acceleration\n"
         "  -grid nx ny nz           uniform grid with nx*ny*nz cells; every ray marches it\n"
         "  -grid auto               grid resolution chosen from the scene\n"
@@ -367,6 +369,8 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return false;
         } else if (!strcmp(a, "-shade_back")) {
             o->shade_back = true;
+        } else if (!strcmp(a, "-noise_cutoff")) {
+            o->noise_cutoff = true;
         } else if (!strcmp(a, "-shadows")) {
             o->shadows = true;
         } else if (!strcmp(a, "-stats")) {

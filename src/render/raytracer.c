@@ -27,12 +27,57 @@ typedef struct ShadeState {
     Hit sh;          /* the hit, its normal turned to face the ray */
     Vec3 color;
     bool entering;
+    float cone;      /* width of the pixel's cone at the hit (0: -noise_cutoff off) */
+    float footprint; /* what the cone covers on the surface (mat_set_footprint) */
 } ShadeState;
+
+void raytracer_set_pixel_cone(RayTracer *rt, const Camera *camera, int width, int height)
+{
+    float s = (float)(width > height ? width : height);
+    if (camera->kind == CAMERA_ORTHOGRAPHIC) {
+        rt->pixel_width = camera->size / s;
+        rt->pixel_spread = 0.0f;
+    } else {
+        /* The screen spans 2 tan(angle/2) at distance 1; a pixel 1/S of it. */
+        rt->pixel_width = 0.0f;
+        rt->pixel_spread = 2.0f * camera->tan_half / s;
+    }
+}
+
+static inline bool cutoff_on(const RayTracer *rt)
+{
+    return rt->pixel_width > 0.0f || rt->pixel_spread > 0.0f;
+}
+
+/* The cone of a ray that left with width cone0, at its hit t (unit directions: every
+ * ray the tracer casts is normalised), and the footprint on the surface: the cone's
+ * section stretches by 1/cos(incidence) along the view; the stretch is capped at 8
+ * (a grazing view would otherwise wash the texture out across the view as well). The
+ * cone is not widened by curved mirrors or lenses: secondary rays keep the spread. */
+static void cone_at_hit(const RayTracer *rt, float cone0, const Ray *ray, const Hit *h,
+                        ShadeState *st)
+{
+    st->cone = st->footprint = 0.0f;
+    if (!cutoff_on(rt))
+        return;
+    st->cone = cone0 + rt->pixel_spread * h->t;
+    float c = fabsf(v3_dot(h->normal, ray->dir));
+    st->footprint = st->cone / (c > 0.125f ? c : 0.125f);
+}
+
+/* Before every question to the hit's material: a nested trace has set its own. */
+static inline void use_footprint(const RayTracer *rt, const ShadeState *st)
+{
+    if (cutoff_on(rt))
+        mat_set_footprint(st->footprint);
+}
 
 /* False when the colour is final already: a back face without -shade_back is black,
  * with no ambient term and no secondary rays. */
-static bool shade_begin(const RayTracer *rt, const Ray *ray, const Hit *h, ShadeState *st)
+static bool shade_begin(const RayTracer *rt, const Ray *ray, const Hit *h, float cone0,
+                        ShadeState *st)
 {
+    cone_at_hit(rt, cone0, ray, h, st);
     Vec3 d = ray->dir;
     Vec3 n = h->normal;
     st->entering = v3_dot(n, d) < 0.0f;
@@ -45,17 +90,19 @@ static bool shade_begin(const RayTracer *rt, const Ray *ray, const Hit *h, Shade
     }
     st->sh = *h;
     st->sh.normal = n;
+    use_footprint(rt, st);
     st->color = v3_mul(rt->scene->ambient, mat_diffuse_at(h->material, h->point));
     return true;
 }
 
-static void shade_light(ShadeState *st, const Ray *ray, Vec3 l, Vec3 lc)
+static void shade_light(const RayTracer *rt, ShadeState *st, const Ray *ray, Vec3 l, Vec3 lc)
 {
+    use_footprint(rt, st);
     st->color = v3_add(st->color, mat_shade(st->sh.material, ray, &st->sh, l, lc));
 }
 
 static Vec3 trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, int depth,
-                  float weight, float ior, Hit *hit_out, RaySegKind kind);
+                  float weight, float ior, float cone0, Hit *hit_out, RaySegKind kind);
 
 static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, ShadeState *st,
                          int depth, float weight, float ior)
@@ -65,15 +112,18 @@ static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, Sh
     const Material *m = st->sh.material;
     Vec3 p = st->sh.point, n = st->sh.normal, d = ray->dir;
     Vec3 color = st->color;
+    use_footprint(rt, st);
     Vec3 kr = mat_reflective_at(m, p);
     if (!v3_is_zero(kr)) {
         float w = weight * v3_length(kr);
         if (w >= rt->weight) {
             Ray r = {p, v3_sub(d, v3_scale(n, 2.0f * v3_dot(d, n)))};
-            Vec3 c = trace(rt, ctx, &r, RT_EPSILON, depth + 1, w, ior, NULL, RAYSEG_REFLECTED);
+            Vec3 c = trace(rt, ctx, &r, RT_EPSILON, depth + 1, w, ior, st->cone, NULL,
+                           RAYSEG_REFLECTED);
             color = v3_add(color, v3_mul(kr, c));
         }
     }
+    use_footprint(rt, st);
     Vec3 kt = mat_transparent_at(m, p);
     if (!v3_is_zero(kt)) {
         float w = weight * v3_length(kt);
@@ -89,7 +139,7 @@ static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, Sh
                 Vec3 t = v3_normalize(
                     v3_add(v3_scale(d, eta), v3_scale(n, eta * cos_i - sqrtf(k))));
                 Ray r = {p, t};
-                Vec3 c = trace(rt, ctx, &r, RT_EPSILON, depth + 1, w, eta_t, NULL,
+                Vec3 c = trace(rt, ctx, &r, RT_EPSILON, depth + 1, w, eta_t, st->cone, NULL,
                                RAYSEG_TRANSMITTED);
                 color = v3_add(color, v3_mul(kt, c));
             }
@@ -99,7 +149,7 @@ static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, Sh
 }
 
 static Vec3 trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, int depth,
-                  float weight, float ior, Hit *hit_out, RaySegKind kind)
+                  float weight, float ior, float cone0, Hit *hit_out, RaySegKind kind)
 {
     const Scene *scene = rt->scene;
     ctx->stats.nonshadow_rays++;
@@ -119,7 +169,7 @@ static Vec3 trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmi
         *hit_out = h;
 
     ShadeState st;
-    if (!shade_begin(rt, ray, &h, &st))
+    if (!shade_begin(rt, ray, &h, cone0, &st))
         return st.color;
     Vec3 p = h.point;
     for (int i = 0; i < scene->num_lights; i++) {
@@ -135,7 +185,7 @@ static Vec3 trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmi
             if (blocked)
                 continue;
         }
-        shade_light(&st, ray, l, lc);
+        shade_light(rt, &st, ray, l, lc);
     }
     shade_finish(rt, ctx, ray, &st, depth, weight, ior);
     return st.color;
@@ -144,7 +194,7 @@ static Vec3 trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmi
 Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin,
                      int depth, float weight, float ior, Hit *hit_out)
 {
-    return trace(rt, ctx, ray, tmin, depth, weight, ior, hit_out, RAYSEG_MAIN);
+    return trace(rt, ctx, ray, tmin, depth, weight, ior, rt->pixel_width, hit_out, RAYSEG_MAIN);
 }
 
 void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
@@ -153,7 +203,8 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     if (!accel_has_packets(rt->accel) || ctx->tree || !ctx->packet_rays ||
         n > ACCEL_PACKET_MAX) {
         for (int i = 0; i < n; i++)
-            colors[i] = trace(rt, ctx, &rays[i], tmin, 0, 1.0f, 1.0f, &hits[i], RAYSEG_MAIN);
+            colors[i] = trace(rt, ctx, &rays[i], tmin, 0, 1.0f, 1.0f, rt->pixel_width, &hits[i],
+                              RAYSEG_MAIN);
         return;
     }
     const Scene *scene = rt->scene;
@@ -170,7 +221,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             continue;
         }
         hits[i].point = ray_at(&rays[i], hits[i].t);
-        if (shade_begin(rt, &rays[i], &hits[i], &st[i]))
+        if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
             live |= (uint64_t)1 << i;
         else
             colors[i] = st[i].color;
@@ -192,7 +243,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         }
         for (uint64_t m = live & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
-            shade_light(&st[i], &rays[i], srays[i].dir, lcol[i]);
+            shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
         }
     }
     for (uint64_t m = live; m; m &= m - 1) {

@@ -11,7 +11,8 @@
 static float marble_weight(const ProceduralBlend *b, Vec3 p)
 {
     Vec3 q = procedural_texture_point(&b->proc, p);
-    double n = perlin_octaves((double)q.x, (double)q.y, (double)q.z, b->octaves);
+    double n = perlin_octaves_cutoff((double)q.x, (double)q.y, (double)q.z, b->octaves,
+                                     procedural_footprint(b));
     double m = sin((double)b->frequency * (double)q.x + (double)b->amplitude * n);
     return (float)((m + 1.0) * 0.5);
 }

@@ -8,7 +8,8 @@
 static float noise_weight(const ProceduralBlend *b, Vec3 p)
 {
     Vec3 q = procedural_texture_point(&b->proc, p);
-    double t = perlin_octaves((double)q.x, (double)q.y, (double)q.z, b->octaves) + 0.5;
+    double t = perlin_octaves_cutoff((double)q.x, (double)q.y, (double)q.z, b->octaves,
+                                     procedural_footprint(b)) + 0.5;
     return t <= 0.0 ? 0.0f : t >= 1.0 ? 1.0f : (float)t;
 }
 

@@ -86,3 +86,33 @@ double perlin_octaves(double x, double y, double z, int octaves)
     }
     return sum;
 }
+
+double perlin_octave_weight(double width, int i)
+{
+    if (!(width > 0.0))
+        return 1.0;
+    /* Lattice cells of octave i per footprint: c = width * 2^i. Below 1/2 the octave
+     * is resolved (Nyquist: two samples per cell); at 1 and beyond it is not. */
+    double c = ldexp(width, i);
+    if (c <= 0.5)
+        return 1.0;
+    if (c >= 1.0)
+        return 0.0;
+    double s = (1.0 - c) * 2.0; /* 1 at c = 1/2, 0 at c = 1 */
+    return s * s * (3.0 - 2.0 * s);
+}
+
+double perlin_octaves_cutoff(double x, double y, double z, int octaves, double width)
+{
+    if (!(width > 0.0))
+        return perlin_octaves(x, y, z, octaves);
+    double sum = 0.0, scale = 1.0;
+    for (int i = 0; i < octaves; i++) {
+        double w = perlin_octave_weight(width, i);
+        if (w == 0.0)
+            break; /* every finer octave has weight 0 too */
+        sum += w * (perlin_noise3(x * scale, y * scale, z * scale) / scale);
+        scale *= 2.0;
+    }
+    return sum;
+}

@@ -2,9 +2,16 @@
  * texture matrix copied in, the GL preview rule, and the weighted blend of two children. */
 #include "procedural.h"
 
+#include <math.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <string.h>
+
+/* The footprint of the point being shaded (rt/material.h); 0: full detail. */
+static _Thread_local float shading_footprint;
+
+void mat_set_footprint(float world_width) { shading_footprint = world_width; }
+float mat_footprint(void) { return shading_footprint; }
 
 /* Serial numbers of the blends, the key of the weight cache below (0 = empty slot). */
 static atomic_uint_fast64_t next_serial = 1;
@@ -37,6 +44,19 @@ Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *tex
     b->frequency = frequency;
     b->amplitude = amplitude;
     b->serial = atomic_fetch_add(&next_serial, 1);
+    /* Column j of the linear part is the image of the world axis j; the longest one
+     * is the stretch of a world step into texture space (exactly, for the uniform
+     * scales and rotations of the course's scenes; within sqrt(3) for any matrix). */
+    b->xf_scale = 1.0f;
+    if (b->proc.has_xf) {
+        float most = 0.0f;
+        for (int j = 0; j < 3; j++) {
+            const float(*m)[4] = b->proc.xf.m;
+            float len = sqrtf(m[0][j] * m[0][j] + m[1][j] * m[1][j] + m[2][j] * m[2][j]);
+            most = len > most ? len : most;
+        }
+        b->xf_scale = most;
+    }
     return &b->proc.base;
 }
 
@@ -48,6 +68,7 @@ Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *tex
 typedef struct WeightSlot {
     uint64_t serial;        /* 0: empty (serials start at 1) */
     uint32_t bits[3];
+    float footprint;        /* the footprint the weight was computed for */
     float weight;
 } WeightSlot;
 
@@ -66,11 +87,12 @@ float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn wei
     h ^= h >> 29;
     WeightSlot *s = &weight_cache[h & 7];
     if (s->serial == b->serial && s->bits[0] == bits[0] && s->bits[1] == bits[1] &&
-        s->bits[2] == bits[2])
+        s->bits[2] == bits[2] && s->footprint == shading_footprint)
         return s->weight;
     float t = weight(b, p);
     s->serial = b->serial;
     memcpy(s->bits, bits, sizeof bits);
+    s->footprint = shading_footprint;
     s->weight = t;
     return t;
 }

@@ -27,6 +27,9 @@ typedef struct ProceduralBlend {
     float frequency;
     float amplitude;
     uint64_t serial;        /* unique within the process: key of the weight cache */
+    float xf_scale;         /* largest stretch of xf's linear part (max column length):
+                               a world footprint w covers at most w * xf_scale texture
+                               units */
 } ProceduralBlend;
 
 /* More octaves add terms below 2^-64 of the first one; the cap keeps an absurd
@@ -50,6 +53,13 @@ static inline Vec3 procedural_texture_point(const Procedural *pr, Vec3 p)
     return pr->has_xf ? mat4_point(&pr->xf, p) : p;
 }
 
+/* The footprint (mat_footprint) in b's texture units: the width below which its noise
+ * octaves are left out, 0 when -noise_cutoff is off. */
+static inline double procedural_footprint(const ProceduralBlend *b)
+{
+    return (double)mat_footprint() * (double)b->xf_scale;
+}
+
 /* The GL preview shows the first child's material, recursively. */
 const Material *procedural_preview(const Material *self);
 
@@ -65,8 +75,8 @@ float procedural_blend_ior(const Procedural *pr, float t, Vec3 p);
 /* The weight of blend b at world point p, i.e. weight(b, p), memoised: the tracer asks
  * a material about the same hit point several times (ambient, each light's shade,
  * reflection, refraction), and each answer costs up to `octaves` noise evaluations.
- * A small per-thread cache keyed by (material, exact bits of p) returns the value
- * computed before, so images are bit-identical with or without it. */
+ * A small per-thread cache keyed by (material, exact bits of p, the footprint's bits)
+ * returns the value computed before, so images are bit-identical with or without it. */
 typedef float (*ProceduralWeightFn)(const ProceduralBlend *b, Vec3 p);
 float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn weight);
 

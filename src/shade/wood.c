@@ -13,7 +13,8 @@ static float wood_weight(const ProceduralBlend *b, Vec3 p)
 {
     Vec3 q = procedural_texture_point(&b->proc, p);
     double x = (double)q.x, y = (double)q.y, z = (double)q.z;
-    double n = perlin_octaves(x, 0.2 * y, z, b->octaves);
+    /* (x, 0.2 y, z) shrinks distances: the footprint bounds the noise's one too. */
+    double n = perlin_octaves_cutoff(x, 0.2 * y, z, b->octaves, procedural_footprint(b));
     double theta = (double)b->frequency * (sqrt(x * x + z * z) + 0.05 * y) +
                    (double)b->amplitude * n;
     double v = sin(theta) + 0.5;

@@ -1,5 +1,6 @@
 /* Unit tests of Perlin's improved noise and the A6 octave sum (docs/textures.md). */
 #include <math.h>
+#include <string.h>
 
 #include "../harness.h"
 #include "rt/perlin.h"
@@ -141,6 +142,35 @@ static void test_octaves(void)
     CHECK_NEAR(perlin_octaves(0.5, 0.5, 0.5, 5), -0.25, 1e-15);
 }
 
+/* -noise_cutoff's octave weights: 1 up to half a cell per footprint, 0 from a whole
+ * cell, smooth and decreasing between; width 0 is the plain octave sum to the bit. */
+static void test_octave_cutoff(void)
+{
+    CHECK_NEAR(perlin_octave_weight(0.0, 7), 1.0, 0.0);
+    CHECK_NEAR(perlin_octave_weight(0.25, 1), 1.0, 0.0);  /* c = 0.5 */
+    CHECK_NEAR(perlin_octave_weight(0.5, 1), 0.0, 0.0);   /* c = 1 */
+    CHECK_NEAR(perlin_octave_weight(3.0, 0), 0.0, 0.0);
+    CHECK_NEAR(perlin_octave_weight(0.375, 1), 0.5, 1e-12); /* c = 3/4: halfway */
+    double prev = 1.0;
+    for (int k = 0; k <= 100; k++) {
+        double w = perlin_octave_weight(0.5 + 0.005 * k, 0);
+        CHECK(w <= prev && w >= 0.0 && w <= 1.0);
+        CHECK(prev - w < 0.03); /* no jump */
+        prev = w;
+    }
+    for (int i = 0; i < 500; i++) {
+        double x = 0.731 * i - 90.0, y = 0.377 * i, z = 5.0 - 0.119 * i;
+        double a = perlin_octaves(x, y, z, 6), b = perlin_octaves_cutoff(x, y, z, 6, 0.0);
+        CHECK(memcmp(&a, &b, sizeof a) == 0);
+        /* width 1/8: octaves 0..2 whole, 3.. left out */
+        CHECK_NEAR(perlin_octaves_cutoff(x, y, z, 6, 0.125), perlin_octaves(x, y, z, 3), 0.0);
+        /* width 3/16 (c = 3/4 for octave 2): octave 2 at half weight */
+        double half = perlin_octaves(x, y, z, 2) + 0.5 * (perlin_octaves(x, y, z, 3) -
+                                                          perlin_octaves(x, y, z, 2));
+        CHECK_NEAR(perlin_octaves_cutoff(x, y, z, 6, 0.1875), half, 1e-12);
+    }
+}
+
 static const TestCase tests[] = {
     {"perlin: published reference value", test_published_value},
     {"perlin: independent values", test_independent_values},
@@ -151,5 +181,6 @@ static const TestCase tests[] = {
     {"perlin: continuity", test_continuity},
     {"perlin: non-finite input", test_non_finite_input},
     {"perlin: octave sum", test_octaves},
+    {"perlin: octave cut-off weights (-noise_cutoff)", test_octave_cutoff},
 };
 RT_TEST_MAIN(tests)

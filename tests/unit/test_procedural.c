@@ -2,6 +2,7 @@
  * the Noise/Marble/Wood weights, delegation of every accessor, nesting. The children
  * are stub materials of this file, so the tests do not depend on PhongMaterial. */
 #include <math.h>
+#include <string.h>
 
 #include "../harness.h"
 #include "rt/arena.h"
@@ -460,6 +461,54 @@ static void test_weight_memo(void)
     arena_free(&a);
 }
 
+/* -noise_cutoff on the materials: with footprint f, octaves whose lattice cells are
+ * no wider than the footprint contribute nothing and the coarser ones fully, so an
+ * 8-octave texture equals the k-octave one exactly; footprint 0 is full detail. */
+static void test_noise_cutoff(void)
+{
+    Arena a;
+    arena_init(&a);
+    init_children();
+    Mat4 sc = mat4_scale(v3(0.25f, 0.25f, 0.25f)); /* texture = world / 4 */
+    int differ = 0;
+    for (int k = 1; k <= 5; k++) {
+        Material *full[3] = {noise_new(&a, &sc, &A.base, &B.base, 8),
+                             marble_new(&a, &sc, &A.base, &B.base, 8, 3.0f, 2.0f),
+                             wood_new(&a, &sc, &A.base, &B.base, 8, 5.0f, 2.0f)};
+        Material *cut[3] = {noise_new(&a, &sc, &A.base, &B.base, k),
+                            marble_new(&a, &sc, &A.base, &B.base, k, 3.0f, 2.0f),
+                            wood_new(&a, &sc, &A.base, &B.base, k, 5.0f, 2.0f)};
+        /* Texture footprint 2^-k (octave k's cell: weight 0; octave k-1: two cells per
+         * footprint, weight 1); in world units 4 times that. */
+        float world = 4.0f * ldexpf(1.0f, -k);
+        for (int i = 0; i < 300; i++) {
+            Vec3 p = v3(0.37f * (float)i - 20.0f, 0.11f * (float)i, 3.0f - 0.23f * (float)i);
+            for (int m = 0; m < 3; m++) {
+                mat_set_footprint(0.0f);
+                Vec3 want = mat_diffuse_at(cut[m], p);
+                Vec3 detail = mat_diffuse_at(full[m], p);
+                differ += memcmp(&want, &detail, sizeof want) != 0;
+                mat_set_footprint(world);
+                Vec3 got = mat_diffuse_at(full[m], p);
+                CHECK_MSG(memcmp(&got, &want, sizeof got) == 0,
+                          "material %d, k %d, point %d: %g with the cut-off, %g with %d octaves",
+                          m, k, i, (double)got.x, (double)want.x, k);
+            }
+        }
+    }
+    /* The octaves left out are not nothing: without the cut-off the images differ. */
+    CHECK_MSG(differ > 1000, "only %d of 4500 points differ between 8 and k octaves", differ);
+    /* A footprint wider than octave 0's cell leaves the mean: N = 0, t = 0.5. */
+    Material *n = noise_new(&a, NULL, &A.base, &B.base, 5);
+    mat_set_footprint(1.0f);
+    CHECK_NEAR(weight_of(n, v3(1.7f, -0.35f, 2.6f)), 0.5, 0.0);
+    /* The memo keys on the footprint: the same point at full detail is asked again. */
+    mat_set_footprint(0.0f);
+    CHECK_NEAR(weight_of(n, v3(1.7f, -0.35f, 2.6f)),
+               perlin_octaves((double)1.7f, (double)-0.35f, (double)2.6f, 5) + 0.5, 1e-6);
+    arena_free(&a);
+}
+
 static const TestCase tests[] = {
     {"checkerboard: parity incl. negative cells", test_checker_parity},
     {"checkerboard: exact cell borders (floor)", test_checker_borders},
@@ -475,5 +524,7 @@ static const TestCase tests[] = {
     {"procedural: preview material", test_preview},
     {"procedural: constructor edge cases", test_constructor_edges},
     {"procedural: weight memo returns exact values", test_weight_memo},
+    {"procedural: -noise_cutoff leaves out the octaves finer than the footprint",
+     test_noise_cutoff},
 };
 RT_TEST_MAIN(tests)
