@@ -14,6 +14,7 @@
 #include "rt/film.h"
 #include "rt/grid.h"
 #include "rt/accel.h"
+#include "rt/twolevel.h"
 #include "rt/image.h"
 #include "rt/options.h"
 #include "rt/par.h"
@@ -496,6 +497,10 @@ static int run(App *app)
         return EXIT_INPUT;
     }
     const AccelOps *ops = accel_find(o->accel ? o->accel : o->grid ? "grid" : "none");
+    /* -grid auto: the two-level grid where the scene is crowded (a dense part in a big
+     * sparse box), the uniform grid otherwise (docs/twolevel.md). */
+    if (!o->accel && o->grid_auto && twolevel_preferred(&app->prims))
+        ops = &accel_twolevel_ops;
     AccelConfig acfg;
     memset(&acfg, 0, sizeof acfg);
     memcpy(acfg.grid_n, o->grid_n, sizeof acfg.grid_n);
@@ -509,6 +514,16 @@ static int run(App *app)
         diag_warning(&app->diag, &file, "nothing bounded to put in a %s (only planes): rendering without one", ops->name);
         if (!accel_init(&app->accel, &accel_none_ops, &app->prims, &acfg, &app->diag))
             return EXIT_INPUT;
+    } else if (o->timings && twolevel_of_accel(&app->accel) && dist_is_root()) {
+        StatsReport r;
+        memset(&r, 0, sizeof r);
+        accel_report(&app->accel, &r);
+        uint32_t subs;
+        uint64_t leaf;
+        twolevel_counts(twolevel_of_accel(&app->accel), &subs, &leaf);
+        fprintf(stderr, "timings: %s: two-level, %d x %d x %d top cells, %u leaf grids of %llu cells\n",
+                o->grid_auto && !o->accel ? "grid auto" : "accel twolevel", r.nx, r.ny, r.nz,
+                subs, (unsigned long long)leaf);
     } else if (o->timings && o->grid_auto && dist_is_root()) {
         StatsReport r;
         memset(&r, 0, sizeof r);

@@ -4,12 +4,14 @@
 
 #include <string.h>
 
-extern const AccelOps accel_grid_ops; /* grid_accel.c */
+extern const AccelOps accel_grid_ops;     /* grid_accel.c */
+extern const AccelOps accel_twolevel_ops; /* twolevel.c */
 
 /* Row order is the order of -h and of the "known accelerators" message. */
 const AccelOps *const accel_registry[] = {
     &accel_none_ops,
     &accel_grid_ops,
+    &accel_twolevel_ops,
     NULL,
 };
 

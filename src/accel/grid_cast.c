@@ -233,18 +233,19 @@ static inline __attribute__((always_inline)) MarchStart march_start(const Grid *
     return MARCH_CELLS;
 }
 
-/* The one cell loop of both queries: tests the entries of cell c not yet tested for
- * this ray, packed triangles four at a time. any (a constant at each call, so each
+/* The one cell loop of both queries: tests the entries (cell_items format) not yet
+ * tested for this ray, packed triangles four at a time. any (a constant at each call, so each
  * query gets its own copy of the loop): return at the first hit, the shadow query's
  * early exit. */
-static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint32_t c,
-                                                             const Ray *ray, Hit *hit,
-                                                             float tmin, RenderCtx *ctx,
-                                                             uint32_t *mb, uint32_t stamp,
-                                                             const void *rsimd, bool any)
+static inline __attribute__((always_inline)) bool test_items(const Grid *g,
+                                                              const uint32_t *items,
+                                                              uint32_t n, const Ray *ray,
+                                                              Hit *hit, float tmin,
+                                                              RenderCtx *ctx, uint32_t *mb,
+                                                              uint32_t stamp,
+                                                              const void *rsimd, bool any)
 {
     bool found = false;
-    const uint32_t *items = g->cell_items;
 #if RT_GRID_SIMD
     const RaySimd *rs = rsimd;
     TriBatch batch;
@@ -252,7 +253,7 @@ static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint3
 #else
     (void)rsimd;
 #endif
-    for (uint32_t e = g->cell_start[c], end = g->cell_start[c + 1]; e < end; e++) {
+    for (uint32_t e = 0; e < n; e++) {
         uint32_t item = items[e];
         if (!should_test(g, mb, stamp, GRID_ITEM_INDEX(item), ctx))
             continue;
@@ -281,6 +282,18 @@ static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint3
     }
 #endif
     return found;
+}
+
+/* Cell c's entries (test_items over its run of cell_items). */
+static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint32_t c,
+                                                             const Ray *ray, Hit *hit,
+                                                             float tmin, RenderCtx *ctx,
+                                                             uint32_t *mb, uint32_t stamp,
+                                                             const void *rsimd, bool any)
+{
+    uint32_t s0 = g->cell_start[c];
+    return test_items(g, g->cell_items + s0, g->cell_start[c + 1] - s0, ray, hit, tmin, ctx,
+                      mb, stamp, rsimd, any);
 }
 
 /* Everything of grid_intersect after the unbounded primitives: the march (or the
@@ -378,3 +391,35 @@ bool grid_march_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, 
     h.id = 0;
     return march_occluded(g, ray, &h, tmin, tmax, ctx);
 }
+
+/* ---- entries of a list, for accelerators built on the grid's entries (twolevel.c) ---- */
+
+bool grid_items_intersect(const Grid *g, const uint32_t *items, uint32_t n, const Ray *ray,
+                          Hit *hit, float tmin, uint32_t *mb, uint32_t stamp, RenderCtx *ctx)
+{
+    if (n == 0)
+        return false;
+#if RT_GRID_SIMD
+    RaySimd rs = ray_simd(ray, tmin);
+    const void *rsimd = &rs;
+#else
+    const void *rsimd = NULL;
+#endif
+    return test_items(g, items, n, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
+}
+
+bool grid_items_occluded(const Grid *g, const uint32_t *items, uint32_t n, const Ray *ray,
+                         Hit *h, float tmin, uint32_t *mb, uint32_t stamp, RenderCtx *ctx)
+{
+    if (n == 0)
+        return false;
+#if RT_GRID_SIMD
+    RaySimd rs = ray_simd(ray, tmin);
+    const void *rsimd = &rs;
+#else
+    const void *rsimd = NULL;
+#endif
+    return test_items(g, items, n, ray, h, tmin, ctx, mb, stamp, rsimd, true);
+}
+
+float grid_march_error(const Grid *g, const Ray *ray) { return march_error(g, ray); }

@@ -85,5 +85,15 @@ bool grid_march_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, 
 bool grid_ray_too_far(const Grid *g, const Ray *ray, float tmin);
 /* A fresh mailbox stamp for one ray or packet, 0 when there is no usable mailbox. */
 uint32_t grid_begin_ray(const Grid *g, RenderCtx *ctx);
+/* The cell loop of the march over n entries (cell_items format) for one ray, marking
+ * in mb with stamp (mb NULL: no marking): nearest hit (updates hit), or any occluder
+ * accepted by h (true at the first). For accelerators built on a grid's entries. */
+bool grid_items_intersect(const Grid *g, const uint32_t *items, uint32_t n, const Ray *ray,
+                          Hit *hit, float tmin, uint32_t *mb, uint32_t stamp, RenderCtx *ctx);
+bool grid_items_occluded(const Grid *g, const uint32_t *items, uint32_t n, const Ray *ray,
+                         Hit *h, float tmin, uint32_t *mb, uint32_t stamp, RenderCtx *ctx);
+/* Bound on the march's float rounding for this ray (world units): a grid whose padding
+ * is below it cannot be marched exactly by this ray. */
+float grid_march_error(const Grid *g, const Ray *ray);
 
 #endif

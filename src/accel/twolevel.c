@@ -1,0 +1,777 @@
+/* TwoLevelGrid (rt/twolevel.h): a coarse course Grid whose crowded cells each get a
+ * uniform grid of their own (Kalojanov et al. 2011), fitted to the box the cell's
+ * primitives occupy inside it. The leaf grids hold the top grid's own entries (packed
+ * triangles tagged as in cell_items), so the cell loop, the mailbox and the hit rule are
+ * the top grid's: the answers are the brute-force loop's to the bit. */
+#include "grid_internal.h"
+#include "grid_build.h"
+
+#include <float.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rt/accel.h"
+#include "rt/geom.h"
+#include "rt/prim.h"
+#include "rt/twolevel.h"
+
+/* Top cells per primitive and leaf cells per entry of a top cell (Kalojanov et al.
+ * use a sparse top level and about one to a few leaf cells per primitive); chosen by
+ * measurement on the benchmark's uneven scenes (docs/twolevel.md). */
+#define TOP_LAMBDA (getenv("RT_TL_TOP") ? atof(getenv("RT_TL_TOP")) : 1.0 / 16.0)
+#define LEAF_LAMBDA (getenv("RT_TL_LEAF") ? atof(getenv("RT_TL_LEAF")) : 4.0)
+/* A top cell with at most this many entries keeps its list (a leaf grid would not pay). */
+#define LEAF_MIN 12u
+/* At most this many large entries per top cell are kept out of its leaf grid. */
+#define BIG_MAX 16u
+#define TOP_MAX_AXIS 256
+#define LEAF_MAX_AXIS 128
+/* Memory and time bounds, whatever the input (co-located or huge primitives): the top
+ * grid's entries stay under TOP_DUP entries per primitive (its resolution shrinks until
+ * the estimate fits), a leaf grid under LEAF_DUP entries per entry of its top cell, and
+ * all leaf grids together under LEAF_BUDGET_DUP entries and cells per primitive. */
+#define TOP_DUP 8.0
+#define LEAF_DUP 6.0
+#define LEAF_BUDGET_DUP 16.0
+#define BUDGET_SLACK 65536.0
+
+/* -grid auto takes the two levels when the crowding exceeds this many times the cube
+ * root of the primitive count. A mesh surface spread over the scene has a crowding of
+ * about 2.5 to 3 times it (a surface crosses ~(N/16)^(2/3) top cells); the benchmark's
+ * dense mesh in a room 100x its size has 360 times it, its clusters 28 (measured,
+ * docs/twolevel.md). */
+#define AUTO_CROWDING 8.0
+
+#define NO_SUB UINT32_MAX
+
+/* One top cell's leaf grid: it tiles box (the cell's primitives clipped to the cell,
+ * thin axes widened) with n cells; its cells are base.. in TwoLevelGrid.start. */
+typedef struct SubGrid {
+    BBox box;
+    int n[3];
+    float pad[3];   /* rounding margin per axis, as the course Grid's (grid.c) */
+    float min_pad;
+    uint32_t base;
+    uint32_t big_start, big_count; /* the cell's large entries, in items: tested for
+                                      every ray entering the cell, kept out of the leaf
+                                      grid so it fits the small ones tightly */
+} SubGrid;
+
+struct TwoLevelGrid {
+    Grid *top;
+    uint32_t *sub_of;      /* per top cell: index into subs, or NO_SUB (its own list) */
+    SubGrid *subs;
+    uint32_t num_subs, cap_subs;
+    uint32_t *start;       /* leaf cells + 1 offsets into items (CSR) */
+    uint32_t *items;       /* entries, in the top grid's cell_items format */
+    size_t num_cells, cap_cells, num_items, cap_items;
+};
+
+/* ---- world boxes of the table's bounded primitives (for the top resolution) ---- */
+
+/* Their boxes as 6 floats each (min xyz, max xyz); NULL when out of memory. */
+static float (*table_boxes(const PrimTable *t, size_t *count))[6]
+{
+    float (*b)[6] = malloc(((size_t)t->num_bounded + 1) * sizeof *b);
+    size_t n = 0;
+    for (uint32_t i = 0; b && i < t->num_prims; i++) {
+        const Prim *p = &t->prims[i];
+        if (!p->bounded)
+            continue;
+        float *d = b[n++];
+        d[0] = p->bounds.min.x, d[1] = p->bounds.min.y, d[2] = p->bounds.min.z;
+        d[3] = p->bounds.max.x, d[4] = p->bounds.max.y, d[5] = p->bounds.max.z;
+    }
+    *count = n;
+    return b;
+}
+
+/* Resolution of about target cells over box, cells as near cubes as the box allows
+ * (axes thinner than 1/1000 of the largest get one cell), at most max_axis per axis. */
+static void choose_dims(const float lo[3], const float hi[3], double target, int max_axis,
+                        int n[3])
+{
+    double e[3], emax = 0.0, vol = 1.0;
+    int dims = 0;
+    n[0] = n[1] = n[2] = 1;
+    for (int a = 0; a < 3; a++) {
+        e[a] = (double)hi[a] - (double)lo[a];
+        if (!isfinite(e[a]) || e[a] < 0.0)
+            return;
+        emax = fmax(emax, e[a]);
+    }
+    if (!(emax > 0.0) || !(target > 1.0))
+        return;
+    for (int a = 0; a < 3; a++)
+        if (e[a] > 1e-3 * emax) {
+            vol *= e[a];
+            dims++;
+        }
+    double k = pow(target / vol, 1.0 / dims);
+    for (int a = 0; a < 3; a++) {
+        if (!(e[a] > 1e-3 * emax))
+            continue;
+        double v = floor(e[a] * k + 0.5);
+        n[a] = v < 1.0 ? 1 : v > max_axis ? max_axis : (int)v;
+    }
+}
+
+/* ceil(y) and floor(z) clamped to [0, n - 1] (NaN and below 0 give 0), by compares
+ * and one conversion: ceil and floor are library calls without SSE4.1. */
+static inline int ceil_clamp(double y, int n)
+{
+    if (!(y > 0.0))
+        return 0;
+    if (y >= (double)(n - 1))
+        return n - 1;
+    int i = (int)y;
+    return (double)i < y ? i + 1 : i;
+}
+
+static inline int floor_clamp(double z, int n)
+{
+    if (!(z >= 0.0))
+        return 0;
+    if (z >= (double)(n - 1))
+        return n - 1;
+    return (int)z;
+}
+
+/* Cell range [*lo, *hi] on one axis of cells starting at mn, size s, padded by p, that
+ * the interval [bmin, bmax] meets (a cell's padded span [mn+i*s-p, mn+(i+1)*s+p]). */
+static inline void axis_range(double bmin, double bmax, double mn, double s, double p, int n,
+                              int *lo, int *hi)
+{
+    *lo = ceil_clamp((bmin - p - mn) / s - 1.0, n);
+    *hi = floor_clamp((bmax + p - mn) / s, n);
+}
+
+/* Entries a grid of n cells over [lo, hi] would get from boxes (their box ranges, an
+ * estimate: reciprocal cell sizes); stops counting once above limit. */
+static double estimate_entries(const float (*b)[6], size_t count, const float lo[3],
+                               const float hi[3], const int n[3], double limit)
+{
+    double inv[3], mn[3], total = 0.0;
+    for (int a = 0; a < 3; a++) {
+        mn[a] = (double)lo[a];
+        inv[a] = n[a] / ((double)hi[a] - (double)lo[a]);
+    }
+    for (size_t i = 0; i < count && total <= limit; i++) {
+        double cells = 1.0;
+        for (int a = 0; a < 3; a++) {
+            int l = ceil_clamp(((double)b[i][a] - mn[a]) * inv[a] - 1.0, n[a]);
+            int h = floor_clamp(((double)b[i][3 + a] - mn[a]) * inv[a], n[a]);
+            cells *= (double)(h - l + 1);
+        }
+        total += cells;
+    }
+    return total;
+}
+
+/* Shrinks n (by 4/5 per axis, at least one cell less) until the estimate fits; returns
+ * the estimate. */
+static double fit_dims(const float (*b)[6], size_t count, const float lo[3],
+                       const float hi[3], double limit, int n[3])
+{
+    for (;;) {
+        double est = estimate_entries(b, count, lo, hi, n, limit);
+        if (est <= limit || (n[0] == 1 && n[1] == 1 && n[2] == 1))
+            return est;
+        for (int a = 0; a < 3; a++)
+            if (n[a] > 1)
+                n[a] = n[a] * 4 / 5 < n[a] - 1 ? n[a] * 4 / 5 : n[a] - 1;
+    }
+}
+
+/* ---- when the two levels pay: crowding ---- */
+
+double twolevel_crowding(const PrimTable *t)
+{
+    if (!t || t->num_bounded == 0 || bbox_is_empty(&t->scene_bounds))
+        return 0.0;
+    const BBox *sb = &t->scene_bounds;
+    float lo[3] = {sb->min.x, sb->min.y, sb->min.z};
+    float hi[3] = {sb->max.x, sb->max.y, sb->max.z};
+    int n[3];
+    double inv[3];
+    choose_dims(lo, hi, TOP_LAMBDA * (double)t->num_bounded, TOP_MAX_AXIS, n);
+    for (int a = 0; a < 3; a++)
+        inv[a] = hi[a] > lo[a] ? n[a] / ((double)hi[a] - (double)lo[a]) : 0.0;
+    size_t cells = (size_t)n[0] * (size_t)n[1] * (size_t)n[2];
+    uint32_t *count = calloc(cells, sizeof *count);
+    if (!count)
+        return 0.0;
+    uint64_t prims = 0;
+    for (uint32_t i = 0; i < t->num_prims; i++) {
+        const Prim *p = &t->prims[i];
+        if (!p->bounded)
+            continue;
+        size_t c = 0;
+        for (int a = 2; a >= 0; a--) {
+            double x = 0.5 * ((double)v3_comp(p->bounds.min, a) +
+                              (double)v3_comp(p->bounds.max, a));
+            c = c * (size_t)n[a] + (size_t)floor_clamp((x - (double)lo[a]) * inv[a], n[a]);
+        }
+        count[c]++;
+        prims++;
+    }
+    double sum = 0.0;
+    for (size_t c = 0; c < cells; c++)
+        sum += (double)count[c] * (double)count[c];
+    free(count);
+    return prims ? sum / (double)prims : 0.0;
+}
+
+bool twolevel_preferred(const PrimTable *t)
+{
+    if (!t || t->num_bounded == 0)
+        return false;
+    return twolevel_crowding(t) > AUTO_CROWDING * cbrt((double)t->num_bounded);
+}
+
+/* ---- the leaf grids ---- */
+
+/* World box of top-grid primitive p, widened a little so rounding in a transformed
+ * box cannot make it smaller than the primitive (triangles: exact vertex bounds). */
+static void prim_box(const Grid *g, uint32_t p, float out[6])
+{
+    const GridPrim *gp = &g->prims[p];
+    BBox b;
+    if (!gp->xf && obj_kind(gp->obj) == OBJ_TRIANGLE) {
+        Vec3 v[3];
+        triangle_vertices(gp->obj, v);
+        b.min = v3_min(v3_min(v[0], v[1]), v[2]);
+        b.max = v3_max(v3_max(v[0], v[1]), v[2]);
+    } else if (gp->xf) {
+        b = bbox_transform(&gp->obj->bbox, &gp->xf->m);
+        Vec3 e = v3_sub(b.max, b.min);
+        float w = 1e-5f * (fabsf(e.x) + fabsf(e.y) + fabsf(e.z)) + 1e-6f * g->box_mag;
+        b.min = v3_sub(b.min, v3(w, w, w));
+        b.max = v3_add(b.max, v3(w, w, w));
+    } else {
+        b = gp->obj->bbox;
+    }
+    out[0] = b.min.x, out[1] = b.min.y, out[2] = b.min.z;
+    out[3] = b.max.x, out[4] = b.max.y, out[5] = b.max.z;
+}
+
+static bool grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return true;
+    size_t cap2 = *cap ? *cap : 1024;
+    while (cap2 < need)
+        cap2 *= 2;
+    void *q = realloc(*p, cap2 * elem);
+    if (!q)
+        return false;
+    *p = q;
+    *cap = cap2;
+    return true;
+}
+
+/* Whether the triangle v (world space) may cross the padded leaf cell [lo, hi]: the
+ * grid build's exact triangle/box test. */
+static bool tri_in_cell(const double v[3][3], const double lo[3], const double hi[3])
+{
+    double rel[3][3], h[3];
+    for (int a = 0; a < 3; a++) {
+        double mid = 0.5 * (lo[a] + hi[a]);
+        h[a] = 0.5 * (hi[a] - lo[a]);
+        for (int k = 0; k < 3; k++)
+            rel[k][a] = v[k][a] - mid;
+    }
+    return grid_tri_cell_overlap(rel, h);
+}
+
+/* Scratch of the leaf builds, reused from cell to cell. */
+typedef struct LeafScratch {
+    float (*box)[6];       /* per entry of the cell: its box */
+    uint32_t *npairs;      /* per entry: how many leaf cells it went into */
+    uint32_t *cells;       /* those cells, entry after entry */
+    uint32_t *count;       /* per leaf cell: entries, then the fill cursor */
+    uint32_t *small;       /* the cell's entries (indices into its list) in the leaf grid */
+    size_t cap_box, cap_npairs, cap_cells, cap_count, cap_small;
+} LeafScratch;
+
+static void scratch_free(LeafScratch *ls)
+{
+    free(ls->box);
+    free(ls->npairs);
+    free(ls->cells);
+    free(ls->count);
+    free(ls->small);
+}
+
+/* Builds the leaf grid of top cell c (grid coordinates ci); false when out of memory.
+ * Leaves sub_of[c] = NO_SUB when a leaf grid would not pay or the budget is spent. */
+static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch *ls,
+                       const float (*pbox)[6], double *budget)
+{
+    const Grid *g = t->top;
+    const uint32_t *items = g->cell_items + g->cell_start[c];
+    uint32_t m = g->cell_start[c + 1] - g->cell_start[c];
+    t->sub_of[c] = NO_SUB;
+    if (m <= LEAF_MIN)
+        return true;
+    /* The cell's box as the march tiles it, and the primitives' boxes clipped to it:
+     * the part of the cell where this cell's entries can be hit. */
+    float clo[3], chi[3], lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        float mn = v3_comp(g->box.min, a);
+        clo[a] = mn + (float)ci[a] * g->size[a];
+        chi[a] = ci[a] == g->n[a] - 1 ? v3_comp(g->box.max, a)
+                                      : mn + (float)(ci[a] + 1) * g->size[a];
+        lo[a] = INFINITY;
+        hi[a] = -INFINITY;
+    }
+    if (!grow((void **)&ls->box, &ls->cap_box, m, sizeof *ls->box) ||
+        !grow((void **)&ls->npairs, &ls->cap_npairs, m, sizeof *ls->npairs) ||
+        !grow((void **)&ls->small, &ls->cap_small, m, sizeof *ls->small))
+        return false;
+    /* Large entries (inside the cell, more than half its side on two axes: a floor, a
+     * wall) would stretch the leaf grid over the whole cell; when there are few of
+     * them they are kept aside and tested for every ray entering the cell. */
+    uint32_t ns = 0, nbig = 0;
+    for (uint32_t e = 0; e < m; e++) {
+        const float *b = pbox[GRID_ITEM_INDEX(items[e])];
+        int wide = 0;
+        for (int a = 0; a < 3; a++)
+            wide += fminf(b[3 + a], chi[a]) - fmaxf(b[a], clo[a]) > 0.5f * (chi[a] - clo[a]);
+        if (wide >= 2)
+            nbig++;
+        else
+            ls->small[ns++] = e;
+    }
+    if (nbig > BIG_MAX || ns <= LEAF_MIN) {
+        ns = m;
+        for (uint32_t e = 0; e < m; e++)
+            ls->small[e] = e;
+        nbig = 0;
+    }
+    for (uint32_t q = 0; q < ns; q++) {
+        const float *b = pbox[GRID_ITEM_INDEX(items[ls->small[q]])];
+        memcpy(ls->box[q], b, sizeof ls->box[q]);
+        for (int a = 0; a < 3; a++) {
+            lo[a] = fminf(lo[a], fmaxf(b[a], clo[a]));
+            hi[a] = fmaxf(hi[a], fminf(b[3 + a], chi[a]));
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        if (!(lo[a] <= hi[a])) { /* entries only in the cell's padding */
+            lo[a] = clo[a];
+            hi[a] = chi[a];
+        }
+        /* Thin axes (a floor) get a small thickness so leaf cells stay positive. */
+        float thick = 1e-3f * (chi[a] - clo[a]);
+        if (!(hi[a] - lo[a] >= thick)) {
+            float mid = 0.5f * (lo[a] + hi[a]);
+            lo[a] = mid - thick;
+            hi[a] = mid + thick;
+        }
+    }
+    int n[3];
+    const float (*boxes)[6] = (const float (*)[6])ls->box;
+    choose_dims(lo, hi, LEAF_LAMBDA * ns, LEAF_MAX_AXIS, n);
+    double est = fit_dims(boxes, ns, lo, hi, LEAF_DUP * ns, n) + nbig;
+    uint64_t cells = (uint64_t)n[0] * (uint64_t)n[1] * (uint64_t)n[2];
+    if (cells <= 1)
+        return true;
+    if (est + (double)cells > *budget)
+        return true;
+    *budget -= est + (double)cells;
+
+    SubGrid sg;
+    memset(&sg, 0, sizeof sg);
+    sg.box.min = v3(lo[0], lo[1], lo[2]);
+    sg.box.max = v3(hi[0], hi[1], hi[2]);
+    float size[3];
+    for (int a = 0; a < 3; a++) {
+        sg.n[a] = n[a];
+        /* The march's cell size ((max - min) / n, in float) and the course grid's pad:
+         * 1% of a cell plus a few ulps of the scene's coordinates (grid.c). */
+        size[a] = (hi[a] - lo[a]) / (float)n[a];
+        sg.pad[a] = 1e-2f * size[a] + 1e-5f * g->box_mag;
+    }
+    sg.min_pad = fminf(sg.pad[0], fminf(sg.pad[1], sg.pad[2]));
+
+    /* Each entry's leaf cells: the padded cells its box meets (border cells stretched
+     * to its box, as the course grid's), triangles by the exact overlap test. */
+    if (!grow((void **)&ls->count, &ls->cap_count, cells, sizeof *ls->count))
+        return false;
+    memset(ls->count, 0, cells * sizeof *ls->count);
+    size_t npairs = 0;
+    for (uint32_t q = 0; q < ns; q++) {
+        const float *b = ls->box[q];
+        uint32_t e = ls->small[q];
+        int r[6];
+        for (int a = 0; a < 3; a++)
+            axis_range(b[a], b[3 + a], lo[a], size[a], sg.pad[a], n[a], &r[a], &r[3 + a]);
+        uint32_t p = GRID_ITEM_INDEX(items[e]);
+        size_t before = npairs;
+        /* Triangles are tested exactly unless their range is one cell; the others
+         * (spheres, transformed primitives) go into every cell of their box's range. */
+        const GridPrim *gp = &g->prims[p];
+        bool test = !gp->xf && obj_kind(gp->obj) == OBJ_TRIANGLE &&
+                    (r[0] != r[3] || r[1] != r[4] || r[2] != r[5]);
+        double v[3][3];
+        if (test) {
+            Vec3 tv[3];
+            triangle_vertices(gp->obj, tv);
+            for (int q2 = 0; q2 < 3; q2++)
+                for (int a = 0; a < 3; a++)
+                    v[q2][a] = (double)v3_comp(tv[q2], a);
+        }
+        for (int k = r[2]; k <= r[5]; k++)
+            for (int j = r[1]; j <= r[4]; j++)
+                for (int i = r[0]; i <= r[3]; i++) {
+                    if (test) {
+                        int cc[3] = {i, j, k};
+                        double clo2[3], chi2[3];
+                        for (int a = 0; a < 3; a++) {
+                            double mn = (double)lo[a], sz = (double)size[a],
+                                   pd = (double)sg.pad[a];
+                            clo2[a] = mn + cc[a] * sz - pd;
+                            chi2[a] = mn + (cc[a] + 1) * sz + pd;
+                            if (cc[a] == 0 && (double)b[a] < clo2[a])
+                                clo2[a] = (double)b[a];
+                            if (cc[a] == n[a] - 1 && (double)b[3 + a] > chi2[a])
+                                chi2[a] = (double)b[3 + a];
+                        }
+                        if (!tri_in_cell((const double (*)[3])v, clo2, chi2))
+                            continue;
+                    }
+                    if (!grow((void **)&ls->cells, &ls->cap_cells, npairs + 1,
+                              sizeof *ls->cells))
+                        return false;
+                    uint32_t cell = ((uint32_t)k * (uint32_t)n[1] + (uint32_t)j) *
+                                        (uint32_t)n[0] + (uint32_t)i;
+                    ls->cells[npairs++] = cell;
+                    ls->count[cell]++;
+                }
+        ls->npairs[q] = (uint32_t)(npairs - before);
+    }
+
+    /* Append it: offsets, then the entries, in top-list order within each cell. */
+    if (t->num_subs == t->cap_subs) {
+        uint32_t cap = t->cap_subs ? 2 * t->cap_subs : 64;
+        SubGrid *sp = realloc(t->subs, cap * sizeof *sp);
+        if (!sp)
+            return false;
+        t->subs = sp;
+        t->cap_subs = cap;
+    }
+    if (!grow((void **)&t->start, &t->cap_cells, t->num_cells + cells + 1, sizeof *t->start) ||
+        !grow((void **)&t->items, &t->cap_items, t->num_items + npairs + nbig,
+              sizeof *t->items))
+        return false;
+    sg.base = (uint32_t)t->num_cells;
+    uint32_t *st = t->start + t->num_cells;
+    uint32_t run = (uint32_t)t->num_items;
+    for (uint64_t k = 0; k < cells; k++) {
+        st[k] = run;
+        run += ls->count[k];
+        ls->count[k] = st[k];
+    }
+    st[cells] = run;
+    const uint32_t *cell = ls->cells;
+    for (uint32_t q = 0; q < ns; q++)
+        for (uint32_t j = ls->npairs[q]; j > 0; j--)
+            t->items[ls->count[*cell++]++] = items[ls->small[q]];
+    t->num_cells += cells;
+    t->num_items += npairs;
+    /* The large entries after them, in list order. */
+    sg.big_start = (uint32_t)t->num_items;
+    sg.big_count = nbig;
+    for (uint32_t e = 0, q = 0; e < m && nbig; e++) {
+        if (q < ns && ls->small[q] == e) {
+            q++;
+            continue;
+        }
+        t->items[t->num_items++] = items[e];
+    }
+    t->sub_of[c] = t->num_subs;
+    t->subs[t->num_subs++] = sg;
+    return true;
+}
+
+void twolevel_free(TwoLevelGrid *t)
+{
+    if (!t)
+        return;
+    grid_free(t->top);
+    free(t->sub_of);
+    free(t->subs);
+    free(t->start);
+    free(t->items);
+    free(t);
+}
+
+TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
+{
+    if (!table || table->num_bounded == 0 || bbox_is_empty(&table->scene_bounds))
+        return NULL;
+    /* The top resolution: about TOP_LAMBDA cells per primitive, fewer when the
+     * primitives' boxes would put too many entries in them (huge or co-located ones). */
+    size_t nb = 0;
+    float (*boxes)[6] = table_boxes(table, &nb);
+    if (!boxes) {
+        diag_error(diag, NULL, "out of memory building the two-level grid");
+        return NULL;
+    }
+    const BBox *sb = &table->scene_bounds;
+    float lo[3] = {sb->min.x, sb->min.y, sb->min.z};
+    float hi[3] = {sb->max.x, sb->max.y, sb->max.z};
+    int n[3];
+    double prims = (double)nb;
+    choose_dims(lo, hi, TOP_LAMBDA * prims, TOP_MAX_AXIS, n);
+    fit_dims((const float (*)[6])boxes, nb, lo, hi, TOP_DUP * prims + BUDGET_SLACK, n);
+    free(boxes);
+
+    TwoLevelGrid *t = calloc(1, sizeof *t);
+    if (!t)
+        goto oom;
+    t->top = grid_build_table(table, n[0], n[1], n[2], diag);
+    if (!t->top) {
+        twolevel_free(t);
+        return NULL; /* reported by grid_build_table, or nothing bounded */
+    }
+    Grid *g = t->top;
+    t->sub_of = malloc((size_t)g->num_cells * sizeof *t->sub_of);
+    float (*pbox)[6] = malloc(((size_t)g->num_prims + 1) * sizeof *pbox);
+    LeafScratch ls;
+    memset(&ls, 0, sizeof ls);
+    bool ok = t->sub_of && pbox && grow((void **)&t->start, &t->cap_cells, 1, sizeof *t->start);
+    if (ok) {
+        t->start[0] = 0;
+        for (uint32_t p = 0; p < g->num_prims; p++)
+            prim_box(g, p, pbox[p]);
+    }
+    double budget = LEAF_BUDGET_DUP * (double)g->num_prims + BUDGET_SLACK;
+    for (int k = 0; ok && k < g->n[2]; k++)
+        for (int j = 0; ok && j < g->n[1]; j++)
+            for (int i = 0; ok && i < g->n[0]; i++) {
+                int ci[3] = {i, j, k};
+                ok = build_leaf(t, grid_cell_index(g, i, j, k), ci, &ls,
+                                (const float (*)[6])pbox, &budget);
+            }
+    scratch_free(&ls);
+    free(pbox);
+    if (!ok)
+        goto oom;
+    return t;
+oom:
+    twolevel_free(t);
+    diag_error(diag, NULL, "out of memory building the two-level grid");
+    return NULL;
+}
+
+Grid *twolevel_top(const TwoLevelGrid *t) { return t->top; }
+
+void twolevel_counts(const TwoLevelGrid *t, uint32_t *subgrids, uint64_t *leaf_cells)
+{
+    if (subgrids)
+        *subgrids = t->num_subs;
+    if (leaf_cells)
+        *leaf_cells = t->num_cells;
+}
+
+/* ---- traversal ---- */
+
+static inline uint32_t leaf_cell(const SubGrid *sg, const MarchingInfo *sm)
+{
+    return sg->base + ((uint32_t)sm->cell[2] * (uint32_t)sg->n[1] + (uint32_t)sm->cell[1]) *
+                          (uint32_t)sg->n[0] + (uint32_t)sm->cell[0];
+}
+
+/* Why the leaf march may stop the whole walk when the best hit lies within the current
+ * leaf cell: every point of the ray before it lies in a top cell already walked, or in
+ * this top cell, where the only primitives to hit (this cell's entries) lie in the
+ * leaf grid's box and so in a leaf cell already walked (cells padded against rounding,
+ * as the course grid's), or among its large entries, all tested on entering the cell. A top cell whose leaf grid the ray misses holds nothing it
+ * can hit there. Rays too far out to march the leaf grid exactly test the cell's whole
+ * list instead. */
+bool twolevel_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float tmin,
+                        RenderCtx *ctx)
+{
+    const Grid *g = t->top;
+    bool found = false;
+    for (uint32_t u = 0; u < g->num_unbounded; u++)
+        found |= grid_test_prim(&g->unbounded[u], ray, hit, tmin, ctx);
+    if (grid_ray_too_far(g, ray, tmin))
+        return grid_march_intersect(g, ray, hit, tmin, ctx) || found;
+    MarchingInfo mi;
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
+        return found;
+    uint32_t stamp = grid_begin_ray(g, ctx);
+    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    float err = grid_march_error(g, ray);
+    do {
+        if (mi.t > hit->t)
+            break;
+        uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
+        uint32_t s = t->sub_of[c];
+        if (s == NO_SUB || !(err < t->subs[s].min_pad)) {
+            found |= grid_items_intersect(g, g->cell_items + g->cell_start[c],
+                                          g->cell_start[c + 1] - g->cell_start[c], ray, hit,
+                                          tmin, mb, stamp, ctx);
+        } else {
+            const SubGrid *sg = &t->subs[s];
+            found |= grid_items_intersect(g, t->items + sg->big_start, sg->big_count, ray, hit,
+                                          tmin, mb, stamp, ctx);
+            MarchingInfo sm;
+            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmin, NULL)) {
+                do {
+                    ctx->stats.cells_traversed++;
+                    if (sm.t > hit->t)
+                        break;
+                    uint32_t lc = leaf_cell(sg, &sm);
+                    found |= grid_items_intersect(g, t->items + t->start[lc],
+                                                  t->start[lc + 1] - t->start[lc], ray, hit,
+                                                  tmin, mb, stamp, ctx);
+                    if (hit->t <= march_exit_t(&sm))
+                        return found;
+                } while (march_next(&sm, NULL));
+            }
+        }
+        if (hit->t <= march_exit_t(&mi))
+            break;
+    } while (march_next(&mi, ctx));
+    return found;
+}
+
+bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float tmax,
+                       RenderCtx *ctx)
+{
+    const Grid *g = t->top;
+    /* hit_accepts with t = tmax and id 0 takes exactly the hits with t < tmax. */
+    Hit h = hit_none();
+    h.t = tmax;
+    h.id = 0;
+    for (uint32_t u = 0; u < g->num_unbounded; u++)
+        if (grid_test_prim(&g->unbounded[u], ray, &h, tmin, ctx))
+            return true;
+    if (grid_ray_too_far(g, ray, tmin))
+        return grid_march_occluded(g, ray, tmin, tmax, ctx);
+    MarchingInfo mi;
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
+        return false;
+    uint32_t stamp = grid_begin_ray(g, ctx);
+    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    float err = grid_march_error(g, ray);
+    do {
+        if (mi.t > tmax)
+            break;
+        uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
+        uint32_t s = t->sub_of[c];
+        if (s == NO_SUB || !(err < t->subs[s].min_pad)) {
+            if (grid_items_occluded(g, g->cell_items + g->cell_start[c],
+                                    g->cell_start[c + 1] - g->cell_start[c], ray, &h, tmin, mb,
+                                    stamp, ctx))
+                return true;
+        } else {
+            const SubGrid *sg = &t->subs[s];
+            if (grid_items_occluded(g, t->items + sg->big_start, sg->big_count, ray, &h, tmin,
+                                    mb, stamp, ctx))
+                return true;
+            MarchingInfo sm;
+            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmin, NULL)) {
+                do {
+                    ctx->stats.cells_traversed++;
+                    if (sm.t > tmax)
+                        break;
+                    uint32_t lc = leaf_cell(sg, &sm);
+                    if (grid_items_occluded(g, t->items + t->start[lc],
+                                            t->start[lc + 1] - t->start[lc], ray, &h, tmin, mb,
+                                            stamp, ctx))
+                        return true;
+                } while (march_next(&sm, NULL));
+            }
+        }
+    } while (march_next(&mi, ctx));
+    return false;
+}
+
+/* ---- the accelerator "twolevel" (rt/accel.h) ---- */
+
+static void *twolevel_create(const PrimTable *t, const AccelConfig *cfg, Diag *diag)
+{
+    TwoLevelGrid *tl = twolevel_build(t, diag);
+    if (tl)
+        grid_set_marking(tl->top, !cfg->no_marking);
+    return tl;
+}
+
+static void twolevel_destroy(void *self) { twolevel_free(self); }
+
+static bool twolevel_accel_intersect(const void *self, const Ray *ray, Hit *hit, float tmin,
+                                     RenderCtx *ctx)
+{
+    return twolevel_intersect(self, ray, hit, tmin, ctx);
+}
+
+static bool twolevel_accel_occluded(const void *self, const Ray *ray, float tmin, float tmax,
+                                    RenderCtx *ctx)
+{
+    return twolevel_occluded(self, ray, tmin, tmax, ctx);
+}
+
+static uint32_t twolevel_scratch(const void *self)
+{
+    return grid_mailbox_size(((const TwoLevelGrid *)self)->top);
+}
+
+/* The course block prints the top level's resolution. */
+static void twolevel_report(const void *self, StatsReport *r)
+{
+    int n[3];
+    grid_dims(((const TwoLevelGrid *)self)->top, n);
+    r->nx = n[0];
+    r->ny = n[1];
+    r->nz = n[2];
+}
+
+/* -visualize_grid draws the top level's occupied cells. */
+static bool twolevel_cells_intersect(const void *self, const Ray *ray, Hit *hit, float tmin,
+                                     RenderCtx *ctx)
+{
+    return grid_visualize_intersect(((const TwoLevelGrid *)self)->top, ray, hit, tmin, ctx);
+}
+
+static bool twolevel_cells_occluded(const void *self, const Ray *ray, float tmin, float tmax,
+                                    RenderCtx *ctx)
+{
+    Hit h = hit_none();
+    return twolevel_cells_intersect(self, ray, &h, tmin, ctx) && h.t < tmax;
+}
+
+static const AccelOps twolevel_cells_ops = {
+    .name = "twolevel",
+    .summary = "the two-level grid's top cells, coloured by count (-visualize_grid)",
+    .create = twolevel_create,
+    .destroy = twolevel_destroy,
+    .intersect = twolevel_cells_intersect,
+    .occluded = twolevel_cells_occluded,
+    .scratch_size = twolevel_scratch,
+    .report = twolevel_report,
+};
+
+const AccelOps accel_twolevel_ops = {
+    .name = "twolevel",
+    .summary = "two-level grid for uneven scenes (what -grid auto builds when crowded)",
+    .create = twolevel_create,
+    .destroy = twolevel_destroy,
+    .intersect = twolevel_accel_intersect,
+    .occluded = twolevel_accel_occluded,
+    .scratch_size = twolevel_scratch,
+    .report = twolevel_report,
+    .visualize = &twolevel_cells_ops,
+};
+
+const TwoLevelGrid *twolevel_of_accel(const Accel *a)
+{
+    return a && (a->ops == &accel_twolevel_ops || a->ops == &twolevel_cells_ops) ? a->self
+                                                                                 : NULL;
+}

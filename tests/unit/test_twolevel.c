@@ -1,0 +1,361 @@
+/* The two-level grid (rt/twolevel.h) against the brute-force tree walk on seeded random
+ * UNEVEN scenes: dense clusters of small triangles (meshes with shared edges) and
+ * spheres far apart, a few huge triangles spanning the scene, thin flat clusters (a
+ * floor), transformed primitives and planes. Every ray's nearest hit must be the brute
+ * force's to the bit (t, id, normal, material), occlusion must agree, leaf grids must
+ * really be built (the test would otherwise only test the top grid), and degenerate
+ * scenes (thousands of co-located spheres, huge overlapping triangles) must build
+ * within the documented entry bounds. */
+#include <stdlib.h>
+#include <string.h>
+
+#include "../harness.h"
+#include "rt/arena.h"
+#include "rt/geom.h"
+#include "rt/grid.h"
+#include "rt/material.h"
+#include "rt/prim.h"
+#include "rt/scene.h"
+#include "rt/twolevel.h"
+
+static uint64_t rng_state;
+
+static uint64_t rng_next(void)
+{
+    uint64_t z = (rng_state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+static float frand(float lo, float hi)
+{
+    double u = (double)(rng_next() >> 11) * (1.0 / 9007199254740992.0);
+    return lo + (float)u * (hi - lo);
+}
+
+static int irand(int n) { return (int)(rng_next() % (uint64_t)n); }
+
+static Vec3 vrand(float lo, float hi) { return v3(frand(lo, hi), frand(lo, hi), frand(lo, hi)); }
+
+static Vec3 unit_rand(void)
+{
+    for (;;) {
+        Vec3 v = vrand(-1, 1);
+        float l = v3_length(v);
+        if (l > 0.05f && l <= 1.0f)
+            return v3_scale(v, 1.0f / l);
+    }
+}
+
+typedef struct UScene {
+    Scene s;
+    Material *mats[3];
+    Vec3 centres[16];     /* cluster centres (rays are aimed at them) */
+    float radius[16];
+    int num_clusters;
+} UScene;
+
+/* A dense cluster at c of size r: a height-field mesh (shared edges and vertices, so
+ * ties in t), small random triangles, small spheres; sometimes under a Transform. */
+static Object3D *cluster(UScene *u, Vec3 c, float r, bool flat)
+{
+    Arena *a = &u->s.arena;
+    int nx = 4 + irand(8), nz = 4 + irand(8), extra = 20 + irand(60);
+    Object3D *g = group_new(a, 2 * nx * nz + extra);
+    int k = 0;
+    float step = 2.0f * r / (float)(nx > nz ? nx : nz);
+    for (int i = 0; i < nx; i++)
+        for (int j = 0; j < nz; j++) {
+            Vec3 p[4];
+            for (int q = 0; q < 4; q++) {
+                int di = q & 1, dj = q >> 1;
+                float h = flat ? 0.0f : (float)(((i + di) * 5 + (j + dj) * 3) % 4) * 0.125f * r;
+                p[q] = v3_add(c, v3(-r + (float)(i + di) * step, h, -r + (float)(j + dj) * step));
+            }
+            const Material *m = u->mats[irand(3)];
+            group_set_child(g, k++, triangle_new(a, p[0], p[1], p[3], m));
+            group_set_child(g, k++, triangle_new(a, p[0], p[3], p[2], m));
+        }
+    for (int e = 0; e < extra; e++) {
+        const Material *m = u->mats[irand(3)];
+        Vec3 p = v3_add(c, vrand(-r, r));
+        if (flat)
+            p.y = c.y;
+        if (!flat && irand(4) == 0) {
+            group_set_child(g, k++, sphere_new(a, p, frand(0.02f, 0.2f) * r, m));
+        } else {
+            float s = frand(0.05f, 0.4f) * r;
+            Vec3 q1 = v3_add(p, vrand(-s, s)), q2 = v3_add(p, vrand(-s, s));
+            if (flat)
+                q1.y = q2.y = c.y;
+            group_set_child(g, k++, triangle_new(a, p, q1, q2, m));
+        }
+    }
+    group_finish(g);
+    if (!flat && irand(3) == 0) {
+        /* Rotate and scale about the centre. */
+        Mat4 t1 = mat4_translate(c), t2 = mat4_translate(v3_neg(c));
+        Mat4 rot = mat4_rotate_axis(unit_rand(), frand(-180, 180));
+        Mat4 sc = mat4_scale(v3(frand(0.5f, 1.5f), frand(0.5f, 1.5f), frand(0.5f, 1.5f)));
+        Mat4 m = mat4_mul(&t1, &rot);
+        m = mat4_mul(&m, &sc);
+        m = mat4_mul(&m, &t2);
+        Object3D *x = transform_new(a, &m, g);
+        return x ? x : g;
+    }
+    return g;
+}
+
+static void uscene_make(UScene *u, int clusters, float spread, int huge, int planes)
+{
+    memset(u, 0, sizeof *u);
+    arena_init(&u->s.arena);
+    for (int i = 0; i < 3; i++) {
+        PhongParams p = phong_defaults();
+        p.diffuse = vrand(0, 1);
+        u->mats[i] = phong_new(&u->s.arena, &p);
+    }
+    Arena *a = &u->s.arena;
+    Object3D *root = group_new(a, clusters + huge + planes);
+    int k = 0;
+    for (int i = 0; i < clusters; i++) {
+        Vec3 c = vrand(-spread, spread);
+        float r = frand(0.2f, 1.5f);
+        bool flat = irand(4) == 0;
+        u->centres[u->num_clusters] = c;
+        u->radius[u->num_clusters++] = r;
+        group_set_child(root, k++, cluster(u, c, r, flat));
+    }
+    for (int i = 0; i < huge; i++)
+        group_set_child(root, k++, triangle_new(a, vrand(-spread, spread), vrand(-spread, spread),
+                                                vrand(-spread, spread), u->mats[irand(3)]));
+    for (int i = 0; i < planes; i++)
+        group_set_child(root, k++, plane_new(a, unit_rand(), frand(-spread, spread) * 1.5f,
+                                             u->mats[irand(3)]));
+    group_finish(root);
+    u->s.root = root;
+    u->s.num_primitives = object_assign_ids(root);
+    u->s.bounds = root->bounded ? root->bbox : bbox_empty();
+}
+
+static bool same_hit(const Hit *a, const Hit *b)
+{
+    return a->t == b->t && a->id == b->id && a->material == b->material &&
+           a->normal.x == b->normal.x && a->normal.y == b->normal.y &&
+           a->normal.z == b->normal.z;
+}
+
+typedef struct Totals {
+    long rays, hits, occl, tests, brute_tests;
+} Totals;
+
+static void check_one(const UScene *u, const TwoLevelGrid *t, RenderCtx *ctx, const Ray *ray,
+                      float tmin, Totals *tot, Hit *out)
+{
+    Hit hg = hit_none(), hb = hit_none();
+    uint64_t before = ctx->stats.intersections;
+    bool fg = twolevel_intersect(t, ray, &hg, tmin, ctx);
+    tot->tests += (long)(ctx->stats.intersections - before);
+    RenderCtx bctx;
+    memset(&bctx, 0, sizeof bctx);
+    bool fb = obj_intersect(u->s.root, ray, &hb, tmin, &bctx);
+    tot->brute_tests += (long)bctx.stats.intersections;
+    tot->rays++;
+    tot->hits += fb;
+    CHECK_MSG(fg == fb && (!fb || same_hit(&hg, &hb)),
+              "ray o=(%.9g,%.9g,%.9g) d=(%.9g,%.9g,%.9g) tmin=%g: twolevel %d t=%.9g id=%u, "
+              "brute %d t=%.9g id=%u",
+              (double)ray->origin.x, (double)ray->origin.y, (double)ray->origin.z,
+              (double)ray->dir.x, (double)ray->dir.y, (double)ray->dir.z, (double)tmin, fg,
+              (double)hg.t, hg.id, fb, (double)hb.t, hb.id);
+    *out = hb;
+    if (!fb)
+        out->t = INFINITY;
+    float tmax = fb && irand(3) == 0 ? hb.t : frand(0.0f, 40.0f);
+    float t0 = isfinite(tmin) ? tmin : 0.0f;
+    Hit ho = hit_none();
+    ho.t = tmax;
+    ho.id = 0;
+    memset(&bctx, 0, sizeof bctx);
+    bool ob = obj_intersect(u->s.root, ray, &ho, t0, &bctx);
+    bool og = twolevel_occluded(t, ray, t0, tmax, ctx);
+    CHECK_MSG(ob == og, "occlusion to %.9g: twolevel %d, brute %d", (double)tmax, og, ob);
+    tot->occl += ob;
+}
+
+static void run_uneven(int seed, int clusters, float spread, int huge, int planes, int rays,
+                       Totals *tot, uint32_t *subs_out)
+{
+    rng_state = (uint64_t)seed * 104729u + 3u;
+    UScene u;
+    uscene_make(&u, clusters, spread, huge, planes);
+    Diag d;
+    diag_init(&d, stderr);
+    PrimTable table;
+    CHECK(prim_table_build(&table, &u.s));
+    TwoLevelGrid *t = twolevel_build(&table, &d);
+    CHECK(t != NULL);
+    if (!t) {
+        prim_table_free(&table);
+        arena_free(&u.s.arena);
+        return;
+    }
+    uint32_t subs;
+    twolevel_counts(t, &subs, NULL);
+    *subs_out += subs;
+    const Grid *g = twolevel_top(t);
+    RenderCtx ctx;
+    memset(&ctx, 0, sizeof ctx);
+    ctx.num_mailbox = grid_mailbox_size(g);
+    ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+    ctx.ray_stamp = UINT32_MAX - 3; /* wraps around during the run */
+    BBox b = grid_bounds(g);
+    for (int i = 0; i < rays; i++) {
+        Ray ray;
+        float tmin = 0.0f;
+        int c = irand(u.num_clusters);
+        Vec3 target;
+        switch (irand(4)) {
+        case 0: /* into a cluster */
+            target = v3_add(u.centres[c], vrand(-u.radius[c], u.radius[c]));
+            break;
+        case 1: /* at a leaf-ish border: a cluster centre exactly */
+            target = u.centres[c];
+            break;
+        default:
+            target = v3(frand(b.min.x, b.max.x), frand(b.min.y, b.max.y), frand(b.min.z, b.max.z));
+            break;
+        }
+        Vec3 o = irand(2) ? vrand(-2.0f * spread, 2.0f * spread)
+                          : v3_add(u.centres[irand(u.num_clusters)], vrand(-2, 2));
+        if (irand(10) == 0) {
+            int a = irand(3);
+            Vec3 dd = v3(0, 0, 0);
+            if (a == 0) dd.x = 1; else if (a == 1) dd.y = -1; else dd.z = 1;
+            ray.dir = dd;
+            ray.origin = v3_sub(target, v3_scale(dd, 3.0f * spread));
+        } else {
+            ray.origin = o;
+            ray.dir = v3_sub(target, o);
+            if (irand(3))
+                ray.dir = v3_normalize(ray.dir);
+        }
+        int k = irand(6);
+        if (k == 0)
+            tmin = -INFINITY;
+        else if (k == 1)
+            tmin = frand(0, 0.5f);
+        Hit h;
+        check_one(&u, t, &ctx, &ray, tmin, tot, &h);
+        if (isfinite(h.t) && irand(2)) {
+            Ray s;
+            s.origin = ray_at(&ray, h.t);
+            s.dir = irand(2) ? unit_rand() : v3_neg(ray.dir);
+            Hit h2;
+            check_one(&u, t, &ctx, &s, 1e-3f, tot, &h2);
+        }
+    }
+    free(ctx.mailbox);
+    twolevel_free(t);
+    prim_table_free(&table);
+    arena_free(&u.s.arena);
+}
+
+static void test_uneven_scenes(void)
+{
+    Totals tot = {0};
+    uint32_t subs = 0;
+    for (int seed = 1; seed <= 16; seed++)
+        run_uneven(seed, 1 + seed % 6, seed % 2 ? 30.0f : 6.0f, seed % 4, seed % 3, 600, &tot,
+                   &subs);
+    printf("    %ld rays, %ld hits, %ld occluded, %u leaf grids; tests %ld vs brute %ld\n",
+           tot.rays, tot.hits, tot.occl, subs, tot.tests, tot.brute_tests);
+    CHECK(tot.rays > 10000);
+    CHECK(tot.hits > tot.rays / 5);
+    CHECK(subs > 16);                      /* leaf grids were built and walked */
+    CHECK(tot.tests * 4 < tot.brute_tests); /* and they do cut the tests */
+}
+
+/* Degenerate inputs: the build must stay within its entry budget (bounded memory and
+ * time) and still answer exactly. */
+static void test_degenerate(void)
+{
+    for (int kind = 0; kind < 2; kind++) {
+        rng_state = 99u + (uint64_t)kind;
+        UScene u;
+        memset(&u, 0, sizeof u);
+        arena_init(&u.s.arena);
+        PhongParams pp = phong_defaults();
+        u.mats[0] = u.mats[1] = u.mats[2] = phong_new(&u.s.arena, &pp);
+        int n = kind == 0 ? 10000 : 20000;
+        Object3D *root = group_new(&u.s.arena, n);
+        for (int i = 0; i < n; i++)
+            group_set_child(root, i,
+                            kind == 0 ? sphere_new(&u.s.arena, v3(1, 2, 3), 0.5f, u.mats[0])
+                                      : triangle_new(&u.s.arena, vrand(-10, 10), vrand(-10, 10),
+                                                     vrand(-10, 10), u.mats[0]));
+        group_finish(root);
+        u.s.root = root;
+        u.s.num_primitives = object_assign_ids(root);
+        u.s.bounds = root->bbox;
+        u.centres[0] = v3(1, 2, 3);
+        u.radius[0] = 0.5f;
+        u.num_clusters = 1;
+        Diag d;
+        diag_init(&d, stderr);
+        PrimTable table;
+        CHECK(prim_table_build(&table, &u.s));
+        TwoLevelGrid *t = twolevel_build(&table, &d);
+        CHECK(t != NULL);
+        if (t) {
+            uint64_t course = 0, marching = 0, leaf = 0;
+            grid_entry_totals(twolevel_top(t), &course, &marching);
+            twolevel_counts(t, NULL, &leaf);
+            printf("    %s: %d primitives, top entries %llu, leaf cells %llu\n",
+                   kind == 0 ? "co-located spheres" : "huge triangles", n,
+                   (unsigned long long)marching, (unsigned long long)leaf);
+            CHECK(marching <= 8u * (uint64_t)n + 65536u + (uint64_t)n);
+            CHECK(leaf <= 16u * (uint64_t)n + 65536u);
+            RenderCtx ctx;
+            memset(&ctx, 0, sizeof ctx);
+            ctx.num_mailbox = grid_mailbox_size(twolevel_top(t));
+            ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+            Totals tot = {0};
+            for (int i = 0; i < 40; i++) {
+                Ray r = {vrand(-20, 20), unit_rand()};
+                r.dir = v3_normalize(v3_sub(vrand(-2, 4), r.origin));
+                Hit h;
+                check_one(&u, t, &ctx, &r, 0.0f, &tot, &h);
+            }
+            free(ctx.mailbox);
+            twolevel_free(t);
+        }
+        prim_table_free(&table);
+        arena_free(&u.s.arena);
+    }
+}
+
+/* Only planes: no grid, no error (as grid_build). */
+static void test_planes_only(void)
+{
+    rng_state = 5;
+    UScene u;
+    uscene_make(&u, 0, 5.0f, 0, 2);
+    Diag d;
+    diag_init(&d, stderr);
+    PrimTable table;
+    CHECK(prim_table_build(&table, &u.s));
+    CHECK(twolevel_build(&table, &d) == NULL);
+    CHECK_INT(d.errors, 0);
+    prim_table_free(&table);
+    arena_free(&u.s.arena);
+}
+
+static const TestCase tests[] = {
+    {"twolevel_uneven_scenes_match_brute_force", test_uneven_scenes},
+    {"twolevel_degenerate_scenes_bounded", test_degenerate},
+    {"twolevel_planes_only_no_grid", test_planes_only},
+};
+
+RT_TEST_MAIN(tests)
