@@ -20,8 +20,8 @@
 /* Top cells per primitive and leaf cells per entry of a top cell (Kalojanov et al.
  * use a sparse top level and about one to a few leaf cells per primitive); chosen by
  * measurement on the benchmark's uneven scenes (docs/twolevel.md). */
-#define TOP_LAMBDA (getenv("RT_TL_TOP") ? atof(getenv("RT_TL_TOP")) : 1.0 / 16.0)
-#define LEAF_LAMBDA (getenv("RT_TL_LEAF") ? atof(getenv("RT_TL_LEAF")) : 4.0)
+#define TOP_LAMBDA (1.0 / 16.0)
+#define LEAF_LAMBDA 2.0
 /* A top cell with at most this many entries keeps its list (a leaf grid would not pay). */
 #define LEAF_MIN 12u
 /* At most this many large entries per top cell are kept out of its leaf grid. */
