@@ -233,6 +233,17 @@ bool twolevel_preferred(const PrimTable *t)
 
 /* ---- the leaf grids ---- */
 
+/* How far beyond its edges a triangle with box b can be hit: the triangle test accepts
+ * barycentric coordinates down to -RT_TRI_EDGE_TOL and a sum up to 1 + RT_TRI_FAR_TOL
+ * (rt/geom.h), i.e. points up to about that fraction of its edges outside it; the sum of
+ * the box's sides bounds every edge. Leaf cells are far finer than the course grid's,
+ * so their padding alone need not cover it. */
+static float tri_tolerance(BBox b)
+{
+    Vec3 e = v3_sub(b.max, b.min);
+    return 2.0f * (RT_TRI_EDGE_TOL + RT_TRI_FAR_TOL) * (e.x + e.y + e.z);
+}
+
 /* World box of top-grid primitive p, widened a little so rounding in a transformed
  * box cannot make it smaller than the primitive (triangles: exact vertex bounds). */
 static void prim_box(const Grid *g, uint32_t p, float out[6])
@@ -244,6 +255,9 @@ static void prim_box(const Grid *g, uint32_t p, float out[6])
         triangle_vertices(gp->obj, v);
         b.min = v3_min(v3_min(v[0], v[1]), v[2]);
         b.max = v3_max(v3_max(v[0], v[1]), v[2]);
+        float w = tri_tolerance(b);
+        b.min = v3_sub(b.min, v3(w, w, w));
+        b.max = v3_add(b.max, v3(w, w, w));
     } else if (gp->xf) {
         b = bbox_transform(&gp->obj->bbox, &gp->xf->m);
         Vec3 e = v3_sub(b.max, b.min);
@@ -272,14 +286,15 @@ static bool grow(void **p, size_t *cap, size_t need, size_t elem)
     return true;
 }
 
-/* Whether the triangle v (world space) may cross the padded leaf cell [lo, hi]: the
- * grid build's exact triangle/box test. */
-static bool tri_in_cell(const double v[3][3], const double lo[3], const double hi[3])
+/* Whether the triangle v (world space) may cross the padded leaf cell [lo, hi] grown by
+ * tol (its hit tolerance, tri_tolerance): the grid build's exact triangle/box test. */
+static bool tri_in_cell(const double v[3][3], const double lo[3], const double hi[3],
+                        double tol)
 {
     double rel[3][3], h[3];
     for (int a = 0; a < 3; a++) {
         double mid = 0.5 * (lo[a] + hi[a]);
-        h[a] = 0.5 * (hi[a] - lo[a]);
+        h[a] = 0.5 * (hi[a] - lo[a]) + tol;
         for (int k = 0; k < 3; k++)
             rel[k][a] = v[k][a] - mid;
     }
@@ -416,13 +431,15 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         const GridPrim *gp = &g->prims[p];
         bool test = !gp->xf && obj_kind(gp->obj) == OBJ_TRIANGLE &&
                     (r[0] != r[3] || r[1] != r[4] || r[2] != r[5]);
-        double v[3][3];
+        double v[3][3], tol = 0.0;
         if (test) {
             Vec3 tv[3];
             triangle_vertices(gp->obj, tv);
             for (int q2 = 0; q2 < 3; q2++)
                 for (int a = 0; a < 3; a++)
                     v[q2][a] = (double)v3_comp(tv[q2], a);
+            BBox tb = {v3_min(v3_min(tv[0], tv[1]), tv[2]), v3_max(v3_max(tv[0], tv[1]), tv[2])};
+            tol = (double)tri_tolerance(tb);
         }
         for (int k = r[2]; k <= r[5]; k++)
             for (int j = r[1]; j <= r[4]; j++)
@@ -440,7 +457,7 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
                             if (cc[a] == n[a] - 1 && (double)b[3 + a] > chi2[a])
                                 chi2[a] = (double)b[3 + a];
                         }
-                        if (!tri_in_cell((const double (*)[3])v, clo2, chi2))
+                        if (!tri_in_cell((const double (*)[3])v, clo2, chi2, tol))
                             continue;
                     }
                     if (!grow((void **)&ls->cells, &ls->cap_cells, npairs + 1,

@@ -336,6 +336,71 @@ static void test_degenerate(void)
     }
 }
 
+/* Triangles are hit a little beyond their edges (rt/geom.h tolerances): many large
+ * triangles through a dense cluster (more than the cell keeps aside, so they go into the
+ * fine leaf grid) and rays aimed just outside their edges, within the tolerance. */
+static void test_edge_tolerance(void)
+{
+    rng_state = 4242;
+    UScene u;
+    memset(&u, 0, sizeof u);
+    arena_init(&u.s.arena);
+    PhongParams pp = phong_defaults();
+    u.mats[0] = u.mats[1] = u.mats[2] = phong_new(&u.s.arena, &pp);
+    enum { BIG = 40 };
+    Object3D *root = group_new(&u.s.arena, BIG + 2);
+    Vec3 tv[BIG][3];
+    for (int i = 0; i < BIG; i++) {
+        Vec3 c = vrand(-0.5f, 0.5f);
+        for (int k = 0; k < 3; k++)
+            tv[i][k] = v3_add(c, vrand(-4, 4));
+        group_set_child(root, i, triangle_new(&u.s.arena, tv[i][0], tv[i][1], tv[i][2], u.mats[0]));
+    }
+    u.centres[0] = v3(0, 0, 0);
+    u.radius[0] = 0.5f;
+    u.num_clusters = 1;
+    group_set_child(root, BIG, cluster(&u, v3(0, 0, 0), 0.5f, false));
+    group_set_child(root, BIG + 1, sphere_new(&u.s.arena, v3(60, 60, 60), 0.1f, u.mats[0]));
+    group_finish(root);
+    u.s.root = root;
+    u.s.num_primitives = object_assign_ids(root);
+    u.s.bounds = root->bbox;
+    Diag d;
+    diag_init(&d, stderr);
+    PrimTable table;
+    CHECK(prim_table_build(&table, &u.s));
+    TwoLevelGrid *t = twolevel_build(&table, &d);
+    CHECK(t != NULL);
+    if (t) {
+        uint32_t subs = 0;
+        twolevel_counts(t, &subs, NULL);
+        CHECK(subs > 0);
+        RenderCtx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.num_mailbox = grid_mailbox_size(twolevel_top(t));
+        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        Totals tot = {0};
+        for (int i = 0; i < 4000; i++) {
+            const Vec3 *v = tv[irand(BIG)];
+            /* a point with barycentric u slightly negative (within or just past the
+             * tolerance), the others random */
+            float bu = irand(2) ? -frand(0.0f, 1.2e-5f) : frand(0.0f, 1.0f);
+            float bv = frand(0.0f, 1.0f - (bu > 0 ? bu : 0.0f));
+            Vec3 p = v3_add(v[0], v3_add(v3_scale(v3_sub(v[1], v[0]), bu),
+                                         v3_scale(v3_sub(v[2], v[0]), bv)));
+            Ray r;
+            r.origin = v3_add(p, v3_scale(unit_rand(), 6.0f));
+            r.dir = v3_sub(p, r.origin);
+            Hit h;
+            check_one(&u, t, &ctx, &r, 0.0f, &tot, &h);
+        }
+        free(ctx.mailbox);
+        twolevel_free(t);
+    }
+    prim_table_free(&table);
+    arena_free(&u.s.arena);
+}
+
 /* Only planes: no grid, no error (as grid_build). */
 static void test_planes_only(void)
 {
@@ -356,6 +421,7 @@ static const TestCase tests[] = {
     {"twolevel_uneven_scenes_match_brute_force", test_uneven_scenes},
     {"twolevel_degenerate_scenes_bounded", test_degenerate},
     {"twolevel_planes_only_no_grid", test_planes_only},
+    {"twolevel_triangle_edge_tolerance", test_edge_tolerance},
 };
 
 RT_TEST_MAIN(tests)
