@@ -79,7 +79,7 @@ static void test_usage_errors(void)
         {"-input s.txt -visualize_grid", "needs -grid"},
         {"-output o.tga", "-input scene.txt is required"},
         {"-input s.txt -threads 0", "out of range"},
-        {"-input s.txt -accel bvh", "unknown accelerator 'bvh' (known: none, grid)"},
+        {"-input s.txt -accel bvh", "unknown accelerator 'bvh' (known: none, grid, twolevel)"},
         {"-input s.txt -accel", "needs more arguments"},
         {"-input s.txt -accel none -grid 4 4 4", "-grid goes with -accel grid"},
         {"-input s.txt -accel none -visualize_grid", "needs -grid"},
