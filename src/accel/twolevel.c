@@ -423,7 +423,8 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         uint32_t e = ls->small[q];
         int r[6];
         for (int a = 0; a < 3; a++)
-            axis_range(b[a], b[3 + a], lo[a], size[a], sg.pad[a], n[a], &r[a], &r[3 + a]);
+            axis_range((double)b[a], (double)b[3 + a], (double)lo[a], (double)size[a],
+                       (double)sg.pad[a], n[a], &r[a], &r[3 + a]);
         uint32_t p = GRID_ITEM_INDEX(items[e]);
         size_t before = npairs;
         /* Triangles are tested exactly unless their range is one cell; the others
