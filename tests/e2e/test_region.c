@@ -139,13 +139,21 @@ static void add_outputs(Args *a, char paths[3][PATH_MAX], const char *dir, const
 
 /* ---- -region ------------------------------------------------------------------- */
 
-static void check_regions(const char *id)
+/* Appends a NULL-terminated list of extra arguments (antialiasing options). */
+static void add_all(Args *a, const char *const *extra)
+{
+    for (int i = 0; extra && extra[i]; i++)
+        add(a, extra[i]);
+}
+
+static void check_regions_with(const char *id, const char *const *extra)
 {
     const char *course = e2e_course_or_skip();
     Args base;
     CHECK_MSG(course_args(course, id, &base), "line %s not found", id);
     if (harness_failures)
         return;
+    add_all(&base, extra);
     int w = int_after(&base, "-size", 0, 100), h = int_after(&base, "-size", 1, 100);
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "region") != NULL);
@@ -207,6 +215,8 @@ static void check_regions(const char *id)
     e2e_rmtree(dir);
 }
 
+static void check_regions(const char *id) { check_regions_with(id, NULL); }
+
 static void test_region_03d(void) { check_regions("03d"); }
 static void test_region_11b(void) { check_regions("11b"); }
 static void test_region_14(void) { check_regions("14"); }
@@ -217,13 +227,14 @@ static void test_region_18a(void) { check_regions("18a"); }
 
 /* Renders line id whole and as n tiles (in ext), merges the parts in a shuffled order
  * and compares the merged files with the whole render's, byte for byte. */
-static void check_tiles(const char *id, int n, const char *ext)
+static void check_tiles_with(const char *id, int n, const char *ext, const char *const *extra)
 {
     const char *course = e2e_course_or_skip();
     Args base;
     CHECK_MSG(course_args(course, id, &base), "line %s not found", id);
     if (harness_failures)
         return;
+    add_all(&base, extra);
     char dir[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "tiles") != NULL);
     Args a = base;
@@ -271,6 +282,11 @@ static void check_tiles(const char *id, int n, const char *ext)
     e2e_rmtree(dir);
 }
 
+static void check_tiles(const char *id, int n, const char *ext)
+{
+    check_tiles_with(id, n, ext, NULL);
+}
+
 static void test_tiles_1(void) { check_tiles("17a", 1, "tga"); }
 static void test_tiles_7(void) { check_tiles("18a", 7, "tga"); }
 /* 64 bands of a 300-row image are thinner than the 8-row packet bands: rows split. */
@@ -282,6 +298,25 @@ static void test_tiles_png(void)
         harness_skip("built without libpng");
     check_tiles("03d", 4, "png");
 }
+
+/* Antialiased parts: a filter wider than a pixel reaches across the part's edge, so a
+ * part must render the margin its filter needs and keep only its own pixels. Each
+ * sampler and filter below is checked on rectangles off the packet grid, at the image
+ * corner, a single pixel and a band, and as merged tiles. */
+static const char *const AA_JITTER_GAUSS[] = {"-jittered_samples", "9", "-gaussian_filter",
+                                              "0.8", NULL};
+static const char *const AA_UNIFORM_TENT[] = {"-uniform_samples", "4", "-tent_filter", "1.5",
+                                              NULL};
+static const char *const AA_ADAPTIVE_MITCHELL[] = {"-adaptive_samples", "4", "16", "0.05",
+                                                   "-mitchell_filter", "2", NULL};
+static const char *const AA_RANDOM_BOX[] = {"-random_samples", "5", "-box_filter", "1.3",
+                                            "-seed", "7", NULL};
+static void test_region_aa_17a(void) { check_regions_with("17a", AA_JITTER_GAUSS); }
+static void test_region_aa_11b(void) { check_regions_with("11b", AA_UNIFORM_TENT); }
+static void test_region_aa_03d(void) { check_regions_with("03d", AA_ADAPTIVE_MITCHELL); }
+static void test_region_aa_14(void) { check_regions_with("14", AA_RANDOM_BOX); }
+static void test_tiles_aa_18a(void) { check_tiles_with("18a", 5, "tga", AA_JITTER_GAUSS); }
+static void test_tiles_aa_11b(void) { check_tiles_with("11b", 9, "tga", AA_ADAPTIVE_MITCHELL); }
 
 /* Bands on the packet grid trace the whole render's packets: the -stats counters of
  * the tiles add up to the whole render's exactly. */
@@ -547,6 +582,12 @@ static const TestCase tests[] = {
     {"tiles_64", test_tiles_64},
     {"tiles_ppm", test_tiles_ppm},
     {"tiles_png", test_tiles_png},
+    {"region_aa_17a", test_region_aa_17a},
+    {"region_aa_11b", test_region_aa_11b},
+    {"region_aa_03d", test_region_aa_03d},
+    {"region_aa_14", test_region_aa_14},
+    {"tiles_aa_18a", test_tiles_aa_18a},
+    {"tiles_aa_11b", test_tiles_aa_11b},
     {"tile_stats_add_up", test_tile_stats_add_up},
     {"bad_merges", test_bad_merges},
 };
