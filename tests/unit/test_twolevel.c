@@ -135,7 +135,7 @@ static void uscene_make(UScene *u, int clusters, float spread, int huge, int pla
                                              u->mats[irand(3)]));
     group_finish(root);
     u->s.root = root;
-    u->s.num_primitives = object_assign_ids(root);
+    u->s.num_primitives = group_assign_ids(root);
     u->s.bounds = root->bounded ? root->bbox : bbox_empty();
 }
 
@@ -297,7 +297,7 @@ static void test_degenerate(void)
                                                      vrand(-10, 10), u.mats[0]));
         group_finish(root);
         u.s.root = root;
-        u.s.num_primitives = object_assign_ids(root);
+        u.s.num_primitives = group_assign_ids(root);
         u.s.bounds = root->bbox;
         u.centres[0] = v3(1, 2, 3);
         u.radius[0] = 0.5f;
@@ -363,7 +363,7 @@ static void test_edge_tolerance(void)
     group_set_child(root, BIG + 1, sphere_new(&u.s.arena, v3(60, 60, 60), 0.1f, u.mats[0]));
     group_finish(root);
     u.s.root = root;
-    u.s.num_primitives = object_assign_ids(root);
+    u.s.num_primitives = group_assign_ids(root);
     u.s.bounds = root->bbox;
     Diag d;
     diag_init(&d, stderr);
