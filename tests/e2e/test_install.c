@@ -327,7 +327,7 @@ static void test_bash_completion(void)
         CHECK_STR(lines[2], "b.tga c.png e.ppm sub ");
         CHECK_STR(lines[3], "b.tga c.png e.ppm sub ");
         CHECK_STR(lines[4], " ");                 /* dmax: a number, nothing offered */
-        CHECK_STR(lines[5], "grid none ");
+        CHECK_STR(lines[5], "grid none twolevel "); /* the names -h lists */
         CHECK_STR(lines[6], "b.tga c.png e.ppm sub ");
         CHECK_STR(lines[7], "-shade_back -shadows ");
         /* every option of -h, once */
