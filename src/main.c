@@ -233,10 +233,13 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
 }
 
 /* Renders the requested images with camera and writes them (also the `r` key of the
- * preview). Returns an exit status. */
-static int render_and_write(void *user, const Camera *camera)
+ * preview, whose stop flag is cancel; NULL: g_cancel, set by the stop signals). Returns
+ * an exit status. */
+static int render_and_write(void *user, const Camera *camera, volatile int *cancel)
 {
     App *app = user;
+    if (!cancel)
+        cancel = &g_cancel;
     const Options *o = &app->opt;
     Image color, depth, normals;
     Image samples_img, filter_img;
@@ -349,11 +352,13 @@ static int render_and_write(void *user, const Camera *camera)
         job.min_tile_rows = film ? 32 : 0;
         job.render = render_rect;
         job.user = &rj;
-        ok = dist_render(&job, &counts, &g_cancel);
+        ok = dist_render(&job, &counts, cancel);
     }
     double t_render = clock_now() - t0;
     progress_finish(target.progress);
     target.progress = NULL;
+    if (*cancel && cancel != &g_cancel)
+        goto done; /* the preview stopped it (q, a moved camera): nothing to write */
     if (g_cancel) {
         if (dist_is_root())
             fprintf(stderr, "raytracer: interrupted; no image written\n");
@@ -565,7 +570,7 @@ static int run(App *app)
             return preview_snapshot(&cfg, &app->diag);
         return preview_run_window(&cfg, &app->diag);
     }
-    return render_and_write(app, &s->camera);
+    return render_and_write(app, &s->camera, NULL);
 }
 
 int main(int argc, char **argv)

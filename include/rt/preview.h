@@ -8,8 +8,10 @@
 #include "rt/raytracer.h"
 
 /* Full render of the requested files with the (possibly moved) camera: the `r` key.
- * Returns an exit status (0 ok). */
-typedef int (*PreviewRenderFn)(void *user, const Camera *camera);
+ * cancel: the window's stop flag (q, a moved camera: the render stops within a tile and
+ * nothing is written, status 0), or NULL for the program's own (signals). Returns an
+ * exit status (0 ok). */
+typedef int (*PreviewRenderFn)(void *user, const Camera *camera, volatile int *cancel);
 
 typedef struct PreviewConfig {
     const Scene *scene;

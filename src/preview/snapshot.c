@@ -64,7 +64,7 @@ static int snapshot_render(Snapshot *s)
     for (int y = 0; y < s->h; y++)
         atomic_store(&s->traced.row_ready[y], 1);
     if (s->cfg->render)
-        return s->cfg->render(s->cfg->render_user, &s->view.camera);
+        return s->cfg->render(s->cfg->render_user, &s->view.camera, NULL);
     return 0;
 }
 

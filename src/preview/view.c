@@ -119,6 +119,14 @@ void preview_view_cycle_grid(PreviewView *v, FILE *out)
     v->mode = v->mode == PREVIEW_OBJECTS ? PREVIEW_GRID
             : v->mode == PREVIEW_GRID    ? PREVIEW_GRID_RAY
                                          : PREVIEW_OBJECTS;
+    /* Like the other keys, g says what it did. */
+    if (out) {
+        fprintf(out, "grid view: %s\n",
+                v->mode == PREVIEW_GRID       ? "occupied cells (outlined: the last ray's)"
+                : v->mode == PREVIEW_GRID_RAY ? "the cells the last traced ray visited"
+                                              : "objects");
+        fflush(out);
+    }
 }
 
 void preview_view_print_camera(const PreviewView *v, FILE *out)

@@ -78,7 +78,7 @@ static void *render_thread(void *arg)
         }
     } else if (W.cfg->render && !W.cancel) {
         /* The requested files (-output, -depth, -normals, -stats), as the course `r`. */
-        status = W.cfg->render(W.cfg->render_user, &W.render_camera);
+        status = W.cfg->render(W.cfg->render_user, &W.render_camera, &W.cancel);
     }
     atomic_store(&W.thread_status, status);
     atomic_store(&W.thread_done, 1);
@@ -94,7 +94,7 @@ static void join_render(void)
     int status = atomic_load(&W.thread_status);
     if (status && !W.status)
         W.status = status;
-    printf(W.cancel ? "stopped.\n" : "done.\n");
+    printf(W.cancel ? "Rendering stopped.\n" : "Rendering done.\n");
     fflush(stdout);
 }
 
@@ -150,7 +150,8 @@ static void start_render(void)
     atomic_store(&W.thread_done, 0);
     atomic_store(&W.thread_status, 0);
     W.rows_shown = 0;
-    printf("Rendering scene... ");
+    /* A line of its own: the -stats block (printed by the render) starts on the next. */
+    printf("Rendering scene...\n");
     fflush(stdout);
     if (pthread_create(&W.thread, NULL, render_thread, NULL) != 0) {
         printf("could not start a thread\n");

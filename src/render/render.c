@@ -87,7 +87,10 @@ typedef struct ImageJob {
     RenderTarget *target;
     RenderRowFn row_done;
     void *user;
+    volatile int *cancel;   /* polled before every tile, not only every band */
 } ImageJob;
+
+static bool job_cancelled(const ImageJob *job) { return job->cancel && *job->cancel; }
 
 /* Rows y0..y1-1 of the rectangle. Tiles stay on the full image's 8 x 8 grid, so a
  * rectangle on that grid traces the very packets of the whole render; pixels of a
@@ -102,7 +105,9 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
     int px[TILE * TILE], py[TILE * TILE];
     int ylo = y0 < t->y0 ? t->y0 : y0;
     int xlo = t->x0, xhi = t->x0 + t->w;
-    for (int x0 = xlo / TILE * TILE; x0 < xhi; x0 += TILE) {
+    /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
+     * signal) is noticed at the next tile, within a few milliseconds. */
+    for (int x0 = xlo / TILE * TILE; x0 < xhi && !job_cancelled(job); x0 += TILE) {
         int n = 0;
         for (int k = 0; k < TILE * TILE; k++) {
             int dx, dy;
@@ -132,6 +137,8 @@ static void image_band(void *user, RenderCtx *ctx, int band)
     const RtStats *st = &ctx->stats;
     uint64_t rays = st->nonshadow_rays + st->shadow_rays;
     render_band(job, ctx, y0, y1);
+    if (job_cancelled(job))
+        return; /* rows cut short are not done */
     int lo = y0 > t->y0 ? y0 : t->y0; /* the rows of this band inside the rectangle */
     progress_add(t->progress, (uint64_t)(y1 - lo),
                  st->nonshadow_rays + st->shadow_rays - rays);
@@ -224,7 +231,7 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         target->w = target->width;
         target->h = target->height;
     }
-    ImageJob job = {rt, camera, target, row_done, user};
+    ImageJob job = {rt, camera, target, row_done, user, cancel};
     int bands = (target->y0 + target->h + TILE - 1) / TILE - target->y0 / TILE;
     return render_parallel(rt, threads, bands, image_band, &job, stats_out, cancel);
 }

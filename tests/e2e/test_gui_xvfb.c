@@ -95,7 +95,7 @@ static void test_window_script_under_xvfb(void)
     snprintf(servernum, sizeof servernum, "%d", 100 + (int)(getpid() % 800));
     char *argv[] = {xvfb, "-a", "-n", servernum, "-s", "-screen 0 640x480x24",
                     (char *)harness_bin(),
-                    "-input", scene, "-size", "200", "200", "-shadows", "-gui",
+                    "-input", scene, "-size", "200", "200", "-shadows", "-gui", "-stats",
                     "-output", out, "-gui_keys", keys, NULL};
     /* Under `make asan`: Mesa's X driver keeps allocations and is unloaded before the
      * leak check runs, so LeakSanitizer cannot name (or suppress) them; leaks are not
@@ -115,7 +115,10 @@ static void test_window_script_under_xvfb(void)
         CHECK(e2e_run(argv, &r));
     }
     CHECK_MSG(r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
-    CHECK_CONTAINS(r.out, "Rendering scene... done.");
+    /* The statistics of the `r` render start on a line of their own. */
+    CHECK_CONTAINS(r.out, "Rendering scene...\n********************************************\n"
+                          "RAY TRACING STATISTICS");
+    CHECK_CONTAINS(r.out, "Rendering done.");
     CHECK_CONTAINS(r.out, "ray tree of pixel (200, 200)");
     Image ia = {0}, ib = {0}, ic = {0}, io = {0};
     if (r.status == 0 && load(&ia, a) && load(&ib, b) && load(&ic, c) && load(&io, out)) {

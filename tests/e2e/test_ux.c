@@ -13,6 +13,7 @@
 #include "../harness.h"
 #include "e2e_util.h"
 
+#include "rt/preview.h"
 #include "rt/progress.h"
 #include "rt/suggest.h"
 
@@ -339,7 +340,33 @@ static void test_outputs_checked_first(void)
     e2e_rmtree(p.dir);
 }
 
+/* The preview's g key says on the terminal which view it switched to, like t and c
+ * (headless: -gui_snapshot through OSMesa); r's statistics start on a line of their
+ * own. */
+static void test_preview_keys_print(void)
+{
+    if (!preview_snapshot_built())
+        harness_skip("-gui_snapshot not built (apt-get install libosmesa6-dev; rebuild)");
+    Paths p;
+    paths_init(&p);
+    char shot[PATH_MAX];
+    e2e_join(shot, sizeof shot, p.dir, "shot.tga");
+    const char *args[] = {"-input", p.scene, "-size", "40", "30", "-grid", "4", "4", "4",
+                          "-gui_snapshot", shot, "-gui_keys", "g g g", NULL};
+    E2eRun r;
+    char why[512];
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    CHECK_MSG(r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
+    const char *a = strstr(r.out, "grid view: occupied cells");
+    const char *b = a ? strstr(a, "grid view: the cells the last traced ray visited") : NULL;
+    const char *c = b ? strstr(b, "grid view: objects") : NULL;
+    CHECK_MSG(a && b && c, "g did not print its three views in order: '%s'", r.out);
+    e2e_run_free(&r);
+    e2e_rmtree(p.dir);
+}
+
 static const TestCase tests[] = {
+    {"ux: the preview's g prints its view", test_preview_keys_print},
     {"ux: outputs are checked before the scene is read", test_outputs_checked_first},
     {"ux: progress line on a terminal, erased at the end", test_progress_on_terminal},
     {"ux: progress line while antialiasing", test_progress_antialiased},

@@ -286,7 +286,52 @@ static void test_depth_and_normals_images(void)
     arena_free(&m.s.arena);
 }
 
+/* The stop flag (the preview's q, signals): raised as the first band finishes, the
+ * render stops there, returns false, reports no further rows and leaves the other
+ * rows untouched. */
+static int g_rows_reported;
+static volatile int g_stop;
+static void stop_after_first_row(void *user, int y)
+{
+    (void)user;
+    (void)y;
+    g_rows_reported++;
+    g_stop = 1;
+}
+
+static void test_render_cancel(void)
+{
+    Mini m;
+    mini_init(&m);
+    CHECK(camera_init_orthographic(&m.s.camera, v3(0, 0, 10), v3(0, 0, -1), v3(0, 1, 0), 4));
+    PhongParams pp = phong_defaults();
+    Material *white = phong_new(&m.s.arena, &pp);
+    mini_set_root(&m, sphere_new(&m.s.arena, v3(0, 0, 0), 1.0f, white));
+    RayTracer rt = tracer(&m.s);
+    Image color;
+    CHECK(image_init(&color, 64, 32));
+    image_fill(&color, v3(-1, -1, -1)); /* "never written" */
+    RenderTarget target = {64, 32, &color, NULL, 0, 1, NULL, 0, 0, 0, 0, NULL};
+    g_rows_reported = 0;
+    g_stop = 0;
+    CHECK(!render_image(&rt, &m.s.camera, &target, 1, NULL, stop_after_first_row, NULL,
+                        &g_stop));
+    CHECK_INT(g_rows_reported, 8); /* the band that raised the flag; none after it */
+    int written = 0;
+    for (int y = 0; y < 32; y++)
+        for (int x = 0; x < 64; x++)
+            written += image_get(&color, x, y).x >= 0.0f;
+    CHECK_INT(written, 64 * 8); /* exactly the first band of 8 rows */
+    /* Raised before the start: nothing at all. */
+    image_fill(&color, v3(-1, -1, -1));
+    CHECK(!render_image(&rt, &m.s.camera, &target, 2, NULL, NULL, NULL, &g_stop));
+    CHECK(image_get(&color, 0, 0).x < 0.0f && image_get(&color, 63, 31).x < 0.0f);
+    image_free(&color);
+    arena_free(&m.s.arena);
+}
+
 static const TestCase tests[] = {
+    {"render: stops at the cancel flag", test_render_cancel},
     {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
     {"shading: camera bases and rays", test_cameras},
