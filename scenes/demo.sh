@@ -10,33 +10,42 @@ S=$ROOT/scenes
 mkdir -p "$OUT" || exit 1
 fail=0
 count=0
+# PNG, which any viewer shows, when the binary has it; TGA otherwise.
+if "$BIN" --version 2>/dev/null | grep -q 'png yes'; then
+    EXT=png
+else
+    EXT=tga
+fi
 
-# render NAME SCENE ARGS...: one image OUT/NAME.tga; the time and status are printed.
+# render NAME SCENE ARGS...: one image OUT/NAME.EXT; a line of the table with its time.
+# The log keeps what the run printed (statistics, warnings) and goes when it is empty.
 render() {
     name=$1 scene=$2
     shift 2
     count=$((count + 1))
     start=$(date +%s.%N)
-    if "$BIN" -input "$S/$scene" -output "$OUT/$name.tga" "$@" >"$OUT/$name.log" 2>&1; then
+    if "$BIN" -input "$S/$scene" -output "$OUT/$name.$EXT" "$@" >"$OUT/$name.log" 2>&1; then
         end=$(date +%s.%N)
         secs=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.2f", b - a }')
-        printf '  %-28s %6s s   %s\n' "$name.tga" "$secs" "$*"
+        printf '  %-30s %6s s   %s\n' "$name.$EXT" "$secs" "$*"
     else
-        echo "  $name.tga FAILED (exit $?): $BIN -input $S/$scene $*" >&2
+        echo "  $name.$EXT FAILED (exit $?): $BIN -input $S/$scene $*" >&2
         sed 's/^/      /' "$OUT/$name.log" >&2
         fail=1
     fi
+    [ -s "$OUT/$name.log" ] || rm -f "$OUT/$name.log"
 }
 
-echo "demo: rendering into $OUT"
+echo "demo: rendering into $OUT ($EXT images)"
+printf '  %-30s %8s   %s\n' "image" "time" "options"
 # The showcase: every feature at once (docs/demo-scenes-models.md lists what is where).
 # Antialiased: 16 jittered samples per pixel and a Gaussian filter (README.txt, 9).
 render showcase showcase.txt -size 400 300 -shadows -shade_back -bounces 5 -weight 0.01 -grid auto -stats \
     -jittered_samples 16 -gaussian_filter 0.5
-sed -n '/RAY TRACING STATISTICS/,/^\*/p' "$OUT/showcase.log"
+[ -f "$OUT/showcase.log" ] && sed -n '/RAY TRACING STATISTICS/,/^\*/p' "$OUT/showcase.log"
 
 render feat_ortho feat_ortho.txt -size 200 200 -shadows \
-    -depth 8 12 "$OUT/feat_ortho_depth.tga" -normals "$OUT/feat_ortho_normals.tga"
+    -depth 8 12 "$OUT/feat_ortho_depth.$EXT" -normals "$OUT/feat_ortho_normals.$EXT"
 render feat_transforms feat_transforms.txt -size 300 200 -shadows -grid auto
 render feat_refraction feat_refraction.txt -size 300 200 -shadows -shade_back -bounces 8 -weight 0.01 -grid auto
 render feat_shade_back feat_shade_back.txt -size 200 200 -shade_back -grid auto
@@ -61,4 +70,9 @@ if [ "$fail" -ne 0 ]; then
     echo "demo: some renders FAILED (see above); the others are in $OUT" >&2
     exit 1
 fi
-echo "demo: $count images written to $OUT (TGA; e.g. 'convert $OUT/showcase.tga showcase.png')"
+if [ "$EXT" = png ]; then
+    echo "demo: $count renders written to $OUT (PNG)"
+else
+    echo "demo: $count renders written to $OUT (TGA: built without libpng; e.g."
+    echo "      'convert $OUT/showcase.tga showcase.png' shows one)"
+fi
