@@ -20,9 +20,11 @@
     X(glutCreateWindow) X(glutDestroyWindow) X(glutDisplayFunc) X(glutReshapeFunc) \
     X(glutKeyboardFunc) X(glutMouseFunc) X(glutMotionFunc) X(glutPassiveMotionFunc) \
     X(glutTimerFunc) X(glutPostRedisplay) X(glutSwapBuffers) X(glutSetWindow) \
-    X(glutSetOption) X(glutMainLoop) X(glutLeaveMainLoop) X(glutGetProcAddress)
-#define RT_X11_FUNCS(X) X(XOpenDisplay) X(XCloseDisplay)
-#define RT_GLX_FUNCS(X) X(glXQueryExtension)
+    X(glutSetOption) X(glutMainLoop) X(glutLeaveMainLoop) X(glutGetProcAddress) \
+    X(glutCloseFunc)
+#define RT_X11_FUNCS(X) X(XOpenDisplay) X(XCloseDisplay) X(XSelectInput) \
+    X(XCheckTypedWindowEvent) X(XFlush) X(XSetErrorHandler)
+#define RT_GLX_FUNCS(X) X(glXQueryExtension) X(glXGetCurrentDrawable)
 
 #define RT_DECLARE_FN(f) __typeof__(f) *f;
 typedef struct PreviewWindowApi {
@@ -76,9 +78,15 @@ bool preview_load_osmesa_libs(Diag *diag);
 #define glutMainLoop (preview_window_api.glutMainLoop)
 #define glutLeaveMainLoop (preview_window_api.glutLeaveMainLoop)
 #define glutGetProcAddress (preview_window_api.glutGetProcAddress)
+#define glutCloseFunc (preview_window_api.glutCloseFunc)
 #define XOpenDisplay (preview_window_api.XOpenDisplay)
 #define XCloseDisplay (preview_window_api.XCloseDisplay)
+#define XSelectInput (preview_window_api.XSelectInput)
+#define XCheckTypedWindowEvent (preview_window_api.XCheckTypedWindowEvent)
+#define XFlush (preview_window_api.XFlush)
+#define XSetErrorHandler (preview_window_api.XSetErrorHandler)
 #define glXQueryExtension (preview_window_api.glXQueryExtension)
+#define glXGetCurrentDrawable (preview_window_api.glXGetCurrentDrawable)
 #endif
 #ifdef RT_HAVE_OSMESA
 #define OSMesaCreateContextExt (preview_osmesa_api.OSMesaCreateContextExt)

@@ -23,6 +23,8 @@ bool preview_window_built(void) { return true; }
 #define WINDOW_LONG_SIDE 400
 #define RENDER_POLL_MS 40
 #define SCRIPT_STEP_MS 60
+/* How often the window is checked for having been destroyed by another client. */
+#define WATCH_MS 50
 
 /* GLUT callbacks carry no user pointer: the one window's state. */
 static struct PreviewWindow {
@@ -50,6 +52,11 @@ static struct PreviewWindow {
     /* -gui_keys */
     KeyScript script;
     int script_pos;
+    /* A second X connection that hears of the window's destruction (DestroyNotify):
+     * freeglut ignores that event, and would run on without a window. */
+    Display *watch;
+    Window xwin;
+    volatile int destroyed;   /* the window is gone: X errors about it are expected */
 } W;
 
 static GlProc glut_proc(const char *name) { return (GlProc)glutGetProcAddress(name); }
@@ -205,6 +212,39 @@ static void quit(void)
 {
     drop_traced();
     glutLeaveMainLoop();
+}
+
+/* Closed by the window manager (its close button): freeglut returns from its loop
+ * (GLUT_ACTION_GLUTMAINLOOP_RETURNS); a render still running is stopped at once. */
+static void on_close(void)
+{
+    W.cancel = 1;
+}
+
+/* Once the window is gone, freeglut's own clean-up and any frame still queued refer
+ * to it: those errors are expected and must not end the process through Xlib's
+ * default handler (which exits). Any other error is reported and ignored, as GLUT
+ * programs usually do. */
+static int on_x_error(Display *dpy, XErrorEvent *e)
+{
+    (void)dpy;
+    if (!W.destroyed)
+        fprintf(stderr, "raytracer: X error %d (request %d)\n", e->error_code,
+                e->request_code);
+    return 0;
+}
+
+static void watch_window(int value)
+{
+    (void)value;
+    XEvent ev;
+    if (W.watch && XCheckTypedWindowEvent(W.watch, W.xwin, DestroyNotify, &ev)) {
+        fprintf(stderr, "raytracer: the preview window was destroyed; quitting\n");
+        W.destroyed = 1;
+        quit();
+        return;
+    }
+    glutTimerFunc(WATCH_MS, watch_window, 0);
 }
 
 static void keyboard(unsigned char key, int x, int y)
@@ -392,6 +432,17 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
         preview_keys_free(&W.script);
         return 1;
     }
+    /* The X window behind the GLUT one (its drawable, current after creation), watched
+     * on a connection of our own. */
+    W.xwin = (Window)glXGetCurrentDrawable();
+    W.watch = W.xwin ? XOpenDisplay(NULL) : NULL;
+    if (W.watch) {
+        XSelectInput(W.watch, W.xwin, StructureNotifyMask);
+        XFlush(W.watch);
+        glutTimerFunc(WATCH_MS, watch_window, 0);
+    }
+    XErrorHandler old_handler = XSetErrorHandler(on_x_error);
+    glutCloseFunc(on_close);
     glutDisplayFunc(display);
     glutReshapeFunc(reshape);
     glutKeyboardFunc(keyboard);
@@ -403,6 +454,9 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     glutMainLoop();   /* returns after glutLeaveMainLoop or a closed window */
 
     drop_traced();
+    if (W.watch)
+        XCloseDisplay(W.watch);
+    XSetErrorHandler(old_handler);
     preview_view_free(&W.view);
     preview_keys_free(&W.script);
     return W.status;

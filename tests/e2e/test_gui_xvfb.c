@@ -2,6 +2,9 @@
  * -gui_keys script (screenshot, `r` progressive trace, `t` ray tree, `q`), writes the
  * screenshots and the requested -output, and exits 0. Skipped when the window is not
  * built or xvfb-run is absent (Debian: apt-get install xvfb xauth). */
+#define _POSIX_C_SOURCE 200809L
+#include <dlfcn.h>
+
 #include "../harness.h"
 #include "e2e_util.h"
 
@@ -176,9 +179,113 @@ static void test_window_without_display(void)
     e2e_rmtree(dir);
 }
 
+/* ---- a window destroyed by another X client ------------------------------------- */
+
+/* `test_gui_xvfb --destroy-window`, run inside the same xvfb-run: destroys the window
+ * titled "OpenGL Viewer" through libX11 (opened at run time: the tests do not link X).
+ * Exit 0 when done, 1 when no such window showed up within 30 s. */
+static int destroy_window(void)
+{
+    typedef void Dpy;
+    typedef unsigned long XWin;
+    void *x11 = dlopen("libX11.so.6", RTLD_NOW);
+    if (!x11)
+        return 1;
+    Dpy *(*open_display)(const char *) = (Dpy * (*)(const char *))dlsym(x11, "XOpenDisplay");
+    XWin (*root_of)(Dpy *) = (XWin(*)(Dpy *))dlsym(x11, "XDefaultRootWindow");
+    int (*query_tree)(Dpy *, XWin, XWin *, XWin *, XWin **, unsigned *) =
+        (int (*)(Dpy *, XWin, XWin *, XWin *, XWin **, unsigned *))dlsym(x11, "XQueryTree");
+    int (*fetch_name)(Dpy *, XWin, char **) =
+        (int (*)(Dpy *, XWin, char **))dlsym(x11, "XFetchName");
+    int (*destroy)(Dpy *, XWin) = (int (*)(Dpy *, XWin))dlsym(x11, "XDestroyWindow");
+    int (*sync)(Dpy *, int) = (int (*)(Dpy *, int))dlsym(x11, "XSync");
+    int (*xfree)(void *) = (int (*)(void *))dlsym(x11, "XFree");
+    if (!open_display || !root_of || !query_tree || !fetch_name || !destroy || !sync || !xfree)
+        return 1;
+    Dpy *dpy = open_display(NULL);
+    if (!dpy)
+        return 1;
+    for (int tries = 0; tries < 1500; tries++) {
+        XWin root, parent, *kids = NULL;
+        unsigned n = 0;
+        if (query_tree(dpy, root_of(dpy), &root, &parent, &kids, &n)) {
+            for (unsigned i = 0; i < n; i++) {
+                char *name = NULL;
+                if (fetch_name(dpy, kids[i], &name) && name &&
+                    strcmp(name, "OpenGL Viewer") == 0) {
+                    xfree(name);
+                    destroy(dpy, kids[i]);
+                    sync(dpy, 0);
+                    xfree(kids);
+                    return 0;
+                }
+                if (name)
+                    xfree(name);
+            }
+            if (kids)
+                xfree(kids);
+        }
+        struct timespec ts = {0, 20 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+    }
+    return 1;
+}
+
+/* The window destroyed from outside (not closed through the window manager): the
+ * program notices, says so and exits 0 instead of running on without a window. The
+ * destroyer starts once the window is up and running its key script (the c key has
+ * printed the camera). */
+static void test_window_destroyed_from_outside(void)
+{
+    if (!preview_window_built())
+        harness_skip("built without freeglut (apt-get install libglut-dev, rebuild)");
+    char xvfb[PATH_MAX];
+    if (!find_xvfb_run(xvfb, sizeof xvfb))
+        harness_skip("xvfb-run not found (apt-get install xvfb xauth)");
+    char dir[PATH_MAX], scene[PATH_MAX], self[PATH_MAX], cmd[8 * PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "guidestroy") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    CHECK(e2e_write_file(scene, SCENE));
+    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    CHECK(n > 0);
+    self[n > 0 ? n : 0] = '\0';
+    snprintf(cmd, sizeof cmd,
+             "cd '%s' && { '%s' -input scene.txt -gui -gui_keys c > out.txt 2> err.txt & "
+             "pid=$!; i=0; while ! grep -q Camera out.txt && [ $i -lt 3000 ]; do "
+             "sleep 0.02; i=$((i+1)); done; '%s' --destroy-window; echo \"destroyer $?\"; "
+             "wait $pid; echo \"raytracer $?\"; cat err.txt; }",
+             dir, harness_bin(), self);
+    char servernum[32];
+    snprintf(servernum, sizeof servernum, "%d", 100 + (int)((getpid() + 401) % 800));
+    char *argv[] = {xvfb, "-a", "-n", servernum, "-s", "-screen 0 640x480x24",
+                    "/bin/sh", "-c", cmd, NULL};
+    char asan[1024];
+    const char *prev = getenv("ASAN_OPTIONS");
+    snprintf(asan, sizeof asan, "%s%sdetect_leaks=0", prev ? prev : "",
+             prev && *prev ? ":" : "");
+    setenv("ASAN_OPTIONS", asan, 1);
+    setenv("RT_E2E_TIMEOUT", "120", 1); /* a hang fails in two minutes, not ten */
+    E2eRun r;
+    char why[512];
+    CHECK(e2e_run(argv, &r));
+    CHECK_MSG(r.status == 0 && !r.timed_out, "%s; stdout: %.500s",
+              e2e_describe(&r, why, sizeof why), r.out);
+    CHECK_CONTAINS(r.out, "destroyer 0");
+    CHECK_CONTAINS(r.out, "raytracer 0");
+    CHECK_CONTAINS(r.out, "the preview window was destroyed");
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"window_script_under_xvfb", test_window_script_under_xvfb},
     {"window_without_display", test_window_without_display},
+    {"window_destroyed_from_outside", test_window_destroyed_from_outside},
 };
 
-RT_TEST_MAIN(tests)
+int main(int argc, char **argv)
+{
+    if (argc > 1 && strcmp(argv[1], "--destroy-window") == 0)
+        return destroy_window();
+    return harness_main(argc, argv, tests, TEST_LIST_COUNT(tests));
+}
