@@ -271,10 +271,16 @@ static void progress(const Farm *f, int *shown, bool last)
     fflush(stderr);
 }
 
-/* Rank 0: serves tile requests until every other rank has been told there is no more
- * work, while local_main renders on its own thread. The header of a message is two
- * ints: the tile just finished (-1: none yet) and, from the root, the next tile
- * (-1: no more). */
+/* Requests a worker keeps in flight: while it renders one tile the answer naming its
+ * next one is already on its way, so it never waits a round trip (rank 0 polls) between
+ * tiles. Rank 0 answers every request; once the queue is empty every answer is "no
+ * more", so a worker's last REQUESTS_IN_FLIGHT answers are all "no more". */
+enum { REQUESTS_IN_FLIGHT = 2 };
+
+/* Rank 0: serves tile requests until every other rank has been told "no more" once for
+ * each request it keeps in flight, while local_main renders on its own thread. The
+ * header of a message is two ints: the tile just finished (-1: none, a bare request)
+ * and, from the root, the next tile (-1: no more). */
 static void serve(Farm *f)
 {
     size_t tile_floats = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
@@ -284,7 +290,7 @@ static void serve(Farm *f)
         die("out of memory");
     bool tty = isatty(2) == 1;
     int shown = -1;
-    int active = g_size - 1;
+    int active = (g_size - 1) * REQUESTS_IN_FLIGHT;
     while (active > 0) {
         int flag = 0;
         MPI_Status st;
@@ -323,7 +329,7 @@ static void serve(Farm *f)
         progress(f, &shown, false);
 }
 
-/* Other ranks: ask for a tile, render it, send it back with the next request. */
+/* Other ranks: ask for tiles, render each, send it back with the next request. */
 static void work(Farm *f, RtStats *stats)
 {
     size_t tile_floats = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
@@ -335,25 +341,29 @@ static void work(Farm *f, RtStats *stats)
      * before the counters are gathered, so the job can never complete. */
     const char *kill_rank = getenv("RT_MPI_TEST_KILL_RANK");
     bool die_on_tile = kill_rank && atoi(kill_rank) == g_rank;
-    int finished = -1;
-    size_t len = 2 * sizeof(int);
-    for (;;) {
-        memcpy(msg, &finished, sizeof finished);
-        MPI_Send(msg, (int)len, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
+    int none = -1;
+    memcpy(msg, &none, sizeof none);
+    for (int k = 0; k < REQUESTS_IN_FLIGHT; k++)
+        MPI_Send(msg, (int)(2 * sizeof(int)), MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
+    int in_flight = REQUESTS_IN_FLIGHT;
+    while (in_flight > 0) {
         int t;
         MPI_Recv(&t, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        in_flight--;
         if (die_on_tile)
             raise(SIGKILL);
         if (t < 0)
-            break;
+            continue; /* no more: collect the answers still on their way */
         Vec3 *pix = (Vec3 *)(void *)(msg + 2 * sizeof(int));
         if (!render_tile(f, t, pix, stats))
             die("could not render a tile (out of memory?)");
         int y0, y1;
         tile_rows(f, t, &y0, &y1);
-        len = 2 * sizeof(int) +
-              (size_t)f->full->w * (size_t)(y1 - y0) * (size_t)outputs(f->full) * sizeof(Vec3);
-        finished = t;
+        size_t len = 2 * sizeof(int) +
+                     (size_t)f->full->w * (size_t)(y1 - y0) * (size_t)outputs(f->full) * sizeof(Vec3);
+        memcpy(msg, &t, sizeof t);
+        MPI_Send(msg, (int)len, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
+        in_flight++;
     }
     free(msg);
 }
