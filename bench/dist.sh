@@ -1,0 +1,83 @@
+#!/bin/bash
+# Split-render benchmark (make bench, section (g); docs/distributed.md): course line 07
+# (the 40k bunny, -grid 40 40 33 -shadows) at 1920x1080, one sample per pixel and 16
+# (jittered, Gaussian 0.4).
+#  - Tile overhead: the CPU time (user+sys of every process) of 64 `-tile k 64` renders
+#    plus the merge, against one whole render, each process on one thread. What the
+#    tiles add is every process's start-up, parse and grid build, plus the rows of the
+#    filter's margin that neighbouring tiles both trace.
+#  - MPI: wall time of `mpirun --oversubscribe -np N raytracer-mpi ... -threads 1` for
+#    N = 1, 2 and 4 (4 is oversubscribed on two cores), interleaved run by run, median of
+#    RUNS; speed-up against N = 1. Skipped when raytracer-mpi or mpirun is missing.
+# Every part's merge is compared with the whole render (cmp): a difference is reported.
+# Usage: bash bench/dist.sh RAYTRACER RAYTRACER_MPI COURSE_DIR [RUNS]
+set -u
+export LC_ALL=C
+BIN=$1 MPI_BIN=$2 COURSE=$3 RUNS=${4:-3}
+TMP=$(mktemp -d "${TMPDIR:-/tmp}/rt_dist.XXXXXX") || exit 1
+trap 'rm -rf "$TMP"' EXIT
+median() { printf '%s\n' "$@" | sort -g | awk '{ a[NR] = $1 } END { print (NR % 2) ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2 }'; }
+# cpu_ms CMD...: runs it, prints user+sys ms of it and its children.
+cpu_ms() {
+    local TIMEFORMAT='%U %S' t
+    t=$( { time "$@" >/dev/null 2>"$TMP/err"; } 2>&1 | tail -n 1)
+    echo "$t" | awk '{ printf "%.1f", ($1 + $2) * 1000 }'
+}
+# wall_ms CMD...: runs it, prints its wall ms.
+wall_ms() {
+    local TIMEFORMAT='%R' t
+    t=$( { time "$@" >/dev/null 2>"$TMP/err"; } 2>&1 | tail -n 1)
+    echo "$t" | awk '{ printf "%.1f", $1 * 1000 }'
+}
+SCENE=$COURSE/scene6_07_bunny_mesh_40k.txt
+A=(-input "$SCENE" -grid 40 40 33 -shadows -size 1920 1080 -threads 1)
+N_TILES=64
+# OpenMPI refuses to run as root unless told it may (as in CI).
+[ "$(id -u)" = 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+echo "== (g) split renders: course line 07 at 1920x1080, one thread per process"
+echo "   tile overhead: CPU ms (user+sys) of $N_TILES '-tile k $N_TILES' processes + merge vs one"
+echo "   whole render; target: within 10%. MPI: wall ms, median of $RUNS, interleaved;"
+echo "   target: -np 2 >= 1.8x -np 1."
+if [ ! -f "$SCENE" ]; then
+    echo "   scene not found, skipped"
+    exit 0
+fi
+printf '   %-34s %10s %10s %10s %9s\n' samples whole tiles merge overhead
+for S in "" "-jittered_samples 16 -gaussian_filter 0.4"; do
+    # shellcheck disable=SC2086
+    whole=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
+    tiles=0
+    for ((k = 0; k < N_TILES; k++)); do
+        # shellcheck disable=SC2086
+        c=$(cpu_ms "$BIN" "${A[@]}" $S -tile $k $N_TILES -output "$TMP/part$k.tga")
+        tiles=$(awk -v a="$tiles" -v b="$c" 'BEGIN { printf "%.1f", a + b }')
+    done
+    merge=$(cpu_ms "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga)
+    cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles differ from the whole render"
+    over=$(awk -v w="$whole" -v t="$tiles" -v m="$merge" 'BEGIN { printf "%+.1f%%", 100 * (t + m - w) / w }')
+    printf '   %-34s %10s %10s %10s %9s\n' "${S:-(1 centred sample)}" "$whole" "$tiles" "$merge" "$over"
+    rm -f "$TMP"/part*.tga
+done
+if [ ! -x "$MPI_BIN" ] || ! command -v mpirun >/dev/null 2>&1; then
+    echo "   MPI: raytracer-mpi or mpirun missing (make mpi), skipped"
+    echo ""
+    exit 0
+fi
+printf '   %-34s %10s %10s %10s %8s %8s\n' samples "np 1" "np 2" "np 4" "x np2" "x np4"
+for S in "" "-jittered_samples 16 -gaussian_filter 0.4"; do
+    w1=() w2=() w4=()
+    for ((k = 0; k < RUNS; k++)); do
+        for np in 1 2 4; do
+            # shellcheck disable=SC2086
+            t=$(wall_ms mpirun --oversubscribe -np $np "$MPI_BIN" "${A[@]}" $S -output "$TMP/m$np.tga")
+            eval "w$np+=(\"$t\")"
+        done
+        cmp -s "$TMP/m1.tga" "$TMP/m2.tga" && cmp -s "$TMP/m1.tga" "$TMP/m4.tga" ||
+            echo "   !! raytracer-mpi images differ between -np 1, 2 and 4"
+    done
+    m1=$(median "${w1[@]}") m2=$(median "${w2[@]}") m4=$(median "${w4[@]}")
+    printf '   %-34s %10s %10s %10s %8s %8s\n' "${S:-(1 centred sample)}" "$m1" "$m2" "$m4" \
+        "$(awk -v a="$m1" -v b="$m2" 'BEGIN { printf "%.2f", a / b }')" \
+        "$(awk -v a="$m1" -v b="$m4" 'BEGIN { printf "%.2f", a / b }')"
+done
+echo ""
