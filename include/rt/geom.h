@@ -106,6 +106,9 @@ Ray transform_path_to_object(const XformPath *path, const Ray *ray, float *tmin)
 Vec3 transform_path_normal_to_world(const XformPath *path, Vec3 n);
 bool transform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
                               Hit *hit, float tmin, RenderCtx *ctx);
+/* The same for a shadow ray (obj_occluded through path): no normal to bring back. */
+bool transform_path_occluded(const XformPath *path, const Object3D *prim, const Ray *ray,
+                             float tmin, float tmax, RenderCtx *ctx);
 
 /* Numbers every leaf primitive in depth-first order (0..n-1) and returns n. */
 uint32_t group_assign_ids(Object3D *root);

@@ -38,6 +38,14 @@ typedef struct Object3DOps {
      * ctx->stats; groups and transforms do not count. Never writes to self. */
     bool (*intersect)(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
                       RenderCtx *ctx);
+    /* Shadow rays: is anything of self hit with tmin < t < tmax? Exactly intersect's
+     * answer for a hit holding (t = tmax, id 0), which hit_accepts lets only t < tmax
+     * beat, from the same arithmetic, without making the normal. A leaf counts one
+     * intersection, as intersect does; a Group stops at its first occluder. Every type
+     * has it (called for every shadow ray, it is not checked for NULL); a type with
+     * nothing cheaper can use obj_occluded_by_intersect. */
+    bool (*occluded)(const Object3D *self, const Ray *ray, float tmin, float tmax,
+                     RenderCtx *ctx);
     /* Leaves: the world-space box of the leaf placed by to_world (object -> world; NULL:
      * the identity); empty when unbounded. Groups and transforms: NULL (the primitive
      * table walks them, rt/prim.h). */
@@ -66,6 +74,20 @@ static inline bool obj_intersect(const Object3D *o, const Ray *r, Hit *h, float 
                                  RenderCtx *ctx)
 {
     return o->ops->intersect(o, r, h, tmin, ctx);
+}
+static inline bool obj_occluded(const Object3D *o, const Ray *r, float tmin, float tmax,
+                                RenderCtx *ctx)
+{
+    return o->ops->occluded(o, r, tmin, tmax, ctx);
+}
+/* An occluded op made from the type's own intersect (a (tmax, id 0) hit). */
+static inline bool obj_occluded_by_intersect(const Object3D *self, const Ray *r, float tmin,
+                                             float tmax, RenderCtx *ctx)
+{
+    Hit h = hit_none();
+    h.t = tmax;
+    h.id = 0;
+    return self->ops->intersect(self, r, &h, tmin, ctx);
 }
 static inline ObjKind obj_kind(const Object3D *o) { return o->ops->kind; }
 

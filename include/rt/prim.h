@@ -53,4 +53,12 @@ static inline bool prim_intersect(const Object3D *obj, const PrimXform *xf, cons
               : obj_intersect(obj, ray, hit, tmin, ctx);
 }
 
+/* The leaf's occluded (tmin < t < tmax), through its Transforms when it has any. */
+static inline bool prim_occluded(const Object3D *obj, const PrimXform *xf, const Ray *ray,
+                                 float tmin, float tmax, RenderCtx *ctx)
+{
+    return xf ? transform_path_occluded(&xf->path, obj, ray, tmin, tmax, ctx)
+              : obj_occluded(obj, ray, tmin, tmax, ctx);
+}
+
 #endif

@@ -30,16 +30,41 @@ static bool none_intersect(const void *self, const Ray *ray, Hit *hit, float tmi
     return found;
 }
 
-/* The course's shadow loop tests every primitive (no early exit), and the statistics
- * follow it. Hits at t >= tmax do not count: the search starts at t = tmax with id 0,
- * which hit_accepts never lets an equal t beat. */
+/* Shadow rays: the leaves in table order (runs under one Transform chain take the ray
+ * into object space once), stopping at the first occluder. Each leaf is asked through
+ * intersect against a (tmax, id 0) hit, which no leaf changes before the first
+ * occluder, rather than through its occluded op: in this tight loop that measured
+ * fewer instructions (callgrind, course lines 04c, 11a, 12a). The course's shadow loop
+ * tests every primitive, and -stats counts those tests: every leaf test counts exactly
+ * one intersection (rt/object3d.h), so the tests not made are counted at the stop, and
+ * the counters stay the course's. */
 static bool none_occluded(const void *self, const Ray *ray, float tmin, float tmax,
                           RenderCtx *ctx)
 {
+    const PrimTable *t = self;
+    const Prim *p = t->prims, *end = t->prims + t->num_prims;
     Hit h = hit_none();
     h.t = tmax;
     h.id = 0;
-    return none_intersect(self, ray, &h, tmin, ctx);
+    while (p < end) {
+        const PrimXform *xf = p->xf;
+        if (!xf) {
+            if (obj_intersect(p->obj, ray, &h, tmin, ctx))
+                break;
+            p++;
+            continue;
+        }
+        float tmin_local = tmin;
+        Ray local = transform_path_to_object(&xf->path, ray, &tmin_local);
+        for (; p < end && p->xf == xf; p++)
+            if (obj_intersect(p->obj, &local, &h, tmin_local, ctx))
+                goto occluded;
+    }
+    if (p == end)
+        return false;
+occluded:
+    ctx->stats.intersections += (uint64_t)(end - p - 1);
+    return true;
 }
 
 static void *none_create(const PrimTable *t, const AccelConfig *cfg, Diag *diag)

@@ -19,19 +19,26 @@
 
 
 /* Cell entry e: a packed triangle inline (grid_pack.c), anything else through its ops.
- * Both do exactly what Triangle::intersect does, so the hit is the same to the bit. */
-static inline __attribute__((always_inline)) bool test_entry(const Grid *g, uint32_t e, const Ray *ray, Hit *hit, float tmin,
-                              RenderCtx *ctx)
+ * Both do exactly what Triangle::intersect does, so the hit is the same to the bit.
+ * any (the shadow query, hit = (tmax, id 0)): only whether there is a hit; hit is not
+ * written and other primitives answer through their occluded op. */
+static inline __attribute__((always_inline)) bool test_entry(const Grid *g, uint32_t e,
+                                                              const Ray *ray, Hit *hit,
+                                                              float tmin, RenderCtx *ctx,
+                                                              bool any)
 {
     uint32_t p = GRID_ITEM_INDEX(e);
     if (!(e & GRID_ITEM_TRI))
-        return grid_test_prim(&g->prims[p], ray, hit, tmin, ctx);
+        return any ? grid_occluded_prim(&g->prims[p], ray, tmin, hit->t, ctx)
+                   : grid_test_prim(&g->prims[p], ray, hit, tmin, ctx);
     const PackedTri *pt = &g->tri[p];
     ctx->stats.intersections++;
     float t;
     if (!triangle_ray_t(pt->v0, pt->e1, pt->e2, ray, &t) || !(t > tmin) ||
         !hit_accepts(hit, t, pt->id))
         return false;
+    if (any)
+        return true;
     const Object3D *o = g->prims[p].obj;
     hit->t = t;
     hit->normal = triangle_normal(o);
@@ -211,6 +218,19 @@ static bool brute_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
     return found;
 }
 
+/* brute_intersect's shadow query: stops at the first occluder and counts the tests
+ * it skips (one intersection per leaf), so the counters are brute_intersect's. */
+static bool brute_occluded(const Grid *g, const Ray *ray, float tmin, float tmax,
+                           RenderCtx *ctx)
+{
+    for (uint32_t p = 0; p < g->num_prims; p++)
+        if (grid_occluded_prim(&g->prims[p], ray, tmin, tmax, ctx)) {
+            ctx->stats.intersections += g->num_prims - p - 1;
+            return true;
+        }
+    return false;
+}
+
 /* How a query proceeds: the ray misses the grid's box, marches its cells, or starts
  * too far out for the march (grid_ray_too_far) and tests every bounded primitive. */
 typedef enum MarchStart { MARCH_NONE, MARCH_CELLS, MARCH_ALL } MarchStart;
@@ -270,13 +290,13 @@ static inline __attribute__((always_inline)) bool test_items(const Grid *g,
             continue;
         }
 #endif
-        found |= test_entry(g, item, ray, hit, tmin, ctx);
+        found |= test_entry(g, item, ray, hit, tmin, ctx, any);
         if (any && found)
             return true;
     }
 #if RT_GRID_SIMD
     for (int i = 0; i < batch.n; i++) { /* the last one to three: scalar */
-        found |= test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, hit, tmin, ctx);
+        found |= test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, hit, tmin, ctx, any);
         if (any && found)
             return true;
     }
@@ -355,7 +375,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
     uint32_t stamp, *mb;
     MarchStart start = march_start(g, ray, tmin, ctx, &mi, &stamp, &mb);
     if (start != MARCH_CELLS)
-        return start == MARCH_ALL && brute_intersect(g, ray, &h, tmin, ctx);
+        return start == MARCH_ALL && brute_occluded(g, ray, tmin, tmax, ctx);
 #if RT_GRID_SIMD
     RaySimd rs = ray_simd(ray, tmin);
     const void *rsimd = &rs;
@@ -379,7 +399,7 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
     h.t = tmax;
     h.id = 0;
     for (uint32_t u = 0; u < g->num_unbounded; u++)
-        if (grid_test_prim(&g->unbounded[u], ray, &h, tmin, ctx))
+        if (grid_occluded_prim(&g->unbounded[u], ray, tmin, tmax, ctx))
             return true;
     return march_occluded(g, ray, &h, tmin, tmax, ctx);
 }

@@ -75,6 +75,13 @@ static inline bool grid_test_prim(const GridPrim *p, const Ray *ray, Hit *hit, f
     return prim_intersect(p->obj, p->xf, ray, hit, tmin, ctx);
 }
 
+/* The shadow query's test of one primitive: prim_occluded (tmin < t < tmax). */
+static inline bool grid_occluded_prim(const GridPrim *p, const Ray *ray, float tmin,
+                                      float tmax, RenderCtx *ctx)
+{
+    return prim_occluded(p->obj, p->xf, ray, tmin, tmax, ctx);
+}
+
 /* grid_cast.c, for the packet traversal (grid_packet.c): */
 /* grid_intersect / grid_occluded without the unbounded primitives (the caller tests
  * those first), for one ray. */

@@ -234,12 +234,9 @@ uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, flo
     uint64_t occluded = 0, cand = 0;
     for (uint64_t m = mask; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
-        Hit h = hit_none();
-        h.t = tmax[i];
-        h.id = 0;
         bool blocked = false;
         for (uint32_t u = 0; u < g->num_unbounded && !blocked; u++)
-            blocked = grid_test_prim(&g->unbounded[u], &rays[i], &h, tmin, ctx);
+            blocked = grid_occluded_prim(&g->unbounded[u], &rays[i], tmin, tmax[i], ctx);
         if (blocked)
             occluded |= (uint64_t)1 << i;
         else

@@ -134,7 +134,8 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
 }
 
 /* Any other primitive (sphere, transformed triangle, ...): its own intersect, ray by
- * ray, through the caller's Hit (nearest) or a (tmax, id 0) Hit (shadow). */
+ * ray, through the caller's Hit (nearest), or its occluded op up to the ray's tmax
+ * (shadow). */
 static void pk_test_prim(const Grid *g, Packet *pk, uint32_t p, uint64_t want, RenderCtx *ctx)
 {
     while (want) {
@@ -143,10 +144,7 @@ static void pk_test_prim(const Grid *g, Packet *pk, uint32_t p, uint64_t want, R
         int gi = i / PK_LANES, l = i % PK_LANES;
         const Ray *ray = &pk->rays[i];
         if (pk->shadow) {
-            Hit h = hit_none();
-            h.t = pk->best_t[gi][l];
-            h.id = 0;
-            if (grid_test_prim(&g->prims[p], ray, &h, pk->tmin, ctx))
+            if (grid_occluded_prim(&g->prims[p], ray, pk->tmin, pk->best_t[gi][l], ctx))
                 pk->hit |= (uint64_t)1 << i;
             continue;
         }

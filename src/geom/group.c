@@ -15,8 +15,20 @@ static bool group_intersect(const Object3D *self, const Ray *ray, Hit *hit, floa
     return any;
 }
 
+/* Shadow rays: the first occluding child settles it. */
+static bool group_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,
+                           RenderCtx *ctx)
+{
+    const Group *g = (const Group *)self;
+    for (int i = 0; i < g->count; i++)
+        if (g->children[i] && obj_occluded(g->children[i], ray, tmin, tmax, ctx))
+            return true;
+    return false;
+}
+
 static const Object3DOps group_ops = {.type_name = "Group", .kind = OBJ_GROUP,
-                                      .intersect = group_intersect};
+                                      .intersect = group_intersect,
+                                      .occluded = group_occluded};
 
 Object3D *group_new(Arena *a, int capacity)
 {

@@ -27,6 +27,18 @@ static bool plane_intersect(const Object3D *self, const Ray *ray, Hit *hit, floa
     return true;
 }
 
+static bool plane_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,
+                           RenderCtx *ctx)
+{
+    const Plane *p = (const Plane *)self;
+    ctx->stats.intersections++;
+    float denom = v3_dot(p->normal, ray->dir);
+    if (denom == 0.0f)
+        return false;
+    float t = (p->offset - v3_dot(p->normal, ray->origin)) / denom;
+    return t > tmin && t < tmax;
+}
+
 /* Infinite: no box (accelerators test it for every ray). */
 static BBox plane_bounds(const Object3D *self, const Mat4 *to_world)
 {
@@ -37,7 +49,8 @@ static BBox plane_bounds(const Object3D *self, const Mat4 *to_world)
 
 /* Unbounded: never binned, so no occupancy ops. */
 static const Object3DOps plane_ops = {.type_name = "Plane", .kind = OBJ_PLANE,
-                                      .intersect = plane_intersect, .bounds = plane_bounds};
+                                      .intersect = plane_intersect,
+                                      .occluded = plane_occluded, .bounds = plane_bounds};
 
 Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m)
 {

@@ -9,11 +9,11 @@ typedef struct Sphere {
     float radius;
 } Sphere;
 
-static bool sphere_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
-                             RenderCtx *ctx)
+/* The root intersect and occluded both take: the nearer one past tmin, else the
+ * farther one (a camera inside the sphere sees its inside: A2 scene2_05). False when
+ * neither lies past tmin. */
+static inline bool sphere_root(const Sphere *s, const Ray *ray, float tmin, float *t_out)
 {
-    const Sphere *s = (const Sphere *)self;
-    ctx->stats.intersections++;
     /* a t^2 + 2 b t + c = 0 with b = d.oc. The textbook discriminant b^2 - a c cancels
      * catastrophically for far origins (its error grows like eps |oc|^2: a ray from
      * 4000 units away "hits" spheres it misses by units). Written as a (r^2 - |f|^2)
@@ -39,18 +39,34 @@ static bool sphere_intersect(const Object3D *self, const Ray *ray, Hit *hit, flo
         t0 = t1;
         t1 = tmp;
     }
-    /* The nearer root when it lies past tmin, else the farther one: a camera inside
-     * the sphere sees its inside (A2 scene2_05). */
     float t = t0;
     if (!(t > tmin))
         t = t1;
-    if (!(t > tmin) || !hit_accepts(hit, t, self->id))
+    *t_out = t;
+    return t > tmin;
+}
+
+static bool sphere_intersect(const Object3D *self, const Ray *ray, Hit *hit, float tmin,
+                             RenderCtx *ctx)
+{
+    const Sphere *s = (const Sphere *)self;
+    ctx->stats.intersections++;
+    float t;
+    if (!sphere_root(s, ray, tmin, &t) || !hit_accepts(hit, t, self->id))
         return false;
     hit->t = t;
     hit->normal = v3_normalize(v3_sub(ray_at(ray, t), s->center));
     hit->material = self->material;
     hit->id = self->id;
     return true;
+}
+
+static bool sphere_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,
+                            RenderCtx *ctx)
+{
+    ctx->stats.intersections++;
+    float t;
+    return sphere_root((const Sphere *)self, ray, tmin, &t) && t < tmax;
 }
 
 /* The box of the ball, mapped by to_world (its 8 corners' box: not tight under
@@ -175,8 +191,13 @@ static bool sphere_overlaps_box(const Object3D *self, const PrimXform *xf, const
     return xf ? ellipsoid_overlaps_box(s, xf, lo, hi) : surface_overlaps_box(s, lo, hi);
 }
 
-static const Object3DOps sphere_ops = {"Sphere",      OBJ_SPHERE,         sphere_intersect,
-                                       sphere_bounds, sphere_cell_bounds, sphere_overlaps_box};
+static const Object3DOps sphere_ops = {.type_name = "Sphere",
+                                       .kind = OBJ_SPHERE,
+                                       .intersect = sphere_intersect,
+                                       .occluded = sphere_occluded,
+                                       .bounds = sphere_bounds,
+                                       .cell_bounds = sphere_cell_bounds,
+                                       .overlaps_box = sphere_overlaps_box};
 
 Object3D *sphere_new(Arena *a, Vec3 center, float radius, const Material *m)
 {

@@ -49,8 +49,18 @@ static bool transform_intersect(const Object3D *self, const Ray *ray, Hit *hit, 
     return true;
 }
 
+static bool transform_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,
+                               RenderCtx *ctx)
+{
+    const Transform *x = (const Transform *)self;
+    Ray local = to_object(x, ray);
+    return obj_occluded(x->child, &local, tmin_to_object(tmin, ray->dir, local.dir), tmax,
+                        ctx);
+}
+
 static const Object3DOps transform_ops = {.type_name = "Transform", .kind = OBJ_TRANSFORM,
-                                          .intersect = transform_intersect};
+                                          .intersect = transform_intersect,
+                                          .occluded = transform_occluded};
 
 Object3D *transform_new(Arena *a, const Mat4 *m, Object3D *child)
 {
@@ -90,6 +100,13 @@ Vec3 transform_path_normal_to_world(const XformPath *path, Vec3 n)
     for (int i = path->depth - 1; i >= 0; i--)
         n = normal_to_parent((const Transform *)path->xf[i], n);
     return n;
+}
+
+bool transform_path_occluded(const XformPath *path, const Object3D *prim, const Ray *ray,
+                             float tmin, float tmax, RenderCtx *ctx)
+{
+    Ray r = transform_path_to_object(path, ray, &tmin);
+    return obj_occluded(prim, &r, tmin, tmax, ctx);
 }
 
 bool transform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,

@@ -22,6 +22,15 @@ static bool triangle_intersect(const Object3D *self, const Ray *ray, Hit *hit, f
     return true;
 }
 
+static bool triangle_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,
+                              RenderCtx *ctx)
+{
+    const Triangle *tr = (const Triangle *)self;
+    ctx->stats.intersections++;
+    float t;
+    return triangle_ray_t(tr->v0, tr->e1, tr->e2, ray, &t) && t > tmin && t < tmax;
+}
+
 /* The box of the three vertices mapped to world space. */
 static BBox triangle_bounds(const Object3D *self, const Mat4 *to_world)
 {
@@ -116,9 +125,13 @@ static bool triangle_overlaps_box(const Object3D *self, const PrimXform *xf,
     return triangle_box_overlap(v, h);
 }
 
-const Object3DOps triangle_ops = {"Triangle", OBJ_TRIANGLE, triangle_intersect,
-                                  triangle_bounds, triangle_cell_bounds,
-                                  triangle_overlaps_box};
+const Object3DOps triangle_ops = {.type_name = "Triangle",
+                                  .kind = OBJ_TRIANGLE,
+                                  .intersect = triangle_intersect,
+                                  .occluded = triangle_occluded,
+                                  .bounds = triangle_bounds,
+                                  .cell_bounds = triangle_cell_bounds,
+                                  .overlaps_box = triangle_overlaps_box};
 
 Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m)
 {

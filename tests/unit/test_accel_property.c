@@ -87,7 +87,9 @@ static BBox cube_bounds(const Object3D *self, const Mat4 *to_world)
 }
 
 static const Object3DOps cube_ops = {.type_name = "Cube", .kind = (ObjKind)(OBJ_TRANSFORM + 1),
-                                     .intersect = cube_intersect, .bounds = cube_bounds};
+                                     .intersect = cube_intersect,
+                                     .occluded = obj_occluded_by_intersect,
+                                     .bounds = cube_bounds};
 
 static Object3D *cube_new(Arena *a, Vec3 c, float h, const Material *m)
 {
@@ -358,6 +360,23 @@ static void run_world(uint64_t seed, int objects)
         bool fb = accel_intersect(&ref.accel, &ray, &b, tmin, &ref.ctx);
         CHECK_MSG(fa == fb && same_bits(&a, &b), "seed %llu ray %d: none differs from the tree walk",
                   (unsigned long long)seed, i);
+        /* Its shadow query stops at the first occluder, yet answers and counts like the
+         * tree walk's full loop (a (tmax, id 0) hit; every primitive tested). */
+        float tmax = isfinite(a.t) && pick(2) ? a.t * (pick(2) ? 1.0f : 1.0001f)
+                                              : uniform(0.1f, 20.0f);
+        float tmin_s = tmin > 0.0f ? tmin : 1e-3f;
+        Hit h = hit_none();
+        h.t = tmax;
+        h.id = 0;
+        uint64_t c0 = ref.ctx.stats.intersections;
+        bool oa = obj_intersect(w.s.root, &ray, &h, tmin_s, &ref.ctx);
+        uint64_t c1 = ref.ctx.stats.intersections;
+        bool ob = accel_occluded(&ref.accel, &ray, tmin_s, tmax, &ref.ctx);
+        uint64_t c2 = ref.ctx.stats.intersections;
+        CHECK_MSG(oa == ob && c2 - c1 == c1 - c0 && c1 - c0 == t.num_prims,
+                  "seed %llu ray %d: none occluded %d (%llu tests) vs tree walk %d (%llu tests)",
+                  (unsigned long long)seed, i, ob, (unsigned long long)(c2 - c1), oa,
+                  (unsigned long long)(c1 - c0));
     }
 
     for (int r = 0; accel_registry[r]; r++) {

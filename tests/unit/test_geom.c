@@ -1,5 +1,7 @@
 /* Unit tests of the primitives: hit, miss, tangent, inside, transforms with
  * non-uniform scale, tie-break order and intersection counting. */
+#include <math.h>
+
 #include "harness.h"
 #include "rt/arena.h"
 #include "rt/geom.h"
@@ -245,6 +247,79 @@ static void test_group_and_ties(void)
     CHECK_INT(c2.stats.intersections, 3);
 }
 
+/* A small generator of our own, so the rays do not depend on the C library. */
+static uint64_t rng = 88172645463325252ull;
+static float rnd(float lo, float hi)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return lo + (hi - lo) * (float)(rng >> 40) / (float)(1 << 24);
+}
+
+/* occluded(tmin, tmax) is intersect's answer for a (tmax, id 0) hit, for every shape
+ * and through Transforms, and counts the same tests: rays from inside and outside,
+ * tmax at, just below and just above the nearest hit, the tmins of cameras and bounces. */
+static void test_occluded_matches_intersect(void)
+{
+    setup();
+    Mat4 s = mat4_scale(v3(2.0f, 0.5f, 1.0f)), r = mat4_rotate_axis(v3(1, 2, 3), 30.0f);
+    Object3D *leaves[4] = {sphere_new(&arena, v3(0.2f, -0.1f, 0.3f), 1.1f, mat),
+                           plane_new(&arena, v3(0.3f, 1, 0.2f), -0.4f, mat),
+                           triangle_new(&arena, v3(-1, -1, 0.5f), v3(1.5f, -0.5f, 0),
+                                        v3(0, 1.2f, -0.2f), mat),
+                           sphere_new(&arena, v3(0, 0, 0), 0.7f, mat)};
+    Object3D *inner = transform_new(&arena, &r, leaves[3]);
+    Object3D *outer = transform_new(&arena, &s, inner);
+    Object3D *g = group_new(&arena, 4);
+    for (int i = 0; i < 3; i++)
+        group_set_child(g, i, leaves[i]);
+    group_set_child(g, 3, outer);
+    group_finish(g);
+    group_assign_ids(g);
+    XformPath path = {{outer, inner}, 2};
+    const float tmins[3] = {-INFINITY, 0.0f, 1e-3f};
+    int agree = 0, occluded = 0, tree_agree = 0;
+    for (int k = 0; k < 4000; k++) {
+        Ray ry = ray(v3(rnd(-3, 3), rnd(-3, 3), rnd(-3, 3)),
+                     v3_normalize(v3(rnd(-1, 1), rnd(-1, 1), rnd(-1, 1))));
+        float tmin = tmins[k % 3];
+        int leaf = k % 4;
+        Hit near = hit_none();
+        RenderCtx c0 = {0};
+        if (leaf == 3)
+            transform_path_intersect(&path, leaves[3], &ry, &near, tmin, &c0);
+        else
+            obj_intersect(leaves[leaf], &ry, &near, tmin, &c0);
+        float tmax = rnd(0.1f, 6.0f);
+        if (isfinite(near.t) && k % 2)
+            tmax = (k / 2) % 3 == 0 ? near.t : nextafterf(near.t, (k / 2) % 3 == 1 ? 0.0f : INFINITY);
+        Hit h = hit_none();
+        h.t = tmax;
+        h.id = 0;
+        RenderCtx ci = {0}, co = {0};
+        bool want, got;
+        if (leaf == 3) {
+            want = transform_path_intersect(&path, leaves[3], &ry, &h, tmin, &ci);
+            got = transform_path_occluded(&path, leaves[3], &ry, tmin, tmax, &co);
+        } else {
+            want = obj_intersect(leaves[leaf], &ry, &h, tmin, &ci);
+            got = obj_occluded(leaves[leaf], &ry, tmin, tmax, &co);
+        }
+        agree += want == got && ci.stats.intersections == 1 && co.stats.intersections == 1;
+        occluded += got;
+        /* The tree: Group and Transforms give the answer of the whole group's search. */
+        Hit hg = hit_none();
+        hg.t = tmax;
+        hg.id = 0;
+        RenderCtx cg = {0};
+        tree_agree += obj_intersect(g, &ry, &hg, tmin, &cg) == obj_occluded(g, &ry, tmin, tmax, &cg);
+    }
+    CHECK_INT(agree, 4000);
+    CHECK_INT(tree_agree, 4000);
+    CHECK_MSG(occluded > 400 && occluded < 3600, "%d of 4000 rays occluded", occluded);
+}
+
 static const TestCase tests[] = {
     {"geom: sphere hit, miss, inside, tangent", test_sphere},
     {"geom: plane", test_plane},
@@ -253,5 +328,6 @@ static const TestCase tests[] = {
     {"geom: transform: tmin is a distance in the primitive's space", test_transform_tmin_object_space},
     {"geom: flattened path == nested transforms", test_path_matches_tree},
     {"geom: group nearest hit, tie-break, counting", test_group_and_ties},
+    {"geom: occluded == intersect against (tmax, id 0), same counts", test_occluded_matches_intersect},
 };
 RT_TEST_MAIN(tests)
