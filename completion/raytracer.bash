@@ -6,17 +6,21 @@
 # *.ppm and *.png, -merge offers images for every argument; folders always.
 
 # Reads `CMD -h` once per command into _raytracer_syn (option -> its value words) and
-# _raytracer_accels (the names listed under -accel).
+# _raytracer_accels (the names listed under -accel), _raytracer_formats and
+# _raytracer_exts (the formats listed under -format and their extensions, no dot).
 _raytracer_read_help()
 {
-    local cmd=$1 line syn name after_accel=0
+    local cmd=$1 line syn name after_accel=0 after_format=0 e
     [[ $_raytracer_for == "$cmd" ]] && return 0
     _raytracer_for=$cmd
     declare -gA _raytracer_syn=()
     _raytracer_accels=()
+    _raytracer_formats=()
+    _raytracer_exts=()
     while IFS= read -r line; do
         if [[ $line == "  -"* ]]; then
             after_accel=0
+            after_format=0
             syn=${line#  }
             syn=${syn%%  *}
             if [[ $syn == *", "* ]]; then          # "-h, --help": two names, no values
@@ -34,11 +38,21 @@ _raytracer_read_help()
                 _raytracer_syn[$name]=
             fi
             [[ $name == -accel ]] && after_accel=1
+            [[ $name == -format ]] && after_format=1
         elif ((after_accel)) && [[ $line == "      "[a-z]* ]]; then
             line=${line#"${line%%[! ]*}"}
             _raytracer_accels+=("${line%% *}")
+        elif ((after_format)) && [[ $line == "      "[a-z]* ]]; then
+            read -r -a syn <<<"$line"
+            _raytracer_formats+=("${syn[0]}")
+            for e in "${syn[@]:1}"; do
+                [[ $e == .* ]] && _raytracer_exts+=("${e#.}")
+            done
+        elif ((after_format)) && [[ $line == "                           "* ]]; then
+            :
         else
             after_accel=0
+            after_format=0
         fi
     done < <("$cmd" -h 2>/dev/null)
 }
@@ -96,7 +110,7 @@ _raytracer()
     done
     if ((merge)); then
         compopt -o filenames 2>/dev/null
-        _raytracer_files "$cur" "tga ppm png"
+        _raytracer_files "$cur" "${_raytracer_exts[*]:-tga ppm png}"
         return 0
     fi
     if ((pending > 0)); then
@@ -114,14 +128,14 @@ _raytracer()
             COMPREPLY=($(compgen -W "${_raytracer_accels[*]}" -- "$cur"))
             ;;
         -format:*)
-            COMPREPLY=($(compgen -W "tga ppm png" -- "$cur"))
+            COMPREPLY=($(compgen -W "${_raytracer_formats[*]:-tga ppm png}" -- "$cur"))
             ;;
         -grid:nx)
             COMPREPLY=($(compgen -W "auto" -- "$cur"))
             ;;
         *:file | *:out)
             compopt -o filenames 2>/dev/null
-            _raytracer_files "$cur" "tga ppm png"
+            _raytracer_files "$cur" "${_raytracer_exts[*]:-tga ppm png}"
             ;;
         esac
         return 0

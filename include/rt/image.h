@@ -104,6 +104,8 @@ typedef struct ImageCodec {
     const char *missing;
 } ImageCodec;
 
+/* The i-th codec of the table (0, 1, ...), built in or not; NULL past the last. */
+const ImageCodec *image_codec_at(int i);
 /* The codec called name, built in or not; NULL when there is none. */
 const ImageCodec *image_codec_find(const char *name);
 /* The codec whose extension ends path's file name (case-insensitive); NULL for none. */

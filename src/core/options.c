@@ -46,10 +46,10 @@ static const char usage_text[] =
         "\n"
         "Input and output\n"
         "  -input file              the scene file (required; - reads standard input)\n"
-        "  -output file             shaded image (.tga; .ppm; .png when built with libpng;\n"
-        "                           - writes standard output)\n"
-        "  -format name             tga, ppm or png: the format of an image written to\n"
-        "                           standard output (default tga)\n"
+        "  -output file             shaded image, in the format its extension names (see\n"
+        "                           -format); - writes standard output\n"
+        "  -format name             the format of an image written to standard output\n"
+        "                           (default tga); the formats and their extensions:\n"
         "  -size w h                image size in pixels (default 100 100)\n"
         "  -depth dmin dmax file    depth image: near dmin white, far dmax black\n"
         "  -normals file            normal image: |nx| |ny| |nz| as RGB\n"
@@ -105,19 +105,38 @@ static const char usage_text[] =
         "Exit status: 0 image(s) written, 1 input or output error, 2 usage error,\n"
         "130 interrupted.\n";
 
+/* Writes usage_text from *pos to the end of the line holding marker, and moves *pos
+ * there; false (nothing written) when marker is not in the rest of the text. */
+static bool usage_through(FILE *out, const char **pos, const char *marker)
+{
+    const char *at = strstr(*pos, marker);
+    const char *eol = at ? strchr(at, '\n') : NULL;
+    if (!eol)
+        return false;
+    fwrite(*pos, 1, (size_t)(eol + 1 - *pos), out);
+    *pos = eol + 1;
+    return true;
+}
+
 void options_usage(FILE *out)
 {
-    /* The accelerators are listed from their registry, under the -accel line. */
-    const char *acc = strstr(usage_text, "  -accel NAME");
-    const char *eol = acc ? strchr(acc, '\n') : NULL;
-    if (!eol) {
-        fputs(usage_text, out);
-        return;
+    /* The image formats are listed from the codec table under -format, the
+     * accelerators from their registry under -accel (bash completion reads both). */
+    const char *pos = usage_text;
+    if (usage_through(out, &pos, "the formats and their extensions:")) {
+        const ImageCodec *c;
+        for (int i = 0; (c = image_codec_at(i)) != NULL; i++) {
+            fprintf(out, "      %-20s", c->name);
+            for (const char *const *e = c->extensions; *e; e++)
+                fprintf(out, " %s", *e);
+            fputs(c->encode ? "\n" : " (not built in)\n", out);
+        }
     }
-    fwrite(usage_text, 1, (size_t)(eol + 1 - usage_text), out);
-    for (int i = 0; accel_registry[i]; i++)
-        fprintf(out, "      %-20s %s\n", accel_registry[i]->name, accel_registry[i]->summary);
-    fputs(eol + 1, out);
+    if (usage_through(out, &pos, "  -accel NAME"))
+        for (int i = 0; accel_registry[i]; i++)
+            fprintf(out, "      %-20s %s\n", accel_registry[i]->name,
+                    accel_registry[i]->summary);
+    fputs(pos, out);
 }
 
 typedef struct Cursor {

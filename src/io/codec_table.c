@@ -17,6 +17,11 @@ static const ImageCodec *const codecs[] = {
 };
 enum { NUM_CODECS = (int)(sizeof codecs / sizeof codecs[0]) };
 
+const ImageCodec *image_codec_at(int i)
+{
+    return i >= 0 && i < NUM_CODECS ? codecs[i] : NULL;
+}
+
 const ImageCodec *image_codec_find(const char *name)
 {
     for (int i = 0; i < NUM_CODECS; i++)
