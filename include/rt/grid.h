@@ -74,6 +74,21 @@ bool grid_packet_use_kernel(const char *name);
  * normal = entered face, material = palette colour of its count). Planes not drawn. */
 bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin,
                               RenderCtx *ctx);
+/* Shadow rays in that mode: the drawn cells are the scene, so they cast the shadows
+ * (an occupied cell entered with tmin < t < tmax). */
+bool grid_visualize_occluded(const Grid *g, const Ray *ray, float tmin, float tmax,
+                             RenderCtx *ctx);
+/* The ops of an accelerator's -visualize_grid mode (its AccelOps.visualize): the same
+ * state as the accelerator (create, destroy, scratch, report), queries that hit the
+ * drawn cells instead of the scene; no packets. */
+#define GRID_CELLS_OPS(name_, summary_, create_, destroy_, cells_intersect, cells_occluded,  \
+                       scratch_, report_)                                                    \
+    {                                                                                        \
+        .name = name_, .summary = summary_, .create = create_, .destroy = destroy_,          \
+        .intersect = cells_intersect, .occluded = cells_occluded, .scratch_size = scratch_,  \
+        .report = report_                                                                    \
+    }
+
 /* The palette of -visualize_grid: a diffuse, non-specular material per entry count,
  * 1 white, then magenta, blue, cyan, green, yellow, orange towards red at 17 and more
  * (count 0 and below take count 1's). Built once, shared, freed at exit. */

@@ -75,6 +75,16 @@ static inline bool obj_intersect(const Object3D *o, const Ray *r, Hit *h, float 
 {
     return o->ops->intersect(o, r, h, tmin, ctx);
 }
+/* A leaf's hit at t with normal n: fills hit (t, normal, the leaf's material and id)
+ * and returns true, the last step of every leaf's intersect. */
+static inline bool obj_record_hit(const Object3D *o, Hit *hit, float t, Vec3 n)
+{
+    hit->t = t;
+    hit->normal = n;
+    hit->material = o->material;
+    hit->id = o->id;
+    return true;
+}
 static inline bool obj_occluded(const Object3D *o, const Ray *r, float tmin, float tmax,
                                 RenderCtx *ctx)
 {

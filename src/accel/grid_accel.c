@@ -58,24 +58,16 @@ static bool grid_cells_intersect(const void *self, const Ray *ray, Hit *hit, flo
     return grid_visualize_intersect(self, ray, hit, tmin, ctx);
 }
 
-/* The visualised cells are the scene in this mode, so they cast the shadows. */
 static bool grid_cells_occluded(const void *self, const Ray *ray, float tmin, float tmax,
                                 RenderCtx *ctx)
 {
-    Hit h = hit_none();
-    return grid_visualize_intersect(self, ray, &h, tmin, ctx) && h.t < tmax;
+    return grid_visualize_occluded(self, ray, tmin, tmax, ctx);
 }
 
-static const AccelOps grid_cells_ops = {
-    .name = "grid",
-    .summary = "the grid's occupied cells, coloured by count (-visualize_grid)",
-    .create = grid_create,
-    .destroy = grid_destroy,
-    .intersect = grid_cells_intersect,
-    .occluded = grid_cells_occluded,
-    .scratch_size = grid_accel_scratch,
-    .report = grid_accel_report,
-};
+static const AccelOps grid_cells_ops =
+    GRID_CELLS_OPS("grid", "the grid's occupied cells, coloured by count (-visualize_grid)",
+                   grid_create, grid_destroy, grid_cells_intersect, grid_cells_occluded,
+                   grid_accel_scratch, grid_accel_report);
 
 const AccelOps accel_grid_ops = {
     .name = "grid",

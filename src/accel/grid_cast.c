@@ -142,6 +142,16 @@ static inline bool batch_occluded(const Grid *g, const TriBatch *b, const RaySim
 }
 #endif
 
+/* Declares rsimd, the ray as the cell loop's 4-lane batches take it (ray_simd), or NULL
+ * without SIMD. */
+#if RT_GRID_SIMD
+#define MARCH_RAY_SIMD(rsimd, ray, tmin)                                                   \
+    RaySimd rsimd##_rs = ray_simd(ray, tmin);                                              \
+    const void *rsimd = &rsimd##_rs
+#else
+#define MARCH_RAY_SIMD(rsimd, ray, tmin) const void *rsimd = NULL
+#endif
+
 /* A fresh stamp for this ray, or 0 when there is no usable mailbox. Stamps wrap after
  * 2^32 - 1 rays: then every slot is cleared, so no stale stamp can match. */
 uint32_t grid_begin_ray(const Grid *g, RenderCtx *ctx)
@@ -328,12 +338,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
     MarchStart start = march_start(g, ray, tmin, ctx, &mi, &stamp, &mb);
     if (start != MARCH_CELLS)
         return start == MARCH_ALL && brute_intersect(g, ray, hit, tmin, ctx);
-#if RT_GRID_SIMD
-    RaySimd rs = ray_simd(ray, tmin);
-    const void *rsimd = &rs;
-#else
-    const void *rsimd = NULL;
-#endif
+    MARCH_RAY_SIMD(rsimd, ray, tmin);
     do {
         /* 4. The cell starts beyond the best hit: nothing in it or later is nearer. */
         if (mi.t > hit->t)
@@ -376,12 +381,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
     MarchStart start = march_start(g, ray, tmin, ctx, &mi, &stamp, &mb);
     if (start != MARCH_CELLS)
         return start == MARCH_ALL && brute_occluded(g, ray, tmin, tmax, ctx);
-#if RT_GRID_SIMD
-    RaySimd rs = ray_simd(ray, tmin);
-    const void *rsimd = &rs;
-#else
-    const void *rsimd = NULL;
-#endif
+    MARCH_RAY_SIMD(rsimd, ray, tmin);
     do {
         if (mi.t > tmax)
             break;
@@ -419,12 +419,7 @@ bool grid_items_intersect(const Grid *g, const uint32_t *items, uint32_t n, cons
 {
     if (n == 0)
         return false;
-#if RT_GRID_SIMD
-    RaySimd rs = ray_simd(ray, tmin);
-    const void *rsimd = &rs;
-#else
-    const void *rsimd = NULL;
-#endif
+    MARCH_RAY_SIMD(rsimd, ray, tmin);
     return test_items(g, items, n, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
 }
 
@@ -433,12 +428,7 @@ bool grid_items_occluded(const Grid *g, const uint32_t *items, uint32_t n, const
 {
     if (n == 0)
         return false;
-#if RT_GRID_SIMD
-    RaySimd rs = ray_simd(ray, tmin);
-    const void *rsimd = &rs;
-#else
-    const void *rsimd = NULL;
-#endif
+    MARCH_RAY_SIMD(rsimd, ray, tmin);
     return test_items(g, items, n, ray, h, tmin, ctx, mb, stamp, rsimd, true);
 }
 

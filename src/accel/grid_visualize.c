@@ -77,3 +77,10 @@ bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmi
     } while (march_next(&mi, ctx));
     return false;
 }
+
+bool grid_visualize_occluded(const Grid *g, const Ray *ray, float tmin, float tmax,
+                             RenderCtx *ctx)
+{
+    Hit h = hit_none();
+    return grid_visualize_intersect(g, ray, &h, tmin, ctx) && h.t < tmax;
+}

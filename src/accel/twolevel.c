@@ -669,7 +669,7 @@ bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float 
     h.t = tmax;
     h.id = 0;
     for (uint32_t u = 0; u < g->num_unbounded; u++)
-        if (grid_test_prim(&g->unbounded[u], ray, &h, tmin, ctx))
+        if (grid_occluded_prim(&g->unbounded[u], ray, tmin, tmax, ctx))
             return true;
     if (grid_ray_too_far(g, ray, tmin))
         return grid_march_occluded(g, ray, tmin, tmax, ctx);
@@ -761,20 +761,14 @@ static bool twolevel_cells_intersect(const void *self, const Ray *ray, Hit *hit,
 static bool twolevel_cells_occluded(const void *self, const Ray *ray, float tmin, float tmax,
                                     RenderCtx *ctx)
 {
-    Hit h = hit_none();
-    return twolevel_cells_intersect(self, ray, &h, tmin, ctx) && h.t < tmax;
+    return grid_visualize_occluded(((const TwoLevelGrid *)self)->top, ray, tmin, tmax, ctx);
 }
 
-static const AccelOps twolevel_cells_ops = {
-    .name = "twolevel",
-    .summary = "the two-level grid's top cells, coloured by count (-visualize_grid)",
-    .create = twolevel_create,
-    .destroy = twolevel_destroy,
-    .intersect = twolevel_cells_intersect,
-    .occluded = twolevel_cells_occluded,
-    .scratch_size = twolevel_scratch,
-    .report = twolevel_report,
-};
+static const AccelOps twolevel_cells_ops =
+    GRID_CELLS_OPS("twolevel", "the two-level grid's top cells, coloured by count "
+                               "(-visualize_grid)",
+                   twolevel_create, twolevel_destroy, twolevel_cells_intersect,
+                   twolevel_cells_occluded, twolevel_scratch, twolevel_report);
 
 const AccelOps accel_twolevel_ops = {
     .name = "twolevel",

@@ -12,6 +12,7 @@
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -349,6 +350,32 @@ static bool unknown_argument(Cursor *c, const Options *o)
     return usage_error(c, "unexpected argument '%s': options start with '-'", a);
 }
 
+/* The options that only switch a flag on, with the flag. */
+static const struct {
+    const char *name;
+    size_t offset; /* of the bool in Options */
+} k_switches[] = {
+    {"-shade_back", offsetof(Options, shade_back)},
+    {"-noise_cutoff", offsetof(Options, noise_cutoff)},
+    {"-shadows", offsetof(Options, shadows)},
+    {"-stats", offsetof(Options, stats)},
+    {"-timings", offsetof(Options, timings)},
+    {"-visualize_grid", offsetof(Options, visualize_grid)},
+    {"-no_marking", offsetof(Options, no_marking)},
+    {"-no_packets", offsetof(Options, no_packets)},
+    {"-gui", offsetof(Options, gui)},
+    {"-gouraud", offsetof(Options, gouraud)},
+};
+
+/* The flag of o that option a switches on; NULL when a is not such an option. */
+static bool *switch_of(Options *o, const char *a)
+{
+    for (size_t k = 0; k < sizeof k_switches / sizeof k_switches[0]; k++)
+        if (!strcmp(a, k_switches[k].name))
+            return (bool *)((char *)o + k_switches[k].offset);
+    return NULL;
+}
+
 bool options_parse(Options *o, int argc, char **argv, FILE *err)
 {
     Cursor c = {argc, 1, argv, err, 0, 0, false};
@@ -356,7 +383,10 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         c.prev = c.opt;
         c.opt = c.i;
         const char *a = argv[c.i];
-        if (!strcmp(a, "-input")) {
+        bool *flag = switch_of(o, a);
+        if (flag) {
+            *flag = true;
+        } else if (!strcmp(a, "-input")) {
             if (!take(&c, a, &o->input))
                 return false;
         } else if (!strcmp(a, "-output")) {
@@ -386,16 +416,6 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         } else if (!strcmp(a, "-normals")) {
             if (!take(&c, a, &o->normals_file))
                 return false;
-        } else if (!strcmp(a, "-shade_back")) {
-            o->shade_back = true;
-        } else if (!strcmp(a, "-noise_cutoff")) {
-            o->noise_cutoff = true;
-        } else if (!strcmp(a, "-shadows")) {
-            o->shadows = true;
-        } else if (!strcmp(a, "-stats")) {
-            o->stats = true;
-        } else if (!strcmp(a, "-timings")) {
-            o->timings = true;
         } else if (!strcmp(a, "-bounces")) {
             if (!take_int(&c, a, 0, MAX_BOUNCES, &o->bounces))
                 return false;
@@ -425,19 +445,9 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (!accel_find(o->accel))
                 return usage_error(&c, "option -accel: unknown accelerator '%s' (known: %s)",
                                    o->accel, accel_names());
-        } else if (!strcmp(a, "-visualize_grid")) {
-            o->visualize_grid = true;
         } else if (!strcmp(a, "-visualize_grid_count")) {
             o->visualize_grid = true;
             o->visualize_grid_count = true;
-        } else if (!strcmp(a, "-no_marking")) {
-            o->no_marking = true;
-        } else if (!strcmp(a, "-no_packets")) {
-            o->no_packets = true;
-        } else if (!strcmp(a, "-gui")) {
-            o->gui = true;
-        } else if (!strcmp(a, "-gouraud")) {
-            o->gouraud = true;
         } else if (!strcmp(a, "-tessellation")) {
             if (!take_int(&c, a, 3, MAX_TESSELLATION, &o->tess_theta) ||
                 !take_int(&c, a, 2, MAX_TESSELLATION, &o->tess_phi))

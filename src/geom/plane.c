@@ -20,11 +20,7 @@ static bool plane_intersect(const Object3D *self, const Ray *ray, Hit *hit, floa
     float t = (p->offset - v3_dot(p->normal, ray->origin)) / denom;
     if (!(t > tmin) || !hit_accepts(hit, t, self->id))
         return false;
-    hit->t = t;
-    hit->normal = p->unit_normal;
-    hit->material = self->material;
-    hit->id = self->id;
-    return true;
+    return obj_record_hit(self, hit, t, p->unit_normal);
 }
 
 static bool plane_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,

@@ -54,11 +54,7 @@ static bool sphere_intersect(const Object3D *self, const Ray *ray, Hit *hit, flo
     float t;
     if (!sphere_root(s, ray, tmin, &t) || !hit_accepts(hit, t, self->id))
         return false;
-    hit->t = t;
-    hit->normal = v3_normalize(v3_sub(ray_at(ray, t), s->center));
-    hit->material = self->material;
-    hit->id = self->id;
-    return true;
+    return obj_record_hit(self, hit, t, v3_normalize(v3_sub(ray_at(ray, t), s->center)));
 }
 
 static bool sphere_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,

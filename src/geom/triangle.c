@@ -15,11 +15,7 @@ static bool triangle_intersect(const Object3D *self, const Ray *ray, Hit *hit, f
         return false;
     if (!(t > tmin) || !hit_accepts(hit, t, self->id))
         return false;
-    hit->t = t;
-    hit->normal = tr->normal;
-    hit->material = self->material;
-    hit->id = self->id;
-    return true;
+    return obj_record_hit(self, hit, t, tr->normal);
 }
 
 static bool triangle_occluded(const Object3D *self, const Ray *ray, float tmin, float tmax,
