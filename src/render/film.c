@@ -31,6 +31,7 @@ typedef struct Film {
     float *table;               /* fixed offsets: the weights, [(a-i+R)(2R+1) + (b-j+R)][s] */
     int r0, r1;                 /* rows being traced (film_band) */
     int out0;                   /* first output row of the strip being filtered */
+    volatile int *cancel;       /* the stop flag, polled before every tile as well */
 } Film;
 
 static float *film_sample(const Film *f, int x, int y, int s)
@@ -165,8 +166,10 @@ static void film_band(void *user, RenderCtx *ctx, int band)
     Stream st;
     st.n = 0;
     /* Tiles of 8 x 8 pixels in Morton order, each pixel's samples in a row: the rays of
-     * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block). */
-    for (int x0 = f->sx0; x0 < f->sx1; x0 += TILE)
+     * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block). A
+     * band of many samples takes long: a stop is noticed at the next tile (the run
+     * then returns false and its film is thrown away). */
+    for (int x0 = f->sx0; x0 < f->sx1 && !(f->cancel && *f->cancel); x0 += TILE)
         for (int k = 0; k < TILE * TILE; k++) {
             int dx, dy;
             render_tile_order(k, &dx, &dy);
@@ -175,6 +178,8 @@ static void film_band(void *user, RenderCtx *ctx, int band)
                 film_queue_pixel(f, ctx, &st, c->sampler, x, y);
         }
     stream_flush(f, ctx, &st);
+    if (f->cancel && *f->cancel)
+        return; /* a cut band: no refinement, no progress */
     if (c->refine) {
         for (int x0 = f->sx0; x0 < f->sx1; x0 += TILE)
             for (int k = 0; k < TILE * TILE; k++) {
@@ -321,6 +326,7 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
         return false;
     Film f;
     memset(&f, 0, sizeof f);
+    f.cancel = cancel;
     f.cfg = cfg;
     f.rt = rt;
     f.camera = camera;
