@@ -172,8 +172,9 @@ static void test_octave_cutoff(void)
     }
 }
 
-/* The reference's formulation, branches and all (Perlin 2002): the library's table
- * driven gradients must give its bits exactly (images depend on every bit). */
+/* The reference's formulation (Perlin 2002), written out independently: the library's
+ * noise must give its bits exactly (images depend on every bit), whatever form a
+ * faster version of it takes. */
 static const unsigned char REF_P[256] = {
     151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225,
     140, 36,  103, 30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148,
@@ -254,7 +255,7 @@ static const TestCase tests[] = {
     {"perlin: continuity", test_continuity},
     {"perlin: non-finite input", test_non_finite_input},
     {"perlin: octave sum", test_octaves},
-    {"perlin: the reference's bits (branch-free gradients)", test_bits_of_reference},
+    {"perlin: the reference formulation's bits", test_bits_of_reference},
     {"perlin: octave cut-off weights (-noise_cutoff)", test_octave_cutoff},
 };
 RT_TEST_MAIN(tests)
