@@ -22,6 +22,7 @@ typedef struct SamplerOps {
     /* Offsets of the samples of pixel (x, y) of the full image into xy[2*s], xy[2*s+1]
      * for s = 0..count-1. */
     void (*pixel)(const Sampler *s, int x, int y, float *xy);
+    int max_count;           /* most samples it accepts; 0: SAMPLER_MAX_COUNT */
 } SamplerOps;
 
 struct Sampler {

@@ -79,6 +79,7 @@ static const char usage_text[] =
         "  -jittered_samples n      n = k*k samples, one at random in each cell of a k x k grid\n"
         "  -random_samples n        n samples per pixel at random positions\n"
         "  -nrooks_samples n        n samples, one in each row and each column of an n x n grid\n"
+        "  -poisson_samples n       n samples kept apart (best candidate of 8; n <= 256)\n"
         "  -adaptive_samples a b t  a = k*k jittered samples; pixels whose samples differ by\n"
         "                           more than t (0..1, any channel) get b = m*m instead\n"
         "                           (counts 1..1024)\n"
@@ -463,10 +464,12 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (!take_int(&c, a, 1, MAX_THREADS, &o->threads))
                 return false;
         } else if (!strcmp(a, "-uniform_samples") || !strcmp(a, "-jittered_samples") ||
-                   !strcmp(a, "-random_samples") || !strcmp(a, "-nrooks_samples")) {
-            static const char *const names[] = {"uniform", "jittered", "random", "nrooks"};
+                   !strcmp(a, "-random_samples") || !strcmp(a, "-nrooks_samples") ||
+                   !strcmp(a, "-poisson_samples")) {
+            static const char *const names[] = {"uniform", "jittered", "random", "nrooks",
+                                                "poisson"};
             const char *name = NULL;
-            for (int k = 0; k < 4 && !name; k++)
+            for (int k = 0; k < 5 && !name; k++)
                 if (!strncmp(a + 1, names[k], strlen(names[k])))
                     name = names[k];
             if (!take_int(&c, a, INT_MIN, INT_MAX, &o->samples))

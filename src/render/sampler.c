@@ -107,14 +107,50 @@ static void nrooks_pixel(const Sampler *s, int x, int y, float *xy)
     }
 }
 
-static const SamplerOps center_ops = {"center", false, true, center_pixel};
-static const SamplerOps uniform_ops = {"uniform", true, true, uniform_pixel};
-static const SamplerOps random_ops = {"random", false, false, random_pixel};
-static const SamplerOps jittered_ops = {"jittered", true, false, jittered_pixel};
-static const SamplerOps nrooks_ops = {"nrooks", false, false, nrooks_pixel};
+/* Poisson-disk-like positions by Mitchell's best-candidate algorithm (1991): sample i
+ * is the best of POISSON_CANDIDATES random candidates, the one farthest from the
+ * samples placed before it, so samples keep apart like a Poisson-disk pattern without
+ * a radius to tune, and the count is always exact. Candidate c of sample i is draw
+ * i * POISSON_CANDIDATES + c of the pixel's stream; the work is quadratic in the count,
+ * hence its lower maximum. */
+#define POISSON_CANDIDATES 8
+#define POISSON_MAX_COUNT 256
+
+static void poisson_pixel(const Sampler *s, int x, int y, float *xy)
+{
+    for (int i = 0; i < s->count; i++) {
+        float best_d = -1.0f, bu = 0.0f, bv = 0.0f;
+        for (int c = 0; c < (i == 0 ? 1 : POISSON_CANDIDATES); c++) {
+            uint32_t draw = (uint32_t)(i * POISSON_CANDIDATES + c);
+            float u = sampler_random(s->seed, s->stream, x, y, draw, 0);
+            float v = sampler_random(s->seed, s->stream, x, y, draw, 1);
+            float d = 2.0f; /* squared distance to the nearest placed sample */
+            for (int j = 0; j < i; j++) {
+                float du = u - xy[2 * j], dv = v - xy[2 * j + 1];
+                float dd = du * du + dv * dv;
+                d = dd < d ? dd : d;
+            }
+            if (d > best_d) {
+                best_d = d;
+                bu = u;
+                bv = v;
+            }
+        }
+        xy[2 * i] = bu;
+        xy[2 * i + 1] = bv;
+    }
+}
+
+static const SamplerOps center_ops = {"center", false, true, center_pixel, 0};
+static const SamplerOps uniform_ops = {"uniform", true, true, uniform_pixel, 0};
+static const SamplerOps random_ops = {"random", false, false, random_pixel, 0};
+static const SamplerOps jittered_ops = {"jittered", true, false, jittered_pixel, 0};
+static const SamplerOps nrooks_ops = {"nrooks", false, false, nrooks_pixel, 0};
+static const SamplerOps poisson_ops = {"poisson", false, false, poisson_pixel,
+                                       POISSON_MAX_COUNT};
 
 static const SamplerOps *const all_samplers[] = {&center_ops, &uniform_ops, &random_ops,
-                                                 &jittered_ops, &nrooks_ops};
+                                                 &jittered_ops, &nrooks_ops, &poisson_ops};
 
 const SamplerOps *sampler_find(const char *name)
 {
@@ -136,9 +172,9 @@ bool sampler_init(Sampler *s, const SamplerOps *ops, int count, uint64_t seed, c
                   size_t whylen)
 {
     memset(s, 0, sizeof *s);
-    if (count < 1 || count > SAMPLER_MAX_COUNT) {
-        snprintf(why, whylen, "%d samples per pixel is out of range 1..%d", count,
-                 SAMPLER_MAX_COUNT);
+    int most = ops->max_count > 0 ? ops->max_count : SAMPLER_MAX_COUNT;
+    if (count < 1 || count > most) {
+        snprintf(why, whylen, "%d samples per pixel is out of range 1..%d", count, most);
         return false;
     }
     int k = 1;

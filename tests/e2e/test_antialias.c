@@ -474,7 +474,7 @@ static void test_constant_scene(void)
     e2e_join(out, sizeof out, dir, "o.tga");
     static const char *const samplers[][4] = {
         {NULL}, {"-uniform_samples", "9"}, {"-jittered_samples", "16"},
-        {"-random_samples", "5"}, {"-nrooks_samples", "7"},
+        {"-random_samples", "5"}, {"-nrooks_samples", "7"}, {"-poisson_samples", "6"},
         {"-adaptive_samples", "4", "16", "0.01"}};
     static const char *const filters[][2] = {{NULL}, {"-box_filter", "0.5"},
                                              {"-box_filter", "2.3"}, {"-tent_filter", "1.5"},
@@ -685,7 +685,8 @@ static void test_usage_errors(void)
         {"-uniform_samples", "0"},        {"-uniform_samples", "10"},
         {"-jittered_samples", "8"},       {"-jittered_samples", "100000000"},
         {"-random_samples", "-3"},        {"-random_samples", "4096"},
-        {"-nrooks_samples", "x"},         {"-box_filter", "-1"},
+        {"-nrooks_samples", "x"},         {"-poisson_samples", "257"},
+        {"-box_filter", "-1"},
         {"-tent_filter", "0"},            {"-gaussian_filter", "-0.5"},
         {"-gaussian_filter", "nan"},      {"-mitchell_filter", "1000"},
         {"-render_samples", "s.tga", "0"}, {"-render_filter", "f.tga", "-2"},

@@ -9,6 +9,7 @@
 #include "rt/render.h"
 #include "rt/scene.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -20,10 +21,10 @@ static void make_sampler(Sampler *s, const char *name, int n, uint64_t seed)
 
 static void test_sampler_ranges_and_strata(void)
 {
-    static const char *names[] = {"uniform", "random", "jittered", "nrooks"};
+    static const char *names[] = {"uniform", "random", "jittered", "nrooks", "poisson"};
     static const int counts[] = {1, 4, 9, 16, 36, 7};
     float xy[2 * SAMPLER_MAX_COUNT];
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < 5; k++)
         for (int c = 0; c < 6; c++) {
             Sampler s;
             char why[160];
@@ -83,6 +84,63 @@ static void test_sampler_determinism(void)
     for (int i = 0; i < 100000; i++)
         sum += (double)sampler_random(5, 0, i % 317, i / 317, (uint32_t)i, 0);
     CHECK_NEAR(sum / 100000, 0.5, 0.01);
+}
+
+/* Smallest distance between two samples of a pixel. */
+static float min_spacing(const float *xy, int n)
+{
+    float best = 2.0f;
+    for (int i = 0; i < n; i++)
+        for (int j = 0; j < i; j++) {
+            float du = xy[2 * i] - xy[2 * j], dv = xy[2 * i + 1] - xy[2 * j + 1];
+            float d = sqrtf(du * du + dv * dv);
+            best = d < best ? d : best;
+        }
+    return best;
+}
+
+/* -poisson_samples: deterministic like the others, and its samples keep apart: the
+ * closest pair of a pixel is on average far wider than random positions give, and
+ * never closer than a small fraction of the grid spacing 1/sqrt(n) in any pixel
+ * tried; counts above 256 are refused. */
+static void test_poisson_sampler(void)
+{
+    static const int counts[] = {4, 16, 64};
+    for (int c = 0; c < 3; c++) {
+        int n = counts[c];
+        Sampler p, r, p2;
+        make_sampler(&p, "poisson", n, 4);
+        make_sampler(&r, "random", n, 4);
+        make_sampler(&p2, "poisson", n, 5);
+        float xy[2 * 64], again[2 * 64], other[2 * 64];
+        double sum_p = 0, sum_r = 0;
+        float worst = 2.0f;
+        int pixels = 0;
+        for (int y = 0; y < 30; y++)
+            for (int x = 0; x < 30; x++, pixels++) {
+                sampler_pixel(&p, x, y, xy);
+                sampler_pixel(&p, x, y, again);
+                sampler_pixel(&p2, x, y, other);
+                CHECK(memcmp(xy, again, (size_t)(2 * n) * sizeof *xy) == 0);
+                CHECK(memcmp(xy, other, (size_t)(2 * n) * sizeof *xy) != 0);
+                float d = min_spacing(xy, n);
+                sum_p += (double)d;
+                worst = d < worst ? d : worst;
+                sampler_pixel(&r, x, y, xy);
+                sum_r += (double)min_spacing(xy, n);
+            }
+        double mean_p = sum_p / pixels, mean_r = sum_r / pixels;
+        printf("    poisson %d: closest pair %.3f on average (random %.3f), %.3f at worst "
+               "(grid spacing %.3f)\n", n, mean_p, mean_r, (double)worst, 1.0 / sqrt(n));
+        CHECK_MSG(mean_p > 2.0 * mean_r, "n %d: closest pairs %.4f, random %.4f", n, mean_p,
+                  mean_r);
+        CHECK_MSG(worst > 0.15f / sqrtf((float)n), "n %d: two samples %.4f apart", n,
+                  (double)worst);
+    }
+    Sampler s;
+    char why[160];
+    CHECK(sampler_init(&s, sampler_find("poisson"), 256, 0, why, sizeof why));
+    CHECK(!sampler_init(&s, sampler_find("poisson"), 257, 0, why, sizeof why));
 }
 
 static void test_filter_symmetry_and_support(void)
@@ -342,6 +400,7 @@ static void test_film_progress(void)
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
+    {"samplers: poisson (best candidate) keeps samples apart", test_poisson_sampler},
     {"filters: symmetric weights, support radii, bad radii", test_filter_symmetry_and_support},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
