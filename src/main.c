@@ -535,6 +535,17 @@ static int run(App *app)
         accel_report(&app->accel, &r);
         fprintf(stderr, "timings: grid auto chose %d x %d x %d cells\n", r.nx, r.ny, r.nz);
     }
+    const Grid *grid = grid_of_accel(&app->accel);
+    if (o->timings && grid && dist_is_root()) {
+        uint64_t course, marching;
+        grid_entry_totals(grid, &course, &marching);
+        int n[3];
+        grid_dims(grid, n);
+        fprintf(stderr, "timings: grid cell references: %llu marching, %llu course, at most "
+                "%llu (cap %llu)\n", (unsigned long long)marching, (unsigned long long)course,
+                (unsigned long long)grid_ref_estimate(&app->prims, n),
+                (unsigned long long)grid_ref_cap(app->prims.num_bounded));
+    }
     /* Without an accelerator every ray tests every primitive: fine for the course's
      * small scenes, thousands of times slower on a mesh. The course's semantics stay (no
      * -grid, no grid); the user is told once. */

@@ -5,6 +5,7 @@
 #define RT_GRID_H
 
 #include <stdbool.h>
+#include <stdint.h>
 #include "rt/diag.h"
 #include "rt/accel.h"
 #include "rt/object3d.h"
@@ -100,8 +101,33 @@ const Material *grid_palette_material(int count);
 void grid_set_packing(Grid *g, bool on);
 bool grid_packing(const Grid *g);
 
-/* -grid auto: a resolution chosen from the table's scene box and number of bounded
- * primitives (docs/grid.md explains the rule). */
+/* Cell references: the entries a grid stores and the cells its build visits, summed
+ * over the bounded primitives (each counts the cells of its box range in the marching
+ * sets and in the course's counts, whichever is more). Unbounded by the primitive count
+ * alone (a big primitive covers many cells), so every build is held to a cap:
+ * GRID_REFS_PER_PRIM per bounded primitive plus GRID_REFS_FLOOR. A requested resolution
+ * over the cap is built coarser (same proportions), with a warning. -grid auto keeps
+ * to a tighter budget of its own. The course's lines and the project's scenes stay far
+ * below both (docs/grid.md). A primitive smaller than a cell costs at most 27 (its
+ * course box: the sphere rule reaches half a cell diagonal around it), so only
+ * primitives larger than a few cells can reach 32 per primitive. */
+#define GRID_REFS_PER_PRIM 32
+#define GRID_REFS_FLOOR (1u << 20)
+#define GRID_AUTO_REFS_PER_PRIM 32
+#define GRID_AUTO_REFS_FLOOR (1u << 16)
+uint64_t grid_ref_cap(uint32_t num_bounded);
+uint64_t grid_ref_cap_auto(uint32_t num_bounded);
+/* The cell references an n[0] x n[1] x n[2] grid over t would make (an upper bound on
+ * grid_entry_totals' two sums, each). O(primitives), nothing allocated. */
+uint64_t grid_ref_estimate(const PrimTable *t, const int n[3]);
+/* Shrinks n (every axis by the same factor, at least 1 cell) until the estimate is at
+ * most cap (always reached: one cell makes one reference per primitive). True when n
+ * changed; *est (may be NULL) gets the estimate of the final n. */
+bool grid_fit_refs(const PrimTable *t, int n[3], uint64_t cap, uint64_t *est);
+
+/* -grid auto: a resolution chosen from the table's scene box, number of bounded
+ * primitives and their sizes (docs/grid.md explains the rule): about GRID_AUTO_LAMBDA
+ * cells per primitive, then coarser until the references fit grid_ref_cap_auto. */
 void grid_choose_auto(const PrimTable *t, int n[3]);
 /* The grid behind an accelerator built by "grid" (for drawing its cells); NULL for any
  * other accelerator. */

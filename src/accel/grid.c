@@ -44,7 +44,7 @@ void grid_free(Grid *g)
 
 /* Sets the box the cells tile and the rounding pad. Zero-thickness axes (a flat scene)
  * get a small symmetric thickness so cell sizes stay positive. */
-static void setup_geometry(Grid *g)
+void grid_setup_geometry(Grid *g)
 {
     float ext_max = 0.0f, mag = 0.0f;
     for (int a = 0; a < 3; a++) {
@@ -93,6 +93,19 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
         diag_error(diag, NULL, "cannot build a grid: the scene's bounding box is not finite");
         return NULL;
     }
+    /* Time and memory within a multiple of the primitive count (grid_budget.c). */
+    int n[3] = {nx, ny, nz};
+    uint64_t cap = grid_ref_cap(t->num_bounded);
+    if (grid_fit_refs(t, n, cap, NULL)) {
+        diag_warning(diag, NULL, "a %dx%dx%d grid would exceed %llu cell references (%d per "
+                     "bounded primitive + %u): using %dx%dx%d instead", nx, ny, nz,
+                     (unsigned long long)cap, GRID_REFS_PER_PRIM, GRID_REFS_FLOOR, n[0],
+                     n[1], n[2]);
+        nx = n[0];
+        ny = n[1];
+        nz = n[2];
+        cells = (uint64_t)nx * (uint64_t)ny * (uint64_t)nz;
+    }
     GridBuild b;
     memset(&b, 0, sizeof b);
     Grid *g = b.g = calloc(1, sizeof *g);
@@ -104,7 +117,7 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     g->n[2] = nz;
     g->num_cells = (uint32_t)cells;
     g->marking = true;
-    setup_geometry(g);
+    grid_setup_geometry(g);
     g->cell_start = calloc((size_t)cells + 1, sizeof *g->cell_start);
     g->course_count = calloc((size_t)cells, sizeof *g->course_count);
     if (!g->cell_start || !g->course_count)
@@ -123,11 +136,7 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     for (uint32_t i = 0; i < t->num_prims; i++) {
         const Prim *p = &t->prims[i];
         if (p->bounded) {
-            ObjKind k = obj_kind(p->obj);
-            RecKind kind = k == OBJ_TRIANGLE            ? REC_TRIANGLE
-                           : k == OBJ_SPHERE && !p->xf ? REC_SPHERE
-                                                       : REC_BOX;
-            append_prim(&b, p, kind);
+            append_prim(&b, p, grid_rec_kind(p));
         } else {
             g->unbounded[g->num_unbounded].obj = p->obj;
             g->unbounded[g->num_unbounded].xf = p->xf;

@@ -1,6 +1,8 @@
 /* -grid auto: a grid resolution chosen from the scene. The rule (docs/grid.md): about
  * GRID_AUTO_LAMBDA cells per bounded primitive, with cells as close to cubes as the
- * box allows (resolution proportional to the box's sides). */
+ * box allows (resolution proportional to the box's sides); then the primitives' sizes:
+ * coarser until their cell references fit the auto budget (grid_ref_cap_auto), so
+ * large or piled-up primitives do not multiply the build's time and memory. */
 #include <math.h>
 
 #include "rt/grid.h"
@@ -46,4 +48,5 @@ void grid_choose_auto(const PrimTable *t, int n[3])
         double v = floor(e[a] * k + 0.5);
         n[a] = v < 1.0 ? 1 : v > GRID_AUTO_MAX_AXIS ? GRID_AUTO_MAX_AXIS : (int)v;
     }
+    grid_fit_refs(t, n, grid_ref_cap_auto(t->num_bounded), NULL);
 }

@@ -8,8 +8,14 @@
 
 #include "rt/par.h"
 
+RecKind grid_rec_kind(const Prim *p)
+{
+    ObjKind k = obj_kind(p->obj);
+    return k == OBJ_TRIANGLE ? REC_TRIANGLE : k == OBJ_SPHERE && !p->xf ? REC_SPHERE : REC_BOX;
+}
+
 /* The record of a primitive of kind kind. */
-static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
+void grid_make_rec(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
 {
     rec->obj = gp->obj;
     rec->gp = gp->xf;
@@ -33,7 +39,7 @@ static void make_rec_of(const GridPrim *gp, RecKind kind, GridBuildRec *rec)
 /* The record of prims[p] as the walk left it (kind in prim_ncells[p]). */
 static void make_rec(const GridBuild *b, uint32_t p, GridBuildRec *rec)
 {
-    make_rec_of(&b->g->prims[p], (RecKind)b->prim_ncells[p], rec);
+    grid_make_rec(&b->g->prims[p], (RecKind)b->prim_ncells[p], rec);
 }
 
 void grid_free_build_state(GridBuild *b)
@@ -138,7 +144,7 @@ static void course_chunk(void *ctx, int i, int worker)
     uint32_t p1 = g->num_prims - p0 > BIN_CHUNK ? p0 + BIN_CHUNK : g->num_prims;
     for (uint32_t p = p0; p < p1; p++) {
         GridBuildRec rec;
-        make_rec_of(&job->snap[p], (RecKind)job->kind[p], &rec);
+        grid_make_rec(&job->snap[p], (RecKind)job->kind[p], &rec);
         grid_course_insert(g, course, &rec);
     }
 }

@@ -96,6 +96,17 @@ void grid_free_build_state(GridBuild *b);
 
 /* grid_course.c: adds rec's cells by the course's rules to course[] (per-cell counts). */
 void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec);
+/* The number of cells grid_course_insert visits for rec (its box range). */
+uint64_t grid_course_box_cells(const Grid *g, const GridBuildRec *rec);
+
+/* grid.c: the cells' geometry (box, sizes, pads) of g from g->bounds and g->n. */
+void grid_setup_geometry(Grid *g);
+/* grid_bin.c: how a bounded primitive of the table is binned, and its record. */
+RecKind grid_rec_kind(const Prim *p);
+void grid_make_rec(const GridPrim *gp, RecKind kind, GridBuildRec *rec);
+/* grid_cells.c: the number of cells grid_tight_insert visits for rec (its padded box
+ * range): an upper bound on its marching entries. */
+uint64_t grid_tight_box_cells(const Grid *g, const GridBuildRec *rec);
 
 /* grid_cells.c: the per-axis cell tables of the triangle fast path (false: out of
  * memory), and the marching set of rec: its cells counted into bp->count and listed in

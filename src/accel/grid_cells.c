@@ -282,3 +282,21 @@ bool grid_tight_insert(BinPart *bp, const GridBuildRec *rec, uint32_t *ncells)
     *ncells = count;
     return true;
 }
+
+uint64_t grid_tight_box_cells(const Grid *g, const GridBuildRec *rec)
+{
+    double bmin[3], bmax[3];
+    if (rec->kind == REC_TRIANGLE) {
+        for (int a = 0; a < 3; a++) {
+            double x0 = (double)v3_comp(rec->v[0], a), x1 = (double)v3_comp(rec->v[1], a),
+                   x2 = (double)v3_comp(rec->v[2], a);
+            bmin[a] = d_min3(x0, x1, x2);
+            bmax[a] = d_max3(x0, x1, x2);
+        }
+    } else {
+        tight_bounds(rec, bmin, bmax);
+    }
+    CellRange r = tight_range(g, bmin, bmax);
+    return (uint64_t)(r.hi[0] - r.lo[0] + 1) * (uint64_t)(r.hi[1] - r.lo[1] + 1) *
+           (uint64_t)(r.hi[2] - r.lo[2] + 1);
+}

@@ -38,8 +38,8 @@ static void count_range(const Grid *g, uint32_t *course, const CellRange *r)
         }
 }
 
-/* Adds rec's cells by the course's rules to course[] (per-cell counts). */
-void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec)
+/* The box range grid_course_insert walks for rec. */
+static CellRange course_range(const Grid *g, const GridBuildRec *rec)
 {
     if (rec->kind == REC_SPHERE) {
         /* Cell centre within r + half the cell diagonal of the centre. */
@@ -47,7 +47,34 @@ void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec
         float half_diag = 0.5f * v3_length(v3(g->size[0], g->size[1], g->size[2]));
         float reach = rec->r + half_diag;
         Vec3 e = v3(reach, reach, reach);
-        CellRange r = course_box_range(g, v3_sub(c, e), v3_add(c, e), 1e-4f);
+        return course_box_range(g, v3_sub(c, e), v3_add(c, e), 1e-4f);
+    }
+    BBox b;
+    if (rec->kind == REC_BOX) {
+        b.min = rec->v[0];
+        b.max = rec->v[1];
+    } else {
+        b.min = v3_min(v3_min(rec->v[0], rec->v[1]), rec->v[2]);
+        b.max = v3_max(v3_max(rec->v[0], rec->v[1]), rec->v[2]);
+    }
+    return course_box_range(g, b.min, b.max, rec->gp || rec->kind == REC_BOX ? 1e-4f : 0.0f);
+}
+
+uint64_t grid_course_box_cells(const Grid *g, const GridBuildRec *rec)
+{
+    CellRange r = course_range(g, rec);
+    return (uint64_t)(r.hi[0] - r.lo[0] + 1) * (uint64_t)(r.hi[1] - r.lo[1] + 1) *
+           (uint64_t)(r.hi[2] - r.lo[2] + 1);
+}
+
+/* Adds rec's cells by the course's rules to course[] (per-cell counts). */
+void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec)
+{
+    CellRange r = course_range(g, rec);
+    if (rec->kind == REC_SPHERE) {
+        Vec3 c = rec->v[0];
+        float half_diag = 0.5f * v3_length(v3(g->size[0], g->size[1], g->size[2]));
+        float reach = rec->r + half_diag;
         for (int k = r.lo[2]; k <= r.hi[2]; k++)
             for (int j = r.lo[1]; j <= r.hi[1]; j++)
                 for (int i = r.lo[0]; i <= r.hi[0]; i++) {
@@ -59,15 +86,5 @@ void grid_course_insert(const Grid *g, uint32_t *course, const GridBuildRec *rec
                 }
         return;
     }
-    BBox b;
-    if (rec->kind == REC_BOX) {
-        b.min = rec->v[0];
-        b.max = rec->v[1];
-    } else {
-        b.min = v3_min(v3_min(rec->v[0], rec->v[1]), rec->v[2]);
-        b.max = v3_max(v3_max(rec->v[0], rec->v[1]), rec->v[2]);
-    }
-    CellRange r = course_box_range(g, b.min, b.max,
-                                   rec->gp || rec->kind == REC_BOX ? 1e-4f : 0.0f);
     count_range(g, course, &r);
 }

@@ -1,0 +1,87 @@
+/* The grid's cell-reference budget: what a resolution costs before anything is built.
+ *
+ * A primitive is referenced by every cell its marching set holds, and the course's
+ * counts visit every cell of its box range. Neither is bounded by the primitive count:
+ * 10,000 spheres at one point on a 34^3 grid make 400 million references, 100,000 large
+ * triangles a billion. So the build first adds up, per primitive, the cells of the box
+ * ranges both passes walk (an upper bound on what either stores or visits), and shrinks
+ * the resolution until the sum fits the cap: time and memory then stay within a small
+ * multiple of the primitive count (plus the cells themselves, which the option check
+ * bounds). The estimate is exact arithmetic on the same ranges as the build, so a grid
+ * under the cap is built exactly as before. */
+#include "grid_build.h"
+
+#include <math.h>
+#include <string.h>
+
+uint64_t grid_ref_cap(uint32_t num_bounded)
+{
+    return (uint64_t)GRID_REFS_PER_PRIM * num_bounded + GRID_REFS_FLOOR;
+}
+
+uint64_t grid_ref_cap_auto(uint32_t num_bounded)
+{
+    return (uint64_t)GRID_AUTO_REFS_PER_PRIM * num_bounded + GRID_AUTO_REFS_FLOOR;
+}
+
+/* The estimate for n, or (when it passes stop) an extrapolation from the primitives
+ * added so far, which is enough to choose the next resolution to try. */
+static uint64_t estimate(const PrimTable *t, const int n[3], uint64_t stop)
+{
+    if (!t || t->num_bounded == 0 || bbox_is_empty(&t->scene_bounds))
+        return 0;
+    Grid g;
+    memset(&g, 0, sizeof g);
+    g.bounds = t->scene_bounds;
+    memcpy(g.n, n, sizeof g.n);
+    grid_setup_geometry(&g);
+    uint64_t sum = 0;
+    uint32_t seen = 0;
+    for (uint32_t i = 0; i < t->num_prims; i++) {
+        const Prim *p = &t->prims[i];
+        if (!p->bounded)
+            continue;
+        GridPrim gp = {p->obj, p->xf};
+        GridBuildRec rec;
+        grid_make_rec(&gp, grid_rec_kind(p), &rec);
+        uint64_t a = grid_tight_box_cells(&g, &rec), b = grid_course_box_cells(&g, &rec);
+        sum += a > b ? a : b;
+        seen++;
+        if (sum > stop && seen < t->num_bounded)
+            return (uint64_t)((double)sum * ((double)t->num_bounded / (double)seen));
+    }
+    return sum;
+}
+
+uint64_t grid_ref_estimate(const PrimTable *t, const int n[3])
+{
+    return estimate(t, n, UINT64_MAX);
+}
+
+bool grid_fit_refs(const PrimTable *t, int n[3], uint64_t cap, uint64_t *est_out)
+{
+    bool changed = false;
+    uint64_t est = estimate(t, n, cap);
+    while (est > cap && (n[0] > 1 || n[1] > 1 || n[2] > 1)) {
+        /* Volume-filling primitives scale with the cell count, surfaces with its 2/3
+         * power, points not at all: take the cube root (the most hopeful) and let the
+         * loop take further steps, at least 10% each. */
+        double f = cbrt((double)cap / (double)est);
+        f = f < 0.05 ? 0.05 : f > 0.9 ? 0.9 : f;
+        int m[3], big = 0;
+        for (int a = 0; a < 3; a++) {
+            double v = floor((double)n[a] * f);
+            m[a] = v < 1.0 ? 1 : (int)v;
+            if (n[a] > n[big])
+                big = a;
+        }
+        if (m[0] == n[0] && m[1] == n[1] && m[2] == n[2])
+            m[big] = n[big] - 1;
+        memcpy(n, m, sizeof m);
+        changed = true;
+        est = estimate(t, n, cap);
+    }
+    if (est_out)
+        *est_out = est;
+    return changed;
+}
