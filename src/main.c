@@ -512,11 +512,26 @@ static int run(App *app)
     acfg.grid_auto = o->grid_auto;
     acfg.no_marking = o->no_marking;
     acfg.visualize = o->visualize_grid;
+    /* Leaves with huge boxes stay out of the cells (rt/prim.h): said once, where the
+     * first of them is written. */
+    if (ops != &accel_none_ops && app->prims.num_kept_out > 0 && dist_is_root()) {
+        const Prim *p = &app->prims.prims[app->prims.first_kept_out];
+        SrcLoc at;
+        scene_leaf_loc(s, p->id, &at);
+        char more[64] = "";
+        if (app->prims.num_kept_out > 1)
+            snprintf(more, sizeof more, " (and %u more objects)", app->prims.num_kept_out - 1);
+        diag_warning(&app->diag, &at, "%s reaches beyond +-%g: kept out of the %s and tested "
+                     "by every ray%s", p->obj->ops->type_name, (double)PRIM_MAX_COORD, ops->name,
+                     more);
+    }
     int errors = app->diag.errors;
     if (!accel_init(&app->accel, ops, &app->prims, &acfg, &app->diag)) {
         if (app->diag.errors > errors)
             return EXIT_INPUT;
-        diag_warning(&app->diag, &file, "nothing bounded to put in a %s (only planes): rendering without one", ops->name);
+        diag_warning(&app->diag, &file, "nothing bounded to put in a %s (only planes%s): "
+                     "rendering without one", ops->name,
+                     app->prims.num_kept_out ? " and objects kept out of it" : "");
         if (!accel_init(&app->accel, &accel_none_ops, &app->prims, &acfg, &app->diag))
             return EXIT_INPUT;
     } else if (o->timings && twolevel_of_accel(&app->accel) && dist_is_root()) {

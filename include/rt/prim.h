@@ -26,15 +26,27 @@ typedef struct Prim {
     const PrimXform *xf;   /* the Transforms above it; NULL when there are none */
     BBox bounds;           /* world space (obj->ops->bounds); empty when unbounded */
     uint32_t id;           /* obj->id: depth-first index, the hit tie-breaker */
-    bool bounded;          /* false for Plane: no box, tested for every ray */
+    bool bounded;          /* false for Plane: no box, tested for every ray; false too
+                              for a leaf whose box is out of PRIM_MAX_COORD (kept out) */
 } Prim;
+
+/* Leaves whose world box is not finite or reaches past +-PRIM_MAX_COORD on some axis (a
+ * sphere of radius 3e38, a triangle at +-3e38) are kept out of every accelerator's
+ * cells: they are tested for every ray, like planes. Cells over such a box would have
+ * infinite or meaningless sizes, while the leaf's own intersect copes with it; 1e30
+ * leaves the accelerators' float arithmetic (box sides, pads, cell sizes) far from
+ * overflow. Images are the same with and without an accelerator either way. */
+#define PRIM_MAX_COORD 1e30f
 
 typedef struct PrimTable {
     Prim *prims;             /* every leaf in depth-first order */
     uint32_t num_prims;
-    uint32_t num_bounded;    /* how many of them are bounded */
+    uint32_t num_bounded;    /* how many of them are bounded (kept-out leaves not) */
     BBox scene_bounds;       /* the scene's box (the root's, built up the tree as the
-                                course does: a Transform boxes its child's box) */
+                                course does: a Transform boxes its child's box); when
+                                leaves were kept out, the box of the bounded ones */
+    uint32_t num_kept_out;   /* bounded leaves kept out for their huge boxes */
+    uint32_t first_kept_out; /* index in prims of the first of them */
     PrimXform **xforms;      /* the interned chains (owned) */
     uint32_t num_xforms, cap_xforms;
 } PrimTable;

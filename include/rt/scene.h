@@ -19,6 +19,13 @@
  * the files (raytracer-mpi: rank 0 records and broadcasts, the others replay). */
 typedef struct SceneFiles SceneFiles;
 
+/* A run of consecutive leaf ids made by one object keyword of the file (a Sphere: one
+ * leaf; a TriangleMesh: all its triangles), and where that keyword stands. */
+typedef struct SceneLeafRun {
+    uint32_t first;             /* id of its first leaf */
+    int line, col;
+} SceneLeafRun;
+
 typedef struct Scene {
     Arena arena;                /* owns everything below */
     const char *path;           /* the file as given */
@@ -35,10 +42,19 @@ typedef struct Scene {
     BBox bounds;                /* root's box; empty when nothing is bounded */
     bool no_lights;             /* the zero-lights rule fired (WARNING printed by main) */
     SceneFiles *files;          /* while loading: where files come from (NULL: the disk) */
+    /* Where each leaf was written, for messages about one leaf (scene_leaf_loc): leaf ids
+     * are depth-first, i.e. file order, so runs in file order, by first id (malloc'd). */
+    SceneLeafRun *leaf_runs;
+    uint32_t num_leaf_runs, cap_leaf_runs;
+    uint32_t leaves_parsed;     /* while loading: leaves made so far */
 } Scene;
 
 /* The scene path that means standard input (-input -). */
 #define SCENE_STDIN "-"
+
+/* The location in s->path of the keyword that made leaf id (a TriangleMesh for each of
+ * its triangles); false (loc then names the file alone) when unknown. */
+bool scene_leaf_loc(const Scene *s, uint32_t id, SrcLoc *loc);
 
 /* Parses path (docs/scene-format.md). On error reports a located message to diag and
  * returns NULL with nothing leaked. obj_file names resolve against the scene file's

@@ -62,6 +62,18 @@ static const PrimXform *intern(Walk *w, const XformPath *path)
     return x;
 }
 
+/* Whether every coordinate of b is finite and within +-PRIM_MAX_COORD (NaN fails). */
+static bool box_within_limit(const BBox *b)
+{
+    for (int a = 0; a < 3; a++) {
+        float lo = v3_comp(b->min, a), hi = v3_comp(b->max, a);
+        if (!(lo >= -PRIM_MAX_COORD && lo <= PRIM_MAX_COORD && hi >= -PRIM_MAX_COORD &&
+              hi <= PRIM_MAX_COORD))
+            return false;
+    }
+    return true;
+}
+
 static void add_leaf(Walk *w, const Object3D *o, const XformPath *path)
 {
     PrimTable *t = w->t;
@@ -85,6 +97,11 @@ static void add_leaf(Walk *w, const Object3D *o, const XformPath *path)
     p->id = o->id;
     p->bounded = o->bounded;
     p->bounds = o->ops->bounds(o, xf ? &xf->m : NULL);
+    if (p->bounded && !box_within_limit(&p->bounds)) {
+        if (t->num_kept_out++ == 0)
+            t->first_kept_out = t->num_prims - 1;
+        p->bounded = false;
+    }
     t->num_bounded += p->bounded;
 }
 
@@ -133,6 +150,15 @@ bool prim_table_build(PrimTable *t, const Scene *scene)
     if (w.oom) {
         prim_table_free(t);
         return false;
+    }
+    /* Without the kept-out leaves, the box is that of the leaves left; so it is too when
+     * the tree's box overflowed on its own (a Transform boxing a box near the limit). */
+    if (t->num_kept_out > 0 || (!bbox_is_empty(&t->scene_bounds) &&
+                                !box_within_limit(&t->scene_bounds))) {
+        t->scene_bounds = bbox_empty();
+        for (uint32_t i = 0; i < t->num_prims; i++)
+            if (t->prims[i].bounded)
+                t->scene_bounds = bbox_union(t->scene_bounds, t->prims[i].bounds);
     }
     return true;
 }

@@ -367,6 +367,27 @@ static bool parse_transformation(Parser *p, const Token *t, Mat4 *m)
 
 static bool parse_object(Parser *p, const Token *kw, Object3D **out);
 
+/* Records that the object at kw made count leaves (scene_leaf_loc). */
+static bool note_leaves(Parser *p, const Token *kw, uint32_t count)
+{
+    Scene *s = p->s;
+    if (s->num_leaf_runs == s->cap_leaf_runs) {
+        uint32_t cap = s->cap_leaf_runs ? 2 * s->cap_leaf_runs : 64;
+        SceneLeafRun *r = cap > s->cap_leaf_runs ? realloc(s->leaf_runs, (size_t)cap * sizeof *r)
+                                                 : NULL;
+        if (!r)
+            return out_of_memory(p, &kw->loc);
+        s->leaf_runs = r;
+        s->cap_leaf_runs = cap;
+    }
+    SceneLeafRun *run = &s->leaf_runs[s->num_leaf_runs++];
+    run->first = s->leaves_parsed;
+    run->line = kw->loc.line;
+    run->col = kw->loc.col;
+    s->leaves_parsed += count;
+    return true;
+}
+
 /* Tells a truly singular transformation (a zero scale, a flattened Matrix) from one that
  * float merely cannot invert (Scale 1e30: its inverse is fine in exact arithmetic). The
  * rows of the 3x3 part are normalised first, so the test does not depend on the scale:
@@ -544,7 +565,9 @@ static bool parse_sphere(Parser *p, const Token *kw, Object3D **out)
     if (r < 0.0f)
         return fail(p, &at, "Sphere radius must not be negative, found %g", (double)r);
     *out = sphere_new(&p->s->arena, c, r, p->current);
-    return *out || out_of_memory(p, &kw->loc);
+    if (!*out)
+        return out_of_memory(p, &kw->loc);
+    return note_leaves(p, kw, 1);
 }
 
 static bool parse_plane(Parser *p, const Token *kw, Object3D **out)
@@ -558,7 +581,9 @@ static bool parse_plane(Parser *p, const Token *kw, Object3D **out)
     if (v3_is_zero(n))
         return fail(p, &at, "Plane normal is zero");
     *out = plane_new(&p->s->arena, n, d, p->current);
-    return *out || out_of_memory(p, &kw->loc);
+    if (!*out)
+        return out_of_memory(p, &kw->loc);
+    return note_leaves(p, kw, 1);
 }
 
 static bool parse_triangle(Parser *p, const Token *kw, Object3D **out)
@@ -569,7 +594,9 @@ static bool parse_triangle(Parser *p, const Token *kw, Object3D **out)
         !expect(p, "}", NULL))
         return false;
     *out = triangle_new(&p->s->arena, v[0], v[1], v[2], p->current);
-    return *out || out_of_memory(p, &kw->loc);
+    if (!*out)
+        return out_of_memory(p, &kw->loc);
+    return note_leaves(p, kw, 1);
 }
 
 /* obj_file resolution: the scene file's folder first, then the working directory (the
@@ -644,6 +671,8 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
             buf = NULL;
             if (!*out)
                 ok = out_of_memory(p, &name.loc);
+            else
+                ok = note_leaves(p, kw, (uint32_t)mesh.ntris);
         }
     }
     objfile_mesh_free(&mesh);

@@ -32,8 +32,29 @@ void scene_free(Scene *s)
 {
     if (!s)
         return;
+    free(s->leaf_runs);
     arena_free(&s->arena);
     free(s);
+}
+
+bool scene_leaf_loc(const Scene *s, uint32_t id, SrcLoc *loc)
+{
+    loc->file = s->path;
+    loc->line = loc->col = 0;
+    if (s->num_leaf_runs == 0 || id < s->leaf_runs[0].first || id >= s->leaves_parsed)
+        return false;
+    /* The last run starting at or before id. */
+    uint32_t lo = 0, hi = s->num_leaf_runs;
+    while (hi - lo > 1) {
+        uint32_t mid = lo + (hi - lo) / 2;
+        if (s->leaf_runs[mid].first <= id)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    loc->line = s->leaf_runs[lo].line;
+    loc->col = s->leaf_runs[lo].col;
+    return true;
 }
 
 static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
