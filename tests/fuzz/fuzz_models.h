@@ -2,7 +2,8 @@
  * temporary folder, under the names the course and project scenes use, so the seed
  * scenes find a (tiny) mesh wherever they look: <dir>/scenes is the scene's folder,
  * <dir>/models holds the project's "../models/NAME.obj". The process works inside
- * <dir>/scenes, so obj_file never reaches outside the folder by a relative name. */
+ * <dir>/scenes, so obj_file never reaches outside the folder by a relative name. The
+ * folder is removed when the process exits (fuzz_tmp.h). */
 #ifndef RT_FUZZ_MODELS_H
 #define RT_FUZZ_MODELS_H
 
@@ -11,6 +12,8 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include "fuzz_tmp.h"
 
 static const char fuzz_cube_obj[] =
     "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1\n"
@@ -40,17 +43,15 @@ static inline int fuzz_write_text(const char *dir, const char *name, const char 
     return fclose(f);
 }
 
-/* Makes the folder and enters <dir>/scenes; returns that folder (static storage) or
- * NULL. */
+/* Makes the folder (fuzz_tmp_dir: removed at exit) and enters <dir>/scenes; returns
+ * that folder (static storage) or NULL. */
 static inline const char *fuzz_models_setup(void)
 {
     static char scenes[4096];
     if (scenes[0])
         return scenes;
-    const char *base = getenv("TMPDIR");
-    char dir[4000];
-    snprintf(dir, sizeof dir, "%s/rt_fuzz.XXXXXX", base && *base ? base : "/tmp");
-    if (!mkdtemp(dir))
+    const char *dir = fuzz_tmp_dir();
+    if (!dir)
         return NULL;
     char models[4096];
     snprintf(scenes, sizeof scenes, "%s/scenes", dir);

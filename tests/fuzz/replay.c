@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "fuzz.h"
+#include "fuzz_tmp.h"
 
 #if defined(__SANITIZE_ADDRESS__)
 #include <sanitizer/lsan_interface.h>
@@ -74,7 +75,8 @@ static void replay(const char *path, int argc, char **argv)
     pid_t pid = fork();
     if (pid == 0) {
         alarm(REPLAY_TIMEOUT_S);
-        _exit(run_one(path, argc, argv));
+        /* exit, not _exit: the target's exit handlers remove its temporary folder. */
+        exit(run_one(path, argc, argv));
     }
     int st = 0;
     while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
@@ -113,6 +115,16 @@ int main(int argc, char **argv)
         snprintf(seeds, sizeof seeds, "%s/tests/fuzz/seeds/%s", root, base);
         argc = 3;
         argv = dflt_argv;
+    }
+    /* The inputs' temporary folders go inside one of ours, removed at the end: an input
+     * that crashes or hangs cannot remove its own. */
+    const char *base = getenv("TMPDIR");
+    char tmp[4096];
+    snprintf(tmp, sizeof tmp, "%s/rt_replay.XXXXXX", base && *base ? base : "/tmp");
+    if (!mkdtemp(tmp) || setenv("TMPDIR", tmp, 1) != 0) {
+        printf("replay: cannot make a temporary folder in %s: %s\n", base && *base ? base : "/tmp",
+               strerror(errno));
+        return 1;
     }
     for (int i = 1; i < argc; i++) {
         struct stat st;
@@ -154,6 +166,7 @@ int main(int argc, char **argv)
         }
         free(names);
     }
+    fuzz_rmtree(tmp);
     if (g_passed + g_failed == 0) {
         printf("no input to replay\n");
         g_failed++;
