@@ -397,6 +397,59 @@ if want e && [ -f "$COURSE/bunny_40k.obj" ]; then
     say ""
 fi
 
+# ---------------------------------------------------------------------------------
+# (g) bounded grid builds: the cell-reference cap and -grid auto from object sizes
+# ---------------------------------------------------------------------------------
+# colocated = 10,000 spheres at one point (tests/repro); shards = 100,000 triangles with
+# vertices anywhere in a cube (modelgen shards: large, all overlapping); bigmesh = 10
+# blobs of 327,680 triangles in a row (modelgen row 10 7 40: 3,276,800 triangles, a
+# 130 MB OBJ made once into bench/out). Per run: the grid phase of -timings (wall ms),
+# the whole process's CPU ms and peak memory (GNU time's maximum resident set, MB), the
+# resolution built and its cell references; "no grid" is the same run without one.
+if want g; then
+    [ -f "$OUT/shards.obj" ] || "$TOOLS/modelgen" -q -o "$OUT/shards.obj" shards 100000 || exit 1
+    [ -f "$OUT/bigmesh.obj" ] || "$TOOLS/modelgen" -q -o "$OUT/bigmesh.obj" row 10 7 40 || exit 1
+    GTIME=
+    [ -x /usr/bin/time ] && GTIME=/usr/bin/time
+    say "== (g) bounded grid builds, -size 20 20 -shadows, median of $RUNS (grid ms: -timings;"
+    say "   cpu: whole process, user + system; rss: peak resident MB, GNU time; refs: cell"
+    say "   references built, marching / course, and the cap)"
+    say "$(printf '   %-10s %-14s %9s %9s %7s %-13s %s' scene grid grid-ms cpu-ms rss-MB cells refs)"
+    for row in "colocated|$ROOT/tests/repro/grid_auto_colocated_10000.txt" \
+               "shards|$ROOT/bench/shards.txt" "bigmesh|$ROOT/bench/bigmesh.txt"; do
+        sc=${row%%|*} scene=${row#*|}
+        for g in none "auto" "64 64 64" "40 40 40"; do
+            [ "$sc" = bigmesh ] && [ "$g" = "64 64 64" ] && continue
+            [ "$sc" != bigmesh ] && [ "$g" = "40 40 40" ] && continue
+            gargs=()
+            [ "$g" != none ] && gargs=(-grid $g)
+            gm=() cm=() rs=()
+            cells=- refs=-
+            for ((k = 0; k < RUNS; k++)); do
+                if [ -n "$GTIME" ]; then
+                    run_timed "$GTIME" -f 'rss_kb=%M' "$BIN" -input "$scene" -output "$TMP/g.tga" \
+                        -size 20 20 -shadows -timings "${gargs[@]}"
+                    rs+=("$(sed -n 's/^rss_kb=//p' "$TMP/run.err" | tail -n 1 | awk '{ printf "%.1f", $1 / 1024 }')")
+                else
+                    run_timed "$BIN" -input "$scene" -output "$TMP/g.tga" -size 20 20 -shadows -timings "${gargs[@]}"
+                fi
+                [ "$STATUS" = 0 ] || { note "bench: $sc -grid $g failed: $(head -c 300 "$TMP/run.err")"; break; }
+                gm+=("$(timing grid)") cm+=("$CPU")
+                cells=$(sed -n 's/.*using \([0-9x]*\) instead.*/\1/p; s/.*auto chose \([0-9]*\) x \([0-9]*\) x \([0-9]*\) cells.*/\1x\2x\3/p' "$TMP/run.err" | head -n 1)
+                [ -z "$cells" ] && [ "$g" != none ] && cells=$(echo "$g" | tr ' ' x)
+                [ "$g" = none ] && cells=-
+                refs=$(sed -n 's/.*cell references: \([0-9]*\) marching, \([0-9]*\) course.*(cap \([0-9]*\)).*/\1 \/ \2, cap \3/p' "$TMP/run.err" | head -n 1)
+                [ -z "$refs" ] && refs=-
+            done
+            [ "$STATUS" = 0 ] || continue
+            rss=-
+            [ ${#rs[@]} -gt 0 ] && rss=$(median "${rs[@]}")
+            say "$(printf '   %-10s %-14s %9s %9s %7s %-13s %s' "$sc" "$g" "$(median "${gm[@]}")" "$(median "${cm[@]}")" "$rss" "$cells" "$refs")"
+        done
+    done
+    say ""
+fi
+
 # (f) antialiasing: 16 samples against 1 (bench/aa.sh)
 if want f && [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ]; then
     bash "$ROOT/bench/aa.sh" "$BIN" "$COURSE" "$RUNS" | tee -a "$R"

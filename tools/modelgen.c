@@ -460,6 +460,24 @@ static void make_clusters(Mesh *m, int k, int level, double spread, double radiu
     free(c);
 }
 
+/* n seeded triangles whose vertices lie anywhere in [-1, 1]^3: each spans about half the
+ * cube and they all overlap (the grid's worst case for cell references, bench (g)). */
+static void make_shards(Mesh *m, int n, unsigned long seed)
+{
+    rng_state = 0x9E3779B97F4A7C15ull ^ ((uint64_t)seed * 0xD1B54A32D192ED03ull);
+    if (rng_state == 0)
+        rng_state = 1;
+    for (int i = 0; i < n; i++) {
+        uint32_t v[3];
+        for (int k = 0; k < 3; k++) {
+            double x = 2.0 * rng_uniform() - 1.0, y = 2.0 * rng_uniform() - 1.0,
+                   z = 2.0 * rng_uniform() - 1.0;
+            v[k] = mesh_vertex(m, x, y, z);
+        }
+        mesh_face(m, v[0], v[1], v[2]);
+    }
+}
+
 /* A long thin scene: k blobs of radius 1 (make_blob, level) in a row along +x, centres
  * from 0 to length. */
 static void make_row(Mesh *m, int k, int level, double length)
@@ -495,6 +513,8 @@ static void usage(FILE *out)
           "  clusters K LEVEL SPREAD R    K blobs of radius R far apart in a cube of side\n"
           "                               SPREAD, 20*4^LEVEL triangles each\n"
           "  row K LEVEL LENGTH           K blobs of radius 1 in a row along x, LENGTH long\n"
+          "  shards N [SEED]              N seeded triangles with vertices anywhere in\n"
+          "                               [-1,1]^3: large and all overlapping (benchmarks)\n"
           "\n"
           "options:\n"
           "  -o FILE   write to FILE (written to FILE.tmp, then renamed)\n"
@@ -636,6 +656,14 @@ int main(int argc, char **argv)
         if (ok)
             make_row(&m, k, level, length);
         decimals = 5;
+    } else if (!strcmp(model, "shards")) {
+        NEED(1, 2);
+        int n, seed = 1;
+        ok = parse_int(args[0], 1, 10000000, &n) &&
+             (nargs < 2 || parse_int(args[1], 0, 1000000000, &seed));
+        if (ok)
+            make_shards(&m, n, (unsigned long)seed);
+        decimals = 4;
     } else {
         fprintf(stderr, "modelgen: unknown model '%s' (try -h)\n", model);
         return 2;
