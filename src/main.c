@@ -522,7 +522,7 @@ static int run(App *app)
         if (app->prims.num_kept_out > 1)
             snprintf(more, sizeof more, " (and %u more objects)", app->prims.num_kept_out - 1);
         diag_warning(&app->diag, &at, "%s reaches beyond +-%g: kept out of the %s and tested "
-                     "by every ray%s", p->obj->ops->type_name, (double)PRIM_MAX_COORD, ops->name,
+                     "by every ray%s", p->obj->ops->type_name, (double)PRIM_MAX_COORD, "grid",
                      more);
     }
     int errors = app->diag.errors;

@@ -547,6 +547,9 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
     choose_dims(lo, hi, TOP_LAMBDA * prims, TOP_MAX_AXIS, n);
     fit_dims((const float (*)[6])boxes, nb, lo, hi, TOP_DUP * prims + BUDGET_SLACK, n);
     free(boxes);
+    /* The uniform grid's own cap counts the course's cells too (grid_budget.c): fit it
+     * here, quietly, so the top level never gets the warning meant for a request. */
+    grid_fit_refs(table, n, grid_ref_cap_auto(table->num_bounded), NULL);
 
     TwoLevelGrid *t = calloc(1, sizeof *t);
     if (!t)

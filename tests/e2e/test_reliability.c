@@ -272,7 +272,8 @@ static void test_repro_grid_scenes(void)
                                          "grid_auto_colocated_10000.txt"};
     static const char *const grids[][5] = {{"-grid", "auto", NULL},
                                            {"-grid", "64", "64", "64", NULL},
-                                           {"-accel", "grid", "-grid", "auto", NULL}};
+                                           {"-accel", "grid", "-grid", "auto", NULL},
+                                           {"-accel", "twolevel", NULL}};
     char dir[PATH_MAX], out[PATH_MAX], ref[PATH_MAX], scene[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gridrepro") != NULL);
     e2e_join(out, sizeof out, dir, "o.tga");
@@ -284,7 +285,7 @@ static void test_repro_grid_scenes(void)
         CHECK_MSG(run_grid(scene, ref, NULL, &r) == 0, "%s (no grid): %s", scenes[i],
                   e2e_describe(&r, why, sizeof why));
         e2e_run_free(&r);
-        for (int g = 0; g < 3; g++) {
+        for (int g = 0; g < 4; g++) {
             int st = run_grid(scene, out, grids[g], &r);
             CHECK_MSG(st == 0, "%s %s %s: %s", scenes[i], grids[g][0], grids[g][1],
                       e2e_describe(&r, why, sizeof why));
