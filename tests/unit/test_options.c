@@ -4,6 +4,8 @@
 #include "harness.h"
 #include "rt/options.h"
 #include "rt/stats.h"
+#include "rt/accel.h"
+#include "rt/image.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -182,10 +184,45 @@ static void test_stats_rays_per_second(void)
     CHECK_CONTAINS(block, "  rays per second            53451.0\n");
 }
 
+/* -h lists every codec of the table under -format (with its extensions) and every
+ * registered accelerator under -accel: what bash completion reads. */
+static void test_usage_lists_tables(void)
+{
+    char *text = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&text, &len);
+    CHECK(f != NULL);
+    if (!f)
+        return;
+    options_usage(f);
+    fclose(f);
+    const char *fmt = strstr(text, "  -format name"), *acc = strstr(text, "  -accel NAME");
+    CHECK(fmt && acc);
+    char row[128];
+    const ImageCodec *c;
+    int n = 0;
+    for (int i = 0; (c = image_codec_at(i)) != NULL; i++, n++) {
+        snprintf(row, sizeof row, "\n      %-20s %s", c->name, c->extensions[0]);
+        const char *at = strstr(text, row);
+        CHECK_MSG(at && fmt && at > fmt && at < strstr(fmt + 1, "\n  -"),
+                  "format %s not listed under -format", c->name);
+    }
+    CHECK(n >= 3);
+    for (int i = 0; accel_registry[i]; i++) {
+        snprintf(row, sizeof row, "\n      %-20s %s\n", accel_registry[i]->name,
+                 accel_registry[i]->summary);
+        const char *at = strstr(text, row);
+        CHECK_MSG(at && acc && at > acc, "accelerator %s not listed under -accel",
+                  accel_registry[i]->name);
+    }
+    free(text);
+}
+
 static const TestCase tests[] = {
     {"options: a full course command line", test_course_line},
     {"options: defaults, repeats, -grid auto, -h", test_defaults_and_repeats},
     {"options: usage errors say why", test_usage_errors},
+    {"options: -h lists the codec table and the accelerator registry", test_usage_lists_tables},
     {"stats: the course block, label for label", test_stats_block},
     {"stats: rays per second, the course's formula", test_stats_rays_per_second},
 };
