@@ -1,5 +1,5 @@
 #!/bin/bash
-# Split-render benchmark (make bench, section (g); docs/distributed.md): course line 07
+# Split-render benchmark (make bench, section (h); docs/distributed.md): course line 07
 # (the 40k bunny, -grid 40 40 33 -shadows) at 1920x1080, one sample per pixel and 16
 # (uniform with the box filter, which needs no margin; jittered with the Gaussian 0.4,
 # whose support reaches one pixel into the neighbouring tiles).
@@ -35,7 +35,7 @@ A=(-input "$SCENE" -grid 40 40 33 -shadows -size 1920 1080 -threads 1)
 N_TILES=64
 # OpenMPI refuses to run as root unless told it may (as in CI).
 [ "$(id -u)" = 0 ] && export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
-echo "== (g) split renders: course line 07 at 1920x1080, one thread per process"
+echo "== (h) split renders: course line 07 at 1920x1080, one thread per process"
 echo "   tile overhead: CPU ms (user+sys) of $N_TILES '-tile k $N_TILES' processes + merge vs one"
 echo "   whole render; target: within 10%. MPI: wall ms, median of $RUNS, interleaved;"
 echo "   target: -np 2 >= 1.8x -np 1."

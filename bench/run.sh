@@ -8,7 +8,7 @@
 # BENCH_RUNS (median of N, default 3), BENCH_QUICK=1 (bunny 40k and the blob only, no
 # brute-force column), BENCH_BRUTE=0 (no brute-force column), BENCH_BRUTE_LIMIT (seconds
 # per brute-force run, default 20), RT_COURSE (default
-# ../shared/course), RT_MPI_BIN (raytracer-mpi for section (g), default ./raytracer-mpi),
+# ../shared/course), RT_MPI_BIN (raytracer-mpi for section (h), default ./raytracer-mpi),
 # BENCH_REPORT (output file, default bench/REPORT.txt).
 set -u
 export LC_ALL=C
@@ -73,8 +73,8 @@ stat_of() { sed -n "s/^  $1  *\([0-9.]*\).*/\1/p" "$TMP/run.out" | tail -n 1 | g
 # from the last embree_ref run: key=value
 emb_of() { tr ' ' '\n' <"$TMP/run.out" | sed -n "s/^$1=//p" | head -n 1; }
 
-# BENCH_ONLY=letters: only those sections (a b c e f g; b includes d), e.g. BENCH_ONLY=e
-want() { case "${BENCH_ONLY:-abcefg}" in *"$1"*) return 0 ;; esac; return 1; }
+# BENCH_ONLY=letters: only those sections (a b c e f g h; b includes d), e.g. BENCH_ONLY=e
+want() { case "${BENCH_ONLY:-abcefgh}" in *"$1"*) return 0 ;; esac; return 1; }
 
 HAS_TIMINGS=0
 "$BIN" -h 2>&1 | grep -q -- '-timings' && HAS_TIMINGS=1
@@ -455,8 +455,8 @@ if want f && [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ]; then
     bash "$ROOT/bench/aa.sh" "$BIN" "$COURSE" "$RUNS" | tee -a "$R"
 fi
 
-# (g) split renders: 64 tiles against one render, raytracer-mpi -np 1/2/4 (bench/dist.sh)
-if want g && [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ] && [ "$QUICK" != 1 ]; then
+# (h) split renders: 64 tiles against one render, raytracer-mpi -np 1/2/4 (bench/dist.sh)
+if want h && [ -f "$COURSE/scene6_07_bunny_mesh_40k.txt" ] && [ "$QUICK" != 1 ]; then
     bash "$ROOT/bench/dist.sh" "$BIN" "${RT_MPI_BIN:-$ROOT/raytracer-mpi}" "$COURSE" "$RUNS" | tee -a "$R"
 fi
 
