@@ -126,12 +126,37 @@ static void src_read(png_structp png, png_bytep dst, png_size_t n)
     s->pos += n;
 }
 
+/* Whether every chunk's declared length fits in the bytes that follow it. libpng
+ * allocates (and clears) a chunk's declared length before reading it, so 128 bytes
+ * declaring a 1 GB text chunk once cost 1 GB and seconds before "truncated"; no chunk
+ * of a complete file can be longer than the file. Stops at IEND or the end. */
+static bool chunks_fit(const uint8_t *data, size_t len)
+{
+    size_t pos = 8; /* the signature */
+    while (pos + 8 <= len) {
+        uint32_t n = (uint32_t)data[pos] << 24 | (uint32_t)data[pos + 1] << 16 |
+                     (uint32_t)data[pos + 2] << 8 | (uint32_t)data[pos + 3];
+        if ((size_t)n > len - pos - 8)
+            return false;
+        if (memcmp(data + pos + 4, "IEND", 4) == 0)
+            return true;
+        pos += 8 + (size_t)n + 4; /* length, type, data, CRC */
+    }
+    return true; /* a file cut inside a chunk header: libpng reports it */
+}
+
 static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
 {
     PngSrc src = {data, len, 0};
     img->width = img->height = 0;
     img->pixels = NULL;
     img->has_region = false;
+    if (!chunks_fit(data, len)) {
+        if (err && errlen)
+            snprintf(err, errlen, "corrupt or truncated PNG file (a chunk is longer than the "
+                     "file)");
+        return false;
+    }
     /* volatile: these change between setjmp and a possible longjmp. */
     uint8_t *volatile row = NULL;
     png_bytep *volatile rows = NULL;
