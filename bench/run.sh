@@ -399,7 +399,7 @@ if want e && [ -f "$COURSE/bunny_40k.obj" ]; then
 fi
 
 # ---------------------------------------------------------------------------------
-# (h) bounded grid builds: the cell-reference cap and -grid auto from object sizes
+# (g) bounded grid builds: the cell-reference cap and -grid auto from object sizes
 # ---------------------------------------------------------------------------------
 # colocated = 10,000 spheres at one point (tests/repro); shards = 100,000 triangles with
 # vertices anywhere in a cube (modelgen shards: large, all overlapping); bigmesh = 10
@@ -407,12 +407,12 @@ fi
 # 130 MB OBJ made once into bench/out). Per run: the grid phase of -timings (wall ms),
 # the whole process's CPU ms and peak memory (GNU time's maximum resident set, MB), the
 # resolution built and its cell references; "no grid" is the same run without one.
-if want h; then
+if want g; then
     [ -f "$OUT/shards.obj" ] || "$TOOLS/modelgen" -q -o "$OUT/shards.obj" shards 100000 || exit 1
     [ -f "$OUT/bigmesh.obj" ] || "$TOOLS/modelgen" -q -o "$OUT/bigmesh.obj" row 10 7 40 || exit 1
     GTIME=
     [ -x /usr/bin/time ] && GTIME=/usr/bin/time
-    say "== (h) bounded grid builds, -size 20 20 -shadows, median of $RUNS (grid ms: -timings;"
+    say "== (g) bounded grid builds, -size 20 20 -shadows, median of $RUNS (grid ms: -timings;"
     say "   cpu: whole process, user + system; rss: peak resident MB, GNU time; refs: cell"
     say "   references built, marching / course, and the cap)"
     say "$(printf '   %-10s %-14s %9s %9s %7s %-13s %s' scene grid grid-ms cpu-ms rss-MB cells refs)"

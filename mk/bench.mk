@@ -3,7 +3,7 @@
 #   make bench    the full benchmark: course suite, throughput, set-up, Embree pairing;
 #                 BENCH_RUNS=N (median of N, default 3), BENCH_QUICK=1 (a short run),
 #                 BENCH_BRUTE=0 (skip the brute-force column of the course suite),
-#                 BENCH_ONLY=letters (only those sections of the report, e.g. e or h)
+#                 BENCH_ONLY=letters (only those sections of the report, e.g. e or g)
 # The Embree reference (bench/embree_ref.c) is built only when Debian's libembree-dev is
 # installed; nothing else in the build needs it.
 
