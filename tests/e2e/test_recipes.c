@@ -71,6 +71,21 @@ static bool shell(const char *dir, const char *cmd, E2eRun *r)
     return r->status == 0;
 }
 
+/* Runs cmd in the set-up's folder; when it exits 0, the frame.tga it made must be the
+ * whole render's bytes. True when the command succeeded. */
+static bool run_recipe(const Setup *s, const char *cmd, const char *what)
+{
+    E2eRun r;
+    bool ok = shell(s->dir, cmd, &r);
+    if (ok) {
+        char out[PATH_MAX];
+        CHECK_MSG(same_file(e2e_join(out, sizeof out, s->dir, "frame.tga"), s->ref),
+                  "%s: frame differs from the whole render", what);
+    }
+    e2e_run_free(&r);
+    return ok;
+}
+
 static bool have(const char *tool)
 {
     char cmd[256];
@@ -108,13 +123,7 @@ static void test_parallel_one_machine(void)
              "parallel '%s' -input scene.txt -size %s %s -shadows -bounces 2 -tile {} 8 "
              "-output part{}.tga ::: 0 1 2 3 4 5 6 7 && '%s' -merge frame.tga part?.tga",
              s.bin, SIZE_W, SIZE_H, s.bin);
-    E2eRun r;
-    if (shell(s.dir, cmd, &r)) {
-        char out[PATH_MAX];
-        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
-                  "GNU parallel: merged frame differs from the whole render");
-    }
-    e2e_run_free(&r);
+    run_recipe(&s, cmd, "GNU parallel");
     e2e_rmtree(s.dir);
 }
 
@@ -131,13 +140,7 @@ static void test_parallel_sshlogin_form(void)
              "--cleanup '%s' -input scene.txt -size %s %s -shadows -bounces 2 -tile {} 5 "
              "-output part{}.tga ::: 0 1 2 3 4 && '%s' -merge frame.tga part*.tga",
              s.bin, SIZE_W, SIZE_H, s.bin);
-    E2eRun r;
-    if (shell(s.dir, cmd, &r)) {
-        char out[PATH_MAX];
-        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
-                  "parallel --sshlogin: merged frame differs from the whole render");
-    }
-    e2e_run_free(&r);
+    run_recipe(&s, cmd, "parallel --sshlogin");
     e2e_rmtree(s.dir);
 }
 
@@ -151,14 +154,8 @@ static void test_tiles_sbatch_fallback(void)
     snprintf(cmd, sizeof cmd,
              "TILES=6 RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt frame.tga "
              "-size %s %s -shadows -bounces 2", s.bin, s.root, SIZE_W, SIZE_H);
-    E2eRun r;
-    if (shell(s.dir, cmd, &r)) {
-        char out[PATH_MAX];
-        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
-                  "tiles.sbatch (no Slurm): frame differs from the whole render");
+    if (run_recipe(&s, cmd, "tiles.sbatch (no Slurm)"))
         CHECK_MSG(e2e_count_entries(s.dir) == 3, "tiles.sbatch left its parts behind");
-    }
-    e2e_run_free(&r);
     e2e_rmtree(s.dir);
 }
 
@@ -198,12 +195,7 @@ static void test_tiles_sbatch_array_mode(void)
             char merge[2048];
             snprintf(merge, sizeof merge, "%s", wrap + 7);
             merge[strcspn(merge, "\n")] = '\0';
-            if (shell(s.dir, merge, &r)) {
-                char out[PATH_MAX];
-                CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
-                          "tiles.sbatch (array): merged frame differs from the whole render");
-            }
-            e2e_run_free(&r);
+            run_recipe(&s, merge, "tiles.sbatch (array), merge job");
         }
         free(args);
     }
@@ -231,13 +223,7 @@ static void test_render_sbatch_fallback(void)
              "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 NP=3 RAYTRACER_MPI='%s' "
              "bash '%s/scripts/slurm/render.sbatch' scene.txt frame.tga -size %s %s -shadows "
              "-bounces 2", abs_mpi, s.root, SIZE_W, SIZE_H);
-    E2eRun r;
-    if (shell(s.dir, cmd, &r)) {
-        char out[PATH_MAX];
-        CHECK_MSG(same_file(e2e_join(out, sizeof out, s.dir, "frame.tga"), s.ref),
-                  "render.sbatch (mpirun -np 3): frame differs from the whole render");
-    }
-    e2e_run_free(&r);
+    run_recipe(&s, cmd, "render.sbatch (mpirun -np 3)");
     e2e_rmtree(s.dir);
 }
 
