@@ -1,11 +1,11 @@
 /* The film (A7): samples traced in packets, held strip by strip within a memory budget,
  * filtered into the requested rectangle; and the course's two diagnostic pictures. */
 #include "rt/film.h"
+#include "rt/clock.h"
 #include "rt/render.h"
 
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define TILE RENDER_TILE
 
@@ -308,14 +308,6 @@ static bool film_check(const FilmConfig *c)
            (!c->refine || c->refine->count >= 1) && (!c->samples || c->samples_zoom >= 1);
 }
 
-static double thread_cpu(void)
-{
-    struct timespec ts;
-    if (clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts) != 0)
-        return 0.0;
-    return (double)ts.tv_sec + (double)ts.tv_nsec * 1e-9;
-}
-
 bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
                  int threads, RtStats *stats_out, volatile int *cancel)
 {
@@ -414,17 +406,17 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
         if (f.r1 > f.r0) {
             RtStats st;
             int bands = (f.r1 - f.r0 + TILE - 1) / TILE;
-            double t0 = thread_cpu();
+            double t0 = clock_thread_cpu();
             ok = render_parallel(rt, threads, bands, film_band, &f, &st, cancel);
-            cfg->trace_cpu += thread_cpu() - t0;
+            cfg->trace_cpu += clock_thread_cpu() - t0;
             stats_merge(&total, &st);
             f.rows = f.r1 - f.y0;
         }
         f.out0 = oy;
         if (ok) {
-            double t0 = thread_cpu();
+            double t0 = clock_thread_cpu();
             ok = render_parallel(NULL, threads, out1 - oy, film_filter_row, &f, NULL, cancel);
-            cfg->filter_cpu += thread_cpu() - t0;
+            cfg->filter_cpu += clock_thread_cpu() - t0;
         }
         oy = out1;
     }
