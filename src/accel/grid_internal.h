@@ -26,6 +26,13 @@ typedef struct PackedTri {
     uint32_t pad[2];
 } PackedTri;
 
+/* The box of a packed triangle, widened by the grid's rounding pad on each axis (the
+ * packet walk's cull, grid_packet_kernel.h): lo[a] <= every vertex's a - pad[a], and
+ * hi[a] >= + pad[a]. Unused for primitives that are not packed. */
+typedef struct TriBox {
+    float lo[3], hi[3];
+} TriBox;
+
 struct Grid {
     BBox bounds;            /* the scene box as given (printed by -stats) */
     BBox box;               /* the box the cells tile: bounds, zero-thickness axes widened */
@@ -49,6 +56,7 @@ struct Grid {
     /* Hot-loop layout (grid_pack.c): cell_items entries with GRID_ITEM_TRI set are
      * untransformed triangles whose edges are copied, packed, into tri[prim]. */
     PackedTri *tri;
+    TriBox *tri_box;        /* per packed triangle, for the packet walk's cull */
     bool packing_off;       /* grid_set_packing(g, false): every entry via its ops */
 
     /* The primitive table of grid_build (grid_build_table borrows the caller's). */

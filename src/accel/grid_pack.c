@@ -4,6 +4,7 @@
  * arithmetic as Triangle::intersect, hence the same hits to the bit. */
 #include "grid_internal.h"
 
+#include <math.h>
 #include <stdlib.h>
 
 #include "rt/geom.h"
@@ -59,13 +60,15 @@ static bool reorder_prims(Grid *g)
 bool grid_pack(Grid *g)
 {
     g->tri = NULL;
+    g->tri_box = NULL;
     if (g->num_prims && !reorder_prims(g))
         return false;
     /* The tag bit must stay free: beyond 2^31 primitives use the generic path. */
     if (g->num_prims == 0 || g->num_prims >= GRID_ITEM_TRI)
         return true;
     g->tri = aligned_alloc(16, (size_t)g->num_prims * sizeof *g->tri);
-    if (!g->tri)
+    g->tri_box = malloc((size_t)g->num_prims * sizeof *g->tri_box);
+    if (!g->tri || !g->tri_box)
         return false;
     for (uint32_t p = 0; p < g->num_prims; p++) {
         const GridPrim *gp = &g->prims[p];
@@ -82,6 +85,16 @@ bool grid_pack(Grid *g)
         pt->e2 = v3_sub(v[2], v[0]);
         pt->id = gp->obj->id;
         pt->pad[0] = pt->pad[1] = 0;
+        /* Widened by the pad the cells were filled with, then by a further ulp of the
+         * coordinate for the rounding of the subtraction: the box holds every point
+         * within pad[a] of the triangle. */
+        TriBox *b = &g->tri_box[p];
+        for (int a = 0; a < 3; a++) {
+            float x0 = v3_comp(v[0], a), x1 = v3_comp(v[1], a), x2 = v3_comp(v[2], a);
+            float lo = fminf(x0, fminf(x1, x2)), hi = fmaxf(x0, fmaxf(x1, x2));
+            b->lo[a] = nextafterf(lo - g->pad[a], -INFINITY);
+            b->hi[a] = nextafterf(hi + g->pad[a], INFINITY);
+        }
     }
     size_t n = g->cell_start[g->num_cells];
     for (size_t e = 0; e < n; e++)
@@ -108,5 +121,7 @@ bool grid_packing(const Grid *g) { return g->tri && !g->packing_off; }
 void grid_pack_free(Grid *g)
 {
     free(g->tri);
+    free(g->tri_box);
     g->tri = NULL;
+    g->tri_box = NULL;
 }

@@ -38,8 +38,16 @@ PK_INLINE pk_f8 pk_blend(pk_i8 m, pk_f8 a, pk_f8 b) /* m ? a : b, lane by lane *
     return (pk_f8)((m & (pk_i8)a) | (~m & (pk_i8)b));
 }
 
+/* a < b ? a : b and a > b ? a : b, lane by lane: exactly what the x86 min and max
+ * instructions compute (the second operand when the comparison is false: equal
+ * values, or a NaN on either side). */
+#if defined(__AVX__)
+PK_INLINE pk_f8 pk_min(pk_f8 a, pk_f8 b) { return (pk_f8)_mm256_min_ps((__m256)a, (__m256)b); }
+PK_INLINE pk_f8 pk_max(pk_f8 a, pk_f8 b) { return (pk_f8)_mm256_max_ps((__m256)a, (__m256)b); }
+#else
 PK_INLINE pk_f8 pk_min(pk_f8 a, pk_f8 b) { return pk_blend(a < b, a, b); }
 PK_INLINE pk_f8 pk_max(pk_f8 a, pk_f8 b) { return pk_blend(a > b, a, b); }
+#endif
 
 /* Bit l set when lane l of m is set. */
 PK_INLINE unsigned pk_bits(pk_i8 m)
@@ -68,20 +76,22 @@ PK_INLINE pk_i8 pk_lanes(unsigned byte)
     return (v & bit) != (pk_i8){0, 0, 0, 0, 0, 0, 0, 0};
 }
 
+/* The smallest and the largest lane (no NaN lanes; of +0 and -0 either may come out,
+ * which compare and convert to cells alike). A tree of halves: 3 steps. */
 PK_INLINE float pk_hmin(pk_f8 v)
 {
-    float m = v[0];
-    for (int l = 1; l < PK_LANES; l++)
-        m = v[l] < m ? v[l] : m;
-    return m;
+    v = pk_min(v, __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3));
+    v = pk_min(v, __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5));
+    v = pk_min(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6));
+    return v[0];
 }
 
 PK_INLINE float pk_hmax(pk_f8 v)
 {
-    float m = v[0];
-    for (int l = 1; l < PK_LANES; l++)
-        m = v[l] > m ? v[l] : m;
-    return m;
+    v = pk_max(v, __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3));
+    v = pk_max(v, __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5));
+    v = pk_max(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6));
+    return v[0];
 }
 
 /* march_cell_of lane by lane (lanes outside the slice may hold anything: clamped). */
@@ -91,6 +101,43 @@ PK_INLINE pk_i8 pk_cells(pk_f8 x, float lo, float inv_size, int n)
     f = pk_max(f, pk_splat(0.0f)); /* a NaN lane compares false and becomes 0 */
     f = pk_min(f, pk_splat((float)(n - 1)));
     return __builtin_convertvector(f, pk_i8);
+}
+
+/* The packet walk's triangle cull (Wald et al. 2006 cull a slice's triangles against
+ * the packet's frustum; this is the same idea per group of rays, against the slice's
+ * box of each group). The grid's own rule: the point o + t*d of a hit lies within
+ * the rounding pad of the triangle (the march stops at a cell's exit on it, and the
+ * cells were filled with that pad), i.e. within its padded box (TriBox). In a slice, a
+ * ray's part lies in its rectangle (its ends across the slice, widened by the pad for
+ * the rounding of o + t*d, as for its cells). So when a group's rectangle (the union
+ * of its rays') misses the padded box in U or V, no ray of the group has its hit with
+ * this triangle in this slice: a hit of theirs lies in another slice, in a cell that
+ * holds the triangle and that the ray's rectangle covers there, where it is tested
+ * (the triangle is marked only for the rays that test it; a ray leaves the walk only
+ * when its best hit is nearer than any later slice). The answers do not change; only
+ * tests that cannot succeed are skipped. Returns the 64-bit mask of the rays in groups
+ * that may hit it. Lane gi of the rectangles is group gi. */
+_Static_assert(PK_GROUPS == PK_LANES, "the cull holds one ray group per lane");
+/* Entry b: byte gi all ones where bit gi of b is set (groups to rays). */
+#define PK_GR1(b) (((b) & 1 ? 0xffull : 0) | ((b) & 2 ? 0xff00ull : 0) |                       \
+                   ((b) & 4 ? 0xff0000ull : 0) | ((b) & 8 ? 0xff000000ull : 0) |               \
+                   ((b) & 16 ? 0xff00000000ull : 0) | ((b) & 32 ? 0xff0000000000ull : 0) |     \
+                   ((b) & 64 ? 0xff000000000000ull : 0) | ((b) & 128 ? 0xff00000000000000ull : 0))
+#define PK_GR4(b) PK_GR1(b), PK_GR1(b + 1), PK_GR1(b + 2), PK_GR1(b + 3)
+#define PK_GR16(b) PK_GR4(b), PK_GR4(b + 4), PK_GR4(b + 8), PK_GR4(b + 12)
+#define PK_GR64(b) PK_GR16(b), PK_GR16(b + 16), PK_GR16(b + 32), PK_GR16(b + 48)
+static const uint64_t pk_group_rays[256] = {PK_GR64(0), PK_GR64(64), PK_GR64(128),
+                                            PK_GR64(192)};
+#undef PK_GR64
+#undef PK_GR16
+#undef PK_GR4
+#undef PK_GR1
+PK_INLINE uint64_t pk_cull(const TriBox *b, int U, int V, pk_f8 gu0, pk_f8 gu1, pk_f8 gv0,
+                           pk_f8 gv1)
+{
+    pk_i8 over = (pk_splat(b->lo[U]) <= gu1) & (pk_splat(b->hi[U]) >= gu0) &
+                 (pk_splat(b->lo[V]) <= gv1) & (pk_splat(b->hi[V]) >= gv0);
+    return pk_group_rays[pk_bits(over)];
 }
 
 /* Packed triangle p against the rays of `want` (a 64-bit ray mask). */
@@ -189,6 +236,9 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         float p_near = lo_k + (float)b_near * size_k, p_far = lo_k + (float)b_far * size_k;
 
         pk_f8 umin = inf, umax = ninf, vmin = inf, vmax = ninf;
+        /* Each ray group's rectangle in this slice (lane gi: group gi; an empty
+         * rectangle for groups with no ray here), for the triangle cull below. */
+        pk_f8 gu0 = inf, gu1 = ninf, gv0 = inf, gv1 = ninf;
         pk_f8 tfar[PK_GROUPS];
         pk_i8 cu0[PK_GROUPS], cu1[PK_GROUPS], cv0[PK_GROUPS], cv1[PK_GROUPS];
         uint64_t in = 0;
@@ -222,10 +272,16 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
             cv1[gi] = pk_cells(v1, lo_v, inv_sv, nv);
             /* Statistics: each ray counts the cells of its own range in the slice. */
             cells_acc += ((cu1[gi] - cu0[gi] + 1) * (cv1[gi] - cv0[gi] + 1)) & m;
-            umin = pk_min(umin, pk_blend(m, u0, inf));
-            umax = pk_max(umax, pk_blend(m, u1, ninf));
-            vmin = pk_min(vmin, pk_blend(m, v0, inf));
-            vmax = pk_max(vmax, pk_blend(m, v1, ninf));
+            pk_f8 mu0 = pk_blend(m, u0, inf), mu1 = pk_blend(m, u1, ninf);
+            pk_f8 mv0 = pk_blend(m, v0, inf), mv1 = pk_blend(m, v1, ninf);
+            umin = pk_min(umin, mu0);
+            umax = pk_max(umax, mu1);
+            vmin = pk_min(vmin, mv0);
+            vmax = pk_max(vmax, mv1);
+            gu0[gi] = pk_hmin(mu0);
+            gu1[gi] = pk_hmax(mu1);
+            gv0[gi] = pk_hmin(mv0);
+            gv1[gi] = pk_hmax(mv1);
         }
 
         if (in) {
@@ -266,6 +322,13 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                         uint64_t want = pk->shadow ? crossing & ~pk->hit : crossing;
                         if (!want)
                             break;
+                        if (item & GRID_ITEM_TRI) {
+                            /* The cull: a group whose rectangle misses the triangle's
+                             * padded box skips it here (and stays unmarked). */
+                            want &= pk_cull(&g->tri_box[p], U, V, gu0, gu1, gv0, gv1);
+                            if (!want)
+                                continue;
+                        }
                         if (mb) {
                             /* Packet marking: a ray that has tested p skips it. */
                             if (mb[p] == stamp) {
