@@ -384,7 +384,9 @@ static void check_marking_counters(const char *scene_name, int bounces, bool sha
      * In the last, a shadow ray stops at the end of the batch holding its occluder, so
      * the identity is not exact there, but marking still leaves no repeat. Rays and
      * images never change; cells are counted per packet visit in 0-3 and per ray in
-     * 4-7, so they agree within each half. */
+     * 4-7, so they agree within each half, and in 0-3 within each packing setting:
+     * the packet walk culls packed triangles per ray group and slice, so a ray may
+     * find its hit one slice later than when every entry is tested through its ops. */
     enum { PASSES = 8 };
     RtStats st[PASSES];
     Image img[PASSES];
@@ -422,7 +424,7 @@ static void check_marking_counters(const char *scene_name, int bounces, bool sha
         for (int pass = 1; pass < PASSES; pass++) {
             CHECK_INT(st[0].nonshadow_rays, st[pass].nonshadow_rays);
             CHECK_INT(st[0].shadow_rays, st[pass].shadow_rays);
-            CHECK_INT(st[pass < 4 ? 0 : 4].cells_traversed, st[pass].cells_traversed);
+            CHECK_INT(st[pass < 4 ? pass & ~1 : 4].cells_traversed, st[pass].cells_traversed);
             CHECK(memcmp(img[0].pixels, img[pass].pixels, 64 * 64 * sizeof(Vec3)) == 0);
         }
         for (int pass = 0; pass < PASSES; pass++)
