@@ -10,13 +10,16 @@
 
 #define PK_WALK grid_packet_walk_generic
 #define PK_PREP grid_packet_prep_generic
+#define PK_SPREAD grid_packet_spread_generic
 #include "grid_packet_kernel.h"
 
 typedef void (*WalkFn)(const Grid *, Packet *, RenderCtx *);
 typedef uint64_t (*PrepFn)(const Grid *, Packet *, uint64_t, const float *, uint64_t *);
+typedef float (*SpreadFn)(const Grid *, const Packet *, uint64_t);
 
 static WalkFn walk_fn = grid_packet_walk_generic;
 static PrepFn prep_fn = grid_packet_prep_generic;
+static SpreadFn spread_fn = grid_packet_spread_generic;
 static const char *walk_name = "generic";
 static pthread_once_t walk_once = PTHREAD_ONCE_INIT;
 
@@ -27,6 +30,7 @@ static void choose_walk(void)
     if (__builtin_cpu_supports("avx2")) {
         walk_fn = grid_packet_walk_avx2;
         prep_fn = grid_packet_prep_avx2;
+        spread_fn = grid_packet_spread_avx2;
         walk_name = "avx2";
     }
 #endif
@@ -44,6 +48,7 @@ bool grid_packet_use_kernel(const char *name)
     if (!strcmp(name, "generic")) {
         walk_fn = grid_packet_walk_generic;
         prep_fn = grid_packet_prep_generic;
+        spread_fn = grid_packet_spread_generic;
         walk_name = "generic";
         return true;
     }
@@ -51,6 +56,7 @@ bool grid_packet_use_kernel(const char *name)
     if (!strcmp(name, "avx2") && __builtin_cpu_supports("avx2")) {
         walk_fn = grid_packet_walk_avx2;
         prep_fn = grid_packet_prep_avx2;
+        spread_fn = grid_packet_spread_avx2;
         walk_name = "avx2";
         return true;
     }
@@ -68,10 +74,16 @@ static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const f
 {
     const Ray *rays = pk->rays;
     Vec3 sum = {0.0f, 0.0f, 0.0f};
-    for (uint64_t m = cand; m; m &= m - 1) {
-        const Ray *r = &rays[__builtin_ctzll(m)];
-        if (isfinite(r->dir.x) && isfinite(r->dir.y) && isfinite(r->dir.z))
-            sum = v3_add(sum, r->dir);
+    for (uint64_t m = cand; m; m &= m - 1)
+        sum = v3_add(sum, rays[__builtin_ctzll(m)].dir);
+    if (!(isfinite(sum.x) && isfinite(sum.y) && isfinite(sum.z))) {
+        /* Rare: leave out the rays whose direction is not finite. */
+        sum = v3(0.0f, 0.0f, 0.0f);
+        for (uint64_t m = cand; m; m &= m - 1) {
+            const Ray *r = &rays[__builtin_ctzll(m)];
+            if (isfinite(r->dir.x) && isfinite(r->dir.y) && isfinite(r->dir.z))
+                sum = v3_add(sum, r->dir);
+        }
     }
     int K = 0;
     if (fabsf(sum.y) > fabsf(v3_comp(sum, K)))
@@ -82,25 +94,6 @@ static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const f
     pk->sign = v3_comp(sum, K) < 0.0f ? -1 : 1;
     pthread_once(&walk_once, choose_walk);
     return prep_fn(g, pk, cand, tmax, single_out);
-}
-
-/* How many cells wide the rays of `walk` are across the main axis, at the wider end. */
-static float packet_spread(const Grid *g, const Packet *pk, uint64_t walk)
-{
-    const int U = (pk->axis + 1) % 3, V = (pk->axis + 2) % 3;
-    const float inv_s[2] = {1.0f / g->size[U], 1.0f / g->size[V]};
-    float w = 0.0f;
-    for (int j = 0; j < 4; j++) {
-        float mn = INFINITY, mx = -INFINITY;
-        for (uint64_t m = walk; m; m &= m - 1) {
-            float e = pk->end[j][__builtin_ctzll(m)];
-            mn = e < mn ? e : mn;
-            mx = e > mx ? e : mx;
-        }
-        float c = (mx - mn) * inv_s[j % 2];
-        w = c > w ? c : w;
-    }
-    return w;
 }
 
 /* A packet wider than this many cells is split in four. Each ray only tests the cells
@@ -116,7 +109,7 @@ static float packet_spread(const Grid *g, const Packet *pk, uint64_t walk)
 static uint64_t packet_walk(const Grid *g, Packet *pk, int lo, int n, uint64_t walk,
                             RenderCtx *ctx)
 {
-    if (n >= 8 && packet_spread(g, pk, walk) > PK_MAX_SPREAD) {
+    if (n >= 8 && spread_fn(g, pk, walk) > PK_MAX_SPREAD) {
         uint64_t single = 0;
         for (int q = 0; q < 4; q++) {
             int a = lo + q * n / 4, b = lo + (q + 1) * n / 4;

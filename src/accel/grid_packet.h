@@ -46,5 +46,8 @@ uint64_t grid_packet_prep_generic(const Grid *g, Packet *pk, uint64_t cand, cons
                                   uint64_t *single_out);
 uint64_t grid_packet_prep_avx2(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                uint64_t *single_out);
+/* ... and the width of a packet's rays in cells (PK_SPREAD). */
+float grid_packet_spread_generic(const Grid *g, const Packet *pk, uint64_t walk);
+float grid_packet_spread_avx2(const Grid *g, const Packet *pk, uint64_t walk);
 
 #endif

@@ -11,6 +11,7 @@
 #endif
 #define PK_WALK grid_packet_walk_avx2
 #define PK_PREP grid_packet_prep_avx2
+#define PK_SPREAD grid_packet_spread_avx2
 #include "grid_packet_kernel.h"
 #if defined(__clang__)
 #pragma clang attribute pop
@@ -26,5 +27,10 @@ uint64_t grid_packet_prep_avx2(const Grid *g, Packet *pk, uint64_t cand, const f
                                uint64_t *single_out)
 {
     return grid_packet_prep_generic(g, pk, cand, tmax, single_out);
+}
+
+float grid_packet_spread_avx2(const Grid *g, const Packet *pk, uint64_t walk)
+{
+    return grid_packet_spread_generic(g, pk, walk);
 }
 #endif

@@ -1,7 +1,7 @@
 /* The packet walk and its per-ray set-up, written once and compiled twice: by
  * grid_packet.c for the baseline instruction set and by grid_packet_avx2.c for AVX2.
- * The includer defines PK_WALK and PK_PREP (the two functions' names) and includes
- * this file once.
+ * The includer defines PK_WALK, PK_PREP and PK_SPREAD (the functions' names) and
+ * includes this file once.
  *
  * Coherent grid traversal (Wald, Ize, Kensler, Knoll, Parker, SIGGRAPH 2006): the
  * packet advances one slice of cells at a time along its main axis K. In a slice, the
@@ -482,4 +482,32 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
     }
     *single_out = single;
     return walk;
+}
+
+/* How many cells wide the rays of `walk` are across the main axis, at the wider end
+ * (grid_packet.c splits a packet that is too wide). */
+float PK_SPREAD(const Grid *g, const Packet *pk, uint64_t walk)
+{
+    const int U = (pk->axis + 1) % 3, V = (pk->axis + 2) % 3;
+    const float inv_s[2] = {1.0f / g->size[U], 1.0f / g->size[V]};
+    const pk_f8 inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+    pk_f8 mn[4] = {inf, inf, inf, inf}, mx[4] = {ninf, ninf, ninf, ninf};
+    for (int gi = 0; gi < PK_GROUPS; gi++) {
+        unsigned byte = (unsigned)(walk >> (8 * gi)) & 0xffu;
+        if (!byte)
+            continue;
+        pk_i8 in = pk_lanes(byte);
+        for (int j = 0; j < 4; j++) {
+            pk_f8 e;
+            memcpy(&e, &pk->end[j][8 * gi], sizeof e);
+            mn[j] = pk_min(pk_blend(in, e, inf), mn[j]);
+            mx[j] = pk_max(pk_blend(in, e, ninf), mx[j]);
+        }
+    }
+    float w = 0.0f;
+    for (int j = 0; j < 4; j++) {
+        float c = (pk_hmax(mx[j]) - pk_hmin(mn[j])) * inv_s[j % 2];
+        w = c > w ? c : w;
+    }
+    return w;
 }

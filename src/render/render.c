@@ -70,17 +70,6 @@ static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
         image_set(t->normals, x, y, render_normal_color(hit));
 }
 
-void render_tile_order(int k, int *dx, int *dy)
-{
-    int x = 0, y = 0;
-    for (int b = 0; (1 << (2 * b)) < TILE * TILE; b++) {
-        x |= ((k >> (2 * b)) & 1) << b;
-        y |= ((k >> (2 * b + 1)) & 1) << b;
-    }
-    *dx = x;
-    *dy = y;
-}
-
 typedef struct ImageJob {
     const RayTracer *rt;
     const Camera *camera;

@@ -16,6 +16,7 @@
 #include "rt/geom.h"
 #include "rt/grid.h"
 #include "rt/material.h"
+#include "rt/render.h"
 #include "rt/scene.h"
 
 #include "test_rng.h"
@@ -544,7 +545,32 @@ static void test_no_mailbox(void)
     arena_free(&r.s.arena);
 }
 
+/* The tile order the packets rely on (rt/render.h): Morton order, i.e. a bijection
+ * onto the tile in which every quarter of the order is a quarter of the tile (the
+ * packet walk splits a wide packet that way). Checked against the bit interleaving
+ * written out bit by bit. */
+static void test_tile_order(void)
+{
+    bool seen[RENDER_TILE][RENDER_TILE] = {{false}};
+    for (int k = 0; k < RENDER_TILE * RENDER_TILE; k++) {
+        int dx = -1, dy = -1, x = 0, y = 0;
+        render_tile_order(k, &dx, &dy);
+        for (int b = 0; (1 << (2 * b)) < RENDER_TILE * RENDER_TILE; b++) {
+            x |= ((k >> (2 * b)) & 1) << b;
+            y |= ((k >> (2 * b + 1)) & 1) << b;
+        }
+        CHECK_MSG(dx == x && dy == y, "k=%d: (%d,%d), expected (%d,%d)", k, dx, dy, x, y);
+        if (dx < 0 || dx >= RENDER_TILE || dy < 0 || dy >= RENDER_TILE)
+            continue;
+        CHECK(!seen[dy][dx]);
+        seen[dy][dx] = true;
+        int q = k / (RENDER_TILE * RENDER_TILE / 4), h = RENDER_TILE / 2;
+        CHECK_INT(dx / h + 2 * (dy / h), q);
+    }
+}
+
 static const TestCase tests[] = {
+    {"tile_order", test_tile_order},
     {"random_scenes_marking_on", test_random_scenes_marking_on},
     {"random_scenes_marking_off", test_random_scenes_marking_off},
     {"no_mailbox", test_no_mailbox},
