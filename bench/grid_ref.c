@@ -162,7 +162,7 @@ static void usage(FILE *out)
 {
     fputs("usage: grid_ref -input scene.txt [-size W H] [-grid NX NY NZ | -grid auto]\n"
           "                [-threads N] [-mode single|packet] [-repeat R] [-shadows]\n"
-          "                [-shade_back]\n"
+          "                [-shade_back] [-kernel generic|avx2|avx512]\n"
           "Traces our primary rays and (with -shadows) our shadow rays through our grid,\n"
           "nothing else, and prints one line of key=value timings (median of R repeats).\n",
           out);
@@ -184,7 +184,12 @@ int main(int argc, char **argv)
             n[0] = atoi(argv[a + 1]), n[1] = atoi(argv[a + 2]), n[2] = atoi(argv[a + 3]), a += 3;
         else if (!strcmp(argv[a], "-threads") && a + 1 < argc)
             threads = atoi(argv[++a]);
-        else if (!strcmp(argv[a], "-repeat") && a + 1 < argc)
+        else if (!strcmp(argv[a], "-kernel") && a + 1 < argc) {
+            if (!grid_packet_use_kernel(argv[++a])) {
+                fprintf(stderr, "grid_ref: no packet kernel '%s' on this CPU\n", argv[a]);
+                return 2;
+            }
+        } else if (!strcmp(argv[a], "-repeat") && a + 1 < argc)
             repeat = atoi(argv[++a]);
         else if (!strcmp(argv[a], "-mode") && a + 1 < argc) {
             a++;

@@ -65,10 +65,11 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
  * grid_occluded(g, &rays[i], tmin, tmax[i], ctx). */
 uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
                               const float *tmax, RenderCtx *ctx);
-/* Which SIMD kernel the packets use: "avx2" or "generic" (the CPU is asked once). */
+/* Which SIMD kernel the packets use: "avx2" or "generic" (the CPU is asked once), or
+ * "avx512" when asked for below. */
 const char *grid_packet_kernel(void);
-/* Tests: makes every packet use kernel `name` ("generic", or "avx2" when the CPU has
- * it); false when it cannot. Not while rendering. */
+/* Tests and benchmarks: makes every packet use kernel `name` ("generic", or "avx2" or
+ * "avx512" when the CPU has it); false when it cannot. Not while rendering. */
 bool grid_packet_use_kernel(const char *name);
 
 /* -visualize_grid: the first non-empty cell along the ray, as a hit (t = cell entry,

@@ -41,13 +41,17 @@ typedef struct Packet {
 /* One kernel per instruction set: walks the packet's active rays (grid_packet_kernel.h). */
 void grid_packet_walk_generic(const Grid *g, Packet *pk, RenderCtx *ctx);
 void grid_packet_walk_avx2(const Grid *g, Packet *pk, RenderCtx *ctx);
+void grid_packet_walk_avx512(const Grid *g, Packet *pk, RenderCtx *ctx);
 /* ... and its per-ray set-up (grid_packet_kernel.h, PK_PREP). */
 uint64_t grid_packet_prep_generic(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                   uint64_t *single_out);
 uint64_t grid_packet_prep_avx2(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                uint64_t *single_out);
+uint64_t grid_packet_prep_avx512(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
+                                 uint64_t *single_out);
 /* ... and the width of a packet's rays in cells (PK_SPREAD). */
 float grid_packet_spread_generic(const Grid *g, const Packet *pk, uint64_t walk);
 float grid_packet_spread_avx2(const Grid *g, const Packet *pk, uint64_t walk);
+float grid_packet_spread_avx512(const Grid *g, const Packet *pk, uint64_t walk);
 
 #endif
