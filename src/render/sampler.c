@@ -17,14 +17,25 @@ static uint64_t mix64(uint64_t z)
     return z ^ (z >> 31);
 }
 
+/* The first two rounds of sampler_random depend only on the seed and the pixel: a
+ * pixel's samplers hash them once and draw with pixel_draw (same bits as
+ * sampler_random, a third of the hashing). */
+static uint64_t pixel_key(uint64_t seed, int x, int y)
+{
+    return mix64(mix64(seed) ^ ((uint64_t)(uint32_t)x << 32 | (uint32_t)y));
+}
+
+static float pixel_draw(uint64_t key, uint32_t stream, uint32_t index, uint32_t dim)
+{
+    uint64_t h = mix64(key ^ ((uint64_t)stream << 48 | (uint64_t)(dim & 0xffff) << 32 | index));
+    /* The top 24 bits: every value k * 2^-24 is exact in float and below 1. */
+    return (float)(h >> 40) * 0x1p-24f;
+}
+
 float sampler_random(uint64_t seed, uint32_t stream, int x, int y, uint32_t index,
                      uint32_t dim)
 {
-    uint64_t h = mix64(seed);
-    h = mix64(h ^ ((uint64_t)(uint32_t)x << 32 | (uint32_t)y));
-    h = mix64(h ^ ((uint64_t)stream << 48 | (uint64_t)(dim & 0xffff) << 32 | index));
-    /* The top 24 bits: every value k * 2^-24 is exact in float and below 1. */
-    return (float)(h >> 40) * 0x1p-24f;
+    return pixel_draw(pixel_key(seed, x, y), stream, index, dim);
 }
 
 /* (a + xi) / k in float, kept inside the stratum [a/k, (a+1)/k): a + xi can round up to
@@ -61,9 +72,10 @@ static void uniform_pixel(const Sampler *s, int x, int y, float *xy)
 
 static void random_pixel(const Sampler *s, int x, int y, float *xy)
 {
+    uint64_t key = pixel_key(s->seed, x, y);
     for (int i = 0; i < s->count; i++) {
-        xy[2 * i] = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 0);
-        xy[2 * i + 1] = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 1);
+        xy[2 * i] = pixel_draw(key, s->stream, (uint32_t)i, 0);
+        xy[2 * i + 1] = pixel_draw(key, s->stream, (uint32_t)i, 1);
     }
 }
 
@@ -71,10 +83,11 @@ static void random_pixel(const Sampler *s, int x, int y, float *xy)
 static void jittered_pixel(const Sampler *s, int x, int y, float *xy)
 {
     int k = s->k;
+    uint64_t key = pixel_key(s->seed, x, y);
     for (int b = 0, i = 0; b < k; b++)
         for (int a = 0; a < k; a++, i++) {
-            float u = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 0);
-            float v = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 1);
+            float u = pixel_draw(key, s->stream, (uint32_t)i, 0);
+            float v = pixel_draw(key, s->stream, (uint32_t)i, 1);
             xy[2 * i] = in_stratum(a, u, k);
             xy[2 * i + 1] = in_stratum(b, v, k);
         }
@@ -86,12 +99,13 @@ static void jittered_pixel(const Sampler *s, int x, int y, float *xy)
 static void nrooks_pixel(const Sampler *s, int x, int y, float *xy)
 {
     int n = s->count;
+    uint64_t key = pixel_key(s->seed, x, y);
     int perm[SAMPLER_MAX_COUNT];
     for (int i = 0; i < n; i++)
         perm[i] = i;
     /* Fisher-Yates with draws from dimension 2 (0 and 1 are the positions). */
     for (int i = n - 1; i > 0; i--) {
-        float r = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 2);
+        float r = pixel_draw(key, s->stream, (uint32_t)i, 2);
         int j = (int)(r * (float)(i + 1));
         if (j > i)
             j = i;
@@ -100,8 +114,8 @@ static void nrooks_pixel(const Sampler *s, int x, int y, float *xy)
         perm[j] = t;
     }
     for (int i = 0; i < n; i++) {
-        float u = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 0);
-        float v = sampler_random(s->seed, s->stream, x, y, (uint32_t)i, 1);
+        float u = pixel_draw(key, s->stream, (uint32_t)i, 0);
+        float v = pixel_draw(key, s->stream, (uint32_t)i, 1);
         xy[2 * i] = in_stratum(perm[i], u, n);
         xy[2 * i + 1] = in_stratum(i, v, n);
     }
@@ -118,12 +132,13 @@ static void nrooks_pixel(const Sampler *s, int x, int y, float *xy)
 
 static void poisson_pixel(const Sampler *s, int x, int y, float *xy)
 {
+    uint64_t key = pixel_key(s->seed, x, y);
     for (int i = 0; i < s->count; i++) {
         float best_d = -1.0f, bu = 0.0f, bv = 0.0f;
         for (int c = 0; c < (i == 0 ? 1 : POISSON_CANDIDATES); c++) {
             uint32_t draw = (uint32_t)(i * POISSON_CANDIDATES + c);
-            float u = sampler_random(s->seed, s->stream, x, y, draw, 0);
-            float v = sampler_random(s->seed, s->stream, x, y, draw, 1);
+            float u = pixel_draw(key, s->stream, draw, 0);
+            float v = pixel_draw(key, s->stream, draw, 1);
             float d = 2.0f; /* squared distance to the nearest placed sample */
             for (int j = 0; j < i; j++) {
                 float du = u - xy[2 * j], dv = v - xy[2 * j + 1];
