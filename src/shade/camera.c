@@ -1,5 +1,6 @@
-/* Orthographic and perspective cameras (A1, A2): the orthonormal basis from direction
- * and up, and the ray through a screen point (rt/camera.h states the formulas). */
+/* Orthographic and perspective cameras (A1, A2): the basis from direction and up, and
+ * the ray through a screen point, rounded like the course's camera (rt/camera.h states
+ * the formulas, docs/camera.md the measurements behind them). */
 #include "rt/camera.h"
 
 #include <float.h>
@@ -9,22 +10,36 @@
 #define M_PI 3.14159265358979323846
 #endif
 
+/* Unit vector by dividing each component by the length, as the course's Vec3f does:
+ * multiplying by the reciprocal rounds differently, and on grazing floors (a7 03a, A6
+ * 17a) that last bit of the ray direction decides a pixel's colour. */
+static Vec3 unit_by_division(Vec3 a)
+{
+    float l = v3_length(a);
+    return l > 0.0f ? v3(a.x / l, a.y / l, a.z / l) : a;
+}
+
 bool camera_rebasis(Camera *c)
 {
-    Vec3 d = v3_normalize(c->direction);
+    Vec3 d = unit_by_division(c->direction);
     if (v3_is_zero(d) || !v3_isfinite(d))
         return false;
-    /* up made orthogonal to d, then horizontal = d x up' (screen right). */
-    Vec3 up = v3_normalize(v3_sub(c->up, v3_scale(d, v3_dot(c->up, d))));
-    if (v3_is_zero(up) || !v3_isfinite(up))
+    Vec3 h = unit_by_division(v3_cross(d, unit_by_division(c->up)));
+    if (v3_is_zero(h) || !v3_isfinite(h))
         return false;
-    Vec3 h = v3_normalize(v3_cross(d, up));
-    if (v3_is_zero(h))
-        return false;
+    /* Orthogonal to d by construction and unit up to rounding; not renormalised, which
+     * is what the official images were rendered with (measured, docs/camera.md). */
+    Vec3 up = v3_cross(h, d);
     c->direction = d;
     c->up = up;
     c->horizontal = h;
     c->tan_half = tanf(c->angle * 0.5f);
+    /* The screen at distance 1, in world space: corner center + d - t up - t h, edges
+     * 2t h and 2t up (each product rounded in this order). */
+    float t = c->tan_half;
+    c->lower_left = v3_sub(v3_sub(v3_add(c->center, d), v3_scale(up, t)), v3_scale(h, t));
+    c->x_axis = v3_scale(v3_scale(h, 2.0f), t);
+    c->y_axis = v3_scale(v3_scale(up, 2.0f), t);
     return true;
 }
 
@@ -63,13 +78,11 @@ Ray camera_generate_ray(const Camera *c, float u, float v)
                                             v3_scale(c->up, (v - 0.5f) * c->size)));
         r.dir = c->direction;
     } else {
-        /* angle spans the whole square screen: tan(angle/2) at its edges (computed
-         * once per camera, not per ray). */
-        float t = c->tan_half;
-        Vec3 d = v3_add(c->direction, v3_add(v3_scale(c->horizontal, (2.0f * u - 1.0f) * t),
-                                             v3_scale(c->up, (2.0f * v - 1.0f) * t)));
+        /* The screen point in world space minus the eye (not d + offsets): the
+         * course's rounding, which the official images need (rt/camera.h). */
+        Vec3 p = v3_add(v3_add(c->lower_left, v3_scale(c->x_axis, u)), v3_scale(c->y_axis, v));
         r.origin = c->center;
-        r.dir = v3_normalize(d);
+        r.dir = unit_by_division(v3_sub(p, c->center));
     }
     return r;
 }
@@ -89,8 +102,11 @@ void camera_pixel_to_screen(int i, int j, int width, int height, float *u, float
 void camera_sample_to_screen(int i, int j, float px, float py, int width, int height,
                              float *u, float *v)
 {
-    /* In float and in this order, so (0.5, 0.5) is the pixel-centre ray to the bit. */
+    /* In float and in this order, so (0.5, 0.5) is the pixel-centre ray to the bit:
+     * the point's offset from the square screen's left (bottom) edge over its size.
+     * The older form ((i + px) - W/2) / S + 0.5 is the same number but rounds
+     * differently, and the official images follow this one (docs/camera.md). */
     float s = (float)(width > height ? width : height);
-    *u = (((float)i + px) - (float)width / 2.0f) / s + 0.5f;
-    *v = (((float)j + py) - (float)height / 2.0f) / s + 0.5f;
+    *u = ((float)i + px + (s - (float)width) * 0.5f) / s;
+    *v = ((float)j + py + (s - (float)height) * 0.5f) / s;
 }

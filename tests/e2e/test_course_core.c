@@ -14,14 +14,28 @@
  * 1/255; 8/255 leaves room for float-order differences on grazing pixels). */
 enum { REF_THRESHOLD = 8 };
 static const double REF_MIN_PERCENT = 99.5;
+static const double PEER_TOLERANCE = 1e-4;
 /* The counters of every line without a grid equal the independent implementation's
- * exactly. The course README allows for rays grazing silhouettes; none differ. Line
+ * within 0.01% (PEER_TOLERANCE), most of them exactly. The course README allows for
+ * rays grazing silhouettes: the peer aims its camera rays as d + offsets, we aim them
+ * at the course's world-space screen point (docs/camera.md), so a ray that grazes an
+ * edge can hit on one side and miss on the other. Measured: 11a 1 non-shadow ray and
+ * 38 tests fewer (one pixel at (58, 106) sees the grey floor instead of the red cube's
+ * reflection), 12a 1 non-shadow ray, 3 shadow rays, 444 tests fewer (0.00076%); one
+ * pixel's ray tree more would be ~1e-3 of 12a's tests, a ray too many per pixel 60%. Line
  * 11a used to have 6 shadow rays and 228 tests fewer: three reflected rays leave the
  * mirror floor 0.0006 to 0.0009 in front of the red cube (scaled by 0.25), closer than
  * the epsilon of 0.001 in world units, so they missed its front face, went on inside
  * and met the back of the far face (black, no shadow rays); the peer and the course's
  * picture see the red face (2 lights x 38 triangles per ray). The epsilon is a distance
  * in the primitive's own space (transform.c), where the face is 0.0024 away. */
+
+/* ours within PEER_TOLERANCE of the peer's count (equal when the peer counted 0). */
+static bool near_peer(unsigned long long ours, unsigned long long peer)
+{
+    unsigned long long diff = ours > peer ? ours - peer : peer - ours;
+    return (double)diff <= PEER_TOLERANCE * (double)peer;
+}
 
 static int int_after(const E2eCourseLine *cl, const char *flag, int which, int fallback)
 {
@@ -234,12 +248,12 @@ static void check_course_id(const char *id)
             if (strcmp(r.stats.values[2], peer.values[2]) != 0)
                 printf("\n    %-4s note: scene bounds '%s', peer '%s'", id, r.stats.values[2],
                        peer.values[2]);
-            CHECK_MSG(r.stats.nonshadow == peer.nonshadow,
+            CHECK_MSG(near_peer(r.stats.nonshadow, peer.nonshadow),
                       "%s: %llu non-shadow rays, peer %llu", id, r.stats.nonshadow,
                       peer.nonshadow);
-            CHECK_MSG(r.stats.shadow == peer.shadow, "%s: %llu shadow rays, peer %llu", id,
-                      r.stats.shadow, peer.shadow);
-            CHECK_MSG(r.stats.intersections == peer.intersections,
+            CHECK_MSG(near_peer(r.stats.shadow, peer.shadow),
+                      "%s: %llu shadow rays, peer %llu", id, r.stats.shadow, peer.shadow);
+            CHECK_MSG(near_peer(r.stats.intersections, peer.intersections),
                       "%s: %llu intersections, peer %llu", id, r.stats.intersections,
                       peer.intersections);
             free(peer_text);
