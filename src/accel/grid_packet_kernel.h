@@ -226,6 +226,7 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
      * cells, so a lane (8 rays) gains at most 8 x 16M < 2^31 (grids hold at most 16M
      * cells). */
     pk_i8 cells_acc = {0, 0, 0, 0, 0, 0, 0, 0};
+    uint64_t cells_one = 0;
 
     for (int k = pk->k_first; k >= 0 && k < nk && pk->active; k += pk->sign) {
         /* The slice's near and far planes; the grid's first and last slices reach out
@@ -236,11 +237,11 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         float p_near = lo_k + (float)b_near * size_k, p_far = lo_k + (float)b_far * size_k;
 
         pk_f8 umin = inf, umax = ninf, vmin = inf, vmax = ninf;
-        /* Each ray group's rectangle in this slice (lane gi: group gi; an empty
-         * rectangle for groups with no ray here), for the triangle cull below. */
-        pk_f8 gu0 = inf, gu1 = ninf, gv0 = inf, gv1 = ninf;
+        /* Each ray's range across the slice (ray lanes outside the slice: an empty
+         * range), kept for the per-ray cells and the group rectangles, both made only
+         * when needed. */
+        pk_f8 ru0[PK_GROUPS], ru1[PK_GROUPS], rv0[PK_GROUPS], rv1[PK_GROUPS];
         pk_f8 tfar[PK_GROUPS];
-        pk_i8 cu0[PK_GROUPS], cu1[PK_GROUPS], cv0[PK_GROUPS], cv1[PK_GROUPS];
         uint64_t in = 0;
         for (int gi = 0; gi < PK_GROUPS; gi++) {
             unsigned byte = (unsigned)(pk->active >> (8 * gi)) & 0xffu;
@@ -266,22 +267,12 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
              * rectangle below), so a cell is tested only for the rays that cross it. */
             pk_f8 u0 = pk_min(ua, ub) - pad_u, u1 = pk_max(ua, ub) + pad_u;
             pk_f8 v0 = pk_min(va, vb) - pad_v, v1 = pk_max(va, vb) + pad_v;
-            cu0[gi] = pk_cells(u0, lo_u, inv_su, nu);
-            cu1[gi] = pk_cells(u1, lo_u, inv_su, nu);
-            cv0[gi] = pk_cells(v0, lo_v, inv_sv, nv);
-            cv1[gi] = pk_cells(v1, lo_v, inv_sv, nv);
-            /* Statistics: each ray counts the cells of its own range in the slice. */
-            cells_acc += ((cu1[gi] - cu0[gi] + 1) * (cv1[gi] - cv0[gi] + 1)) & m;
-            pk_f8 mu0 = pk_blend(m, u0, inf), mu1 = pk_blend(m, u1, ninf);
-            pk_f8 mv0 = pk_blend(m, v0, inf), mv1 = pk_blend(m, v1, ninf);
-            umin = pk_min(umin, mu0);
-            umax = pk_max(umax, mu1);
-            vmin = pk_min(vmin, mv0);
-            vmax = pk_max(vmax, mv1);
-            gu0[gi] = pk_hmin(mu0);
-            gu1[gi] = pk_hmax(mu1);
-            gv0[gi] = pk_hmin(mv0);
-            gv1[gi] = pk_hmax(mv1);
+            ru0[gi] = pk_blend(m, u0, inf), ru1[gi] = pk_blend(m, u1, ninf);
+            rv0[gi] = pk_blend(m, v0, inf), rv1[gi] = pk_blend(m, v1, ninf);
+            umin = pk_min(umin, ru0[gi]);
+            umax = pk_max(umax, ru1[gi]);
+            vmin = pk_min(vmin, rv0[gi]);
+            vmax = pk_max(vmax, rv1[gi]);
         }
 
         if (in) {
@@ -292,6 +283,29 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
             int iv0 = march_cell_of(pk_hmin(vmin), lo_v, inv_sv, nv);
             int iv1 = march_cell_of(pk_hmax(vmax), lo_v, inv_sv, nv);
             bool one_cell = iu0 == iu1 && iv0 == iv1;
+            /* Each ray's own cells in this slice, so a cell is tested only for the rays
+             * that cross it; in a one-cell rectangle every ray's range is that cell. */
+            pk_i8 cu0[PK_GROUPS], cu1[PK_GROUPS], cv0[PK_GROUPS], cv1[PK_GROUPS];
+            if (one_cell) {
+                cells_one += (uint64_t)__builtin_popcountll(in); /* statistics */
+            } else {
+                for (int gi = 0; gi < PK_GROUPS; gi++) {
+                    if (!((in >> (8 * gi)) & 0xffu))
+                        continue;
+                    pk_i8 m = pk_lanes((unsigned)(in >> (8 * gi)) & 0xffu);
+                    cu0[gi] = pk_cells(ru0[gi], lo_u, inv_su, nu);
+                    cu1[gi] = pk_cells(ru1[gi], lo_u, inv_su, nu);
+                    cv0[gi] = pk_cells(rv0[gi], lo_v, inv_sv, nv);
+                    cv1[gi] = pk_cells(rv1[gi], lo_v, inv_sv, nv);
+                    /* Statistics: each ray counts the cells of its own range. */
+                    cells_acc += ((cu1[gi] - cu0[gi] + 1) * (cv1[gi] - cv0[gi] + 1)) & m;
+                }
+            }
+            /* Each ray group's rectangle (lane gi: group gi; an empty one for groups
+             * with no ray here), for the triangle cull, made at the first packed
+             * triangle of the slice. */
+            pk_f8 gu0 = inf, gu1 = ninf, gv0 = inf, gv1 = ninf;
+            bool have_rects = false;
             int c[3];
             c[K] = k;
             for (int iv = iv0; iv <= iv1; iv++) {
@@ -323,6 +337,17 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                         if (!want)
                             break;
                         if (item & GRID_ITEM_TRI) {
+                            if (!have_rects) {
+                                for (int gi = 0; gi < PK_GROUPS; gi++) {
+                                    if (!((in >> (8 * gi)) & 0xffu))
+                                        continue;
+                                    gu0[gi] = pk_hmin(ru0[gi]);
+                                    gu1[gi] = pk_hmax(ru1[gi]);
+                                    gv0[gi] = pk_hmin(rv0[gi]);
+                                    gv1[gi] = pk_hmax(rv1[gi]);
+                                }
+                                have_rects = true;
+                            }
                             /* The cull: a group whose rectangle misses the triangle's
                              * padded box skips it here (and stays unmarked). */
                             want &= pk_cull(&g->tri_box[p], U, V, gu0, gu1, gv0, gv1);
@@ -372,7 +397,7 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         }
         pk->active &= ~done;
     }
-    uint64_t cells = 0;
+    uint64_t cells = cells_one;
     for (int l = 0; l < PK_LANES; l++)
         cells += (uint64_t)(uint32_t)cells_acc[l];
     ctx->stats.cells_traversed += cells;
