@@ -3,6 +3,7 @@
  * accessors, free. Two cell sets are built: the course's occupancy counts (what
  * -visualize_grid shows) and tighter, rounding-padded lists (what the march tests). */
 #include "grid_build.h"
+#include "rt/bigmem.h"
 #include "rt/options.h"
 
 #include <limits.h>
@@ -32,12 +33,12 @@ void grid_free(Grid *g)
 {
     if (!g)
         return;
-    free(g->cell_start);
-    free(g->cell_items);
+    bigmem_free(g->cell_start);
+    bigmem_free(g->cell_items);
     grid_pack_free(g);
-    free(g->course_count);
-    free(g->prims);
-    free(g->unbounded);
+    bigmem_free(g->course_count);
+    bigmem_free(g->prims);
+    bigmem_free(g->unbounded);
     prim_table_free(&g->own_table);
     free(g);
 }
@@ -118,17 +119,17 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     g->num_cells = (uint32_t)cells;
     g->marking = true;
     grid_setup_geometry(g);
-    g->cell_start = calloc((size_t)cells + 1, sizeof *g->cell_start);
-    g->course_count = calloc((size_t)cells, sizeof *g->course_count);
+    g->cell_start = bigmem_calloc((size_t)cells + 1, sizeof *g->cell_start);
+    g->course_count = bigmem_calloc((size_t)cells, sizeof *g->course_count);
     if (!g->cell_start || !g->course_count)
         goto oom;
 
     if (!grid_setup_cell_axis(&b))
         goto oom;
     uint32_t nb = t->num_bounded, nu = t->num_prims - t->num_bounded;
-    g->prims = malloc((nb ? nb : 1) * sizeof *g->prims);
-    b.prim_ncells = malloc((nb ? nb : 1) * sizeof *b.prim_ncells);
-    g->unbounded = malloc((nu ? nu : 1) * sizeof *g->unbounded);
+    g->prims = bigmem_calloc(nb ? nb : 1, sizeof *g->prims);
+    b.prim_ncells = bigmem_calloc(nb ? nb : 1, sizeof *b.prim_ncells);
+    g->unbounded = bigmem_calloc(nu ? nu : 1, sizeof *g->unbounded);
     if (!g->prims || !b.prim_ncells || !g->unbounded)
         goto oom;
     /* The bounded primitives go into cells in table (depth-first) order; the others are

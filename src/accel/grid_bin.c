@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rt/bigmem.h"
 #include "rt/par.h"
 
 RecKind grid_rec_kind(const Prim *p)
@@ -44,7 +45,7 @@ static void make_rec(const GridBuild *b, uint32_t p, GridBuildRec *rec)
 
 void grid_free_build_state(GridBuild *b)
 {
-    free(b->prim_ncells);
+    bigmem_free(b->prim_ncells);
     b->prim_ncells = NULL;
     free(b->cell_axis);
     b->cell_axis = NULL;
@@ -79,7 +80,7 @@ static uint32_t *part_cells(BinJob *job, int worker, uint32_t **field, uint32_t 
         if (worker == 0) {
             *field = own;
         } else {
-            *field = calloc(job->g->num_cells, sizeof **field);
+            *field = bigmem_calloc(job->g->num_cells, sizeof **field);
         }
     }
     return *field;
@@ -98,7 +99,7 @@ static void bin_chunk(void *ctx, int i, int worker)
         bp->cell_axis = job->b->cell_axis;
         /* About two cells per primitive, so the list rarely grows. */
         bp->cap_pairs = 2 * (size_t)g->num_prims + 1024;
-        bp->pairs = malloc(bp->cap_pairs * sizeof *bp->pairs);
+        bp->pairs = bigmem_calloc(bp->cap_pairs, sizeof *bp->pairs);
         if (!bp->pairs || !part_cells(job, worker, &bp->count, g->cell_start + 1)) {
             bp->oom = true;
             return;
@@ -172,8 +173,8 @@ bool grid_bin_fill_pack(GridBuild *b)
     job.b = b;
     job.nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
     job.chunk = calloc(job.nchunks ? job.nchunks : 1, sizeof *job.chunk);
-    job.snap = malloc((n ? n : 1) * sizeof *job.snap);
-    job.kind = malloc(n ? n : 1);
+    job.snap = bigmem_calloc(n ? n : 1, sizeof *job.snap);
+    job.kind = bigmem_alloc(n ? n : 1);
     bool ok = job.chunk && job.snap && job.kind;
     uint64_t total = 0;
     if (ok) {
@@ -199,7 +200,7 @@ bool grid_bin_fill_pack(GridBuild *b)
             start[c] = run;
             run += m;
         }
-        g->cell_items = malloc(((size_t)total + 1) * sizeof *g->cell_items);
+        g->cell_items = bigmem_calloc((size_t)total + 1, sizeof *g->cell_items);
         ok = g->cell_items != NULL;
     }
     if (ok) {
@@ -217,10 +218,10 @@ bool grid_bin_fill_pack(GridBuild *b)
         grid_free_build_state(b);
     }
     for (int w = 0; w < PAR_MAX_WORKERS; w++) {
-        free(job.part[w].pairs);
+        bigmem_free(job.part[w].pairs);
         job.part[w].pairs = NULL;
         if (w > 0)
-            free(job.part[w].count);
+            bigmem_free(job.part[w].count);
         job.part[w].count = NULL;
     }
     if (ok) {
@@ -234,9 +235,9 @@ bool grid_bin_fill_pack(GridBuild *b)
                     g->course_count[c] += job.part[w].course[c];
     }
     for (int w = 1; w < PAR_MAX_WORKERS; w++)
-        free(job.part[w].course);
+        bigmem_free(job.part[w].course);
     free(job.chunk);
-    free(job.snap);
-    free(job.kind);
+    bigmem_free(job.snap);
+    bigmem_free(job.kind);
     return ok;
 }

@@ -4,7 +4,10 @@
 #include "grid_build.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
+
+#include "rt/bigmem.h"
 
 /* Cells whose padded box meets [bmin, bmax]. */
 static CellRange tight_range(const Grid *g, const double bmin[3], const double bmax[3])
@@ -72,7 +75,7 @@ static bool push_pair(BinPart *bp, uint32_t cell)
     }
     if (bp->num_pairs == bp->cap_pairs) {
         size_t cap = bp->cap_pairs ? 2 * bp->cap_pairs : 1024;
-        uint32_t *p = realloc(bp->pairs, cap * sizeof *p);
+        uint32_t *p = cap < SIZE_MAX / sizeof *p ? bigmem_resize(bp->pairs, cap * sizeof *p) : NULL;
         if (!p) {
             bp->oom = true;
             return false;

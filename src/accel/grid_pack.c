@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdlib.h>
 
+#include "rt/bigmem.h"
 #include "rt/geom.h"
 
 /* Renumbers the primitives in the order the cells first mention them, so the packed
@@ -18,7 +19,7 @@ static bool reorder_prims(Grid *g)
     uint32_t n = g->num_prims;
     if (n >= GRID_ITEM_TRI)
         return true; /* the mark bit below must stay free; keep scene order */
-    uint32_t *newix = malloc((size_t)n * sizeof *newix);
+    uint32_t *newix = bigmem_calloc(n, sizeof *newix);
     if (!newix)
         return false;
     for (uint32_t p = 0; p < n; p++)
@@ -53,7 +54,7 @@ static bool reorder_prims(Grid *g)
         }
         g->prims[s0] = carry;
     }
-    free(newix);
+    bigmem_free(newix);
     return true;
 }
 
@@ -66,8 +67,8 @@ bool grid_pack(Grid *g)
     /* The tag bit must stay free: beyond 2^31 primitives use the generic path. */
     if (g->num_prims == 0 || g->num_prims >= GRID_ITEM_TRI)
         return true;
-    g->tri = aligned_alloc(16, (size_t)g->num_prims * sizeof *g->tri);
-    g->tri_box = malloc((size_t)g->num_prims * sizeof *g->tri_box);
+    g->tri = bigmem_calloc(g->num_prims, sizeof *g->tri);
+    g->tri_box = bigmem_calloc(g->num_prims, sizeof *g->tri_box);
     if (!g->tri || !g->tri_box)
         return false;
     for (uint32_t p = 0; p < g->num_prims; p++) {
@@ -120,8 +121,8 @@ bool grid_packing(const Grid *g) { return g->tri && !g->packing_off; }
 
 void grid_pack_free(Grid *g)
 {
-    free(g->tri);
-    free(g->tri_box);
+    bigmem_free(g->tri);
+    bigmem_free(g->tri_box);
     g->tri = NULL;
     g->tri_box = NULL;
 }

@@ -1,6 +1,8 @@
 /* Arena allocator: big blocks carved linearly; the scene frees them all at once. */
 #include "rt/arena.h"
 
+#include "rt/bigmem.h"
+
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,10 +41,9 @@ void *arena_alloc(Arena *a, size_t size)
             want = a->total / 4;
         if (want < size)
             want = size;
-        /* calloc, not malloc + memset per allocation: the blocks are never reused, so
-         * zeroed once is zeroed for good, and big blocks come from mmap already zero
-         * (a 40k-triangle mesh is one 4.8 MB block, not written twice). */
-        b = calloc(1, header_size() + want);
+        /* Zeroed once when allocated, not per allocation: the blocks are never reused,
+         * and big blocks are fresh huge-page mappings, already zero (rt/bigmem.h). */
+        b = bigmem_alloc(header_size() + want);
         if (!b)
             return NULL;
         b->size = want;
@@ -77,7 +78,7 @@ void arena_free(Arena *a)
     ArenaBlock *b = a->head;
     while (b) {
         ArenaBlock *n = b->next;
-        free(b);
+        bigmem_free(b);
         b = n;
     }
     a->head = NULL;
@@ -91,7 +92,7 @@ void *arena_buffer_new(size_t size)
 {
     if (size > SIZE_MAX / 2)
         return NULL;
-    char *b = malloc(header_size() + size);
+    char *b = bigmem_alloc(header_size() + size);
     return b ? b + header_size() : NULL;
 }
 
@@ -101,15 +102,14 @@ void *arena_buffer_resize(void *buf, size_t size)
         return arena_buffer_new(size);
     if (size > SIZE_MAX / 2)
         return NULL;
-    /* Large buffers are mmap'd by malloc, so realloc moves pages without copying. */
-    char *b = realloc(buffer_block(buf), header_size() + size);
+    char *b = bigmem_resize(buffer_block(buf), header_size() + size);
     return b ? b + header_size() : NULL;
 }
 
 void arena_buffer_free(void *buf)
 {
     if (buf)
-        free(buffer_block(buf));
+        bigmem_free(buffer_block(buf));
 }
 
 void *arena_adopt_buffer(Arena *a, void *buf, size_t size)

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rt/bigmem.h"
 #include "rt/scene.h"
 
 typedef struct Walk {
@@ -79,7 +80,7 @@ static void add_leaf(Walk *w, const Object3D *o, const XformPath *path)
     PrimTable *t = w->t;
     if (t->num_prims == w->cap) {
         uint32_t cap = w->cap ? 2 * w->cap : 256;
-        Prim *p = cap > w->cap && cap < UINT32_MAX / 2 ? realloc(t->prims, (size_t)cap * sizeof *p)
+        Prim *p = cap > w->cap && cap < UINT32_MAX / 2 ? bigmem_resize(t->prims, (size_t)cap * sizeof *p)
                                                        : NULL;
         if (!p) {
             w->oom = true;
@@ -136,7 +137,7 @@ bool prim_table_build(PrimTable *t, const Scene *scene)
     w.t = t;
     if (scene && scene->root && scene->num_primitives > 0 && scene->num_primitives < UINT32_MAX / 4) {
         w.cap = scene->num_primitives;
-        t->prims = malloc((size_t)w.cap * sizeof *t->prims);
+        t->prims = bigmem_calloc(w.cap, sizeof *t->prims);
         if (!t->prims)
             w.cap = 0;
     }
@@ -165,7 +166,7 @@ bool prim_table_build(PrimTable *t, const Scene *scene)
 
 void prim_table_free(PrimTable *t)
 {
-    free(t->prims);
+    bigmem_free(t->prims);
     for (uint32_t i = 0; i < t->num_xforms; i++)
         free(t->xforms[i]);
     free(t->xforms);

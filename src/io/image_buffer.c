@@ -2,6 +2,8 @@
  * quantisation and the text of the region record: what every codec builds on. It calls no codec. */
 #include "rt/image.h"
 
+#include "rt/bigmem.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -19,7 +21,8 @@ bool image_init(Image *img, int width, int height)
     memset(&img->region, 0, sizeof img->region);
     if (width <= 0 || height <= 0 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE)
         return false;
-    Vec3 *p = calloc((size_t)width * (size_t)height, sizeof *p);
+    /* A 1080p frame is 25 MB: in huge pages, 12 faults instead of 6,000. */
+    Vec3 *p = bigmem_calloc((size_t)width * (size_t)height, sizeof *p);
     if (!p)
         return false;
     img->width = width;
@@ -32,7 +35,7 @@ void image_free(Image *img)
 {
     if (!img)
         return;
-    free(img->pixels);
+    bigmem_free(img->pixels);
     img->pixels = NULL;
     img->width = img->height = 0;
 }

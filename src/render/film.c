@@ -1,6 +1,7 @@
 /* The film (A7): samples traced in packets, held strip by strip within a memory budget,
  * filtered into the requested rectangle; and the course's two diagnostic pictures. */
 #include "rt/film.h"
+#include "rt/bigmem.h"
 #include "rt/clock.h"
 #include "rt/render.h"
 
@@ -373,8 +374,8 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     if (cap > (size_t)(f.sy1 - f.sy0))
         cap = (size_t)(f.sy1 - f.sy0);
     f.rows_cap = (int)cap;
-    f.data = malloc(cap * (size_t)f.fw * (size_t)f.slots * (size_t)f.stride * sizeof(float));
-    f.count = malloc(cap * (size_t)f.fw * sizeof(int));
+    f.data = bigmem_alloc(cap * (size_t)f.fw * (size_t)f.slots * (size_t)f.stride * sizeof(float));
+    f.count = bigmem_alloc(cap * (size_t)f.fw * sizeof(int));
     bool ok = f.data && f.count;
 
     RtStats total = {0};
@@ -420,8 +421,8 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
         }
         oy = out1;
     }
-    free(f.data);
-    free(f.count);
+    bigmem_free(f.data);
+    bigmem_free(f.count);
     free(f.table);
     if (stats_out)
         *stats_out = total;

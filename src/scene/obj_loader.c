@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "rt/bigmem.h"
 #include "rt/file.h"
 #include "rt/geom.h"
 #include "rt/par.h"
@@ -21,8 +22,8 @@
 
 void objfile_mesh_free(ObjMesh *m)
 {
-    free(m->verts);
-    free(m->tris);
+    bigmem_free(m->verts);
+    bigmem_free(m->tris);
     memset(m, 0, sizeof *m);
 }
 
@@ -158,7 +159,7 @@ static bool grow(void **arr, int *cap, int need, size_t elem)
         nc = nc > INT_MAX / 2 ? INT_MAX : nc * 2;
     if ((size_t)nc > SIZE_MAX / elem)
         return false;
-    void *na = realloc(*arr, (size_t)nc * elem);
+    void *na = bigmem_resize(*arr, (size_t)nc * elem);
     if (!na)
         return false;
     *arr = na;
@@ -449,16 +450,16 @@ static bool parse_pieces(const char *buf, size_t len, ObjMesh *out)
         nt += pc->mesh.ntris;
         ok = ok && nv < INT_MAX && nt < INT_MAX;
     }
-    /* Piece 0's arrays grow into the whole mesh's (big blocks are moved, not copied);
+    /* Piece 0's arrays grow into the whole mesh's (within their mapping's slack);
      * the others are copied behind them, in parallel. */
     if (ok && nv) {
-        Vec3 *v = realloc(piece[0].mesh.verts, (size_t)nv * sizeof *v);
+        Vec3 *v = bigmem_resize(piece[0].mesh.verts, (size_t)nv * sizeof *v);
         ok = v != NULL;
         if (v)
             piece[0].mesh.verts = v;
     }
     if (ok && nt) {
-        int(*t)[3] = realloc(piece[0].mesh.tris, (size_t)nt * sizeof *t);
+        int(*t)[3] = bigmem_resize(piece[0].mesh.tris, (size_t)nt * sizeof *t);
         ok = t != NULL;
         if (t)
             piece[0].mesh.tris = t;

@@ -11,9 +11,9 @@
 #include "rt/vec.h"
 
 typedef struct ObjMesh {
-    Vec3 *verts;        /* malloc'd; nverts entries */
+    Vec3 *verts;        /* rt/bigmem.h memory; nverts entries */
     int nverts;
-    int (*tris)[3];     /* malloc'd; 0-based vertex indices, ntris entries */
+    int (*tris)[3];     /* rt/bigmem.h memory; 0-based vertex indices, ntris entries */
     int ntris;
 } ObjMesh;
 

@@ -6,6 +6,7 @@
 
 #include "../harness.h"
 #include "../../src/scene/obj_loader.h"
+#include "rt/bigmem.h"
 #include "rt/file.h"
 
 static Diag g_diag;
@@ -201,7 +202,7 @@ static bool course_read(const char *path, ObjMesh *m)
                 break;
             if (m->nverts == cv) {
                 cv = cv ? cv * 2 : 1024;
-                m->verts = realloc(m->verts, (size_t)cv * sizeof *m->verts);
+                m->verts = bigmem_resize(m->verts, (size_t)cv * sizeof *m->verts); /* ObjMesh memory */
             }
             m->verts[m->nverts++] = v3(x, y, z);
         } else if (c == 'f') {
@@ -210,7 +211,7 @@ static bool course_read(const char *path, ObjMesh *m)
                 break;
             if (m->ntris == ct) {
                 ct = ct ? ct * 2 : 1024;
-                m->tris = realloc(m->tris, (size_t)ct * sizeof *m->tris);
+                m->tris = bigmem_resize(m->tris, (size_t)ct * sizeof *m->tris);
             }
             m->tris[m->ntris][0] = a - 1;
             m->tris[m->ntris][1] = b - 1;

@@ -1,0 +1,133 @@
+/* Big arrays in their own 2 MB-aligned mappings, marked for transparent huge pages
+ * (contract in rt/bigmem.h). */
+#include "rt/bigmem.h"
+
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+
+/* The header in front of the data: one cache line, so the data stays 64-aligned. */
+typedef struct BigmemHeader {
+    size_t map_len;   /* length of the mapping that starts at the header; 0: malloc'd */
+    size_t size;      /* bytes the caller asked for */
+    unsigned char pad[64 - 2 * sizeof(size_t)];
+} BigmemHeader;
+
+enum { HEADER = sizeof(BigmemHeader), HUGE_PAGE = 2 << 20 };
+
+#if defined(__SANITIZE_ADDRESS__)
+#define BIGMEM_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define BIGMEM_SANITIZED 1
+#endif
+#endif
+
+static BigmemHeader *header_of(const void *p)
+{
+    return (BigmemHeader *)((char *)(uintptr_t)p - HEADER);
+}
+
+bool bigmem_maps_large(void)
+{
+#ifdef BIGMEM_SANITIZED
+    return false;   /* AddressSanitizer checks malloc'd memory, not our mappings */
+#else
+    return true;
+#endif
+}
+
+static bool want_mapping(size_t size) { return bigmem_maps_large() && size >= BIGMEM_MIN_BYTES; }
+
+/* A zeroed mapping of at least HEADER + size bytes starting on a 2 MB boundary, so the
+ * kernel can back all of it with huge pages. */
+static void *map_aligned(size_t size)
+{
+    size_t len = (HEADER + size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1);
+    if (len < HEADER + size || len > SIZE_MAX - HUGE_PAGE)
+        return NULL;
+    char *raw = mmap(NULL, len + HUGE_PAGE, PROT_READ | PROT_WRITE,
+                     MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (raw == MAP_FAILED)
+        return NULL;
+    char *base = (char *)(((uintptr_t)raw + HUGE_PAGE - 1) & ~(uintptr_t)(HUGE_PAGE - 1));
+    if (base > raw)
+        munmap(raw, (size_t)(base - raw));
+    if (raw + len + HUGE_PAGE > base + len)
+        munmap(base + len, (size_t)(raw + len + HUGE_PAGE - (base + len)));
+#ifdef MADV_HUGEPAGE
+    (void)madvise(base, len, MADV_HUGEPAGE);   /* a hint: without it, 4 KB pages */
+#endif
+    BigmemHeader *h = (BigmemHeader *)(void *)base;
+    h->map_len = len;
+    h->size = size;
+    return base + HEADER;
+}
+
+void *bigmem_alloc(size_t size)
+{
+    if (size > SIZE_MAX / 2)
+        return NULL;
+    if (want_mapping(size))
+        return map_aligned(size);
+    size_t len = (HEADER + size + 63) & ~(size_t)63;   /* aligned_alloc wants a multiple */
+    BigmemHeader *h = aligned_alloc(64, len);
+    if (!h)
+        return NULL;
+    memset(h, 0, len);
+    h->map_len = 0;
+    h->size = size;
+    return (char *)h + HEADER;
+}
+
+void *bigmem_calloc(size_t n, size_t size)
+{
+    if (size && n > SIZE_MAX / size)
+        return NULL;
+    return bigmem_alloc(n * size);
+}
+
+void *bigmem_resize(void *p, size_t size)
+{
+    if (!p)
+        return bigmem_alloc(size);
+    if (size > SIZE_MAX / 2)
+        return NULL;
+    BigmemHeader *h = header_of(p);
+    if (h->map_len) {
+        /* Growing inside the mapping's slack (up to the next 2 MB) costs nothing. */
+        if (HEADER + size <= h->map_len) {
+            size_t keep = (HEADER + size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1);
+            if (keep < h->map_len) {   /* shrinking: give whole 2 MB steps back */
+                munmap((char *)h + keep, h->map_len - keep);
+                h->map_len = keep;
+            }
+            h->size = size;
+            return p;
+        }
+    }
+    /* Elsewhere: a fresh block and a copy (realloc would not keep the 64-alignment). */
+    void *q = bigmem_alloc(size);
+    if (!q)
+        return NULL;
+    memcpy(q, p, h->size < size ? h->size : size);
+    bigmem_free(p);
+    return q;
+}
+
+void bigmem_free(void *p)
+{
+    if (!p)
+        return;
+    BigmemHeader *h = header_of(p);
+    if (h->map_len)
+        munmap(h, h->map_len);
+    else
+        free(h);
+}
+
+bool bigmem_is_mapped(const void *p)
+{
+    return p && header_of(p)->map_len != 0;
+}

@@ -1,0 +1,149 @@
+/* Unit tests of rt/bigmem.h: zeroed, aligned memory on both paths (malloc below
+ * BIGMEM_MIN_BYTES, a 2 MB-aligned mapping with huge-page advice above), resizes that
+ * keep the contents across the paths, and refused absurd sizes. */
+#include "harness.h"
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rt/bigmem.h"
+
+static bool all_zero(const unsigned char *p, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (p[i])
+            return false;
+    return true;
+}
+
+static void fill(unsigned char *p, size_t n, unsigned seed)
+{
+    for (size_t i = 0; i < n; i++)
+        p[i] = (unsigned char)(i * 31u + seed);
+}
+
+static bool filled(const unsigned char *p, size_t n, unsigned seed)
+{
+    for (size_t i = 0; i < n; i++)
+        if (p[i] != (unsigned char)(i * 31u + seed))
+            return false;
+    return true;
+}
+
+static void test_alloc_sizes(void)
+{
+    const size_t sizes[] = {0, 1, 100, 4096, BIGMEM_MIN_BYTES - 1, BIGMEM_MIN_BYTES,
+                            BIGMEM_MIN_BYTES + 1, (2u << 20) - 64, 2u << 20, 5u << 20};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        size_t n = sizes[k];
+        unsigned char *p = bigmem_alloc(n);
+        CHECK_MSG(p != NULL, "size %zu", n);
+        if (!p)
+            continue;
+        CHECK_MSG((uintptr_t)p % 64 == 0, "size %zu not 64-aligned", n);
+        CHECK_MSG(all_zero(p, n), "size %zu not zeroed", n);
+        bool big = n >= BIGMEM_MIN_BYTES && bigmem_maps_large();
+        CHECK_MSG(bigmem_is_mapped(p) == big, "size %zu mapped %d", n, bigmem_is_mapped(p));
+        if (big) /* the header line sits at the start of a 2 MB boundary */
+            CHECK_MSG((uintptr_t)(p - 64) % (2u << 20) == 0, "size %zu not on 2 MB", n);
+        fill(p, n, 7);
+        CHECK(filled(p, n, 7));
+        bigmem_free(p);
+    }
+    bigmem_free(NULL);
+    unsigned char *a = bigmem_calloc(1000, 1000);
+    CHECK(a && all_zero(a, 1000000));
+    bigmem_free(a);
+}
+
+static void test_resize_keeps_contents(void)
+{
+    /* Across the paths and back: small -> small -> mapped -> inside the slack -> beyond
+     * it -> shrunk -> small. */
+    const size_t steps[] = {100, 5000, BIGMEM_MIN_BYTES + 10, (2u << 20) - 100,
+                            (3u << 20) + 7, 6u << 20, (2u << 20) + 1, 300, 0};
+    size_t have = 0;
+    unsigned char *p = NULL;
+    for (size_t k = 0; k < sizeof steps / sizeof steps[0]; k++) {
+        size_t n = steps[k];
+        unsigned char *q = bigmem_resize(p, n);
+        CHECK_MSG(q != NULL, "resize to %zu", n);
+        if (!q)
+            break;
+        size_t keep = have < n ? have : n;
+        CHECK_MSG(filled(q, keep, 3), "resize %zu -> %zu lost bytes", have, n);
+        CHECK((uintptr_t)q % 64 == 0);
+        fill(q, n, 3);
+        p = q;
+        have = n;
+    }
+    bigmem_free(p);
+
+    /* Growing inside a mapping's slack keeps the pointer. */
+    if (bigmem_maps_large()) {
+        unsigned char *m = bigmem_alloc(BIGMEM_MIN_BYTES);
+        CHECK(m != NULL);
+        unsigned char *g = bigmem_resize(m, BIGMEM_MIN_BYTES * 2);
+        CHECK(g == m);
+        bigmem_free(g);
+    }
+}
+
+static void test_absurd_sizes(void)
+{
+    CHECK(bigmem_alloc(SIZE_MAX) == NULL);
+    CHECK(bigmem_alloc(SIZE_MAX / 2 + 1) == NULL);
+    CHECK(bigmem_calloc(SIZE_MAX / 2, 4) == NULL);
+    CHECK(bigmem_calloc(4, SIZE_MAX / 2) == NULL);
+    unsigned char *p = bigmem_alloc(64);
+    CHECK(p != NULL);
+    fill(p, 64, 9);
+    CHECK(bigmem_resize(p, SIZE_MAX) == NULL);
+    CHECK(filled(p, 64, 9)); /* untouched, still ours to free */
+    bigmem_free(p);
+}
+
+/* On Linux the big path asks for huge pages: the mapping's VmFlags in /proc/self/smaps
+ * carry "hg" (MADV_HUGEPAGE). Kernels without transparent huge pages have no such
+ * folder and refuse the advice; there the memory is ordinary pages and works the same. */
+static void test_huge_page_advice(void)
+{
+    if (!bigmem_maps_large())
+        harness_skip("AddressSanitizer build: big arrays come from malloc");
+    FILE *thp = fopen("/sys/kernel/mm/transparent_hugepage/enabled", "r");
+    if (!thp)
+        harness_skip("no transparent huge pages in this kernel");
+    fclose(thp);
+    unsigned char *p = bigmem_alloc(4u << 20);
+    CHECK(p != NULL);
+    FILE *f = fopen("/proc/self/smaps", "r");
+    CHECK(f != NULL);
+    if (!f || !p)
+        return;
+    char line[512];
+    bool in_ours = false, found = false, advised = false;
+    uintptr_t start = (uintptr_t)(p - 64);
+    while (fgets(line, sizeof line, f)) {
+        unsigned long lo, hi;
+        if (sscanf(line, "%lx-%lx ", &lo, &hi) == 2 && strchr(line, '-') < strchr(line, ' ')) {
+            in_ours = lo == start;
+            found = found || in_ours;
+        } else if (in_ours && strncmp(line, "VmFlags:", 8) == 0) {
+            advised = strstr(line, " hg") != NULL;
+        }
+    }
+    fclose(f);
+    CHECK_MSG(found, "no mapping starts at the block's header");
+    CHECK_MSG(advised, "the mapping lacks the huge-page advice (hg)");
+    bigmem_free(p);
+}
+
+static const TestCase tests[] = {
+    {"bigmem: sizes on both paths, zeroed and aligned", test_alloc_sizes},
+    {"bigmem: resize keeps the contents across the paths", test_resize_keeps_contents},
+    {"bigmem: absurd sizes refused, the block kept", test_absurd_sizes},
+    {"bigmem: big blocks carry the huge-page advice", test_huge_page_advice},
+};
+RT_TEST_MAIN(tests)
