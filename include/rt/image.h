@@ -93,8 +93,9 @@ typedef struct ImageCodec {
     /* True when data begins with the format's signature. NULL for a format without one
      * (TGA): image_read decodes as that format when no signature matched. */
     bool (*sniff)(const uint8_t *data, size_t len);
-    /* Encodes into a malloc'd buffer (the caller frees *out); false only when out of
-     * memory. */
+    /* Encodes into a buffer of rt/bigmem.h (the caller frees *out with bigmem_free: a
+     * 1080p TGA is 6 MB, which huge pages fault in 2 MB at a time); false only when out
+     * of memory. */
     bool (*encode)(const Image *img, uint8_t **out, size_t *out_len);
     /* Fills a fresh image (the caller frees it with image_free) or returns false with a
      * one-line reason in err and img left empty; never reads past data + len. */

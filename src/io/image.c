@@ -3,6 +3,7 @@
  * the target folder that is renamed into place, so a failed run leaves no file. */
 #define _POSIX_C_SOURCE 200809L
 #include "rt/image.h"
+#include "rt/bigmem.h"
 #include "codec.h"
 
 #include <ctype.h>
@@ -360,7 +361,7 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
     g_write_phase = 0;
     restore_signals(&old);
     for (int i = 0; i < n; i++) {
-        free(pend[i].data);
+        bigmem_free(pend[i].data);
         free(pend[i].target);
     }
     return ok;

@@ -2,6 +2,7 @@
  * RGB out, 8/16-bit grey/RGB/palette (with or without alpha) in. Without libpng the
  * codec has no encoder or decoder and says what to install. */
 #include "rt/image.h"
+#include "rt/bigmem.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,7 +29,7 @@ static void buf_write(png_structp png, png_bytep src, png_size_t n)
         size_t cap = b->cap ? b->cap : 4096;
         while (cap < b->len + n)
             cap *= 2;
-        uint8_t *nd = realloc(b->data, cap);
+        uint8_t *nd = bigmem_resize(b->data, cap);
         if (!nd) {
             b->oom = true;
             png_error(png, "out of memory");
@@ -75,7 +76,7 @@ static bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         free(row);
-        free(buf.data);
+        bigmem_free(buf.data);
         return false;
     }
     png_set_write_fn(png, &buf, buf_write, buf_flush);

@@ -1,6 +1,7 @@
 /* Binary PPM (P6, 8 bits per channel) in memory: the course Image class's other format
  * (docs/images.md). Rows top-down, R G B. The reader accepts '#' comments in the header. */
 #include "rt/image.h"
+#include "rt/bigmem.h"
 #include "codec.h"
 
 #include <stdio.h>
@@ -20,7 +21,7 @@ static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
     if (n < 0 || (size_t)n >= sizeof head)
         return false;
     size_t len = (size_t)n + (size_t)w * (size_t)h * 3;
-    uint8_t *b = malloc(len);
+    uint8_t *b = bigmem_alloc(len);
     if (!b)
         return false;
     memcpy(b, head, (size_t)n);

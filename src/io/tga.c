@@ -1,6 +1,7 @@
 /* Targa files in memory: the course's exact layout on output (below) and a
  * tolerant reader for uncompressed true-colour files (24/32 bits, either row order). */
 #include "rt/image.h"
+#include "rt/bigmem.h"
 #include "codec.h"
 
 #include <stdio.h>
@@ -23,7 +24,7 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
         id_len = (size_t)snprintf(id, sizeof id, "%s %s", IMAGE_REGION_TAG, rec);
     }
     size_t len = TGA_HEADER + id_len + (size_t)w * (size_t)h * 3;
-    uint8_t *b = calloc(len, 1);
+    uint8_t *b = bigmem_alloc(len);
     if (!b)
         return false;
     b[0] = (uint8_t)id_len;

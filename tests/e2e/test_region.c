@@ -6,6 +6,7 @@
 #include "../harness.h"
 #include "e2e_util.h"
 
+#include "rt/bigmem.h"
 #include "rt/image.h"
 #include "rt/options.h"
 
@@ -533,7 +534,7 @@ static void test_region_record_formats(void)
         CHECK_INT(back.region.full_height, 10);
         CHECK_INT(image_color_to_byte(image_get(&back, 1, 0).y), 127);
         image_free(&back);
-        free(buf);
+        bigmem_free(buf);
     }
     /* A damaged record is refused; a record that leaves the full image too. */
     uint8_t *buf = NULL;
@@ -551,20 +552,20 @@ static void test_region_record_formats(void)
         CHECK(tga->decode(buf, len, &back, err, sizeof err));
         image_free(&back);
     }
-    free(buf);
+    bigmem_free(buf);
     img.region = (ImageRegion){18, 0, 20, 10};
     CHECK(ppm->encode(&img, &buf, &len));
     Image back;
     char err[200] = "";
     CHECK(!ppm->decode(buf, len, &back, err, sizeof err));
     CHECK_CONTAINS(err, "does not lie inside");
-    free(buf);
+    bigmem_free(buf);
     /* Whole images carry no record. */
     img.has_region = false;
     CHECK(tga->encode(&img, &buf, &len));
     CHECK_INT(buf[0], 0);
     CHECK_INT(len, 18 + 3 * 2 * 3);
-    free(buf);
+    bigmem_free(buf);
     image_free(&img);
 }
 

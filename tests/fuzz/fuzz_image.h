@@ -8,6 +8,7 @@
 
 #include <stdlib.h>
 
+#include "rt/bigmem.h"
 #include "rt/image.h"
 
 static inline void fuzz_codec(const char *name, const uint8_t *data, size_t size)
@@ -21,7 +22,7 @@ static inline void fuzz_codec(const char *name, const uint8_t *data, size_t size
         uint8_t *out = NULL;
         size_t len = 0;
         if (c->encode && c->encode(&img, &out, &len))
-            free(out);
+            bigmem_free(out);
         image_free(&img);
     }
 }

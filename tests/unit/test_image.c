@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "rt/bigmem.h"
 #include "rt/image.h"
 #include "rt/image_compare.h"
 
@@ -145,7 +146,7 @@ static void test_tga_exact_bytes(void)
     for (int i = 0; i < 18; i++)
         CHECK_MSG(buf[18 + i] == want_pixels[i], "pixel byte %d = %d, expected %d", i,
                   buf[18 + i], want_pixels[i]);
-    free(buf);
+    bigmem_free(buf);
     image_free(&img);
 }
 
@@ -161,7 +162,7 @@ static void test_tga_size_fields_little_endian(void)
     CHECK_INT(buf[14], 2);
     CHECK_INT(buf[15], 0);
     CHECK_INT(len, 18 + 300 * 2 * 3);
-    free(buf);
+    bigmem_free(buf);
     image_free(&img);
 }
 
@@ -189,7 +190,7 @@ static void test_tga_round_trip(void)
     check_same_bytes(&img, &back);
     /* stored values are byte / 255 exactly, as the course's LoadTGA does */
     CHECK_NEAR(image_get(&back, 0, 0).x, 178.0f / 255.0f, 0.0);
-    free(buf);
+    bigmem_free(buf);
     image_free(&back);
     image_free(&img);
 }
@@ -295,7 +296,7 @@ static void test_ppm_round_trip_and_header(void)
     CHECK_MSG(ppm_decode(buf, len, &back, err, sizeof err), "decode: %s", err);
     check_same_bytes(&img, &back);
     image_free(&back);
-    free(buf);
+    bigmem_free(buf);
     image_free(&img);
 }
 
@@ -351,7 +352,7 @@ static void test_png_round_trip(void)
     image_free(&back);
     for (size_t n = 0; n < len; n += 7)
         CHECK_MSG(!png->decode(buf, n, &back, err, sizeof err), "accepted %zu bytes", n);
-    free(buf);
+    bigmem_free(buf);
     image_free(&img);
 }
 
