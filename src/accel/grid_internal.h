@@ -3,7 +3,9 @@
 #ifndef RT_ACCEL_GRID_INTERNAL_H
 #define RT_ACCEL_GRID_INTERNAL_H
 
+#include <math.h>
 #include <stdint.h>
+#include <string.h>
 #include "rt/grid.h"
 #include "rt/marching_info.h"
 #include "rt/geom.h"
@@ -110,5 +112,26 @@ bool grid_items_occluded(const Grid *g, const uint32_t *items, uint32_t n, const
 /* Bound on the march's float rounding for this ray (world units): a grid whose padding
  * is below it cannot be marched exactly by this ray. */
 float grid_march_error(const Grid *g, const Ray *ray);
+
+/* nextafterf(x, +INFINITY) and nextafterf(x, -INFINITY), the same results for every x
+ * (NaN, zeros of either sign, the infinities), by stepping the bit pattern: libm's
+ * general version was 5% of a 40k-triangle set-up. */
+static inline float grid_float_step_up(float x)
+{
+    if (x != x || x == INFINITY)
+        return x;
+    uint32_t u;
+    memcpy(&u, &x, sizeof u);
+    if (x == 0.0f)
+        u = 1u;             /* the smallest subnormal, from +0 and from -0 */
+    else if (u >> 31)
+        u--;                /* negative: toward zero */
+    else
+        u++;
+    memcpy(&x, &u, sizeof x);
+    return x;
+}
+
+static inline float grid_float_step_down(float x) { return -grid_float_step_up(-x); }
 
 #endif

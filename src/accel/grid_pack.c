@@ -93,8 +93,8 @@ bool grid_pack(Grid *g)
         for (int a = 0; a < 3; a++) {
             float x0 = v3_comp(v[0], a), x1 = v3_comp(v[1], a), x2 = v3_comp(v[2], a);
             float lo = fminf(x0, fminf(x1, x2)), hi = fmaxf(x0, fmaxf(x1, x2));
-            b->lo[a] = nextafterf(lo - g->pad[a], -INFINITY);
-            b->hi[a] = nextafterf(hi + g->pad[a], INFINITY);
+            b->lo[a] = grid_float_step_down(lo - g->pad[a]);
+            b->hi[a] = grid_float_step_up(hi + g->pad[a]);
         }
     }
     size_t n = g->cell_start[g->num_cells];

@@ -3,10 +3,13 @@
  * built in chunks (the box, signed zeros included), and grids binned by several
  * threads (the CSR arrays, entry order included), for 0, 1, 2 and 3 helpers. */
 #define _POSIX_C_SOURCE 200809L
+#include <float.h>
+#include <math.h>
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <unistd.h>
 
 #include "../harness.h"
@@ -435,7 +438,40 @@ static void test_read_parallel_match(void)
     rmdir(dir);
 }
 
+/* The grid's bit-stepping nextafterf agrees with libm's on the special values and on
+ * a spread of 131k bit patterns over the whole float range (every sign, exponent, NaN). */
+static bool same_float_bits(float a, float b)
+{
+    uint32_t x, y;
+    memcpy(&x, &a, sizeof x);
+    memcpy(&y, &b, sizeof y);
+    return x == y || (a != a && b != b);
+}
+
+static void test_float_step(void)
+{
+    static const float special[] = {0.0f, -0.0f, INFINITY, -INFINITY, FLT_MAX, -FLT_MAX,
+                                    FLT_MIN, -FLT_MIN, 1e-45f, -1e-45f, 1.0f, -1.0f, NAN};
+    for (size_t i = 0; i < sizeof special / sizeof special[0]; i++) {
+        float x = special[i];
+        CHECK_MSG(same_float_bits(grid_float_step_up(x), nextafterf(x, INFINITY)), "up %a",
+                  (double)x);
+        CHECK_MSG(same_float_bits(grid_float_step_down(x), nextafterf(x, -INFINITY)),
+                  "down %a", (double)x);
+    }
+    int bad = 0;
+    for (uint64_t u = 0; u <= UINT32_MAX; u += 32749u) {
+        uint32_t b = (uint32_t)u;
+        float x;
+        memcpy(&x, &b, sizeof x);
+        bad += !same_float_bits(grid_float_step_up(x), nextafterf(x, INFINITY));
+        bad += !same_float_bits(grid_float_step_down(x), nextafterf(x, -INFINITY));
+    }
+    CHECK_INT(bad, 0);
+}
+
 static const TestCase tests[] = {
+    {"setup: grid_float_step matches nextafterf", test_float_step},
     {"setup: big file read by parallel preads = ordinary read", test_read_parallel_match},
     {"setup: OBJ read in pieces = serial read, every record form", test_obj_pieces_match_serial},
     {"setup: OBJ pieces with negative indices (serial fallback)", test_obj_pieces_negative_indices},
