@@ -106,6 +106,12 @@ Ray transform_path_to_object(const XformPath *path, const Ray *ray, float *tmin)
 Vec3 transform_path_normal_to_world(const XformPath *path, Vec3 n);
 bool transform_path_intersect(const XformPath *path, const Object3D *prim, const Ray *ray,
                               Hit *hit, float tmin, RenderCtx *ctx);
+/* A lower bound on the factor by which transform_path_to_object shrinks a positive
+ * tmin along path, for any ray direction (1/Frobenius norm of each level's inverse, less
+ * a margin for rounding; at most 1). An accelerator that culls by distance along the ray
+ * must start at tmin times this factor: a leaf under a shrinking Transform accepts hits
+ * at world t below tmin (a distance in its own space). */
+float transform_path_tmin_scale(const XformPath *path);
 /* The same for a shadow ray (obj_occluded through path): no normal to bring back. */
 bool transform_path_occluded(const XformPath *path, const Object3D *prim, const Ray *ray,
                              float tmin, float tmax, RenderCtx *ctx);

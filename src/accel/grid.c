@@ -118,6 +118,12 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     g->n[2] = nz;
     g->num_cells = (uint32_t)cells;
     g->marking = true;
+    g->march_tmin_scale = 1.0f;
+    for (uint32_t i = 0; i < t->num_xforms; i++) {
+        float s = transform_path_tmin_scale(&t->xforms[i]->path);
+        if (s < g->march_tmin_scale)
+            g->march_tmin_scale = s;
+    }
     grid_setup_geometry(g);
     g->cell_start = bigmem_calloc((size_t)cells + 1, sizeof *g->cell_start);
     g->course_count = bigmem_calloc((size_t)cells, sizeof *g->course_count);

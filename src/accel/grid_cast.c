@@ -254,9 +254,10 @@ static inline __attribute__((always_inline)) MarchStart march_start(const Grid *
                                                                     uint32_t *stamp,
                                                                     uint32_t **mb)
 {
-    if (grid_ray_too_far(g, ray, tmin))
+    float tmarch = grid_march_tmin(g, tmin);
+    if (grid_ray_too_far(g, ray, tmarch))
         return MARCH_ALL;
-    if (!march_init(mi, &g->box, g->n, g->pad, ray, tmin, ctx))
+    if (!march_init(mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
         return MARCH_NONE;
     *stamp = grid_begin_ray(g, ctx);
     *mb = *stamp ? ctx->mailbox : NULL;

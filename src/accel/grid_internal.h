@@ -54,6 +54,9 @@ struct Grid {
     GridPrim *unbounded;    /* planes: tested for every ray */
     uint32_t num_unbounded;
     bool marking;           /* mailboxing on (default; grid_set_marking) */
+    float march_tmin_scale; /* (0, 1]: the march starts at tmin times this (tmin > 0),
+                               as a leaf under a shrinking Transform accepts hits below
+                               a positive world tmin (transform_path_tmin_scale) */
 
     /* Hot-loop layout (grid_pack.c): cell_items entries with GRID_ITEM_TRI set are
      * untransformed triangles whose edges are copied, packed, into tri[prim]. */
@@ -72,6 +75,16 @@ struct Grid {
 /* Builds g->tri and tags the cell items (after the CSR fill); false when out of memory. */
 bool grid_pack(Grid *g);
 void grid_pack_free(Grid *g);
+
+/* Where the march (its box clip, first cell and grid_ray_too_far) starts for a query
+ * with this tmin: never beyond a hit some leaf would accept. The leaves themselves are
+ * still tested against tmin. */
+static inline float grid_march_tmin(const Grid *g, float tmin)
+{
+    if (!(tmin > 0.0f) || !isfinite(tmin) || g->march_tmin_scale >= 1.0f)
+        return tmin;
+    return tmin * g->march_tmin_scale;
+}
 
 static inline uint32_t grid_cell_index(const Grid *g, int i, int j, int k)
 {

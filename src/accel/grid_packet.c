@@ -220,6 +220,7 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
     _Alignas(32) Packet pk;
     packet_clear(&pk);
     pk.tmin = tmin;
+    pk.march_tmin = grid_march_tmin(g, tmin);
     pk.shadow = false;
     pk.hits = hits;
     pk.rays = rays;
@@ -264,6 +265,7 @@ uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, flo
     _Alignas(32) Packet pk;
     packet_clear(&pk);
     pk.tmin = tmin;
+    pk.march_tmin = grid_march_tmin(g, tmin);
     pk.shadow = true;
     pk.rays = rays;
     for (uint64_t m = cand; m; m &= m - 1) {

@@ -33,6 +33,7 @@ typedef struct Packet {
     uint64_t hit;               /* nearest: rays with a hit; shadow: rays occluded */
     int axis, sign, k_first;    /* main axis, its direction (+1/-1), first slice */
     float tmin;
+    float march_tmin;           /* grid_march_tmin(tmin): where the walk starts */
     bool shadow;
     Hit *hits;                  /* nearest: the caller's hits */
     const Ray *rays;

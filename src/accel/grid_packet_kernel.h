@@ -436,7 +436,7 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
     /* Rays starting within this distance of the origin need no far-origin check: the
      * march's rounding there stays below the padding (grid_ray_too_far's bound). */
     const pk_f8 near = pk_splat(0.5f * (g->min_pad / (4.0f * FLT_EPSILON) - g->box_mag));
-    const pk_f8 zero = pk_splat(0.0f), one = pk_splat(1.0f), tminv = pk_splat(pk->tmin);
+    const pk_f8 zero = pk_splat(0.0f), one = pk_splat(1.0f), tminv = pk_splat(pk->march_tmin);
     const pk_f8 inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
     uint64_t single = 0, walk = 0;
     for (int gi = 0; gi < PK_GROUPS; gi++) {
@@ -465,7 +465,7 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
         /* Far origins: the exact check, ray by ray (rare). */
         for (unsigned slow = pk_bits(ok) & byte & ~fits; slow; slow &= slow - 1) {
             int l = __builtin_ctz(slow);
-            if (!grid_ray_too_far(g, &rays[8 * gi + l], pk->tmin))
+            if (!grid_ray_too_far(g, &rays[8 * gi + l], pk->march_tmin))
                 fits |= 1u << l;
         }
         single |= (uint64_t)(byte & ~fits) << (8 * gi);

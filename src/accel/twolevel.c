@@ -621,10 +621,11 @@ bool twolevel_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float t
     bool found = false;
     for (uint32_t u = 0; u < g->num_unbounded; u++)
         found |= grid_test_prim(&g->unbounded[u], ray, hit, tmin, ctx);
-    if (grid_ray_too_far(g, ray, tmin))
+    float tmarch = grid_march_tmin(g, tmin);
+    if (grid_ray_too_far(g, ray, tmarch))
         return grid_march_intersect(g, ray, hit, tmin, ctx) || found;
     MarchingInfo mi;
-    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
         return found;
     uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
@@ -643,7 +644,7 @@ bool twolevel_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float t
             found |= grid_items_intersect(g, t->items + sg->big_start, sg->big_count, ray, hit,
                                           tmin, mb, stamp, ctx);
             MarchingInfo sm;
-            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmin, NULL)) {
+            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmarch, NULL)) {
                 do {
                     ctx->stats.cells_traversed++;
                     if (sm.t > hit->t)
@@ -674,10 +675,11 @@ bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float 
     for (uint32_t u = 0; u < g->num_unbounded; u++)
         if (grid_occluded_prim(&g->unbounded[u], ray, tmin, tmax, ctx))
             return true;
-    if (grid_ray_too_far(g, ray, tmin))
+    float tmarch = grid_march_tmin(g, tmin);
+    if (grid_ray_too_far(g, ray, tmarch))
         return grid_march_occluded(g, ray, tmin, tmax, ctx);
     MarchingInfo mi;
-    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmin, ctx))
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
         return false;
     uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
@@ -698,7 +700,7 @@ bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float 
                                     mb, stamp, ctx))
                 return true;
             MarchingInfo sm;
-            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmin, NULL)) {
+            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmarch, NULL)) {
                 do {
                     ctx->stats.cells_traversed++;
                     if (sm.t > tmax)

@@ -95,6 +95,27 @@ Ray transform_path_to_object(const XformPath *path, const Ray *ray, float *tmin)
     return r;
 }
 
+float transform_path_tmin_scale(const XformPath *path)
+{
+    /* |inv d| <= ||inv||_F |d| at each level, so each level's factor
+     * |d_parent| / |d_object| is at least 1 / ||inv||_F (3x3 part, in double). */
+    double s = 1.0;
+    for (int i = 0; i < path->depth; i++) {
+        const Mat4 *inv = transform_inverse(path->xf[i]);
+        double f = 0.0;
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                f += (double)inv->m[r][c] * (double)inv->m[r][c];
+        f = sqrt(f);
+        if (!(f > 0.0) || !isfinite(f))
+            return 0.0f; /* no bound: the caller starts at 0 */
+        s /= f;
+    }
+    /* Float rounding of tmin * scale at each level is a few ulps; 1/1024 covers it. */
+    s *= 1.0 - 1.0 / 1024.0;
+    return s < 1.0 ? (float)s : 1.0f;
+}
+
 Vec3 transform_path_normal_to_world(const XformPath *path, Vec3 n)
 {
     for (int i = path->depth - 1; i >= 0; i--)

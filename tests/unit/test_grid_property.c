@@ -576,11 +576,92 @@ static void test_tile_order(void)
     }
 }
 
+/* A positive tmin is a distance in the space of the leaf hit (Transform): a triangle
+ * under a Transform scaling by 0.25, 0.1 ahead of the ray's origin, is hit with
+ * tmin = 0.3 (0.075 in its own units). The grid must not start its march at the world
+ * tmin, beyond the cells holding that triangle: its answers, single and packet, nearest
+ * and shadow, are the brute-force walk's. */
+static void test_shrinking_transform_tmin(void)
+{
+    Scene s;
+    memset(&s, 0, sizeof s);
+    arena_init(&s.arena);
+    PhongParams pp = phong_defaults();
+    Material *m = phong_new(&s.arena, &pp);
+    Object3D *inner = group_new(&s.arena, 1);
+    group_set_child(inner, 0, triangle_new(&s.arena, v3(-1, -1, -1), v3(1, -1, -1),
+                                           v3(0, 1, -1), m));
+    group_finish(inner);
+    Mat4 sc = mat4_scale(v3(0.25f, 0.25f, 0.25f));
+    Object3D *root = group_new(&s.arena, 2);
+    group_set_child(root, 0, transform_new(&s.arena, &sc, inner));
+    group_set_child(root, 1, sphere_new(&s.arena, v3(0, 0, 5), 1.0f, m));
+    group_finish(root);
+    s.root = root;
+    s.num_primitives = group_assign_ids(root);
+    s.bounds = root->bbox;
+
+    Ray rays[8];
+    for (int i = 0; i < 8; i++) {
+        rays[i].origin = v3(-0.04f + 0.01f * (float)i, 0.0f, -0.35f);
+        rays[i].dir = v3(0, 0, 1);
+    }
+    const float tmin = 0.3f;
+    RenderCtx bctx;
+    memset(&bctx, 0, sizeof bctx);
+    Hit hb = hit_none();
+    CHECK(obj_intersect(s.root, &rays[0], &hb, tmin, &bctx));
+    CHECK_MSG(fabsf(hb.t - 0.1f) < 1e-5f && hb.id == 0, "brute force: t=%g id=%u",
+              (double)hb.t, hb.id);
+
+    Diag d;
+    diag_init(&d, stderr);
+    Grid *g = grid_build(&s, 1, 1, 60, &d);
+    CHECK(g != NULL);
+    if (g) {
+        RenderCtx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.num_mailbox = grid_mailbox_size(g);
+        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        ctx.packet_rays = calloc(ctx.num_mailbox + 1, sizeof *ctx.packet_rays);
+        float tmax[8];
+        for (int i = 0; i < 8; i++)
+            tmax[i] = 1.0f;
+        for (int packing = 0; packing < 2; packing++) {
+            grid_set_packing(g, packing);
+            Hit hg = hit_none();
+            bool fg = grid_intersect(g, &rays[0], &hg, tmin, &ctx);
+            CHECK_MSG(fg && same_hit(&hg, &hb), "grid: %d t=%g id=%u", fg, (double)hg.t,
+                      hg.id);
+            CHECK(grid_occluded(g, &rays[0], tmin, 0.2f, &ctx));
+            Hit hits[8];
+            for (int i = 0; i < 8; i++)
+                hits[i] = hit_none();
+            uint64_t found = grid_intersect_packet(g, rays, 8, hits, tmin, &ctx);
+            uint64_t occl = grid_occluded_packet(g, rays, 0xff, tmin, tmax, &ctx);
+            for (int i = 0; i < 8; i++) {
+                Hit h = hit_none();
+                memset(&bctx, 0, sizeof bctx);
+                bool fb = obj_intersect(s.root, &rays[i], &h, tmin, &bctx);
+                CHECK(fb);
+                CHECK_MSG((found >> i & 1) && same_hit(&hits[i], &h),
+                          "packet ray %d: t=%g id=%u", i, (double)hits[i].t, hits[i].id);
+                CHECK_MSG(occl >> i & 1, "packet ray %d: not occluded", i);
+            }
+        }
+        free(ctx.packet_rays);
+        free(ctx.mailbox);
+        grid_free(g);
+    }
+    arena_free(&s.arena);
+}
+
 static const TestCase tests[] = {
     {"tile_order", test_tile_order},
     {"random_scenes_marking_on", test_random_scenes_marking_on},
     {"random_scenes_marking_off", test_random_scenes_marking_off},
     {"no_mailbox", test_no_mailbox},
+    {"shrinking_transform_tmin", test_shrinking_transform_tmin},
 };
 
 RT_TEST_MAIN(tests)

@@ -389,11 +389,78 @@ static void test_planes_only(void)
     arena_free(&u.s.arena);
 }
 
+/* A positive tmin is a distance in the space of the leaf hit (Transform): a crowded
+ * cluster under a Transform scaling by 0.25 holds a triangle 0.1 ahead of the ray's
+ * origin, hit with tmin = 0.3 (0.075 in its own units). Neither level may start its
+ * march at the world tmin, past the cells holding it. */
+static void test_shrinking_transform_tmin(void)
+{
+    Scene s;
+    memset(&s, 0, sizeof s);
+    arena_init(&s.arena);
+    PhongParams pp = phong_defaults();
+    Material *m = phong_new(&s.arena, &pp);
+    enum { SIDE = 12 };
+    Object3D *inner = group_new(&s.arena, 1 + SIDE * SIDE);
+    group_set_child(inner, 0, triangle_new(&s.arena, v3(-1, -1, -1), v3(1, -1, -1),
+                                           v3(0, 1, -1), m));
+    for (int i = 0; i < SIDE; i++)
+        for (int j = 0; j < SIDE; j++) {
+            Vec3 c = v3(-1.0f + 2.0f * (float)i / SIDE, -1.0f + 2.0f * (float)j / SIDE,
+                        -0.8f - 0.2f * (float)((i + j) % 3) / 3.0f);
+            group_set_child(inner, 1 + i * SIDE + j,
+                            triangle_new(&s.arena, c, v3_add(c, v3(0.05f, 0, 0)),
+                                         v3_add(c, v3(0, 0.05f, 0.01f)), m));
+        }
+    group_finish(inner);
+    Mat4 sc = mat4_scale(v3(0.25f, 0.25f, 0.25f));
+    Object3D *root = group_new(&s.arena, 5);
+    group_set_child(root, 0, transform_new(&s.arena, &sc, inner));
+    group_set_child(root, 1, sphere_new(&s.arena, v3(0, 0, 5), 1.0f, m));
+    group_set_child(root, 2, sphere_new(&s.arena, v3(4, 3, 2), 0.5f, m));
+    group_set_child(root, 3, sphere_new(&s.arena, v3(-4, -3, -2), 0.5f, m));
+    group_set_child(root, 4, sphere_new(&s.arena, v3(-4, 3, 5), 0.5f, m));
+    group_finish(root);
+    s.root = root;
+    s.num_primitives = group_assign_ids(root);
+    s.bounds = root->bbox;
+
+    PrimTable table;
+    CHECK(prim_table_build(&table, &s));
+    Diag d;
+    diag_init(&d, stderr);
+    TwoLevelGrid *t = twolevel_build(&table, &d);
+    CHECK(t != NULL);
+    if (t) {
+        RenderCtx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.num_mailbox = grid_mailbox_size(twolevel_top(t));
+        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        for (int i = 0; i < 8; i++) {
+            Ray ray = {v3(-0.04f + 0.01f * (float)i, 0.0f, -0.35f), v3(0, 0, 1)};
+            RenderCtx bctx;
+            memset(&bctx, 0, sizeof bctx);
+            Hit hb = hit_none(), ht = hit_none();
+            CHECK(obj_intersect(s.root, &ray, &hb, 0.3f, &bctx));
+            CHECK_MSG(hb.t < 0.3f, "brute force: t=%g, expected below tmin", (double)hb.t);
+            bool ft = twolevel_intersect(t, &ray, &ht, 0.3f, &ctx);
+            CHECK_MSG(ft && same_hit(&ht, &hb), "ray %d: twolevel %d t=%g id=%u, brute t=%g "
+                      "id=%u", i, ft, (double)ht.t, ht.id, (double)hb.t, hb.id);
+            CHECK_MSG(twolevel_occluded(t, &ray, 0.3f, 0.2f, &ctx), "ray %d: not occluded", i);
+        }
+        free(ctx.mailbox);
+        twolevel_free(t);
+    }
+    prim_table_free(&table);
+    arena_free(&s.arena);
+}
+
 static const TestCase tests[] = {
     {"twolevel_uneven_scenes_match_brute_force", test_uneven_scenes},
     {"twolevel_degenerate_scenes_bounded", test_degenerate},
     {"twolevel_planes_only_no_grid", test_planes_only},
     {"twolevel_triangle_edge_tolerance", test_edge_tolerance},
+    {"twolevel_shrinking_transform_tmin", test_shrinking_transform_tmin},
 };
 
 RT_TEST_MAIN(tests)
