@@ -7,7 +7,7 @@
  * at least BIGMEM_MIN_BYTES is mapped on its own, aligned to 2 MB and marked for huge
  * pages (Linux MADV_HUGEPAGE), so it faults in 2 MB at a time. Smaller allocations, and
  * builds with AddressSanitizer (which cannot see inside a private mapping), use malloc:
- * below 1 MB a whole huge page is mostly waste, and blocks freed and allocated again
+ * below 512 KB a whole huge page is mostly waste, and blocks freed and allocated again
  * (the parts of -merge) are cheaper from malloc, which reuses its freed pages.
  *
  * Every pointer from bigmem_alloc/bigmem_resize must be released by bigmem_free (never
@@ -18,7 +18,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-enum { BIGMEM_MIN_BYTES = 1 << 20 };
+enum { BIGMEM_MIN_BYTES = 512 << 10 };
 
 /* size zeroed bytes (size 0 is allowed and gives a valid, unique pointer); NULL when out
  * of memory or when size is absurd (above SIZE_MAX / 2). */
