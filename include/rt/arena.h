@@ -21,8 +21,8 @@ void arena_free(Arena *a);
 
 /* Buffers that may later become arena memory without their pages being touched twice:
  * the OBJ reader reads the file text into one, and the mesh's triangles are then built
- * in the same pages (faulting a fresh 4 KB page in costs about 2 us on the virtual
- * machines we measure on). From rt/bigmem.h; data 16-aligned; NULL when out of memory.
+ * in the same pages (faulting a fresh 4 KB page in costs 2 to 17 us on the virtual
+ * machines we measure on, depending on what ran just before). From rt/bigmem.h; data 16-aligned; NULL when out of memory.
  * arena_buffer_resize keeps the first min(old, new) bytes (NULL: buf unchanged). */
 void *arena_buffer_new(size_t size);
 void *arena_buffer_resize(void *buf, size_t size);
