@@ -89,10 +89,10 @@ bool lex_peek(Lexer *lx, Token *t)
     return true;
 }
 
-const char *tok_show(const Token *t, char *out, size_t size)
+const char *lex_show(const Token *t, char *out, size_t size)
 {
     enum { SHOW_MAX = 60 };
-    if (tok_eof(t)) {
+    if (lex_eof(t)) {
         snprintf(out, size, "end of file");
         return out;
     }
@@ -118,7 +118,7 @@ const char *tok_show(const Token *t, char *out, size_t size)
 }
 
 /* Copies the token into buf as a C string; false if it holds a NUL byte. */
-static bool tok_cstr(const Token *t, char *buf, size_t size)
+static bool lex_cstr(const Token *t, char *buf, size_t size)
 {
     if (t->len == 0 || t->len >= size || memchr(t->text, '\0', t->len))
         return false;
@@ -127,10 +127,10 @@ static bool tok_cstr(const Token *t, char *buf, size_t size)
     return true;
 }
 
-NumResult tok_to_float(const Token *t, float *out)
+NumResult lex_to_float(const Token *t, float *out)
 {
     char buf[LEX_MAX_TOKEN + 1];
-    if (!tok_cstr(t, buf, sizeof buf))
+    if (!lex_cstr(t, buf, sizeof buf))
         return NUM_NOT_A_NUMBER;
     char *end;
     errno = 0;
@@ -144,17 +144,17 @@ NumResult tok_to_float(const Token *t, float *out)
     return NUM_OK;
 }
 
-NumResult tok_to_int(const Token *t, int *out)
+NumResult lex_to_int(const Token *t, int *out)
 {
     char buf[LEX_MAX_TOKEN + 1];
-    if (!tok_cstr(t, buf, sizeof buf))
+    if (!lex_cstr(t, buf, sizeof buf))
         return NUM_NOT_A_NUMBER;
     char *end;
     errno = 0;
     long v = strtol(buf, &end, 10);
     if (end == buf || *end != '\0') {
         float f;
-        return tok_to_float(t, &f) == NUM_NOT_A_NUMBER ? NUM_NOT_A_NUMBER : NUM_NOT_INTEGER;
+        return lex_to_float(t, &f) == NUM_NOT_A_NUMBER ? NUM_NOT_A_NUMBER : NUM_NOT_INTEGER;
     }
     if (errno == ERANGE || v > INT_MAX || v < INT_MIN)
         return NUM_RANGE;

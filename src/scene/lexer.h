@@ -38,7 +38,7 @@ bool lex_peek(Lexer *lx, Token *t);
 
 /* Compares the token's len bytes with the C string kw; never reads kw past its NUL,
  * whatever bytes the token holds. */
-static inline bool tok_is(const Token *t, const char *kw)
+static inline bool lex_is(const Token *t, const char *kw)
 {
     size_t i = 0;
     for (; i < t->len; i++)
@@ -46,16 +46,16 @@ static inline bool tok_is(const Token *t, const char *kw)
             return false;
     return kw[i] == '\0';
 }
-static inline bool tok_eof(const Token *t) { return t->len == 0; }
+static inline bool lex_eof(const Token *t) { return t->len == 0; }
 
 /* A printable, bounded rendering of a token for messages: non-printable bytes as \xNN,
  * long tokens cut with "...". "end of file" for the EOF token. */
-const char *tok_show(const Token *t, char *out, size_t size);
+const char *lex_show(const Token *t, char *out, size_t size);
 
 /* Number conversions of a whole token (what the course's fscanf "%f" / "%d" accept, but
  * the entire token must be the number). They report located errors themselves. */
 typedef enum NumResult { NUM_OK, NUM_NOT_A_NUMBER, NUM_NOT_INTEGER, NUM_RANGE } NumResult;
-NumResult tok_to_float(const Token *t, float *out);
-NumResult tok_to_int(const Token *t, int *out);
+NumResult lex_to_float(const Token *t, float *out);
+NumResult lex_to_int(const Token *t, int *out);
 
 #endif

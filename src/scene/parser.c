@@ -115,9 +115,9 @@ static void token_hint(char *buf, size_t size, const char *shown, const char *co
 static bool fail_expected(Parser *p, const Token *t, const char *what)
 {
     char shown[256];
-    if (tok_eof(t))
+    if (lex_eof(t))
         return fail(p, &t->loc, "unexpected end of file, expected %s", what);
-    tok_show(t, shown, sizeof shown);
+    lex_show(t, shown, sizeof shown);
     char kw[64] = "", hint[160];
     size_t n = strlen(what);
     if (n > 2 && n < sizeof kw + 2 && what[0] == '\'' && what[n - 1] == '\'' &&
@@ -145,9 +145,9 @@ static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char
         {"top-level block", k_top_level},
     };
     char shown[256], hint[160];
-    if (tok_eof(t))
+    if (lex_eof(t))
         return fail(p, &t->loc, "unexpected end of file, expected %s", eof_what);
-    tok_show(t, shown, sizeof shown);
+    lex_show(t, shown, sizeof shown);
     const char *const *names = NULL;
     for (size_t i = 0; i < sizeof kinds / sizeof kinds[0] && !names; i++)
         if (!strcmp(kinds[i].kind, kind))
@@ -173,7 +173,7 @@ typedef enum { COUNTED_ITEM, COUNTED_END, COUNTED_ERROR } CountedStep;
 static CountedStep counted_step(Parser *p, const Token *t, int count, int n,
                                 const CountedBlock *b)
 {
-    if (tok_is(t, "}")) {
+    if (lex_is(t, "}")) {
         if (count == n)
             return COUNTED_END;
         fail(p, &t->loc, "%s is %d but the %s block ends after %d %s%s", b->count_kw, n,
@@ -199,7 +199,7 @@ static bool expect(Parser *p, const char *kw, Token *out)
     Token t;
     if (!next(p, &t))
         return false;
-    if (!tok_is(&t, kw)) {
+    if (!lex_is(&t, kw)) {
         char what[64];
         snprintf(what, sizeof what, "'%s'", kw);
         return fail_expected(p, &t, what);
@@ -212,10 +212,10 @@ static bool expect(Parser *p, const char *kw, Token *out)
 static bool num_error(Parser *p, const Token *t, NumResult r, bool want_int)
 {
     char shown[256];
-    if (tok_eof(t))
+    if (lex_eof(t))
         return fail(p, &t->loc, "unexpected end of file, expected %s",
                     want_int ? "an integer" : "a number");
-    tok_show(t, shown, sizeof shown);
+    lex_show(t, shown, sizeof shown);
     if (r == NUM_RANGE)
         return fail(p, &t->loc, "number out of range: '%s'", shown);
     char hint[160];
@@ -229,7 +229,7 @@ static bool read_float(Parser *p, float *out)
     Token t;
     if (!next(p, &t))
         return false;
-    NumResult r = tok_eof(&t) ? NUM_NOT_A_NUMBER : tok_to_float(&t, out);
+    NumResult r = lex_eof(&t) ? NUM_NOT_A_NUMBER : lex_to_float(&t, out);
     return r == NUM_OK || num_error(p, &t, r, false);
 }
 
@@ -238,7 +238,7 @@ static bool read_int_tok(Parser *p, int *out, Token *tok)
     Token t;
     if (!next(p, &t))
         return false;
-    NumResult r = tok_eof(&t) ? NUM_NOT_A_NUMBER : tok_to_int(&t, out);
+    NumResult r = lex_eof(&t) ? NUM_NOT_A_NUMBER : lex_to_int(&t, out);
     if (tok)
         *tok = t;
     return r == NUM_OK || num_error(p, &t, r, true);
@@ -297,7 +297,7 @@ static bool is_transformation(const Token *t)
     static const char *const kws[] = {"Scale", "UniformScale", "Translate", "XRotate",
                                       "YRotate", "ZRotate", "Rotate", "Matrix"};
     for (size_t i = 0; i < sizeof kws / sizeof kws[0]; i++)
-        if (tok_is(t, kws[i]))
+        if (lex_is(t, kws[i]))
             return true;
     return false;
 }
@@ -308,28 +308,28 @@ static bool parse_transformation(Parser *p, const Token *t, Mat4 *m)
 {
     Mat4 x;
     bool left = false;
-    if (tok_is(t, "Scale")) {
+    if (lex_is(t, "Scale")) {
         Vec3 s;
         if (!read_vec3(p, &s))
             return false;
         x = mat4_scale(s);
-    } else if (tok_is(t, "UniformScale")) {
+    } else if (lex_is(t, "UniformScale")) {
         float s;
         if (!read_float(p, &s))
             return false;
         x = mat4_scale(v3(s, s, s));
-    } else if (tok_is(t, "Translate")) {
+    } else if (lex_is(t, "Translate")) {
         Vec3 d;
         if (!read_vec3(p, &d))
             return false;
         x = mat4_translate(d);
-    } else if (tok_is(t, "XRotate") || tok_is(t, "YRotate") || tok_is(t, "ZRotate")) {
+    } else if (lex_is(t, "XRotate") || lex_is(t, "YRotate") || lex_is(t, "ZRotate")) {
         float deg;
         if (!read_float(p, &deg))
             return false;
         x = t->text[0] == 'X' ? mat4_rotate_x(deg)
             : t->text[0] == 'Y' ? mat4_rotate_y(deg) : mat4_rotate_z(deg);
-    } else if (tok_is(t, "Rotate")) {
+    } else if (lex_is(t, "Rotate")) {
         Vec3 axis;
         float deg;
         Token at;
@@ -339,7 +339,7 @@ static bool parse_transformation(Parser *p, const Token *t, Mat4 *m)
         if (v3_is_zero(axis))
             return fail(p, &at.loc, "Rotate axis is zero");
         x = mat4_rotate_axis(axis, deg);
-    } else if (tok_is(t, "Matrix")) {
+    } else if (lex_is(t, "Matrix")) {
         float v[16];
         if (!expect(p, "{", NULL))
             return false;
@@ -417,8 +417,8 @@ static bool linear_part_singular(const Mat4 *m, double *lo, double *hi)
 
 static bool is_object(const Token *t)
 {
-    return tok_is(t, "Group") || tok_is(t, "Sphere") || tok_is(t, "Plane") ||
-           tok_is(t, "Triangle") || tok_is(t, "TriangleMesh") || tok_is(t, "Transform");
+    return lex_is(t, "Group") || lex_is(t, "Sphere") || lex_is(t, "Plane") ||
+           lex_is(t, "Triangle") || lex_is(t, "TriangleMesh") || lex_is(t, "Transform");
 }
 
 static bool enter(Parser *p, const Token *kw)
@@ -435,7 +435,7 @@ static bool need_material(Parser *p, const Token *kw)
         return true;
     char shown[64];
     return fail(p, &kw->loc, "no material selected for %s (MaterialIndex missing)",
-                tok_show(kw, shown, sizeof shown));
+                lex_show(kw, shown, sizeof shown));
 }
 
 static bool stack_push(Parser *p, Object3D *o)
@@ -463,7 +463,7 @@ static bool parse_group(Parser *p, const Token *kw, Object3D **out)
         Token t;
         if (!next(p, &t))
             return false;
-        if (tok_is(&t, "}")) {
+        if (lex_is(&t, "}")) {
             if (count < n)
                 return fail(p, &t.loc, "numObjects is %d but the group ends after %d object%s",
                             n, count, count == 1 ? "" : "s");
@@ -476,7 +476,7 @@ static bool parse_group(Parser *p, const Token *kw, Object3D **out)
             snprintf(what, sizeof what, "'}' after %d object%s", n, n == 1 ? "" : "s");
             return fail_expected(p, &t, what);
         }
-        if (tok_is(&t, "MaterialIndex")) {
+        if (lex_is(&t, "MaterialIndex")) {
             Token num;
             int i;
             if (!read_int_tok(p, &i, &num))
@@ -522,7 +522,7 @@ static bool parse_transform(Parser *p, const Token *kw, Object3D **out)
         if (!parse_transformation(p, &t, &m))
             return false;
     }
-    if (tok_is(&t, "}"))
+    if (lex_is(&t, "}"))
         return fail(p, &t.loc, "Transform has no object (expected an object before '}')");
     if (!is_object(&t))
         return fail_unknown(p, &t, "object", "an object");
@@ -531,7 +531,7 @@ static bool parse_transform(Parser *p, const Token *kw, Object3D **out)
         return false;
     if (!next(p, &t))
         return false;
-    if (!tok_is(&t, "}")) {
+    if (!lex_is(&t, "}")) {
         if (is_object(&t))
             return fail(p, &t.loc, "a Transform holds exactly one object; expected '}'");
         return fail_expected(p, &t, "'}'");
@@ -607,7 +607,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     if (!need_material(p, kw) || !enter(p, kw) || !expect(p, "{", NULL) ||
         !expect(p, "obj_file", NULL) || !next(p, &name))
         return false;
-    if (tok_eof(&name) || tok_is(&name, "}"))
+    if (lex_eof(&name) || lex_is(&name, "}"))
         return fail_expected(p, &name, "an OBJ file name");
     if (memchr(name.text, '\0', name.len))
         return fail(p, &name.loc, "invalid OBJ file name (contains a NUL byte)");
@@ -650,7 +650,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     ObjMesh mesh = {0};
     if (used < 0) {
         char shown[256];
-        tok_show(&name, shown, sizeof shown);
+        lex_show(&name, shown, sizeof shown);
         if (ntried == 2)
             fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s', '%s'): %s", shown,
                  tried[0], tried[1], strerror(first_errno));
@@ -662,7 +662,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
         ok = objfile_parse(buf, len, tried[used], &mesh, p->diag);
         if (ok && mesh.ntris == 0) {
             char shown[256];
-            fail(p, &name.loc, "OBJ file '%s' has no faces", tok_show(&name, shown, sizeof shown));
+            fail(p, &name.loc, "OBJ file '%s' has no faces", lex_show(&name, shown, sizeof shown));
             ok = false;
         }
         if (ok) {
@@ -686,17 +686,17 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
 
 static bool parse_object(Parser *p, const Token *kw, Object3D **out)
 {
-    if (tok_is(kw, "Group"))
+    if (lex_is(kw, "Group"))
         return parse_group(p, kw, out);
-    if (tok_is(kw, "Sphere"))
+    if (lex_is(kw, "Sphere"))
         return parse_sphere(p, kw, out);
-    if (tok_is(kw, "Plane"))
+    if (lex_is(kw, "Plane"))
         return parse_plane(p, kw, out);
-    if (tok_is(kw, "Triangle"))
+    if (lex_is(kw, "Triangle"))
         return parse_triangle(p, kw, out);
-    if (tok_is(kw, "TriangleMesh"))
+    if (lex_is(kw, "TriangleMesh"))
         return parse_mesh(p, kw, out);
-    if (tok_is(kw, "Transform"))
+    if (lex_is(kw, "Transform"))
         return parse_transform(p, kw, out);
     return fail_unknown(p, kw, "object", "an object");
 }
@@ -743,12 +743,12 @@ static bool parse_background(Parser *p)
         Token t;
         if (!next(p, &t))
             return false;
-        if (tok_is(&t, "}"))
+        if (lex_is(&t, "}"))
             return true;
-        if (tok_is(&t, "color")) {
+        if (lex_is(&t, "color")) {
             if (!read_vec3(p, &p->s->background))
                 return false;
-        } else if (tok_is(&t, "ambientLight")) {
+        } else if (lex_is(&t, "ambientLight")) {
             if (!read_vec3(p, &p->s->ambient))
                 return false;
         } else {
@@ -761,7 +761,7 @@ static bool parse_light(Parser *p, const Token *kw, Light *l)
 {
     memset(l, 0, sizeof *l);
     l->attenuation[0] = 1.0f;
-    if (tok_is(kw, "DirectionalLight")) {
+    if (lex_is(kw, "DirectionalLight")) {
         SrcLoc at;
         l->kind = LIGHT_DIRECTIONAL;
         if (!expect(p, "{", NULL) || !field_vec3(p, "direction", &l->direction, &at) ||
@@ -772,7 +772,7 @@ static bool parse_light(Parser *p, const Token *kw, Light *l)
         l->direction = v3_normalize(l->direction);
         return true;
     }
-    if (tok_is(kw, "PointLight")) {
+    if (lex_is(kw, "PointLight")) {
         l->kind = LIGHT_POINT;
         if (!expect(p, "{", NULL) || !field_vec3(p, "position", &l->position, NULL) ||
             !field_vec3(p, "color", &l->color, NULL))
@@ -780,7 +780,7 @@ static bool parse_light(Parser *p, const Token *kw, Light *l)
         Token t;
         if (!next(p, &t))
             return false;
-        if (tok_is(&t, "attenuation")) {
+        if (lex_is(&t, "attenuation")) {
             if (!read_float(p, &l->attenuation[0]) || !read_float(p, &l->attenuation[1]) ||
                 !read_float(p, &l->attenuation[2]))
                 return false;
@@ -789,11 +789,11 @@ static bool parse_light(Parser *p, const Token *kw, Light *l)
                 return fail(p, &t.loc, "attenuation 0 0 0 would divide by zero");
             if (!next(p, &t))
                 return false;
-            if (!tok_is(&t, "}"))
+            if (!lex_is(&t, "}"))
                 return fail_expected(p, &t, "'}'");
             return true;
         }
-        if (!tok_is(&t, "}"))
+        if (!lex_is(&t, "}"))
             return fail_expected(p, &t, "'attenuation' or '}'");
         return true;
     }
@@ -802,7 +802,7 @@ static bool parse_light(Parser *p, const Token *kw, Light *l)
 
 static bool is_light(const Token *t)
 {
-    return tok_is(t, "DirectionalLight") || tok_is(t, "PointLight");
+    return lex_is(t, "DirectionalLight") || lex_is(t, "PointLight");
 }
 
 static bool parse_lights(Parser *p)
@@ -876,24 +876,24 @@ static bool parse_phong(Parser *p, Material **out, const Token *kw)
         if (!next(p, &t))
             return false;
         bool ok;
-        if (tok_is(&t, "}"))
+        if (lex_is(&t, "}"))
             break;
-        else if (tok_is(&t, "diffuseColor"))
+        else if (lex_is(&t, "diffuseColor"))
             ok = read_vec3(p, &pp.diffuse);
-        else if (tok_is(&t, "specularColor"))
+        else if (lex_is(&t, "specularColor"))
             ok = read_vec3(p, &pp.specular);
-        else if (tok_is(&t, "exponent")) {
+        else if (lex_is(&t, "exponent")) {
             ok = read_float(p, &pp.exponent);
             /* pow(0, negative) is infinite: a NaN/inf highlight, never what was meant. */
             if (ok && pp.exponent < 0.0f)
                 return fail(p, &t.loc, "exponent must not be negative, found %g",
                             (double)pp.exponent);
         }
-        else if (tok_is(&t, "reflectiveColor"))
+        else if (lex_is(&t, "reflectiveColor"))
             ok = read_vec3(p, &pp.reflective);
-        else if (tok_is(&t, "transparentColor"))
+        else if (lex_is(&t, "transparentColor"))
             ok = read_vec3(p, &pp.transparent);
-        else if (tok_is(&t, "indexOfRefraction")) {
+        else if (lex_is(&t, "indexOfRefraction")) {
             ok = read_float(p, &pp.ior);
             /* Snell's ratio divides by it. */
             if (ok && !(pp.ior > 0.0f))
@@ -941,7 +941,7 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
     if (!lex_peek(&p->lx, &t))
         return false;
     Mat4 *xf = NULL;
-    if (tok_is(&t, "Transform")) {
+    if (lex_is(&t, "Transform")) {
         (void)next(p, &t); /* the peeked token: cannot fail */
         if (!expect(p, "{", NULL))
             return false;
@@ -950,7 +950,7 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
             Token u;
             if (!next(p, &u))
                 return false;
-            if (tok_is(&u, "}"))
+            if (lex_is(&u, "}"))
                 break;
             if (!is_transformation(&u))
                 return fail_expected(p, &u, "a transformation or '}'");
@@ -971,7 +971,7 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
         return fail(p, &kw->loc, "procedural materials nested deeper than %d levels",
                     RT_MAX_NESTING);
     Arena *a = &p->s->arena;
-    if (tok_is(kw, "Checkerboard")) {
+    if (lex_is(kw, "Checkerboard")) {
         if (!expect(p, "}", NULL))
             return false;
         *out = checkerboard_new(a, xf, m1, m2);
@@ -984,7 +984,7 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
     if (octaves < 0 || octaves > MAX_OCTAVES)
         return fail(p, &num.loc, "octaves must be between 0 and %d, found %d", MAX_OCTAVES,
                     octaves);
-    if (tok_is(kw, "Noise")) {
+    if (lex_is(kw, "Noise")) {
         if (!expect(p, "}", NULL))
             return false;
         *out = noise_new(a, xf, m1, m2, octaves);
@@ -994,7 +994,7 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
     if (!field_float(p, "frequency", &freq, NULL) || !field_float(p, "amplitude", &amp, NULL) ||
         !expect(p, "}", NULL))
         return false;
-    if (tok_is(kw, "Marble"))
+    if (lex_is(kw, "Marble"))
         *out = marble_new(a, xf, m1, m2, octaves, freq, amp);
     else
         *out = wood_new(a, xf, m1, m2, octaves, freq, amp);
@@ -1003,8 +1003,8 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
 
 static bool is_material(const Token *t)
 {
-    return tok_is(t, "PhongMaterial") || tok_is(t, "Material") || tok_is(t, "Checkerboard") ||
-           tok_is(t, "Noise") || tok_is(t, "Marble") || tok_is(t, "Wood");
+    return lex_is(t, "PhongMaterial") || lex_is(t, "Material") || lex_is(t, "Checkerboard") ||
+           lex_is(t, "Noise") || lex_is(t, "Marble") || lex_is(t, "Wood");
 }
 
 static bool parse_materials(Parser *p)
@@ -1043,7 +1043,7 @@ static bool parse_materials(Parser *p)
         }
         Material *m = NULL;
         int depth = 1;
-        if (tok_is(&t, "PhongMaterial") || tok_is(&t, "Material"))
+        if (lex_is(&t, "PhongMaterial") || lex_is(&t, "Material"))
             ok = parse_phong(p, &m, &t);
         else
             ok = parse_procedural(p, &t, &ml, count, &m, &depth);
@@ -1088,19 +1088,19 @@ bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
             ok = false;
             break;
         }
-        if (tok_eof(&t))
+        if (lex_eof(&t))
             break;
-        if (tok_is(&t, "OrthographicCamera"))
+        if (lex_is(&t, "OrthographicCamera"))
             ok = parse_camera(&p, false);
-        else if (tok_is(&t, "PerspectiveCamera"))
+        else if (lex_is(&t, "PerspectiveCamera"))
             ok = parse_camera(&p, true);
-        else if (tok_is(&t, "Background"))
+        else if (lex_is(&t, "Background"))
             ok = parse_background(&p);
-        else if (tok_is(&t, "Lights"))
+        else if (lex_is(&t, "Lights"))
             ok = parse_lights(&p);
-        else if (tok_is(&t, "Materials"))
+        else if (lex_is(&t, "Materials"))
             ok = parse_materials(&p);
-        else if (tok_is(&t, "Group")) {
+        else if (lex_is(&t, "Group")) {
             Object3D *root;
             ok = parse_group(&p, &t, &root);
             if (ok)
