@@ -36,7 +36,8 @@ void grid_free(Grid *g)
     bigmem_free(g->cell_start);
     bigmem_free(g->cell_items);
     grid_pack_free(g);
-    bigmem_free(g->course_count);
+    bigmem_free(atomic_load_explicit(&g->course_count, memory_order_relaxed));
+    pthread_mutex_destroy(&g->course_lock);
     bigmem_free(g->prims);
     bigmem_free(g->unbounded);
     prim_table_free(&g->own_table);
@@ -112,6 +113,8 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     Grid *g = b.g = calloc(1, sizeof *g);
     if (!g)
         goto oom;
+    atomic_init(&g->course_count, NULL);
+    pthread_mutex_init(&g->course_lock, NULL);
     g->bounds = t->scene_bounds;
     g->n[0] = nx;
     g->n[1] = ny;
@@ -126,8 +129,7 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     }
     grid_setup_geometry(g);
     g->cell_start = bigmem_calloc((size_t)cells + 1, sizeof *g->cell_start);
-    g->course_count = bigmem_calloc((size_t)cells, sizeof *g->course_count);
-    if (!g->cell_start || !g->course_count)
+    if (!g->cell_start)
         goto oom;
 
     if (!grid_setup_cell_axis(&b))
@@ -199,6 +201,33 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
     return g;
 }
 
+/* ---- the course counts, on first use ---- */
+
+const uint32_t *grid_course_counts(const Grid *g)
+{
+    uint32_t *c = atomic_load_explicit(&g->course_count, memory_order_acquire);
+    if (c)
+        return c;
+    /* The counts are a cache of the (immutable) grid: made once, under the lock, by
+     * whichever thread asks first; everyone else reads the published array. */
+    Grid *mg = (Grid *)g;
+    pthread_mutex_lock(&mg->course_lock);
+    c = atomic_load_explicit(&mg->course_count, memory_order_relaxed);
+    if (!c) {
+        c = bigmem_calloc(g->num_cells, sizeof *c);
+        /* The counts are sums, so the order of the primitives (grid_pack renumbered
+         * them) does not matter. */
+        for (uint32_t p = 0; c && p < g->num_prims; p++) {
+            GridBuildRec rec;
+            grid_make_rec(&g->prims[p], grid_prim_rec_kind(&g->prims[p]), &rec);
+            grid_course_insert(g, c, &rec);
+        }
+        atomic_store_explicit(&mg->course_count, c, memory_order_release);
+    }
+    pthread_mutex_unlock(&mg->course_lock);
+    return c;
+}
+
 /* ---- accessors ---- */
 
 BBox grid_bounds(const Grid *g) { return g->bounds; }
@@ -214,7 +243,10 @@ int grid_cell_count(const Grid *g, int i, int j, int k)
 {
     if (i < 0 || j < 0 || k < 0 || i >= g->n[0] || j >= g->n[1] || k >= g->n[2])
         return 0;
-    uint32_t c = g->course_count[grid_cell_index(g, i, j, k)];
+    const uint32_t *course = grid_course_counts(g);
+    if (!course)
+        return 0;
+    uint32_t c = course[grid_cell_index(g, i, j, k)];
     return c > INT_MAX ? INT_MAX : (int)c;
 }
 
@@ -234,8 +266,9 @@ bool grid_marking(const Grid *g) { return g->marking; }
 void grid_entry_totals(const Grid *g, uint64_t *course, uint64_t *marching)
 {
     uint64_t sum = 0;
-    for (uint32_t c = 0; c < g->num_cells; c++)
-        sum += g->course_count[c];
+    const uint32_t *count = grid_course_counts(g);
+    for (uint32_t c = 0; count && c < g->num_cells; c++)
+        sum += count[c];
     if (course)
         *course = sum;
     if (marching)

@@ -1,6 +1,6 @@
 /* The grid's binning: every primitive's marching cells in parallel chunks on the set-up
- * threads (rt/par.h), the CSR arrays, then the course counts next to grid_pack. The
- * result is the same on any number of threads. */
+ * threads (rt/par.h), the CSR arrays, then grid_pack. The result is the same on any
+ * number of threads. */
 #include "grid_build.h"
 
 #include <stdlib.h>
@@ -13,6 +13,15 @@ RecKind grid_rec_kind(const Prim *p)
 {
     ObjKind k = obj_kind(p->obj);
     return k == OBJ_TRIANGLE ? REC_TRIANGLE : k == OBJ_SPHERE && !p->xf ? REC_SPHERE : REC_BOX;
+}
+
+RecKind grid_prim_rec_kind(const GridPrim *gp)
+{
+    Prim p;
+    memset(&p, 0, sizeof p);
+    p.obj = gp->obj;
+    p.xf = gp->xf;
+    return grid_rec_kind(&p);
 }
 
 /* The record of a primitive of kind kind. */
@@ -57,19 +66,13 @@ typedef struct BinChunk {
     int worker;
 } BinChunk;
 
-/* The binning job: the marching cells of every primitive (bin_chunk), then the course
- * counts (course_chunk) next to grid_pack (pack_chunk). */
+/* The binning job: the marching cells of every primitive (bin_chunk). */
 typedef struct BinJob {
     Grid *g;
     GridBuild *b;
     uint32_t nchunks;
     BinPart part[PAR_MAX_WORKERS];
     BinChunk *chunk;
-    /* The primitives in walk order with their kinds, for the course counts: grid_pack
-     * renumbers g->prims while they are counted. */
-    GridPrim *snap;
-    uint8_t *kind;
-    bool pack_failed;
 } BinJob;
 
 /* Worker w's per-cell array in part->*field: worker 0 uses the grid's own, the others
@@ -111,8 +114,6 @@ static void bin_chunk(void *ctx, int i, int worker)
     for (uint32_t p = p0; p < p1; p++) {
         GridBuildRec rec;
         make_rec(job->b, p, &rec);
-        job->snap[p] = g->prims[p];
-        job->kind[p] = (uint8_t)rec.kind;
         uint32_t ncells = 0;
         if (!grid_tight_insert(bp, &rec, &ncells))
             return;
@@ -121,33 +122,6 @@ static void bin_chunk(void *ctx, int i, int worker)
     job->chunk[i].off = off;
     job->chunk[i].len = bp->num_pairs - off;
     job->chunk[i].worker = worker;
-}
-
-/* Chunk 0: grid_pack (one thread); chunk i > 0: the course counts of chunk i - 1 of
- * the primitives. The counts are sums, so they do not depend on who adds what. */
-static void course_chunk(void *ctx, int i, int worker)
-{
-    BinJob *job = ctx;
-    Grid *g = job->g;
-    if (i == 0) {
-        job->pack_failed = !grid_pack(g);
-        return;
-    }
-    BinPart *bp = &job->part[worker];
-    if (bp->oom)
-        return;
-    uint32_t *course = part_cells(job, worker, &bp->course, g->course_count);
-    if (!course) {
-        bp->oom = true;
-        return;
-    }
-    uint32_t p0 = (uint32_t)(i - 1) * BIN_CHUNK;
-    uint32_t p1 = g->num_prims - p0 > BIN_CHUNK ? p0 + BIN_CHUNK : g->num_prims;
-    for (uint32_t p = p0; p < p1; p++) {
-        GridBuildRec rec;
-        grid_make_rec(&job->snap[p], (RecKind)job->kind[p], &rec);
-        grid_course_insert(g, course, &rec);
-    }
 }
 
 static bool parts_ok(const BinJob *job)
@@ -159,7 +133,7 @@ static bool parts_ok(const BinJob *job)
 }
 
 /* The marching cells of every primitive (bin_chunk, in parallel), the CSR arrays, then
- * the course counts in parallel with grid_pack. The CSR fill adds the workers' counts
+ * grid_pack. The CSR fill adds the workers' counts
  * up into offsets and writes the entries chunk by chunk, i.e. in primitive order within
  * every cell, as one sequential pass writes them. False when out of memory, or with
  * b->too_many when the entries overflow a uint32_t. */
@@ -173,9 +147,7 @@ bool grid_bin_fill_pack(GridBuild *b)
     job.b = b;
     job.nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
     job.chunk = calloc(job.nchunks ? job.nchunks : 1, sizeof *job.chunk);
-    job.snap = bigmem_calloc(n ? n : 1, sizeof *job.snap);
-    job.kind = bigmem_alloc(n ? n : 1);
-    bool ok = job.chunk && job.snap && job.kind;
+    bool ok = job.chunk != NULL;
     uint64_t total = 0;
     if (ok) {
         par_for((int)job.nchunks, bin_chunk, &job);
@@ -224,20 +196,9 @@ bool grid_bin_fill_pack(GridBuild *b)
             bigmem_free(job.part[w].count);
         job.part[w].count = NULL;
     }
-    if (ok) {
-        /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c),
-         * while the course counts are made. */
-        par_for((int)job.nchunks + 1, course_chunk, &job);
-        ok = !job.pack_failed && parts_ok(&job);
-        for (int w = 1; ok && w < PAR_MAX_WORKERS; w++)
-            if (job.part[w].course)
-                for (uint32_t c = 0; c < cells; c++)
-                    g->course_count[c] += job.part[w].course[c];
-    }
-    for (int w = 1; w < PAR_MAX_WORKERS; w++)
-        bigmem_free(job.part[w].course);
+    /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c). */
+    if (ok)
+        ok = grid_pack(g);
     free(job.chunk);
-    bigmem_free(job.snap);
-    bigmem_free(job.kind);
     return ok;
 }

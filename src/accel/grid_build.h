@@ -40,7 +40,6 @@ struct GridBuildRec {
 typedef struct BinPart {
     const Grid *g;
     const double *cell_axis; /* GridBuild.cell_axis */
-    uint32_t *course;     /* per cell: course counts (worker 0: g->course_count) */
     uint32_t *count;      /* per cell: marching entries (worker 0: g->cell_start + 1) */
     uint32_t *pairs;      /* cells of each binned primitive's marching set, in order */
     size_t num_pairs, cap_pairs;
@@ -87,8 +86,7 @@ typedef struct GridBuild {
     bool too_many;          /* more marching entries than a uint32_t index can hold */
 } GridBuild;
 
-/* grid_bin.c: the marching sets, the CSR arrays, the course counts and grid_pack, on the
- * set-up threads. False when out of memory, or with b->too_many when the entries
+/* grid_bin.c: the marching sets, the CSR arrays and grid_pack, on the set-up threads. False when out of memory, or with b->too_many when the entries
  * overflow a uint32_t. */
 bool grid_bin_fill_pack(GridBuild *b);
 /* Frees the build-time arrays (prim_ncells, cell_axis). */
@@ -103,6 +101,8 @@ uint64_t grid_course_box_cells(const Grid *g, const GridBuildRec *rec);
 void grid_setup_geometry(Grid *g);
 /* grid_bin.c: how a bounded primitive of the table is binned, and its record. */
 RecKind grid_rec_kind(const Prim *p);
+/* The same from a grid's primitive (its leaf and Transforms). */
+RecKind grid_prim_rec_kind(const GridPrim *gp);
 void grid_make_rec(const GridPrim *gp, RecKind kind, GridBuildRec *rec);
 /* grid_cells.c: the number of cells grid_tight_insert visits for rec (its padded box
  * range): an upper bound on its marching entries. */

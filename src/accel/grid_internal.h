@@ -4,6 +4,8 @@
 #define RT_ACCEL_GRID_INTERNAL_H
 
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <string.h>
 #include "rt/grid.h"
@@ -47,8 +49,12 @@ struct Grid {
     uint32_t num_cells;
     uint32_t *cell_start;   /* num_cells + 1 offsets into cell_items (CSR) */
     uint32_t *cell_items;   /* indices into prims: the marching sets (tight insertion) */
-    uint32_t *course_count; /* per cell: entries by the course rules (grid_course.c),
-                               the -visualize_grid count */
+    /* Per cell: entries by the course rules (grid_course.c), the -visualize_grid count.
+     * Only -visualize_grid, the preview and -timings read them, so they are made on
+     * first use (grid_course_counts) instead of by every build: a split render's
+     * processes would each pay ~12% of their set-up for nothing. */
+    uint32_t *_Atomic course_count;
+    pthread_mutex_t course_lock;
     GridPrim *prims;        /* bounded primitives, depth-first order */
     uint32_t num_prims;
     GridPrim *unbounded;    /* planes: tested for every ray */
@@ -67,6 +73,10 @@ struct Grid {
     /* The primitive table of grid_build (grid_build_table borrows the caller's). */
     PrimTable own_table;
 };
+
+/* The course counts, made on first call (thread-safe: the first caller builds them
+ * under course_lock, later ones read the published array). NULL when out of memory. */
+const uint32_t *grid_course_counts(const Grid *g);
 
 /* Tag bit on cell_items entries: the primitive is a packed triangle. */
 #define GRID_ITEM_TRI 0x80000000u

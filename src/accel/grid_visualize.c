@@ -57,11 +57,12 @@ bool grid_visualize_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmi
 {
     /* The visualisation draws the course cells exactly: no padding. */
     static const float no_pad[3] = {0.0f, 0.0f, 0.0f};
+    const uint32_t *course = grid_course_counts(g);
     MarchingInfo mi;
-    if (!march_init(&mi, &g->box, g->n, no_pad, ray, tmin, ctx))
+    if (!course || !march_init(&mi, &g->box, g->n, no_pad, ray, tmin, ctx))
         return false;
     do {
-        uint32_t count = g->course_count[grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2])];
+        uint32_t count = course[grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2])];
         if (count > 0) {
             if (!(mi.t < hit->t))
                 return false;

@@ -299,7 +299,7 @@ static uint64_t grid_hash(const Grid *g)
     } while (0)
     MIX(g->cell_start, (g->num_cells + 1) * sizeof *g->cell_start);
     MIX(g->cell_items, g->cell_start[g->num_cells] * sizeof *g->cell_items);
-    MIX(g->course_count, g->num_cells * sizeof *g->course_count);
+    MIX(grid_course_counts(g), g->num_cells * sizeof(uint32_t));
     for (uint32_t i = 0; i < g->num_prims; i++) {
         MIX(&g->prims[i].obj->id, sizeof g->prims[i].obj->id);
         int depth = g->prims[i].xf ? g->prims[i].xf->path.depth : -1;
