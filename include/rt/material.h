@@ -62,6 +62,35 @@ PhongParams phong_defaults(void);
 Material *phong_new(Arena *a, const PhongParams *p);
 /* Copies the parameters of a PhongMaterial; false for any other material type. */
 bool phong_params(const Material *m, PhongParams *out);
+/* The parameters of a PhongMaterial in place (borrowed, read-only); NULL for any other
+ * material type. The tracer shades such hits without the ops (raytracer_trace_packet). */
+const PhongParams *phong_params_of(const Material *m);
+
+/* One light's Blinn-Phong term, the whole of PhongMaterial's shade: n is the facing
+ * normal, v the unit direction towards the eye (-normalize(ray dir)), l the unit
+ * direction to the light, lc its colour. No diffuse or specular term when n.l <= 0 (the
+ * course's step). Inline so the packet shading and the material compute the same bits.
+ *
+ * powf is skipped, exactly, when the material has no specular colour: the term's
+ * specular part is then specular * s = +-0 for any finite s >= 0, the sign being the
+ * colour's own, so specular itself is added. s = powf(x, e) with x = max(n.h, 0) is
+ * finite when 0 <= e <= 1000 and x <= 1.0625, which |n|^2 <= 1.125 and |h| <= 1 (plus
+ * rounding) guarantee; outside that range (or with a NaN) powf runs as always. */
+static inline Vec3 phong_term(const PhongParams *p, Vec3 n, Vec3 v, Vec3 l, Vec3 lc)
+{
+    float nl = v3_dot(n, l);
+    float diffuse = nl > 0.0f ? nl : 0.0f;
+    float specular = 0.0f;
+    if (nl > 0.0f && !(v3_is_zero(p->specular) && p->exponent >= 0.0f &&
+                       p->exponent <= 1000.0f && v3_dot(n, n) <= 1.125f)) {
+        Vec3 h = v3_normalize(v3_add(l, v));
+        float nh = v3_dot(n, h);
+        /* pow(0, 0) = 1: exponent 0 gives a constant lobe, as the course's pow. */
+        specular = powf(nh > 0.0f ? nh : 0.0f, p->exponent);
+    }
+    Vec3 c = v3_add(v3_scale(p->diffuse, diffuse), v3_scale(p->specular, specular));
+    return v3_mul(lc, c);
+}
 
 /* Procedural solid textures (A6, docs/textures.md). texture_xf maps world points to
  * texture space; NULL means identity. m1, m2 are borrowed and may be procedural. */

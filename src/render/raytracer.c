@@ -197,6 +197,68 @@ Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float 
     return trace(rt, ctx, ray, tmin, depth, weight, ior, rt->pixel_width, hit_out, RAYSEG_MAIN);
 }
 
+/* A lane of a packet whose hit is shaded inline: a PhongMaterial, with every light
+ * directional and -noise_cutoff off (packet_inline_ok). The arithmetic is shade_begin's
+ * and phong_term's in the same order, so the colour is the same bits as through the
+ * material's ops, without the indirect calls, with the view vector made once for all
+ * lights instead of once per light and each light's direction and colour once per
+ * packet. */
+typedef struct PhongLane {
+    const PhongParams *p;
+    Vec3 n;          /* the facing normal */
+    Vec3 v;          /* towards the eye: -normalize(ray dir) */
+    Vec3 color;
+    bool entering;
+} PhongLane;
+
+static bool packet_inline_ok(const RayTracer *rt)
+{
+    if (cutoff_on(rt))
+        return false;
+    for (int i = 0; i < rt->scene->num_lights; i++)
+        if (rt->scene->lights[i].kind != LIGHT_DIRECTIONAL)
+            return false;
+    return true;
+}
+
+/* shade_begin for a PhongLane; false when the colour is final (a back face without
+ * -shade_back: black). */
+static bool phong_lane_begin(const RayTracer *rt, const PhongParams *p, const Ray *ray,
+                             const Hit *h, PhongLane *pl)
+{
+    Vec3 d = ray->dir;
+    Vec3 n = h->normal;
+    float dn = v3_dot(n, d);
+    pl->entering = dn < 0.0f;
+    if (!pl->entering && dn > 0.0f) {
+        if (!rt->shade_back)
+            return false;
+        n = v3_neg(n);
+    }
+    pl->p = p;
+    pl->n = n;
+    pl->v = v3_neg(v3_normalize(d));
+    pl->color = v3_mul(rt->scene->ambient, p->diffuse);
+    return true;
+}
+
+/* shade_finish for a PhongLane: nothing to add without bounces or without reflective
+ * and transparent colours (shade_finish adds nothing then either). */
+static Vec3 phong_lane_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray,
+                              const Hit *h, const PhongLane *pl)
+{
+    if (rt->bounces <= 0 || (v3_is_zero(pl->p->reflective) && v3_is_zero(pl->p->transparent)))
+        return pl->color;
+    ShadeState st;
+    st.sh = *h;
+    st.sh.normal = pl->n;
+    st.color = pl->color;
+    st.entering = pl->entering;
+    st.cone = st.footprint = 0.0f;
+    shade_finish(rt, ctx, ray, &st, 0, 1.0f, 1.0f);
+    return st.color;
+}
+
 void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
                             float tmin, Vec3 *colors, Hit *hits)
 {
@@ -213,28 +275,59 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         hits[i] = hit_none();
     uint64_t found = accel_intersect_packet(rt->accel, rays, n, hits, tmin, ctx);
 
+    bool inline_ok = packet_inline_ok(rt);
     ShadeState st[ACCEL_PACKET_MAX];
-    uint64_t live = 0;
+    PhongLane pl[ACCEL_PACKET_MAX];
+    uint64_t live = 0, phong = 0;
+    const Material *last = NULL;
+    const PhongParams *last_p = NULL;
     for (int i = 0; i < n; i++) {
         if (!(found >> i & 1)) {
             colors[i] = scene->background;
             continue;
         }
         hits[i].point = ray_at(&rays[i], hits[i].t);
-        if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
+        const PhongParams *p = NULL;
+        if (inline_ok) {
+            if (hits[i].material != last) { /* neighbouring lanes mostly share one */
+                last = hits[i].material;
+                last_p = phong_params_of(last);
+            }
+            p = last_p;
+        }
+        if (p) {
+            if (phong_lane_begin(rt, p, &rays[i], &hits[i], &pl[i])) {
+                live |= (uint64_t)1 << i;
+                phong |= (uint64_t)1 << i;
+            } else {
+                colors[i] = v3(0, 0, 0);
+            }
+        } else if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i])) {
             live |= (uint64_t)1 << i;
-        else
+        } else {
             colors[i] = st[i].color;
+        }
     }
     for (int li = 0; li < scene->num_lights && live; li++) {
+        const Light *light = &scene->lights[li];
         Ray srays[ACCEL_PACKET_MAX];
         Vec3 lcol[ACCEL_PACKET_MAX];
         float dist[ACCEL_PACKET_MAX];
+        bool directional = light->kind == LIGHT_DIRECTIONAL;
+        Vec3 l0 = v3(0, 0, 0), lc0 = v3(0, 0, 0);
+        float dist0 = 0.0f;
+        if (directional) /* the same for every point: asked once */
+            light_illuminate(light, v3(0, 0, 0), &l0, &lc0, &dist0);
         for (uint64_t m = live; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             srays[i].origin = hits[i].point;
-            light_illuminate(&scene->lights[li], hits[i].point, &srays[i].dir, &lcol[i],
-                             &dist[i]);
+            if (directional) {
+                srays[i].dir = l0;
+                lcol[i] = lc0;
+                dist[i] = dist0;
+            } else {
+                light_illuminate(light, hits[i].point, &srays[i].dir, &lcol[i], &dist[i]);
+            }
         }
         uint64_t blocked = 0;
         if (rt->shadows) {
@@ -243,13 +336,21 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         }
         for (uint64_t m = live & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
-            shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
+            if (phong >> i & 1)
+                pl[i].color = v3_add(pl[i].color,
+                                     phong_term(pl[i].p, pl[i].n, pl[i].v, srays[i].dir, lcol[i]));
+            else
+                shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
         }
     }
     for (uint64_t m = live; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
-        shade_finish(rt, ctx, &rays[i], &st[i], 0, 1.0f, 1.0f);
-        colors[i] = st[i].color;
+        if (phong >> i & 1) {
+            colors[i] = phong_lane_finish(rt, ctx, &rays[i], &hits[i], &pl[i]);
+        } else {
+            shade_finish(rt, ctx, &rays[i], &st[i], 0, 1.0f, 1.0f);
+            colors[i] = st[i].color;
+        }
     }
 }
 

@@ -14,19 +14,7 @@ static Vec3 phong_shade(const Material *self, const Ray *ray, const Hit *hit, Ve
                         Vec3 light_color)
 {
     const PhongMaterial *m = (const PhongMaterial *)self;
-    Vec3 n = hit->normal;
-    Vec3 v = v3_neg(v3_normalize(ray->dir));
-    Vec3 h = v3_normalize(v3_add(l, v));
-    float nl = v3_dot(n, l);
-    float diffuse = nl > 0.0f ? nl : 0.0f;
-    float specular = 0.0f;
-    if (nl > 0.0f) {
-        float nh = v3_dot(n, h);
-        /* pow(0, 0) = 1: exponent 0 gives a constant lobe, as the course's pow. */
-        specular = powf(nh > 0.0f ? nh : 0.0f, m->p.exponent);
-    }
-    Vec3 c = v3_add(v3_scale(m->p.diffuse, diffuse), v3_scale(m->p.specular, specular));
-    return v3_mul(light_color, c);
+    return phong_term(&m->p, hit->normal, v3_neg(v3_normalize(ray->dir)), l, light_color);
 }
 
 static Vec3 phong_diffuse(const Material *self, Vec3 p)
@@ -73,6 +61,11 @@ Material *phong_new(Arena *a, const PhongParams *p)
     m->base.ops = &phong_ops;
     m->p = *p;
     return &m->base;
+}
+
+const PhongParams *phong_params_of(const Material *m)
+{
+    return m && m->ops == &phong_ops ? &((const PhongMaterial *)m)->p : NULL;
 }
 
 bool phong_params(const Material *m, PhongParams *out)

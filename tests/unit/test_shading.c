@@ -86,6 +86,69 @@ static void test_phong(void)
     arena_free(&a);
 }
 
+/* phong_term skips powf when the specular colour is zero: the result must be the bits
+ * of the full formula (specular * powf(...)) for every input, including exponents and
+ * normals outside the range where the skip applies (powf then runs: a NaN or an
+ * infinity from it must come through as before). */
+static Vec3 phong_reference(const PhongParams *p, Vec3 n, Vec3 v, Vec3 l, Vec3 lc)
+{
+    Vec3 h = v3_normalize(v3_add(l, v));
+    float nl = v3_dot(n, l);
+    float diffuse = nl > 0.0f ? nl : 0.0f;
+    float specular = 0.0f;
+    if (nl > 0.0f) {
+        float nh = v3_dot(n, h);
+        specular = powf(nh > 0.0f ? nh : 0.0f, p->exponent);
+    }
+    Vec3 c = v3_add(v3_scale(p->diffuse, diffuse), v3_scale(p->specular, specular));
+    return v3_mul(lc, c);
+}
+
+static void test_phong_zero_specular(void)
+{
+    const float exps[] = {0, 1, 10, 100, 1000, 1001, 1e6f, -1, -0.5f};
+    const Vec3 specs[] = {{0, 0, 0}, {-0.0f, 0, -0.0f}, {0.4f, 0.4f, 0.4f}, {0, 0, 1e-30f}};
+    const Vec3 diffs[] = {{0.79f, 0.66f, 0.44f}, {-0.5f, 0, 2}};
+    uint32_t seed = 12345;
+    int checked = 0, bad = 0;
+    for (int k = 0; k < 20000 && bad < 3; k++) {
+        float r[10];
+        for (int j = 0; j < 10; j++) {
+            seed = seed * 1664525u + 1013904223u;
+            r[j] = (float)(seed >> 8) / 8388608.0f - 1.0f; /* [-1, 1) */
+        }
+        /* Normals of length ~1 mostly, some longer (up to 2.4: beyond the skip's bound),
+         * some zero; the light towards the normal's side half of the time. */
+        float len = k % 7 == 0 ? 1.0f + 1.4f * (r[9] + 1.0f) / 2.0f : 1.0f;
+        Vec3 n = k % 97 == 0 ? v3(0, 0, 0) : v3_scale(v3_normalize(v3(r[0], r[1], r[2])), len);
+        Vec3 v = v3_normalize(v3(r[3], r[4], r[5]));
+        Vec3 l = v3_normalize(v3(r[6], r[7], r[8]));
+        if (k % 2 == 0 && v3_dot(n, l) < 0.0f)
+            l = v3_neg(l);
+        if (k % 5 == 0)
+            v = v3_neg(l); /* l + v = 0: h is the zero vector */
+        PhongParams p = phong_defaults();
+        p.diffuse = diffs[k % 2];
+        p.specular = specs[(k / 2) % 4];
+        p.exponent = exps[(k / 8) % 9];
+        Vec3 lc = v3(0.3f, 0.5f, 1.0f);
+        Vec3 a = phong_term(&p, n, v, l, lc), b = phong_reference(&p, n, v, l, lc);
+        checked++;
+        if (memcmp(&a, &b, sizeof a) != 0) {
+            bad++;
+            CHECK_MSG(false, "phong_term differs from powf's formula at k=%d", k);
+        }
+    }
+    CHECK_INT(bad, 0);
+    CHECK(checked > 10000);
+    /* A NaN from powf (0^-1 = inf, times 0) must survive: the skip is not taken. */
+    PhongParams p = phong_defaults();
+    p.specular = v3(0, 0, 0);
+    p.exponent = -1;
+    Vec3 c = phong_term(&p, v3(0, 0, 1), v3(0, 0, -1), v3(0.6f, 0, 0.8f), v3(1, 1, 1));
+    CHECK(isnan(c.x));
+}
+
 /* A one-object scene in front of a perspective camera looking down -z. */
 typedef struct Mini {
     Scene s;
@@ -246,6 +309,104 @@ static void test_refraction_and_tir(void)
     arena_free(&m.s.arena);
 }
 
+/* Packets shade their plain Phong hits inline (raytracer_trace_packet); every colour
+ * and hit must be the bits raytracer_trace gives ray by ray through the materials' ops:
+ * Phong with and without specular colour, a mirror (bounces), a checkerboard (not
+ * inline), back faces with and without -shade_back, directional and point lights. */
+static void test_packet_shading_same_bits(void)
+{
+    Mini m;
+    mini_init(&m);
+    m.s.ambient = v3(0.2f, 0.1f, 0.3f);
+    m.lights[0] = (Light){LIGHT_DIRECTIONAL, v3_normalize(v3(0.4f, -0.8f, -0.3f)), v3(0, 0, 0),
+                          v3(0.3f, 0.3f, 0.3f), {1, 0, 0}};
+    m.lights[1] = (Light){LIGHT_DIRECTIONAL, v3_normalize(v3(-0.3f, -1, -0.5f)), v3(0, 0, 0),
+                          v3(0.5f, 0.5f, 0.5f), {1, 0, 0}};
+    m.s.num_lights = 2;
+    PhongParams shiny = phong_defaults(), matte = phong_defaults(), mirror = phong_defaults();
+    shiny.diffuse = v3(0.79f, 0.66f, 0.44f);
+    shiny.specular = v3(0.4f, 0.4f, 0.4f);
+    shiny.exponent = 10;
+    matte.diffuse = v3(0.15f, 0.9f, 0.3f);
+    matte.exponent = 100;
+    mirror.diffuse = v3(0.1f, 0.1f, 0.1f);
+    mirror.reflective = v3(0.6f, 0.6f, 0.6f);
+    mirror.specular = v3(1, 1, 1);
+    mirror.exponent = 20;
+    m.mats[0] = phong_new(&m.s.arena, &shiny);
+    m.mats[1] = phong_new(&m.s.arena, &matte);
+    m.mats[2] = phong_new(&m.s.arena, &mirror);
+    m.mats[3] = checkerboard_new(&m.s.arena, NULL, m.mats[0], m.mats[1]);
+    Object3D *g = group_new(&m.s.arena, 6);
+    group_set_child(g, 0, plane_new(&m.s.arena, v3(0, 1, 0), -1, m.mats[1]));
+    group_set_child(g, 1, sphere_new(&m.s.arena, v3(-0.4f, 0, 0), 0.5f, m.mats[0]));
+    group_set_child(g, 2, sphere_new(&m.s.arena, v3(0.5f, 0.1f, -0.5f), 0.4f, m.mats[2]));
+    group_set_child(g, 3, sphere_new(&m.s.arena, v3(0.1f, -0.6f, 0.6f), 0.3f, m.mats[3]));
+    /* Seen from behind (its normal points away from the camera): a back face. */
+    group_set_child(g, 4, triangle_new(&m.s.arena, v3(-1, 0.3f, 0.5f), v3(-0.4f, 1, 0.5f),
+                                       v3(-0.5f, 0.2f, 0.5f), m.mats[0]));
+    group_set_child(g, 5, triangle_new(&m.s.arena, v3(0.3f, 0.3f, 0.2f), v3(1, 0.4f, 0.2f),
+                                       v3(0.6f, 1, 0.2f), m.mats[2]));
+    group_finish(g);
+    mini_set_root(&m, g);
+    PrimTable prims;
+    CHECK(prim_table_build(&prims, &m.s));
+    Accel grid;
+    AccelConfig cfg = {{6, 6, 6}, false, false, false};
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(accel_init(&grid, accel_find("grid"), &prims, &cfg, &d));
+    CHECK(accel_has_packets(&grid));
+    int differ = 0, packets = 0;
+    for (int variant = 0; variant < 6; variant++) {
+        RayTracer rt;
+        memset(&rt, 0, sizeof rt);
+        rt.scene = &m.s;
+        rt.accel = &grid;
+        rt.shadows = variant % 2 == 0;
+        rt.shade_back = variant % 3 == 1;
+        rt.bounces = variant >= 2 ? 3 : 0;
+        rt.weight = 0.01f;
+        /* The last two variants: a point light (those lanes go through the ops). */
+        m.lights[1].kind = variant >= 4 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
+        m.lights[1].position = v3(0.5f, 3, 2);
+        RenderCtx pctx, sctx;
+        CHECK(raytracer_ctx_init(&pctx, &rt));
+        CHECK(raytracer_ctx_init(&sctx, &rt));
+        CHECK(pctx.packet_rays != NULL);
+        for (int ty = 0; ty < 48; ty += 8)
+            for (int tx = 0; tx < 48; tx += 8) {
+                Ray rays[64];
+                Vec3 colors[64];
+                Hit hits[64];
+                for (int k = 0; k < 64; k++) {
+                    float u, v;
+                    camera_pixel_to_screen(tx + k % 8, ty + k / 8, 48, 48, &u, &v);
+                    rays[k] = camera_generate_ray(&m.s.camera, u, v);
+                }
+                raytracer_trace_packet(&rt, &pctx, rays, 64, 0, colors, hits);
+                packets++;
+                for (int k = 0; k < 64; k++) {
+                    Hit h;
+                    Vec3 c = raytracer_trace(&rt, &sctx, &rays[k], 0, 0, 1, 1, &h);
+                    if (memcmp(&c, &colors[k], sizeof c) != 0 || memcmp(&h.t, &hits[k].t, sizeof h.t) ||
+                        h.material != hits[k].material)
+                        differ++;
+                }
+            }
+        CHECK_INT(pctx.stats.nonshadow_rays, sctx.stats.nonshadow_rays);
+        CHECK_INT(pctx.stats.shadow_rays, sctx.stats.shadow_rays);
+        raytracer_ctx_free(&pctx);
+        raytracer_ctx_free(&sctx);
+    }
+    m.lights[1].kind = LIGHT_DIRECTIONAL;
+    CHECK_INT(differ, 0);
+    CHECK_INT(packets, 6 * 36);
+    accel_free(&grid);
+    prim_table_free(&prims);
+    arena_free(&m.s.arena);
+}
+
 /* -depth and -normals (A1, A2): a tilted plane seen by an orthographic camera; the
  * left half of the image sees it, the right half sees nothing. */
 static void test_depth_and_normals_images(void)
@@ -337,9 +498,11 @@ static const TestCase tests[] = {
     {"shading: camera bases and rays", test_cameras},
     {"shading: lights and attenuation", test_lights},
     {"shading: Phong with the n.L step", test_phong},
+    {"shading: Phong without specular colour skips powf, same bits", test_phong_zero_specular},
     {"tracer: back faces black / -shade_back", test_backface_rules},
     {"tracer: shadows and counters", test_shadows_and_counts},
     {"tracer: reflection, bounces, weight cutoff", test_reflection_and_cutoff},
     {"tracer: refraction and total internal reflection", test_refraction_and_tir},
+    {"tracer: packets shade like single rays, to the bit", test_packet_shading_same_bits},
 };
 RT_TEST_MAIN(tests)
