@@ -90,9 +90,11 @@ static void print_version(void)
 }
 
 /* Allocates the image of the rendered rectangle; a part image (-region, -tile) records
- * where it sits in the full image. */
+ * where it sits in the full image. bytes: a byte image (rt/image.h), for an image that
+ * is only written: the renderer quantises each pixel as it stores it, and the encoder
+ * copies rows (a 1080p frame is 6 MB instead of 25 MB of floats read back). */
 static bool alloc_image(Image **slot, Image *storage, const char *want, const Options *o,
-                        Diag *d)
+                        bool bytes, Diag *d)
 {
     *slot = NULL;
     if (!want)
@@ -105,7 +107,7 @@ static bool alloc_image(Image **slot, Image *storage, const char *want, const Op
         *slot = storage;
         return true;
     }
-    if (!image_init(storage, w, h)) {
+    if (!(bytes ? image_init_bytes(storage, w, h) : image_init(storage, w, h))) {
         diag_error(d, NULL, "out of memory for a %dx%d image", w, h);
         return false;
     }
@@ -259,9 +261,13 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         target.h = o->region_h;
     }
     int status = 0;
-    bool allocated = alloc_image(&target.color, &color, o->output, o, &app->diag) &&
-                     alloc_image(&target.depth, &depth, o->depth_file, o, &app->diag) &&
-                     alloc_image(&target.normals, &normals, o->normals_file, o, &app->diag);
+    /* Byte images where nothing reads the pixels back: the plain renderer (the film
+     * filters in float) in one process (MPI ranks send float tiles to the root). */
+    bool bytes = !antialiasing_requested(o) && dist_size() == 1;
+    bool allocated = alloc_image(&target.color, &color, o->output, o, bytes, &app->diag) &&
+                     alloc_image(&target.depth, &depth, o->depth_file, o, bytes, &app->diag) &&
+                     alloc_image(&target.normals, &normals, o->normals_file, o, bytes,
+                                 &app->diag);
     if (!dist_all(allocated)) {
         status = EXIT_INPUT;
         goto done;
@@ -442,11 +448,11 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
                 "calling thread: the whole cost with -threads 1)\n", fc.trace_cpu * 1e3,
                 fc.filter_cpu * 1e3);
 done:
-    if (target.color && target.color->pixels)
+    if (target.color && (target.color->pixels || target.color->bytes))
         image_free(target.color);
-    if (target.depth && target.depth->pixels)
+    if (target.depth && (target.depth->pixels || target.depth->bytes))
         image_free(target.depth);
-    if (target.normals && target.normals->pixels)
+    if (target.normals && (target.normals->pixels || target.normals->bytes))
         image_free(target.normals);
     if (samples)
         image_free(samples);

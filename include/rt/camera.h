@@ -39,6 +39,13 @@ bool camera_rebasis(Camera *c);
  * that order), as the course's camera does: its rounding decides colours on grazing
  * floors, where the official images are matched only this way. */
 Ray camera_generate_ray(const Camera *c, float u, float v);
+/* The pixel-centre rays of a block of pixels: rays[j * nx + i] is the ray of pixel
+ * (x0 + i, y0 + j) of a W x H image, camera_generate_ray of camera_pixel_to_screen to
+ * the bit, with what depends on the column alone or the row alone computed once per
+ * column or row (the renderer's tiles; 1 <= nx, ny <= CAMERA_BLOCK_MAX). */
+enum { CAMERA_BLOCK_MAX = 16 };
+void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
+                       int height, Ray *rays);
 /* -inf (a very large negative number) for orthographic cameras, 0 for perspective. */
 float camera_tmin(const Camera *c);
 

@@ -22,13 +22,21 @@ typedef struct ImageRegion {
 
 typedef struct Image {
     int width, height;
-    Vec3 *pixels;       /* width*height, row y = 0 (bottom) first */
+    Vec3 *pixels;       /* width*height, row y = 0 (bottom) first; NULL in a byte image */
     bool has_region;    /* false: a whole image (no record written or found) */
     ImageRegion region; /* when has_region: this image is region x y width height */
+    /* A byte image (image_init_bytes) instead holds the bytes a file gets: width*height
+     * R, G, B triples, row y = 0 first, each colour quantised as it is stored
+     * (image_put). It is made to be written (image_row_bytes, the encoders), not read
+     * back: image_get, image_set and image_fill need pixels. */
+    uint8_t *bytes;
 } Image;
 
 /* Allocates a black image; false on bad size or out of memory. */
 bool image_init(Image *img, int width, int height);
+/* Allocates a black byte image (see Image.bytes): a quarter of the memory of a float
+ * image, and the encoders only copy it. For images that are only written. */
+bool image_init_bytes(Image *img, int width, int height);
 void image_free(Image *img);
 void image_fill(Image *img, Vec3 c);
 static inline void image_set(Image *img, int x, int y, Vec3 c) { img->pixels[(long)y * img->width + x] = c; }
@@ -43,7 +51,36 @@ bool image_region_parse(const char *text, size_t len, int w, int h, ImageRegion 
                         char *err, size_t errlen);
 
 /* The course quantisation: clamp(int(c * 255), 0, 255); NaN -> 0 (docs/images.md). */
-uint8_t image_color_to_byte(float c);
+static inline uint8_t image_color_to_byte(float c)
+{
+    /* The course: v = (int)(c * 255), then clamped to 0..255. The clamp happens in float
+     * first because converting NaN or a huge float to int is undefined in C; for every
+     * finite input the result equals the course's. */
+    float v = c * 255.0f;
+    if (!(v > 0.0f)) /* also catches NaN */
+        return 0;
+    if (v >= 255.0f)
+        return 255;
+    return (uint8_t)(int)v; /* truncation toward zero, like the course */
+}
+
+/* Stores colour c at (x, y) of a float image, or its bytes in a byte image. */
+static inline void image_put(Image *img, int x, int y, Vec3 c)
+{
+    long i = (long)y * img->width + x;
+    if (img->bytes) {
+        uint8_t *b = img->bytes + 3 * i;
+        b[0] = image_color_to_byte(c.x);
+        b[1] = image_color_to_byte(c.y);
+        b[2] = image_color_to_byte(c.z);
+    } else {
+        img->pixels[i] = c;
+    }
+}
+
+/* Row y of any image as the bytes a file holds: 3 * width bytes, R G B per pixel, or
+ * B G R when bgr (TGA's order); a float image is quantised (image_color_to_byte). */
+void image_row_bytes(const Image *img, int y, bool bgr, uint8_t *out);
 
 /* Writes by file name extension (image_codec_for_path): .tga (course layout), .ppm (P6),
  * .png (when built with libpng). Writes to a temporary file in the same folder and

@@ -9,7 +9,7 @@
 
 typedef struct RenderTarget {
     int width, height;         /* the full image: the camera's screen */
-    Image *color;              /* NULL: not requested */
+    Image *color;              /* NULL: not requested; float or byte images */
     Image *depth;              /* -depth */
     float depth_min, depth_max;
     Image *normals;            /* -normals */

@@ -285,7 +285,7 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
 static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
 {
     bool ok = false;
-    if (!img || !img->pixels || img->width <= 0 || img->height <= 0) {
+    if (!img || (!img->pixels && !img->bytes) || img->width <= 0 || img->height <= 0) {
         report(diag, path, "cannot write image: ", "empty image");
         return false;
     }

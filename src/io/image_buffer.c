@@ -17,6 +17,7 @@ bool image_init(Image *img, int width, int height)
     img->width = 0;
     img->height = 0;
     img->pixels = NULL;
+    img->bytes = NULL;
     img->has_region = false;
     memset(&img->region, 0, sizeof img->region);
     if (width <= 0 || height <= 0 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE)
@@ -31,12 +32,28 @@ bool image_init(Image *img, int width, int height)
     return true;
 }
 
+bool image_init_bytes(Image *img, int width, int height)
+{
+    memset(img, 0, sizeof *img);
+    if (width <= 0 || height <= 0 || width > IMAGE_MAX_SIDE || height > IMAGE_MAX_SIDE)
+        return false;
+    uint8_t *b = bigmem_calloc((size_t)width * (size_t)height, 3);
+    if (!b)
+        return false;
+    img->width = width;
+    img->height = height;
+    img->bytes = b;
+    return true;
+}
+
 void image_free(Image *img)
 {
     if (!img)
         return;
     bigmem_free(img->pixels);
     img->pixels = NULL;
+    bigmem_free(img->bytes);
+    img->bytes = NULL;
     img->width = img->height = 0;
 }
 
@@ -47,17 +64,29 @@ void image_fill(Image *img, Vec3 c)
         img->pixels[i] = c;
 }
 
-uint8_t image_color_to_byte(float c)
+void image_row_bytes(const Image *img, int y, bool bgr, uint8_t *out)
 {
-    /* The course: v = (int)(c * 255), then clamped to 0..255. The clamp happens in float
-     * first because converting NaN or a huge float to int is undefined in C; for every
-     * finite input the result equals the course's. */
-    float v = c * 255.0f;
-    if (!(v > 0.0f)) /* also catches NaN */
-        return 0;
-    if (v >= 255.0f)
-        return 255;
-    return (uint8_t)(int)v; /* truncation toward zero, like the course */
+    int w = img->width;
+    int r = bgr ? 2 : 0, b = bgr ? 0 : 2;
+    if (img->bytes) {
+        const uint8_t *in = img->bytes + (size_t)y * (size_t)w * 3;
+        if (!bgr) {
+            memcpy(out, in, (size_t)w * 3);
+            return;
+        }
+        for (int x = 0; x < w; x++, in += 3, out += 3) {
+            out[0] = in[2];
+            out[1] = in[1];
+            out[2] = in[0];
+        }
+        return;
+    }
+    const Vec3 *in = img->pixels + (size_t)y * (size_t)w;
+    for (int x = 0; x < w; x++, out += 3) {
+        out[r] = image_color_to_byte(in[x].x);
+        out[1] = image_color_to_byte(in[x].y);
+        out[b] = image_color_to_byte(in[x].z);
+    }
 }
 
 /* ---- the region record --------------------------------------------------------- */

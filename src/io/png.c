@@ -97,12 +97,7 @@ static bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
     }
     png_write_info(png, info);
     for (int y = h - 1; y >= 0; y--) { /* PNG stores the top row first */
-        for (int x = 0; x < w; x++) {
-            Vec3 c = image_get(img, x, y);
-            row[3 * x + 0] = image_color_to_byte(c.x);
-            row[3 * x + 1] = image_color_to_byte(c.y);
-            row[3 * x + 2] = image_color_to_byte(c.z);
-        }
+        image_row_bytes(img, y, false, row);
         png_write_row(png, row);
     }
     png_write_end(png, info);

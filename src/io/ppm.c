@@ -26,14 +26,8 @@ static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
         return false;
     memcpy(b, head, (size_t)n);
     uint8_t *p = b + n;
-    for (int y = h - 1; y >= 0; y--) {
-        for (int x = 0; x < w; x++) {
-            Vec3 c = image_get(img, x, y);
-            *p++ = image_color_to_byte(c.x);
-            *p++ = image_color_to_byte(c.y);
-            *p++ = image_color_to_byte(c.z);
-        }
-    }
+    for (int y = h - 1; y >= 0; y--, p += (size_t)w * 3) /* top row first */
+        image_row_bytes(img, y, false, p);
     *out = b;
     *out_len = len;
     return true;

@@ -40,14 +40,9 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     b[16] = 24;
     b[17] = 0x20;
     uint8_t *p = b + TGA_HEADER + id_len;
-    for (int y = h - 1; y >= 0; y--) { /* the image's top row (y = h-1) is stored first */
-        for (int x = 0; x < w; x++) {
-            Vec3 c = image_get(img, x, y);
-            *p++ = image_color_to_byte(c.z); /* B, G, R */
-            *p++ = image_color_to_byte(c.y);
-            *p++ = image_color_to_byte(c.x);
-        }
-    }
+    /* The image's top row (y = h-1) is stored first, each pixel as B, G, R. */
+    for (int y = h - 1; y >= 0; y--, p += (size_t)w * 3)
+        image_row_bytes(img, y, true, p);
     *out = b;
     *out_len = len;
     return true;

@@ -39,6 +39,7 @@ int render_default_threads(void)
  * primary rays (and then their shadow rays) go through the grid as one packet. */
 #define TILE RENDER_TILE
 _Static_assert(TILE * TILE <= ACCEL_PACKET_MAX, "a tile must fit in one ray packet");
+_Static_assert(TILE <= CAMERA_BLOCK_MAX, "a tile is one block of camera_pixel_rays");
 
 Vec3 render_depth_color(const Hit *hit, float depth_min, float depth_max)
 {
@@ -63,11 +64,11 @@ static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
     x -= t->x0;
     y -= t->y0;
     if (t->color)
-        image_set(t->color, x, y, c);
+        image_put(t->color, x, y, c);
     if (t->depth)
-        image_set(t->depth, x, y, render_depth_color(hit, t->depth_min, t->depth_max));
+        image_put(t->depth, x, y, render_depth_color(hit, t->depth_min, t->depth_max));
     if (t->normals)
-        image_set(t->normals, x, y, render_normal_color(hit));
+        image_put(t->normals, x, y, render_normal_color(hit));
 }
 
 typedef struct ImageJob {
@@ -96,17 +97,17 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
     int xlo = t->x0, xhi = t->x0 + t->w;
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
+    Ray block[TILE * TILE]; /* the tile's rays, row by row */
     for (int x0 = xlo / TILE * TILE; x0 < xhi && !job_cancelled(job); x0 += TILE) {
         int n = 0;
+        camera_pixel_rays(job->camera, x0, y0, TILE, y1 - y0, t->width, t->height, block);
         for (int k = 0; k < TILE * TILE; k++) {
             int dx, dy;
             render_tile_order(k, &dx, &dy);
             int x = x0 + dx, y = y0 + dy;
             if (x < xlo || x >= xhi || y < ylo || y >= y1)
                 continue;
-            float u, v;
-            camera_pixel_to_screen(x, y, t->width, t->height, &u, &v);
-            rays[n] = camera_generate_ray(job->camera, u, v);
+            rays[n] = block[dy * TILE + dx];
             px[n] = x;
             py[n++] = y;
         }

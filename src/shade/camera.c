@@ -87,6 +87,47 @@ Ray camera_generate_ray(const Camera *c, float u, float v)
     return r;
 }
 
+void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
+                       int height, Ray *rays)
+{
+    /* The terms of one column (u) and of one row (v), in the order camera_generate_ray
+     * adds them: perspective (lower_left + x_axis u) + y_axis v, orthographic
+     * center + (horizontal (u - 0.5) size + up (v - 0.5) size). */
+    Vec3 col[CAMERA_BLOCK_MAX], row[CAMERA_BLOCK_MAX];
+    bool ortho = c->kind == CAMERA_ORTHOGRAPHIC;
+    for (int i = 0; i < nx; i++) {
+        float u, v;
+        camera_pixel_to_screen(x0 + i, 0, width, height, &u, &v);
+        col[i] = ortho ? v3_scale(c->horizontal, (u - 0.5f) * c->size)
+                       : v3_add(c->lower_left, v3_scale(c->x_axis, u));
+    }
+    for (int j = 0; j < ny; j++) {
+        float u, v;
+        camera_pixel_to_screen(0, y0 + j, width, height, &u, &v);
+        row[j] = ortho ? v3_scale(c->up, (v - 0.5f) * c->size) : v3_scale(c->y_axis, v);
+    }
+    if (ortho) {
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                Ray *r = &rays[j * nx + i];
+                r->origin = v3_add(c->center, v3_add(col[i], row[j]));
+                r->dir = c->direction;
+            }
+        return;
+    }
+    Vec3 e = c->center;
+    for (int j = 0; j < ny; j++)
+        for (int i = 0; i < nx; i++) {
+            Ray *r = &rays[j * nx + i];
+            r->origin = e;
+            /* unit_by_division of (screen point - eye), written out so the compiler
+             * keeps it in registers; the same operations in the same order. */
+            Vec3 d = v3_sub(v3_add(col[i], row[j]), e);
+            float l = sqrtf(d.x * d.x + d.y * d.y + d.z * d.z);
+            r->dir = l > 0.0f ? v3(d.x / l, d.y / l, d.z / l) : d;
+        }
+}
+
 float camera_tmin(const Camera *c)
 {
     /* Orthographic cameras see behind the image plane (A1 scene1_07); a finite

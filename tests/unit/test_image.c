@@ -646,6 +646,61 @@ static void test_codec_table(void)
     CHECK_STR(list, ".tga"); /* cut at a whole entry */
 }
 
+/* A byte image (image_init_bytes, image_put) encodes to the same file bytes as a float
+ * image holding the same colours, in every format this build writes, with and without a
+ * region record; colours cover the quantisation's edges (negative, 0, 1/255 steps, 1,
+ * above 1, NaN, infinities). */
+static void test_byte_image_same_files(void)
+{
+    const float edge[] = {-1.0f, -0.0f, 0.0f, 0.5f / 255.0f, 1.0f / 255.0f, 0.2f, 0.999f,
+                          1.0f, 1.5f, 1e30f, NAN, INFINITY, -INFINITY};
+    int w = 7, h = 5, ne = (int)(sizeof edge / sizeof edge[0]);
+    for (int region = 0; region < 2; region++) {
+        Image f, b;
+        CHECK(image_init(&f, w, h));
+        CHECK(image_init_bytes(&b, w, h));
+        CHECK(b.pixels == NULL && b.bytes != NULL);
+        for (int y = 0; y < h; y++)
+            for (int x = 0; x < w; x++) {
+                int k = y * w + x;
+                Vec3 c = v3(edge[k % ne], edge[(k * 5 + 1) % ne], (float)k / (float)(w * h));
+                image_put(&f, x, y, c);
+                image_put(&b, x, y, c);
+            }
+        if (region) {
+            f.has_region = b.has_region = true;
+            f.region = b.region = (ImageRegion){3, 4, 20, 30};
+        }
+        for (int i = 0; image_codec_at(i); i++) {
+            const ImageCodec *c = image_codec_at(i);
+            if (!c->encode)
+                continue;
+            uint8_t *da = NULL, *db = NULL;
+            size_t la = 0, lb = 0;
+            CHECK(c->encode(&f, &da, &la));
+            CHECK(c->encode(&b, &db, &lb));
+            CHECK_MSG(la == lb && memcmp(da, db, la) == 0, "%s: byte image encodes differently",
+                      c->name);
+            bigmem_free(da);
+            bigmem_free(db);
+        }
+        /* Rows in both orders. */
+        uint8_t ra[21], rb[21];
+        image_row_bytes(&f, 2, true, ra);
+        image_row_bytes(&b, 2, true, rb);
+        CHECK(memcmp(ra, rb, sizeof ra) == 0);
+        CHECK_INT(ra[0], image_color_to_byte(image_get(&f, 0, 2).z));
+        image_row_bytes(&b, 2, false, rb);
+        CHECK_INT(rb[0], image_color_to_byte(image_get(&f, 0, 2).x));
+        image_free(&f);
+        image_free(&b);
+        CHECK(b.bytes == NULL);
+    }
+    Image bad;
+    CHECK(!image_init_bytes(&bad, 0, 3));
+    CHECK(!image_init_bytes(&bad, 70000, 1));
+}
+
 static const TestCase tests[] = {
     {"image: codec table: names, extensions, signatures", test_codec_table},
     {"image: PNG declaring a 1 GB chunk refused in little memory", test_png_huge_chunk},
@@ -663,6 +718,7 @@ static const TestCase tests[] = {
     {"image: unwritable folder", test_write_unwritable_folder},
     {"image: devices written into, links followed", test_write_devices_and_links},
     {"image: init bounds, fill, free", test_image_init_bounds},
+    {"image: a byte image writes the float image's files", test_byte_image_same_files},
     {"image_compare: figures on hand-made images", test_compare_figures},
 };
 

@@ -43,6 +43,41 @@ static void test_cameras(void)
     CHECK(!camera_init_orthographic(&c, v3(0, 0, 0), v3(0, 0, 1), v3(0, 1, 0), 0));
 }
 
+/* camera_pixel_rays gives each pixel camera_generate_ray(camera_pixel_to_screen) to
+ * the bit: perspective and orthographic, square and cropped images, blocks at odd
+ * places and of every size up to the maximum. */
+static void test_pixel_rays_block(void)
+{
+    Camera cams[3];
+    CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
+                                  v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
+                                  26.0f * 3.14159265f / 180.0f));
+    CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
+    CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
+    const int sizes[][2] = {{200, 200}, {1920, 1080}, {333, 517}};
+    int differ = 0, checked = 0;
+    for (int c = 0; c < 3; c++)
+        for (int s = 0; s < 3; s++)
+            for (int b = 0; b < 6; b++) {
+                int W = sizes[s][0], H = sizes[s][1];
+                int nx = 1 + (b * 5 + c) % CAMERA_BLOCK_MAX, ny = 1 + (b * 3 + s) % CAMERA_BLOCK_MAX;
+                int x0 = (b * 37 + c * 11) % (W - nx + 1), y0 = (b * 53 + s * 7) % (H - ny + 1);
+                Ray rays[CAMERA_BLOCK_MAX * CAMERA_BLOCK_MAX];
+                camera_pixel_rays(&cams[c], x0, y0, nx, ny, W, H, rays);
+                for (int j = 0; j < ny; j++)
+                    for (int i = 0; i < nx; i++) {
+                        float u, v;
+                        camera_pixel_to_screen(x0 + i, y0 + j, W, H, &u, &v);
+                        Ray r = camera_generate_ray(&cams[c], u, v);
+                        checked++;
+                        if (memcmp(&r, &rays[j * nx + i], sizeof r) != 0)
+                            differ++;
+                    }
+            }
+    CHECK_INT(differ, 0);
+    CHECK(checked > 500);
+}
+
 static void test_lights(void)
 {
     Light d = {LIGHT_DIRECTIONAL, v3(0, -1, 0), v3(0, 0, 0), v3(1, 1, 1), {1, 0, 0}};
@@ -496,6 +531,7 @@ static const TestCase tests[] = {
     {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
     {"shading: camera bases and rays", test_cameras},
+    {"shading: a block of pixel rays, to the bit", test_pixel_rays_block},
     {"shading: lights and attenuation", test_lights},
     {"shading: Phong with the n.L step", test_phong},
     {"shading: Phong without specular colour skips powf, same bits", test_phong_zero_specular},
