@@ -24,6 +24,10 @@ typedef struct FilterOps {
      * rounding. The film uses it for random sample positions (2(2R+1) evaluations per
      * sample instead of (2R+1)^2). */
     float (*weight_1d)(const Filter *f, float x);
+    /* Optional batch form of weight_1d: w[i] = weight_1d(f, x[i]) for i < n, the same
+     * bits, in one call (the film asks for the 2(2R+1) weights of a pixel's samples
+     * together, which a filter can compute in vector lanes). NULL: weight_1d each. */
+    void (*weights_1d)(const Filter *f, const float *x, float *w, int n);
     /* Half-width beyond which the weight is negligible or zero: r, or 2 sigma. */
     double (*extent)(const Filter *f);
 } FilterOps;
@@ -46,5 +50,16 @@ static inline float filter_weight(const Filter *f, float x, float y)
 {
     return f->ops->weight(f, x, y);
 }
+
+/* w[i] = the separable weight_1d at x[i] for i < n (ops->weights_1d when the filter
+ * has one, else one call each); the filter must have weight_1d. */
+void filter_weights_1d(const Filter *f, const float *x, float *w, int n);
+
+/* exp(t) for -700 <= t <= 0 without libm, the separable Gaussian's (below -700, and
+ * NaN, it returns exp(-700), whose float is 0 like exp(t)'s): relative error below
+ * 1e-15 (a few double ulps), so rounded to float it equals the rounded libm exp except
+ * when exp(t) lies within 1e-15 of a float rounding boundary (about one weight in 10^7;
+ * then they are 1 float ulp apart). Tested against libm in tests/unit/test_antialias.c. */
+double filter_exp_nonpos(double t);
 
 #endif

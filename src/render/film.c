@@ -81,6 +81,33 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
     st->n = 0;
 }
 
+/* The separable filter's weights of the n samples at offsets xy of pixel (x, y):
+ * towards the 2R+1 columns and rows around, at offsets (k - R) + position - 0.5, in
+ * batches of whole samples (one call for many weights: the Gaussian's vectorise). */
+static void film_sample_weights(const Film *f, int x, int y, int n, const float *xy)
+{
+    enum { BATCH = 264 };
+    int side = 2 * f->R + 1, per = 2 * side;
+    int group = BATCH / per > 0 ? BATCH / per : 1; /* per <= 66 (FILTER_MAX_RADIUS) */
+    float arg[BATCH], w[BATCH];
+    for (int i0 = 0; i0 < n; i0 += group) {
+        int i1 = i0 + group < n ? i0 + group : n;
+        for (int i = i0; i < i1; i++)
+            for (int k = 0; k < side; k++) {
+                float *a = arg + (i - i0) * per;
+                a[k] = (float)((double)(k - f->R) + (double)xy[2 * i] - 0.5);
+                a[side + k] = (float)((double)(k - f->R) + (double)xy[2 * i + 1] - 0.5);
+            }
+        filter_weights_1d(f->cfg->filter, arg, w, (i1 - i0) * per);
+        for (int i = i0; i < i1; i++) {
+            float *d = film_sample(f, x, y, i);
+            const float *wi = w + (i - i0) * per;
+            memcpy(d + f->off_wx, wi, (size_t)side * sizeof *wi);
+            memcpy(d + f->off_wy, wi + side, (size_t)side * sizeof *wi);
+        }
+    }
+}
+
 /* Places the samples of pixel (x, y) with sampler s and queues their rays. */
 static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sampler *s,
                              int x, int y)
@@ -89,19 +116,12 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
     sampler_pixel(s, x, y, xy);
     *film_count(f, x, y) = s->count;
     const FilmConfig *c = f->cfg;
+    if (f->off_wx >= 0)
+        film_sample_weights(f, x, y, s->count, xy);
     for (int i = 0; i < s->count; i++) {
         float *d = film_sample(f, x, y, i);
         d[0] = xy[2 * i];
         d[1] = xy[2 * i + 1];
-        if (f->off_wx >= 0) {
-            const Filter *flt = c->filter;
-            for (int k = 0; k <= 2 * f->R; k++) {
-                d[f->off_wx + k] = flt->ops->weight_1d(flt, (float)((double)(k - f->R) +
-                                                                    (double)d[0] - 0.5));
-                d[f->off_wy + k] = flt->ops->weight_1d(flt, (float)((double)(k - f->R) +
-                                                                    (double)d[1] - 0.5));
-            }
-        }
         float u, v;
         camera_sample_to_screen(x, y, d[0], d[1], c->full_width, c->full_height, &u, &v);
         st->rays[st->n] = camera_generate_ray(f->camera, u, v);
