@@ -16,6 +16,21 @@ float mat_footprint(void) { return shading_footprint; }
 /* Serial numbers of the blends, the key of the weight cache below (0 = empty slot). */
 static atomic_uint_fast64_t next_serial = 1;
 
+/* Is m's reflective (which = 0) or transparent (1) colour zero at every point? Known
+ * for PhongMaterials and for procedurals (from their children, made before them);
+ * false for anything else. */
+static bool zero_everywhere(const Material *m, int which)
+{
+    PhongParams pp;
+    if (phong_params(m, &pp))
+        return v3_is_zero(which == 0 ? pp.reflective : pp.transparent);
+    if (m->ops->preview_material == procedural_preview) {
+        const Procedural *pr = (const Procedural *)m;
+        return which == 0 ? pr->no_reflective : pr->no_transparent;
+    }
+    return false;
+}
+
 ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *texture_xf,
                                   const Material *m1, const Material *m2)
 {
@@ -29,6 +44,8 @@ ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *
     b->proc.m2 = m2;
     b->proc.has_xf = texture_xf != NULL;
     b->proc.xf = texture_xf ? *texture_xf : mat4_identity();
+    b->proc.no_reflective = zero_everywhere(m1, 0) && zero_everywhere(m2, 0);
+    b->proc.no_transparent = zero_everywhere(m1, 1) && zero_everywhere(m2, 1);
     return b;
 }
 

@@ -18,6 +18,10 @@ typedef struct Procedural {
     const Material *m2;     /* "material 2": the second materialIndex, borrowed */
     bool has_xf;            /* false: identity (the course passes NULL) */
     Mat4 xf;                /* world -> texture space: q = xf * p */
+    /* Every material below is a PhongMaterial with a zero reflective (transparent)
+     * colour: the blend's colour is then zero at every point, and the blends answer
+     * without computing their weight (the tracer only asks whether it is zero). */
+    bool no_reflective, no_transparent;
 } Procedural;
 
 /* Noise, Marble and Wood share one layout; Checkerboard ignores the three numbers. */
@@ -89,6 +93,17 @@ float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn wei
         return procedural_blend_##WHAT(&b->proc, procedural_weight(b, p, WEIGHT), p);     \
     }
 
+/* The same for a colour that may be known to be zero everywhere (Procedural's
+ * no_reflective, no_transparent): then (0, 0, 0) without the weight. */
+#define PROCEDURAL_BLEND_AT_UNLESS(NAME, WHAT, WEIGHT, ZERO)                               \
+    static Vec3 NAME##_##WHAT##_at(const Material *self, Vec3 p)                           \
+    {                                                                                      \
+        const ProceduralBlend *b = (const ProceduralBlend *)self;                          \
+        if (b->proc.ZERO)                                                                  \
+            return v3(0.0f, 0.0f, 0.0f);                                                   \
+        return procedural_blend_##WHAT(&b->proc, procedural_weight(b, p, WEIGHT), p);     \
+    }
+
 /* Defines the static ops functions and the one static const ops table NAME_ops of a
  * blending material whose weight at world point p is WEIGHT(const ProceduralBlend *,
  * Vec3 p) -> float in [0,1]. */
@@ -101,8 +116,8 @@ float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn wei
                                       ray, hit, l, c);                                     \
     }                                                                                      \
     PROCEDURAL_BLEND_AT(NAME, diffuse, Vec3, WEIGHT)                                       \
-    PROCEDURAL_BLEND_AT(NAME, reflective, Vec3, WEIGHT)                                    \
-    PROCEDURAL_BLEND_AT(NAME, transparent, Vec3, WEIGHT)                                   \
+    PROCEDURAL_BLEND_AT_UNLESS(NAME, reflective, WEIGHT, no_reflective)                    \
+    PROCEDURAL_BLEND_AT_UNLESS(NAME, transparent, WEIGHT, no_transparent)                  \
     PROCEDURAL_BLEND_AT(NAME, ior, float, WEIGHT)                                          \
     static const MaterialOps NAME##_ops = {                                                \
         TYPE_NAME,        NAME##_shade,   NAME##_diffuse_at,  NAME##_reflective_at,        \
