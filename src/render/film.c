@@ -92,18 +92,25 @@ static void film_sample_weights(const Film *f, int x, int y, int n, const float 
     float arg[BATCH], w[BATCH];
     for (int i0 = 0; i0 < n; i0 += group) {
         int i1 = i0 + group < n ? i0 + group : n;
-        for (int i = i0; i < i1; i++)
-            for (int k = 0; k < side; k++) {
-                float *a = arg + (i - i0) * per;
-                a[k] = (float)((double)(k - f->R) + (double)xy[2 * i] - 0.5);
-                a[side + k] = (float)((double)(k - f->R) + (double)xy[2 * i + 1] - 0.5);
-            }
-        filter_weights_1d(f->cfg->filter, arg, w, (i1 - i0) * per);
         for (int i = i0; i < i1; i++) {
-            float *d = film_sample(f, x, y, i);
+            /* (k - R) + position - 0.5 is exact in double (a float position and small
+             * integers), so summing in any order rounds to the same float once. */
+            double bx = (double)xy[2 * i] - 0.5 - (double)f->R;
+            double by = (double)xy[2 * i + 1] - 0.5 - (double)f->R;
+            float *a = arg + (i - i0) * per;
+            for (int k = 0; k < side; k++) {
+                a[k] = (float)(bx + (double)k);
+                a[side + k] = (float)(by + (double)k);
+            }
+        }
+        filter_weights_1d(f->cfg->filter, arg, w, (i1 - i0) * per);
+        /* The slots hold the column weights, then the row weights (off_wy = off_wx +
+         * side): one contiguous run per sample. */
+        for (int i = i0; i < i1; i++) {
+            float *d = film_sample(f, x, y, i) + f->off_wx;
             const float *wi = w + (i - i0) * per;
-            memcpy(d + f->off_wx, wi, (size_t)side * sizeof *wi);
-            memcpy(d + f->off_wy, wi + side, (size_t)side * sizeof *wi);
+            for (int k = 0; k < per; k++)
+                d[k] = wi[k];
         }
     }
 }
