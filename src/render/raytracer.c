@@ -1,6 +1,7 @@
 /* RayTracer (A4-A6): Whitted recursion as the course's traceRay, over the accelerator
  * (rt/accel.h): brute force (RayCast), the grid march (RayCastFast) or any other. */
 #include "rt/raytracer.h"
+#include "phong_packet.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -197,20 +198,11 @@ Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float 
     return trace(rt, ctx, ray, tmin, depth, weight, ior, rt->pixel_width, hit_out, RAYSEG_MAIN);
 }
 
-/* A lane of a packet whose hit is shaded inline: a PhongMaterial, with every light
- * directional and -noise_cutoff off (packet_inline_ok). The arithmetic is shade_begin's
- * and phong_term's in the same order, so the colour is the same bits as through the
- * material's ops, without the indirect calls, with the view vector made once for all
- * lights instead of once per light and each light's direction and colour once per
- * packet. */
-typedef struct PhongLane {
-    const PhongParams *p;
-    Vec3 n;          /* the facing normal */
-    Vec3 v;          /* towards the eye: -normalize(ray dir) */
-    Vec3 color;
-    bool entering;
-} PhongLane;
-
+/* Packets shade their hits on a PhongMaterial inline, four at a time (phong_packet.h),
+ * when every light is directional and -noise_cutoff is off (packet_inline_ok): the
+ * arithmetic of shade_begin and phong_term in the same order, so the same bits as
+ * through the material's ops, without the indirect calls, the view vector made once for
+ * all lights and each light's direction and colour once per packet. */
 static bool packet_inline_ok(const RayTracer *rt)
 {
     if (cutoff_on(rt))
@@ -221,39 +213,20 @@ static bool packet_inline_ok(const RayTracer *rt)
     return true;
 }
 
-/* shade_begin for a PhongLane; false when the colour is final (a back face without
- * -shade_back: black). */
-static bool phong_lane_begin(const RayTracer *rt, const PhongParams *p, const Ray *ray,
-                             const Hit *h, PhongLane *pl)
-{
-    Vec3 d = ray->dir;
-    Vec3 n = h->normal;
-    float dn = v3_dot(n, d);
-    pl->entering = dn < 0.0f;
-    if (!pl->entering && dn > 0.0f) {
-        if (!rt->shade_back)
-            return false;
-        n = v3_neg(n);
-    }
-    pl->p = p;
-    pl->n = n;
-    pl->v = v3_neg(v3_normalize(d));
-    pl->color = v3_mul(rt->scene->ambient, p->diffuse);
-    return true;
-}
-
-/* shade_finish for a PhongLane: nothing to add without bounces or without reflective
+/* shade_finish for lane i of pp: nothing to add without bounces or without reflective
  * and transparent colours (shade_finish adds nothing then either). */
 static Vec3 phong_lane_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray,
-                              const Hit *h, const PhongLane *pl)
+                              const Hit *h, const PhongPacket *pp, int i, bool entering)
 {
-    if (rt->bounces <= 0 || (v3_is_zero(pl->p->reflective) && v3_is_zero(pl->p->transparent)))
-        return pl->color;
+    Vec3 color = phong_packet_color(pp, i);
+    const PhongParams *p = phong_params_of(h->material);
+    if (rt->bounces <= 0 || (v3_is_zero(p->reflective) && v3_is_zero(p->transparent)))
+        return color;
     ShadeState st;
     st.sh = *h;
-    st.sh.normal = pl->n;
-    st.color = pl->color;
-    st.entering = pl->entering;
+    st.sh.normal = v3(pp->nx[i], pp->ny[i], pp->nz[i]);
+    st.color = color;
+    st.entering = entering;
     st.cone = st.footprint = 0.0f;
     shade_finish(rt, ctx, ray, &st, 0, 1.0f, 1.0f);
     return st.color;
@@ -277,13 +250,18 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
 
     bool inline_ok = packet_inline_ok(rt);
     ShadeState st[ACCEL_PACKET_MAX];
-    PhongLane pl[ACCEL_PACKET_MAX];
-    uint64_t live = 0, phong = 0;
+    PhongPacket pp;
+    pp.no_pow = 0;
+    uint64_t live = 0, phong = 0, entering = 0;
     const Material *last = NULL;
     const PhongParams *last_p = NULL;
-    for (int i = 0; i < n; i++) {
-        if (!(found >> i & 1)) {
-            colors[i] = scene->background;
+    int lanes = (n + 3) & ~3; /* phong_packet works on groups of four lanes */
+    for (int i = 0; i < lanes; i++) {
+        uint64_t bit = (uint64_t)1 << i;
+        if (i >= n || !(found & bit)) {
+            phong_packet_clear(&pp, i);
+            if (i < n)
+                colors[i] = scene->background;
             continue;
         }
         hits[i].point = ray_at(&rays[i], hits[i].t);
@@ -296,18 +274,32 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             p = last_p;
         }
         if (p) {
-            if (phong_lane_begin(rt, p, &rays[i], &hits[i], &pl[i])) {
-                live |= (uint64_t)1 << i;
-                phong |= (uint64_t)1 << i;
-            } else {
-                colors[i] = v3(0, 0, 0);
+            /* shade_begin: the facing normal; a back face without -shade_back is black. */
+            Vec3 d = rays[i].dir, nrm = hits[i].normal;
+            float dn = v3_dot(nrm, d);
+            bool in = dn < 0.0f;
+            if (!in && dn > 0.0f) {
+                if (!rt->shade_back) {
+                    phong_packet_clear(&pp, i);
+                    colors[i] = v3(0, 0, 0);
+                    continue;
+                }
+                nrm = v3_neg(nrm);
             }
-        } else if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i])) {
-            live |= (uint64_t)1 << i;
+            phong_packet_set(&pp, i, p, nrm, d, scene->ambient);
+            live |= bit;
+            phong |= bit;
+            entering |= in ? bit : 0;
         } else {
-            colors[i] = st[i].color;
+            phong_packet_clear(&pp, i);
+            if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
+                live |= bit;
+            else
+                colors[i] = st[i].color;
         }
     }
+    if (phong)
+        phong_packet_begin(&pp, n);
     for (int li = 0; li < scene->num_lights && live; li++) {
         const Light *light = &scene->lights[li];
         Ray srays[ACCEL_PACKET_MAX];
@@ -318,7 +310,9 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         float dist0 = 0.0f;
         if (directional) /* the same for every point: asked once */
             light_illuminate(light, v3(0, 0, 0), &l0, &lc0, &dist0);
-        for (uint64_t m = live; m; m &= m - 1) {
+        /* The shadow rays, and the light of the lanes shaded through the ops. */
+        uint64_t rays_needed = rt->shadows ? live : live & ~phong;
+        for (uint64_t m = rays_needed; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             srays[i].origin = hits[i].point;
             if (directional) {
@@ -334,19 +328,18 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             ctx->stats.shadow_rays += (uint64_t)__builtin_popcountll(live);
             blocked = accel_occluded_packet(rt->accel, srays, live, RT_EPSILON, dist, ctx);
         }
-        for (uint64_t m = live & ~blocked; m; m &= m - 1) {
+        if (phong & ~blocked) /* phong lanes only exist when every light is directional */
+            phong_packet_light(&pp, n, phong & ~blocked, l0, lc0);
+        for (uint64_t m = live & ~phong & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
-            if (phong >> i & 1)
-                pl[i].color = v3_add(pl[i].color,
-                                     phong_term(pl[i].p, pl[i].n, pl[i].v, srays[i].dir, lcol[i]));
-            else
-                shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
+            shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
         }
     }
     for (uint64_t m = live; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
-        if (phong >> i & 1) {
-            colors[i] = phong_lane_finish(rt, ctx, &rays[i], &hits[i], &pl[i]);
+        uint64_t bit = (uint64_t)1 << i;
+        if (phong & bit) {
+            colors[i] = phong_lane_finish(rt, ctx, &rays[i], &hits[i], &pp, i, entering & bit);
         } else {
             shade_finish(rt, ctx, &rays[i], &st[i], 0, 1.0f, 1.0f);
             colors[i] = st[i].color;

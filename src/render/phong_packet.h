@@ -1,0 +1,41 @@
+/* The plain Phong hits of a ray packet shaded together, four lanes at a time (internal
+ * to src/render: raytracer_trace_packet's fast path). */
+#ifndef RT_RENDER_PHONG_PACKET_H
+#define RT_RENDER_PHONG_PACKET_H
+
+#include <stdint.h>
+#include "rt/accel.h"
+#include "rt/material.h"
+
+/* Lanes 0 .. ACCEL_PACKET_MAX-1 in columns. A lane holds a hit on a PhongMaterial seen
+ * under directional lights: its facing normal, the direction towards the eye, the
+ * material's colours and exponent, and the colour summed so far. Lanes without such a
+ * hit hold zeros (phong_packet_clear) and are never read back. */
+typedef struct PhongPacket {
+    float nx[ACCEL_PACKET_MAX], ny[ACCEL_PACKET_MAX], nz[ACCEL_PACKET_MAX];
+    float vx[ACCEL_PACKET_MAX], vy[ACCEL_PACKET_MAX], vz[ACCEL_PACKET_MAX];
+    float dr[ACCEL_PACKET_MAX], dg[ACCEL_PACKET_MAX], db[ACCEL_PACKET_MAX];
+    float sr[ACCEL_PACKET_MAX], sg[ACCEL_PACKET_MAX], sb[ACCEL_PACKET_MAX];
+    float e[ACCEL_PACKET_MAX];
+    float cr[ACCEL_PACKET_MAX], cg[ACCEL_PACKET_MAX], cb[ACCEL_PACKET_MAX];
+    uint64_t no_pow; /* lanes whose specular term needs no powf (phong_term's rule) */
+} PhongPacket;
+
+/* Zeros lane i. */
+void phong_packet_clear(PhongPacket *pp, int i);
+/* Lane i: material p, facing normal n, ray direction d (not yet normalised: phong_packet_begin
+ * does it), ambient light a. */
+void phong_packet_set(PhongPacket *pp, int i, const PhongParams *p, Vec3 n, Vec3 d, Vec3 a);
+/* For lanes 0 .. n-1 (each set or cleared): the direction towards the eye,
+ * -normalize(d), and the ambient term a * diffuse, as shade_begin makes them. */
+void phong_packet_begin(PhongPacket *pp, int n);
+/* Adds the term of the directional light (direction l to the light, colour lc) to the
+ * lanes of mask: phong_term's arithmetic, lane by lane the same bits. */
+void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+
+static inline Vec3 phong_packet_color(const PhongPacket *pp, int i)
+{
+    return v3(pp->cr[i], pp->cg[i], pp->cb[i]);
+}
+
+#endif
