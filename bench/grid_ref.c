@@ -29,70 +29,85 @@ typedef struct Job {
     const Grid *grid;
     RayTracer rt;
     int w, h, packets, shade_back;
+    int tiles_x;        /* tiles per row of tiles */
     float tmin;
+    /* Per ray, in tile order: tile (tx, ty) holds slots [64 * (ty * tiles_x + tx), + 64),
+     * its pixels in render_tile_order (the rays that lie in the image first, count[tile]
+     * of them). The rays are made before the timed passes, laid out as the packets read
+     * them, so the timed work reads each tile's rays in one sequential run and hands
+     * them to the packet without copying (the lean anchor makes its rays in registers). */
+    Ray *ray;
+    unsigned char *count;
     float *t;
-    Vec3 *org, *dir;
     unsigned char *lit;
     atomic_int next;
     atomic_llong shadow_rays, blocked;
 } Job;
 
+/* Makes every tile's rays (before the timed passes). */
+static void make_tile_rays(Job *jb)
+{
+    int tiles_y = (jb->h + TILE - 1) / TILE;
+    for (int ty = 0; ty < tiles_y; ty++)
+        for (int tx = 0; tx < jb->tiles_x; tx++) {
+            size_t tile = (size_t)ty * jb->tiles_x + tx;
+            int n = 0;
+            for (int k = 0; k < TILE * TILE; k++) {
+                int dx, dy;
+                render_tile_order(k, &dx, &dy);
+                int x = tx * TILE + dx, y = ty * TILE + dy;
+                if (x >= jb->w || y >= jb->h)
+                    continue;
+                float u, v;
+                camera_pixel_to_screen(x, y, jb->w, jb->h, &u, &v);
+                jb->ray[tile * TILE * TILE + n++] = camera_generate_ray(&jb->sc->camera, u, v);
+            }
+            jb->count[tile] = (unsigned char)n;
+        }
+}
 
-/* What the primary pass stores per pixel (the same as bench/embree_ref): t and the
- * shadow flag; the rays themselves were made before the timed passes. */
-static void finish(Job *jb, int idx, const Ray *r, const Hit *h, bool found)
+/* What the primary pass stores per ray (the same as bench/embree_ref): t and the
+ * shadow flag. */
+static void finish(Job *jb, size_t idx, const Ray *r, const Hit *h, bool found)
 {
     jb->t[idx] = found ? h->t : INFINITY;
     int front = found && v3_dot(h->normal, r->dir) <= 0.0f;
     jb->lit[idx] = found && isfinite(h->t) && (front || jb->shade_back);
 }
 
-static void primary_tile(Job *jb, RenderCtx *ctx, int x0, int y0, int y1)
+static void primary_tile(Job *jb, RenderCtx *ctx, size_t tile)
 {
-    Ray rays[TILE * TILE];
+    const Ray *rays = &jb->ray[tile * TILE * TILE];
+    size_t base = tile * TILE * TILE;
+    int n = jb->count[tile];
     Hit hits[TILE * TILE];
-    int idx[TILE * TILE], n = 0;
-    for (int k = 0; k < TILE * TILE; k++) {
-        int dx, dy;
-        render_tile_order(k, &dx, &dy);
-        int x = x0 + dx, y = y0 + dy;
-        if (x >= jb->w || y >= y1)
-            continue;
-        size_t i = (size_t)y * jb->w + x;
-        rays[n].origin = jb->org[i];
-        rays[n].dir = jb->dir[i];
-        hits[n] = hit_none();
-        idx[n++] = y * jb->w + x;
-    }
+    for (int i = 0; i < n; i++)
+        hits[i] = hit_none();
     if (jb->packets) {
         uint64_t found = grid_intersect_packet(jb->grid, rays, n, hits, jb->tmin, ctx);
         for (int i = 0; i < n; i++)
-            finish(jb, idx[i], &rays[i], &hits[i], found >> i & 1);
+            finish(jb, base + i, &rays[i], &hits[i], found >> i & 1);
     } else {
         for (int i = 0; i < n; i++) {
             bool f = grid_intersect(jb->grid, &rays[i], &hits[i], jb->tmin, ctx);
-            finish(jb, idx[i], &rays[i], &hits[i], f);
+            finish(jb, base + i, &rays[i], &hits[i], f);
         }
     }
 }
 
-static void shadow_tile(Job *jb, RenderCtx *ctx, int x0, int y0, int y1, long long *count,
+static void shadow_tile(Job *jb, RenderCtx *ctx, size_t tile, long long *count,
                         long long *blocked)
 {
     const Scene *sc = jb->sc;
+    const Ray *rays = &jb->ray[tile * TILE * TILE];
+    size_t base = tile * TILE * TILE;
+    int n = jb->count[tile];
     Vec3 p[TILE * TILE];
     uint64_t live = 0;
-    for (int k = 0; k < TILE * TILE; k++) {
-        int dx, dy;
-        render_tile_order(k, &dx, &dy);
-        int x = x0 + dx, y = y0 + dy;
-        if (x >= jb->w || y >= y1)
+    for (int k = 0; k < n; k++) {
+        if (!jb->lit[base + k])
             continue;
-        int i = y * jb->w + x;
-        if (!jb->lit[i])
-            continue;
-        Ray pr = {jb->org[i], jb->dir[i]};
-        p[k] = ray_at(&pr, jb->t[i]);
+        p[k] = ray_at(&rays[k], jb->t[base + k]);
         live |= (uint64_t)1 << k;
     }
     for (int l = 0; l < sc->num_lights && live; l++) {
@@ -132,12 +147,12 @@ static void *worker_main(void *arg)
         int y0 = atomic_fetch_add(&jb->next, 1) * TILE;
         if (y0 >= jb->h)
             break;
-        int y1 = y0 + TILE < jb->h ? y0 + TILE : jb->h;
-        for (int x0 = 0; x0 < jb->w; x0 += TILE) {
+        size_t tile0 = (size_t)(y0 / TILE) * jb->tiles_x;
+        for (int tx = 0; tx < jb->tiles_x; tx++) {
             if (wk->pass == 0)
-                primary_tile(jb, &wk->ctx, x0, y0, y1);
+                primary_tile(jb, &wk->ctx, tile0 + tx);
             else
-                shadow_tile(jb, &wk->ctx, x0, y0, y1, &count, &blocked);
+                shadow_tile(jb, &wk->ctx, tile0 + tx, &count, &blocked);
         }
     }
     atomic_fetch_add(&jb->shadow_rays, count);
@@ -245,24 +260,26 @@ int main(int argc, char **argv)
     }
 
     size_t np = (size_t)w * (size_t)h;
+    int tiles_x = (w + TILE - 1) / TILE, tiles_y = (h + TILE - 1) / TILE;
+    size_t ntiles = (size_t)tiles_x * (size_t)tiles_y, nslots = ntiles * TILE * TILE;
     Job jb = {.sc = sc, .grid = grid, .w = w, .h = h, .packets = packets,
-              .shade_back = shade_back, .tmin = camera_tmin(&sc->camera)};
+              .shade_back = shade_back, .tiles_x = tiles_x, .tmin = camera_tmin(&sc->camera)};
     jb.rt.scene = sc;
     Accel acc = grid_as_accel(grid);
     jb.rt.accel = &acc;
     jb.rt.single_rays = !packets;
-    jb.t = malloc(np * sizeof *jb.t);
-    jb.org = malloc(np * sizeof *jb.org);
-    jb.dir = malloc(np * sizeof *jb.dir);
-    jb.lit = malloc(np);
+    jb.t = malloc(nslots * sizeof *jb.t);
+    jb.ray = malloc(nslots * sizeof *jb.ray);
+    jb.count = malloc(ntiles);
+    jb.lit = malloc(nslots);
     Worker *wk = calloc((size_t)threads, sizeof *wk);
     double *tp = malloc((size_t)repeat * sizeof *tp), *ts = malloc((size_t)repeat * sizeof *ts);
     double *cp = malloc((size_t)repeat * sizeof *cp), *cs = malloc((size_t)repeat * sizeof *cs);
-    if (!jb.t || !jb.org || !jb.dir || !jb.lit || !wk || !tp || !ts) {
+    if (!jb.t || !jb.ray || !jb.count || !jb.lit || !wk || !tp || !ts) {
         fprintf(stderr, "grid_ref: out of memory\n");
         return 1;
     }
-    bench_make_rays(&sc->camera, w, h, jb.org, jb.dir);
+    make_tile_rays(&jb);
     for (int i = 0; i < threads; i++) {
         wk[i].jb = &jb;
         if (!raytracer_ctx_init(&wk[i].ctx, &jb.rt)) {
@@ -283,8 +300,9 @@ int main(int argc, char **argv)
         }
     }
     size_t hits = 0;
-    for (size_t i = 0; i < np; i++)
-        hits += isfinite(jb.t[i]);
+    for (size_t tile = 0; tile < ntiles; tile++)
+        for (int i = 0; i < jb.count[tile]; i++)
+            hits += isfinite(jb.t[tile * TILE * TILE + i]);
     double mp = median(tp, repeat), ms = median(ts, repeat);
     double mcp = median(cp, repeat), mcs = median(cs, repeat);
     printf("grid mode=%s kernel=%s threads=%d size=%dx%d cells=%dx%dx%d build_ms=%.3f "
@@ -298,7 +316,7 @@ int main(int argc, char **argv)
     for (int i = 0; i < threads; i++)
         raytracer_ctx_free(&wk[i].ctx);
     free(wk), free(tp), free(ts), free(cp), free(cs);
-    free(jb.t), free(jb.org), free(jb.dir), free(jb.lit);
+    free(jb.t), free(jb.ray), free(jb.count), free(jb.lit);
     grid_free(grid);
     prim_table_free(&prims);
     scene_free(sc);
