@@ -22,6 +22,7 @@ float sphere_radius(const Object3D *sphere);
 Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m);
 Vec3 plane_normal(const Object3D *plane);
 float plane_offset(const Object3D *plane);
+Vec3 plane_unit_normal(const Object3D *plane);  /* the normal its hits record */
 
 Object3D *triangle_new(Arena *a, Vec3 v0, Vec3 v1, Vec3 v2, const Material *m);
 /* A TriangleMesh: a Group of n Triangles (verts[faces[i][0..2]], material m), the same

@@ -164,6 +164,28 @@ static uint64_t packet_trace(const Grid *g, Packet *pk, int n, uint64_t cand, co
     return single | (walk ? packet_walk(g, pk, 0, n, walk, ctx) : 0);
 }
 
+/* Copies the grid's unbounded primitives into pk->planes when all are untransformed
+ * planes (at most PK_MAX_PLANES), for the set-up to test (pk->num_planes; true); else
+ * pk->num_planes = 0 and false: each ray tests them through their ops. */
+static bool packet_planes(const Grid *g, Packet *pk)
+{
+    pk->num_planes = 0;
+    if (g->num_unbounded > PK_MAX_PLANES)
+        return false;
+    for (uint32_t u = 0; u < g->num_unbounded; u++) {
+        const GridPrim *gp = &g->unbounded[u];
+        if (gp->xf || gp->obj->ops->kind != OBJ_PLANE)
+            return false;
+    }
+    for (uint32_t u = 0; u < g->num_unbounded; u++) {
+        const Object3D *o = g->unbounded[u].obj;
+        Vec3 n = plane_normal(o);
+        pk->planes[u] = (PacketPlane){{n.x, n.y, n.z}, plane_offset(o), o->id};
+    }
+    pk->num_planes = (int)g->num_unbounded;
+    return true;
+}
+
 /* The best-hit lanes start defined (the callers then set their rays' own); the ray
  * lanes are all written by the set-up, harmless values where no ray is walked, for
  * every group that holds a candidate, and the walk reads no other group. */
@@ -205,19 +227,22 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
 {
     if (n > GRID_PACKET_MAX)
         n = GRID_PACKET_MAX; /* contract: n <= GRID_PACKET_MAX */
-    uint64_t found = 0, cand = 0;
-    for (int i = 0; i < n; i++) {
-        bool f = false;
-        for (uint32_t u = 0; u < g->num_unbounded; u++)
-            f |= grid_test_prim(&g->unbounded[u], &rays[i], &hits[i], tmin, ctx);
-        if (f)
-            found |= (uint64_t)1 << i;
-        cand |= (uint64_t)1 << i;
-    }
-    if (!ctx->packet_rays || n < 2)
-        return found | march_intersect_each(g, rays, cand, hits, tmin, ctx);
-
+    uint64_t found = 0, cand = n == 64 ? ~(uint64_t)0 : ((uint64_t)1 << n) - 1;
     _Alignas(32) Packet pk;
+    bool packets = ctx->packet_rays && n >= 2;
+    if (!packets || !packet_planes(g, &pk)) {
+        for (int i = 0; i < n; i++) {
+            bool f = false;
+            for (uint32_t u = 0; u < g->num_unbounded; u++)
+                f |= grid_test_prim(&g->unbounded[u], &rays[i], &hits[i], tmin, ctx);
+            if (f)
+                found |= (uint64_t)1 << i;
+        }
+    }
+    if (!packets)
+        return found | march_intersect_each(g, rays, cand, hits, tmin, ctx);
+    ctx->stats.intersections += (uint64_t)n * (uint64_t)pk.num_planes;
+
     packet_clear(&pk);
     pk.tmin = tmin;
     pk.march_tmin = grid_march_tmin(g, tmin);
@@ -230,15 +255,17 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
     }
     uint64_t single = packet_trace(g, &pk, n, cand, NULL, ctx);
     found |= pk.hit;
-    for (uint64_t m = cand & ~single; m; m &= m - 1) {
+    /* The packet's answers into the Hits: every ray's plane hit (the single-ray march
+     * below goes on from it) and the walked rays' triangle hits. */
+    for (uint64_t m = cand; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         int p = pk.best_prim[i / PK_LANES][i % PK_LANES];
-        if (p < 0)
+        if (p == -1)
             continue; /* no packed hit: hits[i] is already the answer */
-        const Object3D *o = g->prims[p].obj;
+        const Object3D *o = p >= 0 ? g->prims[p].obj : g->unbounded[-2 - p].obj;
         hits[i].t = pk.best_t[i / PK_LANES][i % PK_LANES];
         hits[i].id = pk.best_id[i / PK_LANES][i % PK_LANES];
-        hits[i].normal = triangle_normal(o);
+        hits[i].normal = p >= 0 ? triangle_normal(o) : plane_unit_normal(o);
         hits[i].material = o->material;
         found |= (uint64_t)1 << i;
     }
@@ -248,21 +275,26 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
 uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
                               const float *tmax, RenderCtx *ctx)
 {
-    uint64_t occluded = 0, cand = 0;
-    for (uint64_t m = mask; m; m &= m - 1) {
-        int i = __builtin_ctzll(m);
-        bool blocked = false;
-        for (uint32_t u = 0; u < g->num_unbounded && !blocked; u++)
-            blocked = grid_occluded_prim(&g->unbounded[u], &rays[i], tmin, tmax[i], ctx);
-        if (blocked)
-            occluded |= (uint64_t)1 << i;
-        else
-            cand |= (uint64_t)1 << i;
-    }
-    if (!ctx->packet_rays || __builtin_popcountll(cand) < 2)
-        return occluded | march_occluded_each(g, rays, cand, tmin, tmax, ctx);
-
+    uint64_t occluded = 0, cand = mask;
     _Alignas(32) Packet pk;
+    bool packets = ctx->packet_rays && __builtin_popcountll(cand) >= 2;
+    if (!packets || !packet_planes(g, &pk)) {
+        cand = 0;
+        for (uint64_t m = mask; m; m &= m - 1) {
+            int i = __builtin_ctzll(m);
+            bool blocked = false;
+            for (uint32_t u = 0; u < g->num_unbounded && !blocked; u++)
+                blocked = grid_occluded_prim(&g->unbounded[u], &rays[i], tmin, tmax[i], ctx);
+            if (blocked)
+                occluded |= (uint64_t)1 << i;
+            else
+                cand |= (uint64_t)1 << i;
+        }
+    }
+    if (!packets || __builtin_popcountll(cand) < 2)
+        return occluded | march_occluded_each(g, rays, cand, tmin, tmax, ctx);
+    ctx->stats.intersections += (uint64_t)__builtin_popcountll(cand) * (uint64_t)pk.num_planes;
+
     packet_clear(&pk);
     pk.tmin = tmin;
     pk.march_tmin = grid_march_tmin(g, tmin);

@@ -16,6 +16,17 @@ typedef float pk_f8 __attribute__((vector_size(32)));
 typedef int32_t pk_i8 __attribute__((vector_size(32)));
 typedef uint32_t pk_u8 __attribute__((vector_size(32)));
 
+/* An untransformed plane among the grid's unbounded primitives, tested by the packet's
+ * set-up lane by lane with plane_intersect's arithmetic (grid_packet.c fills them). */
+typedef struct PacketPlane {
+    float n[3], offset;     /* the normal as given and the offset */
+    uint32_t id;
+} PacketPlane;
+
+/* The most unbounded primitives the set-up tests itself; with more, or with any that is
+ * not an untransformed plane, each ray tests them through its ops before the set-up. */
+#define PK_MAX_PLANES 4
+
 typedef struct Packet {
     pk_f8 o[3][PK_GROUPS], d[3][PK_GROUPS];
     pk_f8 inv_k[PK_GROUPS];     /* 1 / d[axis] */
@@ -24,7 +35,7 @@ typedef struct Packet {
     pk_f8 best_t[PK_GROUPS];    /* nearest: t of the best hit so far; shadow: tmax */
     pk_u8 best_id[PK_GROUPS];   /* nearest: its id */
     pk_i8 best_prim[PK_GROUPS]; /* nearest: packed primitive of the best hit; -1: the
-                                   caller's Hit holds the best hit */
+                                   caller's Hit holds the best hit; -2 - u: planes[u] */
     /* Set-up per ray (grid_packet.c): the ends of its part in the box across the main
      * axis (u, v at t0 and at t1) and the slice it starts in, for splitting. */
     float end[4][GRID_PACKET_MAX];
@@ -35,6 +46,8 @@ typedef struct Packet {
     float tmin;
     float march_tmin;           /* grid_march_tmin(tmin): where the walk starts */
     bool shadow;
+    int num_planes;             /* planes the set-up tests (0: none, or done per ray) */
+    PacketPlane planes[PK_MAX_PLANES];
     Hit *hits;                  /* nearest: the caller's hits */
     const Ray *rays;
 } Packet;

@@ -455,6 +455,44 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
             if (tmax)
                 tm[l] = tmax[8 * gi + l];
         }
+        if (pk->num_planes) {
+            /* The unbounded planes first, plane_intersect's (plane_occluded's) arithmetic
+             * lane by lane: a nearer best for the walk; a shadow ray they block is done. */
+            pk_i8 live = pk_lanes(byte);
+            const pk_f8 ptmin = pk_splat(pk->tmin);
+            pk_f8 bt = pk->best_t[gi];
+            pk_u8 bid = pk->best_id[gi];
+            pk_i8 bp = pk->best_prim[gi], blocked = ~live & live;
+            for (int u = 0; u < pk->num_planes; u++) {
+                const PacketPlane *pl = &pk->planes[u];
+                pk_f8 nx = pk_splat(pl->n[0]), ny = pk_splat(pl->n[1]), nz = pk_splat(pl->n[2]);
+                pk_f8 den = nx * d[0] + ny * d[1] + nz * d[2];
+                pk_f8 t = (pk_splat(pl->offset) - (nx * o[0] + ny * o[1] + nz * o[2])) / den;
+                pk_i8 ok = live & (den != zero) & (t > ptmin);
+                if (pk->shadow) {
+                    blocked |= ok & (t < tm);
+                    continue;
+                }
+                const uint32_t id = pl->id;
+                pk_u8 idv = {id, id, id, id, id, id, id, id};
+                ok &= (t < bt) | ((t == bt) & (pk_i8)(idv < bid));
+                bt = pk_blend(ok, t, bt);
+                bid = (pk_u8)pk_blend(ok, (pk_f8)idv, (pk_f8)bid);
+                pk_i8 uv = {-2 - u, -2 - u, -2 - u, -2 - u, -2 - u, -2 - u, -2 - u, -2 - u};
+                bp = (pk_i8)pk_blend(ok, (pk_f8)uv, (pk_f8)bp);
+            }
+            if (pk->shadow) {
+                unsigned bb = pk_bits(blocked);
+                pk->hit |= (uint64_t)bb << (8 * gi);
+                byte &= ~bb;
+                if (!byte)
+                    continue;
+            } else {
+                pk->best_t[gi] = bt;
+                pk->best_id[gi] = bid;
+                pk->best_prim[gi] = bp;
+            }
+        }
         pk_f8 dk = d[K];
         pk_f8 big = pk_max(pk_abs(d[0]), pk_max(pk_abs(d[1]), pk_abs(d[2])));
         pk_f8 far = pk_max(pk_abs(o[0]), pk_max(pk_abs(o[1]), pk_abs(o[2])));

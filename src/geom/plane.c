@@ -66,3 +66,4 @@ Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m)
 
 Vec3 plane_normal(const Object3D *o) { return ((const Plane *)o)->normal; }
 float plane_offset(const Object3D *o) { return ((const Plane *)o)->offset; }
+Vec3 plane_unit_normal(const Object3D *o) { return ((const Plane *)o)->unit_normal; }
