@@ -22,13 +22,19 @@ typedef struct GridPrim {
 
 typedef struct GridBuildRec GridBuildRec;
 
-/* An untransformed triangle as the hot loop reads it (grid_pack.c). */
+/* An untransformed triangle as the hot loop reads it (grid_pack.c): 64 bytes, one
+ * cache line in an aligned array. The first 48 are three 4-float rows for SIMD loads
+ * (v0, e1, e2, then the id and the material's bits, which those loads carry unused);
+ * what a hit records comes with the test's own line, not from the Triangle. */
 typedef struct PackedTri {
-    _Alignas(16) Vec3 v0;   /* 48 bytes, 16-aligned: three 4-float rows for SIMD loads */
+    _Alignas(16) Vec3 v0;
     Vec3 e1, e2;
     uint32_t id;            /* depth-first id; RT_NO_ID: this primitive is not packed */
-    uint32_t pad[2];
+    const Material *material;   /* the Triangle's */
+    Vec3 normal;            /* triangle_normal's bits */
+    uint32_t pad;
 } PackedTri;
+_Static_assert(sizeof(PackedTri) == 64, "a packed triangle is one cache line");
 
 /* The box of a packed triangle, widened by the grid's rounding pad on each axis (the
  * packet walk's cull, grid_packet_kernel.h): lo[a] <= every vertex's a - pad[a], and
