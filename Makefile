@@ -112,7 +112,7 @@ $(BUILD)/%.o: %.c $(FLAGS_FILE)
 $(BUILD)/src/accel/%.o: ALL_CFLAGS += -Wno-psabi
 # The AVX-512 packet kernel has FMA at hand: no fused a*b+c, every lane must round like
 # the scalar code (clang fuses within a statement by default).
-$(BUILD)/src/accel/grid_packet_avx512.o: ALL_CFLAGS += -ffp-contract=off
+$(BUILD)/src/accel/grid_packet_avx512.o $(BUILD)/src/accel/grid_packet_avx512x8.o: ALL_CFLAGS += -ffp-contract=off
 # The Gaussian's vector exp (filter.c) likewise: static 32-byte vectors, no fusing.
 $(BUILD)/src/render/filter.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 

@@ -17,10 +17,13 @@ typedef void (*WalkFn)(const Grid *, Packet *, RenderCtx *);
 typedef uint64_t (*PrepFn)(const Grid *, Packet *, uint64_t, const float *, uint64_t *);
 typedef float (*SpreadFn)(const Grid *, const Packet *, uint64_t);
 
-/* The kernels. The default is the AVX2 one where the CPU has AVX2, else the generic
- * one. The AVX-512 build of the same 8-lane kernel (masks in mask registers) is chosen
- * only on request (grid_packet_use_kernel, bench/grid_ref -kernel): on this project's
- * AMD EPYC it measured no faster than AVX2 (40k bunny, 1080p, interleaved runs). */
+/* The kernels. The default is the best the CPU has: AVX-512 with 16-lane ray groups,
+ * else AVX2 with 8 lanes, else the generic one. "avx512x8" (the 8-lane kernel in
+ * AVX-512 instructions) is chosen only on request (grid_packet_use_kernel,
+ * bench/grid_ref -kernel): on this project's AMD EPYC (Zen 4, 512-bit operations in
+ * two halves) 16 lanes traced the 40k bunny at 1080p about 1.25x faster than 2 x 8
+ * lanes in the same instructions, and 8 lanes in AVX-512 no faster than in AVX2
+ * (interleaved runs, bench/REPORT.txt). */
 typedef struct PacketKernel {
     const char *name;
     WalkFn walk;
@@ -32,6 +35,7 @@ static const PacketKernel kernels[] = {
     {"generic", grid_packet_walk_generic, grid_packet_prep_generic, grid_packet_spread_generic},
     {"avx2", grid_packet_walk_avx2, grid_packet_prep_avx2, grid_packet_spread_avx2},
     {"avx512", grid_packet_walk_avx512, grid_packet_prep_avx512, grid_packet_spread_avx512},
+    {"avx512x8", grid_packet_walk_avx512x8, grid_packet_prep_avx512x8, grid_packet_spread_avx512x8},
 };
 enum { NUM_KERNELS = sizeof kernels / sizeof kernels[0] };
 
@@ -50,7 +54,7 @@ static bool kernel_usable(int i)
     __builtin_cpu_init();
     if (i == 1)
         return __builtin_cpu_supports("avx2");
-    if (i == 2)
+    if (i == 2 || i == 3)
         return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
                __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq");
 #endif
@@ -67,7 +71,7 @@ static void set_kernel(int i)
 
 static void choose_walk(void)
 {
-    set_kernel(kernel_usable(1) ? 1 : 0);
+    set_kernel(kernel_usable(2) ? 2 : kernel_usable(1) ? 1 : 0);
 }
 
 const char *grid_packet_kernel(void)
@@ -96,9 +100,21 @@ static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const f
                                uint64_t *single_out)
 {
     const Ray *rays = pk->rays;
-    Vec3 sum = {0.0f, 0.0f, 0.0f};
-    for (uint64_t m = cand; m; m &= m - 1)
-        sum = v3_add(sum, rays[__builtin_ctzll(m)].dir);
+    /* Four partial sums: one chain of dependent adds over 64 rays was 5% of the 1080p
+     * primary pass. (Any axis gives the same answers; this one only keeps packets
+     * wide.) */
+    Vec3 part[4] = {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f},
+                    {0.0f, 0.0f, 0.0f}};
+    if ((cand & (cand + 1)) == 0) {
+        int n = __builtin_popcountll(cand); /* rays 0 .. n-1 */
+        for (int i = 0; i < n; i++)
+            part[i & 3] = v3_add(part[i & 3], rays[i].dir);
+    } else {
+        int j = 0;
+        for (uint64_t m = cand; m; m &= m - 1, j++)
+            part[j & 3] = v3_add(part[j & 3], rays[__builtin_ctzll(m)].dir);
+    }
+    Vec3 sum = v3_add(v3_add(part[0], part[1]), v3_add(part[2], part[3]));
     if (!(isfinite(sum.x) && isfinite(sum.y) && isfinite(sum.z))) {
         /* Rare: leave out the rays whose direction is not finite. */
         sum = v3(0.0f, 0.0f, 0.0f);
@@ -228,7 +244,7 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
     if (n > GRID_PACKET_MAX)
         n = GRID_PACKET_MAX; /* contract: n <= GRID_PACKET_MAX */
     uint64_t found = 0, cand = n == 64 ? ~(uint64_t)0 : ((uint64_t)1 << n) - 1;
-    _Alignas(32) Packet pk;
+    Packet pk; /* 64-aligned by its type */
     bool packets = ctx->packet_rays && n >= 2;
     if (!packets || !packet_planes(g, &pk)) {
         for (int i = 0; i < n; i++) {
@@ -262,11 +278,16 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
         int p = pk.best_prim[i / PK_LANES][i % PK_LANES];
         if (p == -1)
             continue; /* no packed hit: hits[i] is already the answer */
-        const Object3D *o = p >= 0 ? g->prims[p].obj : g->unbounded[-2 - p].obj;
         hits[i].t = pk.best_t[i / PK_LANES][i % PK_LANES];
         hits[i].id = pk.best_id[i / PK_LANES][i % PK_LANES];
-        hits[i].normal = p >= 0 ? triangle_normal(o) : plane_unit_normal(o);
-        hits[i].material = o->material;
+        if (p >= 0) {
+            hits[i].normal = g->tri[p].normal;
+            hits[i].material = g->tri[p].material;
+        } else {
+            const Object3D *o = g->unbounded[-2 - p].obj;
+            hits[i].normal = plane_unit_normal(o);
+            hits[i].material = o->material;
+        }
         found |= (uint64_t)1 << i;
     }
     return found | march_intersect_each(g, rays, single, hits, tmin, ctx);
@@ -276,7 +297,7 @@ uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, flo
                               const float *tmax, RenderCtx *ctx)
 {
     uint64_t occluded = 0, cand = mask;
-    _Alignas(32) Packet pk;
+    Packet pk; /* 64-aligned by its type */
     bool packets = ctx->packet_rays && __builtin_popcountll(cand) >= 2;
     if (!packets || !packet_planes(g, &pk)) {
         cand = 0;

@@ -28,7 +28,8 @@ typedef struct PacketPlane {
 #define PK_MAX_PLANES 4
 
 typedef struct Packet {
-    pk_f8 o[3][PK_GROUPS], d[3][PK_GROUPS];
+    _Alignas(64) pk_f8 o[3][PK_GROUPS]; /* 64-aligned: the 16-lane kernel reads */
+    pk_f8 d[3][PK_GROUPS];
     pk_f8 inv_k[PK_GROUPS];     /* 1 / d[axis] */
     pk_f8 t0[PK_GROUPS];        /* where the ray's part inside the padded box starts (>= tmin) */
     pk_f8 t1[PK_GROUPS];        /* ... and ends (shadow rays: also < tmax) */
@@ -56,6 +57,7 @@ typedef struct Packet {
 void grid_packet_walk_generic(const Grid *g, Packet *pk, RenderCtx *ctx);
 void grid_packet_walk_avx2(const Grid *g, Packet *pk, RenderCtx *ctx);
 void grid_packet_walk_avx512(const Grid *g, Packet *pk, RenderCtx *ctx);
+void grid_packet_walk_avx512x8(const Grid *g, Packet *pk, RenderCtx *ctx);
 /* ... and its per-ray set-up (grid_packet_kernel.h, PK_PREP). */
 uint64_t grid_packet_prep_generic(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                   uint64_t *single_out);
@@ -63,9 +65,12 @@ uint64_t grid_packet_prep_avx2(const Grid *g, Packet *pk, uint64_t cand, const f
                                uint64_t *single_out);
 uint64_t grid_packet_prep_avx512(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                  uint64_t *single_out);
+uint64_t grid_packet_prep_avx512x8(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
+                                   uint64_t *single_out);
 /* ... and the width of a packet's rays in cells (PK_SPREAD). */
 float grid_packet_spread_generic(const Grid *g, const Packet *pk, uint64_t walk);
 float grid_packet_spread_avx2(const Grid *g, const Packet *pk, uint64_t walk);
 float grid_packet_spread_avx512(const Grid *g, const Packet *pk, uint64_t walk);
+float grid_packet_spread_avx512x8(const Grid *g, const Packet *pk, uint64_t walk);
 
 #endif

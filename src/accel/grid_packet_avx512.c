@@ -1,6 +1,7 @@
-/* The packet walk compiled for AVX-512 (F, VL, BW, DQ): the same 8-lane kernel, its
- * comparisons and blends in mask registers. Chosen at run time by grid_packet.c when
- * the CPU has these. AVX-512 brings FMA, and a compiler may fuse a*b+c when allowed:
+/* The packet walk compiled for AVX-512 (F, VL, BW, DQ) with 16-lane ray groups: each
+ * 4x4-pixel group of a packet is one 512-bit register per coordinate, its comparisons
+ * and blends in mask registers. Chosen at run time by grid_packet.c when the CPU has
+ * these. AVX-512 brings FMA, and a compiler may fuse a*b+c when allowed:
  * this file is built with -ffp-contract=off (Makefile), so every lane rounds like the
  * scalar code (grid_packet_kernel.h). */
 #include "grid_packet.h"
@@ -12,6 +13,7 @@
 #else
 #pragma GCC target("avx512f,avx512vl,avx512bw,avx512dq")
 #endif
+#define PK_W 16
 #define PK_WALK grid_packet_walk_avx512
 #define PK_PREP grid_packet_prep_avx512
 #define PK_SPREAD grid_packet_spread_avx512

@@ -1,7 +1,9 @@
-/* The packet walk and its per-ray set-up, written once and compiled twice: by
- * grid_packet.c for the baseline instruction set and by grid_packet_avx2.c for AVX2.
- * The includer defines PK_WALK, PK_PREP and PK_SPREAD (the functions' names) and
- * includes this file once.
+/* The packet walk and its per-ray set-up, written once and compiled once per kernel:
+ * by grid_packet.c for the baseline instruction set, by grid_packet_avx2.c for AVX2 and
+ * by grid_packet_avx512.c for AVX-512. The includer defines PK_WALK, PK_PREP and
+ * PK_SPREAD (the functions' names) and optionally PK_W, the lanes of one ray group (8,
+ * the default, or 16), and includes this file once. The Packet's columns are the same
+ * memory for either width: group gi of width W is rays [W gi, W gi + W).
  *
  * Coherent grid traversal (Wald, Ize, Kensler, Knoll, Parker, SIGGRAPH 2006): the
  * packet advances one slice of cells at a time along its main axis K. In a slice, the
@@ -31,9 +33,41 @@
 
 #define PK_INLINE static inline __attribute__((always_inline))
 
-PK_INLINE pk_f8 pk_splat(float x) { return (pk_f8){x, x, x, x, x, x, x, x}; }
+#ifndef PK_W
+#define PK_W 8
+#endif
+#if PK_W == 8
+#define PK_REP(x) x, x, x, x, x, x, x, x
+#elif PK_W == 16
+#define PK_REP(x) x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x
+#else
+#error "PK_W is 8 or 16"
+#endif
+#define PK_NG (GRID_PACKET_MAX / PK_W)   /* ray groups of a packet */
+#define PK_WMASK ((1u << PK_W) - 1u)     /* a group's bits in a 64-bit ray mask */
 
-PK_INLINE pk_f8 pk_blend(pk_i8 m, pk_f8 a, pk_f8 b) /* m ? a : b, lane by lane */
+/* A group's lanes, and the same types for reading and writing the Packet's columns
+ * (pk_f8 arrays, grid_packet.h) as groups of PK_W: may_alias. */
+typedef float pk_fv __attribute__((vector_size(4 * PK_W)));
+typedef int32_t pk_iv __attribute__((vector_size(4 * PK_W)));
+typedef uint32_t pk_uv __attribute__((vector_size(4 * PK_W)));
+typedef float pk_fv_mem __attribute__((vector_size(4 * PK_W), may_alias));
+typedef int32_t pk_iv_mem __attribute__((vector_size(4 * PK_W), may_alias));
+typedef uint32_t pk_uv_mem __attribute__((vector_size(4 * PK_W), may_alias));
+#define PKF(col, gi) (((pk_fv_mem *)(col))[gi])
+#define PKI(col, gi) (((pk_iv_mem *)(col))[gi])
+#define PKU(col, gi) (((pk_uv_mem *)(col))[gi])
+
+PK_INLINE pk_fv pk_splat(float x) { return (pk_fv){PK_REP(x)}; }
+PK_INLINE pk_iv pk_spliti(int32_t x) { return (pk_iv){PK_REP(x)}; }
+PK_INLINE pk_f8 pk8_splat(float x) { return (pk_f8){x, x, x, x, x, x, x, x}; }
+
+PK_INLINE pk_fv pk_blend(pk_iv m, pk_fv a, pk_fv b) /* m ? a : b, lane by lane */
+{
+    return (pk_fv)((m & (pk_iv)a) | (~m & (pk_iv)b));
+}
+
+PK_INLINE pk_f8 pk8_blend(pk_i8 m, pk_f8 a, pk_f8 b)
 {
     return (pk_f8)((m & (pk_i8)a) | (~m & (pk_i8)b));
 }
@@ -42,15 +76,25 @@ PK_INLINE pk_f8 pk_blend(pk_i8 m, pk_f8 a, pk_f8 b) /* m ? a : b, lane by lane *
  * instructions compute (the second operand when the comparison is false: equal
  * values, or a NaN on either side). */
 #if defined(__AVX__)
-PK_INLINE pk_f8 pk_min(pk_f8 a, pk_f8 b) { return (pk_f8)_mm256_min_ps((__m256)a, (__m256)b); }
-PK_INLINE pk_f8 pk_max(pk_f8 a, pk_f8 b) { return (pk_f8)_mm256_max_ps((__m256)a, (__m256)b); }
+PK_INLINE pk_f8 pk8_min(pk_f8 a, pk_f8 b) { return (pk_f8)_mm256_min_ps((__m256)a, (__m256)b); }
+PK_INLINE pk_f8 pk8_max(pk_f8 a, pk_f8 b) { return (pk_f8)_mm256_max_ps((__m256)a, (__m256)b); }
 #else
-PK_INLINE pk_f8 pk_min(pk_f8 a, pk_f8 b) { return pk_blend(a < b, a, b); }
-PK_INLINE pk_f8 pk_max(pk_f8 a, pk_f8 b) { return pk_blend(a > b, a, b); }
+PK_INLINE pk_f8 pk8_min(pk_f8 a, pk_f8 b) { return pk8_blend(a < b, a, b); }
+PK_INLINE pk_f8 pk8_max(pk_f8 a, pk_f8 b) { return pk8_blend(a > b, a, b); }
+#endif
+#if PK_W == 8
+PK_INLINE pk_fv pk_min(pk_fv a, pk_fv b) { return pk8_min(a, b); }
+PK_INLINE pk_fv pk_max(pk_fv a, pk_fv b) { return pk8_max(a, b); }
+#elif defined(__AVX512F__)
+PK_INLINE pk_fv pk_min(pk_fv a, pk_fv b) { return (pk_fv)_mm512_min_ps((__m512)a, (__m512)b); }
+PK_INLINE pk_fv pk_max(pk_fv a, pk_fv b) { return (pk_fv)_mm512_max_ps((__m512)a, (__m512)b); }
+#else
+PK_INLINE pk_fv pk_min(pk_fv a, pk_fv b) { return pk_blend(a < b, a, b); }
+PK_INLINE pk_fv pk_max(pk_fv a, pk_fv b) { return pk_blend(a > b, a, b); }
 #endif
 
-/* Bit l set when lane l of m is set. */
-PK_INLINE unsigned pk_bits(pk_i8 m)
+/* Bit l set when lane l of m (8 lanes) is set. */
+PK_INLINE unsigned pk8_bits(pk_i8 m)
 {
 #if defined(__AVX__)
     return (unsigned)_mm256_movemask_ps((__m256)m);
@@ -61,46 +105,76 @@ PK_INLINE unsigned pk_bits(pk_i8 m)
     return (unsigned)_mm_movemask_ps(lo) | (unsigned)_mm_movemask_ps(hi) << 4;
 #else
     unsigned r = 0;
-    for (int l = 0; l < PK_LANES; l++)
+    for (int l = 0; l < 8; l++)
         r |= (unsigned)(m[l] & 1) << l;
     return r;
 #endif
 }
 
-/* The lane mask of the 8 bits in byte. */
-PK_INLINE pk_i8 pk_lanes(unsigned byte)
+/* ... and of a group's lanes. */
+PK_INLINE unsigned pk_bits(pk_iv m)
 {
-    const pk_i8 bit = {1, 2, 4, 8, 16, 32, 64, 128};
-    int32_t b = (int32_t)byte;
-    pk_i8 v = {b, b, b, b, b, b, b, b};
-    return (v & bit) != (pk_i8){0, 0, 0, 0, 0, 0, 0, 0};
+#if PK_W == 8
+    return pk8_bits(m);
+#elif defined(__AVX512DQ__)
+    return (unsigned)_mm512_movepi32_mask((__m512i)m);
+#else
+    return pk8_bits(__builtin_shufflevector(m, m, 0, 1, 2, 3, 4, 5, 6, 7)) |
+           pk8_bits(__builtin_shufflevector(m, m, 8, 9, 10, 11, 12, 13, 14, 15)) << 8;
+#endif
+}
+
+/* The lane mask of a group's bits. */
+PK_INLINE pk_iv pk_lanes(unsigned bits)
+{
+#if PK_W == 8
+    const pk_iv bit = {1, 2, 4, 8, 16, 32, 64, 128};
+#else
+    const pk_iv bit = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384, 32768};
+#endif
+    return (pk_spliti((int32_t)bits) & bit) != pk_spliti(0);
 }
 
 /* The smallest and the largest lane (no NaN lanes; of +0 and -0 either may come out,
- * which compare and convert to cells alike). A tree of halves: 3 steps. */
-PK_INLINE float pk_hmin(pk_f8 v)
+ * which compare and convert to cells alike). A tree of halves: 3 steps for 8 lanes. */
+PK_INLINE float pk8_hmin(pk_f8 v)
 {
-    v = pk_min(v, __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3));
-    v = pk_min(v, __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5));
-    v = pk_min(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6));
+    v = pk8_min(v, __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3));
+    v = pk8_min(v, __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5));
+    v = pk8_min(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6));
     return v[0];
 }
 
-PK_INLINE float pk_hmax(pk_f8 v)
+PK_INLINE float pk8_hmax(pk_f8 v)
 {
-    v = pk_max(v, __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3));
-    v = pk_max(v, __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5));
-    v = pk_max(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6));
+    v = pk8_max(v, __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3));
+    v = pk8_max(v, __builtin_shufflevector(v, v, 2, 3, 0, 1, 6, 7, 4, 5));
+    v = pk8_max(v, __builtin_shufflevector(v, v, 1, 0, 3, 2, 5, 4, 7, 6));
     return v[0];
 }
+
+#if PK_W == 8
+PK_INLINE pk_f8 pk_lo8(pk_fv v) { return v; }
+PK_INLINE float pk_hmin(pk_fv v) { return pk8_hmin(v); }
+PK_INLINE float pk_hmax(pk_fv v) { return pk8_hmax(v); }
+#else
+/* The two 8-lane halves of a 16-lane group (the cull's ray groups are 8 rays). */
+PK_INLINE pk_f8 pk_lo8(pk_fv v) { return __builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7); }
+PK_INLINE pk_f8 pk_hi8(pk_fv v)
+{
+    return __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15);
+}
+PK_INLINE float pk_hmin(pk_fv v) { return pk8_hmin(pk8_min(pk_lo8(v), pk_hi8(v))); }
+PK_INLINE float pk_hmax(pk_fv v) { return pk8_hmax(pk8_max(pk_lo8(v), pk_hi8(v))); }
+#endif
 
 /* march_cell_of lane by lane (lanes outside the slice may hold anything: clamped). */
-PK_INLINE pk_i8 pk_cells(pk_f8 x, float lo, float inv_size, int n)
+PK_INLINE pk_iv pk_cells(pk_fv x, float lo, float inv_size, int n)
 {
-    pk_f8 f = (x - lo) * inv_size;
+    pk_fv f = (x - lo) * inv_size;
     f = pk_max(f, pk_splat(0.0f)); /* a NaN lane compares false and becomes 0 */
     f = pk_min(f, pk_splat((float)(n - 1)));
-    return __builtin_convertvector(f, pk_i8);
+    return __builtin_convertvector(f, pk_iv);
 }
 
 /* The packet walk's triangle cull (Wald et al. 2006 cull a slice's triangles against
@@ -117,7 +191,7 @@ PK_INLINE pk_i8 pk_cells(pk_f8 x, float lo, float inv_size, int n)
  * when its best hit is nearer than any later slice). The answers do not change; only
  * tests that cannot succeed are skipped. Returns the 64-bit mask of the rays in groups
  * that may hit it. Lane gi of the rectangles is group gi. */
-_Static_assert(PK_GROUPS == PK_LANES, "the cull holds one ray group per lane");
+_Static_assert(GRID_PACKET_MAX == 64, "the cull holds one group of 8 rays per lane");
 /* Entry b: byte gi all ones where bit gi of b is set (groups to rays). */
 #define PK_GR1(b) (((b) & 1 ? 0xffull : 0) | ((b) & 2 ? 0xff00ull : 0) |                       \
                    ((b) & 4 ? 0xff0000ull : 0) | ((b) & 8 ? 0xff000000ull : 0) |               \
@@ -135,9 +209,9 @@ static const uint64_t pk_group_rays[256] = {PK_GR64(0), PK_GR64(64), PK_GR64(128
 PK_INLINE uint64_t pk_cull(const TriBox *b, int U, int V, pk_f8 gu0, pk_f8 gu1, pk_f8 gv0,
                            pk_f8 gv1)
 {
-    pk_i8 over = (pk_splat(b->lo[U]) <= gu1) & (pk_splat(b->hi[U]) >= gu0) &
-                 (pk_splat(b->lo[V]) <= gv1) & (pk_splat(b->hi[V]) >= gv0);
-    return pk_group_rays[pk_bits(over)];
+    pk_i8 over = (pk8_splat(b->lo[U]) <= gu1) & (pk8_splat(b->hi[U]) >= gu0) &
+                 (pk8_splat(b->lo[V]) <= gv1) & (pk8_splat(b->hi[V]) >= gv0);
+    return pk_group_rays[pk8_bits(over)];
 }
 
 /* Packed triangle p against the rays of `want` (a 64-bit ray mask). */
@@ -147,36 +221,35 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
     const float v0x = pt->v0.x, v0y = pt->v0.y, v0z = pt->v0.z;
     const float e1x = pt->e1.x, e1y = pt->e1.y, e1z = pt->e1.z;
     const float e2x = pt->e2.x, e2y = pt->e2.y, e2z = pt->e2.z;
-    const pk_f8 zero = pk_splat(0.0f), one = pk_splat(1.0f), tmin = pk_splat(pk->tmin);
-    const pk_f8 lo = pk_splat(-RT_TRI_EDGE_TOL), hi = pk_splat(1.0f + RT_TRI_FAR_TOL);
+    const pk_fv zero = pk_splat(0.0f), one = pk_splat(1.0f), tmin = pk_splat(pk->tmin);
+    const pk_fv lo = pk_splat(-RT_TRI_EDGE_TOL), hi = pk_splat(1.0f + RT_TRI_FAR_TOL);
     const uint32_t id = pt->id;
-    for (int gi = 0; gi < PK_GROUPS; gi++) {
-        unsigned byte = (unsigned)(want >> (8 * gi)) & 0xffu;
-        if (!byte)
+    for (int gi = 0; gi < PK_NG; gi++) {
+        unsigned bits = (unsigned)(want >> (PK_W * gi)) & PK_WMASK;
+        if (!bits)
             continue;
-        pk_f8 dx = pk->d[0][gi], dy = pk->d[1][gi], dz = pk->d[2][gi];
-        /* triangle_ray_t's formula, 8 lanes wide (rt/geom.h) */
-        RT_MOLLER_TRUMBORE(pk_f8, one, pk->o[0][gi], pk->o[1][gi], pk->o[2][gi], dx, dy, dz,
-                           v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, det, u, v, t);
-        pk_i8 ok = (det != zero) & (u >= lo) & (v >= lo) & (u + v <= hi) &
-                   (t > tmin) & pk_lanes(byte);
-        pk_f8 bt = pk->best_t[gi];
+        pk_fv dx = PKF(pk->d[0], gi), dy = PKF(pk->d[1], gi), dz = PKF(pk->d[2], gi);
+        /* triangle_ray_t's formula, PK_W lanes wide (rt/geom.h) */
+        RT_MOLLER_TRUMBORE(pk_fv, one, PKF(pk->o[0], gi), PKF(pk->o[1], gi), PKF(pk->o[2], gi),
+                           dx, dy, dz, v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, det, u, v, t);
+        pk_iv ok = (det != zero) & (u >= lo) & (v >= lo) & (u + v <= hi) &
+                   (t > tmin) & pk_lanes(bits);
+        pk_fv bt = PKF(pk->best_t, gi);
         if (pk->shadow) {
             /* hit_accepts against (tmax, id 0): exactly t < tmax */
             ok &= t < bt;
             unsigned hitb = pk_bits(ok);
             if (hitb)
-                pk->hit |= (uint64_t)hitb << (8 * gi);
+                pk->hit |= (uint64_t)hitb << (PK_W * gi);
             continue;
         }
-        pk_u8 bid = pk->best_id[gi];
-        pk_u8 idv = {id, id, id, id, id, id, id, id};
-        ok &= (t < bt) | ((t == bt) & (pk_i8)(idv < bid));
-        pk->best_t[gi] = pk_blend(ok, t, bt);
-        pk->best_id[gi] = (pk_u8)pk_blend(ok, (pk_f8)idv, (pk_f8)bid);
-        pk_i8 pv = {(int32_t)p, (int32_t)p, (int32_t)p, (int32_t)p,
-                    (int32_t)p, (int32_t)p, (int32_t)p, (int32_t)p};
-        pk->best_prim[gi] = (pk_i8)pk_blend(ok, (pk_f8)pv, (pk_f8)pk->best_prim[gi]);
+        pk_uv bid = PKU(pk->best_id, gi);
+        pk_uv idv = {PK_REP(id)};
+        ok &= (t < bt) | ((t == bt) & (pk_iv)(idv < bid));
+        PKF(pk->best_t, gi) = pk_blend(ok, t, bt);
+        PKU(pk->best_id, gi) = (pk_uv)pk_blend(ok, (pk_fv)idv, (pk_fv)bid);
+        PKI(pk->best_prim, gi) =
+            (pk_iv)pk_blend(ok, (pk_fv)pk_spliti((int32_t)p), (pk_fv)PKI(pk->best_prim, gi));
     }
 }
 
@@ -216,16 +289,17 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
     const float pad_u = g->pad[U], pad_v = g->pad[V];
     const int nk = g->n[K], nu = g->n[U], nv = g->n[V];
     const uint32_t *start = g->cell_start, *items = g->cell_items;
-    const pk_f8 inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+    const pk_fv inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+    const pk_f8 inf8 = pk8_splat(INFINITY), ninf8 = pk8_splat(-INFINITY);
 
     uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
     uint64_t *mrays = ctx->packet_rays;
     /* Statistics: each ray counts the cells of its own range in every slice, summed
      * lane by lane and added up once at the end. A ray's ranges are disjoint sets of
-     * cells, so a lane (8 rays) gains at most 8 x 16M < 2^31 (grids hold at most 16M
-     * cells). */
-    pk_i8 cells_acc = {0, 0, 0, 0, 0, 0, 0, 0};
+     * cells, so a lane (at most 8 rays) gains at most 8 x 16M < 2^31 (grids hold at most
+     * 16M cells). */
+    pk_iv cells_acc = pk_spliti(0);
     uint64_t cells_one = 0;
 
     for (int k = pk->k_first; k >= 0 && k < nk && pk->active; k += pk->sign) {
@@ -236,37 +310,38 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         bool last = pk->sign > 0 ? k == nk - 1 : k == 0;
         float p_near = lo_k + (float)b_near * size_k, p_far = lo_k + (float)b_far * size_k;
 
-        pk_f8 umin = inf, umax = ninf, vmin = inf, vmax = ninf;
+        pk_fv umin = inf, umax = ninf, vmin = inf, vmax = ninf;
         /* Each ray's range across the slice (ray lanes outside the slice: an empty
          * range), kept for the per-ray cells and the group rectangles, both made only
          * when needed. */
-        pk_f8 ru0[PK_GROUPS], ru1[PK_GROUPS], rv0[PK_GROUPS], rv1[PK_GROUPS];
-        pk_f8 tfar[PK_GROUPS];
+        pk_fv ru0[PK_NG], ru1[PK_NG], rv0[PK_NG], rv1[PK_NG];
+        pk_fv tfar[PK_NG];
         uint64_t in = 0;
-        for (int gi = 0; gi < PK_GROUPS; gi++) {
-            unsigned byte = (unsigned)(pk->active >> (8 * gi)) & 0xffu;
-            if (!byte)
+        for (int gi = 0; gi < PK_NG; gi++) {
+            unsigned bits = (unsigned)(pk->active >> (PK_W * gi)) & PK_WMASK;
+            if (!bits)
                 continue;
-            pk_f8 ok_ = pk->o[K][gi];
-            pk_f8 ta = first ? ninf : (p_near - ok_) * pk->inv_k[gi];
-            pk_f8 tb = last ? inf : (p_far - ok_) * pk->inv_k[gi];
+            pk_fv ok_ = PKF(pk->o[K], gi), inv_k = PKF(pk->inv_k, gi);
+            pk_fv ta = first ? ninf : (p_near - ok_) * inv_k;
+            pk_fv tb = last ? inf : (p_far - ok_) * inv_k;
             tfar[gi] = tb;
-            pk_f8 lo = pk_max(ta, pk->t0[gi]);
-            pk_f8 hi = pk_min(tb, pk->t1[gi]);
+            pk_fv lo = pk_max(ta, PKF(pk->t0, gi));
+            pk_fv hi = pk_min(tb, PKF(pk->t1, gi));
             if (!pk->shadow)
-                hi = pk_min(hi, pk->best_t[gi]);
-            pk_i8 m = (lo <= hi) & pk_lanes(byte);
-            unsigned mb8 = pk_bits(m);
-            if (!mb8)
+                hi = pk_min(hi, PKF(pk->best_t, gi));
+            pk_iv m = (lo <= hi) & pk_lanes(bits);
+            unsigned mbits = pk_bits(m);
+            if (!mbits)
                 continue;
-            in |= (uint64_t)mb8 << (8 * gi);
-            pk_f8 ou = pk->o[U][gi], du = pk->d[U][gi], ov = pk->o[V][gi], dv = pk->d[V][gi];
-            pk_f8 ua = ou + lo * du, ub = ou + hi * du;
-            pk_f8 va = ov + lo * dv, vb = ov + hi * dv;
+            in |= (uint64_t)mbits << (PK_W * gi);
+            pk_fv ou = PKF(pk->o[U], gi), du = PKF(pk->d[U], gi);
+            pk_fv ov = PKF(pk->o[V], gi), dv = PKF(pk->d[V], gi);
+            pk_fv ua = ou + lo * du, ub = ou + hi * du;
+            pk_fv va = ov + lo * dv, vb = ov + hi * dv;
             /* Each ray's own cells in this slice (widened by the padding, as the
              * rectangle below), so a cell is tested only for the rays that cross it. */
-            pk_f8 u0 = pk_min(ua, ub) - pad_u, u1 = pk_max(ua, ub) + pad_u;
-            pk_f8 v0 = pk_min(va, vb) - pad_v, v1 = pk_max(va, vb) + pad_v;
+            pk_fv u0 = pk_min(ua, ub) - pad_u, u1 = pk_max(ua, ub) + pad_u;
+            pk_fv v0 = pk_min(va, vb) - pad_v, v1 = pk_max(va, vb) + pad_v;
             ru0[gi] = pk_blend(m, u0, inf), ru1[gi] = pk_blend(m, u1, ninf);
             rv0[gi] = pk_blend(m, v0, inf), rv1[gi] = pk_blend(m, v1, ninf);
             umin = pk_min(umin, ru0[gi]);
@@ -285,14 +360,14 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
             bool one_cell = iu0 == iu1 && iv0 == iv1;
             /* Each ray's own cells in this slice, so a cell is tested only for the rays
              * that cross it; in a one-cell rectangle every ray's range is that cell. */
-            pk_i8 cu0[PK_GROUPS], cu1[PK_GROUPS], cv0[PK_GROUPS], cv1[PK_GROUPS];
+            pk_iv cu0[PK_NG], cu1[PK_NG], cv0[PK_NG], cv1[PK_NG];
             if (one_cell) {
                 cells_one += (uint64_t)__builtin_popcountll(in); /* statistics */
             } else {
-                for (int gi = 0; gi < PK_GROUPS; gi++) {
-                    if (!((in >> (8 * gi)) & 0xffu))
+                for (int gi = 0; gi < PK_NG; gi++) {
+                    if (!((in >> (PK_W * gi)) & PK_WMASK))
                         continue;
-                    pk_i8 m = pk_lanes((unsigned)(in >> (8 * gi)) & 0xffu);
+                    pk_iv m = pk_lanes((unsigned)(in >> (PK_W * gi)) & PK_WMASK);
                     cu0[gi] = pk_cells(ru0[gi], lo_u, inv_su, nu);
                     cu1[gi] = pk_cells(ru1[gi], lo_u, inv_su, nu);
                     cv0[gi] = pk_cells(rv0[gi], lo_v, inv_sv, nv);
@@ -301,10 +376,10 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                     cells_acc += ((cu1[gi] - cu0[gi] + 1) * (cv1[gi] - cv0[gi] + 1)) & m;
                 }
             }
-            /* Each ray group's rectangle (lane gi: group gi; an empty one for groups
-             * with no ray here), for the triangle cull, made at the first packed
-             * triangle of the slice. */
-            pk_f8 gu0 = inf, gu1 = ninf, gv0 = inf, gv1 = ninf;
+            /* Each group of 8 rays' rectangle (lane j: rays [8 j, 8 j + 8); an empty one
+             * for groups with no ray here), for the triangle cull, made at the first
+             * packed triangle of the slice. */
+            pk_f8 gu0 = inf8, gu1 = ninf8, gv0 = inf8, gv1 = ninf8;
             bool have_rects = false;
             int c[3];
             c[K] = k;
@@ -319,15 +394,14 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                     uint64_t crossing = in;
                     if (!one_cell) {
                         crossing = 0;
-                        const pk_i8 ivu = {iu, iu, iu, iu, iu, iu, iu, iu};
-                        const pk_i8 ivv = {iv, iv, iv, iv, iv, iv, iv, iv};
-                        for (int gi = 0; gi < PK_GROUPS; gi++) {
-                            unsigned byte = (unsigned)(in >> (8 * gi)) & 0xffu;
-                            if (!byte)
+                        const pk_iv ivu = pk_spliti(iu), ivv = pk_spliti(iv);
+                        for (int gi = 0; gi < PK_NG; gi++) {
+                            unsigned bits = (unsigned)(in >> (PK_W * gi)) & PK_WMASK;
+                            if (!bits)
                                 continue;
-                            pk_i8 m = (cu0[gi] <= ivu) & (ivu <= cu1[gi]) & (cv0[gi] <= ivv) &
+                            pk_iv m = (cu0[gi] <= ivu) & (ivu <= cu1[gi]) & (cv0[gi] <= ivv) &
                                       (ivv <= cv1[gi]);
-                            crossing |= (uint64_t)(pk_bits(m) & byte) << (8 * gi);
+                            crossing |= (uint64_t)(pk_bits(m) & bits) << (PK_W * gi);
                         }
                     }
                     for (; e < end; e++) {
@@ -338,13 +412,20 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                             break;
                         if (item & GRID_ITEM_TRI) {
                             if (!have_rects) {
-                                for (int gi = 0; gi < PK_GROUPS; gi++) {
-                                    if (!((in >> (8 * gi)) & 0xffu))
+                                for (int gi = 0; gi < PK_NG; gi++) {
+                                    if (!((in >> (PK_W * gi)) & PK_WMASK))
                                         continue;
-                                    gu0[gi] = pk_hmin(ru0[gi]);
-                                    gu1[gi] = pk_hmax(ru1[gi]);
-                                    gv0[gi] = pk_hmin(rv0[gi]);
-                                    gv1[gi] = pk_hmax(rv1[gi]);
+                                    int j = gi * (PK_W / 8);
+                                    gu0[j] = pk8_hmin(pk_lo8(ru0[gi]));
+                                    gu1[j] = pk8_hmax(pk_lo8(ru1[gi]));
+                                    gv0[j] = pk8_hmin(pk_lo8(rv0[gi]));
+                                    gv1[j] = pk8_hmax(pk_lo8(rv1[gi]));
+#if PK_W == 16
+                                    gu0[j + 1] = pk8_hmin(pk_hi8(ru0[gi]));
+                                    gu1[j + 1] = pk8_hmax(pk_hi8(ru1[gi]));
+                                    gv0[j + 1] = pk8_hmin(pk_hi8(rv0[gi]));
+                                    gv1[j + 1] = pk8_hmax(pk_hi8(rv1[gi]));
+#endif
                                 }
                                 have_rects = true;
                             }
@@ -386,19 +467,19 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
         /* Who is done: rays past the box, rays whose best hit lies before the far
          * plane, occluded shadow rays. */
         uint64_t done = pk->shadow ? pk->hit : 0;
-        for (int gi = 0; gi < PK_GROUPS; gi++) {
-            unsigned byte = (unsigned)(pk->active >> (8 * gi)) & 0xffu;
-            if (!byte)
+        for (int gi = 0; gi < PK_NG; gi++) {
+            unsigned bits = (unsigned)(pk->active >> (PK_W * gi)) & PK_WMASK;
+            if (!bits)
                 continue;
-            pk_i8 m = tfar[gi] >= pk->t1[gi];
+            pk_iv m = tfar[gi] >= PKF(pk->t1, gi);
             if (!pk->shadow)
-                m |= pk->best_t[gi] <= tfar[gi];
-            done |= (uint64_t)(pk_bits(m) & byte) << (8 * gi);
+                m |= PKF(pk->best_t, gi) <= tfar[gi];
+            done |= (uint64_t)(pk_bits(m) & bits) << (PK_W * gi);
         }
         pk->active &= ~done;
     }
     uint64_t cells = cells_one;
-    for (int l = 0; l < PK_LANES; l++)
+    for (int l = 0; l < PK_W; l++)
         cells += (uint64_t)(uint32_t)cells_acc[l];
     ctx->stats.cells_traversed += cells;
 }
@@ -412,13 +493,12 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
 #endif
 
 /* Finite lanes: x - x is 0 exactly for finite x, NaN for infinities and NaN. */
-PK_INLINE pk_i8 pk_finite(pk_f8 x) { return (x - x) == pk_splat(0.0f); }
+PK_INLINE pk_iv pk_finite(pk_fv x) { return (x - x) == pk_splat(0.0f); }
 
-PK_INLINE pk_f8 pk_abs(pk_f8 x)
+PK_INLINE pk_fv pk_abs(pk_fv x)
 {
-    const pk_i8 m = {0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff,
-                     0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff};
-    return (pk_f8)((pk_i8)x & m);
+    const pk_iv m = pk_spliti(0x7fffffff);
+    return (pk_fv)((pk_iv)x & m);
 }
 
 /* The per-ray set-up of a packet (grid_packet.c, packet_prepare), eight rays at a
@@ -435,113 +515,112 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
     const float lo_k = v3_comp(g->box.min, K), inv_sk = 1.0f / g->size[K];
     /* Rays starting within this distance of the origin need no far-origin check: the
      * march's rounding there stays below the padding (grid_ray_too_far's bound). */
-    const pk_f8 near = pk_splat(0.5f * (g->min_pad / (4.0f * FLT_EPSILON) - g->box_mag));
-    const pk_f8 zero = pk_splat(0.0f), one = pk_splat(1.0f), tminv = pk_splat(pk->march_tmin);
-    const pk_f8 inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+    const pk_fv near = pk_splat(0.5f * (g->min_pad / (4.0f * FLT_EPSILON) - g->box_mag));
+    const pk_fv zero = pk_splat(0.0f), one = pk_splat(1.0f), tminv = pk_splat(pk->march_tmin);
+    const pk_fv inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
     uint64_t single = 0, walk = 0;
-    for (int gi = 0; gi < PK_GROUPS; gi++) {
-        unsigned byte = (unsigned)(cand >> (8 * gi)) & 0xffu;
+    for (int gi = 0; gi < PK_NG; gi++) {
+        unsigned byte = (unsigned)(cand >> (PK_W * gi)) & PK_WMASK;
         if (!byte)
             continue;
-        pk_f8 o[3], d[3], tm = inf;
+        pk_fv o[3], d[3], tm = inf;
         for (int a = 0; a < 3; a++)
             o[a] = zero, d[a] = one;
-        for (int l = 0; l < PK_LANES; l++) {
+        for (int l = 0; l < PK_W; l++) {
             if (!(byte >> l & 1))
                 continue;
-            const Ray *r = &rays[8 * gi + l];
+            const Ray *r = &rays[PK_W * gi + l];
             o[0][l] = r->origin.x, o[1][l] = r->origin.y, o[2][l] = r->origin.z;
             d[0][l] = r->dir.x, d[1][l] = r->dir.y, d[2][l] = r->dir.z;
             if (tmax)
-                tm[l] = tmax[8 * gi + l];
+                tm[l] = tmax[PK_W * gi + l];
         }
         if (pk->num_planes) {
             /* The unbounded planes first, plane_intersect's (plane_occluded's) arithmetic
              * lane by lane: a nearer best for the walk; a shadow ray they block is done. */
-            pk_i8 live = pk_lanes(byte);
-            const pk_f8 ptmin = pk_splat(pk->tmin);
-            pk_f8 bt = pk->best_t[gi];
-            pk_u8 bid = pk->best_id[gi];
-            pk_i8 bp = pk->best_prim[gi], blocked = ~live & live;
+            pk_iv live = pk_lanes(byte);
+            const pk_fv ptmin = pk_splat(pk->tmin);
+            pk_fv bt = PKF(pk->best_t, gi);
+            pk_uv bid = PKU(pk->best_id, gi);
+            pk_iv bp = PKI(pk->best_prim, gi), blocked = ~live & live;
             for (int u = 0; u < pk->num_planes; u++) {
                 const PacketPlane *pl = &pk->planes[u];
-                pk_f8 nx = pk_splat(pl->n[0]), ny = pk_splat(pl->n[1]), nz = pk_splat(pl->n[2]);
-                pk_f8 den = nx * d[0] + ny * d[1] + nz * d[2];
-                pk_f8 t = (pk_splat(pl->offset) - (nx * o[0] + ny * o[1] + nz * o[2])) / den;
-                pk_i8 ok = live & (den != zero) & (t > ptmin);
+                pk_fv nx = pk_splat(pl->n[0]), ny = pk_splat(pl->n[1]), nz = pk_splat(pl->n[2]);
+                pk_fv den = nx * d[0] + ny * d[1] + nz * d[2];
+                pk_fv t = (pk_splat(pl->offset) - (nx * o[0] + ny * o[1] + nz * o[2])) / den;
+                pk_iv ok = live & (den != zero) & (t > ptmin);
                 if (pk->shadow) {
                     blocked |= ok & (t < tm);
                     continue;
                 }
                 const uint32_t id = pl->id;
-                pk_u8 idv = {id, id, id, id, id, id, id, id};
-                ok &= (t < bt) | ((t == bt) & (pk_i8)(idv < bid));
+                pk_uv idv = {PK_REP(id)};
+                ok &= (t < bt) | ((t == bt) & (pk_iv)(idv < bid));
                 bt = pk_blend(ok, t, bt);
-                bid = (pk_u8)pk_blend(ok, (pk_f8)idv, (pk_f8)bid);
-                pk_i8 uv = {-2 - u, -2 - u, -2 - u, -2 - u, -2 - u, -2 - u, -2 - u, -2 - u};
-                bp = (pk_i8)pk_blend(ok, (pk_f8)uv, (pk_f8)bp);
+                bid = (pk_uv)pk_blend(ok, (pk_fv)idv, (pk_fv)bid);
+                bp = (pk_iv)pk_blend(ok, (pk_fv)pk_spliti(-2 - u), (pk_fv)bp);
             }
             if (pk->shadow) {
                 unsigned bb = pk_bits(blocked);
-                pk->hit |= (uint64_t)bb << (8 * gi);
+                pk->hit |= (uint64_t)bb << (PK_W * gi);
                 byte &= ~bb;
                 if (!byte)
                     continue;
             } else {
-                pk->best_t[gi] = bt;
-                pk->best_id[gi] = bid;
-                pk->best_prim[gi] = bp;
+                PKF(pk->best_t, gi) = bt;
+                PKU(pk->best_id, gi) = bid;
+                PKI(pk->best_prim, gi) = bp;
             }
         }
-        pk_f8 dk = d[K];
-        pk_f8 big = pk_max(pk_abs(d[0]), pk_max(pk_abs(d[1]), pk_abs(d[2])));
-        pk_f8 far = pk_max(pk_abs(o[0]), pk_max(pk_abs(o[1]), pk_abs(o[2])));
-        pk_i8 ok = pk_finite(d[0]) & pk_finite(d[1]) & pk_finite(d[2]) & pk_finite(o[0]) &
+        pk_fv dk = d[K];
+        pk_fv big = pk_max(pk_abs(d[0]), pk_max(pk_abs(d[1]), pk_abs(d[2])));
+        pk_fv far = pk_max(pk_abs(o[0]), pk_max(pk_abs(o[1]), pk_abs(o[2])));
+        pk_iv ok = pk_finite(d[0]) & pk_finite(d[1]) & pk_finite(d[2]) & pk_finite(o[0]) &
                    pk_finite(o[1]) & pk_finite(o[2]) & (sign > 0 ? dk > zero : dk < zero) &
                    (pk_abs(dk) >= PK_MIN_AXIS_SHARE * big);
         unsigned fits = pk_bits(ok & (far < near)) & byte;
         /* Far origins: the exact check, ray by ray (rare). */
         for (unsigned slow = pk_bits(ok) & byte & ~fits; slow; slow &= slow - 1) {
             int l = __builtin_ctz(slow);
-            if (!grid_ray_too_far(g, &rays[8 * gi + l], pk->march_tmin))
+            if (!grid_ray_too_far(g, &rays[PK_W * gi + l], pk->march_tmin))
                 fits |= 1u << l;
         }
-        single |= (uint64_t)(byte & ~fits) << (8 * gi);
+        single |= (uint64_t)(byte & ~fits) << (PK_W * gi);
 
-        pk_f8 t_enter = ninf, t_exit = inf;
-        pk_i8 any_axis = (pk_i8){0, 0, 0, 0, 0, 0, 0, 0}, inside = ~any_axis;
+        pk_fv t_enter = ninf, t_exit = inf;
+        pk_iv any_axis = pk_spliti(0), inside = ~any_axis;
         for (int a = 0; a < 3; a++) {
-            pk_f8 inv = one / d[a];
-            pk_i8 par = (d[a] == zero) | ~pk_finite(inv);
+            pk_fv inv = one / d[a];
+            pk_iv par = (d[a] == zero) | ~pk_finite(inv);
             float plo = v3_comp(g->box.min, a) - g->pad[a], phi = v3_comp(g->box.max, a) + g->pad[a];
             inside &= ~par | ((o[a] >= pk_splat(plo)) & (o[a] <= pk_splat(phi)));
-            pk_f8 ta = (plo - o[a]) * inv, tb = (phi - o[a]) * inv;
-            pk_i8 neg = inv < zero;
-            pk_f8 lo = pk_blend(neg, tb, ta), hi = pk_blend(neg, ta, tb);
-            pk_i8 up = ~par & (lo > t_enter);
+            pk_fv ta = (plo - o[a]) * inv, tb = (phi - o[a]) * inv;
+            pk_iv neg = inv < zero;
+            pk_fv lo = pk_blend(neg, tb, ta), hi = pk_blend(neg, ta, tb);
+            pk_iv up = ~par & (lo > t_enter);
             t_enter = pk_blend(up, lo, t_enter);
             any_axis |= up;
             t_exit = pk_blend(~par & (hi < t_exit), hi, t_exit);
         }
-        pk_i8 in_box = inside & any_axis & (t_enter <= t_exit) & ~(t_exit < tminv);
+        pk_iv in_box = inside & any_axis & (t_enter <= t_exit) & ~(t_exit < tminv);
         unsigned w = fits & pk_bits(in_box);
-        walk |= (uint64_t)w << (8 * gi);
+        walk |= (uint64_t)w << (PK_W * gi);
 
-        pk_i8 wm = pk_lanes(w);
-        pk_f8 t0 = pk_blend(t_enter < tminv, tminv, t_enter);
-        pk_f8 t1 = pk->shadow ? pk_blend(tm < t_exit, tm, t_exit) : t_exit;
+        pk_iv wm = pk_lanes(w);
+        pk_fv t0 = pk_blend(t_enter < tminv, tminv, t_enter);
+        pk_fv t1 = pk->shadow ? pk_blend(tm < t_exit, tm, t_exit) : t_exit;
         for (int a = 0; a < 3; a++) {
-            pk->o[a][gi] = pk_blend(wm, o[a], zero);
-            pk->d[a][gi] = pk_blend(wm, d[a], one);
+            PKF(pk->o[a], gi) = pk_blend(wm, o[a], zero);
+            PKF(pk->d[a], gi) = pk_blend(wm, d[a], one);
         }
-        pk->inv_k[gi] = pk_blend(wm, one / dk, one);
-        pk->t0[gi] = pk_blend(wm, t0, zero);
-        pk->t1[gi] = pk_blend(wm, t1, zero);
-        pk_i8 ks = pk_cells(pk_blend(wm, o[K] + t0 * dk, zero), lo_k, inv_sk, g->n[K]);
-        pk_f8 e[4] = {o[U] + t0 * d[U], o[V] + t0 * d[V], o[U] + t1 * d[U], o[V] + t1 * d[V]};
-        memcpy(&pk->k_start[8 * gi], &ks, sizeof ks);
+        PKF(pk->inv_k, gi) = pk_blend(wm, one / dk, one);
+        PKF(pk->t0, gi) = pk_blend(wm, t0, zero);
+        PKF(pk->t1, gi) = pk_blend(wm, t1, zero);
+        pk_iv ks = pk_cells(pk_blend(wm, o[K] + t0 * dk, zero), lo_k, inv_sk, g->n[K]);
+        pk_fv e[4] = {o[U] + t0 * d[U], o[V] + t0 * d[V], o[U] + t1 * d[U], o[V] + t1 * d[V]};
+        memcpy(&pk->k_start[PK_W * gi], &ks, sizeof ks);
         for (int j = 0; j < 4; j++)
-            memcpy(&pk->end[j][8 * gi], &e[j], sizeof e[j]);
+            memcpy(&pk->end[j][PK_W * gi], &e[j], sizeof e[j]);
     }
     *single_out = single;
     return walk;
@@ -553,16 +632,16 @@ float PK_SPREAD(const Grid *g, const Packet *pk, uint64_t walk)
 {
     const int U = (pk->axis + 1) % 3, V = (pk->axis + 2) % 3;
     const float inv_s[2] = {1.0f / g->size[U], 1.0f / g->size[V]};
-    const pk_f8 inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
-    pk_f8 mn[4] = {inf, inf, inf, inf}, mx[4] = {ninf, ninf, ninf, ninf};
-    for (int gi = 0; gi < PK_GROUPS; gi++) {
-        unsigned byte = (unsigned)(walk >> (8 * gi)) & 0xffu;
+    const pk_fv inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+    pk_fv mn[4] = {inf, inf, inf, inf}, mx[4] = {ninf, ninf, ninf, ninf};
+    for (int gi = 0; gi < PK_NG; gi++) {
+        unsigned byte = (unsigned)(walk >> (PK_W * gi)) & PK_WMASK;
         if (!byte)
             continue;
-        pk_i8 in = pk_lanes(byte);
+        pk_iv in = pk_lanes(byte);
         for (int j = 0; j < 4; j++) {
-            pk_f8 e;
-            memcpy(&e, &pk->end[j][8 * gi], sizeof e);
+            pk_fv e;
+            memcpy(&e, &pk->end[j][PK_W * gi], sizeof e);
             mn[j] = pk_min(pk_blend(in, e, inf), mn[j]);
             mx[j] = pk_max(pk_blend(in, e, ninf), mx[j]);
         }

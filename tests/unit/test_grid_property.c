@@ -472,16 +472,16 @@ static void run_scene(int seed, int objects, int planes, int rays, bool marking,
         if (marking)
             CHECK_INT(ctx.stats.repeat_tests, 0);
         /* Every kernel the CPU has; the generic one is the fallback. */
-        static const char *const kernels[] = {"generic", "avx2", "avx512"};
-        static bool said_no[3];
+        static const char *const kernels[] = {"generic", "avx2", "avx512", "avx512x8"};
+        static bool said_no[4];
         const char *default_kernel = grid_packet_kernel();
-        for (int k = 0; k < 3; k++) {
-            /* The AVX-512 kernel draws its packets from a copy of the generator, so the
-             * rays of everything after it stay the same on every CPU. */
+        for (int k = 0; k < 4; k++) {
+            /* The AVX-512 kernels draw their packets from a copy of the generator, so
+             * the rays of everything after them stay the same on every CPU. */
             uint64_t saved = rng_state;
             if (grid_packet_use_kernel(kernels[k])) {
                 check_packets(&r, g, &ctx, rays / 20, tot);
-                if (k == 2)
+                if (k >= 2)
                     rng_state = saved;
             } else {
                 CHECK_MSG(k != 0, "the generic packet kernel must always be usable");
