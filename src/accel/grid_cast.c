@@ -40,8 +40,8 @@ static inline __attribute__((always_inline)) bool test_entry(const Grid *g, uint
     if (any)
         return true;
     hit->t = t;
-    hit->normal = pt->normal;
-    hit->material = pt->material;
+    hit->normal = g->tri_hit[p].normal;
+    hit->material = g->tri_hit[p].material;
     hit->id = pt->id;
     return true;
 }
@@ -81,7 +81,7 @@ static inline int batch_test(const Grid *g, const TriBatch *b, const RaySimd *r,
     _MM_TRANSPOSE4_PS(b0, b1, b2, b3); /* e1y e1z e2x e2y */
     __m128 c0 = _mm_load_ps(t0 + 8), c1 = _mm_load_ps(t1 + 8), c2 = _mm_load_ps(t2 + 8),
            c3 = _mm_load_ps(t3 + 8);
-    _MM_TRANSPOSE4_PS(c0, c1, c2, c3); /* e2z id material material */
+    _MM_TRANSPOSE4_PS(c0, c1, c2, c3); /* e2z id box.lo[0] box.lo[1] */
     __m128 v0x = a0, v0y = a1, v0z = a2, e1x = a3, e1y = b0, e1z = b1, e2x = b2, e2y = b3,
            e2z = c0;
     /* triangle_ray_t's formula, 4 lanes wide (rt/geom.h) */
@@ -109,13 +109,13 @@ static inline bool batch_intersect(const Grid *g, const TriBatch *b, const RaySi
     for (int i = 0; i < 4; i++) {
         if (!(mask & (1 << i)))
             continue;
-        const PackedTri *pt = &g->tri[b->p[i]];
-        uint32_t id = pt->id;
+        uint32_t p = b->p[i];
+        uint32_t id = g->tri[p].id;
         if (!hit_accepts(hit, t[i], id))
             continue;
         hit->t = t[i];
-        hit->normal = pt->normal;
-        hit->material = pt->material;
+        hit->normal = g->tri_hit[p].normal;
+        hit->material = g->tri_hit[p].material;
         hit->id = id;
         found = true;
     }

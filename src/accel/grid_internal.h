@@ -22,26 +22,31 @@ typedef struct GridPrim {
 
 typedef struct GridBuildRec GridBuildRec;
 
-/* An untransformed triangle as the hot loop reads it (grid_pack.c): 64 bytes, one
- * cache line in an aligned array. The first 48 are three 4-float rows for SIMD loads
- * (v0, e1, e2, then the id and the material's bits, which those loads carry unused);
- * what a hit records comes with the test's own line, not from the Triangle. */
-typedef struct PackedTri {
-    _Alignas(16) Vec3 v0;
-    Vec3 e1, e2;
-    uint32_t id;            /* depth-first id; RT_NO_ID: this primitive is not packed */
-    const Material *material;   /* the Triangle's */
-    Vec3 normal;            /* triangle_normal's bits */
-    uint32_t pad;
-} PackedTri;
-_Static_assert(sizeof(PackedTri) == 64, "a packed triangle is one cache line");
-
 /* The box of a packed triangle, widened by the grid's rounding pad on each axis (the
  * packet walk's cull, grid_packet_kernel.h): lo[a] <= every vertex's a - pad[a], and
  * hi[a] >= + pad[a]. Unused for primitives that are not packed. */
 typedef struct TriBox {
     float lo[3], hi[3];
 } TriBox;
+
+/* An untransformed triangle as the hot loop reads it (grid_pack.c): 64 bytes, one
+ * cache line in an aligned array, so the packet walk's cull and the test that may
+ * follow it read one line. The first 48 are three 4-float rows for SIMD loads (v0, e1,
+ * e2, then the id and two floats of the box, which those loads carry unused). */
+typedef struct PackedTri {
+    _Alignas(16) Vec3 v0;
+    Vec3 e1, e2;
+    uint32_t id;            /* depth-first id; RT_NO_ID: this primitive is not packed */
+    TriBox box;
+} PackedTri;
+_Static_assert(sizeof(PackedTri) == 64, "a packed triangle is one cache line");
+
+/* What a hit on a packed triangle records, read only at hits: the Triangle's normal
+ * (triangle_normal's bits) and material, without reading the Triangle. */
+typedef struct TriHit {
+    Vec3 normal;
+    const Material *material;
+} TriHit;
 
 struct Grid {
     BBox bounds;            /* the scene box as given (printed by -stats) */
@@ -73,7 +78,7 @@ struct Grid {
     /* Hot-loop layout (grid_pack.c): cell_items entries with GRID_ITEM_TRI set are
      * untransformed triangles whose edges are copied, packed, into tri[prim]. */
     PackedTri *tri;
-    TriBox *tri_box;        /* per packed triangle, for the packet walk's cull */
+    TriHit *tri_hit;        /* per packed triangle */
     bool packing_off;       /* grid_set_packing(g, false): every entry via its ops */
 
     /* The primitive table of grid_build (grid_build_table borrows the caller's). */

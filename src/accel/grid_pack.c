@@ -62,15 +62,15 @@ static bool reorder_prims(Grid *g)
 bool grid_pack(Grid *g)
 {
     g->tri = NULL;
-    g->tri_box = NULL;
+    g->tri_hit = NULL;
     if (g->num_prims && !reorder_prims(g))
         return false;
     /* The tag bit must stay free: beyond 2^31 primitives use the generic path. */
     if (g->num_prims == 0 || g->num_prims >= GRID_ITEM_TRI)
         return true;
     g->tri = bigmem_calloc(g->num_prims, sizeof *g->tri);
-    g->tri_box = bigmem_calloc(g->num_prims, sizeof *g->tri_box);
-    if (!g->tri || !g->tri_box)
+    g->tri_hit = bigmem_calloc(g->num_prims, sizeof *g->tri_hit);
+    if (!g->tri || !g->tri_hit)
         return false;
     for (uint32_t p = 0; p < g->num_prims; p++) {
         const GridPrim *gp = &g->prims[p];
@@ -86,13 +86,12 @@ bool grid_pack(Grid *g)
         pt->e1 = v3_sub(v[1], v[0]);
         pt->e2 = v3_sub(v[2], v[0]);
         pt->id = gp->obj->id;
-        pt->material = gp->obj->material;
-        pt->normal = triangle_normal(gp->obj);
-        pt->pad = 0;
+        g->tri_hit[p].normal = triangle_normal(gp->obj);
+        g->tri_hit[p].material = gp->obj->material;
         /* Widened by the pad the cells were filled with, then by a further ulp of the
          * coordinate for the rounding of the subtraction: the box holds every point
          * within pad[a] of the triangle. */
-        TriBox *b = &g->tri_box[p];
+        TriBox *b = &pt->box;
         for (int a = 0; a < 3; a++) {
             float x0 = v3_comp(v[0], a), x1 = v3_comp(v[1], a), x2 = v3_comp(v[2], a);
             float lo = fminf(x0, fminf(x1, x2)), hi = fmaxf(x0, fmaxf(x1, x2));
@@ -125,7 +124,7 @@ bool grid_packing(const Grid *g) { return g->tri && !g->packing_off; }
 void grid_pack_free(Grid *g)
 {
     bigmem_free(g->tri);
-    bigmem_free(g->tri_box);
+    bigmem_free(g->tri_hit);
     g->tri = NULL;
-    g->tri_box = NULL;
+    g->tri_hit = NULL;
 }

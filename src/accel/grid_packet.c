@@ -281,8 +281,8 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
         hits[i].t = pk.best_t[i / PK_LANES][i % PK_LANES];
         hits[i].id = pk.best_id[i / PK_LANES][i % PK_LANES];
         if (p >= 0) {
-            hits[i].normal = g->tri[p].normal;
-            hits[i].material = g->tri[p].material;
+            hits[i].normal = g->tri_hit[p].normal;
+            hits[i].material = g->tri_hit[p].material;
         } else {
             const Object3D *o = g->unbounded[-2 - p].obj;
             hits[i].normal = plane_unit_normal(o);

@@ -431,7 +431,7 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                             }
                             /* The cull: a group whose rectangle misses the triangle's
                              * padded box skips it here (and stays unmarked). */
-                            want &= pk_cull(&g->tri_box[p], U, V, gu0, gu1, gv0, gv1);
+                            want &= pk_cull(&g->tri[p].box, U, V, gu0, gu1, gv0, gv1);
                             if (!want)
                                 continue;
                         }
