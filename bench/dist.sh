@@ -6,7 +6,8 @@
 #  - Tile overhead: the CPU time (user+sys of every process) of 64 `-tile k 64` renders
 #    plus the merge, against one whole render, each process on one thread. What the
 #    tiles add is every process's start-up, parse and grid build, plus the rows of the
-#    filter's margin that neighbouring tiles both trace.
+#    filter's margin that neighbouring tiles both trace. Measured without and with the
+#    set-up cache (-cache), which leaves mostly start-up and the margin.
 #  - MPI: wall time of `mpirun --oversubscribe -np N raytracer-mpi ... -threads 1` for
 #    N = 1, 2 and 4 (4 is oversubscribed on two cores), interleaved run by run, median of
 #    RUNS; speed-up against N = 1. Skipped when raytracer-mpi or mpirun is missing.
@@ -43,21 +44,45 @@ if [ ! -f "$SCENE" ]; then
     echo "   scene not found, skipped"
     exit 0
 fi
-printf '   %-42s %10s %10s %10s %9s\n' samples whole tiles merge overhead
-for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
-    # shellcheck disable=SC2086
-    whole=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
-    tiles=0
+# tiles_ms S [CACHE]: CPU ms of the N_TILES parts of setting S (with -cache CACHE, a
+# fresh file: the first part builds and writes it, the others map it).
+tiles_ms() {
+    local S=$1 cache=${2:-} total=0 c k
+    local extra=()
+    [ -n "$cache" ] && { rm -f "$cache"; extra=(-cache "$cache"); }
     for ((k = 0; k < N_TILES; k++)); do
         # shellcheck disable=SC2086
-        c=$(cpu_ms "$BIN" "${A[@]}" $S -tile $k $N_TILES -output "$TMP/part$k.tga")
-        tiles=$(awk -v a="$tiles" -v b="$c" 'BEGIN { printf "%.1f", a + b }')
+        c=$(cpu_ms "$BIN" "${A[@]}" $S "${extra[@]}" -tile $k $N_TILES -output "$TMP/part$k.tga")
+        total=$(awk -v a="$total" -v b="$c" 'BEGIN { printf "%.1f", a + b }')
     done
-    merge=$(cpu_ms "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga)
-    cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles differ from the whole render"
-    over=$(awk -v w="$whole" -v t="$tiles" -v m="$merge" 'BEGIN { printf "%+.1f%%", 100 * (t + m - w) / w }')
-    printf '   %-42s %10s %10s %10s %9s\n' "${S:-(1 centred sample)}" "$whole" "$tiles" "$merge" "$over"
-    rm -f "$TMP"/part*.tga
+    echo "$total"
+}
+pct() { awk -v w="$1" -v t="$2" -v m="$3" 'BEGIN { printf "%+.1f%%", 100 * (t + m - w) / w }'; }
+# The set-up cache (-cache) makes the parts after the first map the parsed mesh and the
+# grid instead of building them: both are measured, round by round interleaved
+# (TILE_RUNS rounds, default 1; medians).
+TILE_RUNS=${TILE_RUNS:-1}
+echo "   tiles: $N_TILES processes without -cache; +cache: with -cache (the first builds it);"
+echo "   medians of $TILE_RUNS interleaved round(s)"
+printf '   %-42s %8s %8s %8s %6s %9s %9s\n' samples whole tiles +cache merge overhead +cache
+for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
+    ws=() ts=() cs=() ms=()
+    for ((r = 0; r < TILE_RUNS; r++)); do
+        # shellcheck disable=SC2086
+        ws+=("$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")")
+        ts+=("$(tiles_ms "$S")")
+        ms+=("$(cpu_ms "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga)")
+        cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles differ from the whole render"
+        rm -f "$TMP"/part*.tga
+        cs+=("$(tiles_ms "$S" "$TMP/setup.cache")")
+        "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga
+        cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles (-cache) differ from the whole render"
+        rm -f "$TMP"/part*.tga "$TMP/setup.cache"
+    done
+    whole=$(median "${ws[@]}") tiles=$(median "${ts[@]}") cached=$(median "${cs[@]}")
+    merge=$(median "${ms[@]}")
+    printf '   %-42s %8s %8s %8s %6s %9s %9s\n' "${S:-(1 centred sample)}" "$whole" "$tiles" \
+        "$cached" "$merge" "$(pct "$whole" "$tiles" "$merge")" "$(pct "$whole" "$cached" "$merge")"
 done
 if [ ! -x "$MPI_BIN" ] || ! command -v mpirun >/dev/null 2>&1; then
     echo "   MPI: raytracer-mpi or mpirun missing (make mpi), skipped"

@@ -75,6 +75,7 @@ typedef struct App {
     PrimTable prims;    /* the scene's leaves, flattened once */
     Accel accel;        /* built over prims */
     RayTracer rt;
+    SetupCache *cache;  /* -cache FILE, NULL without */
     double t_parse, t_grid;
 } App;
 
@@ -478,7 +479,14 @@ static int run(App *app)
                                               &app->diag))
             return EXIT_INPUT;
     double t0 = clock_now();
-    app->scene = dist_scene_load(o->input, &app->diag);
+    if (o->cache_file) {
+        /* A cache that cannot be used is not an error: the set-up is built instead. */
+        app->cache = setup_cache_open(o->cache_file);
+        if (app->cache && setup_cache_rejected(app->cache)[0] && o->timings && dist_is_root())
+            fprintf(stderr, "timings: set-up cache %s not used (%s): building\n",
+                    o->cache_file, setup_cache_rejected(app->cache));
+    }
+    app->scene = dist_scene_load(o->input, app->cache, &app->diag);
     app->t_parse = clock_now() - t0;
     if (!app->scene)
         return EXIT_INPUT;
@@ -522,6 +530,8 @@ static int run(App *app)
     acfg.grid_auto = o->grid_auto;
     acfg.no_marking = o->no_marking;
     acfg.visualize = o->visualize_grid;
+    acfg.cache = app->cache;
+    acfg.inputs = s->inputs;
     /* Leaves with huge boxes stay out of the cells (rt/prim.h): said once, where the
      * first of them is written. */
     if (ops != &accel_none_ops && app->prims.num_kept_out > 0 && dist_is_root()) {
@@ -559,6 +569,16 @@ static int run(App *app)
         memset(&r, 0, sizeof r);
         accel_report(&app->accel, &r);
         fprintf(stderr, "timings: grid auto chose %d x %d x %d cells\n", r.nx, r.ny, r.nz);
+    }
+    if (app->cache && dist_is_root()) {
+        bool dirty = setup_cache_dirty(app->cache);
+        char why[512] = "";
+        if (dirty && !setup_cache_write(app->cache, why, sizeof why))
+            diag_warning(&app->diag, NULL, "set-up cache not written (%s): carrying on", why);
+        else if (o->timings)
+            fprintf(stderr, "timings: set-up cache %s: %s\n", o->cache_file,
+                    dirty ? "built and written"
+                    : setup_cache_hits(app->cache) ? "used" : "nothing to cache");
     }
     const Grid *grid = grid_of_accel(&app->accel);
     if (o->timings && grid && dist_is_root()) {
@@ -656,5 +676,6 @@ int main(int argc, char **argv)
     accel_free(&app.accel);
     prim_table_free(&app.prims);
     scene_free(app.scene);
+    setup_cache_release(app.cache);
     return dist_finish(status);
 }

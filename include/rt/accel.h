@@ -12,6 +12,7 @@
 #include <stdint.h>
 #include "rt/diag.h"
 #include "rt/prim.h"
+#include "rt/setup_cache.h"
 #include "rt/stats.h"
 
 /* Most rays one packet query takes (a RENDER_TILE x RENDER_TILE tile). */
@@ -23,6 +24,9 @@ typedef struct AccelConfig {
     bool grid_auto;      /* grid: resolution chosen from the scene (grid_choose_auto) */
     bool no_marking;     /* grid: no mailboxing (-no_marking, analysis) */
     bool visualize;      /* draw the structure instead of the scene (-visualize_grid) */
+    SetupCache *cache;   /* -cache: where a built structure may be found or kept (NULL:
+                            none; only the uniform grid uses it) */
+    SetupKey inputs;     /* with cache: Scene.inputs, the key of the table's contents */
 } AccelConfig;
 
 typedef struct AccelOps {

@@ -21,6 +21,7 @@ typedef struct Options {
     bool shade_back, shadows, stats;
     bool noise_cutoff;           /* -noise_cutoff: noise octaves finer than a pixel left out */
     bool timings;                /* -timings: phase times on stderr */
+    const char *cache_file;      /* -cache FILE: the set-up cache of split renders */
     int bounces;                 /* default 0 */
     float weight;                /* default 0 */
     bool grid;                   /* -grid given */

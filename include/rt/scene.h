@@ -11,6 +11,7 @@
 #include "rt/light.h"
 #include "rt/material.h"
 #include "rt/object3d.h"
+#include "rt/setup_cache.h"
 
 /* The files a scene load reads (the scene file and its OBJ files), by the path the
  * loader tried. A recording set reads from disk and keeps a copy of each file and of
@@ -42,6 +43,9 @@ typedef struct Scene {
     BBox bounds;                /* root's box; empty when nothing is bounded */
     bool no_lights;             /* the zero-lights rule fired (WARNING printed by main) */
     SceneFiles *files;          /* while loading: where files come from (NULL: the disk) */
+    SetupCache *cache;          /* while loading: meshes from and for -cache (NULL: none) */
+    SetupKey inputs;            /* with a cache: the hash of every file the load read (the
+                                   scene text, then each OBJ file), in order */
     /* Where each leaf was written, for messages about one leaf (scene_leaf_loc): leaf ids
      * are depth-first, i.e. file order, so runs in file order, by first id (malloc'd). */
     SceneLeafRun *leaf_runs;
@@ -73,6 +77,11 @@ void scene_free(Scene *s);
 
 /* scene_load reading every file through files (NULL: the disk, as scene_load). */
 Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag);
+
+/* The same with the set-up cache (rt/setup_cache.h; NULL: none): OBJ files whose bytes
+ * the cache knows are not parsed again, the others are added to it, and Scene.inputs
+ * keys what is built from the scene. Same scene either way. */
+Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, Diag *diag);
 
 SceneFiles *scene_files_new(bool record);
 void scene_files_free(SceneFiles *f);   /* NULL allowed */

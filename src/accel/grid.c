@@ -33,9 +33,15 @@ void grid_free(Grid *g)
 {
     if (!g)
         return;
-    bigmem_free(g->cell_start);
-    bigmem_free(g->cell_items);
-    grid_pack_free(g);
+    if (!g->cache || g->items_copied)
+        bigmem_free(g->cell_items);
+    if (g->cache) {
+        bigmem_free(g->tri_hit);       /* the grid's own (it holds pointers) */
+        setup_cache_release(g->cache); /* cell_start and tri were its memory */
+    } else {
+        bigmem_free(g->cell_start);
+        grid_pack_free(g);
+    }
     bigmem_free(atomic_load_explicit(&g->course_count, memory_order_relaxed));
     pthread_mutex_destroy(&g->course_lock);
     bigmem_free(g->prims);
@@ -78,6 +84,37 @@ void grid_setup_geometry(Grid *g)
     g->box_mag = mag;
 }
 
+void grid_warn_refit(Diag *diag, const int req[3], const int n[3], uint64_t cap)
+{
+    diag_warning(diag, NULL, "a %dx%dx%d grid would exceed %llu cell references (%d per "
+                 "bounded primitive + %u): using %dx%dx%d instead", req[0], req[1], req[2],
+                 (unsigned long long)cap, GRID_REFS_PER_PRIM, GRID_REFS_FLOOR, n[0], n[1],
+                 n[2]);
+}
+
+float grid_table_tmin_scale(const PrimTable *t)
+{
+    float scale = 1.0f;
+    for (uint32_t i = 0; i < t->num_xforms; i++) {
+        float s = transform_path_tmin_scale(&t->xforms[i]->path);
+        if (s < scale)
+            scale = s;
+    }
+    return scale;
+}
+
+Grid *grid_alloc(void)
+{
+    Grid *g = calloc(1, sizeof *g);
+    if (!g)
+        return NULL;
+    atomic_init(&g->course_count, NULL);
+    pthread_mutex_init(&g->course_lock, NULL);
+    g->marking = true;
+    g->march_tmin_scale = 1.0f;
+    return g;
+}
+
 static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
 {
     if (nx < 1 || ny < 1 || nz < 1) {
@@ -99,10 +136,8 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     int n[3] = {nx, ny, nz};
     uint64_t cap = grid_ref_cap(t->num_bounded);
     if (grid_fit_refs(t, n, cap, NULL)) {
-        diag_warning(diag, NULL, "a %dx%dx%d grid would exceed %llu cell references (%d per "
-                     "bounded primitive + %u): using %dx%dx%d instead", nx, ny, nz,
-                     (unsigned long long)cap, GRID_REFS_PER_PRIM, GRID_REFS_FLOOR, n[0],
-                     n[1], n[2]);
+        int req[3] = {nx, ny, nz};
+        grid_warn_refit(diag, req, n, cap);
         nx = n[0];
         ny = n[1];
         nz = n[2];
@@ -110,23 +145,16 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     }
     GridBuild b;
     memset(&b, 0, sizeof b);
-    Grid *g = b.g = calloc(1, sizeof *g);
+    Grid *g = b.g = grid_alloc();
     if (!g)
         goto oom;
-    atomic_init(&g->course_count, NULL);
-    pthread_mutex_init(&g->course_lock, NULL);
     g->bounds = t->scene_bounds;
     g->n[0] = nx;
     g->n[1] = ny;
     g->n[2] = nz;
     g->num_cells = (uint32_t)cells;
     g->marking = true;
-    g->march_tmin_scale = 1.0f;
-    for (uint32_t i = 0; i < t->num_xforms; i++) {
-        float s = transform_path_tmin_scale(&t->xforms[i]->path);
-        if (s < g->march_tmin_scale)
-            g->march_tmin_scale = s;
-    }
+    g->march_tmin_scale = grid_table_tmin_scale(t);
     grid_setup_geometry(g);
     g->cell_start = bigmem_calloc((size_t)cells + 1, sizeof *g->cell_start);
     if (!g->cell_start)

@@ -1,14 +1,40 @@
 /* The accelerator "grid": the course's uniform grid (rt/grid.h) behind AccelOps, and its
  * visualisation (-visualize_grid), which draws the occupied cells instead of the scene. */
+#include "grid_internal.h"
 #include "rt/accel.h"
 #include "rt/grid.h"
+
+/* The key of the grid cfg asks for over t: the scene's inputs (which make the table)
+ * and the options and layouts the build depends on. */
+static SetupKey grid_key(const PrimTable *t, const AccelConfig *cfg)
+{
+    uint64_t what[9] = {SETUP_TAG_GRID, cfg->grid_auto, (uint64_t)cfg->grid_n[0],
+                        (uint64_t)cfg->grid_n[1], (uint64_t)cfg->grid_n[2], t->num_prims,
+                        t->num_bounded, sizeof(PackedTri) << 16 | sizeof(TriBox),
+                        sizeof(GridPrim)};
+    if (cfg->grid_auto)
+        what[2] = what[3] = what[4] = 0;
+    return setup_hash(what, sizeof what, cfg->inputs);
+}
 
 static void *grid_create(const PrimTable *t, const AccelConfig *cfg, Diag *diag)
 {
     int n[3] = {cfg->grid_n[0], cfg->grid_n[1], cfg->grid_n[2]};
-    if (cfg->grid_auto)
-        grid_choose_auto(t, n);
-    Grid *g = grid_build_table(t, n[0], n[1], n[2], diag);
+    Grid *g = NULL;
+    /* -cache: the grid of an earlier process of the same split render (grid_cache.c). */
+    bool cacheable = cfg->cache && t->num_bounded > 0 && !bbox_is_empty(&t->scene_bounds);
+    SetupKey key = {0, 0};
+    if (cacheable) {
+        key = grid_key(t, cfg);
+        g = grid_cache_load(t, cfg->cache, key, diag);
+    }
+    if (!g) {
+        if (cfg->grid_auto)
+            grid_choose_auto(t, n);
+        g = grid_build_table(t, n[0], n[1], n[2], diag);
+        if (g && cacheable)
+            grid_cache_store(g, t, cfg->cache, key, n);
+    }
     if (g)
         grid_set_marking(g, !cfg->no_marking);
     return g;

@@ -81,6 +81,13 @@ struct Grid {
     TriHit *tri_hit;        /* per packed triangle */
     bool packing_off;       /* grid_set_packing(g, false): every entry via its ops */
 
+    /* Non-NULL: cell_start, cell_items and tri are read-only memory of this set-up
+     * cache (grid_cache.c), held until grid_free (tri_hit, which holds this process's
+     * material pointers, is rebuilt and owned); cell_items becomes the grid's
+     * own copy if grid_set_packing must change it (items_copied). */
+    SetupCache *cache;
+    bool items_copied;
+
     /* The primitive table of grid_build (grid_build_table borrows the caller's). */
     PrimTable own_table;
 };
@@ -92,6 +99,20 @@ const uint32_t *grid_course_counts(const Grid *g);
 /* Tag bit on cell_items entries: the primitive is a packed triangle. */
 #define GRID_ITEM_TRI 0x80000000u
 #define GRID_ITEM_INDEX(e) ((e) & ~GRID_ITEM_TRI)
+
+/* grid_cache.c (-cache): the grid of key from c over t, NULL when c has none (or a
+ * section that does not fit t); and the built grid g added to c under key. req is the
+ * resolution asked for (the build may have made it coarser: then the build's warning is
+ * repeated). */
+Grid *grid_cache_load(const PrimTable *t, SetupCache *c, SetupKey key, Diag *diag);
+void grid_cache_store(const Grid *g, const PrimTable *t, SetupCache *c, SetupKey key,
+                      const int req[3]);
+/* grid.c: the warning of a resolution made coarser to fit the reference cap. */
+void grid_warn_refit(Diag *diag, const int req[3], const int n[3], uint64_t cap);
+/* grid.c: the march's tmin factor over the table's Transform chains (Grid.march_tmin_scale). */
+float grid_table_tmin_scale(const PrimTable *t);
+/* grid.c: a zeroed Grid with its lock, or NULL. */
+Grid *grid_alloc(void);
 
 /* Builds g->tri and tags the cell items (after the CSR fill); false when out of memory. */
 bool grid_pack(Grid *g);

@@ -7,6 +7,7 @@
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "rt/bigmem.h"
 #include "rt/geom.h"
@@ -110,6 +111,16 @@ void grid_set_packing(Grid *g, bool on)
 {
     if (!g->tri)
         return;
+    if (g->cache && !g->items_copied) {
+        /* The entries are the cache's read-only memory: change a copy. */
+        size_t bytes = ((size_t)g->cell_start[g->num_cells] + 1) * sizeof *g->cell_items;
+        uint32_t *own = bigmem_alloc(bytes);
+        if (!own)
+            return;
+        memcpy(own, g->cell_items, bytes - sizeof *own);
+        g->cell_items = own;
+        g->items_copied = true;
+    }
     size_t n = g->cell_start[g->num_cells];
     for (size_t e = 0; e < n; e++) {
         uint32_t p = GRID_ITEM_INDEX(g->cell_items[e]);

@@ -94,6 +94,8 @@ static const char usage_text[] =
         "  -region x y w h          render only the w x h rectangle at (x, y) (top-left)\n"
         "  -tile k n                render only band k (0 = top) of n horizontal bands\n"
         "  -merge out part...       (first option) assemble -region/-tile parts into out\n"
+        "  -cache file              set-up cache: the first process writes the parsed meshes\n"
+        "                           and the grid to file, the others map them (same image)\n"
         "OpenGL preview (when built)\n"
         "  -gui                     open the interactive preview window\n"
         "  -tessellation th ph      sphere tessellation of the preview (default 20 10)\n"
@@ -392,6 +394,9 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return false;
         } else if (!strcmp(a, "-output")) {
             if (!take(&c, a, &o->output))
+                return false;
+        } else if (!strcmp(a, "-cache")) {
+            if (!take(&c, a, &o->cache_file))
                 return false;
         } else if (!strcmp(a, "-format")) {
             if (!take(&c, a, &o->format))

@@ -15,7 +15,10 @@ bool dist_is_root(void) { return true; }
 int dist_size(void) { return 1; }
 const char *dist_describe(void) { return "no (make mpi builds ./raytracer-mpi)"; }
 
-Scene *dist_scene_load(const char *path, Diag *diag) { return scene_load(path, diag); }
+Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
+{
+    return scene_load_with(path, NULL, cache, diag);
+}
 
 bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
 {

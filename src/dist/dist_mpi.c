@@ -122,10 +122,10 @@ static void job_signals(void)
         signal(SIGINT, SIG_IGN);
 }
 
-Scene *dist_scene_load(const char *path, Diag *diag)
+Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
 {
     if (g_size == 1)
-        return scene_load(path, diag);
+        return scene_load_with(path, NULL, cache, diag);
     job_signals();
     uint64_t len = 0;
     uint8_t *packed = NULL;
@@ -134,7 +134,7 @@ Scene *dist_scene_load(const char *path, Diag *diag)
         SceneFiles *files = scene_files_new(true);
         if (!files)
             die("out of memory");
-        s = scene_load_from(path, files, diag);
+        s = scene_load_with(path, files, cache, diag);
         size_t n = 0;
         if (s && !scene_files_pack(files, &packed, &n))
             die("out of memory");
@@ -153,7 +153,7 @@ Scene *dist_scene_load(const char *path, Diag *diag)
             die("could not unpack the scene files");
         Diag quiet;
         diag_init(&quiet, NULL);
-        s = scene_load_from(path, files, &quiet);
+        s = scene_load_with(path, files, cache, &quiet);
         scene_files_free(files);
         if (!s)
             die(quiet.last[0] ? quiet.last : "the scene failed to load from rank 0's bytes");

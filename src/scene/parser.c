@@ -601,6 +601,44 @@ static bool parse_triangle(Parser *p, const Token *kw, Object3D **out)
 
 /* obj_file resolution: the scene file's folder first, then the working directory (the
  * course used the working directory only; running from elsewhere should still work). */
+/* The cached parse of an OBJ file (-cache): its vertices and faces as objfile_parse
+ * made them, found by the hash of the file's bytes. The arrays are the cache's
+ * (read-only); every face index is checked against the vertex count, so a damaged
+ * section cannot make the build read outside them. False: parse the file. */
+static bool mesh_from_cache(SetupCache *c, SetupKey key, ObjMesh *mesh)
+{
+    const void *part[SETUP_CACHE_MAX_PARTS];
+    size_t len[SETUP_CACHE_MAX_PARTS];
+    int n = 0;
+    if (!setup_cache_find(c, SETUP_TAG_MESH, key, part, len, &n) || n != 3 ||
+        len[0] != 2 * sizeof(int32_t))
+        return false;
+    int32_t count[2];
+    memcpy(count, part[0], sizeof count);
+    if (count[0] <= 0 || count[1] <= 0 || len[1] != (size_t)count[0] * sizeof(Vec3) ||
+        len[2] != (size_t)count[1] * sizeof(int[3]))
+        return false;
+    const int (*tris)[3] = part[2];
+    for (int32_t t = 0; t < count[1]; t++)
+        for (int k = 0; k < 3; k++)
+            if (tris[t][k] < 0 || tris[t][k] >= count[0])
+                return false;
+    mesh->verts = (Vec3 *)part[1];
+    mesh->nverts = count[0];
+    mesh->tris = (int (*)[3])part[2];
+    mesh->ntris = count[1];
+    return true;
+}
+
+static void mesh_to_cache(SetupCache *c, SetupKey key, const ObjMesh *mesh)
+{
+    int32_t count[2] = {mesh->nverts, mesh->ntris};
+    const void *part[3] = {count, mesh->verts, mesh->tris};
+    size_t len[3] = {sizeof count, (size_t)mesh->nverts * sizeof(Vec3),
+                     (size_t)mesh->ntris * sizeof(int[3])};
+    setup_cache_add(c, SETUP_TAG_MESH, key, part, len, 3);
+}
+
 static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
 {
     Token name;
@@ -659,7 +697,16 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
                  strerror(first_errno));
         ok = false;
     } else {
-        ok = objfile_parse(buf, len, tried[used], &mesh, p->diag);
+        bool cached = false;
+        SetupKey key = {0, 0};
+        if (p->s->cache) {
+            key = setup_hash(buf, len, (SetupKey){SETUP_TAG_MESH, len});
+            p->s->inputs = setup_hash(&key, sizeof key, p->s->inputs);
+            cached = mesh_from_cache(p->s->cache, key, &mesh);
+        }
+        ok = cached || objfile_parse(buf, len, tried[used], &mesh, p->diag);
+        if (ok && !cached && p->s->cache && mesh.ntris > 0)
+            mesh_to_cache(p->s->cache, key, &mesh);
         if (ok && mesh.ntris == 0) {
             char shown[256];
             fail(p, &name.loc, "OBJ file '%s' has no faces", lex_show(&name, shown, sizeof shown));
@@ -669,6 +716,8 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
             /* The text is parsed: its pages become the triangles' (arena.h). */
             *out = objfile_build_group(&p->s->arena, &mesh, p->current, buf);
             buf = NULL;
+            if (cached)
+                memset(&mesh, 0, sizeof mesh); /* the cache's memory: not ours to free */
             if (!*out)
                 ok = out_of_memory(p, &name.loc);
             else

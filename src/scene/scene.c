@@ -58,7 +58,8 @@ bool scene_leaf_loc(const Scene *s, uint32_t id, SrcLoc *loc)
 }
 
 static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
-                                const char *base_dir, SceneFiles *files, Diag *diag)
+                                const char *base_dir, SceneFiles *files, SetupCache *cache,
+                                Diag *diag)
 {
     Scene *s = scene_new(name);
     if (!s) {
@@ -67,8 +68,12 @@ static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
         return NULL;
     }
     s->files = files;
+    s->cache = cache;
+    if (cache)
+        s->inputs = setup_hash(buf, len, (SetupKey){0x5343454e45ull, len});
     bool parsed = scene_parse(s, buf, len, s->path, base_dir, diag);
     s->files = NULL;
+    s->cache = NULL;
     if (!parsed) {
         scene_free(s);
         return NULL;
@@ -90,13 +95,13 @@ Scene *scene_load_string(const char *text, const char *name, const char *base_di
                          Diag *diag)
 {
     return scene_from_buffer(text, strlen(text), name ? name : "<string>", base_dir, NULL,
-                             diag);
+                             NULL, diag);
 }
 
 Scene *scene_load_buffer(const char *buf, size_t len, const char *name, const char *base_dir,
                          Diag *diag)
 {
-    return scene_from_buffer(buf, len, name ? name : "<buffer>", base_dir, NULL, diag);
+    return scene_from_buffer(buf, len, name ? name : "<buffer>", base_dir, NULL, NULL, diag);
 }
 
 Scene *scene_load(const char *path, Diag *diag)
@@ -105,6 +110,11 @@ Scene *scene_load(const char *path, Diag *diag)
 }
 
 Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag)
+{
+    return scene_load_with(path, files, NULL, diag);
+}
+
+Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, Diag *diag)
 {
     char *buf;
     size_t len;
@@ -132,7 +142,7 @@ Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag)
         memcpy(dir, path, n);
         dir[n] = '\0';
     }
-    Scene *s = scene_from_buffer(buf, len, name, dir, files, diag);
+    Scene *s = scene_from_buffer(buf, len, name, dir, files, cache, diag);
     free(dir);
     free(buf);
     return s;
