@@ -213,15 +213,18 @@ static bool packet_inline_ok(const RayTracer *rt)
     return true;
 }
 
-/* shade_finish for lane i of pp: nothing to add without bounces or without reflective
- * and transparent colours (shade_finish adds nothing then either). */
+/* Whether a Phong lane needs shade_finish: not without bounces or without reflective
+ * and transparent colours (shade_finish adds nothing then). */
+static bool phong_lane_bounces(const RayTracer *rt, const PhongParams *p)
+{
+    return rt->bounces > 0 && !(v3_is_zero(p->reflective) && v3_is_zero(p->transparent));
+}
+
+/* shade_finish for lane i of pp (a lane phong_lane_bounces). */
 static Vec3 phong_lane_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray,
                               const Hit *h, const PhongPacket *pp, int i, bool entering)
 {
     Vec3 color = phong_packet_color(pp, i);
-    const PhongParams *p = phong_params_of(h->material);
-    if (rt->bounces <= 0 || (v3_is_zero(p->reflective) && v3_is_zero(p->transparent)))
-        return color;
     ShadeState st;
     st.sh = *h;
     st.sh.normal = v3(pp->nx[i], pp->ny[i], pp->nz[i]);
@@ -252,7 +255,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     ShadeState st[ACCEL_PACKET_MAX];
     PhongPacket pp;
     pp.no_pow = 0;
-    uint64_t live = 0, phong = 0, entering = 0;
+    uint64_t live = 0, phong = 0, entering = 0, bounce = 0;
     const Material *last = NULL;
     const PhongParams *last_p = NULL;
     int lanes = (n + 3) & ~3; /* phong_packet works on groups of four lanes */
@@ -290,6 +293,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             live |= bit;
             phong |= bit;
             entering |= in ? bit : 0;
+            bounce |= phong_lane_bounces(rt, p) ? bit : 0;
         } else {
             phong_packet_clear(&pp, i);
             if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
@@ -339,7 +343,9 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         int i = __builtin_ctzll(m);
         uint64_t bit = (uint64_t)1 << i;
         if (phong & bit) {
-            colors[i] = phong_lane_finish(rt, ctx, &rays[i], &hits[i], &pp, i, entering & bit);
+            colors[i] = bounce & bit ? phong_lane_finish(rt, ctx, &rays[i], &hits[i], &pp, i,
+                                                         entering & bit)
+                                     : phong_packet_color(&pp, i);
         } else {
             shade_finish(rt, ctx, &rays[i], &st[i], 0, 1.0f, 1.0f);
             colors[i] = st[i].color;
