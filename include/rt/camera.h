@@ -46,6 +46,12 @@ Ray camera_generate_ray(const Camera *c, float u, float v);
 enum { CAMERA_BLOCK_MAX = 16 };
 void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
                        int height, Ray *rays);
+/* The rays of n sample points of pixel (x, y) of a W x H image, the points at offsets
+ * xy[2k], xy[2k+1] in [0,1)^2 (A7 samplers): rays[k] is camera_generate_ray of
+ * camera_sample_to_screen to the bit, four samples at a time in vector lanes where the
+ * target has them (the film's primary rays: 16 per pixel). */
+void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
+                        int height, Ray *rays);
 /* -inf (a very large negative number) for orthographic cameras, 0 for perspective. */
 float camera_tmin(const Camera *c);
 

@@ -125,14 +125,20 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
     const FilmConfig *c = f->cfg;
     if (f->off_wx >= 0)
         film_sample_weights(f, x, y, s->count, xy);
-    for (int i = 0; i < s->count; i++) {
-        float *d = film_sample(f, x, y, i);
-        d[0] = xy[2 * i];
-        d[1] = xy[2 * i + 1];
-        float u, v;
-        camera_sample_to_screen(x, y, d[0], d[1], c->full_width, c->full_height, &u, &v);
-        st->rays[st->n] = camera_generate_ray(f->camera, u, v);
-        st->dest[st->n++] = d;
+    /* The rays go straight into the packet, as many of the pixel's as it has room for
+     * at a time (camera_sample_rays: several samples per step). */
+    for (int i0 = 0; i0 < s->count;) {
+        int m = ACCEL_PACKET_MAX - st->n;
+        m = m < s->count - i0 ? m : s->count - i0;
+        camera_sample_rays(f->camera, x, y, xy + 2 * i0, m, c->full_width, c->full_height,
+                           &st->rays[st->n]);
+        for (int i = i0; i < i0 + m; i++) {
+            float *d = film_sample(f, x, y, i);
+            d[0] = xy[2 * i];
+            d[1] = xy[2 * i + 1];
+            st->dest[st->n++] = d;
+        }
+        i0 += m;
         if (st->n == ACCEL_PACKET_MAX)
             stream_flush(f, ctx, st);
     }

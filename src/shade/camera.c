@@ -128,6 +128,65 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
         }
 }
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
+                        int height, Ray *rays)
+{
+    int k = 0;
+#if defined(__SSE2__)
+    if (c->kind == CAMERA_PERSPECTIVE) {
+        /* camera_sample_to_screen and camera_generate_ray for four samples at once: the
+         * same IEEE single operations in the same order in every lane (sqrt and
+         * division are correctly rounded in SSE as in scalar code). */
+        float s = (float)(width > height ? width : height);
+        __m128 S = _mm_set1_ps(s);
+        __m128 ox = _mm_set1_ps((float)x), oy = _mm_set1_ps((float)y);
+        __m128 cx = _mm_set1_ps((s - (float)width) * 0.5f);
+        __m128 cy = _mm_set1_ps((s - (float)height) * 0.5f);
+        Vec3 ll = c->lower_left, xa = c->x_axis, ya = c->y_axis, e = c->center;
+        for (; k + 4 <= n; k += 4) {
+            __m128 a = _mm_loadu_ps(xy + 2 * k), b = _mm_loadu_ps(xy + 2 * k + 4);
+            __m128 px = _mm_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0));
+            __m128 py = _mm_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1));
+            __m128 u = _mm_div_ps(_mm_add_ps(_mm_add_ps(ox, px), cx), S);
+            __m128 v = _mm_div_ps(_mm_add_ps(_mm_add_ps(oy, py), cy), S);
+#define RT_AXIS(L, X, Y, E)                                                                \
+    _mm_sub_ps(_mm_add_ps(_mm_add_ps(_mm_set1_ps(L), _mm_mul_ps(_mm_set1_ps(X), u)),        \
+                          _mm_mul_ps(_mm_set1_ps(Y), v)),                                  \
+               _mm_set1_ps(E))
+            __m128 dx = RT_AXIS(ll.x, xa.x, ya.x, e.x);
+            __m128 dy = RT_AXIS(ll.y, xa.y, ya.y, e.y);
+            __m128 dz = RT_AXIS(ll.z, xa.z, ya.z, e.z);
+#undef RT_AXIS
+            __m128 l = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)),
+                                              _mm_mul_ps(dz, dz)));
+            /* l > 0: d / l; otherwise d itself (as unit_by_division). */
+            __m128 pos = _mm_cmpgt_ps(l, _mm_setzero_ps());
+            __m128 qx = _mm_div_ps(dx, l), qy = _mm_div_ps(dy, l), qz = _mm_div_ps(dz, l);
+            qx = _mm_or_ps(_mm_and_ps(pos, qx), _mm_andnot_ps(pos, dx));
+            qy = _mm_or_ps(_mm_and_ps(pos, qy), _mm_andnot_ps(pos, dy));
+            qz = _mm_or_ps(_mm_and_ps(pos, qz), _mm_andnot_ps(pos, dz));
+            float fx[4], fy[4], fz[4];
+            _mm_storeu_ps(fx, qx);
+            _mm_storeu_ps(fy, qy);
+            _mm_storeu_ps(fz, qz);
+            for (int i = 0; i < 4; i++) {
+                rays[k + i].origin = e;
+                rays[k + i].dir = v3(fx[i], fy[i], fz[i]);
+            }
+        }
+    }
+#endif
+    for (; k < n; k++) {
+        float u, v;
+        camera_sample_to_screen(x, y, xy[2 * k], xy[2 * k + 1], width, height, &u, &v);
+        rays[k] = camera_generate_ray(c, u, v);
+    }
+}
+
 float camera_tmin(const Camera *c)
 {
     /* Orthographic cameras see behind the image plane (A1 scene1_07); a finite

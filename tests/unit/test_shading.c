@@ -78,6 +78,44 @@ static void test_pixel_rays_block(void)
     CHECK(checked > 500);
 }
 
+/* camera_sample_rays gives each sample camera_generate_ray(camera_sample_to_screen) to
+ * the bit, for sample counts with and without a partial group of four. */
+static void test_sample_rays(void)
+{
+    Camera cams[3];
+    CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
+                                  v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
+                                  26.0f * 3.14159265f / 180.0f));
+    CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
+    CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
+    const int sizes[][2] = {{200, 200}, {1920, 1080}, {333, 517}};
+    uint32_t st = 12345;
+    int differ = 0, checked = 0;
+    for (int c = 0; c < 3; c++)
+        for (int s = 0; s < 3; s++)
+            for (int n = 1; n <= 37; n += 4) {
+                int W = sizes[s][0], H = sizes[s][1];
+                float xy[2 * 40];
+                for (int k = 0; k < 2 * n; k++) {
+                    st = st * 1664525u + 1013904223u;
+                    xy[k] = (float)(st >> 8) / 16777216.0f; /* [0, 1) */
+                }
+                int x = (n * 37 + c) % W, y = (n * 53 + s) % H;
+                Ray rays[40];
+                camera_sample_rays(&cams[c], x, y, xy, n, W, H, rays);
+                for (int k = 0; k < n; k++) {
+                    float u, v;
+                    camera_sample_to_screen(x, y, xy[2 * k], xy[2 * k + 1], W, H, &u, &v);
+                    Ray r = camera_generate_ray(&cams[c], u, v);
+                    checked++;
+                    if (memcmp(&r, &rays[k], sizeof r) != 0)
+                        differ++;
+                }
+            }
+    CHECK_INT(differ, 0);
+    CHECK(checked > 500);
+}
+
 static void test_lights(void)
 {
     Light d = {LIGHT_DIRECTIONAL, v3(0, -1, 0), v3(0, 0, 0), v3(1, 1, 1), {1, 0, 0}};
@@ -532,6 +570,7 @@ static const TestCase tests[] = {
     {"shading: pixel centres and cropping", test_pixel_mapping},
     {"shading: camera bases and rays", test_cameras},
     {"shading: a block of pixel rays, to the bit", test_pixel_rays_block},
+    {"shading: a pixel's sample rays, to the bit", test_sample_rays},
     {"shading: lights and attenuation", test_lights},
     {"shading: Phong with the n.L step", test_phong},
     {"shading: Phong without specular colour skips powf, same bits", test_phong_zero_specular},
