@@ -44,40 +44,40 @@ if [ ! -f "$SCENE" ]; then
     echo "   scene not found, skipped"
     exit 0
 fi
-# tiles_ms S [CACHE]: CPU ms of the N_TILES parts of setting S (with -cache CACHE, a
-# fresh file: the first part builds and writes it, the others map it).
-tiles_ms() {
-    local S=$1 cache=${2:-} total=0 c k
-    local extra=()
-    [ -n "$cache" ] && { rm -f "$cache"; extra=(-cache "$cache"); }
-    for ((k = 0; k < N_TILES; k++)); do
-        # shellcheck disable=SC2086
-        c=$(cpu_ms "$BIN" "${A[@]}" $S "${extra[@]}" -tile $k $N_TILES -output "$TMP/part$k.tga")
-        total=$(awk -v a="$total" -v b="$c" 'BEGIN { printf "%.1f", a + b }')
-    done
-    echo "$total"
-}
 pct() { awk -v w="$1" -v t="$2" -v m="$3" 'BEGIN { printf "%+.1f%%", 100 * (t + m - w) / w }'; }
+add() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", a + b }'; }
 # The set-up cache (-cache) makes the parts after the first map the parsed mesh and the
-# grid instead of building them: both are measured, round by round interleaved
-# (TILE_RUNS rounds, default 1; medians).
+# grid instead of building them. Both ways are measured part by part, paired (part k
+# without, then with the cache, so the machine's drift hits both alike), in TILE_RUNS
+# rounds (default 1; medians); the whole render runs before and after the parts of each
+# round (their mean).
 TILE_RUNS=${TILE_RUNS:-1}
-echo "   tiles: $N_TILES processes without -cache; +cache: with -cache (the first builds it);"
-echo "   medians of $TILE_RUNS interleaved round(s)"
+echo "   tiles: $N_TILES processes without -cache; +cache: with -cache (a fresh file: the first"
+echo "   part builds it), part k of both run back to back; medians of $TILE_RUNS round(s)"
 printf '   %-42s %8s %8s %8s %6s %9s %9s\n' samples whole tiles +cache merge overhead +cache
 for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
     ws=() ts=() cs=() ms=()
     for ((r = 0; r < TILE_RUNS; r++)); do
+        rm -f "$TMP/setup.cache"
         # shellcheck disable=SC2086
-        ws+=("$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")")
-        ts+=("$(tiles_ms "$S")")
+        w0=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
+        t=0 c=0
+        for ((k = 0; k < N_TILES; k++)); do
+            # shellcheck disable=SC2086
+            t=$(add "$t" "$(cpu_ms "$BIN" "${A[@]}" $S -tile $k $N_TILES -output "$TMP/part$k.tga")")
+            # shellcheck disable=SC2086
+            c=$(add "$c" "$(cpu_ms "$BIN" "${A[@]}" $S -cache "$TMP/setup.cache" -tile $k $N_TILES \
+                -output "$TMP/cpart$k.tga")")
+        done
+        # shellcheck disable=SC2086
+        w1=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
+        ws+=("$(awk -v a="$w0" -v b="$w1" 'BEGIN { printf "%.1f", (a + b) / 2 }')")
+        ts+=("$t") cs+=("$c")
         ms+=("$(cpu_ms "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga)")
         cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles differ from the whole render"
-        rm -f "$TMP"/part*.tga
-        cs+=("$(tiles_ms "$S" "$TMP/setup.cache")")
-        "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga
+        "$BIN" -merge "$TMP/merged.tga" "$TMP"/cpart*.tga
         cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles (-cache) differ from the whole render"
-        rm -f "$TMP"/part*.tga "$TMP/setup.cache"
+        rm -f "$TMP"/part*.tga "$TMP"/cpart*.tga "$TMP/setup.cache"
     done
     whole=$(median "${ws[@]}") tiles=$(median "${ts[@]}") cached=$(median "${cs[@]}")
     merge=$(median "${ms[@]}")
