@@ -202,7 +202,7 @@ static bool render_tile(Farm *f, int t, Vec3 *buf, RtStats *stats)
     for (int k = 0; k < 3; k++) {
         if (!want[k])
             continue;
-        img[k] = (Image){w, rows, p, false, {0, 0, 0, 0}};
+        img[k] = (Image){.width = w, .height = rows, .pixels = p};
         out[k] = &img[k];
         p += n;
     }
