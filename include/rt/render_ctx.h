@@ -16,6 +16,10 @@ typedef struct RenderCtx {
                               current packet (stamp ray_stamp) that have tested it; NULL
                               disables packet traversal (grid_*_packet go ray by ray) */
     RayTree *tree;         /* non-NULL only while the GUI records one ray tree */
+    volatile int *cancel;  /* the run's stop flag (render_parallel sets it), or NULL: once
+                              non-zero no reflected or refracted ray is spawned, so one
+                              pixel's huge ray tree cannot delay a stop; the run's images
+                              are discarded then, so no byte of a finished run changes */
 } RenderCtx;
 
 #endif

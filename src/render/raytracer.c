@@ -108,7 +108,9 @@ static Vec3 trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmi
 static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, ShadeState *st,
                          int depth, float weight, float ior)
 {
-    if (depth >= rt->bounces)
+    /* A stopped run (ctx->cancel) spawns no more rays: with deep -bounces and -weight 0 a
+     * single pixel's tree can take hours, and its colour is thrown away anyway. */
+    if (depth >= rt->bounces || (ctx->cancel && *ctx->cancel))
         return;
     const Material *m = st->sh.material;
     Vec3 p = st->sh.point, n = st->sh.normal, d = ray->dir;

@@ -176,6 +176,7 @@ bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn,
             ok = false;
             break;
         }
+        workers[i].ctx.cancel = cancel; /* shading polls it inside a pixel's ray tree */
     }
     if (ok) {
         /* Worker 0 runs on this thread: -threads 1 starts no thread at all. */

@@ -105,6 +105,77 @@ static void test_sigterm_during_write(void) { signal_during_write(SIGTERM); }
 static void test_sighup_during_write(void) { signal_during_write(SIGHUP); }
 static void test_sigint_during_write(void) { signal_during_write(SIGINT); }
 
+/* A signal while one pixel's ray tree is being traced (tests/repro/deep_ray_tree.txt:
+ * a camera inside three nested glass spheres, -bounces 60 -weight 0: the one tree of
+ * the 1x1 image has some 10^15 rays, so without the fix the run never ends; render
+ * threads polled the stop flag only between tiles). The signal is sent after 0.3 s
+ * (whether the run is still parsing or already inside the pixel, it must stop); the
+ * limit of 60 s is only a guard against the hang, not a timing condition. Expected:
+ * exit 128 + signal, "interrupted" on stderr, no image, nothing left in the folder. */
+static void signal_inside_pixel(int sig)
+{
+    char dir[PATH_MAX], out[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigpixel") != NULL);
+    e2e_join(out, sizeof out, dir, "o.tga");
+    repro(scene, sizeof scene, "deep_ray_tree.txt");
+    int errp[2];
+    CHECK(pipe(errp) == 0);
+    const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-size", "1", "1",
+                          "-shade_back", "-bounces", "60", "-weight", "0", "-threads", "1",
+                          NULL};
+    fflush(stdout);
+    fflush(stderr);
+    pid_t pid = fork();
+    if (pid == 0) {
+        int null = open("/dev/null", O_RDWR);
+        dup2(null, 0);
+        dup2(null, 1);
+        dup2(errp[1], 2);
+        close(errp[0]);
+        execv(args[0], (char *const *)args);
+        _exit(127);
+    }
+    close(errp[1]);
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    struct timespec pause = {0, 300 * 1000 * 1000};
+    nanosleep(&pause, NULL);
+    kill(pid, sig);
+    int st = 0;
+    bool hung = true;
+    for (int i = 0; i < 600; i++) { /* 60 s in steps of 0.1 s */
+        pid_t w = waitpid(pid, &st, WNOHANG);
+        if (w == pid) {
+            hung = false;
+            break;
+        }
+        struct timespec step = {0, 100 * 1000 * 1000};
+        nanosleep(&step, NULL);
+    }
+    if (hung) {
+        kill(pid, SIGKILL);
+        while (waitpid(pid, &st, 0) < 0) {
+        }
+    }
+    char err[4096] = "";
+    ssize_t n = read(errp[0], err, sizeof err - 1);
+    err[n > 0 ? n : 0] = '\0';
+    close(errp[0]);
+    CHECK_MSG(!hung, "signal %d: the run did not stop within 60 s", sig);
+    CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
+              "signal %d: %s %d, expected exit %d", sig, WIFEXITED(st) ? "exit" : "killed by",
+              WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + sig);
+    if (!hung)
+        CHECK_CONTAINS(err, "interrupted");
+    CHECK_MSG(!e2e_exists(out), "an image was written");
+    CHECK_INT(e2e_count_entries(dir), 0);
+    e2e_rmtree(dir);
+}
+
+static void test_sigint_inside_pixel(void) { signal_inside_pixel(SIGINT); }
+static void test_sigterm_inside_pixel(void) { signal_inside_pixel(SIGTERM); }
+
 /* The depth image cannot be written: the colour image must not be written either, and
  * an older colour image keeps its bytes. */
 static void test_outputs_all_or_nothing(void)
@@ -397,6 +468,8 @@ static const TestCase tests[] = {
     {"sigterm_during_write", test_sigterm_during_write},
     {"sighup_during_write", test_sighup_during_write},
     {"sigint_during_write", test_sigint_during_write},
+    {"sigint_inside_pixel", test_sigint_inside_pixel},
+    {"sigterm_inside_pixel", test_sigterm_inside_pixel},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"same_path_twice", test_same_path_twice},
     {"stats_write_errors", test_stats_write_errors},
