@@ -633,11 +633,8 @@ int main(int argc, char **argv)
 {
     /* raytracer -merge out part...: its own small command (README.txt). */
     if (argc >= 2 && strcmp(argv[1], "-merge") == 0) {
-        if (argc < 4) {
-            fprintf(stderr, "raytracer: usage: raytracer -merge out.tga part... (raytracer -h "
-                    "for help)\n");
+        if (!options_check_merge(argc, argv, stderr))
             return EXIT_USAGE;
-        }
         Diag d;
         diag_init(&d, stderr);
         return image_merge(argv[2], (const char *const *)(argv + 3), argc - 3, &d)

@@ -23,4 +23,9 @@ bool file_read_all(const char *path, char **out, size_t *len);
  * objfile_build_group can reuse for the triangles. */
 bool file_read_reusable(const char *path, char **out, size_t *len);
 
+/* True when a and b name one existing file: the same device and inode, so another
+ * spelling of the path ("dir/../a.tga") or a link to it counts. False when either
+ * cannot be looked up (stat). */
+bool file_same(const char *a, const char *b);
+
 #endif

@@ -75,6 +75,11 @@ void options_defaults(Options *o);
  * -h) on err and returns false; the caller exits 2. */
 bool options_parse(Options *o, int argc, char **argv, FILE *err);
 void options_usage(FILE *out);
+/* Checks the command "raytracer -merge out part..." (argv[1] is "-merge"): at least one
+ * part, no option names among the files (-merge takes nothing else), the output not
+ * also a part and no part twice (the same text or the same file, rt/file.h file_same).
+ * On a usage error prints one line on err and returns false; the caller exits 2. */
+bool options_check_merge(int argc, char **argv, FILE *err);
 /* Warnings for options that do nothing here (preview options without a preview,
  * -threads far above the cores), each one line on err. */
 void options_warn(const Options *o, int cores, FILE *err);

@@ -168,3 +168,10 @@ bool file_read_reusable(const char *path, char **out, size_t *len)
 {
     return read_all(path, out, len, true, false);
 }
+
+bool file_same(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev &&
+           sa.st_ino == sb.st_ino;
+}

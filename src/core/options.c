@@ -5,6 +5,7 @@
 #include "rt/filter.h"
 #include "rt/sampler.h"
 #include "rt/accel.h"
+#include "rt/file.h"
 #include "rt/image.h"
 #include "rt/suggest.h"
 
@@ -351,6 +352,50 @@ static bool unknown_argument(Cursor *c, const Options *o)
     if (!o->input && looks_like_scene(a))
         return usage_error(c, "unexpected argument '%s' (did you mean -input %s?)", a, a);
     return usage_error(c, "unexpected argument '%s': options start with '-'", a);
+}
+
+/* True when a is exactly the name of an option of the usage text. */
+static bool is_option_name(const char *a)
+{
+    const char *names[MAX_OPTION_NAMES];
+    int n = options_names(names, MAX_OPTION_NAMES);
+    for (int k = 0; k < n && k < MAX_OPTION_NAMES; k++)
+        if (!strcmp(a, names[k]))
+            return true;
+    return false;
+}
+
+bool options_check_merge(int argc, char **argv, FILE *err)
+{
+    Cursor c = {argc, 1, argv, err, 1, 0, false};
+    /* Option names first: "-merge out.tga a.tga -size 10 10" would otherwise read a
+     * part named -size. */
+    for (int i = 2; i < argc; i++)
+        if (is_option_name(argv[i]))
+            return usage_error(&c, "-merge takes only the output and the parts, not %s (give "
+                               "the render options to the renders of the parts)", argv[i]);
+    if (argc < 4)
+        return usage_error(&c, "usage: raytracer -merge out.tga part...");
+    const char *out = argv[2];
+    for (int i = 3; i < argc; i++)
+        if (!strcmp(argv[i], out) || file_same(argv[i], out)) {
+            c.hinted = true;
+            return usage_error(&c, "-merge: the output '%s' is also listed as a part%s%s%s "
+                               "(write the merged image to another file)", out,
+                               strcmp(argv[i], out) ? " ('" : "",
+                               strcmp(argv[i], out) ? argv[i] : "",
+                               strcmp(argv[i], out) ? "')" : "");
+        }
+    for (int i = 3; i < argc; i++)
+        for (int j = i + 1; j < argc; j++)
+            if (!strcmp(argv[i], argv[j]) || file_same(argv[i], argv[j])) {
+                c.hinted = true;
+                if (!strcmp(argv[i], argv[j]))
+                    return usage_error(&c, "-merge: the part '%s' is listed twice", argv[i]);
+                return usage_error(&c, "-merge: the part '%s' is listed twice (also as '%s')",
+                                   argv[i], argv[j]);
+            }
+    return true;
 }
 
 /* The options that only switch a flag on, with the flag. */

@@ -455,6 +455,37 @@ static void test_bad_merges(void)
     CHECK_INT(run_status((const char *[]){"-input", scene, "-merge", out, top, NULL}, &r), 2);
     CHECK_CONTAINS(r.err, "-merge must come first");
     e2e_run_free(&r);
+    /* usage errors that write nothing: the output among the parts (it would be read
+     * and then replaced), a part twice (the same text, or another path to the same
+     * file: device and inode), render options after -merge */
+    char again[PATH_MAX + 16], merged2[PATH_MAX];
+    CHECK(snprintf(again, sizeof again, "%s/./top.tga", dir) < (int)sizeof again);
+    e2e_join(merged2, sizeof merged2, dir, "merged2.tga");
+    int before = e2e_count_entries(dir);
+    const char *const *usage[] = {
+        (const char *[]){"-merge", top, top, bottom, NULL},
+        (const char *[]){"-merge", merged2, top, bottom, top, NULL},
+        (const char *[]){"-merge", merged2, top, bottom, again, NULL},
+        (const char *[]){"-merge", merged2, top, bottom, "-size", "40", "30", NULL},
+        (const char *[]){"-merge", merged2, "-output", top, bottom, NULL},
+    };
+    const char *says[] = {"is also listed as a part", "is listed twice",
+                          "is listed twice (also as", "not -size", "not -output"};
+    for (size_t i = 0; i < sizeof usage / sizeof usage[0]; i++) {
+        char why[512];
+        CHECK_MSG(run_status(usage[i], &r) == 2, "merge usage case %zu: %s", i,
+                  e2e_describe(&r, why, sizeof why));
+        CHECK_CONTAINS(r.err, says[i]);
+        CHECK_MSG(strchr(r.err, '\n') == r.err + strlen(r.err) - 1, "case %zu: not one line: %s",
+                  i, r.err);
+        e2e_run_free(&r);
+    }
+    CHECK_INT(e2e_count_entries(dir), before);
+    CHECK(!e2e_exists(merged2));
+    /* the parts were left alone: they still merge into the whole render */
+    CHECK_INT(run_status((const char *[]){"-merge", merged2, bottom, top, NULL}, &r), 0);
+    e2e_run_free(&r);
+    CHECK(same_file(merged2, whole));
     e2e_rmtree(dir);
 }
 
