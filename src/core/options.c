@@ -427,6 +427,7 @@ static bool *switch_of(Options *o, const char *a)
 bool options_parse(Options *o, int argc, char **argv, FILE *err)
 {
     Cursor c = {argc, 1, argv, err, 0, 0, false};
+    bool region_given = false, tile_given = false;
     for (; c.i < argc; c.i++) {
         c.prev = c.opt;
         c.opt = c.i;
@@ -587,6 +588,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return false;
             o->region = true;
             o->tile = false;
+            region_given = true;
         } else if (!strcmp(a, "-tile")) {
             if (!take_int(&c, a, 0, MAX_IMAGE_SIDE - 1, &o->tile_k) ||
                 !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->tile_n))
@@ -596,6 +598,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                                    o->tile_k, o->tile_n);
             o->tile = true;
             o->region = false;
+            tile_given = true;
         } else if (!strcmp(a, "-merge")) {
             return usage_error(&c, "-merge must come first: raytracer -merge out.tga part...");
         } else if (!strcmp(a, "-h") || !strcmp(a, "--help") || !strcmp(a, "-help")) {
@@ -615,6 +618,10 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         return true;
     if (!o->input)
         return usage_error(&c, "no scene given: -input scene.txt is required");
+    /* Both choose the rectangle; "the later wins" would silently drop one of them. */
+    if (region_given && tile_given)
+        return usage_error(&c, "-region and -tile both choose the rectangle to render: give "
+                           "one of them");
     /* The zoomed pictures are float images like the render: at most 16M pixels. */
     if (o->samples_file &&
         (long long)o->width * o->height * o->samples_zoom * o->samples_zoom > MAX_PICTURE)

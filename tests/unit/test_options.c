@@ -85,6 +85,10 @@ static void test_usage_errors(void)
         {"-input s.txt -accel", "needs more arguments"},
         {"-input s.txt -accel none -grid 4 4 4", "-grid goes with -accel grid"},
         {"-input s.txt -accel none -visualize_grid", "needs -grid"},
+        {"-input s.txt -region 0 0 4 4 -tile 0 2 -output o.tga",
+         "-region and -tile both choose the rectangle"},
+        {"-input s.txt -tile 1 2 -region 0 0 4 4 -output o.tga",
+         "-region and -tile both choose the rectangle"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         Options o;
