@@ -16,6 +16,7 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 enum {
@@ -232,10 +233,45 @@ static bool usage_error(Cursor *c, const char *fmt, ...)
     return false;
 }
 
+static bool is_option_name(const char *a);
+
+/* The name the usage text gives the value just taken (argv[c->i]) of option flag:
+ * "h" for the second value of "-size w h"; "value" when the synopsis has none. */
+static void value_name(const Cursor *c, const char *flag, char *buf, size_t size)
+{
+    char synopsis[128];
+    option_synopsis(flag, synopsis, sizeof synopsis);
+    const char *p = synopsis;
+    for (int k = 0; k <= c->i - c->opt && *p; k++) { /* word 0 is the option itself */
+        p += strspn(p, " ");
+        if (k == c->i - c->opt) {
+            size_t n = strcspn(p, " ");
+            snprintf(buf, size, "%.*s", (int)n, p);
+            if (n > 0)
+                return;
+        }
+        p += strcspn(p, " ");
+    }
+    snprintf(buf, size, "value");
+}
+
 static bool take(Cursor *c, const char *flag, const char **out)
 {
-    if (c->i + 1 >= c->argc)
-        return usage_error(c, "option %s needs more arguments", flag);
+    char synopsis[128];
+    if (c->i + 1 >= c->argc) {
+        option_synopsis(flag, synopsis, sizeof synopsis);
+        return usage_error(c, "option %s needs more arguments%s%s%s", flag,
+                           synopsis[0] ? " (" : "", synopsis, synopsis[0] ? ")" : "");
+    }
+    /* "-output -size 10 10": the value was left out and the next option taken for it.
+     * Only an exact option name is refused: "-" (standard input or output) and
+     * negative numbers are values. */
+    if (is_option_name(c->argv[c->i + 1])) {
+        option_synopsis(flag, synopsis, sizeof synopsis);
+        return usage_error(c, "missing value for %s: the next argument '%s' is an option%s%s%s",
+                           flag, c->argv[c->i + 1], synopsis[0] ? " (" : "", synopsis,
+                           synopsis[0] ? ")" : "");
+    }
     *out = c->argv[++c->i];
     return true;
 }
@@ -245,18 +281,16 @@ static bool take_int(Cursor *c, const char *flag, int lo, int hi, int *out)
     const char *s = NULL;
     if (!take(c, flag, &s))
         return false;
+    char name[32];
+    value_name(c, flag, name, sizeof name);
     char *end;
     errno = 0;
     long v = strtol(s, &end, 10);
     if (end == s || *end != '\0' || errno == ERANGE)
-        return usage_error(c, "option %s expects an integer, got '%s'", flag, s);
-    if (v < lo || v > hi) {
-        char range[64];
-        snprintf(range, sizeof range, "%d..%d", lo, hi);
-        fprintf(c->err, "raytracer: option %s: %ld is out of range %s (raytracer -h for help)\n",
-                flag, v, range);
-        return false;
-    }
+        return usage_error(c, "option %s: %s expects an integer, got '%s'", flag, name, s);
+    if (v < lo || v > hi)
+        return usage_error(c, "option %s: %s = %ld is out of range %d..%d", flag, name, v, lo,
+                           hi);
     *out = (int)v;
     return true;
 }
@@ -266,11 +300,13 @@ static bool take_float(Cursor *c, const char *flag, float *out)
     const char *s = NULL;
     if (!take(c, flag, &s))
         return false;
+    char name[32];
+    value_name(c, flag, name, sizeof name);
     char *end;
     errno = 0;
     float v = strtof(s, &end);
     if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v))
-        return usage_error(c, "option %s expects a finite number, got '%s'", flag, s);
+        return usage_error(c, "option %s: %s expects a finite number, got '%s'", flag, name, s);
     *out = v;
     return true;
 }
@@ -481,6 +517,10 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (c.i + 1 < argc && !strcmp(argv[c.i + 1], "auto")) {
                 o->grid_auto = true;
                 c.i++;
+            } else if (c.i + 1 < argc && !strcasecmp(argv[c.i + 1], "auto")) {
+                c.hinted = true; /* words are case-sensitive, like the scene's keywords */
+                return usage_error(&c, "option -grid: '%s' (did you mean auto?)",
+                                   argv[c.i + 1]);
             } else {
                 o->grid_auto = false;
                 for (int k = 0; k < 3; k++)
@@ -546,8 +586,9 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (o->adaptive_max <= o->adaptive_min)
                 return usage_error(&c, "option %s: the second count (%d) must be larger than "
                                    "the first (%d)", a, o->adaptive_max, o->adaptive_min);
-            if (o->adaptive_threshold < 0.0f)
-                return usage_error(&c, "option %s: the threshold must be >= 0", a);
+            if (!(o->adaptive_threshold >= 0.0f && o->adaptive_threshold <= 1.0f))
+                return usage_error(&c, "option %s: t = %g is out of range 0..1 (a difference "
+                                   "of colour channels)", a, (double)o->adaptive_threshold);
             o->adaptive = true;
             o->sampler = NULL;
         } else if (!strcmp(a, "-box_filter") || !strcmp(a, "-tent_filter") ||

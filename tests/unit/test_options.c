@@ -62,6 +62,12 @@ static void test_defaults_and_repeats(void)
     CHECK(parse(&o, "-input a.txt -output o.tga -accel none", err, sizeof err));
     CHECK(!o.grid && o.accel);
     CHECK(parse(&o, "--version", err, sizeof err) && o.version);
+    /* "-" and negative numbers are values, not options; t = 0 and 1 are in range */
+    CHECK(parse(&o, "-input - -output - -depth -2 -1 d.tga", err, sizeof err));
+    CHECK_STR(o.input, "-");
+    CHECK_STR(o.output, "-");
+    CHECK(parse(&o, "-input s.txt -output o.tga -adaptive_samples 4 16 1", err, sizeof err));
+    CHECK(parse(&o, "-input s.txt -output o.tga -adaptive_samples 4 16 0", err, sizeof err));
 }
 
 static void test_usage_errors(void)
@@ -85,6 +91,27 @@ static void test_usage_errors(void)
         {"-input s.txt -accel", "needs more arguments"},
         {"-input s.txt -accel none -grid 4 4 4", "-grid goes with -accel grid"},
         {"-input s.txt -accel none -visualize_grid", "needs -grid"},
+        /* a range error names the value of a multi-value option that is wrong */
+        {"-input s.txt -size 0 10", "option -size: w = 0 is out of range 1..32768"},
+        {"-input s.txt -size 10 0", "option -size: h = 0 is out of range 1..32768"},
+        {"-input s.txt -size 10 x", "option -size: h expects an integer, got 'x'"},
+        {"-input s.txt -grid 4 0 4", "option -grid: ny = 0 is out of range"},
+        {"-input s.txt -region 0 0 4 0", "option -region: h = 0 is out of range"},
+        {"-input s.txt -tile 0 0", "option -tile: n = 0 is out of range"},
+        {"-input s.txt -depth 0 x d.tga", "option -depth: dmax expects a finite number"},
+        {"-input s.txt -bounces 2000", "option -bounces: n = 2000 is out of range 0..1000"},
+        /* a value that is exactly an option name: the value was left out */
+        {"-input s.txt -output -size 10 10", "missing value for -output"},
+        {"-input s.txt -size 10 -output o.tga", "missing value for -size"},
+        {"-input -output o.tga", "missing value for -input"},
+        {"-input s.txt -output o.tga -normals -stats", "missing value for -normals"},
+        /* words are case-sensitive: the right spelling is offered */
+        {"-input s.txt -output o.tga -grid Auto", "option -grid: 'Auto' (did you mean auto?)"},
+        {"-input s.txt -output o.tga -grid AUTO", "did you mean auto?"},
+        /* -adaptive_samples t is a difference of channels in 0..1 */
+        {"-input s.txt -output o.tga -adaptive_samples 4 16 1.5",
+         "option -adaptive_samples: t = 1.5 is out of range 0..1"},
+        {"-input s.txt -output o.tga -adaptive_samples 4 16 -0.1", "t = -0.1 is out of range"},
         {"-input s.txt -region 0 0 4 4 -tile 0 2 -output o.tga",
          "-region and -tile both choose the rectangle"},
         {"-input s.txt -tile 1 2 -region 0 0 4 4 -output o.tga",
