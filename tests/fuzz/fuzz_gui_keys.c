@@ -41,7 +41,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
     g_scene = dir ? scene_load_string(SCENE, "keys.txt", dir, &d) : NULL;
     if (!g_scene)
         abort(); /* the harness's own scene */
-    AccelConfig cfg = {{6, 6, 6}, false, false, false};
+    AccelConfig cfg = {.grid_n = {6, 6, 6}, .grid_auto = false, .no_marking = false, .visualize = false};
     if (!prim_table_build(&g_prims, g_scene) ||
         !accel_init(&g_accel, accel_find("grid"), &g_prims, &cfg, &d))
         abort(); /* the harness's own scene */

@@ -334,11 +334,11 @@ static void compare(const World *w, Tracer *ref, Tracer *tr, const char *what)
 /* The settings each accelerator is tried with: its defaults and grids of several shapes
  * (other accelerators ignore grid_n). */
 static const AccelConfig configs[] = {
-    {{1, 1, 1}, false, false, false},
-    {{4, 7, 3}, false, false, false},
-    {{0, 0, 0}, true, false, false},
-    {{19, 11, 23}, false, false, false},
-    {{9, 9, 9}, false, true, false},
+    {.grid_n = {1, 1, 1}, .grid_auto = false, .no_marking = false, .visualize = false},
+    {.grid_n = {4, 7, 3}, .grid_auto = false, .no_marking = false, .visualize = false},
+    {.grid_n = {0, 0, 0}, .grid_auto = true, .no_marking = false, .visualize = false},
+    {.grid_n = {19, 11, 23}, .grid_auto = false, .no_marking = false, .visualize = false},
+    {.grid_n = {9, 9, 9}, .grid_auto = false, .no_marking = true, .visualize = false},
 };
 
 static void run_world(uint64_t seed, int objects)

@@ -262,7 +262,7 @@ static bool fixture_open(Fixture *fx, const char *name, bool grid)
     fx->rt.bounces = 2;
     fx->rt.weight = 0.01f;
     fx->rt.shade_back = true;
-    AccelConfig cfg = {{15, 30, 15}, false, false, false};
+    AccelConfig cfg = {.grid_n = {15, 30, 15}, .grid_auto = false, .no_marking = false, .visualize = false};
     CHECK(prim_table_build(&fx->prims, fx->scene));
     CHECK(accel_init(&fx->accel, grid ? accel_find("grid") : &accel_none_ops, &fx->prims,
                      &cfg, &d));

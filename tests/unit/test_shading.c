@@ -425,7 +425,7 @@ static void test_packet_shading_same_bits(void)
     PrimTable prims;
     CHECK(prim_table_build(&prims, &m.s));
     Accel grid;
-    AccelConfig cfg = {{6, 6, 6}, false, false, false};
+    AccelConfig cfg = {.grid_n = {6, 6, 6}, .grid_auto = false, .no_marking = false, .visualize = false};
     Diag d;
     diag_init(&d, NULL);
     CHECK(accel_init(&grid, accel_find("grid"), &prims, &cfg, &d));
