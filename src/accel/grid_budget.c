@@ -24,9 +24,42 @@ uint64_t grid_ref_cap_auto(uint32_t num_bounded)
     return (uint64_t)GRID_AUTO_REFS_PER_PRIM * num_bounded + GRID_AUTO_REFS_FLOOR;
 }
 
+/* The cell references of primitive p: the larger of its two box ranges' cell counts. */
+static uint64_t prim_refs(const Grid *g, const Prim *p)
+{
+    GridPrim gp = {p->obj, p->xf};
+    GridBuildRec rec;
+    grid_make_rec(&gp, grid_rec_kind(p), &rec);
+    uint64_t a = grid_tight_box_cells(g, &rec), b = grid_course_box_cells(g, &rec);
+    return a > b ? a : b;
+}
+
+/* An upper bound on prim_refs(g, p) for a triangle from its world box alone (p->bounds
+ * is exactly the box of its world vertices, which both ranges start from), with no
+ * division and without its vertices: on each axis a range holds at most
+ * (extent + 2 pad) / size + 2 cells (the marching range's pad on both sides, one cell
+ * more at each end for a partial cell; the course's tolerance of at most 1e-4 cell and
+ * its float rounding are far inside the extra half cell added here), and never more
+ * than the axis' cells. 0 for anything else: its refs are counted exactly. */
+static uint64_t tri_refs_bound(const Grid *g, const double inv_size[3], const Prim *p)
+{
+    uint64_t r = 1;
+    for (int a = 0; a < 3; a++) {
+        double ext = (double)v3_comp(p->bounds.max, a) - (double)v3_comp(p->bounds.min, a);
+        double w = (ext + 2.0 * (double)g->pad[a]) * inv_size[a] * (1.0 + 1e-6) + 2.5 +
+                   1e-6 * (double)g->n[a];
+        if (!(w >= 0.0))
+            return 0;
+        r *= w < (double)g->n[a] ? (uint64_t)w : (uint64_t)g->n[a];
+    }
+    return r;
+}
+
 /* The estimate for n, or (when it passes stop) an extrapolation from the primitives
- * added so far, which is enough to choose the next resolution to try. */
-static uint64_t estimate(const PrimTable *t, const int n[3], uint64_t stop)
+ * added so far, which is enough to choose the next resolution to try. quick: take
+ * tri_refs_bound for triangles, an upper bound on the estimate (used to skip the
+ * exact sum when even the bound fits the cap, as on every dense mesh). */
+static uint64_t estimate(const PrimTable *t, const int n[3], uint64_t stop, bool quick)
 {
     if (!t || t->num_bounded == 0 || bbox_is_empty(&t->scene_bounds))
         return 0;
@@ -35,17 +68,18 @@ static uint64_t estimate(const PrimTable *t, const int n[3], uint64_t stop)
     g.bounds = t->scene_bounds;
     memcpy(g.n, n, sizeof g.n);
     grid_setup_geometry(&g);
+    double inv_size[3];
+    for (int a = 0; a < 3; a++)
+        inv_size[a] = 1.0 / (double)g.size[a];
     uint64_t sum = 0;
     uint32_t seen = 0;
     for (uint32_t i = 0; i < t->num_prims; i++) {
         const Prim *p = &t->prims[i];
         if (!p->bounded)
             continue;
-        GridPrim gp = {p->obj, p->xf};
-        GridBuildRec rec;
-        grid_make_rec(&gp, grid_rec_kind(p), &rec);
-        uint64_t a = grid_tight_box_cells(&g, &rec), b = grid_course_box_cells(&g, &rec);
-        sum += a > b ? a : b;
+        uint64_t r = quick && obj_kind(p->obj) == OBJ_TRIANGLE ? tri_refs_bound(&g, inv_size, p)
+                                                               : 0;
+        sum += r ? r : prim_refs(&g, p);
         seen++;
         if (sum > stop && seen < t->num_bounded)
             return (uint64_t)((double)sum * ((double)t->num_bounded / (double)seen));
@@ -55,13 +89,19 @@ static uint64_t estimate(const PrimTable *t, const int n[3], uint64_t stop)
 
 uint64_t grid_ref_estimate(const PrimTable *t, const int n[3])
 {
-    return estimate(t, n, UINT64_MAX);
+    return estimate(t, n, UINT64_MAX, false);
 }
 
 bool grid_fit_refs(const PrimTable *t, int n[3], uint64_t cap, uint64_t *est_out)
 {
     bool changed = false;
-    uint64_t est = estimate(t, n, cap);
+    /* Within the cap by the bound: within it exactly. */
+    uint64_t est = estimate(t, n, cap, true);
+    bool exact = false;
+    if (est > cap) {
+        est = estimate(t, n, cap, false);
+        exact = true;
+    }
     while (est > cap && (n[0] > 1 || n[1] > 1 || n[2] > 1)) {
         /* Volume-filling primitives scale with the cell count, surfaces with its 2/3
          * power, points not at all: take the cube root (the most hopeful) and let the
@@ -79,9 +119,9 @@ bool grid_fit_refs(const PrimTable *t, int n[3], uint64_t cap, uint64_t *est_out
             m[big] = n[big] - 1;
         memcpy(n, m, sizeof m);
         changed = true;
-        est = estimate(t, n, cap);
+        est = estimate(t, n, cap, false);
     }
     if (est_out)
-        *est_out = est;
+        *est_out = exact ? est : estimate(t, n, UINT64_MAX, false);
     return changed;
 }
