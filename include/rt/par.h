@@ -25,7 +25,8 @@ typedef void (*ParChunkFn)(void *ctx, int i, int worker);
 void par_for(int n, ParChunkFn fn, void *ctx);
 
 /* Starts the helpers now, for par_for calls soon after; between calls they wait
- * (spinning, yielding the CPU) at most a few milliseconds before they exit. */
+ * (spinning briefly, then asleep until the next job) at most a few milliseconds before
+ * they exit. */
 void par_prepare(void);
 /* The set-up is over: idle helpers exit now (the render's threads want the cores). */
 void par_release(void);

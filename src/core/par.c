@@ -16,8 +16,15 @@
  * between two parallel steps of the set-up (the rest of the scene after its OBJ file,
  * the grid's walk) last about a millisecond on the 40k bunny, while a new thread took
  * from 0.05 to 5 ms to get a CPU on the 2-core virtual machines measured (its vCPU is
- * asleep). So a helper that is already running is worth a little spinning. */
+ * asleep). So a helper that is already running is kept a while. */
 #define PAR_LINGER_NS 3000000LL
+/* How long of that an idle helper spins before it sleeps until the next job (or the
+ * deadline). Back-to-back jobs (the OBJ file's read, parse and placement) follow each
+ * other within microseconds and find it spinning; across a longer serial stretch a
+ * spinning helper would burn a whole CPU for nothing (it did: the 40k bunny's set-up
+ * took 53-75 ms of CPU with -threads 2 against 34-37 ms with one), while a sleeping one
+ * costs nothing and, woken late, only leaves more chunks to the caller. */
+#define PAR_SPIN_NS 50000LL
 
 /* Everything below is guarded by g_lock. A spin lock, not a mutex: a thread put to
  * sleep on a contended mutex can take milliseconds to wake on those machines, and the
@@ -34,6 +41,15 @@ static int64_t g_deadline;            /* idle helpers exit after it (CLOCK_MONOT
 static int g_want = -1;               /* par_set_helpers; < 0: automatic */
 static bool g_running;                /* a par_for is in progress */
 static pthread_once_t g_once = PTHREAD_ONCE_INIT;
+
+/* Sleeping helpers wait on g_wake under g_sleep_lock; g_sleepers (under g_sleep_lock)
+ * counts them. A helper counts itself and checks for a job under g_sleep_lock before
+ * it waits, and whoever opens a job (or ends the lingering) takes g_sleep_lock before
+ * it looks at g_sleepers, so no wake-up is lost. */
+static pthread_mutex_t g_sleep_lock = PTHREAD_MUTEX_INITIALIZER;
+static pthread_cond_t g_wake;
+static int g_sleepers;
+static bool g_wake_ok; /* g_wake was initialised (on CLOCK_MONOTONIC) */
 
 static inline void cpu_relax(void)
 {
@@ -57,6 +73,19 @@ static int64_t now_ns(void)
     return (int64_t)t.tv_sec * 1000000000LL + t.tv_nsec;
 }
 
+/* g_wake on the clock of the deadlines (also in a forked child, where nobody waits on
+ * it); g_wake_ok false when that cannot be had. */
+static void wake_init(void)
+{
+    pthread_condattr_t ca;
+    g_wake_ok = false;
+    if (pthread_condattr_init(&ca) != 0)
+        return;
+    g_wake_ok = pthread_condattr_setclock(&ca, CLOCK_MONOTONIC) == 0 &&
+                pthread_cond_init(&g_wake, &ca) == 0;
+    pthread_condattr_destroy(&ca);
+}
+
 /* A forked child has only the forking thread: forget the parent's helpers (and a lock
  * one of them may have held at the fork). */
 static void reset_in_child(void)
@@ -66,6 +95,9 @@ static void reset_in_child(void)
         g_alive[w] = false;
     g_job.open = false;
     g_running = false;
+    pthread_mutex_init(&g_sleep_lock, NULL);
+    g_sleepers = 0;
+    wake_init();
 }
 
 static int g_auto; /* helpers by default: online CPUs - 1 (set once) */
@@ -73,17 +105,57 @@ static int g_auto; /* helpers by default: online CPUs - 1 (set once) */
 static void init_once(void)
 {
     pthread_atfork(NULL, NULL, reset_in_child);
+    wake_init();
     long h = sysconf(_SC_NPROCESSORS_ONLN) - 1;
     g_auto = h < 0 ? 0 : h > PAR_MAX_WORKERS - 1 ? PAR_MAX_WORKERS - 1 : (int)h;
+}
+
+/* Whether a chunk is waiting for a helper (under g_lock). */
+static bool chunk_waiting(void) { return g_job.open && g_job.next < g_job.n; }
+
+/* An idle helper's sleep: until a job opens or the deadline passes (a little past it:
+ * the caller rechecks). Without a usable condition variable it just yields. */
+static void helper_sleep(void)
+{
+    if (!g_wake_ok) {
+        sched_yield();
+        return;
+    }
+    pthread_mutex_lock(&g_sleep_lock);
+    g_sleepers++;
+    lock();
+    bool wait = !chunk_waiting();
+    int64_t until = g_deadline;
+    unlock();
+    if (wait) {
+        if (until < now_ns() + 1000)
+            until = now_ns() + 1000;
+        struct timespec ts = {(time_t)(until / 1000000000LL), (long)(until % 1000000000LL)};
+        pthread_cond_timedwait(&g_wake, &g_sleep_lock, &ts);
+    }
+    g_sleepers--;
+    pthread_mutex_unlock(&g_sleep_lock);
+}
+
+/* Wakes the sleeping helpers (a job opened, or the lingering ended). */
+static void wake_helpers(void)
+{
+    if (!g_wake_ok)
+        return;
+    pthread_mutex_lock(&g_sleep_lock);
+    if (g_sleepers > 0)
+        pthread_cond_broadcast(&g_wake);
+    pthread_mutex_unlock(&g_sleep_lock);
 }
 
 static void *helper_main(void *arg)
 {
     int worker = (int)(intptr_t)arg;
+    int64_t idle_since = -1; /* when this helper last found nothing to do */
     for (;;) {
         int64_t t = now_ns();
         lock();
-        if (g_job.open && g_job.next < g_job.n) {
+        if (chunk_waiting()) {
             int i = g_job.next++;
             ParChunkFn fn = g_job.fn;
             void *ctx = g_job.ctx;
@@ -92,6 +164,7 @@ static void *helper_main(void *arg)
             lock(); /* the release of this unlock publishes the chunk's writes */
             g_job.done++;
             unlock();
+            idle_since = -1;
             continue;
         }
         if (!g_job.open && t > g_deadline) {
@@ -100,8 +173,14 @@ static void *helper_main(void *arg)
             return NULL;
         }
         unlock();
-        /* Let anything else that wants this CPU have it (a render thread, say). */
-        sched_yield();
+        if (idle_since < 0)
+            idle_since = t;
+        if (t - idle_since < PAR_SPIN_NS) {
+            cpu_relax();
+            continue;
+        }
+        helper_sleep();
+        idle_since = -1;
     }
 }
 
@@ -188,6 +267,7 @@ void par_release(void)
     lock();
     g_deadline = 0;
     unlock();
+    wake_helpers(); /* to exit now */
 }
 
 void par_set_helpers(int n) { g_want = n; }
@@ -223,6 +303,7 @@ void par_for(int n, ParChunkFn fn, void *ctx)
     g_job.open = true;
     g_deadline = t + PAR_LINGER_NS;
     unlock();
+    wake_helpers();
     ensure_helpers();
     for (;;) {
         lock();

@@ -174,11 +174,32 @@ static void test_helper_joins_in(void)
     par_set_helpers(-1);
 }
 
+/* A helper idle longer than its spin sleeps until the next job: that job must still
+ * find it (woken, or restarted once it has gone), here four times in a row with a
+ * pause of 1 ms between the jobs (beyond the spin, within the lingering). */
+static void test_sleeping_helper_joins_in(void)
+{
+    par_set_helpers(1);
+    par_prepare();
+    for (int round = 0; round < 4; round++) {
+        Join j = {PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER, false, false};
+        par_for(4, join_chunk, &j);
+        CHECK_MSG(j.helper_seen && !j.gave_up, "no helper ran a chunk (round %d)", round);
+        pthread_cond_destroy(&j.seen_cond);
+        pthread_mutex_destroy(&j.lock);
+        struct timespec pause = {0, 1000000L};
+        nanosleep(&pause, NULL);
+    }
+    par_release();
+    par_set_helpers(-1);
+}
+
 static const TestCase tests[] = {
     {"par: every chunk runs exactly once, workers in range", test_every_chunk_once},
     {"par: a nested par_for runs inline on its thread", test_nested_runs_inline},
     {"par: concurrent callers both complete", test_concurrent_callers},
     {"par: a helper joins in, again after par_release", test_helper_joins_in},
+    {"par: a helper sleeping between jobs joins the next", test_sleeping_helper_joins_in},
 };
 
 RT_TEST_MAIN(tests)
