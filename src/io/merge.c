@@ -1,6 +1,8 @@
 /* raytracer -merge: assembles part images (-region, -tile) into the full image. Every
  * part is read and checked before anything is written, so a refused merge writes
- * nothing. */
+ * nothing. Each part is copied into the full image's bytes as soon as it is read and
+ * checked, and freed: one part's pixels are held at a time, and the full image is a
+ * byte image (rt/image.h) that the encoder only copies. */
 #include "rt/image.h"
 
 #include <stdlib.h>
@@ -9,7 +11,6 @@
 /* The part's rectangle in the full image's top-left coordinates. */
 typedef struct Part {
     const char *path;
-    Image img;
     int x0, y0, x1, y1; /* columns x0..x1-1, rows y0..y1-1 from the top */
 } Part;
 
@@ -58,37 +59,42 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
         return false;
     }
     bool ok = true;
-    int loaded = 0;
     int fw = 0, fh = 0;
     long long area = 0;
+    Image full;
+    memset(&full, 0, sizeof full);
     for (int i = 0; i < n && ok; i++) {
         Part *p = &parts[i];
         p->path = paths[i];
         SrcLoc loc = {p->path, 0, 0};
-        if (!image_read(&p->img, p->path, diag)) {
+        Image img;
+        if (!image_read(&img, p->path, diag)) {
             ok = false;
             break;
         }
-        loaded++;
-        if (!p->img.has_region) {
+        if (!img.has_region) {
             diag_error(diag, &loc, "not a part image: it has no region record (write parts "
                        "with -region or -tile)");
+            image_free(&img);
             ok = false;
             break;
         }
-        const ImageRegion *r = &p->img.region;
+        const ImageRegion *r = &img.region;
         p->x0 = r->x;
         p->y0 = r->y;
-        p->x1 = r->x + p->img.width;
-        p->y1 = r->y + p->img.height;
+        p->x1 = r->x + img.width;
+        p->y1 = r->y + img.height;
         if (i == 0) {
             fw = r->full_width;
             fh = r->full_height;
+            if (!image_init_bytes(&full, fw, fh)) {
+                diag_error(diag, NULL, "out of memory for a %dx%d image", fw, fh);
+                ok = false;
+            }
         } else if (r->full_width != fw || r->full_height != fh) {
             diag_error(diag, &loc, "part of a %dx%d image, but %s is part of a %dx%d image",
                        r->full_width, r->full_height, parts[0].path, fw, fh);
             ok = false;
-            break;
         }
         for (int j = 0; j < i && ok; j++) {
             if (rects_overlap(p, &parts[j])) {
@@ -99,7 +105,17 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
                 ok = false;
             }
         }
-        area += (long long)p->img.width * p->img.height;
+        /* Inside the full image (image_read checked the record) and disjoint from the
+         * parts before it: its pixels go to their place now. Decoded pixels are
+         * byte / 255, which quantise back to the same byte. */
+        for (int y = 0; ok && y < img.height; y++) {
+            /* Image rows count from the bottom, regions from the top. */
+            int fy = fh - 1 - (p->y0 + (img.height - 1 - y));
+            for (int x = 0; x < img.width; x++)
+                image_put(&full, p->x0 + x, fy, image_get(&img, x, y));
+        }
+        image_free(&img);
+        area += (long long)(p->x1 - p->x0) * (p->y1 - p->y0);
     }
     /* Inside the full image and pairwise disjoint: they cover it exactly when the areas
      * add up to its size. */
@@ -115,29 +131,9 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
                        "written", n, fw, fh);
         ok = false;
     }
-    Image full;
-    memset(&full, 0, sizeof full);
-    if (ok && !image_init(&full, fw, fh)) {
-        diag_error(diag, NULL, "out of memory for a %dx%d image", fw, fh);
-        ok = false;
-    }
-    if (ok) {
-        /* Decoded pixels are byte / 255, which quantise back to the same byte. */
-        for (int i = 0; i < n; i++) {
-            const Part *p = &parts[i];
-            for (int y = 0; y < p->img.height; y++) {
-                /* Image rows count from the bottom, regions from the top. */
-                int fy = fh - 1 - (p->y0 + (p->img.height - 1 - y));
-                memcpy(&full.pixels[(size_t)fy * (size_t)fw + (size_t)p->x0],
-                       &p->img.pixels[(size_t)y * (size_t)p->img.width],
-                       (size_t)p->img.width * sizeof(Vec3));
-            }
-        }
+    if (ok)
         ok = image_write(&full, out, diag);
-    }
     image_free(&full);
-    for (int i = 0; i < loaded; i++)
-        image_free(&parts[i].img);
     free(parts);
     return ok;
 }
