@@ -191,11 +191,20 @@ static void film_draw_samples(const Film *f, int x, int y)
     }
 }
 
+/* The first row (or column) of the packet tile holding row (column) v >= 0. */
+static int film_grid_floor(int v) { return v - v % TILE; }
+
 static void film_band(void *user, RenderCtx *ctx, int band)
 {
     const Film *f = user;
     const FilmConfig *c = f->cfg;
-    int y0 = f->r0 + band * TILE, y1 = y0 + TILE < f->r1 ? y0 + TILE : f->r1;
+    /* Bands and tiles lie on the full image's grid of TILE x TILE packet tiles (rows
+     * and columns counted from 0 at the bottom left, as render_image's): a rectangle,
+     * a -tile band or a strip traces the same packets as the whole render wherever its
+     * edges lie on that grid, and cuts only the tiles its edges cross. */
+    int by = film_grid_floor(f->r0) + band * TILE;
+    int y0 = by > f->r0 ? by : f->r0, y1 = by + TILE < f->r1 ? by + TILE : f->r1;
+    int bx = film_grid_floor(f->sx0);
     uint64_t rays0 = ctx->stats.nonshadow_rays + ctx->stats.shadow_rays;
     Stream st;
     st.n = 0;
@@ -203,24 +212,24 @@ static void film_band(void *user, RenderCtx *ctx, int band)
      * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block). A
      * band of many samples takes long: a stop is noticed at the next tile (the run
      * then returns false and its film is thrown away). */
-    for (int x0 = f->sx0; x0 < f->sx1 && !(f->cancel && *f->cancel); x0 += TILE)
+    for (int x0 = bx; x0 < f->sx1 && !(f->cancel && *f->cancel); x0 += TILE)
         for (int k = 0; k < TILE * TILE; k++) {
             int dx, dy;
             render_tile_order(k, &dx, &dy);
-            int x = x0 + dx, y = y0 + dy;
-            if (x < f->sx1 && y < y1)
+            int x = x0 + dx, y = by + dy;
+            if (x >= f->sx0 && x < f->sx1 && y >= y0 && y < y1)
                 film_queue_pixel(f, ctx, &st, c->sampler, x, y);
         }
     stream_flush(f, ctx, &st);
     if (f->cancel && *f->cancel)
         return; /* a cut band: no refinement, no progress */
     if (c->refine) {
-        for (int x0 = f->sx0; x0 < f->sx1; x0 += TILE)
+        for (int x0 = bx; x0 < f->sx1; x0 += TILE)
             for (int k = 0; k < TILE * TILE; k++) {
                 int dx, dy;
                 render_tile_order(k, &dx, &dy);
-                int x = x0 + dx, y = y0 + dy;
-                if (x < f->sx1 && y < y1 && film_disagrees(f, x, y))
+                int x = x0 + dx, y = by + dy;
+                if (x >= f->sx0 && x < f->sx1 && y >= y0 && y < y1 && film_disagrees(f, x, y))
                     film_queue_pixel(f, ctx, &st, c->refine, x, y);
             }
         stream_flush(f, ctx, &st);
@@ -404,6 +413,17 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     size_t cap = budget / row_bytes;
     if (cap < (size_t)(2 * R + 1))
         cap = (size_t)(2 * R + 1);
+    /* Strips of whole packet bands, so that they cut no packet tile (film_band): the
+     * rows held are rounded down to a multiple of TILE, or up (at most TILE - 1 rows
+     * over the budget) when that would leave a worker without a band of its own or
+     * too few rows for the margins. Below one band's rows (tiny budgets) as they are. */
+    if (cap >= TILE) {
+        size_t down = cap - cap % TILE;
+        int workers = threads > 0 ? threads : render_default_threads();
+        if (down / TILE < (size_t)workers || down < (size_t)(2 * R + TILE))
+            down += TILE;
+        cap = down;
+    }
     if (cap > (size_t)(f.sy1 - f.sy0))
         cap = (size_t)(f.sy1 - f.sy0);
     f.rows_cap = (int)cap;
@@ -432,14 +452,20 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
         /* The strip's output rows: all the rest when the remaining film rows fit,
          * else as many as leave room for their R rows above. */
         int out1 = cfg->y0 + cfg->height;
-        if (f.sy1 - f.y0 > f.rows_cap && f.y0 + f.rows_cap - R < out1)
+        if (f.sy1 - f.y0 > f.rows_cap && f.y0 + f.rows_cap - R < out1) {
             out1 = f.y0 + f.rows_cap - R;
+            /* The traced rows end on a packet band's edge when that still gives an
+             * output row: the next strip's traced rows then start on one too. */
+            int r1 = film_grid_floor(f.y0 + f.rows_cap);
+            if (r1 - R > oy)
+                out1 = r1 - R;
+        }
         int need1 = out1 + R < f.sy1 ? out1 + R : f.sy1;
         f.r0 = f.y0 + f.rows;
         f.r1 = need1;
         if (f.r1 > f.r0) {
             RtStats st;
-            int bands = (f.r1 - f.r0 + TILE - 1) / TILE;
+            int bands = (f.r1 - film_grid_floor(f.r0) + TILE - 1) / TILE;
             double t0 = clock_thread_cpu();
             ok = render_parallel(rt, threads, bands, film_band, &f, &st, cancel);
             cfg->trace_cpu += clock_thread_cpu() - t0;
