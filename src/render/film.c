@@ -11,13 +11,15 @@
 #define TILE RENDER_TILE
 
 /* One strip's worth of samples: film rows y0 .. y0+rows-1 (image rows), columns
- * sx0 .. sx0+fw-1. Pixel p = (y - y0) * fw + (x - sx0) holds count[p] samples in slots
- * of `stride` floats: offset x, y; colour; depth grey and |normal| when wanted. The
- * separable filter's weights towards the 2R+1 columns and rows around (when used) are
- * in their own array, `per` = 2(2R+1) rows of `slots` floats per pixel: row k < 2R+1
- * holds every sample's weight towards column k - R, row 2R+1+k towards row k - R. The
- * batch that computes them writes there in place, and the filter reads the two rows
- * it needs sample after sample. */
+ * sx0 .. sx0+fw-1. Pixel (x, y) holds count[(y - y0) fw + x - sx0] samples; a sample
+ * has `stride` channels: offset x, y; colour; depth grey and |normal| when wanted.
+ * Stored in planes: for each film row, sample slot and channel, a row of fw floats
+ * (one per column), so channel c of sample s of pixel (x, y) is at
+ * ((row * slots + s) * stride + c) * fw + x - sx0. The separable filter's weights
+ * towards the 2R+1 columns and rows around (when used: `per` = 2(2R+1) of them, column
+ * weights first) are planes of their own in the same order. Neighbouring pixels' same
+ * sample and channel lie side by side: the filter sums four output pixels in the four
+ * lanes of a vector (film_filter_quad). */
 typedef struct Film {
     const FilmConfig *cfg;
     const RayTracer *rt;
@@ -29,6 +31,7 @@ typedef struct Film {
     int stride;                 /* floats per sample */
     int off_depth, off_normal;  /* -1: not stored */
     int per;                    /* weights per sample; 0: not precomputed */
+    size_t ss, ws;              /* floats from a sample to the next: data, weights */
     int rows_cap;               /* film rows the buffer holds */
     int y0, rows;               /* film rows held now */
     float *data;
@@ -40,18 +43,21 @@ typedef struct Film {
     volatile int *cancel;       /* the stop flag, polled before every tile as well */
 } Film;
 
+/* Channel 0 of sample s of pixel (x, y); channel c is c * fw floats further, the next
+ * sample ss floats further. */
 static float *film_sample(const Film *f, int x, int y, int s)
 {
-    size_t p = (size_t)(y - f->y0) * (size_t)f->fw + (size_t)(x - f->sx0);
-    return f->data + (p * (size_t)f->slots + (size_t)s) * (size_t)f->stride;
+    size_t r = (size_t)(y - f->y0) * (size_t)f->slots + (size_t)s;
+    return f->data + r * f->ss + (size_t)(x - f->sx0);
 }
 
-/* Row k of the precomputed weights of pixel (x, y) (column weights, then row weights;
- * slots floats each, one per sample). */
-static float *film_weights(const Film *f, int x, int y, int k)
+/* Weight k of sample s of pixel (x, y) (k < 2R+1: towards column x - R + k; then
+ * towards row y - R + (k - 2R - 1)); weight k + 1 is fw floats further, the next
+ * sample ws floats further. */
+static float *film_weights(const Film *f, int x, int y, int s, int k)
 {
-    size_t p = (size_t)(y - f->y0) * (size_t)f->fw + (size_t)(x - f->sx0);
-    return f->weights + (p * (size_t)f->per + (size_t)k) * (size_t)f->slots;
+    size_t r = (size_t)(y - f->y0) * (size_t)f->slots + (size_t)s;
+    return f->weights + r * f->ws + (size_t)k * (size_t)f->fw + (size_t)(x - f->sx0);
 }
 
 static int *film_count(const Film *f, int x, int y)
@@ -73,32 +79,35 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
     Vec3 colors[ACCEL_PACKET_MAX];
     Hit hits[ACCEL_PACKET_MAX];
     raytracer_trace_packet(f->rt, ctx, st->rays, st->n, f->tmin, colors, hits);
+    size_t cs = (size_t)f->fw;
     for (int i = 0; i < st->n; i++) {
         float *d = st->dest[i];
-        d[2] = colors[i].x;
-        d[3] = colors[i].y;
-        d[4] = colors[i].z;
+        d[2 * cs] = colors[i].x;
+        d[3 * cs] = colors[i].y;
+        d[4 * cs] = colors[i].z;
         if (f->off_depth >= 0) {
             Vec3 g = render_depth_color(&hits[i], f->cfg->depth_min, f->cfg->depth_max);
-            d[f->off_depth] = g.x;
-            d[f->off_depth + 1] = g.y;
-            d[f->off_depth + 2] = g.z;
+            float *e = d + (size_t)f->off_depth * cs;
+            e[0] = g.x;
+            e[cs] = g.y;
+            e[2 * cs] = g.z;
         }
         if (f->off_normal >= 0) {
             Vec3 n = render_normal_color(&hits[i]);
-            d[f->off_normal] = n.x;
-            d[f->off_normal + 1] = n.y;
-            d[f->off_normal + 2] = n.z;
+            float *e = d + (size_t)f->off_normal * cs;
+            e[0] = n.x;
+            e[cs] = n.y;
+            e[2 * cs] = n.z;
         }
     }
     st->n = 0;
 }
 
 /* The separable filter's weights of the n samples at offsets xy of pixel (x, y):
- * towards the 2R+1 columns and rows around, at offsets (k - R) + position - 0.5, a row
- * of all samples per column or row offset, computed straight into their place in
- * batches (one call for many weights: the Gaussian's vectorise). Each argument is
- * (position - 0.5) - R in double, plus k, rounded to float once. */
+ * towards the 2R+1 columns and rows around, at offsets (k - R) + position - 0.5,
+ * computed in batches (one call for many weights: the Gaussian's vectorise), a run of
+ * all samples per column or row offset, then stored into their planes. Each argument
+ * is (position - 0.5) - R in double, plus k, rounded to float once. */
 typedef double FilmV4d __attribute__((vector_size(32)));
 typedef float FilmV4f __attribute__((vector_size(16)));
 
@@ -110,7 +119,7 @@ static void film_sample_weights(const Film *f, int x, int y, int n, const float 
     if (n == f->slots && n % 4 == 0 && n * per <= ARGS) {
         /* The common case: the pixel's whole block of weights in one batch, the
          * arguments four samples at a time. */
-        float arg[ARGS];
+        float arg[ARGS], w[ARGS];
         for (int i = 0; i < n; i++) {
             base[0][i] = (double)xy[2 * i] - 0.5 - (double)R;
             base[1][i] = (double)xy[2 * i + 1] - 0.5 - (double)R;
@@ -126,10 +135,17 @@ static void film_sample_weights(const Film *f, int x, int y, int n, const float 
                 memcpy(arg + k * n + i, &a, sizeof a);
             }
         }
-        filter_weights_1d(f->cfg->filter, arg, film_weights(f, x, y, 0), n * per);
+        filter_weights_1d(f->cfg->filter, arg, w, n * per);
+        size_t ws = f->ws;
+        for (int k = 0; k < per; k++) {
+            float *d = film_weights(f, x, y, 0, k);
+            const float *wk = w + k * n;
+            for (int i = 0; i < n; i++, d += ws)
+                *d = wk[i];
+        }
         return;
     }
-    float arg[CHUNK];
+    float arg[CHUNK], w[CHUNK];
     for (int i0 = 0; i0 < n; i0 += CHUNK) {
         int m = n - i0 < CHUNK ? n - i0 : CHUNK;
         for (int i = 0; i < m; i++) {
@@ -141,7 +157,9 @@ static void film_sample_weights(const Film *f, int x, int y, int n, const float 
             double dk = (double)(k >= side ? k - side : k);
             for (int i = 0; i < m; i++)
                 arg[i] = (float)(b[i] + dk);
-            filter_weights_1d(f->cfg->filter, arg, film_weights(f, x, y, k) + i0, m);
+            filter_weights_1d(f->cfg->filter, arg, w, m);
+            for (int i = 0; i < m; i++)
+                *film_weights(f, x, y, i0 + i, k) = w[i];
         }
     }
 }
@@ -166,7 +184,7 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
         for (int i = i0; i < i0 + m; i++) {
             float *d = film_sample(f, x, y, i);
             d[0] = xy[2 * i];
-            d[1] = xy[2 * i + 1];
+            d[f->fw] = xy[2 * i + 1];
             st->dest[st->n++] = d;
         }
         i0 += m;
@@ -181,12 +199,13 @@ static bool film_disagrees(const Film *f, int x, int y)
     int n = *film_count(f, x, y);
     float lo[3], hi[3];
     for (int s = 0; s < n; s++) {
-        const float *c = film_sample(f, x, y, s) + 2;
+        const float *d = film_sample(f, x, y, s);
         for (int k = 0; k < 3; k++) {
-            if (s == 0 || c[k] < lo[k])
-                lo[k] = c[k];
-            if (s == 0 || c[k] > hi[k])
-                hi[k] = c[k];
+            float c = d[(size_t)(2 + k) * (size_t)f->fw];
+            if (s == 0 || c < lo[k])
+                lo[k] = c;
+            if (s == 0 || c > hi[k])
+                hi[k] = c;
         }
     }
     for (int k = 0; k < 3 && n > 0; k++)
@@ -211,14 +230,15 @@ static void film_draw_samples(const Film *f, int x, int y)
     int maxx = c->full_width * z - 1, maxy = c->full_height * z - 1;
     for (int s = 0; s < n; s++) {
         const float *d = film_sample(f, x, y, s);
+        size_t cs = (size_t)f->fw;
         int X = (int)floorf(((float)x + d[0]) * (float)z);
-        int Y = (int)floorf(((float)y + d[1]) * (float)z);
+        int Y = (int)floorf(((float)y + d[cs]) * (float)z);
         X = X > maxx ? maxx : X;
         Y = Y > maxy ? maxy : Y;
         X -= c->x0 * z;
         Y -= c->y0 * z;
         if (X >= bx && X < bx + z && Y >= by && Y < by + z)
-            image_set(c->samples, X, Y, v3(d[2], d[3], d[4]));
+            image_set(c->samples, X, Y, v3(d[2 * cs], d[3 * cs], d[4 * cs]));
     }
 }
 
@@ -281,75 +301,67 @@ static inline float film_weight(const Film *f, const float *d, int a, int b, int
     if (f->table)
         return f->table[((a - i + R) * (2 * R + 1) + (b - j + R)) * f->slots + s];
     if (f->per)
-        return film_weights(f, a, b, a - i + R)[s] * film_weights(f, a, b, 2 * R + 1 + b - j + R)[s];
+        return *film_weights(f, a, b, s, a - i + R) *
+               *film_weights(f, a, b, s, 2 * R + 1 + b - j + R);
     /* The exact offset from the centre of pixel (i, j), rounded to float once. */
     float dx = (float)((double)(a - i) + (double)d[0] - 0.5);
-    float dy = (float)((double)(b - j) + (double)d[1] - 0.5);
+    float dy = (float)((double)(b - j) + (double)d[f->fw] - 0.5);
     return filter_weight(f->cfg->filter, dx, dy);
 }
 
-/* The colour sums of two neighbouring output pixels (i, j) and (i + 1, j) whose
- * columns of support lie inside the image, in the plain case (colour only, no adaptive
- * shares; fixed or separable weights): the terms and their order are film_filter_row's
- * for each pixel, but the two pixels' sums are interleaved. Each sum is a chain of
- * dependent additions (9 x 16 terms for the Gaussian 0.4 with 16 samples) whose latency,
- * not the work, bounded the filtering; two independent chains run at once. */
-static void film_filter_pair(const Film *f, int i, int j, int b0, int b1, Vec3 sum[2],
-                             float wsum[2])
+/* The colour sums of four neighbouring output pixels (i .. i+3, j) whose columns of
+ * support lie inside the image, in the plain case (colour only, every pixel with the
+ * sampler's count; fixed or separable weights), one pixel per vector lane: each lane
+ * adds its own pixel's terms in film_filter_row's order with the same float
+ * operations, so the same bits, and the four sums (the dependent additions of 9 x 16
+ * terms for the Gaussian 0.4 with 16 samples, latency-bound one pixel at a time) run
+ * side by side. */
+static void film_filter_quad(const Film *f, int i, int j, int b0, int b1, FilmV4f sum[3],
+                             FilmV4f *wsum)
 {
-    int R = f->R, side = 2 * R + 1, stride = f->stride;
-    Vec3 s0 = v3(0, 0, 0), s1 = v3(0, 0, 0);
-    float w0s = 0.0f, w1s = 0.0f;
+    int R = f->R, side = 2 * R + 1, n = f->slots;
+    size_t cs = (size_t)f->fw;
+    FilmV4f sr = {0, 0, 0, 0}, sg = sr, sb = sr, sw = sr;
     for (int ta = 0; ta < side; ta++) {
-        int a = i - R + ta; /* pixel i's column ta; pixel i + 1's is a + 1 */
+        int a = i - R + ta; /* lane l's column ta is a + l */
         for (int b = b0; b <= b1; b++) {
-            int n0 = *film_count(f, a, b), n1 = *film_count(f, a + 1, b);
-            const float *d0 = film_sample(f, a, b, 0), *d1 = film_sample(f, a + 1, b, 0);
-            const float *wx0, *wy0, *wx1, *wy1;
+            const float *d = film_sample(f, a, b, 0);
+            FilmV4f c0, c1, c2, w, wy;
             if (f->per) {
-                wx0 = film_weights(f, a, b, ta);
-                wy0 = film_weights(f, a, b, side + b - j + R);
-                wx1 = film_weights(f, a + 1, b, ta);
-                wy1 = film_weights(f, a + 1, b, side + b - j + R);
+                const float *wx = film_weights(f, a, b, 0, ta);
+                const float *wyp = film_weights(f, a, b, 0, side + b - j + R);
+                for (int s = 0; s < n; s++, d += f->ss, wx += f->ws, wyp += f->ws) {
+                    memcpy(&w, wx, sizeof w);
+                    memcpy(&wy, wyp, sizeof wy);
+                    w *= wy;
+                    memcpy(&c0, d + 2 * cs, sizeof c0);
+                    memcpy(&c1, d + 3 * cs, sizeof c1);
+                    memcpy(&c2, d + 4 * cs, sizeof c2);
+                    sr += c0 * w;
+                    sg += c1 * w;
+                    sb += c2 * w;
+                    sw += w;
+                }
             } else {
-                /* Fixed positions: both pixels' weights from the same table row. */
-                wx0 = wx1 = f->table + (ta * side + (b - j + R)) * f->slots;
-                wy0 = wy1 = NULL;
-            }
-            int n = n0 < n1 ? n0 : n1, s = 0;
-            for (; s < n; s++, d0 += stride, d1 += stride) {
-                float w0 = wy0 ? wx0[s] * wy0[s] : wx0[s];
-                float w1 = wy1 ? wx1[s] * wy1[s] : wx1[s];
-                s0.x += d0[2] * w0;
-                s1.x += d1[2] * w1;
-                s0.y += d0[3] * w0;
-                s1.y += d1[3] * w1;
-                s0.z += d0[4] * w0;
-                s1.z += d1[4] * w1;
-                w0s += w0;
-                w1s += w1;
-            }
-            /* Unequal counts (not in the plain case today): the rest of each, in order. */
-            for (int t = s; t < n0; t++, d0 += stride) {
-                float w0 = wy0 ? wx0[t] * wy0[t] : wx0[t];
-                s0.x += d0[2] * w0;
-                s0.y += d0[3] * w0;
-                s0.z += d0[4] * w0;
-                w0s += w0;
-            }
-            for (int t = s; t < n1; t++, d1 += stride) {
-                float w1 = wy1 ? wx1[t] * wy1[t] : wx1[t];
-                s1.x += d1[2] * w1;
-                s1.y += d1[3] * w1;
-                s1.z += d1[4] * w1;
-                w1s += w1;
+                /* Fixed positions: all four pixels weigh their samples alike. */
+                const float *t = f->table + (ta * side + (b - j + R)) * f->slots;
+                for (int s = 0; s < n; s++, d += f->ss) {
+                    w = (FilmV4f){t[s], t[s], t[s], t[s]};
+                    memcpy(&c0, d + 2 * cs, sizeof c0);
+                    memcpy(&c1, d + 3 * cs, sizeof c1);
+                    memcpy(&c2, d + 4 * cs, sizeof c2);
+                    sr += c0 * w;
+                    sg += c1 * w;
+                    sb += c2 * w;
+                    sw += w;
+                }
             }
         }
     }
-    sum[0] = s0;
-    sum[1] = s1;
-    wsum[0] = w0s;
-    wsum[1] = w1s;
+    sum[0] = sr;
+    sum[1] = sg;
+    sum[2] = sb;
+    *wsum = sw;
 }
 
 /* Output row (out0 + job) of the rectangle: every pixel is the weighted average of the
@@ -367,20 +379,20 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
     /* The colour-only case without adaptive shares has its own loops (the common one,
      * and most of the filtering time); both paths add the same terms in the same order. */
     bool plain = !adaptive && f->off_depth < 0 && f->off_normal < 0;
-    int stride = f->stride;
+    size_t ss = f->ss, cs = (size_t)f->fw;
     for (int i = c->x0; i < c->x0 + c->width; i++) {
-        if (plain && (f->per || f->table) && i + 1 < c->x0 + c->width && i - R >= 0 &&
-            i + 1 + R <= c->full_width - 1) {
-            Vec3 sum2[2];
-            float wsum2[2];
-            film_filter_pair(f, i, j, b0, b1, sum2, wsum2);
-            for (int k = 0; k < 2; k++)
+        if (plain && (f->per || f->table) && i + 3 < c->x0 + c->width && i - R >= 0 &&
+            i + 3 + R <= c->full_width - 1) {
+            FilmV4f sum4[3], wsum4;
+            film_filter_quad(f, i, j, b0, b1, sum4, &wsum4);
+            for (int k = 0; k < 4; k++) {
+                float w = wsum4[k];
                 if (c->color)
                     image_set(c->color, i + k - c->x0, j - c->y0,
-                              wsum2[k] != 0.0f ? v3(sum2[k].x / wsum2[k], sum2[k].y / wsum2[k],
-                                                    sum2[k].z / wsum2[k])
-                                               : v3(0, 0, 0));
-            i++;
+                              w != 0.0f ? v3(sum4[0][k] / w, sum4[1][k] / w, sum4[2][k] / w)
+                                        : v3(0, 0, 0));
+            }
+            i += 3;
             continue;
         }
         int a0 = i - R > 0 ? i - R : 0;
@@ -392,42 +404,43 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
                 int n = *film_count(f, a, b);
                 const float *d = film_sample(f, a, b, 0);
                 if (plain && f->per) {
-                    const float *wx = film_weights(f, a, b, a - i + R);
-                    const float *wy = film_weights(f, a, b, 2 * R + 1 + b - j + R);
-                    for (int s = 0; s < n; s++, d += stride) {
-                        float w = wx[s] * wy[s];
-                        sum.x += d[2] * w;
-                        sum.y += d[3] * w;
-                        sum.z += d[4] * w;
+                    const float *wx = film_weights(f, a, b, 0, a - i + R);
+                    const float *wy = film_weights(f, a, b, 0, 2 * R + 1 + b - j + R);
+                    for (int s = 0; s < n; s++, d += ss, wx += f->ws, wy += f->ws) {
+                        float w = *wx * *wy;
+                        sum.x += d[2 * cs] * w;
+                        sum.y += d[3 * cs] * w;
+                        sum.z += d[4 * cs] * w;
                         wsum += w;
                     }
                     continue;
                 }
                 if (plain && f->table) {
                     const float *t = f->table + ((a - i + R) * (2 * R + 1) + (b - j + R)) * f->slots;
-                    for (int s = 0; s < n; s++, d += stride) {
+                    for (int s = 0; s < n; s++, d += ss) {
                         float w = t[s];
-                        sum.x += d[2] * w;
-                        sum.y += d[3] * w;
-                        sum.z += d[4] * w;
+                        sum.x += d[2 * cs] * w;
+                        sum.y += d[3 * cs] * w;
+                        sum.z += d[4 * cs] * w;
                         wsum += w;
                     }
                     continue;
                 }
                 /* Adaptive: each pixel weighs as one pixel's area, however many samples. */
                 float share = adaptive ? 1.0f / (float)n : 1.0f;
-                for (int s = 0; s < n; s++, d += stride) {
+                for (int s = 0; s < n; s++, d += ss) {
                     float w = film_weight(f, d, a, b, i, j, s);
                     if (adaptive)
                         w *= share;
-                    sum = v3_add(sum, v3_scale(v3(d[2], d[3], d[4]), w));
-                    if (f->off_depth >= 0)
-                        sum_d = v3_add(sum_d, v3_scale(v3(d[f->off_depth], d[f->off_depth + 1],
-                                                          d[f->off_depth + 2]), w));
-                    if (f->off_normal >= 0)
-                        sum_n = v3_add(sum_n,
-                                       v3_scale(v3(d[f->off_normal], d[f->off_normal + 1],
-                                                   d[f->off_normal + 2]), w));
+                    sum = v3_add(sum, v3_scale(v3(d[2 * cs], d[3 * cs], d[4 * cs]), w));
+                    if (f->off_depth >= 0) {
+                        const float *e = d + (size_t)f->off_depth * cs;
+                        sum_d = v3_add(sum_d, v3_scale(v3(e[0], e[cs], e[2 * cs]), w));
+                    }
+                    if (f->off_normal >= 0) {
+                        const float *e = d + (size_t)f->off_normal * cs;
+                        sum_n = v3_add(sum_n, v3_scale(v3(e[0], e[cs], e[2 * cs]), w));
+                    }
                     wsum += w;
                 }
             }
@@ -513,6 +526,8 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     } else if (cfg->filter->ops->weight_1d && R > 0) {
         f.per = 2 * (2 * R + 1);
     }
+    f.ss = (size_t)f.stride * (size_t)f.fw;
+    f.ws = (size_t)f.per * (size_t)f.fw;
 
     /* Strip height from the budget; at least 2R + 1 rows so a strip makes progress. */
     size_t budget = cfg->budget ? cfg->budget : FILM_DEFAULT_BUDGET;
