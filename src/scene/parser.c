@@ -30,6 +30,11 @@ typedef struct Parser {
      * stack, so memory follows the actual content, never the declared counts. */
     Object3D **stack;
     size_t stack_len, stack_cap;
+    /* The first top-level block of each kind (line 0: none yet), for the warning on a
+     * second one: kind 0 the camera (either kind), then Background, Lights, Materials,
+     * Group, in the order of k_repeatable. */
+    int first_line[5];
+    const char *first_name[5];
 } Parser;
 
 /* ---- error helpers ---------------------------------------------------------------- */
@@ -1121,6 +1126,33 @@ static bool parse_materials(Parser *p)
 
 /* ---- file ------------------------------------------------------------------------- */
 
+/* A second top-level block of a kind replaces the first (a Background only the fields
+ * it sets), as in the course's parser; since that is rarely meant (two scenes pasted
+ * together, a block copied to be edited), it gets a warning at the second block. */
+static void note_top_block(Parser *p, const Token *t)
+{
+    static const char *const kinds[5][2] = {
+        {"OrthographicCamera", "PerspectiveCamera"}, {"Background", NULL}, {"Lights", NULL},
+        {"Materials", NULL}, {"Group", NULL}};
+    for (int k = 0; k < 5; k++)
+        for (int j = 0; j < 2 && kinds[k][j]; j++) {
+            if (!lex_is(t, kinds[k][j]))
+                continue;
+            if (p->first_line[k] == 0) {
+                p->first_line[k] = t->loc.line;
+                p->first_name[k] = kinds[k][j];
+            } else if (k == 0) {
+                diag_warning(p->diag, &t->loc, "a second camera (%s): it overrides the %s "
+                             "at line %d", kinds[k][j], p->first_name[k], p->first_line[k]);
+            } else {
+                diag_warning(p->diag, &t->loc, "a second %s block: it overrides the one at "
+                             "line %d%s", kinds[k][j], p->first_line[k],
+                             k == 1 ? " (the fields it sets)" : "");
+            }
+            return;
+        }
+}
+
 bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
                  const char *base_dir, Diag *diag)
 {
@@ -1139,6 +1171,7 @@ bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
         }
         if (lex_eof(&t))
             break;
+        note_top_block(&p, &t);
         if (lex_is(&t, "OrthographicCamera"))
             ok = parse_camera(&p, false);
         else if (lex_is(&t, "PerspectiveCamera"))

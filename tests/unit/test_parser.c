@@ -484,6 +484,56 @@ static void test_repeated_blocks_replace(void)
     scene_free(s);
 }
 
+/* A second top-level block of a kind replaces the first (above) and gets a located
+ * warning naming the line of the first; a single block of each kind gets none. */
+static void test_repeated_blocks_warn(void)
+{
+    static const char text[] =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Background { color 1 1 1 }\n"
+        "Lights { numLights 0 }\n"
+        "Materials { numMaterials 1 PhongMaterial { } }\n"
+        "Group { numObjects 0 }\n"
+        "  PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+        "Background { ambientLight 0.5 0.5 0.5 }\n"
+        "Lights { numLights 0 }\n"
+        "Materials { numMaterials 1 PhongMaterial { } }\n"
+        "Group { numObjects 0 } Group { numObjects 0 }\n";
+    char out[2048] = "";
+    FILE *f = fmemopen(out, sizeof out - 1, "w");
+    CHECK(f != NULL);
+    if (!f)
+        return;
+    Diag d;
+    diag_init(&d, f);
+    Scene *sc = scene_load_string(text, "t.txt", NULL, &d);
+    fclose(f);
+    CHECK(sc != NULL);
+    CHECK(sc && sc->camera.kind == CAMERA_PERSPECTIVE);
+    scene_free(sc);
+    CHECK_INT(d.errors, 0);
+    CHECK_INT(d.warnings, 6);
+    CHECK_CONTAINS(out, "t.txt:6:3: warning: a second camera (PerspectiveCamera): it overrides "
+                        "the OrthographicCamera at line 1\n");
+    CHECK_CONTAINS(out, "t.txt:7:1: warning: a second Background block: it overrides the one "
+                        "at line 2");
+    CHECK_CONTAINS(out, "t.txt:8:1: warning: a second Lights block: it overrides the one at "
+                        "line 3\n");
+    CHECK_CONTAINS(out, "t.txt:9:1: warning: a second Materials block: it overrides the one "
+                        "at line 4\n");
+    CHECK_CONTAINS(out, "t.txt:10:1: warning: a second Group block: it overrides the one at "
+                        "line 5\n");
+    CHECK_CONTAINS(out, "t.txt:10:24: warning: a second Group block: it overrides the one at "
+                        "line 5\n");
+    /* one block of each kind: no warning */
+    Scene *one = load("OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+                      "Background { color 1 1 1 } Lights { numLights 0 }\n"
+                      "Materials { numMaterials 1 PhongMaterial { } } Group { numObjects 0 }\n");
+    CHECK(one != NULL);
+    scene_free(one);
+    CHECK_INT(g_diag.warnings, 0);
+}
+
 static void test_primitives_values(void)
 {
     Scene *s = load("Materials { numMaterials 1 PhongMaterial { } }\n"
@@ -926,6 +976,7 @@ static const TestCase tests[] = {
     {"material_index_state", test_material_index_state},
     {"procedural_materials", test_procedural_materials},
     {"repeated_blocks_replace", test_repeated_blocks_replace},
+    {"repeated_blocks_warn", test_repeated_blocks_warn},
     {"primitives_values", test_primitives_values},
     {"obj_file_resolution", test_obj_file_resolution},
     {"errors_located", test_errors_located},
