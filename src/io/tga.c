@@ -48,13 +48,32 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     return true;
 }
 
+/* Whether the 18-byte header holds values some TGA file has: colour map type 0 or 1,
+ * a defined image type, a pixel depth TGA knows and no interleaving bits. TGA has no
+ * signature, so it is the fallback for every file the other codecs do not recognise:
+ * text or another format named .tga must be "not a TGA image", not a complaint about
+ * one of its fields. */
+static bool tga_header_plausible(const uint8_t *d)
+{
+    unsigned cmap_type = d[1], type = d[2], bpp = d[16], desc = d[17];
+    static const unsigned types[] = {0, 1, 2, 3, 9, 10, 11, 32, 33};
+    bool type_ok = false;
+    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
+        type_ok = type_ok || type == types[i];
+    bool bpp_ok = type == 0 || bpp == 8 || bpp == 15 || bpp == 16 || bpp == 24 || bpp == 32;
+    return cmap_type <= 1 && type_ok && bpp_ok && (desc & 0xc0) == 0;
+}
+
 static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
 {
     img->width = img->height = 0;
     img->pixels = NULL;
     img->has_region = false;
     if (len < TGA_HEADER)
-        return codec_fail(err, errlen, "not a TGA file (only %zu bytes)", len);
+        return codec_fail(err, errlen, "not a TGA image (nor PPM or PNG): only %zu bytes", len);
+    if (!tga_header_plausible(d))
+        return codec_fail(err, errlen, "not a TGA image (nor PPM or PNG): its first bytes are "
+                          "no image header");
     unsigned id_len = d[0], cmap_type = d[1], type = d[2];
     int w = d[12] | (d[13] << 8), h = d[14] | (d[15] << 8);
     unsigned bpp = d[16], desc = d[17];

@@ -439,6 +439,7 @@ static void test_bad_merges(void)
     expect_refused(dir, (const char *[]){top, NULL}, "merged.tga", "do not cover");
     expect_refused(dir, (const char *[]){top, bottom, whole, NULL}, whole, "no region record");
     expect_refused(dir, (const char *[]){top, junk, NULL}, junk, "cannot read image");
+    expect_refused(dir, (const char *[]){top, junk, NULL}, junk, "not a TGA image");
     char missing[PATH_MAX];
     e2e_join(missing, sizeof missing, dir, "missing.tga");
     expect_refused(dir, (const char *[]){missing, top, NULL}, missing, "cannot read image");

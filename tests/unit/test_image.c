@@ -261,6 +261,27 @@ static void test_tga_decode_rejects(void)
     CHECK(!tga_decode(buf, sizeof buf, &img, err, sizeof err));
     CHECK_CONTAINS(err, "truncated");
 
+    /* Files that are no TGA at all (TGA has no signature: it is the fallback) are
+     * called that, not refused for one of their fields. */
+    static const char *const not_tga[] = {
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 }\n", /* a scene */
+        "P3\n2 2\n255\n0 0 0 255 255 255 0 0 0 255 255 255\n",    /* ASCII PPM */
+        "\xff\xd8\xff\xe0\x00\x10JFIF\x00\x01\x01\x00\x00\x01\x00\x01\x00\x00", /* JPEG */
+        "GIF89a\x04\x00\x04\x00\x80\x00\x00\x00\x00\x00\xff\xff\xff\x21",
+        "short text\n",
+    };
+    for (size_t i = 0; i < sizeof not_tga / sizeof not_tga[0]; i++) {
+        err[0] = '\0';
+        CHECK(!tga_decode((const uint8_t *)not_tga[i], strlen(not_tga[i]), &img, err,
+                          sizeof err));
+        CHECK_MSG(strstr(err, "not a TGA image") != NULL, "case %zu: %s", i, err);
+    }
+    /* the real TGA variants keep their own messages (above): a TGA stays a TGA */
+    buf[17] = 0xc0; /* interleaving bits: no TGA written since the 1990s */
+    CHECK(!tga_decode(buf, sizeof buf, &img, err, sizeof err));
+    CHECK_CONTAINS(err, "not a TGA image");
+    buf[17] = 0x20;
+
     /* deterministic garbage: never crashes, and any accepted file is complete */
     uint32_t s = 12345u;
     uint8_t junk[200];
