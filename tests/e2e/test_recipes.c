@@ -156,6 +156,45 @@ static void test_tiles_sbatch_fallback(void)
              "-size %s %s -shadows -bounces 2", s.bin, s.root, SIZE_W, SIZE_H);
     if (run_recipe(&s, cmd, "tiles.sbatch (no Slurm)"))
         CHECK_MSG(e2e_count_entries(s.dir) == 3, "tiles.sbatch left its parts behind");
+    /* A folder left by another run (the old shared name frame.tga.parts, with a stale
+     * part of a 6-band split) is not this job's: it is neither read nor removed. */
+    char stale[PATH_MAX], stale_part[PATH_MAX];
+    e2e_join(stale, sizeof stale, s.dir, "frame.tga.parts");
+    CHECK(mkdir(stale, 0755) == 0);
+    CHECK(e2e_write_file(e2e_join(stale_part, sizeof stale_part, stale, "part5.tga"), "x"));
+    snprintf(cmd, sizeof cmd,
+             "TILES=3 RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt frame.tga "
+             "-size %s %s -shadows -bounces 2", s.bin, s.root, SIZE_W, SIZE_H);
+    if (run_recipe(&s, cmd, "tiles.sbatch (no Slurm, 3 bands, a stale folder)"))
+        CHECK_MSG(e2e_count_entries(s.dir) == 4 && e2e_exists(stale_part),
+                  "tiles.sbatch touched another run's folder or left its own");
+    e2e_rmtree(stale);
+    /* -tile and -region are the script's: refused (status 2) before anything runs */
+    static const char *const own[] = {"-tile 0 2", "-region 0 0 8 8"};
+    E2eRun r;
+    for (int i = 0; i < 2; i++) {
+        snprintf(cmd, sizeof cmd,
+                 "RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt other.tga "
+                 "-size %s %s %s", s.bin, s.root, SIZE_W, SIZE_H, own[i]);
+        char full[8 * PATH_MAX];
+        snprintf(full, sizeof full, "cd '%s' && %s", s.dir, cmd);
+        char *argv[] = {(char *)"/bin/sh", (char *)"-c", full, NULL};
+        CHECK(e2e_run(argv, &r));
+        CHECK_MSG(r.status == 2, "tiles.sbatch with %s: exit %d, expected 2", own[i], r.status);
+        CHECK_CONTAINS(r.err, "give no -tile or -region");
+        e2e_run_free(&r);
+    }
+    /* a failed run (a scene error) removes its parts folder too */
+    char bad[PATH_MAX];
+    CHECK(e2e_write_file(e2e_join(bad, sizeof bad, s.dir, "bad.txt"), "garbage\n"));
+    snprintf(cmd, sizeof cmd,
+             "cd '%s' && RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' bad.txt other.tga "
+             "-size %s %s", s.dir, s.bin, s.root, SIZE_W, SIZE_H);
+    char *argv[] = {(char *)"/bin/sh", (char *)"-c", cmd, NULL};
+    CHECK(e2e_run(argv, &r));
+    CHECK_MSG(r.status == 1, "tiles.sbatch with a bad scene: exit %d, expected 1", r.status);
+    e2e_run_free(&r);
+    CHECK_MSG(e2e_count_entries(s.dir) == 4, "a failed tiles.sbatch left its parts behind");
     e2e_rmtree(s.dir);
 }
 
@@ -195,7 +234,11 @@ static void test_tiles_sbatch_array_mode(void)
             char merge[2048];
             snprintf(merge, sizeof merge, "%s", wrap + 7);
             merge[strcspn(merge, "\n")] = '\0';
+            char parts[PATH_MAX];
+            e2e_join(parts, sizeof parts, s.dir, "frame.tga.parts.4242");
+            CHECK_MSG(e2e_exists(parts), "the array job's parts are not in frame.tga.parts.4242");
             run_recipe(&s, merge, "tiles.sbatch (array), merge job");
+            CHECK_MSG(!e2e_exists(parts), "the merge job left the parts folder behind");
         }
         free(args);
     }
