@@ -1,7 +1,8 @@
 # `make install` and `make uninstall` (README.txt: Installing). PREFIX (default
 # /usr/local) and DESTDIR (staging root for packagers and tests) as in the GNU coding
 # standards. Installs ./raytracer (and ./raytracer-mpi when `make mpi` built it), the
-# manual page man/raytracer.1 and the bash completion completion/raytracer.bash.
+# manual page man/raytracer.1 and the bash completion completion/raytracer.bash (with
+# raytracer-mpi, links to both under its name: "man raytracer-mpi" finds the page).
 PREFIX  ?= /usr/local
 DESTDIR ?=
 BINDIR  ?= $(PREFIX)/bin
@@ -21,11 +22,12 @@ install: all
 	$(Q)$(INSTALL) -m 644 man/raytracer.1 '$(DESTDIR)$(MANDIR)/man1/raytracer.1'
 	$(Q)$(INSTALL) -m 644 completion/raytracer.bash '$(DESTDIR)$(BASHCOMPDIR)/raytracer'
 	$(Q)if [ -n '$(RT_INSTALL_MPI)' ]; then \
-	    ln -sf raytracer '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi'; fi
+	    ln -sf raytracer '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi' && \
+	    ln -sf raytracer.1 '$(DESTDIR)$(MANDIR)/man1/raytracer-mpi.1'; fi
 
 # Removes exactly what install puts there (the folders stay: others share them).
 uninstall:
 	$(say) UNINST $(DESTDIR)$(PREFIX)
 	$(Q)rm -f '$(DESTDIR)$(BINDIR)/raytracer' '$(DESTDIR)$(BINDIR)/raytracer-mpi' \
-	    '$(DESTDIR)$(MANDIR)/man1/raytracer.1' '$(DESTDIR)$(BASHCOMPDIR)/raytracer' \
-	    '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi'
+	    '$(DESTDIR)$(MANDIR)/man1/raytracer.1' '$(DESTDIR)$(MANDIR)/man1/raytracer-mpi.1' \
+	    '$(DESTDIR)$(BASHCOMPDIR)/raytracer' '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi'

@@ -132,6 +132,16 @@ static void test_install_uninstall(void)
     e2e_join(path, sizeof path, dest, "usr/local/bin/raytracer-mpi");
     CHECK_MSG(e2e_exists(path) == have_mpi, "raytracer-mpi %s installed, %s built",
               e2e_exists(path) ? "is" : "is not", have_mpi ? "is" : "is not");
+    /* and with it its manual page: a link to raytracer.1 ("man raytracer-mpi") */
+    e2e_join(path, sizeof path, dest, "usr/local/share/man/man1/raytracer-mpi.1");
+    char target[PATH_MAX] = "";
+    ssize_t tn = readlink(path, target, sizeof target - 1);
+    target[tn > 0 ? tn : 0] = '\0';
+    if (have_mpi)
+        CHECK_MSG(tn > 0 && strcmp(target, "raytracer.1") == 0,
+                  "raytracer-mpi.1 is not a link to raytracer.1 (%s)", tn > 0 ? target : "missing");
+    else
+        CHECK_MSG(tn < 0 && !e2e_exists(path), "raytracer-mpi.1 installed without raytracer-mpi");
 
     if (run_make("uninstall", dest, &r)) {
         for (size_t i = 0; i < sizeof k_installed / sizeof k_installed[0]; i++) {
@@ -140,6 +150,9 @@ static void test_install_uninstall(void)
         }
         e2e_join(path, sizeof path, dest, "usr/local/bin/raytracer-mpi");
         CHECK_MSG(!e2e_exists(path), "make uninstall left raytracer-mpi");
+        e2e_join(path, sizeof path, dest, "usr/local/share/man/man1/raytracer-mpi.1");
+        struct stat lst;
+        CHECK_MSG(lstat(path, &lst) != 0, "make uninstall left raytracer-mpi.1");
     }
     e2e_run_free(&r);
     e2e_rmtree(dest);
