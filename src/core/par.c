@@ -45,11 +45,15 @@ static pthread_once_t g_once = PTHREAD_ONCE_INIT;
 /* Sleeping helpers wait on g_wake under g_sleep_lock; g_sleepers (under g_sleep_lock)
  * counts them. A helper counts itself and checks for a job under g_sleep_lock before
  * it waits, and whoever opens a job (or ends the lingering) takes g_sleep_lock before
- * it looks at g_sleepers, so no wake-up is lost. */
+ * it looks at g_sleepers, so no wake-up is lost. The caller of par_for waiting for
+ * the last chunk a helper holds sleeps on g_done the same way (g_caller_waits, and the
+ * helper finishing the last chunk looks at it under g_sleep_lock). */
 static pthread_mutex_t g_sleep_lock = PTHREAD_MUTEX_INITIALIZER;
 static pthread_cond_t g_wake;
+static pthread_cond_t g_done;   /* the caller of par_for waits on it for the last chunk */
+static bool g_caller_waits;     /* under g_sleep_lock */
 static int g_sleepers;
-static bool g_wake_ok; /* g_wake was initialised (on CLOCK_MONOTONIC) */
+static bool g_wake_ok; /* g_wake and g_done were initialised (on CLOCK_MONOTONIC) */
 
 static inline void cpu_relax(void)
 {
@@ -82,7 +86,7 @@ static void wake_init(void)
     if (pthread_condattr_init(&ca) != 0)
         return;
     g_wake_ok = pthread_condattr_setclock(&ca, CLOCK_MONOTONIC) == 0 &&
-                pthread_cond_init(&g_wake, &ca) == 0;
+                pthread_cond_init(&g_wake, &ca) == 0 && pthread_cond_init(&g_done, &ca) == 0;
     pthread_condattr_destroy(&ca);
 }
 
@@ -97,6 +101,7 @@ static void reset_in_child(void)
     g_running = false;
     pthread_mutex_init(&g_sleep_lock, NULL);
     g_sleepers = 0;
+    g_caller_waits = false;
     wake_init();
 }
 
@@ -137,6 +142,37 @@ static void helper_sleep(void)
     pthread_mutex_unlock(&g_sleep_lock);
 }
 
+/* The caller's sleep until the job's last chunk is done (helper_done wakes it), or a
+ * millisecond at most (the caller rechecks). */
+static void caller_sleep(void)
+{
+    if (!g_wake_ok) {
+        sched_yield();
+        return;
+    }
+    pthread_mutex_lock(&g_sleep_lock);
+    g_caller_waits = true;
+    lock();
+    bool wait = g_job.done < g_job.n;
+    unlock();
+    if (wait) {
+        int64_t until = now_ns() + 1000000LL;
+        struct timespec ts = {(time_t)(until / 1000000000LL), (long)(until % 1000000000LL)};
+        pthread_cond_timedwait(&g_done, &g_sleep_lock, &ts);
+    }
+    g_caller_waits = false;
+    pthread_mutex_unlock(&g_sleep_lock);
+}
+
+/* A helper finished the job's last chunk: wakes the caller if it sleeps. */
+static void helper_done(void)
+{
+    pthread_mutex_lock(&g_sleep_lock);
+    if (g_caller_waits)
+        pthread_cond_signal(&g_done);
+    pthread_mutex_unlock(&g_sleep_lock);
+}
+
 /* Wakes the sleeping helpers (a job opened, or the lingering ended). */
 static void wake_helpers(void)
 {
@@ -162,8 +198,10 @@ static void *helper_main(void *arg)
             unlock();
             fn(ctx, i, worker);
             lock(); /* the release of this unlock publishes the chunk's writes */
-            g_job.done++;
+            bool last = ++g_job.done == g_job.n;
             unlock();
+            if (last && g_wake_ok)
+                helper_done();
             idle_since = -1;
             continue;
         }
@@ -318,7 +356,10 @@ void par_for(int n, ParChunkFn fn, void *ctx)
         g_job.done++;
         unlock();
     }
-    /* Only chunks a helper has taken are waited for; they are short. */
+    /* Only chunks a helper has taken are waited for; they are short, but the helper
+     * running one may lose its CPU to another process for a whole time slice: after a
+     * short spin the caller sleeps until the last chunk is done. */
+    int64_t spin_end = now_ns() + PAR_SPIN_NS;
     for (;;) {
         lock();
         bool all = g_job.done == n;
@@ -330,6 +371,9 @@ void par_for(int n, ParChunkFn fn, void *ctx)
         unlock();
         if (all)
             break;
-        cpu_relax();
+        if (now_ns() < spin_end)
+            cpu_relax();
+        else
+            caller_sleep();
     }
 }
