@@ -1,7 +1,7 @@
 /* The set-up cache of split renders (-cache FILE, docs/distributed.md): the heavy flat
  * arrays a process builds before its first ray (the meshes parsed from OBJ files, the
  * uniform grid's cells and packed triangles), kept in one file so that the other
- * processes of the same split render map them instead of building them again.
+ * processes of the same split render read them instead of building them again.
  *
  * The file is a list of sections, each found by a tag and a 128-bit key that the user
  * of the section makes from everything its arrays depend on (file bytes, options). The
@@ -10,7 +10,8 @@
  * byte. A file that fails any check is not used (the caller builds instead); nothing in
  * it is trusted beyond those checks and the caller's own bounds checks.
  *
- * Sections found are read-only memory of the mapping, valid until the last reference is
+ * Sections found are read-only memory holding the file's bytes (read whole when it is
+ * opened, in rt/bigmem.h memory), valid until the last reference is
  * released (setup_cache_release). Sections added are copied; setup_cache_write writes
  * them (temporary file + rename, so readers see the old file or the new one whole). */
 #ifndef RT_SETUP_CACHE_H
@@ -33,12 +34,12 @@ typedef struct SetupKey {
 /* The section tags. */
 enum { SETUP_TAG_MESH = 1, SETUP_TAG_GRID = 2 };
 
-/* Opens path: maps it when it is a valid cache of this build (a missing file is simply
+/* Opens path: reads it when it is a valid cache of this build (a missing file is simply
  * empty). Never fails for a bad file: why it was not used is kept for
  * setup_cache_note. NULL only when out of memory. The caller holds one reference. */
 SetupCache *setup_cache_open(const char *path);
 void setup_cache_retain(SetupCache *c);
-void setup_cache_release(SetupCache *c);    /* NULL allowed; the last one unmaps */
+void setup_cache_release(SetupCache *c);    /* NULL allowed; the last one frees */
 
 /* Why the file was not used ("" when it was, or was absent: then nothing to say). */
 const char *setup_cache_rejected(const SetupCache *c);

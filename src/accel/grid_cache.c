@@ -1,9 +1,9 @@
 /* The uniform grid in the set-up cache (-cache, rt/setup_cache.h): the arrays a build
  * makes (cell offsets, entries, packed triangles and their boxes, and which table
  * primitive each grid primitive is) are stored once, and later processes use them
- * straight from the mapped file. Everything else of the Grid (the cells' geometry, the
- * planes, the march's tmin factor) is recomputed from the table, as the build does, so
- * the grid is the built one to the bit. */
+ * straight from the cache's memory (the file's bytes). Everything else of the Grid
+ * (the cells' geometry, the planes, the march's tmin factor) is recomputed from the
+ * table, as the build does, so the grid is the built one to the bit. */
 #include "grid_build.h"
 
 #include <stdlib.h>
@@ -123,7 +123,7 @@ Grid *grid_cache_load(const PrimTable *t, SetupCache *c, SetupKey key, Diag *dia
             g->unbounded[g->num_unbounded].xf = t->prims[i].xf;
             g->num_unbounded++;
         }
-    /* The mapped arrays: read-only, never written by the queries (grid_set_packing
+    /* The cache's arrays: read-only, never written by the queries (grid_set_packing
      * copies the entries first). */
     g->cell_start = (uint32_t *)part[PART_START];
     g->cell_items = (uint32_t *)part[PART_ITEMS];

@@ -15,7 +15,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -54,7 +53,7 @@ typedef struct Pending {
 struct SetupCache {
     atomic_int refs;
     char *path;
-    const unsigned char *map;    /* the valid file, or NULL */
+    const unsigned char *map;    /* the valid file's bytes (bigmem), or NULL */
     size_t map_len;
     const CacheSection *sections;
     uint32_t num_sections;
@@ -205,12 +204,29 @@ SetupCache *setup_cache_open(const char *path)
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
         reject(c, "not a regular file");
     } else if (st.st_size > 0 && (uint64_t)st.st_size < SIZE_MAX / 2) {
+        /* Read into memory of our own rather than mapped: the file's pages would be
+         * mapped one fault at a time (on the virtual machines we measure, 4 MB cost
+         * 2.5-3 ms mapped and touched, 1.1 ms read into huge pages), and a copy cannot
+         * change under us after the checks (another program writing the file in
+         * place). */
         size_t n = (size_t)st.st_size;
-        void *m = mmap(NULL, n, PROT_READ, MAP_PRIVATE, fd, 0);
-        if (m == MAP_FAILED) {
-            reject(c, "cannot be mapped");
+        unsigned char *m = bigmem_alloc(n);
+        size_t got = 0;
+        while (m && got < n) {
+            ssize_t r = read(fd, m + got, n - got);
+            if (r < 0 && errno == EINTR)
+                continue;
+            if (r <= 0)
+                break;
+            got += (size_t)r;
+        }
+        if (!m) {
+            reject(c, "too big for the memory left");
+        } else if (got < n) {
+            reject(c, "cannot be read whole (truncated while reading?)");
+            bigmem_free(m);
         } else if (!check(c, m, n)) {
-            munmap(m, n);
+            bigmem_free(m);
         } else {
             c->map = m;
             c->map_len = n;
@@ -232,8 +248,7 @@ void setup_cache_release(SetupCache *c)
 {
     if (!c || atomic_fetch_sub(&c->refs, 1) != 1)
         return;
-    if (c->map)
-        munmap((void *)c->map, c->map_len);
+    bigmem_free((void *)c->map);
     for (int i = 0; i < c->num_pending; i++)
         free(c->pending[i].data);
     free(c->pending);
