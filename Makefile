@@ -4,6 +4,7 @@
 #   make asan     the same suite under AddressSanitizer + UndefinedBehaviorSanitizer
 #   make demo     render the showcase scene into demo/
 #   make bench    benchmarks (bench/README)
+#   make static   ./raytracer-static: linked statically, no preview (mk/static.mk)
 #   make clean
 # Options: V=1 (show commands), WERROR=1 (warnings are errors; CI), PREVIEW=0|1 (force
 # the OpenGL preview off/on; default: on when pkg-config finds GL, GLUT and OSMesa),
@@ -136,7 +137,7 @@ $(BUILD)/tools/%: $(BUILD)/tools/%.o $(LIB) $(FLAGS_FILE)
 # this build's binaries.
 test: $(BIN) tools $(TEST_BINS)
 	$(Q)RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
-	    RT_MPI_BIN=$(abspath $(MPI_BIN)) \
+	    RT_MPI_BIN=$(abspath $(MPI_BIN)) RT_STATIC_BIN=$(abspath raytracer-static) \
 	    sh tests/run_tests.sh $(TEST_BINS)
 
 asan:
@@ -146,7 +147,8 @@ demo: $(BIN)
 	$(Q)sh scenes/demo.sh $(abspath $(BIN))
 
 clean:
-	rm -rf build build-asan build-clang build-fuzz build-tsan raytracer raytracer-mpi demo
+	rm -rf build build-asan build-clang build-fuzz build-static build-tsan raytracer \
+	    raytracer-mpi raytracer-static demo
 
 # Every dependency file of this build folder, whichever rule (or mk/ fragment) made the
 # object: a header change must rebuild the fuzz replays and benchmark tools too.

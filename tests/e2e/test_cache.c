@@ -2,7 +2,8 @@
  * and every process that maps it render exactly the bytes (and -stats) of a process
  * without it, for every accelerator, threads, tiles, regions and antialiasing; a
  * truncated, damaged, foreign or stale cache is never used and never breaks a render;
- * a cache that cannot be written is a warning; racing writers leave one valid file. */
+ * a cache that cannot be written is a warning; racing writers leave one valid file;
+ * ./raytracer-static, when built, renders the same bytes. */
 #define _GNU_SOURCE /* memmem */
 #include "../harness.h"
 #include "e2e_util.h"
@@ -411,6 +412,64 @@ static void test_cache_racing_writers(void)
     e2e_rmtree(dir);
 }
 
+/* ./raytracer-static (make static: the same program linked statically, for split
+ * renders of many small parts) when it was built, else skipped: line 07 with the
+ * Gaussian (whose margin crosses the parts) as 4 -tile parts with -cache, merged, is
+ * ./raytracer's whole render byte for byte; its cache is its own (another binary's file
+ * is not used). */
+static void test_cache_static_binary(void)
+{
+    const char *bin = getenv("RT_STATIC_BIN");
+    if (!bin || !*bin || access(bin, X_OK) != 0)
+        harness_skip("./raytracer-static not built (make static)");
+    const char *course = e2e_course_or_skip();
+    static const char *const x[] = {"-size", "96", "64", "-jittered_samples", "4",
+                                    "-gaussian_filter", "0.6", NULL};
+    Cmd c;
+    CHECK(cmd_line(&c, course, "07", x));
+    char dir[PATH_MAX], ref[PATH_MAX], merged[PATH_MAX], cache[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "cache_static"));
+    if (harness_failures)
+        return;
+    e2e_join(ref, sizeof ref, dir, "ref.tga");
+    e2e_join(merged, sizeof merged, dir, "merged.tga");
+    e2e_join(cache, sizeof cache, dir, "setup.cache");
+    E2eRun r;
+    char why[512];
+    CHECK_MSG(cmd_run(&c, ref, cache, &r) && r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    char parts[4][PATH_MAX], kbuf[4][4];
+    const char *margv[8] = {"-merge", merged};
+    for (int k = 0; k < 4 && !harness_failures; k++) {
+        snprintf(kbuf[k], sizeof kbuf[k], "%d", k);
+        char name[32];
+        snprintf(name, sizeof name, "part%d.tga", k);
+        e2e_join(parts[k], sizeof parts[k], dir, name);
+        const char *argv[110];
+        int n = 0;
+        for (int i = 0; i < c.n; i++)
+            argv[n++] = c.v[i];
+        const char *tail[] = {"-tile", kbuf[k], "4", "-cache", cache, "-timings",
+                              "-output", parts[k], NULL};
+        for (int i = 0; tail[i]; i++)
+            argv[n++] = tail[i];
+        argv[n] = NULL;
+        CHECK(e2e_run_bin(bin, argv, &r));
+        CHECK_MSG(r.status == 0, "part %d: %s", k, e2e_describe(&r, why, sizeof why));
+        /* The first part finds ./raytracer's file (another build) and writes its own. */
+        const char *want = k == 0 ? "another build" : ": used";
+        CHECK_MSG(strstr(r.err, want) != NULL, "part %d: no '%s' in: %s", k, want, r.err);
+        e2e_run_free(&r);
+        margv[2 + k] = parts[k];
+    }
+    margv[6] = NULL;
+    CHECK(e2e_run_bin(bin, margv, &r));
+    CHECK_MSG(r.status == 0, "merge: %s", e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    CHECK_MSG(same_file(ref, merged), "the merged parts differ from ./raytracer's render");
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"cache_07", test_cache_07},
     {"cache_07_threads1", test_cache_07_threads1},
@@ -431,5 +490,6 @@ static const TestCase tests[] = {
     {"cache_stale", test_cache_stale},
     {"cache_unwritable", test_cache_unwritable},
     {"cache_racing_writers", test_cache_racing_writers},
+    {"cache_static_binary", test_cache_static_binary},
 };
 RT_TEST_MAIN(tests)
