@@ -2,6 +2,7 @@
 #ifndef RT_ARENA_H
 #define RT_ARENA_H
 
+#include <stdbool.h>
 #include <stddef.h>
 
 typedef struct ArenaBlock ArenaBlock;
@@ -28,8 +29,11 @@ void *arena_buffer_new(size_t size);
 void *arena_buffer_resize(void *buf, size_t size);
 void arena_buffer_free(void *buf);            /* NULL allowed */
 /* Makes buf (from arena_buffer_new) size bytes of a's memory, freed with the arena from
- * now on. Unlike arena_alloc the contents are NOT zeroed: the caller overwrites them.
- * NULL when out of memory (buf is then freed). */
-void *arena_adopt_buffer(Arena *a, void *buf, size_t size);
+ * now on, when its pages hold that many; else buf is freed and size fresh bytes of the
+ * arena are returned (a move would copy bytes the caller overwrites anyway, into pages
+ * that are new all the same). *zeroed says which: true for fresh (zero) memory; false
+ * for buf's pages, whose old contents the caller overwrites. NULL when out of memory
+ * (buf is then freed). */
+void *arena_adopt_buffer(Arena *a, void *buf, size_t size, bool *zeroed);
 
 #endif

@@ -28,6 +28,9 @@ void *bigmem_calloc(size_t n, size_t size);
 /* Keeps the first min(old, new) bytes; bytes past the old size are unspecified. NULL
  * when out of memory, and p is then unchanged (still to be freed). p NULL: an alloc. */
 void *bigmem_resize(void *p, size_t size);
+/* How many bytes p's block holds without moving (bigmem_resize up to this size keeps p);
+ * at least the size asked for. */
+size_t bigmem_capacity(const void *p);
 void bigmem_free(void *p);   /* NULL allowed */
 
 /* True when p's memory is a mapping of its own; bigmem_maps_large: whether allocations

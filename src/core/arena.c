@@ -118,10 +118,16 @@ void arena_buffer_free(void *buf)
         bigmem_free(buffer_block(buf));
 }
 
-void *arena_adopt_buffer(Arena *a, void *buf, size_t size)
+void *arena_adopt_buffer(Arena *a, void *buf, size_t size, bool *zeroed)
 {
     if (size == 0)
         size = 1;
+    *zeroed = false;
+    if (buf && size <= SIZE_MAX / 2 && header_size() + size > bigmem_capacity(buffer_block(buf))) {
+        arena_buffer_free(buf);
+        *zeroed = true;
+        return arena_alloc(a, size);
+    }
     char *data = arena_buffer_resize(buf, size);
     if (!data) {
         arena_buffer_free(buf);

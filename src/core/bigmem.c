@@ -127,6 +127,12 @@ void bigmem_free(void *p)
         free(h);
 }
 
+size_t bigmem_capacity(const void *p)
+{
+    const BigmemHeader *h = header_of(p);
+    return h->map_len ? h->map_len - HEADER : h->size;
+}
+
 bool bigmem_is_mapped(const void *p)
 {
     return p && header_of(p)->map_len != 0;

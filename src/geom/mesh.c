@@ -74,15 +74,16 @@ Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
         arena_buffer_free(block);
         return n == 0 ? go : NULL;
     }
-    /* An adopted block holds old bytes (the OBJ text): every triangle is cleared before
-     * it is filled, so padding is zero as from arena_calloc. */
-    Triangle *tris = block ? arena_adopt_buffer(a, block, (size_t)n * sizeof *tris)
+    /* An adopted block may hold old bytes (the OBJ text): every triangle is then
+     * cleared before it is filled, so padding is zero as from arena_calloc. */
+    bool zeroed = true;
+    Triangle *tris = block ? arena_adopt_buffer(a, block, (size_t)n * sizeof *tris, &zeroed)
                            : arena_calloc(a, (size_t)n, sizeof *tris);
     if (!tris)
         return NULL;
     int nchunks = par_threads() > 1 ? n / MESH_CHUNK + (n % MESH_CHUNK != 0) : 1;
     BBox one;
-    MeshJob job = {tris, verts, faces, n, n, m, block != NULL, (Group *)go, &one};
+    MeshJob job = {tris, verts, faces, n, n, m, !zeroed, (Group *)go, &one};
     if (nchunks > 1) {
         job.box = malloc((size_t)nchunks * sizeof *job.box);
         job.chunk = MESH_CHUNK;
