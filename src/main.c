@@ -576,9 +576,11 @@ static int run(App *app)
         if (dirty && !setup_cache_write(app->cache, why, sizeof why))
             diag_warning(&app->diag, NULL, "set-up cache not written (%s): carrying on", why);
         else if (o->timings)
-            fprintf(stderr, "timings: set-up cache %s: %s\n", o->cache_file,
+            fprintf(stderr, "timings: set-up cache %s: %s (OBJ files known by their "
+                    "identity, not read: %d)\n", o->cache_file,
                     dirty ? "built and written"
-                    : setup_cache_hits(app->cache) ? "used" : "nothing to cache");
+                    : setup_cache_hits(app->cache) ? "used" : "nothing to cache",
+                    setup_cache_hits_of(app->cache, SETUP_TAG_FILE));
     }
     const Grid *grid = grid_of_accel(&app->accel);
     if (o->timings && grid && dist_is_root()) {

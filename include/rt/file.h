@@ -5,6 +5,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 /* Inputs above this are refused (EFBIG) rather than exhausting memory: /dev/zero or an
  * endless pipe given as a file must end in an error, not in the OOM killer. 256 MiB is
@@ -22,6 +23,35 @@ bool file_read_all(const char *path, char **out, size_t *len);
 /* The same into an arena buffer (rt/arena.h; arena_buffer_free), which
  * objfile_build_group can reuse for the triangles. */
 bool file_read_reusable(const char *path, char **out, size_t *len);
+
+/* What the file system says of a regular file: device, inode, size, and the times of
+ * the last change of its bytes (mtime) and of its inode (ctime), to the nanosecond.
+ * Rule: two equal identities name the same bytes when the identity was settled (below)
+ * and the file lives on a file system that keeps ctime the POSIX way. Every write,
+ * truncation, rename or time change sets ctime to the clock's time, and no program can
+ * set it back (only setting the system clock back could); so a file changed after a
+ * settled identity was taken has a later ctime, whatever its size and mtime. */
+typedef struct FileIdentity {
+    uint64_t dev, ino, size;
+    int64_t mtime_s, mtime_ns, ctime_s, ctime_ns;
+} FileIdentity;
+
+/* Opens path for reading (so a file that cannot be read gives no identity, as it would
+ * give no bytes) and takes its identity. False with errno set: not openable, not a
+ * regular file (EINVAL), or on a file system not known to keep ctime (ENOTSUP: FAT
+ * and the like, whose ctime follows mtime). */
+bool file_identity(const char *path, FileIdentity *id);
+/* Whether id's mtime and ctime both lie at least RT_FILE_SETTLED_SECONDS before the
+ * clock's time now: file systems stamp times from a clock that moves in ticks of up to
+ * a few ms, so a write right after the identity was taken could otherwise keep the same
+ * stamps. */
+#define RT_FILE_SETTLED_SECONDS 2
+bool file_identity_settled(const FileIdentity *id);
+/* file_read_reusable that also gives the identity of the file it read, taken before
+ * the read, and *stable: the same identity after the read (nothing changed the file
+ * meanwhile). *stable false for anything but a known regular file (see file_identity). */
+bool file_read_reusable_identified(const char *path, char **out, size_t *len, FileIdentity *id,
+                                   bool *stable);
 
 /* True when a and b name one existing file: the same device and inode, so another
  * spelling of the path ("dir/../a.tga") or a link to it counts. False when either

@@ -31,8 +31,9 @@ typedef struct SetupKey {
     uint64_t a, b;
 } SetupKey;
 
-/* The section tags. */
-enum { SETUP_TAG_MESH = 1, SETUP_TAG_GRID = 2 };
+/* The section tags. SETUP_TAG_FILE: the key of a file's bytes (one SetupKey), found by
+ * the key of its identity (rt/file.h), so that a process can skip reading it. */
+enum { SETUP_TAG_MESH = 1, SETUP_TAG_GRID = 2, SETUP_TAG_FILE = 3 };
 
 /* Opens path: reads it when it is a valid cache of this build (a missing file is simply
  * empty). Never fails for a bad file: why it was not used is kept for
@@ -43,8 +44,9 @@ void setup_cache_release(SetupCache *c);    /* NULL allowed; the last one frees 
 
 /* Why the file was not used ("" when it was, or was absent: then nothing to say). */
 const char *setup_cache_rejected(const SetupCache *c);
-/* How many lookups found their section. */
+/* How many lookups found their section; of them, how many had tag (0 for others). */
 int setup_cache_hits(const SetupCache *c);
+int setup_cache_hits_of(const SetupCache *c, uint32_t tag);
 /* Whether a lookup missed or something was added (setup_cache_write has work). */
 bool setup_cache_dirty(const SetupCache *c);
 

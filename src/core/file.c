@@ -3,13 +3,18 @@
 #include "rt/file.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
+#ifdef __linux__
+#include <sys/vfs.h>
+#endif
 
 #include "rt/arena.h"
 #include "rt/par.h"
@@ -76,8 +81,87 @@ static bool read_parallel(FILE *f, char *buf, size_t size)
     return pread(job.fd, &c, 1, (off_t)size) == 0; /* nothing was appended meanwhile */
 }
 
+/* File systems known to set ctime on every change (Linux statfs magic numbers): ext2/3/4,
+ * XFS, Btrfs, tmpfs, overlayfs, ZFS, F2FS, NFS, Lustre, GPFS, CephFS. Elsewhere (FAT,
+ * exFAT, NTFS through FUSE, unknown) the identity is not trusted. */
+static bool fs_keeps_ctime(int fd)
+{
+#ifdef __linux__
+    static const unsigned long known[] = {0xEF53, 0x58465342, 0x9123683E, 0x01021994,
+                                          0x794C7630, 0x2FC12FC1, 0xF2F52010, 0x6969,
+                                          0x0BD00BD0, 0x47504653, 0x00C36400};
+    struct statfs fs;
+    if (fstatfs(fd, &fs) != 0)
+        return false;
+    for (size_t i = 0; i < sizeof known / sizeof known[0]; i++)
+        if ((unsigned long)fs.f_type == known[i])
+            return true;
+    return false;
+#else
+    (void)fd;
+    return false;
+#endif
+}
+
+static void identity_of(const struct stat *st, FileIdentity *id)
+{
+    memset(id, 0, sizeof *id);
+    id->dev = (uint64_t)st->st_dev;
+    id->ino = (uint64_t)st->st_ino;
+    id->size = (uint64_t)st->st_size;
+    id->mtime_s = (int64_t)st->st_mtim.tv_sec;
+    id->mtime_ns = (int64_t)st->st_mtim.tv_nsec;
+    id->ctime_s = (int64_t)st->st_ctim.tv_sec;
+    id->ctime_ns = (int64_t)st->st_ctim.tv_nsec;
+}
+
+bool file_identity(const char *path, FileIdentity *id)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return false;
+    struct stat st;
+    bool ok = fstat(fd, &st) == 0;
+    int e = errno;
+    if (ok && !S_ISREG(st.st_mode)) {
+        ok = false;
+        e = EINVAL;
+    } else if (ok && !fs_keeps_ctime(fd)) {
+        ok = false;
+        e = ENOTSUP;
+    }
+    close(fd);
+    if (ok)
+        identity_of(&st, id);
+    errno = e;
+    return ok;
+}
+
+bool file_identity_settled(const FileIdentity *id)
+{
+    struct timespec now;
+    if (clock_gettime(CLOCK_REALTIME, &now) != 0)
+        return false;
+    int64_t limit = (int64_t)now.tv_sec - RT_FILE_SETTLED_SECONDS;
+    /* Whole seconds compared: a time in the second `limit` is at most 2 s before now
+     * rounded down, so it counts as settled only when strictly below. */
+    return id->mtime_s < limit && id->ctime_s < limit;
+}
+
+static bool read_all_id(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok,
+                        FileIdentity *id, bool *stable);
+
 static bool read_all(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok)
 {
+    return read_all_id(path, out, len, reusable, stdin_ok, NULL, NULL);
+}
+
+/* read_all, and with id the identity before the read and whether it held (stable). */
+static bool read_all_id(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok,
+                        FileIdentity *id, bool *stable)
+{
+    if (stable)
+        *stable = false;
     /* "-" is standard input for the scene (file_read_all) only; a duplicate, so
      * fclose leaves descriptor 0 open. An OBJ file may really be called "-". */
     int in = stdin_ok && strcmp(path, "-") == 0 ? dup(STDIN_FILENO) : -1;
@@ -99,6 +183,9 @@ static bool read_all(const char *path, char **out, size_t *len, bool reusable, b
         errno = EISDIR;
         return false;
     }
+    bool known = id && S_ISREG(st.st_mode) && fs_keeps_ctime(fileno(f));
+    if (id)
+        identity_of(&st, id);
     if (S_ISREG(st.st_mode) && (uintmax_t)st.st_size > RT_FILE_MAX_BYTES) {
         fclose(f);
         errno = EFBIG;
@@ -152,6 +239,14 @@ static bool read_all(const char *path, char **out, size_t *len, bool reusable, b
             break;
         }
     }
+    if (known) {
+        struct stat after;
+        FileIdentity now;
+        if (fstat(fileno(f), &after) == 0) {
+            identity_of(&after, &now);
+            *stable = memcmp(&now, id, sizeof now) == 0 && (uint64_t)n == id->size;
+        }
+    }
     fclose(f);
     buf[n] = '\0';
     *out = buf;
@@ -167,6 +262,12 @@ bool file_read_all(const char *path, char **out, size_t *len)
 bool file_read_reusable(const char *path, char **out, size_t *len)
 {
     return read_all(path, out, len, true, false);
+}
+
+bool file_read_reusable_identified(const char *path, char **out, size_t *len, FileIdentity *id,
+                                   bool *stable)
+{
+    return read_all_id(path, out, len, true, false, id, stable);
 }
 
 bool file_same(const char *a, const char *b)

@@ -60,6 +60,7 @@ struct SetupCache {
     char rejected[160];
     bool missed;
     int hits;
+    int tag_hits[4];             /* hits by tag (SETUP_TAG_*) */
     uint32_t used[64];           /* sections found (kept when the file is rewritten) */
     int num_used;
     bool add_failed;
@@ -260,6 +261,11 @@ const char *setup_cache_rejected(const SetupCache *c) { return c->rejected; }
 
 int setup_cache_hits(const SetupCache *c) { return c->hits; }
 
+int setup_cache_hits_of(const SetupCache *c, uint32_t tag)
+{
+    return tag < sizeof c->tag_hits / sizeof c->tag_hits[0] ? c->tag_hits[tag] : 0;
+}
+
 bool setup_cache_dirty(const SetupCache *c) { return (c->missed || c->num_pending) && !c->add_failed; }
 
 bool setup_cache_find(SetupCache *c, uint32_t tag, SetupKey key, const void **part,
@@ -275,6 +281,8 @@ bool setup_cache_find(SetupCache *c, uint32_t tag, SetupKey key, const void **pa
         }
         *nparts = (int)s->nparts;
         c->hits++;
+        if (tag < sizeof c->tag_hits / sizeof c->tag_hits[0])
+            c->tag_hits[tag]++;
         bool seen = false;
         for (int u = 0; u < c->num_used; u++)
             seen = seen || c->used[u] == i;

@@ -11,6 +11,7 @@
 
 #include "lexer.h"
 #include "obj_loader.h"
+#include "rt/file.h"
 #include "rt/geom.h"
 #include "rt/suggest.h"
 
@@ -635,6 +636,33 @@ static bool mesh_from_cache(SetupCache *c, SetupKey key, ObjMesh *mesh)
     return true;
 }
 
+/* The key of an identity (rt/file.h) in the cache's SETUP_TAG_FILE sections. */
+static SetupKey identity_key(const FileIdentity *id)
+{
+    uint64_t v[7] = {id->dev, id->ino, id->size, (uint64_t)id->mtime_s, (uint64_t)id->mtime_ns,
+                     (uint64_t)id->ctime_s, (uint64_t)id->ctime_ns};
+    return setup_hash(v, sizeof v, (SetupKey){SETUP_TAG_FILE, sizeof v});
+}
+
+/* -cache without reading the OBJ file: its settled identity (rt/file.h) names the key
+ * of its bytes that an earlier process recorded, and that key the cached mesh. False
+ * (nothing looked up, so nothing counted as a miss, when the identity is not settled):
+ * read the file. */
+static bool mesh_by_identity(SetupCache *c, const char *path, SetupKey *key, ObjMesh *mesh)
+{
+    FileIdentity id;
+    if (!file_identity(path, &id) || !file_identity_settled(&id))
+        return false;
+    const void *part[SETUP_CACHE_MAX_PARTS];
+    size_t len[SETUP_CACHE_MAX_PARTS];
+    int n = 0;
+    if (!setup_cache_find(c, SETUP_TAG_FILE, identity_key(&id), part, len, &n) || n != 1 ||
+        len[0] != sizeof(SetupKey))
+        return false;
+    memcpy(key, part[0], sizeof *key);
+    return mesh_from_cache(c, *key, mesh);
+}
+
 static void mesh_to_cache(SetupCache *c, SetupKey key, const ObjMesh *mesh)
 {
     int32_t count[2] = {mesh->nverts, mesh->ntris};
@@ -683,14 +711,25 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     char *buf = NULL;
     size_t len = 0;
     int used = -1, first_errno = 0;
+    /* With -cache and files from the disk (not raytracer-mpi's broadcast set), a file
+     * whose settled identity the cache knows is not even read (mesh_by_identity); one
+     * that is read has its identity recorded when it stayed the same while it was read
+     * and is settled. */
+    bool by_identity = p->s->cache && !p->s->files;
+    bool known = false, stable = false;
+    SetupKey key = {0, 0};
+    FileIdentity id;
+    ObjMesh mesh = {0};
     for (int i = 0; i < ntried && used < 0; i++) {
-        if (scene_files_read(p->s->files, tried[i], true, &buf, &len))
+        if (by_identity && mesh_by_identity(p->s->cache, tried[i], &key, &mesh))
+            used = i, known = true;
+        else if (by_identity ? file_read_reusable_identified(tried[i], &buf, &len, &id, &stable)
+                             : scene_files_read(p->s->files, tried[i], true, &buf, &len))
             used = i;
         else if (!first_errno)
             first_errno = errno;
     }
     bool ok = true;
-    ObjMesh mesh = {0};
     if (used < 0) {
         char shown[256];
         lex_show(&name, shown, sizeof shown);
@@ -702,12 +741,18 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
                  strerror(first_errno));
         ok = false;
     } else {
-        bool cached = false;
-        SetupKey key = {0, 0};
+        bool cached = known;
         if (p->s->cache) {
-            key = setup_hash(buf, len, (SetupKey){SETUP_TAG_MESH, len});
+            if (!known) {
+                key = setup_hash(buf, len, (SetupKey){SETUP_TAG_MESH, len});
+                cached = mesh_from_cache(p->s->cache, key, &mesh);
+                if (stable && file_identity_settled(&id)) {
+                    const void *part[1] = {&key};
+                    size_t plen[1] = {sizeof key};
+                    setup_cache_add(p->s->cache, SETUP_TAG_FILE, identity_key(&id), part, plen, 1);
+                }
+            }
             p->s->inputs = setup_hash(&key, sizeof key, p->s->inputs);
-            cached = mesh_from_cache(p->s->cache, key, &mesh);
         }
         ok = cached || objfile_parse(buf, len, tried[used], &mesh, p->diag);
         if (ok && !cached && p->s->cache && mesh.ntris > 0)

@@ -3,10 +3,16 @@
  * without it, for every accelerator, threads, tiles, regions and antialiasing; a
  * truncated, damaged, foreign or stale cache is never used and never breaks a render;
  * a cache that cannot be written is a warning; racing writers leave one valid file;
- * ./raytracer-static, when built, renders the same bytes. */
+ * ./raytracer-static, when built, renders the same bytes; an OBJ file known by its
+ * settled identity is not read, and a changed one is. */
 #define _GNU_SOURCE /* memmem */
 #include "../harness.h"
 #include "e2e_util.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+
+#include "rt/file.h"
 
 /* A course line's arguments, -input made absolute and -output dropped, plus extras. */
 typedef struct Cmd {
@@ -470,6 +476,97 @@ static void test_cache_static_binary(void)
     e2e_rmtree(dir);
 }
 
+/* Runs raytracer on scene with -cache cache (and -timings) into out; true when it
+ * exited 0, with its stderr in err (malloc'd). */
+static bool run_scene(const char *scene, const char *out, const char *cache, char **err)
+{
+    const char *argv[] = {"-input", scene, "-size", "48", "48", "-grid", "10", "10", "7",
+                          "-shadows", "-output", out, "-cache", cache, "-timings", NULL};
+    if (!cache)
+        argv[12] = NULL;
+    E2eRun r;
+    bool ok = e2e_run_bin(harness_bin(), argv, &r) && r.status == 0;
+    *err = strdup(r.err ? r.err : "");
+    e2e_run_free(&r);
+    return ok;
+}
+
+/* An OBJ file whose settled identity (rt/file.h: device, inode, size, mtime, ctime,
+ * older than RT_FILE_SETTLED_SECONDS) the cache knows is not read; a fresh one always
+ * is; and one changed since, even with its size and mtime put back and settled again,
+ * is read again and rendered as it now is. */
+static void test_cache_obj_identity(void)
+{
+    const char *course = e2e_course_or_skip();
+    char dir[PATH_MAX], src[PATH_MAX], scene[PATH_MAX], obj[PATH_MAX], cache[PATH_MAX];
+    char ref[PATH_MAX], ref2[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "cache_id"));
+    if (harness_failures)
+        return;
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(obj, sizeof obj, dir, "bunny_200.obj");
+    e2e_join(cache, sizeof cache, dir, "setup.cache");
+    e2e_join(ref, sizeof ref, dir, "ref.tga");
+    e2e_join(ref2, sizeof ref2, dir, "ref2.tga");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    e2e_join(src, sizeof src, course, "scene6_04_bunny_mesh_200.txt");
+    char *text = e2e_read_file(src, NULL);
+    e2e_join(src, sizeof src, course, "bunny_200.obj");
+    size_t olen = 0;
+    char *objtext = e2e_read_file(src, &olen);
+    CHECK(text && objtext && e2e_write_file(scene, text) && e2e_write_file(obj, objtext));
+    char *err = NULL;
+    /* Fresh files: read every time. */
+    static const char *const fresh[] = {"built and written", "used"};
+    for (int k = 0; k < 2 && !harness_failures; k++) {
+        CHECK(run_scene(scene, out, cache, &err));
+        CHECK_MSG(strstr(err, fresh[k]) && strstr(err, "not read: 0)"), "fresh run %d: %s", k,
+                  err);
+        free(err);
+    }
+    CHECK(run_scene(scene, ref, NULL, &err));
+    free(err);
+    /* Settled: the first run records the identity, the next one does not read the file. */
+    sleep(RT_FILE_SETTLED_SECONDS + 1);
+    static const char *const settled[] = {"built and written (OBJ files known by their "
+                                          "identity, not read: 0)",
+                                          "used (OBJ files known by their identity, not "
+                                          "read: 1)"};
+    for (int k = 0; k < 2 && !harness_failures; k++) {
+        CHECK(run_scene(scene, out, cache, &err));
+        CHECK_MSG(strstr(err, settled[k]) != NULL, "settled run %d: %s", k, err);
+        CHECK_MSG(same_file(ref, out), "settled run %d: image differs", k);
+        free(err);
+    }
+    /* Changed in place, same size, mtime put back: ctime moved, so it is read again. */
+    struct stat st;
+    CHECK(stat(obj, &st) == 0);
+    for (char *c = objtext; (c = strstr(c, "0.2")) != NULL; c += 3)
+        c[2] = '3';
+    FILE *f = fopen(obj, "r+b");
+    CHECK(f && fwrite(objtext, 1, olen, f) == olen);
+    if (f)
+        fclose(f);
+    struct timespec times[2] = {st.st_atim, st.st_mtim};
+    CHECK(utimensat(AT_FDCWD, obj, times, 0) == 0);
+    struct stat now;
+    CHECK(stat(obj, &now) == 0 && now.st_size == st.st_size &&
+          now.st_mtim.tv_sec == st.st_mtim.tv_sec && now.st_mtim.tv_nsec == st.st_mtim.tv_nsec);
+    CHECK(run_scene(scene, ref2, NULL, &err));
+    free(err);
+    CHECK_MSG(!same_file(ref, ref2), "the changed OBJ file renders the same image");
+    /* Settled again (so only its new ctime tells it from the recorded identity). */
+    sleep(RT_FILE_SETTLED_SECONDS + 1);
+    CHECK(run_scene(scene, out, cache, &err));
+    CHECK_MSG(strstr(err, "built and written") && strstr(err, "not read: 0)"), "changed: %s",
+              err);
+    CHECK_MSG(same_file(ref2, out), "the changed OBJ file was rendered from the stale cache");
+    free(err);
+    free(text);
+    free(objtext);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"cache_07", test_cache_07},
     {"cache_07_threads1", test_cache_07_threads1},
@@ -491,5 +588,6 @@ static const TestCase tests[] = {
     {"cache_unwritable", test_cache_unwritable},
     {"cache_racing_writers", test_cache_racing_writers},
     {"cache_static_binary", test_cache_static_binary},
+    {"cache_obj_identity", test_cache_obj_identity},
 };
 RT_TEST_MAIN(tests)
