@@ -306,9 +306,20 @@ bool preview_view_apply(PreviewView *v, const KeyCmd *cmd, int w, int h, bool *o
         int i = cmd->has_pixel ? cmd->i : w / 2, j = cmd->has_pixel ? cmd->j : h / 2;
         *ok = preview_view_trace(v, i, j, w, h);
         if (*ok) {
-            printf("ray tree of pixel (%d, %d): %d segments, %d grid cells\n", i, j,
-                   v->tree->num_segments, v->tree->num_cells);
+            const RayTree *t = v->tree;
+            printf("ray tree of pixel (%d, %d): %d segment%s, %d grid cell%s\n", i, j,
+                   t->num_segments, t->num_segments == 1 ? "" : "s", t->num_cells,
+                   t->num_cells == 1 ? "" : "s");
             fflush(stdout);
+            if (ray_tree_full(t)) {
+                char more[64] = "";
+                if (t->dropped > 0)
+                    snprintf(more, sizeof more, "; %d more ray%s not drawn", t->dropped,
+                             t->dropped == 1 ? " was" : "s were");
+                fprintf(stderr, "raytracer: warning: the ray tree of pixel (%d, %d) is cut at "
+                        "%d segments (the most kept): its deeper reflected and refracted rays "
+                        "were not traced%s\n", i, j, t->num_segments, more);
+            }
         }
         return true;
     }

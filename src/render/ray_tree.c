@@ -4,6 +4,7 @@
 void ray_tree_clear(RayTree *t)
 {
     t->num_segments = 0;
+    t->dropped = 0;
     t->num_cells = 0;
 }
 
@@ -11,8 +12,10 @@ static float clampf(float x, float lo, float hi) { return x < lo ? lo : x > hi ?
 
 void ray_tree_add_segment(RayTree *t, RaySegKind kind, const Ray *ray, float t0, float t1)
 {
-    if (t->num_segments >= RT_RAYTREE_MAX_SEGMENTS)
+    if (ray_tree_full(t)) {
+        t->dropped++;
         return;
+    }
     /* The course clamps the drawn segments to t in [-100, 100]. */
     t0 = clampf(t0, -100.0f, 100.0f);
     t1 = clampf(t1, -100.0f, 100.0f);

@@ -105,12 +105,19 @@ static void shade_light(const RayTracer *rt, ShadeState *st, const Ray *ray, Vec
 static Vec3 trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, int depth,
                   float weight, float ior, float cone0, Hit *hit_out, RaySegKind kind);
 
+/* Whether no more secondary rays are spawned: the run was stopped (ctx->cancel: with
+ * deep -bounces and -weight 0 a single pixel's tree can take hours, and its colour is
+ * thrown away anyway), or the preview's recording of one tree is full (its colour is
+ * not shown). Asked before each spawn, so neither waits for the rest of the tree. */
+static bool stop_spawning(const RenderCtx *ctx)
+{
+    return (ctx->cancel && *ctx->cancel) || (ctx->tree && ray_tree_full(ctx->tree));
+}
+
 static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, ShadeState *st,
                          int depth, float weight, float ior)
 {
-    /* A stopped run (ctx->cancel) spawns no more rays: with deep -bounces and -weight 0 a
-     * single pixel's tree can take hours, and its colour is thrown away anyway. */
-    if (depth >= rt->bounces || (ctx->cancel && *ctx->cancel))
+    if (depth >= rt->bounces || stop_spawning(ctx))
         return;
     const Material *m = st->sh.material;
     Vec3 p = st->sh.point, n = st->sh.normal, d = ray->dir;
@@ -128,7 +135,7 @@ static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, Sh
     }
     use_footprint(rt, st);
     Vec3 kt = mat_transparent_at(m, p);
-    if (!v3_is_zero(kt)) {
+    if (!v3_is_zero(kt) && !stop_spawning(ctx)) {
         float w = weight * v3_length(kt);
         if (w >= rt->weight) {
             /* Objects sit in vacuum, not nested (A4): entering goes 1 -> eta_m. */

@@ -181,6 +181,35 @@ static void test_trace_records_main_and_shadow(void)
     fixture_free(&f);
 }
 
+/* Inside three nested glass spheres (tests/repro/deep_ray_tree.txt) with -bounces 60
+ * -weight 0 the centre pixel's tree has some 10^15 rays: `t` must stop at the
+ * recording's limit instead of tracing them all (it hung the preview). The alarm is
+ * only a guard against that hang. */
+static const char *DEEP_TREE =
+    "PerspectiveCamera { center 0 0 0 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+    "Lights { numLights 1 PointLight { position 0 0 0 color 1 1 1 } }\n"
+    "Materials { numMaterials 1 PhongMaterial { diffuseColor 0.1 0.1 0.1\n"
+    "  reflectiveColor 0.5 0.5 0.5 transparentColor 0.5 0.5 0.5 indexOfRefraction 1 } }\n"
+    "Group { numObjects 3 MaterialIndex 0 Sphere { center 0 0 0 radius 1 }\n"
+    "  Sphere { center 0 0 0 radius 2 } Sphere { center 0 0 0 radius 3 } }\n";
+
+static void test_trace_deep_tree_is_cut(void)
+{
+    Fixture f;
+    CHECK(fixture_init(&f, DEEP_TREE));
+    if (!f.scene)
+        return;
+    f.rt.bounces = 60;
+    f.rt.weight = 0.0f;
+    f.rt.shade_back = true;
+    alarm(120);
+    CHECK(preview_view_trace(&f.view, 100, 100, 200, 200));
+    alarm(0);
+    CHECK(ray_tree_full(f.view.tree));
+    CHECK_INT(f.view.tree->num_segments, RT_RAYTREE_MAX_SEGMENTS);
+    fixture_free(&f);
+}
+
 /* ---- snapshots through the binary ---- */
 
 static void need_snapshot(void)
@@ -437,6 +466,41 @@ static void test_snapshot_ray_tree(void)
     e2e_rmtree(dir);
 }
 
+/* What `t` prints: the counts with their singular ("1 segment", "0 grid cells"), and
+ * for a tree cut at the recording's limit a warning on stderr. */
+static void test_snapshot_ray_tree_lines(void)
+{
+    need_snapshot();
+    char dir[PATH_MAX], scene[PATH_MAX], deep[PATH_MAX], a[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "pvtreeline") != NULL);
+    e2e_join(scene, sizeof scene, dir, "sphere.txt");
+    e2e_join(deep, sizeof deep, dir, "deep.txt");
+    e2e_join(a, sizeof a, dir, "a.tga");
+    CHECK(e2e_write_file(scene, ORTHO_SPHERE));
+    CHECK(e2e_write_file(deep, DEEP_TREE));
+    /* pixel (0, 0) misses the sphere: the main ray alone */
+    const char *a1[] = {"-input", scene, "-size", "200", "200", "-shadows",
+                        "-gui_snapshot", a, "-gui_keys", "t:0,0 t:100,100", NULL};
+    E2eRun r;
+    char why[512];
+    CHECK(e2e_run_bin(harness_bin(), a1, &r));
+    CHECK_MSG(r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
+    CHECK_CONTAINS(r.out, "ray tree of pixel (0, 0): 1 segment, 0 grid cells\n");
+    CHECK_CONTAINS(r.out, "ray tree of pixel (100, 100): 2 segments, 0 grid cells\n");
+    CHECK(strstr(r.err, "warning") == NULL);
+    e2e_run_free(&r);
+    const char *a2[] = {"-input", deep, "-size", "20", "20", "-shade_back", "-bounces", "60",
+                        "-weight", "0", "-gui_snapshot", a, "-gui_keys", "t", NULL};
+    CHECK(e2e_run_bin(harness_bin(), a2, &r));
+    CHECK_MSG(r.status == 0 && !r.timed_out, "%s", e2e_describe(&r, why, sizeof why));
+    CHECK_CONTAINS(r.out, "ray tree of pixel (10, 10): 1024 segments, 0 grid cells\n");
+    CHECK_CONTAINS(r.err, "raytracer: warning: the ray tree of pixel (10, 10) is cut at 1024 "
+                          "segments (the most kept): its deeper reflected and refracted rays "
+                          "were not traced");
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static void test_snapshot_bad_script_writes_nothing(void)
 {
     need_snapshot();
@@ -485,10 +549,12 @@ static const TestCase tests[] = {
     {"rotate_keeps_distance_and_aim", test_rotate_keeps_distance_and_aim},
     {"truck_and_dolly_units", test_truck_and_dolly_units},
     {"trace_records_main_and_shadow", test_trace_records_main_and_shadow},
+    {"trace_deep_tree_is_cut", test_trace_deep_tree_is_cut},
     {"snapshot_course_01", test_snapshot_course_01},
     {"snapshot_course_04", test_snapshot_course_04},
     {"snapshot_own_checkerboard", test_snapshot_own_checkerboard},
     {"snapshot_ray_tree", test_snapshot_ray_tree},
+    {"snapshot_ray_tree_lines", test_snapshot_ray_tree_lines},
     {"snapshot_bad_script_writes_nothing", test_snapshot_bad_script_writes_nothing},
     {"grid_view_snapshot", test_grid_view_snapshot},
 };
