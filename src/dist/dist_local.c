@@ -13,7 +13,10 @@ bool dist_init(int *argc, char ***argv)
 int dist_finish(int status) { return status; }
 bool dist_is_root(void) { return true; }
 int dist_size(void) { return 1; }
-const char *dist_describe(void) { return "no (make mpi builds ./raytracer-mpi)"; }
+const char *dist_describe(void)
+{
+    return "not in this binary (make mpi builds ./raytracer-mpi, which has it)";
+}
 
 Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
 {

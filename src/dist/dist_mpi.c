@@ -55,7 +55,8 @@ bool dist_init(int *argc, char ***argv)
     int len = 0;
     MPI_Get_library_version(version, &len);
     version[strcspn(version, ",\n")] = '\0';
-    snprintf(g_describe, sizeof g_describe, "yes, %d rank(s) (%.60s)", g_size, version);
+    snprintf(g_describe, sizeof g_describe, "yes, this run has %d rank%s (%.60s)", g_size,
+             g_size == 1 ? "" : "s", version);
     return true;
 }
 

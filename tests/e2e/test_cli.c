@@ -225,6 +225,9 @@ static void test_version(void)
         CHECK_MSG(ci_contains(r.out, "png yes") || ci_contains(r.out, "+png") ||
                   ci_contains(r.out, "png: yes"),
                   "--version does not say png is built in: %s", r.out);
+    /* ./raytracer has no MPI: said as a sentence, with where to get it */
+    CHECK_CONTAINS(r.out, "\nmpi: not in this binary (make mpi builds ./raytracer-mpi, which "
+                          "has it)\n");
     e2e_run_free(&r);
 }
 
