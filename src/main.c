@@ -642,8 +642,13 @@ int main(int argc, char **argv)
         return image_merge(argv[2], (const char *const *)(argv + 3), argc - 3, &d)
                    ? 0 : EXIT_INPUT;
     }
+    /* The stop signals are caught from the start: a Ctrl-C while MPI starts up (the
+     * singleton's orted takes a second) was lost, and the render then ran on. MPI_Init
+     * may install handlers of its own, so they are installed again after it. */
+    install_signal_handlers();
     if (!dist_init(&argc, &argv))
         return EXIT_INPUT;
+    install_signal_handlers();
     /* Under MPI every rank runs this with the same options; only the root speaks. */
     FILE *err = dist_is_root() ? stderr : NULL;
     FILE *quiet = err ? NULL : fopen("/dev/null", "w");
@@ -665,7 +670,6 @@ int main(int argc, char **argv)
         return dist_finish(0);
     }
     diag_init(&app.diag, err);
-    install_signal_handlers();
     options_warn(&app.opt, render_default_threads(), stderr);
 
     int status = run(&app);

@@ -310,6 +310,62 @@ static void test_mpi_timings_version(void)
     e2e_rmtree(dir);
 }
 
+/* Ctrl-C at any moment of a run started without mpirun (a singleton: MPI_Init starts
+ * an orted and takes a while): a signal during MPI_Init was lost, and the render of
+ * tests/repro/deep_ray_tree.txt (endless) ran on. Signals at 0.1 .. 0.9 s; each run
+ * must exit 130 by itself (not be killed by the signal: the handler is installed
+ * first); the 60 s limit is only a guard against the hang. */
+static void test_mpi_singleton_early_signal(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], out[PATH_MAX], scene[PATH_MAX], repro[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpisig") != NULL);
+    e2e_join(out, sizeof out, dir, "out.tga");
+    snprintf(repro, sizeof repro, "%s/tests/repro", harness_root());
+    e2e_join(scene, sizeof scene, repro, "deep_ray_tree.txt");
+    const char *args[] = {mpi, "-input", scene, "-output", out, "-size", "4", "4",
+                          "-shade_back", "-bounces", "60", "-weight", "0", NULL};
+    for (int ms = 100; ms < 1000 && !harness_failures; ms += 200) {
+        fflush(stdout);
+        fflush(stderr);
+        pid_t pid = fork();
+        if (pid == 0) {
+            int null = open("/dev/null", O_RDWR);
+            dup2(null, 0);
+            dup2(null, 1);
+            dup2(null, 2);
+            execv(args[0], (char *const *)args);
+            _exit(127);
+        }
+        CHECK(pid > 0);
+        if (pid <= 0)
+            break;
+        struct timespec pause = {0, (long)ms * 1000 * 1000};
+        nanosleep(&pause, NULL);
+        kill(pid, SIGINT);
+        int st = 0;
+        bool hung = true;
+        for (int i = 0; i < 600 && hung; i++) { /* 60 s in steps of 0.1 s */
+            if (waitpid(pid, &st, WNOHANG) == pid)
+                hung = false;
+            else
+                nanosleep(&(struct timespec){0, 100 * 1000 * 1000}, NULL);
+        }
+        if (hung) {
+            kill(pid, SIGKILL);
+            while (waitpid(pid, &st, 0) < 0) {
+            }
+        }
+        CHECK_MSG(!hung, "Ctrl-C after %d ms: still running after 60 s", ms);
+        CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 130,
+                  "Ctrl-C after %d ms: %s %d, expected exit 130", ms,
+                  WIFEXITED(st) ? "exit" : "killed by",
+                  WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st));
+        CHECK(!e2e_exists(out));
+    }
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"mpi_03d", test_mpi_03d},
     {"mpi_11b", test_mpi_11b},
@@ -319,5 +375,6 @@ static const TestCase tests[] = {
     {"mpi_scene_error", test_mpi_scene_error},
     {"mpi_killed_rank", test_mpi_killed_rank},
     {"mpi_timings_version", test_mpi_timings_version},
+    {"mpi_singleton_early_signal", test_mpi_singleton_early_signal},
 };
 RT_TEST_MAIN(tests)
