@@ -673,7 +673,7 @@ int main(int argc, char **argv)
     options_warn(&app.opt, render_default_threads(), stderr);
 
     int status = run(&app);
-    /* Anything else printed on stdout (the -grid auto line) must have arrived too. */
+    /* Anything else printed on stdout must have arrived too. */
     if (status == 0 && !stdout_ok(&app.diag, "the output"))
         status = EXIT_INPUT;
     accel_free(&app.accel);

@@ -301,11 +301,51 @@ static void test_docs_links_exist(void)
     free(text);
 }
 
+/* The -stats example of section 6 is what the program prints: every line of the block
+ * in README.txt (indented by four) but the two that depend on time is a line of the
+ * real output of the command above it. */
+static void test_stats_example_matches(void)
+{
+    char *text = readme_text();
+    if (!text)
+        return;
+    const char *head = strstr(text, "\n    RAY TRACING STATISTICS\n");
+    CHECK_MSG(head != NULL, "README.txt has no -stats example block");
+    char scene[PATH_MAX];
+    e2e_join(scene, sizeof scene, harness_root(), "scenes/feat_sphere_grid.txt");
+    const char *args[] = {"-input", scene, "-size", "200", "200", "-shadows", "-grid", "10",
+                          "10", "10", "-stats", NULL};
+    E2eRun r;
+    if (head && e2e_run_bin(harness_bin(), args, &r)) {
+        CHECK_INT(r.status, 0);
+        int lines = 0;
+        for (const char *p = head + 1; strncmp(p, "    ", 4) == 0;) {
+            const char *eol = strchr(p, '\n');
+            if (!eol)
+                break;
+            char line[256];
+            snprintf(line, sizeof line, "%.*s\n", (int)(eol - p - 4), p + 4);
+            if (!strstr(line, "total time") && !strstr(line, "rays per second")) {
+                CHECK_MSG(strstr(r.out, line) != NULL, "README's -stats line '%.*s' is not "
+                          "in the output:\n%s", (int)strlen(line) - 1, line, r.out);
+                lines++;
+            }
+            p = eol + 1;
+            if (line[0] == '*')
+                break;
+        }
+        CHECK_MSG(lines >= 10, "only %d lines of the -stats example compared", lines);
+        e2e_run_free(&r);
+    }
+    free(text);
+}
+
 static const TestCase tests[] = {
     {"readme_command_extraction", test_extraction},
     {"readme_commands_run", test_commands_run},
     {"readme_contents_match_sections", test_contents_match_sections},
     {"readme_docs_links_exist", test_docs_links_exist},
+    {"readme_stats_example_matches", test_stats_example_matches},
 };
 
 RT_TEST_MAIN(tests)
