@@ -10,6 +10,10 @@
 #include <string.h>
 #include <unistd.h>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 /* A parallel run: jobs 0..n-1 handed out through an atomic counter. */
 typedef struct ParRun {
     RenderJobFn fn;
@@ -82,6 +86,43 @@ typedef struct ImageJob {
 
 static bool job_cancelled(const ImageJob *job) { return job->cancel && *job->cancel; }
 
+/* A whole tile's colours (colors[k] is lane k of the packet, pixel (dx, dy) with
+ * dy * TILE + dx = cell[k]) into byte image img, whose pixel (x0, y0) is the tile's
+ * corner: every colour quantised as image_color_to_byte does, four components at a
+ * time (c * 255, then max with 0, which also turns NaN into 0, min with 255 and
+ * truncation: the same single-precision operations, so the same bytes), then each
+ * pixel's three bytes to its place. */
+static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
+                             const uint8_t *cell)
+{
+    enum { N = 3 * TILE * TILE };
+    _Static_assert(sizeof(Vec3) == 3 * sizeof(float), "colours are packed floats");
+    uint8_t q[N + 4];
+    const float *c = (const float *)colors;
+#if defined(__SSE2__)
+    const __m128 scale = _mm_set1_ps(255.0f), zero = _mm_setzero_ps(),
+                 top = _mm_set1_ps(255.0f);
+    for (int i = 0; i < N; i += 16) {
+        __m128i w[4];
+        for (int j = 0; j < 4; j++) {
+            __m128 v = _mm_mul_ps(_mm_loadu_ps(c + i + 4 * j), scale);
+            v = _mm_min_ps(_mm_max_ps(v, zero), top);
+            w[j] = _mm_cvttps_epi32(v);
+        }
+        __m128i h = _mm_packus_epi16(_mm_packs_epi32(w[0], w[1]), _mm_packs_epi32(w[2], w[3]));
+        _mm_storeu_si128((__m128i *)(q + i), h);
+    }
+#else
+    for (int i = 0; i < N; i++)
+        q[i] = image_color_to_byte(c[i]);
+#endif
+    for (int k = 0; k < TILE * TILE; k++) {
+        int dx = cell[k] % TILE, dy = cell[k] / TILE;
+        uint8_t *b = img->bytes + 3 * ((long)(y0 + dy) * img->width + x0 + dx);
+        memcpy(b, q + 3 * k, 3);
+    }
+}
+
 /* Rows y0..y1-1 of the rectangle. Tiles stay on the full image's 8 x 8 grid, so a
  * rectangle on that grid traces the very packets of the whole render; pixels of a
  * tile outside the rectangle are left out of its packet. */
@@ -95,19 +136,43 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
     int px[TILE * TILE], py[TILE * TILE];
     int ylo = y0 < t->y0 ? t->y0 : y0;
     int xlo = t->x0, xhi = t->x0 + t->w;
+    /* Lane k of a tile's packet is pixel cell[k] = dy * TILE + dx (render_tile_order). */
+    uint8_t cell[TILE * TILE];
+    for (int k = 0; k < TILE * TILE; k++) {
+        int dx, dy;
+        render_tile_order(k, &dx, &dy);
+        cell[k] = (uint8_t)(dy * TILE + dx);
+    }
+    /* Whole tiles (every band but a cut top one, every column but the rectangle's
+     * cut edges) skip the per-pixel bounds, and with only a byte colour image to fill
+     * store their bytes a tile at a time. */
+    bool full_rows = ylo == y0 && y1 - y0 == TILE;
+    bool bytes_only = t->color && t->color->bytes && !t->depth && !t->normals;
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
     Ray block[TILE * TILE]; /* the tile's rays, row by row */
     for (int x0 = xlo / TILE * TILE; x0 < xhi && !job_cancelled(job); x0 += TILE) {
         int n = 0;
         camera_pixel_rays(job->camera, x0, y0, TILE, y1 - y0, t->width, t->height, block);
+        if (full_rows && x0 >= xlo && x0 + TILE <= xhi) {
+            for (int k = 0; k < TILE * TILE; k++)
+                rays[k] = block[cell[k]];
+            raytracer_trace_packet(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
+            if (bytes_only) {
+                store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, cell);
+            } else {
+                for (int k = 0; k < TILE * TILE; k++)
+                    store_pixel(t, x0 + cell[k] % TILE, y0 + cell[k] / TILE, colors[k],
+                                &hits[k]);
+            }
+            continue;
+        }
         for (int k = 0; k < TILE * TILE; k++) {
-            int dx, dy;
-            render_tile_order(k, &dx, &dy);
+            int dx = cell[k] % TILE, dy = cell[k] / TILE;
             int x = x0 + dx, y = y0 + dy;
             if (x < xlo || x >= xhi || y < ylo || y >= y1)
                 continue;
-            rays[n] = block[dy * TILE + dx];
+            rays[n] = block[cell[k]];
             px[n] = x;
             py[n++] = y;
         }
