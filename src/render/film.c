@@ -32,6 +32,7 @@ typedef struct Film {
     int off_depth, off_normal;  /* -1: not stored */
     int per;                    /* weights per sample; 0: not precomputed */
     size_t ss, ws;              /* floats from a sample to the next: data, weights */
+    bool row_weights;           /* weights computed row by row (film_row_weights) */
     int rows_cap;               /* film rows the buffer holds */
     int y0, rows;               /* film rows held now */
     float *data;
@@ -164,6 +165,44 @@ static void film_sample_weights(const Film *f, int x, int y, int n, const float 
     }
 }
 
+/* The separable weights of every sample of film row y, once it is traced (every pixel
+ * holding `slots` samples: not with adaptive refinement, whose pixels get theirs in
+ * film_sample_weights): a plane at a time, the positions of one sample slot across the
+ * row as the arguments, the weights straight into their plane, in long batches.
+ * Arguments as film_sample_weights': (position - 0.5) - R in double, plus k, rounded
+ * to float once. */
+static void film_row_weights(const Film *f, int y)
+{
+    enum { CHUNK = 256 };
+    int R = f->R, side = 2 * R + 1, fw = f->fw;
+    double base[CHUNK];
+    float arg[CHUNK];
+    for (int s = 0; s < f->slots; s++)
+        for (int axis = 0; axis < 2; axis++) {
+            const float *pos = film_sample(f, f->sx0, y, s) + (size_t)axis * (size_t)fw;
+            for (int x0 = 0; x0 < fw; x0 += CHUNK) {
+                int m = fw - x0 < CHUNK ? fw - x0 : CHUNK;
+                for (int i = 0; i < m; i++)
+                    base[i] = (double)pos[x0 + i] - 0.5 - (double)R;
+                for (int k = 0; k < side; k++) {
+                    double dk = (double)k;
+                    FilmV4d vk = {dk, dk, dk, dk};
+                    int i = 0;
+                    for (; i + 4 <= m; i += 4) {
+                        FilmV4d v;
+                        memcpy(&v, base + i, sizeof v);
+                        FilmV4f a = __builtin_convertvector(v + vk, FilmV4f);
+                        memcpy(arg + i, &a, sizeof a);
+                    }
+                    for (; i < m; i++)
+                        arg[i] = (float)(base[i] + dk);
+                    filter_weights_1d(f->cfg->filter, arg,
+                                      film_weights(f, f->sx0, y, s, axis * side + k) + x0, m);
+                }
+            }
+        }
+}
+
 /* Places the samples of pixel (x, y) with sampler s and queues their rays. */
 static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sampler *s,
                              int x, int y)
@@ -172,7 +211,7 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
     sampler_pixel(s, x, y, xy);
     *film_count(f, x, y) = s->count;
     const FilmConfig *c = f->cfg;
-    if (f->per)
+    if (f->per && !f->row_weights)
         film_sample_weights(f, x, y, s->count, xy);
     /* The rays go straight into the packet, as many of the pixel's as it has room for
      * at a time (camera_sample_rays: several samples per step). */
@@ -274,6 +313,9 @@ static void film_band(void *user, RenderCtx *ctx, int band)
     stream_flush(f, ctx, &st);
     if (f->cancel && *f->cancel)
         return; /* a cut band: no refinement, no progress */
+    if (f->row_weights)
+        for (int y = y0; y < y1; y++)
+            film_row_weights(f, y);
     if (c->refine) {
         for (int x0 = bx; x0 < f->sx1; x0 += TILE)
             for (int k = 0; k < TILE * TILE; k++) {
@@ -526,6 +568,7 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     } else if (cfg->filter->ops->weight_1d && R > 0) {
         f.per = 2 * (2 * R + 1);
     }
+    f.row_weights = f.per && !cfg->refine;
     f.ss = (size_t)f.stride * (size_t)f.fw;
     f.ws = (size_t)f.per * (size_t)f.fw;
 
