@@ -68,9 +68,12 @@ static int *film_count(const Film *f, int x, int y)
     return f->count + (size_t)(y - f->y0) * (size_t)f->fw + (size_t)(x - f->sx0);
 }
 
-/* Rays waiting to be traced as one packet, and the sample each belongs to. */
+/* Rays waiting to be traced as one packet, and the sample each belongs to: channel c
+ * of the sample at dest + c * cs (cs = 1: a tile's scratch, one sample's channels
+ * side by side; cs = fw: the film's planes). */
 typedef struct Stream {
     int n;
+    size_t cs;
     Ray rays[ACCEL_PACKET_MAX];
     float *dest[ACCEL_PACKET_MAX];
 } Stream;
@@ -82,7 +85,7 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
     Vec3 colors[ACCEL_PACKET_MAX];
     Hit hits[ACCEL_PACKET_MAX];
     raytracer_trace_packet(f->rt, ctx, st->rays, st->n, f->tmin, colors, hits);
-    size_t cs = (size_t)f->fw;
+    size_t cs = st->cs;
     for (int i = 0; i < st->n; i++) {
         float *d = st->dest[i];
         d[2 * cs] = colors[i].x;
@@ -219,9 +222,11 @@ static void film_row_weights(const Film *f, int y)
         }
 }
 
-/* Places the samples of pixel (x, y) with sampler s and queues their rays. */
+/* Places the samples of pixel (x, y) with sampler s and queues their rays; sample i's
+ * channels go to aos + i * stride (a tile's scratch, st->cs = 1) or, aos NULL, to the
+ * film's planes (st->cs = fw). */
 static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sampler *s,
-                             int x, int y)
+                             int x, int y, float *aos)
 {
     float xy[2 * SAMPLER_MAX_COUNT];
     sampler_pixel(s, x, y, xy);
@@ -237,9 +242,9 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
         camera_sample_rays(f->camera, x, y, xy + 2 * i0, m, c->full_width, c->full_height,
                            &st->rays[st->n]);
         for (int i = i0; i < i0 + m; i++) {
-            float *d = film_sample(f, x, y, i);
+            float *d = aos ? aos + (size_t)i * (size_t)f->stride : film_sample(f, x, y, i);
             d[0] = xy[2 * i];
-            d[f->fw] = xy[2 * i + 1];
+            d[st->cs] = xy[2 * i + 1];
             st->dest[st->n++] = d;
         }
         i0 += m;
@@ -300,6 +305,65 @@ static void film_draw_samples(const Film *f, int x, int y)
 /* The first row (or column) of the packet tile holding row (column) v >= 0. */
 static int film_grid_floor(int v) { return v - v % TILE; }
 
+/* One 8 x 8 tile of a band (columns x0.., rows by.., those inside [sx0, sx1) and
+ * [y0, y1)): its pixels' samples queued in Morton order (with `refine`: only the
+ * pixels whose first samples disagree, sampled again), traced, and, through the
+ * tile's scratch, stored into the film's planes. The tracer writes a sample's channels
+ * side by side in the scratch (the film's planes would take a cache line per channel
+ * and sample while the packets run); the copy then writes whole runs of the tile's
+ * columns. Without scratch (out of memory) the samples go to the planes directly. */
+static void film_tile(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by, int y0,
+                      int y1, bool refine, float *scratch)
+{
+    const FilmConfig *c = f->cfg;
+    size_t per_px = (size_t)f->slots * (size_t)f->stride;
+    uint64_t queued = 0;
+    st->cs = scratch ? 1 : (size_t)f->fw;
+    for (int k = 0; k < TILE * TILE; k++) {
+        int dx, dy;
+        render_tile_order(k, &dx, &dy);
+        int x = x0 + dx, y = by + dy;
+        if (x < f->sx0 || x >= f->sx1 || y < y0 || y >= y1)
+            continue;
+        if (refine && !film_disagrees(f, x, y))
+            continue;
+        int t = dy * TILE + dx;
+        film_queue_pixel(f, ctx, st, refine ? c->refine : c->sampler, x, y,
+                         scratch ? scratch + (size_t)t * per_px : NULL);
+        queued |= (uint64_t)1 << t;
+    }
+    stream_flush(f, ctx, st);
+    if (!scratch)
+        return;
+    size_t cs = (size_t)f->fw;
+    for (int dy = 0; dy < TILE; dy++) {
+        uint64_t row = (queued >> (dy * TILE)) & 0xff;
+        if (!row)
+            continue;
+        int y = by + dy;
+        for (int dx = 0; dx < TILE; dx++) {
+            if (!(row >> dx & 1))
+                continue;
+            int x = x0 + dx, n = *film_count(f, x, y), stride = f->stride;
+            const float *src = scratch + (size_t)(dy * TILE + dx) * per_px;
+            float *d = film_sample(f, x, y, 0);
+            size_t ss = f->ss;
+            if (stride == 5) /* colour only: the common case, unrolled */
+                for (int i = 0; i < n; i++, src += 5, d += ss) {
+                    d[0] = src[0];
+                    d[cs] = src[1];
+                    d[2 * cs] = src[2];
+                    d[3 * cs] = src[3];
+                    d[4 * cs] = src[4];
+                }
+            else
+                for (int i = 0; i < n; i++, src += stride, d += ss)
+                    for (int ch = 0; ch < stride; ch++)
+                        d[(size_t)ch * cs] = src[ch];
+        }
+    }
+}
+
 static void film_band(void *user, RenderCtx *ctx, int band)
 {
     const Film *f = user;
@@ -314,35 +378,26 @@ static void film_band(void *user, RenderCtx *ctx, int band)
     uint64_t rays0 = ctx->stats.nonshadow_rays + ctx->stats.shadow_rays;
     Stream st;
     st.n = 0;
+    float *scratch = malloc((size_t)TILE * TILE * (size_t)f->slots * (size_t)f->stride *
+                            sizeof *scratch);
     /* Tiles of 8 x 8 pixels in Morton order, each pixel's samples in a row: the rays of
-     * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block). A
-     * band of many samples takes long: a stop is noticed at the next tile (the run
-     * then returns false and its film is thrown away). */
+     * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block; a
+     * tile's 64 n rays fill whole packets). A band of many samples takes long: a stop
+     * is noticed at the next tile (the run then returns false and its film is thrown
+     * away). */
     for (int x0 = bx; x0 < f->sx1 && !(f->cancel && *f->cancel); x0 += TILE)
-        for (int k = 0; k < TILE * TILE; k++) {
-            int dx, dy;
-            render_tile_order(k, &dx, &dy);
-            int x = x0 + dx, y = by + dy;
-            if (x >= f->sx0 && x < f->sx1 && y >= y0 && y < y1)
-                film_queue_pixel(f, ctx, &st, c->sampler, x, y);
-        }
-    stream_flush(f, ctx, &st);
-    if (f->cancel && *f->cancel)
+        film_tile(f, ctx, &st, x0, by, y0, y1, false, scratch);
+    if (f->cancel && *f->cancel) {
+        free(scratch);
         return; /* a cut band: no refinement, no progress */
+    }
     if (f->row_weights)
         for (int y = y0; y < y1; y++)
             film_row_weights(f, y);
-    if (c->refine) {
+    if (c->refine)
         for (int x0 = bx; x0 < f->sx1; x0 += TILE)
-            for (int k = 0; k < TILE * TILE; k++) {
-                int dx, dy;
-                render_tile_order(k, &dx, &dy);
-                int x = x0 + dx, y = by + dy;
-                if (x >= f->sx0 && x < f->sx1 && y >= y0 && y < y1 && film_disagrees(f, x, y))
-                    film_queue_pixel(f, ctx, &st, c->refine, x, y);
-            }
-        stream_flush(f, ctx, &st);
-    }
+            film_tile(f, ctx, &st, x0, by, y0, y1, true, scratch);
+    free(scratch);
     progress_add(c->progress, (uint64_t)(y1 - y0) * (uint64_t)f->fw,
                  ctx->stats.nonshadow_rays + ctx->stats.shadow_rays - rays0);
     if (c->samples)
