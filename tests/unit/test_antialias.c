@@ -293,7 +293,8 @@ static void render_rect(Fixture *fx, const Sampler *s, const Filter *f, const Sa
                         int threads, Image *color, Image *depth)
 {
     CHECK(image_init(color, w, h));
-    CHECK(image_init(depth, w, h));
+    if (depth) /* NULL: colour only (the filter's vector path) */
+        CHECK(image_init(depth, w, h));
     FilmConfig fc;
     memset(&fc, 0, sizeof fc);
     fc.sampler = s;
@@ -447,6 +448,50 @@ static void test_film_progress(void)
     fixture_close(&fx);
 }
 
+/* The colour-only filter sums four output pixels per vector (film_filter_quad) where
+ * it can, the scalar loop elsewhere (border columns, a rectangle's last pixels); with a
+ * depth image every pixel goes through the general loop. The colour must be the same
+ * bytes either way, and a rectangle at any column offset (which regroups the pixels of
+ * a vector) the crop of the full render. Fixed weights (uniform: the table),
+ * separable ones (Gaussian: R = 1 and 2) and per-sample 2-D ones (box 0.5: R = 0). */
+static void test_film_vector_filter(void)
+{
+    Fixture fx;
+    if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
+        return;
+    Sampler jit, uni, rnd;
+    make_sampler(&jit, "jittered", 16, 3);
+    make_sampler(&uni, "uniform", 9, 0);
+    make_sampler(&rnd, "random", 5, 1);
+    Filter g4, g9, box;
+    char why[160];
+    CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
+    CHECK(filter_init(&g9, filter_find("gaussian"), 0.9f, why, sizeof why));
+    CHECK(filter_init(&box, filter_find("box"), 0.5f, why, sizeof why));
+    struct { const Sampler *s; const Filter *f; } cases[] = {
+        {&jit, &g4}, {&jit, &box}, {&uni, &box}, {&uni, &g4}, {&rnd, &g9}};
+    const int W = 37, H = 21;
+    for (int c = 0; c < 5; c++) {
+        Image plain, with_d, depth;
+        render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, 0, 0, W, H, 0, 2, &plain, NULL);
+        render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, 0, 0, W, H, 0, 1, &with_d, &depth);
+        CHECK_MSG(same_pixels(&with_d, &plain, 0, 0),
+                  "case %d: colour-only filtering differs from the general loop's", c);
+        for (int x0 = 1; x0 <= 3; x0++) {
+            Image part;
+            render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, x0, 5, W - x0 - 2, 9, 0, 1,
+                        &part, NULL);
+            CHECK_MSG(same_pixels(&part, &plain, x0, 5),
+                      "case %d: rectangle at column %d differs from the crop", c, x0);
+            image_free(&part);
+        }
+        image_free(&plain);
+        image_free(&with_d);
+        image_free(&depth);
+    }
+    fixture_close(&fx);
+}
+
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
@@ -455,6 +500,8 @@ static const TestCase tests[] = {
     {"filters: the Gaussian's exp against libm; batch == single", test_gaussian_fast_exp},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
+    {"film: colour-only vector filter == general loop; any column offset",
+     test_film_vector_filter},
     {"film: one centred sample + box 0.5 == the image loop", test_film_default_is_image_loop},
     {"film: progress counts every traced pixel once", test_film_progress},
 };
