@@ -13,9 +13,10 @@
 /* One strip's worth of samples: film rows y0 .. y0+rows-1 (image rows), columns
  * sx0 .. sx0+fw-1. Pixel (x, y) holds count[(y - y0) fw + x - sx0] samples; a sample
  * has `stride` channels: offset x, y; colour; depth grey and |normal| when wanted.
- * Stored in planes: for each film row, sample slot and channel, a row of fw floats
- * (one per column), so channel c of sample s of pixel (x, y) is at
- * ((row * slots + s) * stride + c) * fw + x - sx0. The separable filter's weights
+ * Channel c of sample s of pixel (x, y) is at row * rs + (x - sx0) * xs + s * ss +
+ * c * cs. In planes (the colour-only filters with neighbours to weigh): for each film
+ * row, sample slot and channel a row of fw floats, one per column (xs = 1, cs = fw);
+ * else pixel by pixel, a sample's channels side by side (cs = 1). The separable filter's weights
  * towards the 2R+1 columns and rows around (when used: `per` = 2(2R+1) of them, column
  * weights first) are planes of their own in the same order. Neighbouring pixels' same
  * sample and channel lie side by side: the filter sums four output pixels in the four
@@ -32,6 +33,8 @@ typedef struct Film {
     int off_depth, off_normal;  /* -1: not stored */
     int per;                    /* weights per sample; 0: not precomputed */
     size_t ss, ws;              /* floats from a sample to the next: data, weights */
+    size_t cs, xs, rs;          /* ... from a channel, a column, a row to the next */
+    bool planes;                /* the data in planes (xs = 1) */
     bool row_weights;           /* weights computed row by row (film_row_weights) */
     bool w2d;                   /* R = 0, random positions: per = 1, each sample's own
                                    (2-D) weight, as film_weight computes it */
@@ -46,12 +49,12 @@ typedef struct Film {
     volatile int *cancel;       /* the stop flag, polled before every tile as well */
 } Film;
 
-/* Channel 0 of sample s of pixel (x, y); channel c is c * fw floats further, the next
+/* Channel 0 of sample s of pixel (x, y); channel c is c * cs floats further, the next
  * sample ss floats further. */
 static float *film_sample(const Film *f, int x, int y, int s)
 {
-    size_t r = (size_t)(y - f->y0) * (size_t)f->slots + (size_t)s;
-    return f->data + r * f->ss + (size_t)(x - f->sx0);
+    return f->data + (size_t)(y - f->y0) * f->rs + (size_t)(x - f->sx0) * f->xs +
+           (size_t)s * f->ss;
 }
 
 /* Weight k of sample s of pixel (x, y) (k < 2R+1: towards column x - R + k; then
@@ -184,7 +187,7 @@ static void film_row_weights(const Film *f, int y)
         /* One weight per sample, for its own pixel: film_weight's offset with a - i =
          * b - j = 0, and the filter's 2-D weight. */
         for (int s = 0; s < f->slots; s++) {
-            const float *px = film_sample(f, f->sx0, y, s), *py = px + fw;
+            const float *px = film_sample(f, f->sx0, y, s), *py = px + f->cs;
             float *w = film_weights(f, f->sx0, y, s, 0);
             for (int x = 0; x < fw; x++) {
                 float dx = (float)((double)0 + (double)px[x] - 0.5);
@@ -198,7 +201,7 @@ static void film_row_weights(const Film *f, int y)
     float arg[CHUNK];
     for (int s = 0; s < f->slots; s++)
         for (int axis = 0; axis < 2; axis++) {
-            const float *pos = film_sample(f, f->sx0, y, s) + (size_t)axis * (size_t)fw;
+            const float *pos = film_sample(f, f->sx0, y, s) + (size_t)axis * f->cs;
             for (int x0 = 0; x0 < fw; x0 += CHUNK) {
                 int m = fw - x0 < CHUNK ? fw - x0 : CHUNK;
                 for (int i = 0; i < m; i++)
@@ -261,7 +264,7 @@ static bool film_disagrees(const Film *f, int x, int y)
     for (int s = 0; s < n; s++) {
         const float *d = film_sample(f, x, y, s);
         for (int k = 0; k < 3; k++) {
-            float c = d[(size_t)(2 + k) * (size_t)f->fw];
+            float c = d[(size_t)(2 + k) * f->cs];
             if (s == 0 || c < lo[k])
                 lo[k] = c;
             if (s == 0 || c > hi[k])
@@ -290,7 +293,7 @@ static void film_draw_samples(const Film *f, int x, int y)
     int maxx = c->full_width * z - 1, maxy = c->full_height * z - 1;
     for (int s = 0; s < n; s++) {
         const float *d = film_sample(f, x, y, s);
-        size_t cs = (size_t)f->fw;
+        size_t cs = f->cs;
         int X = (int)floorf(((float)x + d[0]) * (float)z);
         int Y = (int)floorf(((float)y + d[cs]) * (float)z);
         X = X > maxx ? maxx : X;
@@ -318,7 +321,7 @@ static void film_tile(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by,
     const FilmConfig *c = f->cfg;
     size_t per_px = (size_t)f->slots * (size_t)f->stride;
     uint64_t queued = 0;
-    st->cs = scratch ? 1 : (size_t)f->fw;
+    st->cs = scratch ? 1 : f->cs;
     for (int k = 0; k < TILE * TILE; k++) {
         int dx, dy;
         render_tile_order(k, &dx, &dy);
@@ -335,7 +338,7 @@ static void film_tile(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by,
     stream_flush(f, ctx, st);
     if (!scratch)
         return;
-    size_t cs = (size_t)f->fw;
+    size_t cs = f->cs;
     for (int dy = 0; dy < TILE; dy++) {
         uint64_t row = (queued >> (dy * TILE)) & 0xff;
         if (!row)
@@ -378,8 +381,10 @@ static void film_band(void *user, RenderCtx *ctx, int band)
     uint64_t rays0 = ctx->stats.nonshadow_rays + ctx->stats.shadow_rays;
     Stream st;
     st.n = 0;
-    float *scratch = malloc((size_t)TILE * TILE * (size_t)f->slots * (size_t)f->stride *
-                            sizeof *scratch);
+    /* The tile's scratch, for planes only (NULL: the samples go to the film directly). */
+    float *scratch = f->planes ? malloc((size_t)TILE * TILE * (size_t)f->slots *
+                                        (size_t)f->stride * sizeof *scratch)
+                               : NULL;
     /* Tiles of 8 x 8 pixels in Morton order, each pixel's samples in a row: the rays of
      * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block; a
      * tile's 64 n rays fill whole packets). A band of many samples takes long: a stop
@@ -420,7 +425,7 @@ static inline float film_weight(const Film *f, const float *d, int a, int b, int
                *film_weights(f, a, b, s, 2 * R + 1 + b - j + R);
     /* The exact offset from the centre of pixel (i, j), rounded to float once. */
     float dx = (float)((double)(a - i) + (double)d[0] - 0.5);
-    float dy = (float)((double)(b - j) + (double)d[f->fw] - 0.5);
+    float dy = (float)((double)(b - j) + (double)d[f->cs] - 0.5);
     return filter_weight(f->cfg->filter, dx, dy);
 }
 
@@ -435,7 +440,7 @@ static void film_filter_quad(const Film *f, int i, int j, int b0, int b1, FilmV4
                              FilmV4f *wsum)
 {
     int R = f->R, side = 2 * R + 1, n = f->slots;
-    size_t cs = (size_t)f->fw;
+    size_t cs = f->cs;
     FilmV4f sr = {0, 0, 0, 0}, sg = sr, sb = sr, sw = sr;
     for (int ta = 0; ta < side; ta++) {
         int a = i - R + ta; /* lane l's column ta is a + l */
@@ -506,9 +511,9 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
     /* The colour-only case without adaptive shares has its own loops (the common one,
      * and most of the filtering time); both paths add the same terms in the same order. */
     bool plain = !adaptive && f->off_depth < 0 && f->off_normal < 0;
-    size_t ss = f->ss, cs = (size_t)f->fw;
+    size_t ss = f->ss, cs = f->cs;
     for (int i = c->x0; i < c->x0 + c->width; i++) {
-        if (plain && (f->per || f->table) && i + 3 < c->x0 + c->width && i - R >= 0 &&
+        if (plain && f->planes && (f->per || f->table) && i + 3 < c->x0 + c->width && i - R >= 0 &&
             i + 3 + R <= c->full_width - 1) {
             FilmV4f sum4[3], wsum4;
             film_filter_quad(f, i, j, b0, b1, sum4, &wsum4);
@@ -663,12 +668,25 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
                 }
     } else if (cfg->filter->ops->weight_1d && R > 0) {
         f.per = 2 * (2 * R + 1);
-    } else if (R == 0 && !cfg->refine) {
-        f.per = 1;
+    } else if (R == 0 && !cfg->refine && !cfg->depth && !cfg->normals) {
+        f.per = 1; /* computed row by row, in planes (below) */
         f.w2d = true;
     }
-    f.row_weights = f.per && !cfg->refine;
-    f.ss = (size_t)f.stride * (size_t)f.fw;
+    /* Planes where the vector filter runs and has neighbours to weigh (with R = 0 and
+     * fixed weights one pixel's samples were as fast side by side). */
+    f.planes = !cfg->refine && !cfg->depth && !cfg->normals && (R > 0 || f.w2d);
+    f.row_weights = f.per && f.planes;
+    size_t px_floats = (size_t)f.slots * (size_t)f.stride;
+    f.rs = (size_t)f.fw * px_floats;
+    if (f.planes) {
+        f.cs = (size_t)f.fw;
+        f.ss = (size_t)f.stride * (size_t)f.fw;
+        f.xs = 1;
+    } else {
+        f.cs = 1;
+        f.ss = (size_t)f.stride;
+        f.xs = px_floats;
+    }
     f.ws = (size_t)f.per * (size_t)f.fw;
 
     /* Strip height from the budget; at least 2R + 1 rows so a strip makes progress. */
