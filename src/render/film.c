@@ -91,9 +91,15 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
     size_t cs = st->cs;
     for (int i = 0; i < st->n; i++) {
         float *d = st->dest[i];
-        d[2 * cs] = colors[i].x;
-        d[3 * cs] = colors[i].y;
-        d[4 * cs] = colors[i].z;
+        if (cs == 1) { /* the usual case: a sample's channels side by side */
+            d[2] = colors[i].x;
+            d[3] = colors[i].y;
+            d[4] = colors[i].z;
+        } else {
+            d[2 * cs] = colors[i].x;
+            d[3 * cs] = colors[i].y;
+            d[4 * cs] = colors[i].z;
+        }
         if (f->off_depth >= 0) {
             Vec3 g = render_depth_color(&hits[i], f->cfg->depth_min, f->cfg->depth_max);
             float *e = d + (size_t)f->off_depth * cs;
@@ -239,15 +245,16 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
         film_sample_weights(f, x, y, s->count, xy);
     /* The rays go straight into the packet, as many of the pixel's as it has room for
      * at a time (camera_sample_rays: several samples per step). */
+    float *d = aos ? aos : film_sample(f, x, y, 0);
+    size_t step = aos ? (size_t)f->stride : f->ss, cs = st->cs;
     for (int i0 = 0; i0 < s->count;) {
         int m = ACCEL_PACKET_MAX - st->n;
         m = m < s->count - i0 ? m : s->count - i0;
         camera_sample_rays(f->camera, x, y, xy + 2 * i0, m, c->full_width, c->full_height,
                            &st->rays[st->n]);
-        for (int i = i0; i < i0 + m; i++) {
-            float *d = aos ? aos + (size_t)i * (size_t)f->stride : film_sample(f, x, y, i);
+        for (int i = i0; i < i0 + m; i++, d += step) {
             d[0] = xy[2 * i];
-            d[st->cs] = xy[2 * i + 1];
+            d[cs] = xy[2 * i + 1];
             st->dest[st->n++] = d;
         }
         i0 += m;
