@@ -67,8 +67,9 @@ run_timed() {
     WALL=$(echo "$t" | awk '{ printf "%.1f", $1 * 1000 }')
     CPU=$(echo "$t" | awk '{ printf "%.1f", ($2 + $3) * 1000 }')
 }
-# from the last run: -timings phase (parse|grid|render|write) in ms, or nan
-timing() { sed -n "s/.*timings:.* $1 \([0-9.]*\) ms.*/\1/p" "$TMP/run.err" | tail -n 1 | grep . || echo nan; }
+# from the last run: -timings phase (parse|render|write, or the accelerator's build:
+# grid|twolevel, absent without one) in ms, or nan; $1 is an extended regex
+timing() { sed -En "s/.*timings:.* ($1) ([0-9.]*) ms.*/\2/p" "$TMP/run.err" | tail -n 1 | grep . || echo nan; }
 # from the last run: a -stats counter by label ("num shadow rays")
 stat_of() { sed -n "s/^  $1  *\([0-9.]*\).*/\1/p" "$TMP/run.out" | tail -n 1 | grep . || echo 0; }
 # from the last embree_ref run: key=value
@@ -141,7 +142,7 @@ if want a && [ -f "$COURSE/commands.txt" ]; then
                 break
             fi
             walls+=("$WALL") cpus+=("$CPU")
-            parses+=("$(timing parse)") grids+=("$(timing grid)") renders+=("$(timing render)")
+            parses+=("$(timing parse)") grids+=("$(timing 'grid|twolevel')") renders+=("$(timing render)")
         done
         if [ "$STATUS" != 0 ]; then
             say "$(printf '   %-4s FAILED (exit %s)' "$id" "$STATUS")"
@@ -301,7 +302,7 @@ for c in "${cases[@]}"; do
     ps=() gs=() els=() ebs=() tris=-
     for ((k = 0; k < RUNS; k++)); do
         run_timed "$BIN" -input "$scene" -output "$TMP/o.tga" -size 1 1 $gridargs $TIMINGS
-        ps+=("$(timing parse)") gs+=("$(timing grid)")
+        ps+=("$(timing parse)") gs+=("$(timing 'grid|twolevel')")
         if [ -n "$EMB" ]; then
             run_timed "$EMB" -input "$scene" -size 1 1 -threads 1
             els+=("$(emb_of load_ms)") ebs+=("$(emb_of build_ms)")
@@ -435,7 +436,7 @@ if want g; then
                     run_timed "$BIN" -input "$scene" -output "$TMP/g.tga" -size 20 20 -shadows -timings "${gargs[@]}"
                 fi
                 [ "$STATUS" = 0 ] || { note "bench: $sc -grid $g failed: $(head -c 300 "$TMP/run.err")"; break; }
-                gm+=("$(timing grid)") cm+=("$CPU")
+                gm+=("$(timing 'grid|twolevel')") cm+=("$CPU")
                 cells=$(sed -n 's/.*using \([0-9x]*\) instead.*/\1/p; s/.*auto chose \([0-9]*\) x \([0-9]*\) x \([0-9]*\) cells.*/\1x\2x\3/p' "$TMP/run.err" | head -n 1)
                 [ -z "$cells" ] && [ "$g" != none ] && cells=$(echo "$g" | tr ' ' x)
                 [ "$g" = none ] && cells=-

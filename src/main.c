@@ -435,11 +435,19 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         }
     }
     /* The precise rate goes here; the -stats block has the course's whole-second one. */
-    if (o->timings && dist_is_root())
-        fprintf(stderr, "timings: parse %.3f ms, grid %.3f ms, render %.3f ms, write %.3f ms, "
-                "rays per second %.1f\n", phases[0] * 1e3, phases[1] * 1e3,
-                phases[2] * 1e3, t_write * 1e3,
+    if (o->timings && dist_is_root()) {
+        /* The build phase is named after the accelerator built ("grid", "twolevel");
+         * without one (-accel none, no -grid, or the fallback of a scene of planes) it
+         * is left out: flattening the scene was all it did. */
+        char build[64] = "";
+        if (app->accel.ops && app->accel.ops != &accel_none_ops)
+            snprintf(build, sizeof build, ", %s %.3f ms", app->accel.ops->name,
+                     phases[1] * 1e3);
+        fprintf(stderr, "timings: parse %.3f ms%s, render %.3f ms, write %.3f ms, "
+                "rays per second %.1f\n", phases[0] * 1e3, build, phases[2] * 1e3,
+                t_write * 1e3,
                 stats_rays_per_second(counts.nonshadow_rays + counts.shadow_rays, phases[2]));
+    }
     /* Worded so that no "render N ms" appears twice (bench/run.sh reads the line above). */
     if (o->timings && dist_is_root())
         fprintf(stderr, "timings: CPU time of the calling thread in the render phase %.3f ms "

@@ -57,7 +57,7 @@ static const char usage_text[] =
         "  -depth dmin dmax file    depth image: near dmin white, far dmax black\n"
         "  -normals file            normal image: |nx| |ny| |nz| as RGB\n"
         "  -stats                   print the RAY TRACING STATISTICS block on stdout\n"
-        "  -timings                 print parse/grid/render/write times on stderr\n"
+        "  -timings                 print parse/build/render/write times on stderr\n"
         "  -progress                show the progress line even when stderr is not a terminal\n"
         "  -quiet                   no progress line and no hints on stderr\n"
         "Shading\n"

@@ -305,11 +305,27 @@ static void test_timings(void)
                           NULL};
     expect_status(args, 0, "-timings", &r);
     CHECK_CONTAINS(r.err, "timings: parse ");
-    CHECK_CONTAINS(r.err, " ms, grid ");
     CHECK_CONTAINS(r.err, " ms, render ");
     CHECK_CONTAINS(r.err, " ms, write ");
+    /* no accelerator: no build phase (it was called "grid" with none built) */
+    CHECK(strstr(r.err, " grid ") == NULL);
     CHECK(r.out == NULL || strstr(r.out, "timings") == NULL);
     e2e_run_free(&r);
+    /* the build phase is named after the accelerator */
+    static const char *const accels[][2] = {{"none", NULL}, {"grid", " ms, grid "},
+                                            {"twolevel", " ms, twolevel "}};
+    for (int i = 0; i < 3; i++) {
+        const char *a2[] = {"-input", f.scene, "-output", f.out, "-size", "8", "8", "-timings",
+                            "-accel", accels[i][0], NULL};
+        expect_status(a2, 0, "-timings -accel", &r);
+        CHECK_CONTAINS(r.err, "timings: parse ");
+        if (accels[i][1])
+            CHECK_CONTAINS(r.err, accels[i][1]);
+        else
+            CHECK_MSG(strstr(r.err, " grid ") == NULL && strstr(r.err, " none ") == NULL,
+                      "-accel none: %s", r.err);
+        e2e_run_free(&r);
+    }
     e2e_rmtree(f.dir);
 }
 
