@@ -438,8 +438,7 @@ bool image_read(Image *img, const char *path, Diag *diag)
     char why[256] = "";
     bool ok;
 
-    img->width = img->height = 0;
-    img->pixels = NULL;
+    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
     if (!read_file(path, &data, &len, &e)) {
         report(diag, is_stdout(path) ? "<stdin>" : path, "cannot read image: ", strerror(e));
         return false;

@@ -144,9 +144,7 @@ static bool chunks_fit(const uint8_t *data, size_t len)
 static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
 {
     PngSrc src = {data, len, 0};
-    img->width = img->height = 0;
-    img->pixels = NULL;
-    img->has_region = false;
+    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
     if (!chunks_fit(data, len)) {
         if (err && errlen)
             snprintf(err, errlen, "corrupt or truncated PNG file (a chunk is longer than the "

@@ -70,9 +70,7 @@ static bool read_header_int(const uint8_t *d, size_t len, size_t *pos, long *val
 
 static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
 {
-    img->width = img->height = 0;
-    img->pixels = NULL;
-    img->has_region = false;
+    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
     if (len < 2 || d[0] != 'P' || d[1] != '6')
         return codec_fail(err, errlen, "not a binary PPM file (expected \"P6\")");
     /* Our region record, if any, is the comment line right after the magic. */

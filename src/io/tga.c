@@ -66,9 +66,7 @@ static bool tga_header_plausible(const uint8_t *d)
 
 static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
 {
-    img->width = img->height = 0;
-    img->pixels = NULL;
-    img->has_region = false;
+    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
     if (len < TGA_HEADER)
         return codec_fail(err, errlen, "not a TGA image (nor PPM or PNG): only %zu bytes", len);
     if (!tga_header_plausible(d))

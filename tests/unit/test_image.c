@@ -722,6 +722,48 @@ static void test_byte_image_same_files(void)
     CHECK(!image_init_bytes(&bad, 70000, 1));
 }
 
+/* A failed decode leaves every field of the image defined (no pixels, no bytes), whatever
+ * the caller's struct held before, so image_free after a failure is always safe: callers
+ * (merge, imgdiff, the fuzz targets) keep an uninitialised Image on the stack. Inputs:
+ * the PNG the png fuzz target found (a damaged IHDR), a truncated TGA, a bad PPM. */
+static void test_failed_decode_defines_image(void)
+{
+    static const uint8_t bad_png[] = {
+        0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x49, 0x48, 0x44,
+        0x52, 0x00, 0x0d, 0x49, 0x48, 0x44, 0x52, 0x00, 0x02, 0x00, 0x02, 0x00, 0x00, 0x00,
+        0x03, 0x08, 0x02, 0x00, 0x00, 0x00, 0x36, 0x88, 0x49, 0xd6, 0x00, 0x00, 0x00, 0x00,
+        0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+    static const uint8_t bad_tga[] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 4, 0, 4, 0, 24, 0, 1};
+    static const uint8_t bad_ppm[] = "P6\n4 4\n255\n\x01\x02";
+    const struct { const char *codec; const uint8_t *data; size_t len; } cases[] = {
+        {"png", bad_png, sizeof bad_png},
+        {"tga", bad_tga, sizeof bad_tga},
+        {"ppm", bad_ppm, sizeof bad_ppm - 1},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        const ImageCodec *c = image_codec_find(cases[i].codec);
+        if (!c || !c->decode)
+            continue;   /* PNG without libpng: no decoder to test */
+        Image img;
+        memset(&img, 0x5a, sizeof img);   /* what an uninitialised struct may hold */
+        char err[256] = "";
+        CHECK_MSG(!c->decode(cases[i].data, cases[i].len, &img, err, sizeof err), "%s",
+                  cases[i].codec);
+        CHECK_MSG(img.pixels == NULL && img.bytes == NULL, "%s left a pointer", cases[i].codec);
+        CHECK_MSG(img.width == 0 && img.height == 0 && !img.has_region, "%s", cases[i].codec);
+        image_free(&img);
+    }
+    char path[4096];
+    snprintf(path, sizeof path, "%s/tests/bad/png_1gb_text_chunk.png", harness_root());
+    Image img;
+    memset(&img, 0x5a, sizeof img);
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(!image_read(&img, path, &d));
+    CHECK(img.pixels == NULL && img.bytes == NULL);
+    image_free(&img);
+}
+
 static const TestCase tests[] = {
     {"image: codec table: names, extensions, signatures", test_codec_table},
     {"image: PNG declaring a 1 GB chunk refused in little memory", test_png_huge_chunk},
@@ -741,6 +783,7 @@ static const TestCase tests[] = {
     {"image: init bounds, fill, free", test_image_init_bounds},
     {"image: a byte image writes the float image's files", test_byte_image_same_files},
     {"image_compare: figures on hand-made images", test_compare_figures},
+    {"image: a failed decode leaves no pointer for image_free", test_failed_decode_defines_image},
 };
 
 RT_TEST_MAIN(tests)
