@@ -262,9 +262,11 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         target.h = o->region_h;
     }
     int status = 0;
-    /* Byte images where nothing reads the pixels back: the plain renderer (the film
-     * filters in float) in one process (MPI ranks send float tiles to the root). */
-    bool bytes = !antialiasing_requested(o) && dist_size() == 1;
+    /* Byte images where nothing reads the pixels back: the plain renderer and the film
+     * (it filters in float and stores each output pixel once) in one process (MPI
+     * ranks send float tiles to the root). A 1080p frame is then 6 MB instead of 25,
+     * and a -tile part of 16 rows 92 KB instead of 368. */
+    bool bytes = dist_size() == 1;
     bool allocated = alloc_image(&target.color, &color, o->output, o, bytes, &app->diag) &&
                      alloc_image(&target.depth, &depth, o->depth_file, o, bytes, &app->diag) &&
                      alloc_image(&target.normals, &normals, o->normals_file, o, bytes,

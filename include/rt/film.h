@@ -37,8 +37,9 @@ typedef struct FilmConfig {
     float threshold;
     int full_width, full_height;      /* the whole image W x H (the camera mapping) */
     int x0, y0, width, height;        /* the rectangle, inside the image; y from the bottom */
-    /* Outputs, each width x height (the rectangle), or NULL when not wanted. Depth and
-     * normal images are filtered like the colour (each sample's grey depth, |normal|). */
+    /* Outputs, each width x height (the rectangle), or NULL when not wanted; float or
+     * byte images (rt/image.h: written once per pixel, by image_put). Depth and normal
+     * images are filtered like the colour (each sample's grey depth, |normal|). */
     Image *color, *depth, *normals;
     float depth_min, depth_max;
     /* The samples picture of the rectangle, (width*zoom) x (height*zoom), or NULL: pixel

@@ -527,7 +527,7 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
             for (int k = 0; k < 4; k++) {
                 float w = wsum4[k];
                 if (c->color)
-                    image_set(c->color, i + k - c->x0, j - c->y0,
+                    image_put(c->color, i + k - c->x0, j - c->y0,
                               w != 0.0f ? v3(sum4[0][k] / w, sum4[1][k] / w, sum4[2][k] / w)
                                         : v3(0, 0, 0));
             }
@@ -598,13 +598,13 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
         /* No weight at all (a filter whose support misses every sample): black. */
         Vec3 zero = v3(0, 0, 0);
         if (c->color)
-            image_set(c->color, x, y,
+            image_put(c->color, x, y,
                       wsum != 0.0f ? v3(sum.x / wsum, sum.y / wsum, sum.z / wsum) : zero);
         if (c->depth)
-            image_set(c->depth, x, y,
+            image_put(c->depth, x, y,
                       wsum != 0.0f ? v3(sum_d.x / wsum, sum_d.y / wsum, sum_d.z / wsum) : zero);
         if (c->normals)
-            image_set(c->normals, x, y,
+            image_put(c->normals, x, y,
                       wsum != 0.0f ? v3(sum_n.x / wsum, sum_n.y / wsum, sum_n.z / wsum) : zero);
     }
 }
