@@ -374,15 +374,25 @@ static void film_tile(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by,
     }
 }
 
+/* The first row of the strip's first band: on the packet grid when strips are whole
+ * bands (rows_cap >= TILE); strips of fewer rows (a tiny budget, or many samples on a
+ * wide image) keep their bands from their own first row, as the grid would cut each
+ * of them into two thin bands. */
+static int film_band_base(const Film *f)
+{
+    return f->rows_cap >= TILE ? film_grid_floor(f->r0) : f->r0;
+}
+
 static void film_band(void *user, RenderCtx *ctx, int band)
 {
     const Film *f = user;
     const FilmConfig *c = f->cfg;
     /* Bands and tiles lie on the full image's grid of TILE x TILE packet tiles (rows
-     * and columns counted from 0 at the bottom left, as render_image's): a rectangle,
-     * a -tile band or a strip traces the same packets as the whole render wherever its
-     * edges lie on that grid, and cuts only the tiles its edges cross. */
-    int by = film_grid_floor(f->r0) + band * TILE;
+     * and columns counted from 0 at the bottom left, as render_image's; rows only when
+     * strips are whole bands, film_band_base): a rectangle, a -tile band or a strip
+     * traces the same packets as the whole render wherever its edges lie on that grid,
+     * and cuts only the tiles its edges cross. */
+    int by = film_band_base(f) + band * TILE;
     int y0 = by > f->r0 ? by : f->r0, y1 = by + TILE < f->r1 ? by + TILE : f->r1;
     int bx = film_grid_floor(f->sx0);
     uint64_t rays0 = ctx->stats.nonshadow_rays + ctx->stats.shadow_rays;
@@ -763,7 +773,7 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
         f.r1 = need1;
         if (f.r1 > f.r0) {
             RtStats st;
-            int bands = (f.r1 - film_grid_floor(f.r0) + TILE - 1) / TILE;
+            int bands = (f.r1 - film_band_base(&f) + TILE - 1) / TILE;
             double t0 = clock_thread_cpu();
             ok = render_parallel(rt, threads, bands, film_band, &f, &st, cancel);
             cfg->trace_cpu += clock_thread_cpu() - t0;
