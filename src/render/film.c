@@ -36,8 +36,6 @@ typedef struct Film {
     size_t cs, xs, rs;          /* ... from a channel, a column, a row to the next */
     bool planes;                /* the data in planes (xs = 1) */
     bool row_weights;           /* weights computed row by row (film_row_weights) */
-    bool w2d;                   /* R = 0, random positions: per = 1, each sample's own
-                                   (2-D) weight, as film_weight computes it */
     int rows_cap;               /* film rows the buffer holds */
     int y0, rows;               /* film rows held now */
     float *data;
@@ -189,20 +187,6 @@ static void film_row_weights(const Film *f, int y)
 {
     enum { CHUNK = 256 };
     int R = f->R, side = 2 * R + 1, fw = f->fw;
-    if (f->w2d) {
-        /* One weight per sample, for its own pixel: film_weight's offset with a - i =
-         * b - j = 0, and the filter's 2-D weight. */
-        for (int s = 0; s < f->slots; s++) {
-            const float *px = film_sample(f, f->sx0, y, s), *py = px + f->cs;
-            float *w = film_weights(f, f->sx0, y, s, 0);
-            for (int x = 0; x < fw; x++) {
-                float dx = (float)((double)0 + (double)px[x] - 0.5);
-                float dy = (float)((double)0 + (double)py[x] - 0.5);
-                w[x] = filter_weight(f->cfg->filter, dx, dy);
-            }
-        }
-        return;
-    }
     double base[CHUNK];
     float arg[CHUNK];
     for (int s = 0; s < f->slots; s++)
@@ -435,8 +419,6 @@ static inline float film_weight(const Film *f, const float *d, int a, int b, int
     int R = f->R;
     if (f->table)
         return f->table[((a - i + R) * (2 * R + 1) + (b - j + R)) * f->slots + s];
-    if (f->w2d)
-        return *film_weights(f, a, b, s, 0);
     if (f->per)
         return *film_weights(f, a, b, s, a - i + R) *
                *film_weights(f, a, b, s, 2 * R + 1 + b - j + R);
@@ -464,19 +446,7 @@ static void film_filter_quad(const Film *f, int i, int j, int b0, int b1, FilmV4
         for (int b = b0; b <= b1; b++) {
             const float *d = film_sample(f, a, b, 0);
             FilmV4f c0, c1, c2, w, wy;
-            if (f->w2d) {
-                const float *wp = film_weights(f, a, b, 0, 0);
-                for (int s = 0; s < n; s++, d += f->ss, wp += f->ws) {
-                    memcpy(&w, wp, sizeof w);
-                    memcpy(&c0, d + 2 * cs, sizeof c0);
-                    memcpy(&c1, d + 3 * cs, sizeof c1);
-                    memcpy(&c2, d + 4 * cs, sizeof c2);
-                    sr += c0 * w;
-                    sg += c1 * w;
-                    sb += c2 * w;
-                    sw += w;
-                }
-            } else if (f->per) {
+            if (f->per) {
                 const float *wx = film_weights(f, a, b, 0, ta);
                 const float *wyp = film_weights(f, a, b, 0, side + b - j + R);
                 for (int s = 0; s < n; s++, d += f->ss, wx += f->ws, wyp += f->ws) {
@@ -552,17 +522,6 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
             for (int b = b0; b <= b1; b++) {
                 int n = *film_count(f, a, b);
                 const float *d = film_sample(f, a, b, 0);
-                if (plain && f->w2d) {
-                    const float *wp = film_weights(f, a, b, 0, 0);
-                    for (int s = 0; s < n; s++, d += ss, wp += f->ws) {
-                        float w = *wp;
-                        sum.x += d[2 * cs] * w;
-                        sum.y += d[3 * cs] * w;
-                        sum.z += d[4 * cs] * w;
-                        wsum += w;
-                    }
-                    continue;
-                }
                 if (plain && f->per) {
                     const float *wx = film_weights(f, a, b, 0, a - i + R);
                     const float *wy = film_weights(f, a, b, 0, 2 * R + 1 + b - j + R);
@@ -685,13 +644,13 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
                 }
     } else if (cfg->filter->ops->weight_1d && R > 0) {
         f.per = 2 * (2 * R + 1);
-    } else if (R == 0 && !cfg->refine && !cfg->depth && !cfg->normals) {
-        f.per = 1; /* computed row by row, in planes (below) */
-        f.w2d = true;
     }
-    /* Planes where the vector filter runs and has neighbours to weigh (with R = 0 and
-     * fixed weights one pixel's samples were as fast side by side). */
-    f.planes = !cfg->refine && !cfg->depth && !cfg->normals && (R > 0 || f.w2d);
+    /* Planes where the vector filter runs and has neighbours to weigh. With R = 0 a
+     * pixel's samples side by side and the scalar loop were as fast (uniform: 3 ms of
+     * filtering at 400x400); each sample's own 2-D weight in a plane (jittered + box
+     * 0.5) filtered in 4 ms instead of 12 but cost more than that in the trace phase
+     * (the weight pass and the tile copy; paired runs in bench/REPORT.txt). */
+    f.planes = !cfg->refine && !cfg->depth && !cfg->normals && R > 0;
     f.row_weights = f.per && f.planes;
     size_t px_floats = (size_t)f.slots * (size_t)f.stride;
     f.rs = (size_t)f.fw * px_floats;

@@ -452,8 +452,8 @@ static void test_film_progress(void)
  * it can, the scalar loop elsewhere (border columns, a rectangle's last pixels); with a
  * depth image every pixel goes through the general loop. The colour must be the same
  * bytes either way, and a rectangle at any column offset (which regroups the pixels of
- * a vector) the crop of the full render. Fixed weights (uniform: the table),
- * separable ones (Gaussian: R = 1 and 2) and per-sample 2-D ones (box 0.5: R = 0). */
+ * a vector) the crop of the full render. Fixed weights (uniform: the table) and
+ * separable ones (Gaussian: R = 1 and 2); R = 0 (box 0.5) keeps the scalar loop. */
 static void test_film_vector_filter(void)
 {
     Fixture fx;
