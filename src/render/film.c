@@ -422,9 +422,10 @@ static inline float film_weight(const Film *f, const float *d, int a, int b, int
     if (f->per)
         return *film_weights(f, a, b, s, a - i + R) *
                *film_weights(f, a, b, s, 2 * R + 1 + b - j + R);
-    /* The exact offset from the centre of pixel (i, j), rounded to float once. */
+    /* The exact offset from the centre of pixel (i, j), rounded to float once (the
+     * general loop's films are pixel by pixel: channels side by side). */
     float dx = (float)((double)(a - i) + (double)d[0] - 0.5);
-    float dy = (float)((double)(b - j) + (double)d[f->cs] - 0.5);
+    float dy = (float)((double)(b - j) + (double)d[1] - 0.5);
     return filter_weight(f->cfg->filter, dx, dy);
 }
 
@@ -545,20 +546,22 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
                     }
                     continue;
                 }
-                /* Adaptive: each pixel weighs as one pixel's area, however many samples. */
+                /* The general loop: never planes (film_render), so a sample's channels
+                 * lie side by side. Adaptive: each pixel weighs as one pixel's area,
+                 * however many samples. */
                 float share = adaptive ? 1.0f / (float)n : 1.0f;
                 for (int s = 0; s < n; s++, d += ss) {
                     float w = film_weight(f, d, a, b, i, j, s);
                     if (adaptive)
                         w *= share;
-                    sum = v3_add(sum, v3_scale(v3(d[2 * cs], d[3 * cs], d[4 * cs]), w));
+                    sum = v3_add(sum, v3_scale(v3(d[2], d[3], d[4]), w));
                     if (f->off_depth >= 0) {
-                        const float *e = d + (size_t)f->off_depth * cs;
-                        sum_d = v3_add(sum_d, v3_scale(v3(e[0], e[cs], e[2 * cs]), w));
+                        const float *e = d + f->off_depth;
+                        sum_d = v3_add(sum_d, v3_scale(v3(e[0], e[1], e[2]), w));
                     }
                     if (f->off_normal >= 0) {
-                        const float *e = d + (size_t)f->off_normal * cs;
-                        sum_n = v3_add(sum_n, v3_scale(v3(e[0], e[cs], e[2 * cs]), w));
+                        const float *e = d + f->off_normal;
+                        sum_n = v3_add(sum_n, v3_scale(v3(e[0], e[1], e[2]), w));
                     }
                     wsum += w;
                 }
@@ -650,7 +653,7 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
      * filtering at 400x400); each sample's own 2-D weight in a plane (jittered + box
      * 0.5) filtered in 4 ms instead of 12 but cost more than that in the trace phase
      * (the weight pass and the tile copy; paired runs in bench/REPORT.txt). */
-    f.planes = !cfg->refine && !cfg->depth && !cfg->normals && R > 0;
+    f.planes = !cfg->refine && !cfg->depth && !cfg->normals && R > 0 && (f.per || f.table);
     f.row_weights = f.per && f.planes;
     size_t px_floats = (size_t)f.slots * (size_t)f.stride;
     f.rs = (size_t)f.fw * px_floats;
