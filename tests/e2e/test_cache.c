@@ -452,7 +452,7 @@ static void test_cache_static_binary(void)
     char why[512];
     CHECK_MSG(cmd_run(&c, ref, cache, &r) && r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
     e2e_run_free(&r);
-    char parts[4][PATH_MAX], kbuf[4][4];
+    char parts[4][PATH_MAX], kbuf[4][12];
     const char *margv[8] = {"-merge", merged};
     for (int k = 0; k < 4 && !harness_failures; k++) {
         snprintf(kbuf[k], sizeof kbuf[k], "%d", k);
