@@ -288,6 +288,61 @@ static inline bool e2e_run_bin(const char *bin, const char *const *args, E2eRun 
     return e2e_run(argv, r);
 }
 
+/* Starts argv (argv[0] a path, NULL-terminated) in the background for a test that
+ * signals it: standard input and output on /dev/null, standard error into a pipe whose
+ * read end is stored in *err_fd (NULL: /dev/null too). -1 when it cannot start. */
+static inline pid_t e2e_spawn(const char *const *argv, int *err_fd)
+{
+    int errp[2] = {-1, -1};
+    if (err_fd && pipe(errp) != 0)
+        return -1;
+    fflush(stdout);
+    fflush(stderr);
+    pid_t pid = fork();
+    if (pid == 0) {
+        int null = open("/dev/null", O_RDWR);
+        dup2(null, 0);
+        dup2(null, 1);
+        dup2(err_fd ? errp[1] : null, 2);
+        if (err_fd)
+            close(errp[0]);
+        execv(argv[0], (char *const *)argv);
+        _exit(127);
+    }
+    if (err_fd) {
+        close(errp[1]);
+        if (pid < 0)
+            close(errp[0]);
+        else
+            *err_fd = errp[0];
+    }
+    return pid;
+}
+
+/* Waits for pid at most limit_s seconds (a guard against a run that never ends, not a
+ * timing condition), then kills it. True when it ended by itself; *status is its wait
+ * status either way. */
+static inline bool e2e_wait_or_kill(pid_t pid, int limit_s, int *status)
+{
+    for (int i = 0; i < limit_s * 10; i++) { /* steps of 0.1 s */
+        if (waitpid(pid, status, WNOHANG) == pid)
+            return true;
+        nanosleep(&(struct timespec){0, 100 * 1000 * 1000}, NULL);
+    }
+    kill(pid, SIGKILL);
+    while (waitpid(pid, status, 0) < 0) {
+    }
+    return false;
+}
+
+/* What fd holds (at most size - 1 bytes, as a string), then closes it. */
+static inline void e2e_read_close(int fd, char *buf, size_t size)
+{
+    ssize_t n = read(fd, buf, size - 1);
+    buf[n > 0 ? n : 0] = '\0';
+    close(fd);
+}
+
 /* A readable one-line summary of a failed run, for CHECK_MSG. */
 static inline const char *e2e_describe(const E2eRun *r, char *buf, size_t size)
 {

@@ -343,17 +343,7 @@ static void test_mpi_singleton_early_signal(void)
     const char *args[] = {mpi, "-input", scene, "-output", out, "-size", "4", "4",
                           "-shade_back", "-bounces", "60", "-weight", "0", NULL};
     for (int ms = 100; ms < 1000 && !harness_failures; ms += 200) {
-        fflush(stdout);
-        fflush(stderr);
-        pid_t pid = fork();
-        if (pid == 0) {
-            int null = open("/dev/null", O_RDWR);
-            dup2(null, 0);
-            dup2(null, 1);
-            dup2(null, 2);
-            execv(args[0], (char *const *)args);
-            _exit(127);
-        }
+        pid_t pid = e2e_spawn(args, NULL);
         CHECK(pid > 0);
         if (pid <= 0)
             break;
@@ -361,18 +351,7 @@ static void test_mpi_singleton_early_signal(void)
         nanosleep(&pause, NULL);
         kill(pid, SIGINT);
         int st = 0;
-        bool hung = true;
-        for (int i = 0; i < 600 && hung; i++) { /* 60 s in steps of 0.1 s */
-            if (waitpid(pid, &st, WNOHANG) == pid)
-                hung = false;
-            else
-                nanosleep(&(struct timespec){0, 100 * 1000 * 1000}, NULL);
-        }
-        if (hung) {
-            kill(pid, SIGKILL);
-            while (waitpid(pid, &st, 0) < 0) {
-            }
-        }
+        bool hung = !e2e_wait_or_kill(pid, 60, &st);
         CHECK_MSG(!hung, "Ctrl-C after %d ms: still running after 60 s", ms);
         CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 130,
                   "Ctrl-C after %d ms: %s %d, expected exit 130", ms,

@@ -57,23 +57,10 @@ static void signal_during_write(int sig)
     e2e_join(out, sizeof out, dir, "o.tga");
     repro(scene, sizeof scene, "planes_only.txt");
     CHECK(mkfifo(fifo, 0600) == 0);
-    int errp[2];
-    CHECK(pipe(errp) == 0);
     const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-depth", "0", "20",
                           fifo, "-size", "200", "200", NULL};
-    fflush(stdout);
-    fflush(stderr);
-    pid_t pid = fork();
-    if (pid == 0) {
-        int null = open("/dev/null", O_RDWR);
-        dup2(null, 0);
-        dup2(null, 1);
-        dup2(errp[1], 2);
-        close(errp[0]);
-        execv(args[0], (char *const *)args);
-        _exit(127);
-    }
-    close(errp[1]);
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
     CHECK(pid > 0);
     /* Only a guard against a run that never ends (the defect): not a timing condition. */
     alarm(120);
@@ -88,9 +75,8 @@ static void signal_during_write(int sig)
     }
     close(fd);
     char err[4096] = "";
-    ssize_t n = read(errp[0], err, sizeof err - 1);
-    err[n > 0 ? n : 0] = '\0';
-    close(errp[0]);
+    if (errfd >= 0)
+        e2e_read_close(errfd, err, sizeof err);
     CHECK_MSG(WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
               "signal %d: %s %d, expected exit %d", sig, WIFEXITED(st) ? "exit" : "killed by",
               WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + sig);
@@ -118,24 +104,11 @@ static void signal_inside_pixel(int sig)
     CHECK(e2e_tmpdir(dir, sizeof dir, "sigpixel") != NULL);
     e2e_join(out, sizeof out, dir, "o.tga");
     repro(scene, sizeof scene, "deep_ray_tree.txt");
-    int errp[2];
-    CHECK(pipe(errp) == 0);
     const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-size", "1", "1",
                           "-shade_back", "-bounces", "60", "-weight", "0", "-threads", "1",
                           NULL};
-    fflush(stdout);
-    fflush(stderr);
-    pid_t pid = fork();
-    if (pid == 0) {
-        int null = open("/dev/null", O_RDWR);
-        dup2(null, 0);
-        dup2(null, 1);
-        dup2(errp[1], 2);
-        close(errp[0]);
-        execv(args[0], (char *const *)args);
-        _exit(127);
-    }
-    close(errp[1]);
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
     CHECK(pid > 0);
     if (pid <= 0)
         return;
@@ -143,25 +116,9 @@ static void signal_inside_pixel(int sig)
     nanosleep(&pause, NULL);
     kill(pid, sig);
     int st = 0;
-    bool hung = true;
-    for (int i = 0; i < 600; i++) { /* 60 s in steps of 0.1 s */
-        pid_t w = waitpid(pid, &st, WNOHANG);
-        if (w == pid) {
-            hung = false;
-            break;
-        }
-        struct timespec step = {0, 100 * 1000 * 1000};
-        nanosleep(&step, NULL);
-    }
-    if (hung) {
-        kill(pid, SIGKILL);
-        while (waitpid(pid, &st, 0) < 0) {
-        }
-    }
+    bool hung = !e2e_wait_or_kill(pid, 60, &st);
     char err[4096] = "";
-    ssize_t n = read(errp[0], err, sizeof err - 1);
-    err[n > 0 ? n : 0] = '\0';
-    close(errp[0]);
+    e2e_read_close(errfd, err, sizeof err);
     CHECK_MSG(!hung, "signal %d: the run did not stop within 60 s", sig);
     CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
               "signal %d: %s %d, expected exit %d", sig, WIFEXITED(st) ? "exit" : "killed by",
