@@ -429,6 +429,21 @@ static inline float film_weight(const Film *f, const float *d, int a, int b, int
     return filter_weight(f->cfg->filter, dx, dy);
 }
 
+/* One sample slot's terms added to the four lanes' sums: its colour planes (at d + 2,
+ * 3 and 4 channel strides, one lane per column) times the lanes' weights. */
+static inline void film_quad_add(const float *d, size_t cs, FilmV4f w, FilmV4f *sr,
+                                 FilmV4f *sg, FilmV4f *sb, FilmV4f *sw)
+{
+    FilmV4f c0, c1, c2;
+    memcpy(&c0, d + 2 * cs, sizeof c0);
+    memcpy(&c1, d + 3 * cs, sizeof c1);
+    memcpy(&c2, d + 4 * cs, sizeof c2);
+    *sr += c0 * w;
+    *sg += c1 * w;
+    *sb += c2 * w;
+    *sw += w;
+}
+
 /* The colour sums of four neighbouring output pixels (i .. i+3, j) whose columns of
  * support lie inside the image, in the plain case (colour only, every pixel with the
  * sampler's count; fixed or separable weights), one pixel per vector lane: each lane
@@ -446,7 +461,7 @@ static void film_filter_quad(const Film *f, int i, int j, int b0, int b1, FilmV4
         int a = i - R + ta; /* lane l's column ta is a + l */
         for (int b = b0; b <= b1; b++) {
             const float *d = film_sample(f, a, b, 0);
-            FilmV4f c0, c1, c2, w, wy;
+            FilmV4f w, wy;
             if (f->per) {
                 const float *wx = film_weights(f, a, b, 0, ta);
                 const float *wyp = film_weights(f, a, b, 0, side + b - j + R);
@@ -454,26 +469,14 @@ static void film_filter_quad(const Film *f, int i, int j, int b0, int b1, FilmV4
                     memcpy(&w, wx, sizeof w);
                     memcpy(&wy, wyp, sizeof wy);
                     w *= wy;
-                    memcpy(&c0, d + 2 * cs, sizeof c0);
-                    memcpy(&c1, d + 3 * cs, sizeof c1);
-                    memcpy(&c2, d + 4 * cs, sizeof c2);
-                    sr += c0 * w;
-                    sg += c1 * w;
-                    sb += c2 * w;
-                    sw += w;
+                    film_quad_add(d, cs, w, &sr, &sg, &sb, &sw);
                 }
             } else {
                 /* Fixed positions: all four pixels weigh their samples alike. */
                 const float *t = f->table + (ta * side + (b - j + R)) * f->slots;
                 for (int s = 0; s < n; s++, d += f->ss) {
                     w = (FilmV4f){t[s], t[s], t[s], t[s]};
-                    memcpy(&c0, d + 2 * cs, sizeof c0);
-                    memcpy(&c1, d + 3 * cs, sizeof c1);
-                    memcpy(&c2, d + 4 * cs, sizeof c2);
-                    sr += c0 * w;
-                    sg += c1 * w;
-                    sb += c2 * w;
-                    sw += w;
+                    film_quad_add(d, cs, w, &sr, &sg, &sb, &sw);
                 }
             }
         }
