@@ -9,6 +9,9 @@
  * builds with AddressSanitizer (which cannot see inside a private mapping), use malloc:
  * below 512 KB a whole huge page is mostly waste, and blocks freed and allocated again
  * (the parts of -merge) are cheaper from malloc, which reuses its freed pages.
+ * Middle sizes (BIGMEM_POOL_MIN_BYTES up to BIGMEM_MIN_BYTES) are carved from one shared
+ * huge-page pool with a per-process budget (16 MB): a freed middle block is never reused,
+ * and once the budget is spent these sizes come from malloc (bigmem.c says why).
  *
  * Every pointer from bigmem_alloc/bigmem_resize must be released by bigmem_free (never
  * by free), and a malloc'd pointer never by bigmem_free. Data is 64-byte aligned. */
@@ -18,7 +21,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-enum { BIGMEM_MIN_BYTES = 512 << 10 };
+enum { BIGMEM_MIN_BYTES = 512 << 10, BIGMEM_POOL_MIN_BYTES = 16 << 10 };
 
 /* size zeroed bytes (size 0 is allowed and gives a valid, unique pointer); NULL when out
  * of memory or when size is absurd (above SIZE_MAX / 2). */

@@ -1,6 +1,7 @@
-/* Unit tests of rt/bigmem.h: zeroed, aligned memory on both paths (malloc below
- * BIGMEM_MIN_BYTES, a 2 MB-aligned mapping with huge-page advice above), resizes that
- * keep the contents across the paths, and refused absurd sizes. */
+/* Unit tests of rt/bigmem.h: zeroed, aligned memory on every path (malloc below
+ * BIGMEM_POOL_MIN_BYTES, the shared pool up to BIGMEM_MIN_BYTES, a 2 MB-aligned mapping
+ * with huge-page advice above), resizes that keep the contents across the paths, and
+ * refused absurd sizes. */
 #include "harness.h"
 
 #include <stdint.h>
@@ -91,6 +92,42 @@ static void test_resize_keeps_contents(void)
     }
 }
 
+/* Middle sizes come from the shared pool: zeroed even right after a block of the same
+ * size was filled and freed (a pooled block is never handed out twice), 64-aligned,
+ * never a mapping of their own, and resizable across the paths like the others. */
+static void test_middle_sizes(void)
+{
+    const size_t sizes[] = {BIGMEM_POOL_MIN_BYTES - 1, BIGMEM_POOL_MIN_BYTES, 100000,
+                            BIGMEM_MIN_BYTES - 64};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        size_t n = sizes[k];
+        for (int round = 0; round < 3; round++) {
+            unsigned char *p = bigmem_alloc(n);
+            CHECK_MSG(p != NULL, "size %zu", n);
+            if (!p)
+                continue;
+            CHECK_MSG((uintptr_t)p % 64 == 0, "size %zu not 64-aligned", n);
+            CHECK_MSG(all_zero(p, n), "size %zu round %d not zeroed", n, round);
+            CHECK(!bigmem_is_mapped(p));
+            CHECK(bigmem_capacity(p) >= n);
+            fill(p, n, 5);
+            bigmem_free(p);
+        }
+    }
+    unsigned char *a = bigmem_alloc(BIGMEM_POOL_MIN_BYTES);
+    CHECK(a != NULL);
+    if (!a)
+        return;
+    fill(a, BIGMEM_POOL_MIN_BYTES, 11);
+    unsigned char *b = bigmem_resize(a, 200000);
+    CHECK(b && filled(b, BIGMEM_POOL_MIN_BYTES, 11));
+    unsigned char *c = b ? bigmem_resize(b, BIGMEM_MIN_BYTES + 5) : NULL;
+    CHECK(c && filled(c, BIGMEM_POOL_MIN_BYTES, 11));
+    unsigned char *d = c ? bigmem_resize(c, 100) : NULL;
+    CHECK(d && filled(d, 100, 11));
+    bigmem_free(d ? d : c ? c : b);
+}
+
 static void test_absurd_sizes(void)
 {
     CHECK(bigmem_alloc(SIZE_MAX) == NULL);
@@ -143,6 +180,7 @@ static void test_huge_page_advice(void)
 static const TestCase tests[] = {
     {"bigmem: sizes on both paths, zeroed and aligned", test_alloc_sizes},
     {"bigmem: resize keeps the contents across the paths", test_resize_keeps_contents},
+    {"bigmem: middle sizes from the pool, zeroed, never handed out twice", test_middle_sizes},
     {"bigmem: absurd sizes refused, the block kept", test_absurd_sizes},
     {"bigmem: big blocks carry the huge-page advice", test_huge_page_advice},
 };
