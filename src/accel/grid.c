@@ -82,6 +82,11 @@ void grid_setup_geometry(Grid *g)
     }
     g->min_pad = fminf(g->pad[0], fminf(g->pad[1], g->pad[2]));
     g->box_mag = mag;
+    for (int a = 0; a < 3; a++) {
+        g->inv_size[a] = (float)g->n[a] / (hi3[a] - lo3[a]);
+        g->slab_lo[a] = lo3[a] - g->pad[a];
+        g->slab_hi[a] = hi3[a] + g->pad[a];
+    }
 }
 
 void grid_warn_refit(Diag *diag, const int req[3], const int n[3], uint64_t cap)

@@ -239,6 +239,101 @@ static bool brute_occluded(const Grid *g, const Ray *ray, float tmin, float tmax
     return false;
 }
 
+/* The cast's own march: march_init and march_next for this grid, step for step (same
+ * float expressions in the same order, so the same cells, t's and counts), with the
+ * grid's constants from grid_setup_geometry instead of six divisions per ray, and
+ * without what only the ray tree reads (the entered face's normal, started_inside).
+ * Used when no ray tree is being recorded; with one, march_init/march_next record it. */
+static inline __attribute__((always_inline)) bool cast_march_init(const Grid *g,
+                                                                   const Ray *ray,
+                                                                   float tmin,
+                                                                   RenderCtx *ctx,
+                                                                   MarchingInfo *mi)
+{
+    const float o[3] = {ray->origin.x, ray->origin.y, ray->origin.z};
+    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
+    float inv[3];
+    bool parallel[3];
+    float t_enter = -INFINITY, t_exit = INFINITY;
+    int enter_axis = -1;
+    for (int a = 0; a < 3; a++) {
+        inv[a] = 1.0f / d[a];
+        parallel[a] = d[a] == 0.0f || !isfinite(inv[a]);
+        if (parallel[a]) {
+            if (!(o[a] >= g->slab_lo[a] && o[a] <= g->slab_hi[a]))
+                return false;
+            continue;
+        }
+        float t0 = (g->slab_lo[a] - o[a]) * inv[a], t1 = (g->slab_hi[a] - o[a]) * inv[a];
+        if (inv[a] < 0.0f) {
+            float tmp = t0;
+            t0 = t1;
+            t1 = tmp;
+        }
+        if (t0 > t_enter) {
+            t_enter = t0;
+            enter_axis = a;
+        }
+        if (t1 < t_exit)
+            t_exit = t1;
+    }
+    if (enter_axis < 0)
+        return false;
+    if (!(t_enter <= t_exit) || t_exit < tmin)
+        return false;
+    bool inside = t_enter < tmin;
+    mi->t = inside ? tmin : t_enter;
+    const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
+    for (int a = 0; a < 3; a++) {
+        mi->n[a] = g->n[a];
+        mi->step[a] = (!parallel[a] && d[a] < 0.0f) ? -1 : 1;
+        if (!inside && a == enter_axis)
+            mi->cell[a] = mi->step[a] > 0 ? 0 : g->n[a] - 1;
+        else
+            mi->cell[a] = march_cell_of(o[a] + mi->t * d[a], lo[a], g->inv_size[a], g->n[a]);
+        if (parallel[a]) {
+            mi->base[a] = 0.0f;
+            mi->dt[a] = 0.0f;
+            mi->t_next[a] = INFINITY;
+        } else {
+            mi->base[a] = (lo[a] - o[a]) * inv[a];
+            mi->dt[a] = g->size[a] * inv[a];
+            int k = mi->step[a] > 0 ? mi->cell[a] + 1 : mi->cell[a];
+            mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
+        }
+    }
+    ctx->stats.cells_traversed++;
+    return true;
+}
+
+static inline __attribute__((always_inline)) bool cast_march_next(MarchingInfo *mi,
+                                                                   RenderCtx *ctx)
+{
+    int a = 0;
+    if (mi->t_next[1] < mi->t_next[a])
+        a = 1;
+    if (mi->t_next[2] < mi->t_next[a])
+        a = 2;
+    if (!(mi->t_next[a] < INFINITY))
+        return false;
+    int c = mi->cell[a] + mi->step[a];
+    if ((unsigned)c >= (unsigned)mi->n[a])
+        return false;
+    mi->cell[a] = c;
+    mi->t = mi->t_next[a];
+    int k = c + (mi->step[a] > 0);
+    mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
+    ctx->stats.cells_traversed++;
+    return true;
+}
+
+/* The next cell by whichever march started (lean: cast_march_init). */
+static inline __attribute__((always_inline)) bool march_step(MarchingInfo *mi,
+                                                              RenderCtx *ctx, bool lean)
+{
+    return lean ? cast_march_next(mi, ctx) : march_next(mi, ctx);
+}
+
 /* How a query proceeds: the ray misses the grid's box, marches its cells, or starts
  * too far out for the march (grid_ray_too_far) and tests every bounded primitive. */
 typedef enum MarchStart { MARCH_NONE, MARCH_CELLS, MARCH_ALL } MarchStart;
@@ -255,7 +350,8 @@ static inline __attribute__((always_inline)) MarchStart march_start(const Grid *
     float tmarch = grid_march_tmin(g, tmin);
     if (grid_ray_too_far(g, ray, tmarch))
         return MARCH_ALL;
-    if (!march_init(mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
+    if (!(ctx->tree ? march_init(mi, &g->box, g->n, g->pad, ray, tmarch, ctx)
+                    : cast_march_init(g, ray, tmarch, ctx, mi)))
         return MARCH_NONE;
     *stamp = grid_begin_ray(g, ctx);
     *mb = *stamp ? ctx->mailbox : NULL;
@@ -338,6 +434,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
     if (start != MARCH_CELLS)
         return start == MARCH_ALL && brute_intersect(g, ray, hit, tmin, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
+    bool lean = !ctx->tree;
     do {
         /* 4. The cell starts beyond the best hit: nothing in it or later is nearer. */
         if (mi.t > hit->t)
@@ -349,7 +446,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
          * holds up to float rounding at borders). A hit beyond it stays a candidate. */
         if (hit->t <= march_exit_t(&mi))
             break;
-    } while (march_next(&mi, ctx));
+    } while (march_step(&mi, ctx, lean));
     return found;
 }
 
@@ -381,13 +478,14 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
     if (start != MARCH_CELLS)
         return start == MARCH_ALL && brute_occluded(g, ray, tmin, tmax, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
+    bool lean = !ctx->tree;
     do {
         if (mi.t > tmax)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
         if (test_cell(g, c, ray, &h, tmin, ctx, mb, stamp, rsimd, true))
             return true; /* the first occluder settles it */
-    } while (march_next(&mi, ctx));
+    } while (march_step(&mi, ctx, lean));
     return false;
 }
 

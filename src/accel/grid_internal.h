@@ -56,6 +56,11 @@ struct Grid {
     float pad[3];           /* rounding margin (world units): cells are padded by it when
                                inserting for marching, and the march's slab test too */
     float min_pad;          /* smallest pad[a] */
+    /* march_init's per-grid constants, computed once by the same float expressions
+     * (grid_setup_geometry) for the cast's own march (grid_cast.c): n[a] / extent,
+     * and the padded slab's sides box.min - pad and box.max + pad. */
+    float inv_size[3];
+    float slab_lo[3], slab_hi[3];
     float box_mag;          /* largest |coordinate| of the box (march rounding bound) */
     uint32_t num_cells;
     uint32_t *cell_start;   /* num_cells + 1 offsets into cell_items (CSR) */

@@ -264,6 +264,38 @@ typedef struct RunTotals {
 } RunTotals;
 
 /* One ray: grid vs brute force, marking checked through the wrapper counts. */
+/* The cast marches on its own when no ray tree is recorded (grid_cast.c) and through
+ * march_init/march_next when one is: both must visit the same cells and make the same
+ * tests, so -stats counts and answers do not depend on the preview. Runs the query
+ * again with a tree (sharing ctx's mailbox and stamps) and compares with ctx's delta. */
+static RayTree probe_tree;
+
+static void check_same_march(const Grid *g, RenderCtx *ctx, const RtStats *before,
+                             const TestRay *tr, float tmax, bool occl, bool found,
+                             const Hit *h)
+{
+    RenderCtx t = *ctx;
+    memset(&t.stats, 0, sizeof t.stats);
+    ray_tree_clear(&probe_tree);
+    t.tree = &probe_tree;
+    Hit ht = hit_none();
+    bool ft = occl ? grid_occluded(g, &tr->ray, tr->tmin, tmax, &t)
+                   : grid_intersect(g, &tr->ray, &ht, tr->tmin, &t);
+    ctx->ray_stamp = t.ray_stamp;
+    CHECK_MSG(ft == found, "%s with a ray tree: %d, without %d", occl ? "occluded" : "hit",
+              ft, found);
+    if (!occl && ft && found)
+        CHECK_MSG(memcmp(&ht.t, &h->t, sizeof ht.t) == 0 && ht.id == h->id,
+                  "hit with a ray tree t=%.9g id=%u, without t=%.9g id=%u", (double)ht.t,
+                  ht.id, (double)h->t, h->id);
+    CHECK_MSG(t.stats.cells_traversed == ctx->stats.cells_traversed - before->cells_traversed,
+              "cells with a ray tree %llu, without %llu",
+              (unsigned long long)t.stats.cells_traversed,
+              (unsigned long long)(ctx->stats.cells_traversed - before->cells_traversed));
+    CHECK(t.stats.intersections == ctx->stats.intersections - before->intersections);
+    CHECK(t.stats.mailbox_skips == ctx->stats.mailbox_skips - before->mailbox_skips);
+}
+
 static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const TestRay *tr,
                       RunTotals *tot, Hit *brute_out)
 {
@@ -271,6 +303,7 @@ static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const Test
     memset(test_counts, 0, np * sizeof *test_counts);
     Hit hg = hit_none();
     uint64_t rep0 = ctx->stats.repeat_tests;
+    RtStats before = ctx->stats;
     bool fg = grid_intersect(g, &tr->ray, &hg, tr->tmin, ctx);
     long repeats = 0, tested = 0;
     for (uint32_t i = 0; i < np; i++) {
@@ -287,6 +320,7 @@ static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const Test
         CHECK_MSG(repeats == 0, "marking on, but %ld repeated primitive tests", repeats);
     else if (ctx->mailbox)
         CHECK_INT(ctx->stats.repeat_tests - rep0, repeats);
+    check_same_march(g, ctx, &before, tr, 0.0f, false, fg, &hg);
 
     memset(test_counts, 0, np * sizeof *test_counts);
     Hit hb = hit_none();
@@ -316,7 +350,11 @@ static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const Test
     ho.id = 0;
     memset(&bctx, 0, sizeof bctx);
     bool ob = obj_intersect(r->s.root, &tr->ray, &ho, tmin, &bctx);
+    before = ctx->stats;
     bool og = grid_occluded(g, &tr->ray, tmin, tmax, ctx);
+    TestRay to = *tr;
+    to.tmin = tmin;
+    check_same_march(g, ctx, &before, &to, tmax, true, og, NULL);
     CHECK_MSG(ob == og, "occlusion to %.9g: grid %d, brute %d", (double)tmax, og, ob);
     tot->occl += ob;
 }
