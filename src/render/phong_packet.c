@@ -20,6 +20,7 @@ static inline F4 f4_mul(F4 a, F4 b) { return _mm_mul_ps(a, b); }
 static inline F4 f4_div(F4 a, F4 b) { return _mm_div_ps(a, b); }
 static inline F4 f4_sqrt(F4 a) { return _mm_sqrt_ps(a); }
 static inline F4 f4_gt(F4 a, F4 b) { return _mm_cmpgt_ps(a, b); }
+static inline F4 f4_le(F4 a, F4 b) { return _mm_cmple_ps(a, b); }
 static inline F4 f4_and(F4 m, F4 a) { return _mm_and_ps(m, a); }
 static inline F4 f4_sel(F4 m, F4 a, F4 b) { return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b)); }
 static inline F4 f4_neg(F4 a) { return _mm_xor_ps(a, _mm_set1_ps(-0.0f)); }
@@ -53,6 +54,7 @@ F4_MAP(f4_div, a.v[k] / b.v[k])
 static inline F4 f4_sqrt(F4 a) { F4 r; for (int k = 0; k < 4; k++) r.v[k] = sqrtf(a.v[k]); return r; }
 /* A mask lane is 1.0f (true) or 0.0f (false). */
 F4_MAP(f4_gt, a.v[k] > b.v[k] ? 1.0f : 0.0f)
+F4_MAP(f4_le, a.v[k] <= b.v[k] ? 1.0f : 0.0f)
 static inline F4 f4_and(F4 m, F4 a) { F4 r; for (int k = 0; k < 4; k++) r.v[k] = m.v[k] != 0.0f ? a.v[k] : 0.0f; return r; }
 static inline F4 f4_sel(F4 m, F4 a, F4 b) { F4 r; for (int k = 0; k < 4; k++) r.v[k] = m.v[k] != 0.0f ? a.v[k] : b.v[k]; return r; }
 static inline F4 f4_neg(F4 a) { F4 r; for (int k = 0; k < 4; k++) r.v[k] = -a.v[k]; return r; }
@@ -60,48 +62,95 @@ static inline int f4_bits(F4 m) { int b = 0; for (int k = 0; k < 4; k++) b |= (m
 static inline F4 f4_mask(int bits) { F4 r; for (int k = 0; k < 4; k++) r.v[k] = (float)(bits >> k & 1); return r; }
 #endif
 
-void phong_packet_clear(PhongPacket *pp, int i)
+/* Whether a material's specular term may skip powf whatever the lane (phong_term's
+ * rule without its per-lane part, |n|^2 <= 1.125). */
+static bool params_no_pow(const PhongParams *p)
 {
-    pp->nx[i] = pp->ny[i] = pp->nz[i] = 0.0f;
-    pp->vx[i] = pp->vy[i] = pp->vz[i] = 0.0f;
-    pp->dr[i] = pp->dg[i] = pp->db[i] = 0.0f;
-    pp->sr[i] = pp->sg[i] = pp->sb[i] = 0.0f;
-    pp->e[i] = 0.0f;
-    pp->cr[i] = pp->cg[i] = pp->cb[i] = 0.0f;
-    pp->no_pow &= ~((uint64_t)1 << i);
+    return v3_is_zero(p->specular) && p->exponent >= 0.0f && p->exponent <= 1000.0f;
 }
 
-void phong_packet_set(PhongPacket *pp, int i, const PhongParams *p, Vec3 n, Vec3 d, Vec3 a)
+/* Lanes i .. i+3 of the material columns from lp, one lane at a time (lanes without
+ * parameters get zeros); returns the lanes whose material passes params_no_pow. */
+static int fill_params_lanes(PhongPacket *pp, int i, const PhongParams *const *lp)
 {
-    pp->nx[i] = n.x;
-    pp->ny[i] = n.y;
-    pp->nz[i] = n.z;
-    pp->vx[i] = d.x; /* the ray direction until phong_packet_begin */
-    pp->vy[i] = d.y;
-    pp->vz[i] = d.z;
-    pp->dr[i] = p->diffuse.x;
-    pp->dg[i] = p->diffuse.y;
-    pp->db[i] = p->diffuse.z;
-    pp->sr[i] = p->specular.x;
-    pp->sg[i] = p->specular.y;
-    pp->sb[i] = p->specular.z;
-    pp->e[i] = p->exponent;
-    pp->cr[i] = a.x; /* the ambient light until phong_packet_begin */
-    pp->cg[i] = a.y;
-    pp->cb[i] = a.z;
-    /* phong_term's rule for leaving powf out (its comment says why it is exact). */
-    bool no_pow = v3_is_zero(p->specular) && p->exponent >= 0.0f && p->exponent <= 1000.0f &&
-                  v3_dot(n, n) <= 1.125f;
-    uint64_t bit = (uint64_t)1 << i;
-    pp->no_pow = no_pow ? pp->no_pow | bit : pp->no_pow & ~bit;
+    int ok = 0;
+    for (int k = i; k < i + 4; k++) {
+        const PhongParams *p = lp[k];
+        if (!p) {
+            pp->dr[k] = pp->dg[k] = pp->db[k] = 0.0f;
+            pp->sr[k] = pp->sg[k] = pp->sb[k] = 0.0f;
+            pp->e[k] = 0.0f;
+            continue;
+        }
+        pp->dr[k] = p->diffuse.x;
+        pp->dg[k] = p->diffuse.y;
+        pp->db[k] = p->diffuse.z;
+        pp->sr[k] = p->specular.x;
+        pp->sg[k] = p->specular.y;
+        pp->sb[k] = p->specular.z;
+        pp->e[k] = p->exponent;
+        ok |= params_no_pow(p) ? 1 << (k - i) : 0;
+    }
+    return ok;
 }
 
-void phong_packet_begin(PhongPacket *pp, int n)
+uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
+                            const PhongParams *const *lp, bool shade_back, Vec3 ambient,
+                            uint64_t *entering)
 {
-    F4 zero = f4_set(0.0f), one = f4_set(1.0f);
+    F4 zero = f4_set(0.0f), one = f4_set(1.0f), nn_max = f4_set(1.125f);
+    F4 ax = f4_set(ambient.x), ay = f4_set(ambient.y), az = f4_set(ambient.z);
+    uint64_t phong = 0, in_bits = 0;
+    pp->no_pow = 0;
     for (int i = 0; i < n; i += 4) {
-        /* v = -normalize(d): length sqrtf((x x + y y) + z z), then d times 1/length. */
+        int m = (int)(cand >> i & 15);
+        if (!m)
+            continue;
+        /* shade_begin: dn = n . d decides the side; a back face (dn > 0) is black
+         * without -shade_back, else seen with its normal turned. */
+        F4 nx = f4_load(pp->nx + i), ny = f4_load(pp->ny + i), nz = f4_load(pp->nz + i);
         F4 x = f4_load(pp->vx + i), y = f4_load(pp->vy + i), z = f4_load(pp->vz + i);
+        F4 dn = f4_add(f4_add(f4_mul(nx, x), f4_mul(ny, y)), f4_mul(nz, z));
+        int back = f4_bits(f4_gt(dn, zero)) & m;
+        int in = f4_bits(f4_gt(zero, dn)) & m;
+        if (!shade_back) {
+            m &= ~back;
+        } else if (back) {
+            F4 flip = f4_mask(back);
+            nx = f4_sel(flip, f4_neg(nx), nx);
+            ny = f4_sel(flip, f4_neg(ny), ny);
+            nz = f4_sel(flip, f4_neg(nz), nz);
+            f4_store(pp->nx + i, nx);
+            f4_store(pp->ny + i, ny);
+            f4_store(pp->nz + i, nz);
+        }
+        phong |= (uint64_t)m << i;
+        in_bits |= (uint64_t)in << i;
+        if (!m)
+            continue;
+        /* The material's colours: broadcast when the four lanes share one. */
+        const PhongParams *p = lp[i + __builtin_ctz((unsigned)m)];
+        int ok;
+        if ((lp[i] == p || !lp[i]) && (lp[i + 1] == p || !lp[i + 1]) &&
+            (lp[i + 2] == p || !lp[i + 2]) && (lp[i + 3] == p || !lp[i + 3])) {
+            f4_store(pp->dr + i, f4_set(p->diffuse.x));
+            f4_store(pp->dg + i, f4_set(p->diffuse.y));
+            f4_store(pp->db + i, f4_set(p->diffuse.z));
+            f4_store(pp->sr + i, f4_set(p->specular.x));
+            f4_store(pp->sg + i, f4_set(p->specular.y));
+            f4_store(pp->sb + i, f4_set(p->specular.z));
+            f4_store(pp->e + i, f4_set(p->exponent));
+            ok = params_no_pow(p) ? 15 : 0;
+        } else {
+            ok = fill_params_lanes(pp, i, lp);
+        }
+        /* phong_term's rule for leaving powf out (its comment says why it is exact). */
+        if (ok) {
+            F4 nn = f4_add(f4_add(f4_mul(nx, nx), f4_mul(ny, ny)), f4_mul(nz, nz));
+            ok &= f4_bits(f4_le(nn, nn_max));
+            pp->no_pow |= (uint64_t)(ok & m) << i;
+        }
+        /* v = -normalize(d): length sqrtf((x x + y y) + z z), then d times 1/length. */
         F4 len = f4_sqrt(f4_add(f4_add(f4_mul(x, x), f4_mul(y, y)), f4_mul(z, z)));
         F4 pos = f4_gt(len, zero);
         F4 r = f4_div(one, len);
@@ -109,10 +158,12 @@ void phong_packet_begin(PhongPacket *pp, int n)
         f4_store(pp->vy + i, f4_neg(f4_sel(pos, f4_mul(y, r), y)));
         f4_store(pp->vz + i, f4_neg(f4_sel(pos, f4_mul(z, r), z)));
         /* The ambient term: ambient times the diffuse colour. */
-        f4_store(pp->cr + i, f4_mul(f4_load(pp->cr + i), f4_load(pp->dr + i)));
-        f4_store(pp->cg + i, f4_mul(f4_load(pp->cg + i), f4_load(pp->dg + i)));
-        f4_store(pp->cb + i, f4_mul(f4_load(pp->cb + i), f4_load(pp->db + i)));
+        f4_store(pp->cr + i, f4_mul(ax, f4_load(pp->dr + i)));
+        f4_store(pp->cg + i, f4_mul(ay, f4_load(pp->dg + i)));
+        f4_store(pp->cb + i, f4_mul(az, f4_load(pp->db + i)));
     }
+    *entering = in_bits & phong;
+    return phong;
 }
 
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)

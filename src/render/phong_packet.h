@@ -10,7 +10,7 @@
 /* Lanes 0 .. ACCEL_PACKET_MAX-1 in columns. A lane holds a hit on a PhongMaterial seen
  * under directional lights: its facing normal, the direction towards the eye, the
  * material's colours and exponent, and the colour summed so far. Lanes without such a
- * hit hold zeros (phong_packet_clear) and are never read back. */
+ * hit hold zeros or another lane's material and are never read back. */
 typedef struct PhongPacket {
     float nx[ACCEL_PACKET_MAX], ny[ACCEL_PACKET_MAX], nz[ACCEL_PACKET_MAX];
     float vx[ACCEL_PACKET_MAX], vy[ACCEL_PACKET_MAX], vz[ACCEL_PACKET_MAX];
@@ -21,14 +21,16 @@ typedef struct PhongPacket {
     uint64_t no_pow; /* lanes whose specular term needs no powf (phong_term's rule) */
 } PhongPacket;
 
-/* Zeros lane i. */
-void phong_packet_clear(PhongPacket *pp, int i);
-/* Lane i: material p, facing normal n, ray direction d (not yet normalised: phong_packet_begin
- * does it), ambient light a. */
-void phong_packet_set(PhongPacket *pp, int i, const PhongParams *p, Vec3 n, Vec3 d, Vec3 a);
-/* For lanes 0 .. n-1 (each set or cleared): the direction towards the eye,
- * -normalize(d), and the ambient term a * diffuse, as shade_begin makes them. */
-void phong_packet_begin(PhongPacket *pp, int n);
+/* The lanes of cand (below n, a multiple of 4) hold a hit on a PhongMaterial: the
+ * caller has put the hit's normal (as intersected) into nx, ny, nz, the ray direction
+ * into vx, vy, vz, and lp[i] = its parameters; every other lane below n holds zeros
+ * there and lp[i] = NULL. As shade_begin for those lanes: the side (n . d), the facing
+ * normal, -normalize(d) into vx, vy, vz, the material's colours and the ambient term
+ * a * diffuse. Returns the lanes to shade: cand without its back faces unless
+ * shade_back (those are black); *entering gets the returned lanes with n . d < 0. */
+uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
+                            const PhongParams *const *lp, bool shade_back, Vec3 ambient,
+                            uint64_t *entering);
 /* Adds the term of the directional light (direction l to the light, colour lc) to the
  * lanes of mask: phong_term's arithmetic, lane by lane the same bits. */
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);

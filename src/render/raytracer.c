@@ -263,56 +263,60 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     bool inline_ok = packet_inline_ok(rt);
     ShadeState st[ACCEL_PACKET_MAX];
     PhongPacket pp;
-    pp.no_pow = 0;
+    const PhongParams *lp[ACCEL_PACKET_MAX];
     uint64_t live = 0, phong = 0, entering = 0, bounce = 0;
     const Material *last = NULL;
     const PhongParams *last_p = NULL;
+    bool last_bounce = false;
     int lanes = (n + 3) & ~3; /* phong_packet works on groups of four lanes */
+    /* Lane by lane: the hit point, and either the Phong lane's normal and direction
+     * into pp's columns (phong_packet_begin does the rest for all of them) or
+     * shade_begin through the ops. */
     for (int i = 0; i < lanes; i++) {
         uint64_t bit = (uint64_t)1 << i;
-        if (i >= n || !(found & bit)) {
-            phong_packet_clear(&pp, i);
-            if (i < n)
-                colors[i] = scene->background;
-            continue;
-        }
-        hits[i].point = ray_at(&rays[i], hits[i].t);
         const PhongParams *p = NULL;
-        if (inline_ok) {
-            if (hits[i].material != last) { /* neighbouring lanes mostly share one */
-                last = hits[i].material;
-                last_p = phong_params_of(last);
-            }
-            p = last_p;
-        }
-        if (p) {
-            /* shade_begin: the facing normal; a back face without -shade_back is black. */
-            Vec3 d = rays[i].dir, nrm = hits[i].normal;
-            float dn = v3_dot(nrm, d);
-            bool in = dn < 0.0f;
-            if (!in && dn > 0.0f) {
-                if (!rt->shade_back) {
-                    phong_packet_clear(&pp, i);
-                    colors[i] = v3(0, 0, 0);
-                    continue;
+        if (i < n && (found & bit)) {
+            hits[i].point = ray_at(&rays[i], hits[i].t);
+            if (inline_ok) {
+                if (hits[i].material != last) { /* neighbouring lanes mostly share one */
+                    last = hits[i].material;
+                    last_p = phong_params_of(last);
+                    last_bounce = last_p && phong_lane_bounces(rt, last_p);
                 }
-                nrm = v3_neg(nrm);
+                p = last_p;
             }
-            phong_packet_set(&pp, i, p, nrm, d, scene->ambient);
-            live |= bit;
-            phong |= bit;
-            entering |= in ? bit : 0;
-            bounce |= phong_lane_bounces(rt, p) ? bit : 0;
-        } else {
-            phong_packet_clear(&pp, i);
+            if (p) {
+                pp.nx[i] = hits[i].normal.x;
+                pp.ny[i] = hits[i].normal.y;
+                pp.nz[i] = hits[i].normal.z;
+                pp.vx[i] = rays[i].dir.x;
+                pp.vy[i] = rays[i].dir.y;
+                pp.vz[i] = rays[i].dir.z;
+                lp[i] = p;
+                phong |= bit;
+                bounce |= last_bounce ? bit : 0;
+                continue;
+            }
             if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
                 live |= bit;
             else
                 colors[i] = st[i].color;
+        } else if (i < n) {
+            colors[i] = scene->background;
         }
+        pp.nx[i] = pp.ny[i] = pp.nz[i] = 0.0f;
+        pp.vx[i] = pp.vy[i] = pp.vz[i] = 0.0f;
+        lp[i] = NULL;
     }
-    if (phong)
-        phong_packet_begin(&pp, n);
+    if (phong) {
+        uint64_t shaded = phong_packet_begin(&pp, lanes, phong, lp, rt->shade_back,
+                                             scene->ambient, &entering);
+        for (uint64_t m = phong & ~shaded; m; m &= m - 1) /* back faces: black */
+            colors[__builtin_ctzll(m)] = v3(0, 0, 0);
+        phong = shaded;
+        bounce &= shaded;
+        live |= shaded;
+    }
     for (int li = 0; li < scene->num_lights && live; li++) {
         const Light *light = &scene->lights[li];
         Ray srays[ACCEL_PACKET_MAX];
