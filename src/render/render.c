@@ -86,14 +86,13 @@ typedef struct ImageJob {
 
 static bool job_cancelled(const ImageJob *job) { return job->cancel && *job->cancel; }
 
-/* A whole tile's colours (colors[k] is lane k of the packet, pixel (dx, dy) with
- * dy * TILE + dx = cell[k]) into byte image img, whose pixel (x0, y0) is the tile's
- * corner: every colour quantised as image_color_to_byte does, four components at a
- * time (c * 255, then max with 0, which also turns NaN into 0, min with 255 and
- * truncation: the same single-precision operations, so the same bytes), then each
- * pixel's three bytes to its place. */
+/* A whole tile's colours (colors[k] is lane k of the packet, whose pixel lies off[k]
+ * bytes after the tile's corner (x0, y0) in byte image img): every colour quantised as
+ * image_color_to_byte does, four components at a time (c * 255, then max with 0, which
+ * also turns NaN into 0, min with 255 and truncation: the same single-precision
+ * operations, so the same bytes), then each pixel's three bytes to its place. */
 static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
-                             const uint8_t *cell)
+                             const uint32_t *off)
 {
     enum { N = 3 * TILE * TILE };
     _Static_assert(sizeof(Vec3) == 3 * sizeof(float), "colours are packed floats");
@@ -116,11 +115,9 @@ static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
     for (int i = 0; i < N; i++)
         q[i] = image_color_to_byte(c[i]);
 #endif
-    for (int k = 0; k < TILE * TILE; k++) {
-        int dx = cell[k] % TILE, dy = cell[k] / TILE;
-        uint8_t *b = img->bytes + 3 * ((long)(y0 + dy) * img->width + x0 + dx);
-        memcpy(b, q + 3 * k, 3);
-    }
+    uint8_t *b = img->bytes + 3 * ((size_t)y0 * (size_t)img->width + (size_t)x0);
+    for (int k = 0; k < TILE * TILE; k++)
+        memcpy(b + off[k], q + 3 * k, 3);
 }
 
 /* Rows y0..y1-1 of the rectangle. Tiles stay on the full image's 8 x 8 grid, so a
@@ -148,6 +145,12 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
      * store their bytes a tile at a time. */
     bool full_rows = ylo == y0 && y1 - y0 == TILE;
     bool bytes_only = t->color && t->color->bytes && !t->depth && !t->normals;
+    /* Lane k's byte offset from its tile's corner in the colour image. */
+    uint32_t off[TILE * TILE];
+    if (bytes_only)
+        for (int k = 0; k < TILE * TILE; k++)
+            off[k] = (uint32_t)(3 * ((size_t)(cell[k] / TILE) * (size_t)t->color->width +
+                                     (size_t)(cell[k] % TILE)));
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
     Ray block[TILE * TILE]; /* the tile's rays, row by row */
@@ -159,7 +162,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
                 rays[k] = block[cell[k]];
             raytracer_trace_packet(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
-                store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, cell);
+                store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, off);
             } else {
                 for (int k = 0; k < TILE * TILE; k++)
                     store_pixel(t, x0 + cell[k] % TILE, y0 + cell[k] / TILE, colors[k],
