@@ -114,6 +114,8 @@ $(BUILD)/src/accel/%.o: ALL_CFLAGS += -Wno-psabi
 # The AVX-512 packet kernel has FMA at hand: no fused a*b+c, every lane must round like
 # the scalar code (clang fuses within a statement by default).
 $(BUILD)/src/accel/grid_packet_avx512.o $(BUILD)/src/accel/grid_packet_avx512x8.o: ALL_CFLAGS += -ffp-contract=off
+# The packet Phong kernels likewise (src/render/phong_packet_kernel.h): no fusing.
+$(BUILD)/src/render/phong_packet_avx2.o $(BUILD)/src/render/phong_packet_avx512.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 # The Gaussian's vector exp (filter.c) likewise: static 32-byte vectors, no fusing.
 $(BUILD)/src/render/filter.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 

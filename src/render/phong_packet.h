@@ -1,5 +1,5 @@
-/* The plain Phong hits of a ray packet shaded together, four lanes at a time (internal
- * to src/render: raytracer_trace_packet's fast path). */
+/* The plain Phong hits of a ray packet shaded together, a group of lanes at a time
+ * (internal to src/render: raytracer_trace_packet's fast path). */
 #ifndef RT_RENDER_PHONG_PACKET_H
 #define RT_RENDER_PHONG_PACKET_H
 
@@ -21,7 +21,7 @@ typedef struct PhongPacket {
     uint64_t no_pow; /* lanes whose specular term needs no powf (phong_term's rule) */
 } PhongPacket;
 
-/* The lanes of cand (below n, a multiple of 4) hold a hit on a PhongMaterial: the
+/* The lanes of cand (below n) hold a hit on a PhongMaterial: the
  * caller has put the hit's normal (as intersected) into nx, ny, nz, the ray direction
  * into vx, vy, vz, and lp[i] = its parameters; every other lane below n holds zeros
  * there and lp[i] = NULL. As shade_begin for those lanes: the side (n . d), the facing
@@ -32,8 +32,32 @@ uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
                             const PhongParams *const *lp, bool shade_back, Vec3 ambient,
                             uint64_t *entering);
 /* Adds the term of the directional light (direction l to the light, colour lc) to the
- * lanes of mask: phong_term's arithmetic, lane by lane the same bits. */
+ * lanes of mask (below n): phong_term's arithmetic, lane by lane the same bits. */
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+
+/* Both work on groups of up to PHONG_PACKET_GROUP lanes: n is a multiple of it. */
+enum { PHONG_PACKET_GROUP = 16 };
+_Static_assert(ACCEL_PACKET_MAX % PHONG_PACKET_GROUP == 0, "a packet is whole groups");
+
+/* The kernel in use ("avx512", "avx2", "sse2" or "generic": the best this CPU runs);
+ * phong_packet_use_kernel picks one by name (false if this CPU cannot run it). For
+ * tests and measurements. */
+const char *phong_packet_kernel(void);
+bool phong_packet_use_kernel(const char *name);
+
+/* The kernels (phong_packet_kernel.h), for phong_packet.c's choice. */
+uint64_t phong_packet_begin_base(PhongPacket *pp, int n, uint64_t cand,
+                                 const PhongParams *const *lp, bool shade_back, Vec3 ambient,
+                                 uint64_t *entering);
+void phong_packet_light_base(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+uint64_t phong_packet_begin_avx2(PhongPacket *pp, int n, uint64_t cand,
+                                 const PhongParams *const *lp, bool shade_back, Vec3 ambient,
+                                 uint64_t *entering);
+void phong_packet_light_avx2(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+uint64_t phong_packet_begin_avx512(PhongPacket *pp, int n, uint64_t cand,
+                                   const PhongParams *const *lp, bool shade_back,
+                                   Vec3 ambient, uint64_t *entering);
+void phong_packet_light_avx512(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
 
 static inline Vec3 phong_packet_color(const PhongPacket *pp, int i)
 {

@@ -268,7 +268,8 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     const Material *last = NULL;
     const PhongParams *last_p = NULL;
     bool last_bounce = false;
-    int lanes = (n + 3) & ~3; /* phong_packet works on groups of four lanes */
+    /* phong_packet works on whole groups of lanes: the lanes past n are filled too. */
+    int lanes = (n + PHONG_PACKET_GROUP - 1) / PHONG_PACKET_GROUP * PHONG_PACKET_GROUP;
     /* Lane by lane: the hit point, and either the Phong lane's normal and direction
      * into pp's columns (phong_packet_begin does the rest for all of them) or
      * shade_begin through the ops. */
@@ -346,7 +347,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             blocked = accel_occluded_packet(rt->accel, srays, live, RT_EPSILON, dist, ctx);
         }
         if (phong & ~blocked) /* phong lanes only exist when every light is directional */
-            phong_packet_light(&pp, n, phong & ~blocked, l0, lc0);
+            phong_packet_light(&pp, lanes, phong & ~blocked, l0, lc0);
         for (uint64_t m = live & ~phong & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);

@@ -5,6 +5,7 @@
 #include "rt/geom.h"
 #include "rt/raytracer.h"
 #include "rt/render.h"
+#include "../../src/render/phong_packet.h"
 
 #include <float.h>
 #include <string.h>
@@ -430,51 +431,71 @@ static void test_packet_shading_same_bits(void)
     diag_init(&d, NULL);
     CHECK(accel_init(&grid, accel_find("grid"), &prims, &cfg, &d));
     CHECK(accel_has_packets(&grid));
-    int differ = 0, packets = 0;
-    for (int variant = 0; variant < 6; variant++) {
-        RayTracer rt;
-        memset(&rt, 0, sizeof rt);
-        rt.scene = &m.s;
-        rt.accel = &grid;
-        rt.shadows = variant % 2 == 0;
-        rt.shade_back = variant % 3 == 1;
-        rt.bounces = variant >= 2 ? 3 : 0;
-        rt.weight = 0.01f;
-        /* The last two variants: a point light (those lanes go through the ops). */
-        m.lights[1].kind = variant >= 4 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
-        m.lights[1].position = v3(0.5f, 3, 2);
-        RenderCtx pctx, sctx;
-        CHECK(raytracer_ctx_init(&pctx, &rt));
-        CHECK(raytracer_ctx_init(&sctx, &rt));
-        CHECK(pctx.packet_rays != NULL);
-        for (int ty = 0; ty < 48; ty += 8)
-            for (int tx = 0; tx < 48; tx += 8) {
-                Ray rays[64];
-                Vec3 colors[64];
-                Hit hits[64];
-                for (int k = 0; k < 64; k++) {
-                    float u, v;
-                    camera_pixel_to_screen(tx + k % 8, ty + k / 8, 48, 48, &u, &v);
-                    rays[k] = camera_generate_ray(&m.s.camera, u, v);
+    int differ = 0, packets = 0, kernels_run = 0;
+    /* Every Phong kernel this CPU runs (phong_packet.c's choice), the default last. */
+    const char *default_kernel = phong_packet_kernel();
+    const char *kernels[] = {"generic", "sse2", "avx2", "avx512"};
+    for (int kn = 0; kn <= 4; kn++) {
+        if (kn < 4 && (!strcmp(kernels[kn], default_kernel) || !phong_packet_use_kernel(kernels[kn])))
+            continue;
+        if (kn == 4)
+            CHECK(phong_packet_use_kernel(default_kernel));
+        kernels_run++;
+        for (int variant = 0; variant < 6; variant++) {
+            RayTracer rt;
+            memset(&rt, 0, sizeof rt);
+            rt.scene = &m.s;
+            rt.accel = &grid;
+            rt.shadows = variant % 2 == 0;
+            rt.shade_back = variant % 3 == 1;
+            rt.bounces = variant >= 2 ? 3 : 0;
+            rt.weight = 0.01f;
+            /* The last two variants: a point light (those lanes go through the ops). */
+            m.lights[1].kind = variant >= 4 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
+            m.lights[1].position = v3(0.5f, 3, 2);
+            RenderCtx pctx, sctx;
+            CHECK(raytracer_ctx_init(&pctx, &rt));
+            CHECK(raytracer_ctx_init(&sctx, &rt));
+            CHECK(pctx.packet_rays != NULL);
+            for (int ty = 0; ty < 48; ty += 8)
+                for (int tx = 0; tx < 48; tx += 8) {
+                    Ray rays[64];
+                    Vec3 colors[64];
+                    Hit hits[64];
+                    for (int k = 0; k < 64; k++) {
+                        float u, v;
+                        camera_pixel_to_screen(tx + k % 8, ty + k / 8, 48, 48, &u, &v);
+                        rays[k] = camera_generate_ray(&m.s.camera, u, v);
+                    }
+                    raytracer_trace_packet(&rt, &pctx, rays, 64, 0, colors, hits);
+                    packets++;
+                    for (int k = 0; k < 64; k++) {
+                        Hit h;
+                        Vec3 c = raytracer_trace(&rt, &sctx, &rays[k], 0, 0, 1, 1, &h);
+                        if (memcmp(&c, &colors[k], sizeof c) != 0 || memcmp(&h.t, &hits[k].t, sizeof h.t) ||
+                            h.material != hits[k].material)
+                            differ++;
+                    }
+                    /* A packet of a part of a tile (lanes past n in a kernel's group). */
+                    raytracer_trace_packet(&rt, &pctx, rays + 3, 13, 0, colors, hits);
+                    for (int k = 0; k < 13; k++) {
+                        Hit h;
+                        Vec3 c = raytracer_trace(&rt, &sctx, &rays[3 + k], 0, 0, 1, 1, &h);
+                        if (memcmp(&c, &colors[k], sizeof c) != 0 || memcmp(&h.t, &hits[k].t, sizeof h.t) ||
+                            h.material != hits[k].material)
+                            differ++;
+                    }
                 }
-                raytracer_trace_packet(&rt, &pctx, rays, 64, 0, colors, hits);
-                packets++;
-                for (int k = 0; k < 64; k++) {
-                    Hit h;
-                    Vec3 c = raytracer_trace(&rt, &sctx, &rays[k], 0, 0, 1, 1, &h);
-                    if (memcmp(&c, &colors[k], sizeof c) != 0 || memcmp(&h.t, &hits[k].t, sizeof h.t) ||
-                        h.material != hits[k].material)
-                        differ++;
-                }
-            }
-        CHECK_INT(pctx.stats.nonshadow_rays, sctx.stats.nonshadow_rays);
-        CHECK_INT(pctx.stats.shadow_rays, sctx.stats.shadow_rays);
-        raytracer_ctx_free(&pctx);
-        raytracer_ctx_free(&sctx);
+            CHECK_INT(pctx.stats.nonshadow_rays, sctx.stats.nonshadow_rays);
+            CHECK_INT(pctx.stats.shadow_rays, sctx.stats.shadow_rays);
+            raytracer_ctx_free(&pctx);
+            raytracer_ctx_free(&sctx);
+        }
     }
     m.lights[1].kind = LIGHT_DIRECTIONAL;
     CHECK_INT(differ, 0);
-    CHECK_INT(packets, 6 * 36);
+    CHECK(kernels_run >= 2); /* SSE2 or plain C at least, and the default again */
+    CHECK_INT(packets, kernels_run * 6 * 36);
     accel_free(&grid);
     prim_table_free(&prims);
     arena_free(&m.s.arena);
