@@ -3,6 +3,7 @@
 #define RT_CAMERA_H
 
 #include <stdbool.h>
+#include <stdint.h>
 #include "rt/ray.h"
 
 typedef enum CameraKind { CAMERA_ORTHOGRAPHIC, CAMERA_PERSPECTIVE } CameraKind;
@@ -39,13 +40,14 @@ bool camera_rebasis(Camera *c);
  * that order), as the course's camera does: its rounding decides colours on grazing
  * floors, where the official images are matched only this way. */
 Ray camera_generate_ray(const Camera *c, float u, float v);
-/* The pixel-centre rays of a block of pixels: rays[j * nx + i] is the ray of pixel
- * (x0 + i, y0 + j) of a W x H image, camera_generate_ray of camera_pixel_to_screen to
- * the bit, with what depends on the column alone or the row alone computed once per
- * column or row (the renderer's tiles; 1 <= nx, ny <= CAMERA_BLOCK_MAX). */
+/* The pixel-centre rays of a block of pixels: rays[j * nx + i] (or rays[slot[j * nx +
+ * i]] when slot is not NULL: the renderer's lanes) is the ray of pixel (x0 + i, y0 + j)
+ * of a W x H image, camera_generate_ray of camera_pixel_to_screen to the bit, with what
+ * depends on the column alone or the row alone computed once per column or row (the
+ * renderer's tiles; 1 <= nx, ny <= CAMERA_BLOCK_MAX). */
 enum { CAMERA_BLOCK_MAX = 16 };
 void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
-                       int height, Ray *rays);
+                       int height, const uint8_t *slot, Ray *rays);
 /* The rays of n sample points of pixel (x, y) of a W x H image, the points at offsets
  * xy[2k], xy[2k+1] in [0,1)^2 (A7 samplers): rays[k] is camera_generate_ray of
  * camera_sample_to_screen to the bit, four samples at a time in vector lanes where the

@@ -153,13 +153,16 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
                                      (size_t)(cell[k] % TILE)));
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
-    Ray block[TILE * TILE]; /* the tile's rays, row by row */
+    /* Pixel dy * TILE + dx is lane slot[...] of a whole tile's packet. */
+    uint8_t slot[TILE * TILE];
+    for (int k = 0; k < TILE * TILE; k++)
+        slot[cell[k]] = (uint8_t)k;
+    Ray block[TILE * TILE]; /* a cut tile's rays, row by row */
     for (int x0 = xlo / TILE * TILE; x0 < xhi && !job_cancelled(job); x0 += TILE) {
         int n = 0;
-        camera_pixel_rays(job->camera, x0, y0, TILE, y1 - y0, t->width, t->height, block);
         if (full_rows && x0 >= xlo && x0 + TILE <= xhi) {
-            for (int k = 0; k < TILE * TILE; k++)
-                rays[k] = block[cell[k]];
+            camera_pixel_rays(job->camera, x0, y0, TILE, TILE, t->width, t->height, slot,
+                              rays);
             raytracer_trace_packet(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
                 store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, off);
@@ -170,6 +173,8 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
             }
             continue;
         }
+        camera_pixel_rays(job->camera, x0, y0, TILE, y1 - y0, t->width, t->height, NULL,
+                          block);
         for (int k = 0; k < TILE * TILE; k++) {
             int dx = cell[k] % TILE, dy = cell[k] / TILE;
             int x = x0 + dx, y = y0 + dy;

@@ -9,6 +9,9 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -91,8 +94,82 @@ Ray camera_generate_ray(const Camera *c, float u, float v)
     return r;
 }
 
+/* Where pixel (i, j) of a block goes: rays[slot[j nx + i]], or rays[j nx + i]. */
+static inline Ray *block_ray(Ray *rays, const uint8_t *slot, int nx, int i, int j)
+{
+    return &rays[slot ? slot[j * nx + i] : j * nx + i];
+}
+
+/* The perspective rays of columns [i0, i1) of every row (col and row as
+ * camera_pixel_rays makes them), one lane per column: d = (col + row) - eye, its length
+ * sqrtf((x x + y y) + z z), then each component divided by it when positive; the same
+ * IEEE single operations in the same order as the scalar loop, in every lane (sqrt and
+ * division are correctly rounded in SSE and AVX as in scalar code). */
+#if defined(__SSE2__)
+static int rows_sse2(Vec3 e, const float *cx, const float *cy, const float *cz,
+                     const Vec3 *row, int i0, int i1, int nx, int ny, const uint8_t *slot,
+                     Ray *rays)
+{
+    __m128 ex = _mm_set1_ps(e.x), ey = _mm_set1_ps(e.y), ez = _mm_set1_ps(e.z);
+    __m128 zero = _mm_setzero_ps();
+    int i = i0;
+    for (; i + 4 <= i1; i += 4)
+        for (int j = 0; j < ny; j++) {
+            __m128 dx = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(cx + i), _mm_set1_ps(row[j].x)), ex);
+            __m128 dy = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(cy + i), _mm_set1_ps(row[j].y)), ey);
+            __m128 dz = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(cz + i), _mm_set1_ps(row[j].z)), ez);
+            __m128 l = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)),
+                                              _mm_mul_ps(dz, dz)));
+            __m128 pos = _mm_cmpgt_ps(l, zero);
+            float ox[4], oy[4], oz[4];
+            _mm_storeu_ps(ox, _mm_or_ps(_mm_and_ps(pos, _mm_div_ps(dx, l)), _mm_andnot_ps(pos, dx)));
+            _mm_storeu_ps(oy, _mm_or_ps(_mm_and_ps(pos, _mm_div_ps(dy, l)), _mm_andnot_ps(pos, dy)));
+            _mm_storeu_ps(oz, _mm_or_ps(_mm_and_ps(pos, _mm_div_ps(dz, l)), _mm_andnot_ps(pos, dz)));
+            for (int k = 0; k < 4; k++) {
+                Ray *r = block_ray(rays, slot, nx, i + k, j);
+                r->origin = e;
+                r->dir = v3(ox[k], oy[k], oz[k]);
+            }
+        }
+    return i;
+}
+#endif
+
+#if defined(__x86_64__) && defined(__GNUC__)
+/* rows_sse2 eight columns at a time, for CPUs with AVX2 (no FMA: nothing can fuse). */
+__attribute__((target("avx2"))) static int rows_avx2(Vec3 e, const float *cx, const float *cy,
+                                                     const float *cz, const Vec3 *row, int i0,
+                                                     int i1, int nx, int ny,
+                                                     const uint8_t *slot, Ray *rays)
+{
+    __m256 ex = _mm256_set1_ps(e.x), ey = _mm256_set1_ps(e.y), ez = _mm256_set1_ps(e.z);
+    __m256 zero = _mm256_setzero_ps();
+    int i = i0;
+    for (; i + 8 <= i1; i += 8)
+        for (int j = 0; j < ny; j++) {
+            __m256 dx = _mm256_sub_ps(_mm256_add_ps(_mm256_loadu_ps(cx + i), _mm256_set1_ps(row[j].x)), ex);
+            __m256 dy = _mm256_sub_ps(_mm256_add_ps(_mm256_loadu_ps(cy + i), _mm256_set1_ps(row[j].y)), ey);
+            __m256 dz = _mm256_sub_ps(_mm256_add_ps(_mm256_loadu_ps(cz + i), _mm256_set1_ps(row[j].z)), ez);
+            __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+            __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ);
+            float ox[8], oy[8], oz[8];
+            _mm256_storeu_ps(ox, _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos));
+            _mm256_storeu_ps(oy, _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos));
+            _mm256_storeu_ps(oz, _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos));
+            for (int k = 0; k < 8; k++) {
+                Ray *r = block_ray(rays, slot, nx, i + k, j);
+                r->origin = e;
+                r->dir = v3(ox[k], oy[k], oz[k]);
+            }
+        }
+    return i;
+}
+#define HAVE_ROWS_AVX2 1
+#endif
+
 void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
-                       int height, Ray *rays)
+                       int height, const uint8_t *slot, Ray *rays)
 {
     /* The terms of one column (u) and of one row (v), in the order camera_generate_ray
      * adds them: perspective (lower_left + x_axis u) + y_axis v, orthographic
@@ -113,58 +190,33 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
     if (ortho) {
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++) {
-                Ray *r = &rays[j * nx + i];
+                Ray *r = block_ray(rays, slot, nx, i, j);
                 r->origin = v3_add(c->center, v3_add(col[i], row[j]));
                 r->dir = c->direction;
             }
         return;
     }
     Vec3 e = c->center;
+    int done = 0;
 #if defined(__SSE2__)
-    /* Four columns at a time: the same IEEE single operations in the same order in
-     * every lane (sqrt and division are correctly rounded in SSE as in scalar code). */
-    int nx4 = nx & ~3;
-    if (nx4) {
-        float cx[CAMERA_BLOCK_MAX], cy[CAMERA_BLOCK_MAX], cz[CAMERA_BLOCK_MAX];
-        for (int i = 0; i < nx4; i++) {
-            cx[i] = col[i].x;
-            cy[i] = col[i].y;
-            cz[i] = col[i].z;
-        }
-        __m128 ex = _mm_set1_ps(e.x), ey = _mm_set1_ps(e.y), ez = _mm_set1_ps(e.z);
-        __m128 zero = _mm_setzero_ps();
-        for (int j = 0; j < ny; j++) {
-            __m128 rx = _mm_set1_ps(row[j].x), ry = _mm_set1_ps(row[j].y),
-                   rz = _mm_set1_ps(row[j].z);
-            for (int i = 0; i < nx4; i += 4) {
-                __m128 dx = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(cx + i), rx), ex);
-                __m128 dy = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(cy + i), ry), ey);
-                __m128 dz = _mm_sub_ps(_mm_add_ps(_mm_loadu_ps(cz + i), rz), ez);
-                __m128 l = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx),
-                                                             _mm_mul_ps(dy, dy)),
-                                                  _mm_mul_ps(dz, dz)));
-                __m128 pos = _mm_cmpgt_ps(l, zero);
-                float ox[4], oy[4], oz[4];
-                _mm_storeu_ps(ox, _mm_or_ps(_mm_and_ps(pos, _mm_div_ps(dx, l)),
-                                            _mm_andnot_ps(pos, dx)));
-                _mm_storeu_ps(oy, _mm_or_ps(_mm_and_ps(pos, _mm_div_ps(dy, l)),
-                                            _mm_andnot_ps(pos, dy)));
-                _mm_storeu_ps(oz, _mm_or_ps(_mm_and_ps(pos, _mm_div_ps(dz, l)),
-                                            _mm_andnot_ps(pos, dz)));
-                Ray *r = &rays[j * nx + i];
-                for (int k = 0; k < 4; k++) {
-                    r[k].origin = e;
-                    r[k].dir = v3(ox[k], oy[k], oz[k]);
-                }
-            }
-        }
+    float cx[CAMERA_BLOCK_MAX], cy[CAMERA_BLOCK_MAX], cz[CAMERA_BLOCK_MAX];
+    for (int i = 0; i < nx; i++) {
+        cx[i] = col[i].x;
+        cy[i] = col[i].y;
+        cz[i] = col[i].z;
     }
-#else
-    int nx4 = 0;
+#ifdef HAVE_ROWS_AVX2
+    static int avx2 = -1; /* benign race: every thread stores the same answer */
+    if (avx2 < 0)
+        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
+    if (avx2)
+        done = rows_avx2(e, cx, cy, cz, row, done, nx, nx, ny, slot, rays);
+#endif
+    done = rows_sse2(e, cx, cy, cz, row, done, nx, nx, ny, slot, rays);
 #endif
     for (int j = 0; j < ny; j++)
-        for (int i = nx4; i < nx; i++) {
-            Ray *r = &rays[j * nx + i];
+        for (int i = done; i < nx; i++) {
+            Ray *r = block_ray(rays, slot, nx, i, j);
             r->origin = e;
             /* unit_by_division of (screen point - eye), written out so the compiler
              * keeps it in registers; the same operations in the same order. */

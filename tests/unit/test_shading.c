@@ -63,15 +63,21 @@ static void test_pixel_rays_block(void)
                 int W = sizes[s][0], H = sizes[s][1];
                 int nx = 1 + (b * 5 + c) % CAMERA_BLOCK_MAX, ny = 1 + (b * 3 + s) % CAMERA_BLOCK_MAX;
                 int x0 = (b * 37 + c * 11) % (W - nx + 1), y0 = (b * 53 + s * 7) % (H - ny + 1);
-                Ray rays[CAMERA_BLOCK_MAX * CAMERA_BLOCK_MAX];
-                camera_pixel_rays(&cams[c], x0, y0, nx, ny, W, H, rays);
+                Ray rays[CAMERA_BLOCK_MAX * CAMERA_BLOCK_MAX], placed[CAMERA_BLOCK_MAX * CAMERA_BLOCK_MAX];
+                camera_pixel_rays(&cams[c], x0, y0, nx, ny, W, H, NULL, rays);
+                /* With slots: pixel p to place n - 1 - p. */
+                uint8_t slot[CAMERA_BLOCK_MAX * CAMERA_BLOCK_MAX];
+                for (int p = 0; p < nx * ny; p++)
+                    slot[p] = (uint8_t)(nx * ny - 1 - p);
+                camera_pixel_rays(&cams[c], x0, y0, nx, ny, W, H, slot, placed);
                 for (int j = 0; j < ny; j++)
                     for (int i = 0; i < nx; i++) {
                         float u, v;
                         camera_pixel_to_screen(x0 + i, y0 + j, W, H, &u, &v);
                         Ray r = camera_generate_ray(&cams[c], u, v);
                         checked++;
-                        if (memcmp(&r, &rays[j * nx + i], sizeof r) != 0)
+                        if (memcmp(&r, &rays[j * nx + i], sizeof r) != 0 ||
+                            memcmp(&r, &placed[nx * ny - 1 - (j * nx + i)], sizeof r) != 0)
                             differ++;
                     }
             }
