@@ -91,3 +91,29 @@ void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
 {
     kernel->light(pp, n, mask, l, lc);
 }
+
+void phong_packet_colors(const PhongPacket *pp, uint64_t mask, Vec3 *colors)
+{
+    _Static_assert(sizeof(Vec3) == 3 * sizeof(float), "colours are packed floats");
+#if defined(__SSE2__)
+    /* Four whole lanes from columns to (r g b) triples: 12 floats in three stores. */
+    for (int i = 0; i < ACCEL_PACKET_MAX; i += 4) {
+        if ((mask >> i & 15) != 15)
+            continue;
+        __m128 r = _mm_loadu_ps(pp->cr + i), g = _mm_loadu_ps(pp->cg + i),
+               b = _mm_loadu_ps(pp->cb + i);
+        __m128 rg_lo = _mm_unpacklo_ps(r, g), rg_hi = _mm_unpackhi_ps(r, g); /* r0 g0 r1 g1, r2 g2 r3 g3 */
+        __m128 br_lo = _mm_unpacklo_ps(b, r), br_hi = _mm_unpackhi_ps(b, r); /* b0 r0 b1 r1, b2 r2 b3 r3 */
+        __m128 gb_lo = _mm_unpacklo_ps(g, b), gb_hi = _mm_unpackhi_ps(g, b); /* g0 b0 g1 b1, g2 b2 g3 b3 */
+        float *out = (float *)(colors + i);
+        _mm_storeu_ps(out, _mm_shuffle_ps(rg_lo, br_lo, _MM_SHUFFLE(3, 0, 1, 0)));     /* r0 g0 b0 r1 */
+        _mm_storeu_ps(out + 4, _mm_shuffle_ps(gb_lo, rg_hi, _MM_SHUFFLE(1, 0, 3, 2))); /* g1 b1 r2 g2 */
+        _mm_storeu_ps(out + 8, _mm_shuffle_ps(br_hi, gb_hi, _MM_SHUFFLE(3, 2, 3, 0))); /* b2 r3 g3 b3 */
+        mask &= ~((uint64_t)15 << i);
+    }
+#endif
+    for (; mask; mask &= mask - 1) {
+        int i = __builtin_ctzll(mask);
+        colors[i] = phong_packet_color(pp, i);
+    }
+}

@@ -35,7 +35,11 @@ uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
  * lanes of mask (below n): phong_term's arithmetic, lane by lane the same bits. */
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
 
-/* Both work on groups of up to PHONG_PACKET_GROUP lanes: n is a multiple of it. */
+/* colors[i] = phong_packet_color(pp, i) for the lanes of mask. */
+void phong_packet_colors(const PhongPacket *pp, uint64_t mask, Vec3 *colors);
+
+/* phong_packet_begin and _light work on groups of up to PHONG_PACKET_GROUP lanes: n is a
+ * multiple of it. */
 enum { PHONG_PACKET_GROUP = 16 };
 _Static_assert(ACCEL_PACKET_MAX % PHONG_PACKET_GROUP == 0, "a packet is whole groups");
 

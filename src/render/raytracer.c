@@ -353,13 +353,12 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
         }
     }
-    for (uint64_t m = live; m; m &= m - 1) {
+    phong_packet_colors(&pp, phong & ~bounce, colors);
+    for (uint64_t m = live & ~(phong & ~bounce); m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         uint64_t bit = (uint64_t)1 << i;
         if (phong & bit) {
-            colors[i] = bounce & bit ? phong_lane_finish(rt, ctx, &rays[i], &hits[i], &pp, i,
-                                                         entering & bit)
-                                     : phong_packet_color(&pp, i);
+            colors[i] = phong_lane_finish(rt, ctx, &rays[i], &hits[i], &pp, i, entering & bit);
         } else {
             shade_finish(rt, ctx, &rays[i], &st[i], 0, 1.0f, 1.0f);
             colors[i] = st[i].color;
