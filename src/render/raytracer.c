@@ -330,14 +330,19 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             light_illuminate(light, v3(0, 0, 0), &l0, &lc0, &dist0);
         /* The shadow rays, and the light of the lanes shaded through the ops. */
         uint64_t rays_needed = rt->shadows ? live : live & ~phong;
-        for (uint64_t m = rays_needed; m; m &= m - 1) {
-            int i = __builtin_ctzll(m);
-            srays[i].origin = hits[i].point;
-            if (directional) {
+        if (directional) { /* Phong lanes take lc0 themselves: no lcol */
+            for (uint64_t m = rays_needed; m; m &= m - 1) {
+                int i = __builtin_ctzll(m);
+                srays[i].origin = hits[i].point;
                 srays[i].dir = l0;
-                lcol[i] = lc0;
                 dist[i] = dist0;
-            } else {
+            }
+            for (uint64_t m = live & ~phong; m; m &= m - 1)
+                lcol[__builtin_ctzll(m)] = lc0;
+        } else {
+            for (uint64_t m = rays_needed; m; m &= m - 1) {
+                int i = __builtin_ctzll(m);
+                srays[i].origin = hits[i].point;
                 light_illuminate(light, hits[i].point, &srays[i].dir, &lcol[i], &dist[i]);
             }
         }
