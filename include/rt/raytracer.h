@@ -39,7 +39,9 @@ Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float 
 /* raytracer_trace(rt, ctx, &rays[i], tmin, 0, 1, 1, &hits[i]) for every i < n
  * (n <= ACCEL_PACKET_MAX): the same colours and hits to the bit, but when the
  * accelerator has packet queries the rays and their first shadow rays go through it as
- * packets. */
+ * packets. One exception: a hit shaded inline (a PhongMaterial under directional
+ * lights) that needs no shadow or secondary ray keeps point (0, 0, 0); only shading
+ * reads the point. */
 void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
                             float tmin, Vec3 *colors, Hit *hits);
 /* Nearest hit (through rt->accel). */

@@ -277,7 +277,6 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         uint64_t bit = (uint64_t)1 << i;
         const PhongParams *p = NULL;
         if (i < n && (found & bit)) {
-            hits[i].point = ray_at(&rays[i], hits[i].t);
             if (inline_ok) {
                 if (hits[i].material != last) { /* neighbouring lanes mostly share one */
                     last = hits[i].material;
@@ -298,6 +297,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
                 bounce |= last_bounce ? bit : 0;
                 continue;
             }
+            hits[i].point = ray_at(&rays[i], hits[i].t);
             if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
                 live |= bit;
             else
@@ -317,6 +317,11 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         phong = shaded;
         bounce &= shaded;
         live |= shaded;
+        /* The hit point of a Phong lane: for its shadow rays and secondary rays. */
+        for (uint64_t m = rt->shadows ? phong : bounce; m; m &= m - 1) {
+            int i = __builtin_ctzll(m);
+            hits[i].point = ray_at(&rays[i], hits[i].t);
+        }
     }
     for (int li = 0; li < scene->num_lights && live; li++) {
         const Light *light = &scene->lights[li];
