@@ -270,41 +270,46 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     bool last_bounce = false;
     /* phong_packet works on whole groups of lanes: the lanes past n are filled too. */
     int lanes = (n + PHONG_PACKET_GROUP - 1) / PHONG_PACKET_GROUP * PHONG_PACKET_GROUP;
-    /* Lane by lane: the hit point, and either the Phong lane's normal and direction
-     * into pp's columns (phong_packet_begin does the rest for all of them) or
-     * shade_begin through the ops. */
-    for (int i = 0; i < lanes; i++) {
+    uint64_t valid = n >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << n) - 1;
+    for (uint64_t m = valid & ~found; m; m &= m - 1)
+        colors[__builtin_ctzll(m)] = scene->background;
+    /* Hit by hit: either the Phong lane's normal and direction into pp's columns
+     * (phong_packet_begin does the rest for all of them) or shade_begin through the
+     * ops. */
+    for (uint64_t m = valid & found; m; m &= m - 1) {
+        int i = __builtin_ctzll(m);
         uint64_t bit = (uint64_t)1 << i;
         const PhongParams *p = NULL;
-        if (i < n && (found & bit)) {
-            if (inline_ok) {
-                if (hits[i].material != last) { /* neighbouring lanes mostly share one */
-                    last = hits[i].material;
-                    last_p = phong_params_of(last);
-                    last_bounce = last_p && phong_lane_bounces(rt, last_p);
-                }
-                p = last_p;
+        if (inline_ok) {
+            if (hits[i].material != last) { /* neighbouring lanes mostly share one */
+                last = hits[i].material;
+                last_p = phong_params_of(last);
+                last_bounce = last_p && phong_lane_bounces(rt, last_p);
             }
-            if (p) {
-                pp.nx[i] = hits[i].normal.x;
-                pp.ny[i] = hits[i].normal.y;
-                pp.nz[i] = hits[i].normal.z;
-                pp.vx[i] = rays[i].dir.x;
-                pp.vy[i] = rays[i].dir.y;
-                pp.vz[i] = rays[i].dir.z;
-                lp[i] = p;
-                phong |= bit;
-                bounce |= last_bounce ? bit : 0;
-                continue;
-            }
-            hits[i].point = ray_at(&rays[i], hits[i].t);
-            if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
-                live |= bit;
-            else
-                colors[i] = st[i].color;
-        } else if (i < n) {
-            colors[i] = scene->background;
+            p = last_p;
         }
+        if (p) {
+            pp.nx[i] = hits[i].normal.x;
+            pp.ny[i] = hits[i].normal.y;
+            pp.nz[i] = hits[i].normal.z;
+            pp.vx[i] = rays[i].dir.x;
+            pp.vy[i] = rays[i].dir.y;
+            pp.vz[i] = rays[i].dir.z;
+            lp[i] = p;
+            phong |= bit;
+            bounce |= last_bounce ? bit : 0;
+            continue;
+        }
+        hits[i].point = ray_at(&rays[i], hits[i].t);
+        if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
+            live |= bit;
+        else
+            colors[i] = st[i].color;
+    }
+    /* Every other lane of the groups (lanes past n too) holds zeros. */
+    uint64_t group_lanes = lanes >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << lanes) - 1;
+    for (uint64_t m = group_lanes & ~phong; m; m &= m - 1) {
+        int i = __builtin_ctzll(m);
         pp.nx[i] = pp.ny[i] = pp.nz[i] = 0.0f;
         pp.vx[i] = pp.vy[i] = pp.vz[i] = 0.0f;
         lp[i] = NULL;
