@@ -328,9 +328,17 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             hits[i].point = ray_at(&rays[i], hits[i].t);
         }
     }
+    /* The shadow rays (and the light directions of the lanes shaded through the ops)
+     * start at the hit points, the same lanes for every light: origins set once. */
+    Ray srays[ACCEL_PACKET_MAX];
+    uint64_t rays_needed = rt->shadows ? live : live & ~phong;
+    if (scene->num_lights > 0)
+        for (uint64_t m = rays_needed; m; m &= m - 1) {
+            int i = __builtin_ctzll(m);
+            srays[i].origin = hits[i].point;
+        }
     for (int li = 0; li < scene->num_lights && live; li++) {
         const Light *light = &scene->lights[li];
-        Ray srays[ACCEL_PACKET_MAX];
         Vec3 lcol[ACCEL_PACKET_MAX];
         float dist[ACCEL_PACKET_MAX];
         bool directional = light->kind == LIGHT_DIRECTIONAL;
@@ -338,12 +346,9 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         float dist0 = 0.0f;
         if (directional) /* the same for every point: asked once */
             light_illuminate(light, v3(0, 0, 0), &l0, &lc0, &dist0);
-        /* The shadow rays, and the light of the lanes shaded through the ops. */
-        uint64_t rays_needed = rt->shadows ? live : live & ~phong;
         if (directional) { /* Phong lanes take lc0 themselves: no lcol */
             for (uint64_t m = rays_needed; m; m &= m - 1) {
                 int i = __builtin_ctzll(m);
-                srays[i].origin = hits[i].point;
                 srays[i].dir = l0;
                 dist[i] = dist0;
             }
@@ -352,7 +357,6 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         } else {
             for (uint64_t m = rays_needed; m; m &= m - 1) {
                 int i = __builtin_ctzll(m);
-                srays[i].origin = hits[i].point;
                 light_illuminate(light, hits[i].point, &srays[i].dir, &lcol[i], &dist[i]);
             }
         }
