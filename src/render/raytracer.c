@@ -322,18 +322,21 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         phong = shaded;
         bounce &= shaded;
         live |= shaded;
-        /* The hit point of a Phong lane: for its shadow rays and secondary rays. */
-        for (uint64_t m = rt->shadows ? phong : bounce; m; m &= m - 1) {
-            int i = __builtin_ctzll(m);
-            hits[i].point = ray_at(&rays[i], hits[i].t);
-        }
     }
     /* The shadow rays (and the light directions of the lanes shaded through the ops)
-     * start at the hit points, the same lanes for every light: origins set once. */
+     * start at the hit points, the same lanes for every light: origins set once. A
+     * Phong lane's hit point is made only here, for its shadow rays and secondary
+     * rays. */
     Ray srays[ACCEL_PACKET_MAX];
     uint64_t rays_needed = rt->shadows ? live : live & ~phong;
+    for (uint64_t m = rt->shadows ? phong : bounce; m; m &= m - 1) {
+        int i = __builtin_ctzll(m);
+        Vec3 p = ray_at(&rays[i], hits[i].t);
+        hits[i].point = p;
+        srays[i].origin = p;
+    }
     if (scene->num_lights > 0)
-        for (uint64_t m = rays_needed; m; m &= m - 1) {
+        for (uint64_t m = rays_needed & ~phong; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             srays[i].origin = hits[i].point;
         }
