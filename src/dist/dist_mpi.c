@@ -4,7 +4,10 @@
  * bands of rows first-come first-served (a work queue: a rank that draws an expensive
  * band simply asks for fewer), renders bands itself on a second thread, and gathers
  * the pixels. Only rank 0's main thread calls MPI besides the workers' main threads
- * (MPI_THREAD_FUNNELED). docs/distributed.md describes the protocol and its costs. */
+ * (MPI_THREAD_FUNNELED). No rank waits inside a blocking MPI call: MPI libraries
+ * busy-poll there (OpenMPI unless told otherwise), which would take a core from the
+ * renderers of a rank sharing it; every wait is a test and a growing sleep (nap).
+ * docs/distributed.md describes the protocol and its costs. */
 #define _POSIX_C_SOURCE 200809L
 #include "rt/dist.h"
 #include "rt/image.h"
@@ -23,6 +26,53 @@ enum { TAG_RESULT = 1, TAG_WORK = 2 };
 
 static int g_rank, g_size;
 static char g_describe[96];
+
+/* ---- waiting without spinning ----------------------------------------------------- */
+
+/* A wait's sleeps start at NAP_MIN_NS and double up to NAP_MAX_NS: a message that is
+ * already there costs one test, one that comes soon is seen within twice the time
+ * waited, and a long wait (a rank done with its tiles, waiting for the others) costs
+ * a wake-up per NAP_MAX_NS, about 0.1% of a core. */
+enum { NAP_MIN_NS = 20 * 1000, NAP_MAX_NS = 1000 * 1000 };
+
+/* Sleeps *ns (interrupted by a signal: shorter) and doubles it up to NAP_MAX_NS. */
+static void nap(long *ns)
+{
+    struct timespec ts = {0, *ns};
+    nanosleep(&ts, NULL);
+    *ns = *ns >= NAP_MAX_NS / 2 ? NAP_MAX_NS : 2 * *ns;
+}
+
+/* Completes *req, napping between tests (MPI_Wait would spin). */
+static void wait_request(MPI_Request *req, MPI_Status *st)
+{
+    long ns = NAP_MIN_NS;
+    for (;;) {
+        int done = 0;
+        MPI_Test(req, &done, st ? st : MPI_STATUS_IGNORE);
+        if (done)
+            return;
+        nap(&ns);
+    }
+}
+
+/* The collectives the job uses, each started non-blocking and waited for by napping. */
+static void bcast(void *p, int n, MPI_Datatype type)
+{
+    MPI_Request req;
+    MPI_Ibcast(p, n, type, 0, MPI_COMM_WORLD, &req);
+    wait_request(&req, NULL);
+}
+
+static void reduce_to_root(void *v, void *sum, int n, MPI_Datatype type, MPI_Op op)
+{
+    MPI_Request req;
+    if (g_rank == 0)
+        MPI_Ireduce(MPI_IN_PLACE, v, n, type, op, 0, MPI_COMM_WORLD, &req);
+    else
+        MPI_Ireduce(v, sum, n, type, op, 0, MPI_COMM_WORLD, &req);
+    wait_request(&req, NULL);
+}
 
 /* ---- job start, end, abort ---------------------------------------------------------- */
 
@@ -63,7 +113,7 @@ bool dist_init(int *argc, char ***argv)
 int dist_finish(int status)
 {
     /* The root's status is everyone's: a write error on rank 0 fails the whole job. */
-    MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    bcast(&status, 1, MPI_INT);
     /* From here the outcome is settled and reported. When a rank leaves with status 1
      * (a scene error) mpirun sends SIGTERM to the ranks still in MPI_Finalize; that is
      * no abort, and on_abort on rank 0 would add "the job was aborted" after the real
@@ -80,16 +130,15 @@ const char *dist_describe(void) { return g_describe; }
 bool dist_all(bool ok)
 {
     int mine = ok ? 1 : 0, all = 0;
-    MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
+    MPI_Request req;
+    MPI_Iallreduce(&mine, &all, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD, &req);
+    wait_request(&req, NULL);
     return all != 0;
 }
 
 void dist_max(double *v, int n)
 {
-    if (g_rank == 0)
-        MPI_Reduce(MPI_IN_PLACE, v, n, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
-    else
-        MPI_Reduce(v, NULL, n, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
+    reduce_to_root(v, NULL, n, MPI_DOUBLE, MPI_MAX);
 }
 
 /* Something only this rank can see went wrong (out of memory): end the whole job. */
@@ -108,7 +157,7 @@ static void bcast_bytes(uint8_t *p, size_t n)
     const size_t piece = (size_t)1 << 30;
     for (size_t off = 0; off < n; off += piece) {
         size_t k = n - off < piece ? n - off : piece;
-        MPI_Bcast(p + off, (int)k, MPI_BYTE, 0, MPI_COMM_WORLD);
+        bcast(p + off, (int)k, MPI_BYTE);
     }
 }
 
@@ -147,7 +196,7 @@ Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
         scene_files_free(files);
         len = s ? (uint64_t)n : 0; /* 0: the scene failed; rank 0 has said why */
     }
-    MPI_Bcast(&len, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    bcast(&len, 1, MPI_UINT64_T);
     if (len == 0)
         return s;
     if (g_rank != 0 && !(packed = malloc(len)))
@@ -278,43 +327,56 @@ static void progress(const Farm *f, int *shown, bool last)
 }
 
 /* Requests a worker keeps in flight: while it renders one tile the answer naming its
- * next one is already on its way, so it never waits a round trip (rank 0 polls) between
- * tiles. Rank 0 answers every request; once the queue is empty every answer is "no
- * more", so a worker's last REQUESTS_IN_FLIGHT answers are all "no more". */
+ * next one is already on its way, so it never waits a round trip between tiles. Rank 0
+ * answers every request; once the queue is empty every answer is "no more", so a
+ * worker's last REQUESTS_IN_FLIGHT answers are all "no more". */
 enum { REQUESTS_IN_FLIGHT = 2 };
 
+/* Bytes of a tile's message: the header (two ints: the tile finished, -1 for a bare
+ * request, and one unused) and its pixels. */
+static size_t tile_message_bytes(const Farm *f, int rows)
+{
+    return 2 * sizeof(int) +
+           (size_t)f->full->w * (size_t)rows * (size_t)outputs(f->full) * sizeof(Vec3);
+}
+
 /* Rank 0: serves tile requests until every other rank has been told "no more" once for
- * each request it keeps in flight, while local_main renders on its own thread. The
- * header of a message is two ints: the tile just finished (-1: none, a bare request)
- * and, from the root, the next tile (-1: no more). */
+ * each request it keeps in flight, while local_main renders on its own thread. A
+ * request is a message of the tile just finished (with its pixels) or a bare one; the
+ * answer is the next tile (-1: no more). Between messages the thread naps, so it
+ * costs next to nothing beside the renderers on the same cores; a worker never waits
+ * for it, since the answer it needs next was sent a tile earlier. */
 static void serve(Farm *f)
 {
-    size_t tile_floats = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
-    size_t cap = 2 * sizeof(int) + tile_floats * sizeof(Vec3);
+    size_t cap = tile_message_bytes(f, f->tile_rows);
     uint8_t *msg = malloc(cap);
     if (!msg)
         die("out of memory");
     bool tty = isatty(2) == 1;
     int shown = -1;
     int active = (g_size - 1) * REQUESTS_IN_FLIGHT;
+    long ns = NAP_MIN_NS;
     while (active > 0) {
         int flag = 0;
+        MPI_Message handle;
         MPI_Status st;
-        MPI_Iprobe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &flag, &st);
+        MPI_Improbe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &flag, &handle, &st);
         if (!flag) {
-            /* Sleep rather than spin: this thread shares the CPUs with the renderers. */
-            struct timespec ts = {0, 100 * 1000};
-            nanosleep(&ts, NULL);
             if (tty)
                 progress(f, &shown, false);
+            nap(&ns);
             continue;
         }
+        ns = NAP_MIN_NS;
         int count = 0;
         MPI_Get_count(&st, MPI_BYTE, &count);
         if (count < (int)sizeof(int) || (size_t)count > cap)
             die("malformed message from a rank");
-        MPI_Recv(msg, count, MPI_BYTE, st.MPI_SOURCE, TAG_RESULT, MPI_COMM_WORLD,
-                 MPI_STATUS_IGNORE);
+        /* A big message may need its sender's progress to arrive (a rendezvous over a
+         * network): its worker tests its sends between naps, so this is short. */
+        MPI_Request req;
+        MPI_Imrecv(msg, count, MPI_BYTE, &handle, &req);
+        wait_request(&req, NULL);
         int finished;
         memcpy(&finished, msg, sizeof finished);
         if (finished >= 0 && finished < f->ntiles) {
@@ -335,43 +397,159 @@ static void serve(Farm *f)
         progress(f, &shown, false);
 }
 
-/* Other ranks: ask for tiles, render each, send it back with the next request. */
+/* A worker's tile buffers: a tile waits for the render thread (TODO), is rendered,
+ * waits for the main thread to send it (DONE), and is on its way (SENDING) until its
+ * send completes. REQUESTS_IN_FLIGHT tiles are held at most between answer and send;
+ * the other slots let sends that are slow to complete overlap the next renders. */
+enum { SLOT_FREE, SLOT_TODO, SLOT_RENDERING, SLOT_DONE, SLOT_SENDING };
+enum { NSLOTS = REQUESTS_IN_FLIGHT + 2 };
+
+typedef struct Worker {
+    Farm *farm;
+    RtStats *stats;
+    pthread_mutex_t lock;
+    pthread_cond_t wake;       /* the render thread: a tile to render, or stop */
+    int state[NSLOTS], tile[NSLOTS];
+    uint8_t *buf[NSLOTS];      /* each a whole message: header and pixels */
+    MPI_Request send[NSLOTS];
+    bool stop, failed;
+} Worker;
+
+/* A worker's render thread: renders TODO slots in the order they were handed out
+ * (lowest tile first) until told to stop. */
+static void *worker_render_main(void *arg)
+{
+    Worker *w = arg;
+    pthread_mutex_lock(&w->lock);
+    for (;;) {
+        int s = -1;
+        for (int k = 0; k < NSLOTS; k++)
+            if (w->state[k] == SLOT_TODO && (s < 0 || w->tile[k] < w->tile[s]))
+                s = k;
+        if (s < 0) {
+            if (w->stop)
+                break;
+            pthread_cond_wait(&w->wake, &w->lock);
+            continue;
+        }
+        w->state[s] = SLOT_RENDERING;
+        pthread_mutex_unlock(&w->lock);
+        Vec3 *pix = (Vec3 *)(void *)(w->buf[s] + 2 * sizeof(int));
+        bool ok = render_tile(w->farm, w->tile[s], pix, w->stats);
+        pthread_mutex_lock(&w->lock);
+        w->state[s] = SLOT_DONE;
+        if (!ok) {
+            w->failed = true;
+            break;
+        }
+    }
+    pthread_mutex_unlock(&w->lock);
+    return NULL;
+}
+
+/* Other ranks: the main thread talks to rank 0 (only it calls MPI), a second thread
+ * renders. The main thread keeps REQUESTS_IN_FLIGHT requests out, hands each tile
+ * named in an answer to the render thread, sends each rendered tile (the send is the
+ * next request) and tests the sends, so a transfer that needs this side's progress
+ * moves on while the next tile renders; it naps between rounds with nothing to do. */
 static void work(Farm *f, RtStats *stats)
 {
-    size_t tile_floats = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
-    uint8_t *msg = malloc(2 * sizeof(int) + tile_floats * sizeof(Vec3));
-    if (!msg)
-        die("out of memory");
+    Worker w;
+    memset(&w, 0, sizeof w);
+    w.farm = f;
+    w.stats = stats;
+    size_t cap = tile_message_bytes(f, f->tile_rows);
+    for (int k = 0; k < NSLOTS; k++)
+        if (!(w.buf[k] = malloc(cap)))
+            die("out of memory");
+    pthread_mutex_init(&w.lock, NULL);
+    pthread_cond_init(&w.wake, NULL);
+    pthread_t th;
+    if (pthread_create(&th, NULL, worker_render_main, &w) != 0)
+        die("could not start a render thread");
     /* Fault injection for the tests (tests/e2e/test_mpi.c): this rank dies on rank 0's
      * first answer (a tile, or no more work), as a crashed or killed node would; always
      * before the counters are gathered, so the job can never complete. */
     const char *kill_rank = getenv("RT_MPI_TEST_KILL_RANK");
     bool die_on_tile = kill_rank && atoi(kill_rank) == g_rank;
-    int none = -1;
-    memcpy(msg, &none, sizeof none);
+    int bare[2] = {-1, 0};
     for (int k = 0; k < REQUESTS_IN_FLIGHT; k++)
-        MPI_Send(msg, (int)(2 * sizeof(int)), MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
+        MPI_Send(bare, (int)sizeof bare, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
     int in_flight = REQUESTS_IN_FLIGHT;
-    while (in_flight > 0) {
-        int t;
-        MPI_Recv(&t, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        in_flight--;
-        if (die_on_tile)
-            raise(SIGKILL);
-        if (t < 0)
-            continue; /* no more: collect the answers still on their way */
-        Vec3 *pix = (Vec3 *)(void *)(msg + 2 * sizeof(int));
-        if (!render_tile(f, t, pix, stats))
+    int answer = 0;
+    MPI_Request answer_req;
+    MPI_Irecv(&answer, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
+    int held[REQUESTS_IN_FLIGHT], nheld = 0; /* tiles waiting for a free slot */
+    long ns = NAP_MIN_NS;
+    for (;;) {
+        bool moved = false;
+        int got = 0;
+        if (in_flight > 0)
+            MPI_Test(&answer_req, &got, MPI_STATUS_IGNORE);
+        if (got) {
+            moved = true;
+            in_flight--;
+            if (die_on_tile)
+                raise(SIGKILL);
+            if (answer >= 0)
+                held[nheld++] = answer;
+            if (in_flight > 0)
+                MPI_Irecv(&answer, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
+        }
+        bool busy = false;
+        pthread_mutex_lock(&w.lock);
+        if (w.failed) {
+            pthread_mutex_unlock(&w.lock);
             die("could not render a tile (out of memory?)");
-        int y0, y1;
-        tile_rows(f, t, &y0, &y1);
-        size_t len = 2 * sizeof(int) +
-                     (size_t)f->full->w * (size_t)(y1 - y0) * (size_t)outputs(f->full) * sizeof(Vec3);
-        memcpy(msg, &t, sizeof t);
-        MPI_Send(msg, (int)len, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
-        in_flight++;
+        }
+        for (int k = 0; k < NSLOTS; k++) {
+            if (w.state[k] == SLOT_SENDING) {
+                int sent = 0;
+                MPI_Test(&w.send[k], &sent, MPI_STATUS_IGNORE);
+                if (sent) {
+                    w.state[k] = SLOT_FREE;
+                    moved = true;
+                }
+            }
+            if (w.state[k] == SLOT_DONE) {
+                int y0, y1;
+                tile_rows(f, w.tile[k], &y0, &y1);
+                memcpy(w.buf[k], &w.tile[k], sizeof(int));
+                MPI_Isend(w.buf[k], (int)tile_message_bytes(f, y1 - y0), MPI_BYTE, 0,
+                          TAG_RESULT, MPI_COMM_WORLD, &w.send[k]);
+                w.state[k] = SLOT_SENDING;
+                in_flight++;
+                moved = true;
+                if (in_flight == 1) /* the answer Irecv stopped after the last answer */
+                    MPI_Irecv(&answer, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
+            }
+            if (w.state[k] == SLOT_FREE && nheld > 0) {
+                w.tile[k] = held[0];
+                memmove(held, held + 1, (size_t)--nheld * sizeof held[0]);
+                w.state[k] = SLOT_TODO;
+                pthread_cond_signal(&w.wake);
+                moved = true;
+            }
+            busy = busy || w.state[k] != SLOT_FREE;
+        }
+        bool finished = in_flight == 0 && nheld == 0 && !busy;
+        if (finished) {
+            w.stop = true;
+            pthread_cond_signal(&w.wake);
+        }
+        pthread_mutex_unlock(&w.lock);
+        if (finished)
+            break;
+        if (moved)
+            ns = NAP_MIN_NS;
+        else
+            nap(&ns);
     }
-    free(msg);
+    pthread_join(th, NULL);
+    pthread_cond_destroy(&w.wake);
+    pthread_mutex_destroy(&w.lock);
+    for (int k = 0; k < NSLOTS; k++)
+        free(w.buf[k]);
 }
 
 bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
@@ -394,7 +572,7 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     f.cancel = cancel;
     /* Everyone must cut the same tiles: rank 0's thread count decides. */
     int root_threads = job->threads > 0 ? job->threads : render_default_threads();
-    MPI_Bcast(&root_threads, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    bcast(&root_threads, 1, MPI_INT);
     f.tile_rows = RENDER_TILE * (root_threads < 64 ? root_threads : 64);
     while (f.tile_rows < job->min_tile_rows)
         f.tile_rows += RENDER_TILE;
@@ -425,17 +603,17 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     } else {
         work(&f, &mine);
     }
-    MPI_Bcast(&cancelled, 1, MPI_INT, 0, MPI_COMM_WORLD);
+    bcast(&cancelled, 1, MPI_INT);
     /* RtStats is plain 64-bit counters (rt/stats.h): summed as an array. */
     enum { NCOUNTS = sizeof(RtStats) / sizeof(uint64_t) };
     _Static_assert(sizeof(RtStats) == NCOUNTS * sizeof(uint64_t), "RtStats: counters only");
-    uint64_t counts[NCOUNTS], sums[NCOUNTS];
+    uint64_t counts[NCOUNTS];
     memcpy(counts, &mine, sizeof mine);
-    MPI_Reduce(counts, sums, NCOUNTS, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
+    reduce_to_root(counts, NULL, NCOUNTS, MPI_UINT64_T, MPI_SUM);
     if (stats_out) {
         memset(stats_out, 0, sizeof *stats_out);
         if (g_rank == 0)
-            memcpy(stats_out, sums, sizeof *stats_out);
+            memcpy(stats_out, counts, sizeof *stats_out);
     }
     if (cancelled) {
         *cancel = cancelled;
