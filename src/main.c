@@ -356,9 +356,10 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         job.depth = target.depth;
         job.normals = target.normals;
         job.threads = o->threads;
-        /* A film tile traces the filter's margin again: tiles of 32 rows or more keep
-         * that small (docs/distributed.md). */
-        job.min_tile_rows = film ? 32 : 0;
+        /* A film tile traces the filter's margin of R rows again on each side: tiles
+         * of 16 R rows or more keep that within 1/8 even for the last, smallest tiles
+         * (docs/distributed.md). A filter of no margin (box of radius 0.5) needs none. */
+        job.min_tile_rows = film ? 16 * filter.support : 0;
         job.render = render_rect;
         job.user = &rj;
         ok = dist_render(&job, &counts, cancel);

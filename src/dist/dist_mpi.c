@@ -220,12 +220,19 @@ Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
 /* ---- rendering -------------------------------------------------------------------- */
 
 /* The rectangle is cut into bands of whole 8-row packet bands of the full image (so
- * the counters add up to a single process's exactly), as many packet bands per tile
- * as the root has threads: each band keeps that many render threads busy. */
+ * the counters add up to a single process's exactly), guided: each tile takes a share
+ * 1/(2 N) of the rows still to hand out on N ranks, so the first tiles are big (few
+ * messages, few film margins traced twice) and the last are the smallest, and the
+ * rank that finishes last has at most a small tile to go. A tile has at least as many
+ * packet bands as the root has threads (each band keeps one render thread busy) and
+ * at most what keeps a tile's message within TILE_MAX_BYTES. */
+enum { TILE_MAX_BYTES = 16 << 20 };
+
 typedef struct Farm {
     const DistJob *full;     /* the whole rectangle (and the root's images) */
-    int tile_rows, ntiles;
-    int first_row;           /* the rectangle's first row rounded down to a packet band */
+    int ntiles;
+    int max_rows;            /* the largest tile's rows (buffers) */
+    int *start;              /* tile t: rows [start[t], start[t + 1]), clipped */
     atomic_int next;         /* the work queue: next tile to hand out */
     atomic_int done;         /* tiles finished (progress) */
     volatile int *cancel;
@@ -233,10 +240,29 @@ typedef struct Farm {
     bool local_failed;
 } Farm;
 
+/* Cuts rows [lo, hi) into guided tiles of min_rows..max_rows rows (multiples of
+ * RENDER_TILE) for ranks ranks; stores their first rows and hi in start (when not
+ * NULL) and returns how many there are. */
+static int cut_tiles(int lo, int hi, int min_rows, int max_rows, int ranks, int *start)
+{
+    int n = 0;
+    for (int y = lo; y < hi; n++) {
+        int rows = (hi - y) / (2 * ranks);
+        rows = (rows + RENDER_TILE - 1) / RENDER_TILE * RENDER_TILE;
+        rows = rows < min_rows ? min_rows : rows > max_rows ? max_rows : rows;
+        if (start)
+            start[n] = y;
+        y += rows;
+    }
+    if (start)
+        start[n] = hi;
+    return n;
+}
+
 /* Tile t: rows [*y0, *y1) of the full image, inside the rectangle. */
 static void tile_rows(const Farm *f, int t, int *y0, int *y1)
 {
-    int lo = f->first_row + t * f->tile_rows, hi = lo + f->tile_rows;
+    int lo = f->start[t], hi = f->start[t + 1];
     int top = f->full->y0 + f->full->h;
     *y0 = lo < f->full->y0 ? f->full->y0 : lo;
     *y1 = hi > top ? top : hi;
@@ -291,7 +317,7 @@ static void place_tile(Farm *f, int t, const Vec3 *buf)
 static void *local_main(void *arg)
 {
     Farm *f = arg;
-    size_t cap = (size_t)f->full->w * (size_t)f->tile_rows * (size_t)outputs(f->full);
+    size_t cap = (size_t)f->full->w * (size_t)f->max_rows * (size_t)outputs(f->full);
     Vec3 *buf = malloc((cap ? cap : 1) * sizeof *buf);
     if (!buf) {
         f->local_failed = true;
@@ -348,7 +374,7 @@ static size_t tile_message_bytes(const Farm *f, int rows)
  * for it, since the answer it needs next was sent a tile earlier. */
 static void serve(Farm *f)
 {
-    size_t cap = tile_message_bytes(f, f->tile_rows);
+    size_t cap = tile_message_bytes(f, f->max_rows);
     uint8_t *msg = malloc(cap);
     if (!msg)
         die("out of memory");
@@ -458,7 +484,7 @@ static void work(Farm *f, RtStats *stats)
     memset(&w, 0, sizeof w);
     w.farm = f;
     w.stats = stats;
-    size_t cap = tile_message_bytes(f, f->tile_rows);
+    size_t cap = tile_message_bytes(f, f->max_rows);
     for (int k = 0; k < NSLOTS; k++)
         if (!(w.buf[k] = malloc(cap)))
             die("out of memory");
@@ -573,11 +599,22 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     /* Everyone must cut the same tiles: rank 0's thread count decides. */
     int root_threads = job->threads > 0 ? job->threads : render_default_threads();
     bcast(&root_threads, 1, MPI_INT);
-    f.tile_rows = RENDER_TILE * (root_threads < 64 ? root_threads : 64);
-    while (f.tile_rows < job->min_tile_rows)
-        f.tile_rows += RENDER_TILE;
-    f.first_row = job->y0 / RENDER_TILE * RENDER_TILE;
-    f.ntiles = (job->y0 + job->h - f.first_row + f.tile_rows - 1) / f.tile_rows;
+    int min_rows = RENDER_TILE * (root_threads < 64 ? root_threads : 64);
+    while (min_rows < job->min_tile_rows)
+        min_rows += RENDER_TILE;
+    /* The largest tile: within TILE_MAX_BYTES, and no taller than the rectangle needs. */
+    int lo = job->y0 / RENDER_TILE * RENDER_TILE, hi = job->y0 + job->h;
+    size_t row_bytes = (size_t)job->w * (size_t)outputs(job) * sizeof(Vec3);
+    size_t fit = row_bytes ? TILE_MAX_BYTES / row_bytes : (size_t)(hi - lo);
+    if (fit > (size_t)(hi - lo))
+        fit = (size_t)(hi - lo);
+    f.max_rows = (int)fit / RENDER_TILE * RENDER_TILE;
+    if (f.max_rows < min_rows)
+        f.max_rows = min_rows;
+    f.ntiles = cut_tiles(lo, hi, min_rows, f.max_rows, g_size, NULL);
+    if (!(f.start = malloc(((size_t)f.ntiles + 1) * sizeof *f.start)))
+        die("out of memory");
+    cut_tiles(lo, hi, min_rows, f.max_rows, g_size, f.start);
     atomic_init(&f.next, 0);
     atomic_init(&f.done, 0);
 
@@ -603,6 +640,7 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     } else {
         work(&f, &mine);
     }
+    free(f.start);
     bcast(&cancelled, 1, MPI_INT);
     /* RtStats is plain 64-bit counters (rt/stats.h): summed as an array. */
     enum { NCOUNTS = sizeof(RtStats) / sizeof(uint64_t) };
