@@ -8,10 +8,16 @@
 #    tiles add is every process's start-up, parse and grid build, plus the rows of the
 #    filter's margin that neighbouring tiles both trace. Measured without and with the
 #    set-up cache (-cache), which leaves mostly start-up and the margin.
-#  - MPI: wall time of `mpirun --oversubscribe -np N raytracer-mpi ... -threads 1` for
-#    N = 1, 2 and 4 (4 is oversubscribed on two cores), interleaved run by run, median of
-#    RUNS; speed-up against N = 1. Skipped when raytracer-mpi or mpirun is missing.
+#  - MPI: wall time of `mpirun --oversubscribe $MPIRUN_FLAGS -np N raytracer-mpi ...
+#    -threads 1` for N = 1, 2 and 4 (4 is oversubscribed on two cores), interleaved run
+#    by run, median of RUNS; speed-up against N = 1; and the CPU time (user+sys) of the
+#    whole job (mpirun and its ranks), median of RUNS, which the machine's other load
+#    does not inflate the way it does the wall time. MPIRUN_FLAGS defaults to the
+#    one-machine transports (--mca pml ob1 --mca btl self,vader: shared memory only,
+#    no probing for network hardware; docs/distributed.md); set it empty for OpenMPI's
+#    own choice. Skipped when raytracer-mpi or mpirun is missing.
 # Every part's merge is compared with the whole render (cmp): a difference is reported.
+# DIST_PARTS: "tiles mpi" (default), or one of them.
 # Usage: bash bench/dist.sh RAYTRACER RAYTRACER_MPI COURSE_DIR [RUNS]
 set -u
 export LC_ALL=C
@@ -25,12 +31,15 @@ cpu_ms() {
     t=$( { time "$@" >/dev/null 2>"$TMP/err"; } 2>&1 | tail -n 1)
     echo "$t" | awk '{ printf "%.1f", ($1 + $2) * 1000 }'
 }
-# wall_ms CMD...: runs it, prints its wall ms.
-wall_ms() {
-    local TIMEFORMAT='%R' t
+# wall_cpu_ms CMD...: runs it, prints its wall ms and the user+sys ms of it and its
+# children.
+wall_cpu_ms() {
+    local TIMEFORMAT='%R %U %S' t
     t=$( { time "$@" >/dev/null 2>"$TMP/err"; } 2>&1 | tail -n 1)
-    echo "$t" | awk '{ printf "%.1f", $1 * 1000 }'
+    echo "$t" | awk '{ printf "%.1f %.1f", $1 * 1000, ($2 + $3) * 1000 }'
 }
+DIST_PARTS=${DIST_PARTS:-tiles mpi}
+MPIRUN_FLAGS=${MPIRUN_FLAGS-"--mca pml ob1 --mca btl self,vader"}
 SCENE=$COURSE/scene6_07_bunny_mesh_40k.txt
 A=(-input "$SCENE" -grid 40 40 33 -shadows -size 1920 1080 -threads 1)
 N_TILES=64
@@ -51,59 +60,68 @@ add() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", a + b }'; }
 # without, then with the cache, so the machine's drift hits both alike), in TILE_RUNS
 # rounds (default 1; medians); the whole render runs before and after the parts of each
 # round (their mean).
-TILE_RUNS=${TILE_RUNS:-1}
-echo "   tiles: $N_TILES processes without -cache; +cache: with -cache (a fresh file: the first"
-echo "   part builds it), part k of both run back to back; medians of $TILE_RUNS round(s)"
-printf '   %-42s %8s %8s %8s %6s %9s %9s\n' samples whole tiles +cache merge overhead +cache
-for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
-    ws=() ts=() cs=() ms=()
-    for ((r = 0; r < TILE_RUNS; r++)); do
-        rm -f "$TMP/setup.cache"
-        # shellcheck disable=SC2086
-        w0=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
-        t=0 c=0
-        for ((k = 0; k < N_TILES; k++)); do
+case " $DIST_PARTS " in *" tiles "*) ;; *) SKIP_TILES=1 ;; esac
+if [ -z "${SKIP_TILES:-}" ]; then
+    TILE_RUNS=${TILE_RUNS:-1}
+    echo "   tiles: $N_TILES processes without -cache; +cache: with -cache (a fresh file: the first"
+    echo "   part builds it), part k of both run back to back; medians of $TILE_RUNS round(s)"
+    printf '   %-42s %8s %8s %8s %6s %9s %9s\n' samples whole tiles +cache merge overhead +cache
+    for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
+        ws=() ts=() cs=() ms=()
+        for ((r = 0; r < TILE_RUNS; r++)); do
+            rm -f "$TMP/setup.cache"
             # shellcheck disable=SC2086
-            t=$(add "$t" "$(cpu_ms "$BIN" "${A[@]}" $S -tile $k $N_TILES -output "$TMP/part$k.tga")")
+            w0=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
+            t=0 c=0
+            for ((k = 0; k < N_TILES; k++)); do
+                # shellcheck disable=SC2086
+                t=$(add "$t" "$(cpu_ms "$BIN" "${A[@]}" $S -tile $k $N_TILES -output "$TMP/part$k.tga")")
+                # shellcheck disable=SC2086
+                c=$(add "$c" "$(cpu_ms "$BIN" "${A[@]}" $S -cache "$TMP/setup.cache" -tile $k $N_TILES \
+                    -output "$TMP/cpart$k.tga")")
+            done
             # shellcheck disable=SC2086
-            c=$(add "$c" "$(cpu_ms "$BIN" "${A[@]}" $S -cache "$TMP/setup.cache" -tile $k $N_TILES \
-                -output "$TMP/cpart$k.tga")")
+            w1=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
+            ws+=("$(awk -v a="$w0" -v b="$w1" 'BEGIN { printf "%.1f", (a + b) / 2 }')")
+            ts+=("$t") cs+=("$c")
+            ms+=("$(cpu_ms "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga)")
+            cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles differ from the whole render"
+            "$BIN" -merge "$TMP/merged.tga" "$TMP"/cpart*.tga
+            cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles (-cache) differ from the whole render"
+            rm -f "$TMP"/part*.tga "$TMP"/cpart*.tga "$TMP/setup.cache"
         done
-        # shellcheck disable=SC2086
-        w1=$(cpu_ms "$BIN" "${A[@]}" $S -output "$TMP/whole.tga")
-        ws+=("$(awk -v a="$w0" -v b="$w1" 'BEGIN { printf "%.1f", (a + b) / 2 }')")
-        ts+=("$t") cs+=("$c")
-        ms+=("$(cpu_ms "$BIN" -merge "$TMP/merged.tga" "$TMP"/part*.tga)")
-        cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles differ from the whole render"
-        "$BIN" -merge "$TMP/merged.tga" "$TMP"/cpart*.tga
-        cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged tiles (-cache) differ from the whole render"
-        rm -f "$TMP"/part*.tga "$TMP"/cpart*.tga "$TMP/setup.cache"
+        whole=$(median "${ws[@]}") tiles=$(median "${ts[@]}") cached=$(median "${cs[@]}")
+        merge=$(median "${ms[@]}")
+        printf '   %-42s %8s %8s %8s %6s %9s %9s\n' "${S:-(1 centred sample)}" "$whole" "$tiles" \
+            "$cached" "$merge" "$(pct "$whole" "$tiles" "$merge")" "$(pct "$whole" "$cached" "$merge")"
     done
-    whole=$(median "${ws[@]}") tiles=$(median "${ts[@]}") cached=$(median "${cs[@]}")
-    merge=$(median "${ms[@]}")
-    printf '   %-42s %8s %8s %8s %6s %9s %9s\n' "${S:-(1 centred sample)}" "$whole" "$tiles" \
-        "$cached" "$merge" "$(pct "$whole" "$tiles" "$merge")" "$(pct "$whole" "$cached" "$merge")"
-done
+fi
+case " $DIST_PARTS " in *" mpi "*) ;; *) echo ""; exit 0 ;; esac
 if [ ! -x "$MPI_BIN" ] || ! command -v mpirun >/dev/null 2>&1; then
     echo "   MPI: raytracer-mpi or mpirun missing (make mpi), skipped"
     echo ""
     exit 0
 fi
-printf '   %-42s %10s %10s %10s %8s %8s\n' samples "np 1" "np 2" "np 4" "x np2" "x np4"
-for S in "" "-uniform_samples 16"; do
-    w1=() w2=() w4=()
+echo "   MPI: mpirun --oversubscribe ${MPIRUN_FLAGS:-(no flags)}; load at the start: $(cut -d' ' -f1-3 /proc/loadavg)"
+printf '   %-42s %10s %10s %10s %8s %8s   %s\n' samples "np 1" "np 2" "np 4" "x np2" "x np4" \
+    "CPU ms np 1 / 2 / 4"
+for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
+    w1=() w2=() w4=() c1=() c2=() c4=()
     for ((k = 0; k < RUNS; k++)); do
         for np in 1 2 4; do
             # shellcheck disable=SC2086
-            t=$(wall_ms mpirun --oversubscribe -np $np "$MPI_BIN" "${A[@]}" $S -output "$TMP/m$np.tga")
-            eval "w$np+=(\"$t\")"
+            read -r t c < <(wall_cpu_ms mpirun --oversubscribe $MPIRUN_FLAGS -np $np "$MPI_BIN" \
+                "${A[@]}" $S -output "$TMP/m$np.tga")
+            eval "w$np+=(\"$t\") c$np+=(\"$c\")"
         done
         cmp -s "$TMP/m1.tga" "$TMP/m2.tga" && cmp -s "$TMP/m1.tga" "$TMP/m4.tga" ||
             echo "   !! raytracer-mpi images differ between -np 1, 2 and 4"
     done
     m1=$(median "${w1[@]}") m2=$(median "${w2[@]}") m4=$(median "${w4[@]}")
-    printf '   %-42s %10s %10s %10s %8s %8s\n' "${S:-(1 centred sample)}" "$m1" "$m2" "$m4" \
-        "$(awk -v a="$m1" -v b="$m2" 'BEGIN { printf "%.2f", a / b }')" \
-        "$(awk -v a="$m1" -v b="$m4" 'BEGIN { printf "%.2f", a / b }')"
+    printf '   %-42s %10s %10s %10s %8s %8s   %s / %s / %s\n' "${S:-(1 centred sample)}" "$m1" \
+        "$m2" "$m4" "$(awk -v a="$m1" -v b="$m2" 'BEGIN { printf "%.2f", a / b }')" \
+        "$(awk -v a="$m1" -v b="$m4" 'BEGIN { printf "%.2f", a / b }')" \
+        "$(median "${c1[@]}")" "$(median "${c2[@]}")" "$(median "${c4[@]}")"
 done
+echo "   load at the end: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo ""

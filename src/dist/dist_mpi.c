@@ -435,6 +435,7 @@ typedef struct Worker {
     RtStats *stats;
     pthread_mutex_t lock;
     pthread_cond_t wake;       /* the render thread: a tile to render, or stop */
+    pthread_cond_t rendered;   /* the main thread: a tile is rendered (or failed) */
     int state[NSLOTS], tile[NSLOTS];
     uint8_t *buf[NSLOTS];      /* each a whole message: header and pixels */
     MPI_Request send[NSLOTS];
@@ -464,6 +465,7 @@ static void *worker_render_main(void *arg)
         bool ok = render_tile(w->farm, w->tile[s], pix, w->stats);
         pthread_mutex_lock(&w->lock);
         w->state[s] = SLOT_DONE;
+        pthread_cond_signal(&w->rendered);
         if (!ok) {
             w->failed = true;
             break;
@@ -473,11 +475,22 @@ static void *worker_render_main(void *arg)
     return NULL;
 }
 
+/* True when a tile waits to be sent (w->lock held). */
+static bool slot_rendered(const Worker *w)
+{
+    for (int k = 0; k < NSLOTS; k++)
+        if (w->state[k] == SLOT_DONE)
+            return true;
+    return false;
+}
+
 /* Other ranks: the main thread talks to rank 0 (only it calls MPI), a second thread
  * renders. The main thread keeps REQUESTS_IN_FLIGHT requests out, hands each tile
  * named in an answer to the render thread, sends each rendered tile (the send is the
  * next request) and tests the sends, so a transfer that needs this side's progress
- * moves on while the next tile renders; it naps between rounds with nothing to do. */
+ * moves on while the next tile renders. While an answer or a send is outstanding it
+ * naps between tests; with neither (its next tiles in hand, its sends complete) it
+ * sleeps until the render thread finishes a tile. */
 static void work(Farm *f, RtStats *stats)
 {
     Worker w;
@@ -490,6 +503,7 @@ static void work(Farm *f, RtStats *stats)
             die("out of memory");
     pthread_mutex_init(&w.lock, NULL);
     pthread_cond_init(&w.wake, NULL);
+    pthread_cond_init(&w.rendered, NULL);
     pthread_t th;
     if (pthread_create(&th, NULL, worker_render_main, &w) != 0)
         die("could not start a render thread");
@@ -522,7 +536,7 @@ static void work(Farm *f, RtStats *stats)
             if (in_flight > 0)
                 MPI_Irecv(&answer, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
         }
-        bool busy = false;
+        bool busy = false, sending = false;
         pthread_mutex_lock(&w.lock);
         if (w.failed) {
             pthread_mutex_unlock(&w.lock);
@@ -557,21 +571,28 @@ static void work(Farm *f, RtStats *stats)
                 moved = true;
             }
             busy = busy || w.state[k] != SLOT_FREE;
+            sending = sending || w.state[k] == SLOT_SENDING;
         }
         bool finished = in_flight == 0 && nheld == 0 && !busy;
         if (finished) {
             w.stop = true;
             pthread_cond_signal(&w.wake);
         }
+        bool idle = !finished && !moved && in_flight == 0 && nheld == 0 && !sending;
+        /* Idle: a tile is with the render thread (busy), none is rendered (it would
+         * have been sent), so the render thread will signal. */
+        while (idle && !w.failed && !slot_rendered(&w))
+            pthread_cond_wait(&w.rendered, &w.lock);
         pthread_mutex_unlock(&w.lock);
         if (finished)
             break;
-        if (moved)
+        if (moved || idle)
             ns = NAP_MIN_NS;
         else
             nap(&ns);
     }
     pthread_join(th, NULL);
+    pthread_cond_destroy(&w.rendered);
     pthread_cond_destroy(&w.wake);
     pthread_mutex_destroy(&w.lock);
     for (int k = 0; k < NSLOTS; k++)
