@@ -32,6 +32,8 @@ struct Sampler {
     uint64_t seed;           /* -seed; every random draw hashes it in */
     uint32_t stream;         /* a second, independent stream for the same seed (the
                                 adaptive sampler's refinement pass uses stream 1) */
+    bool wide;               /* the CPU has AVX-512 F/DQ/VL (sampler_init): the jittered
+                                sampler hashes eight draws per instruction */
 };
 
 /* The sampler whose option is -<name>_samples, or "center"; NULL when unknown. */

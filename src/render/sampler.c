@@ -56,18 +56,50 @@ static void center_pixel(const Sampler *s, int x, int y, float *xy)
     xy[1] = 0.5f;
 }
 
+/* The strata of the k x k grid's n2 = 2 k^2 coordinates in the interleaved order of
+ * xy (2i: column a, 2i + 1: row b of sample i = a + k*b), as floats (exact), padded
+ * with zeros to a multiple of four: the vector loops below read whole vectors. Made
+ * once per thread and k (a pure function of k). */
+typedef float SamplerV4f __attribute__((vector_size(16)));
+typedef int32_t SamplerV4i __attribute__((vector_size(16)));
+
+static const float *grid_strata(int k)
+{
+    static _Thread_local int made_k;
+    static _Thread_local float st[2 * SAMPLER_MAX_COUNT + 4];
+    if (made_k != k) {
+        int j = 0;
+        for (int b = 0; b < k; b++)
+            for (int a = 0; a < k; a++, j += 2) {
+                st[j] = (float)a;
+                st[j + 1] = (float)b;
+            }
+        for (; j % 4; j++)
+            st[j] = 0.0f;
+        made_k = k;
+    }
+    return st;
+}
+
 /* The centres of a k x k grid, sample s = a + k*b in column a, row b (the course's
- * order, which fixes the order of the filter's sums). */
+ * order, which fixes the order of the filter's sums): ((float)a + 0.5f) / k, four
+ * coordinates per step (the same float add and divide in every lane). */
 static void uniform_pixel(const Sampler *s, int x, int y, float *xy)
 {
     (void)x;
     (void)y;
-    int k = s->k;
-    for (int b = 0, i = 0; b < k; b++)
-        for (int a = 0; a < k; a++, i++) {
-            xy[2 * i] = ((float)a + 0.5f) / (float)k;
-            xy[2 * i + 1] = ((float)b + 0.5f) / (float)k;
-        }
+    int k = s->k, n2 = 2 * s->count, j = 0;
+    const float *st = grid_strata(k);
+    float kf = (float)k;
+    SamplerV4f kv = {kf, kf, kf, kf};
+    for (; j + 4 <= n2; j += 4) {
+        SamplerV4f a;
+        memcpy(&a, st + j, sizeof a);
+        SamplerV4f v = (a + 0.5f) / kv;
+        memcpy(xy + j, &v, sizeof v);
+    }
+    for (; j < n2; j++)
+        xy[j] = (st[j] + 0.5f) / kf;
 }
 
 static void random_pixel(const Sampler *s, int x, int y, float *xy)
@@ -79,18 +111,79 @@ static void random_pixel(const Sampler *s, int x, int y, float *xy)
     }
 }
 
+/* Jittered sampling, batched: the pixel's 2 k^2 draws first (interleaved: draw 2i + d
+ * is sample i's dimension d), then all in_stratum placements four at a time. The
+ * counters of draw j are (index j / 2, dim j % 2); key ^ (stream << 48 | dim << 32 |
+ * index) is key ^ stream << 48 ^ dim << 32 ^ index (disjoint bit fields). Every lane
+ * runs pixel_draw's and in_stratum's operations (the same 64-bit integer steps, the
+ * same float add, divide and compare; nextafterf(hi, 0) of a positive hi is the float
+ * whose bits are one less), so the positions are the same bits as one at a time (the
+ * one-at-a-time loop: 32 scalar hashes and 64 scalar divisions per pixel at 16
+ * samples). */
+typedef float SamplerV8f __attribute__((vector_size(32)));
+typedef uint64_t SamplerV8u __attribute__((vector_size(64)));
+
+static void jittered_draws(uint64_t key, uint32_t stream, int n2, float *u)
+{
+    for (int j = 0; j < n2; j++)
+        u[j] = pixel_draw(key, stream, (uint32_t)(j >> 1), (uint32_t)(j & 1));
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* Eight hashes per step in AVX-512 (native 64-bit multiplies, vpmullq; AVX2 has none,
+ * and emulated in 32-bit multiplies the hash measured no faster than scalar code).
+ * (float) of h >> 40 < 2^24 is exact in any conversion. Chosen by sampler_init from
+ * the CPU (valgrind's CPU has no AVX-512: it runs the scalar hashes). */
+__attribute__((target("avx512f,avx512dq,avx512vl"))) static void
+jittered_draws_avx512(uint64_t key, uint32_t stream, int n2, float *u)
+{
+    const SamplerV8u lane = {0, 1, 2, 3, 4, 5, 6, 7};
+    uint64_t base = key ^ (uint64_t)stream << 48;
+    int j0 = 0;
+    for (; j0 + 8 <= n2; j0 += 8) {
+        SamplerV8u j = lane + (uint64_t)j0;
+        SamplerV8u z = base ^ ((j & 1) << 32) ^ (j >> 1);
+        z += 0x9e3779b97f4a7c15ULL;
+        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+        z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+        z ^= z >> 31;
+        SamplerV8f f = __builtin_convertvector(z >> 40, SamplerV8f) * 0x1p-24f;
+        memcpy(u + j0, &f, sizeof f);
+    }
+    for (; j0 < n2; j0++) /* n2 = 2 k^2: a tail of 2 for odd k */
+        u[j0] = pixel_draw(key, stream, (uint32_t)(j0 >> 1), (uint32_t)(j0 & 1));
+}
+#define SAMPLER_HAVE_AVX512 1
+#endif
+
 /* One random position in each cell of the k x k grid, cells in the uniform order. */
 static void jittered_pixel(const Sampler *s, int x, int y, float *xy)
 {
-    int k = s->k;
+    int k = s->k, n2 = 2 * s->count, j = 0;
     uint64_t key = pixel_key(s->seed, x, y);
-    for (int b = 0, i = 0; b < k; b++)
-        for (int a = 0; a < k; a++, i++) {
-            float u = pixel_draw(key, s->stream, (uint32_t)i, 0);
-            float v = pixel_draw(key, s->stream, (uint32_t)i, 1);
-            xy[2 * i] = in_stratum(a, u, k);
-            xy[2 * i + 1] = in_stratum(b, v, k);
-        }
+    float u[2 * SAMPLER_MAX_COUNT + 4];
+#ifdef SAMPLER_HAVE_AVX512
+    if (s->wide)
+        jittered_draws_avx512(key, s->stream, n2, u);
+    else
+#endif
+        jittered_draws(key, s->stream, n2, u);
+    const float *st = grid_strata(k);
+    float kf = (float)k;
+    SamplerV4f kv = {kf, kf, kf, kf};
+    for (; j + 4 <= n2; j += 4) {
+        SamplerV4f a, xi;
+        memcpy(&a, st + j, sizeof a);
+        memcpy(&xi, u + j, sizeof xi);
+        SamplerV4f v = (a + xi) / kv;
+        SamplerV4f hi = (a + 1.0f) / kv;
+        SamplerV4i below = (SamplerV4i)hi - 1;
+        SamplerV4i keep = v < hi;
+        SamplerV4f r = (SamplerV4f)(((SamplerV4i)v & keep) | (below & ~keep));
+        memcpy(xy + j, &r, sizeof r);
+    }
+    for (; j < n2; j++)
+        xy[j] = in_stratum((int)st[j], u[j], k);
 }
 
 /* N-rooks (Shirley 1991): sample s lies in row stratum s of n and in column stratum
@@ -210,5 +303,10 @@ bool sampler_init(Sampler *s, const SamplerOps *ops, int count, uint64_t seed, c
     s->count = count;
     s->k = k;
     s->seed = seed;
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    __builtin_cpu_init();
+    s->wide = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+              __builtin_cpu_supports("avx512vl");
+#endif
     return true;
 }

@@ -19,6 +19,14 @@ static void make_sampler(Sampler *s, const char *name, int n, uint64_t seed)
     CHECK_MSG(sampler_init(s, sampler_find(name), n, seed, why, sizeof why), "%s", why);
 }
 
+/* Jittered sampling's rule: (a + xi) / k in float, and the largest float below the
+ * stratum's end where that rounds up to it. */
+static float jitter_rule(int a, float xi, int k)
+{
+    float v = ((float)a + xi) / (float)k, hi = (float)(a + 1) / (float)k;
+    return v < hi ? v : nextafterf(hi, 0.0f);
+}
+
 static void test_sampler_ranges_and_strata(void)
 {
     static const char *names[] = {"uniform", "random", "jittered", "nrooks", "poisson"};
@@ -46,6 +54,10 @@ static void test_sampler_ranges_and_strata(void)
                         } else if (!strcmp(names[k], "jittered")) {
                             CHECK(px >= (float)a / (float)kk && px < (float)(a + 1) / (float)kk);
                             CHECK(py >= (float)b / (float)kk && py < (float)(b + 1) / (float)kk);
+                            /* The bits of the rule, one sample at a time (the sampler
+                             * batches them, in AVX-512 lanes where the CPU has them). */
+                            CHECK(px == jitter_rule(a, sampler_random(3, 0, x, y, (uint32_t)i, 0), kk));
+                            CHECK(py == jitter_rule(b, sampler_random(3, 0, x, y, (uint32_t)i, 1), kk));
                         } else if (!strcmp(names[k], "nrooks")) {
                             CHECK(py >= (float)i / (float)n && py < (float)(i + 1) / (float)n);
                         }
