@@ -19,8 +19,8 @@
  * else pixel by pixel, a sample's channels side by side (cs = 1). The separable filter's weights
  * towards the 2R+1 columns and rows around (when used: `per` = 2(2R+1) of them, column
  * weights first) are planes of their own in the same order. Neighbouring pixels' same
- * sample and channel lie side by side: the filter sums four output pixels in the four
- * lanes of a vector (film_filter_quad). */
+ * sample and channel lie side by side: the filter adds each term to a whole span of
+ * output pixels at a time, four columns per vector (film_filter_span). */
 typedef struct Film {
     const FilmConfig *cfg;
     const RayTracer *rt;
@@ -42,6 +42,8 @@ typedef struct Film {
     float *weights;             /* per floats per slot, or NULL */
     int *count;
     float *table;               /* fixed offsets: the weights, [(a-i+R)(2R+1) + (b-j+R)][s] */
+    float *fixed_xy;            /* fixed offsets: the sampler's, the same in every pixel */
+    bool avx2;                  /* the CPU has AVX2 (film_filter_span's vectors) */
     int r0, r1;                 /* rows being traced (film_band) */
     int out0;                   /* first output row of the strip being filtered */
     volatile int *cancel;       /* the stop flag, polled before every tile as well */
@@ -221,8 +223,12 @@ static void film_row_weights(const Film *f, int y)
 static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sampler *s,
                              int x, int y, float *aos)
 {
-    float xy[2 * SAMPLER_MAX_COUNT];
-    sampler_pixel(s, x, y, xy);
+    float buf[2 * SAMPLER_MAX_COUNT];
+    const float *xy = buf;
+    if (f->fixed_xy && s == f->cfg->sampler)
+        xy = f->fixed_xy; /* asked once (uniform: 8 divisions per pixel otherwise) */
+    else
+        sampler_pixel(s, x, y, buf);
     *film_count(f, x, y) = s->count;
     const FilmConfig *c = f->cfg;
     if (f->per && !f->row_weights)
@@ -429,62 +435,111 @@ static inline float film_weight(const Film *f, const float *d, int a, int b, int
     return filter_weight(f->cfg->filter, dx, dy);
 }
 
-/* One sample slot's terms added to the four lanes' sums: its colour planes (at d + 2,
- * 3 and 4 channel strides, one lane per column) times the lanes' weights. */
-static inline void film_quad_add(const float *d, size_t cs, FilmV4f w, FilmV4f *sr,
-                                 FilmV4f *sg, FilmV4f *sb, FilmV4f *sw)
-{
-    FilmV4f c0, c1, c2;
-    memcpy(&c0, d + 2 * cs, sizeof c0);
-    memcpy(&c1, d + 3 * cs, sizeof c1);
-    memcpy(&c2, d + 4 * cs, sizeof c2);
-    *sr += c0 * w;
-    *sg += c1 * w;
-    *sb += c2 * w;
-    *sw += w;
-}
+/* The output pixels i0 .. i1-1 of row j whose columns of support lie inside the image,
+ * in the plain case (colour only, every pixel with the sampler's count; fixed or
+ * separable weights), SPAN pixels at a time: their sums in arrays, each pixel's terms
+ * added in film_filter_row's order (columns, rows, samples) with the same float
+ * operations, so the same bits. One term (column offset ta, row b, sample s) is added
+ * to the whole span before the next: the colour and weight planes are read in runs of
+ * consecutive columns, four per vector, and the span's sums stay in L1. (Pixel by
+ * pixel, or four in the lanes of a vector, every term of a pixel was a new cache line
+ * 8 KB from the last -- a channel plane per sample slot -- and filtering was bound by
+ * those loads.) */
+enum { FILM_SPAN = 256 };
 
-/* The colour sums of four neighbouring output pixels (i .. i+3, j) whose columns of
- * support lie inside the image, in the plain case (colour only, every pixel with the
- * sampler's count; fixed or separable weights), one pixel per vector lane: each lane
- * adds its own pixel's terms in film_filter_row's order with the same float
- * operations, so the same bits, and the four sums (the dependent additions of 9 x 16
- * terms for the Gaussian 0.4 with 16 samples, latency-bound one pixel at a time) run
- * side by side. */
-static void film_filter_quad(const Film *f, int i, int j, int b0, int b1, FilmV4f sum[3],
-                             FilmV4f *wsum)
-{
-    int R = f->R, side = 2 * R + 1, n = f->slots;
-    size_t cs = f->cs;
-    FilmV4f sr = {0, 0, 0, 0}, sg = sr, sb = sr, sw = sr;
-    for (int ta = 0; ta < side; ta++) {
-        int a = i - R + ta; /* lane l's column ta is a + l */
-        for (int b = b0; b <= b1; b++) {
-            const float *d = film_sample(f, a, b, 0);
-            FilmV4f w, wy;
-            if (f->per) {
-                const float *wx = film_weights(f, a, b, 0, ta);
-                const float *wyp = film_weights(f, a, b, 0, side + b - j + R);
-                for (int s = 0; s < n; s++, d += f->ss, wx += f->ws, wyp += f->ws) {
-                    memcpy(&w, wx, sizeof w);
-                    memcpy(&wy, wyp, sizeof wy);
-                    w *= wy;
-                    film_quad_add(d, cs, w, &sr, &sg, &sb, &sw);
-                }
-            } else {
-                /* Fixed positions: all four pixels weigh their samples alike. */
-                const float *t = f->table + (ta * side + (b - j + R)) * f->slots;
-                for (int s = 0; s < n; s++, d += f->ss) {
-                    w = (FilmV4f){t[s], t[s], t[s], t[s]};
-                    film_quad_add(d, cs, w, &sr, &sg, &sb, &sw);
-                }
-            }
-        }
+/* acc[q .. q+L-1] += v * w (or += w without v), as vectors of the type V. */
+#define FILM_SPAN_ADD(V, acc, v, w)                                                       \
+    do {                                                                                  \
+        V a_;                                                                             \
+        memcpy(&a_, (acc), sizeof a_);                                                    \
+        a_ += (v) * (w);                                                                  \
+        memcpy((acc), &a_, sizeof a_);                                                    \
+    } while (0)
+
+/* The sums of the span's m pixels from p0 on (film_filter_span), vectors of type V of
+ * L floats, then the rest one by one with the same operations. */
+#define FILM_SPAN_SUMS(NAME, V, L)                                                        \
+    static void NAME(const Film *f, int j, int b0, int b1, int p0, int m, float *sr,      \
+                     float *sg, float *sb, float *sw)                                     \
+    {                                                                                     \
+        int R = f->R, side = 2 * R + 1, n = f->slots;                                     \
+        size_t cs = f->cs;                                                                \
+        const V one = (V){0} + 1.0f;                                                      \
+        for (int ta = 0; ta < side; ta++) {                                               \
+            int a = p0 - R + ta; /* pixel p0 + q's column ta is a + q */                 \
+            for (int b = b0; b <= b1; b++)                                                \
+                for (int s = 0; s < n; s++) {                                             \
+                    const float *d = film_sample(f, a, b, s);                             \
+                    const float *cr = d + 2 * cs, *cg = d + 3 * cs, *cb = d + 4 * cs;     \
+                    const float *wx = NULL, *wy = NULL;                                   \
+                    float t = 0.0f;                                                       \
+                    if (f->per) {                                                         \
+                        wx = film_weights(f, a, b, s, ta);                                \
+                        wy = film_weights(f, a, b, s, side + b - j + R);                  \
+                    } else {                                                              \
+                        t = f->table[(ta * side + (b - j + R)) * f->slots + s];           \
+                    }                                                                     \
+                    V tv = t - (V){0}; /* a broadcast: x - 0 is x, -0 too */              \
+                    int q = 0;                                                            \
+                    for (; q + L <= m; q += L) {                                          \
+                        V w = tv, wyv, v;                                                 \
+                        if (wx) {                                                         \
+                            memcpy(&w, wx + q, sizeof w);                                 \
+                            memcpy(&wyv, wy + q, sizeof wyv);                             \
+                            w *= wyv;                                                     \
+                        }                                                                 \
+                        memcpy(&v, cr + q, sizeof v);                                     \
+                        FILM_SPAN_ADD(V, sr + q, v, w);                                   \
+                        memcpy(&v, cg + q, sizeof v);                                     \
+                        FILM_SPAN_ADD(V, sg + q, v, w);                                   \
+                        memcpy(&v, cb + q, sizeof v);                                     \
+                        FILM_SPAN_ADD(V, sb + q, v, w);                                   \
+                        FILM_SPAN_ADD(V, sw + q, w, one);                                 \
+                    }                                                                     \
+                    for (; q < m; q++) {                                                  \
+                        float w = wx ? wx[q] * wy[q] : t;                                 \
+                        sr[q] += cr[q] * w;                                               \
+                        sg[q] += cg[q] * w;                                               \
+                        sb[q] += cb[q] * w;                                               \
+                        sw[q] += w;                                                       \
+                    }                                                                     \
+                }                                                                         \
+        }                                                                                 \
     }
-    sum[0] = sr;
-    sum[1] = sg;
-    sum[2] = sb;
-    *wsum = sw;
+
+FILM_SPAN_SUMS(film_span_sums, FilmV4f, 4)
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* Eight floats per vector where the CPU has AVX2 (no FMA is enabled: every lane rounds
+ * its product and its sum like the scalar code). */
+typedef float FilmV8f __attribute__((vector_size(32)));
+__attribute__((target("avx2"))) FILM_SPAN_SUMS(film_span_sums_avx2, FilmV8f, 8)
+#define FILM_HAVE_AVX2 1
+#endif
+
+static void film_filter_span(const Film *f, int j, int b0, int b1, int i0, int i1)
+{
+    const FilmConfig *c = f->cfg;
+    float sr[FILM_SPAN], sg[FILM_SPAN], sb[FILM_SPAN], sw[FILM_SPAN];
+    for (int p0 = i0; p0 < i1; p0 += FILM_SPAN) {
+        int m = i1 - p0 < FILM_SPAN ? i1 - p0 : FILM_SPAN;
+        memset(sr, 0, sizeof sr);
+        memset(sg, 0, sizeof sg);
+        memset(sb, 0, sizeof sb);
+        memset(sw, 0, sizeof sw);
+#ifdef FILM_HAVE_AVX2
+        if (f->avx2)
+            film_span_sums_avx2(f, j, b0, b1, p0, m, sr, sg, sb, sw);
+        else
+#endif
+            film_span_sums(f, j, b0, b1, p0, m, sr, sg, sb, sw);
+        if (c->color)
+            for (int q = 0; q < m; q++) {
+                float w = sw[q];
+                image_put(c->color, p0 + q - c->x0, j - c->y0,
+                          w != 0.0f ? v3(sr[q] / w, sg[q] / w, sb[q] / w) : v3(0, 0, 0));
+            }
+    }
 }
 
 /* Output row (out0 + job) of the rectangle: every pixel is the weighted average of the
@@ -503,19 +558,16 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
      * and most of the filtering time); both paths add the same terms in the same order. */
     bool plain = !adaptive && f->off_depth < 0 && f->off_normal < 0;
     size_t ss = f->ss, cs = f->cs;
+    /* The span of output pixels film_filter_span sums (none: in0 = in1 = -1). */
+    int in0 = -1, in1 = -1;
+    if (plain && f->planes && (f->per || f->table)) {
+        in0 = c->x0 > R ? c->x0 : R;
+        in1 = c->x0 + c->width < c->full_width - R ? c->x0 + c->width : c->full_width - R;
+    }
     for (int i = c->x0; i < c->x0 + c->width; i++) {
-        if (plain && f->planes && (f->per || f->table) && i + 3 < c->x0 + c->width && i - R >= 0 &&
-            i + 3 + R <= c->full_width - 1) {
-            FilmV4f sum4[3], wsum4;
-            film_filter_quad(f, i, j, b0, b1, sum4, &wsum4);
-            for (int k = 0; k < 4; k++) {
-                float w = wsum4[k];
-                if (c->color)
-                    image_put(c->color, i + k - c->x0, j - c->y0,
-                              w != 0.0f ? v3(sum4[0][k] / w, sum4[1][k] / w, sum4[2][k] / w)
-                                        : v3(0, 0, 0));
-            }
-            i += 3;
+        if (i == in0 && in1 > in0) {
+            film_filter_span(f, j, b0, b1, in0, in1);
+            i = in1 - 1;
             continue;
         }
         int a0 = i - R > 0 ? i - R : 0;
@@ -611,6 +663,10 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     memset(&f, 0, sizeof f);
     f.cancel = cancel;
     f.cfg = cfg;
+#ifdef FILM_HAVE_AVX2
+    __builtin_cpu_init();
+    f.avx2 = __builtin_cpu_supports("avx2");
+#endif
     f.rt = rt;
     f.camera = camera;
     f.tmin = camera_tmin(camera);
@@ -634,12 +690,17 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     bool fixed = cfg->sampler->ops->fixed && !cfg->refine;
     if (fixed) {
         /* The same offsets in every pixel: every weight is known before rendering. */
-        float xy[2 * SAMPLER_MAX_COUNT];
+        f.fixed_xy = malloc(2 * (size_t)f.slots * sizeof *f.fixed_xy);
+        if (!f.fixed_xy)
+            return false;
+        float *xy = f.fixed_xy;
         sampler_pixel(cfg->sampler, 0, 0, xy);
         int side = 2 * R + 1;
         f.table = malloc((size_t)side * (size_t)side * (size_t)f.slots * sizeof *f.table);
-        if (!f.table)
+        if (!f.table) {
+            free(f.fixed_xy);
             return false;
+        }
         for (int da = -R; da <= R; da++)
             for (int db = -R; db <= R; db++)
                 for (int s = 0; s < f.slots; s++) {
@@ -757,6 +818,7 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     bigmem_free(f.count);
     bigmem_free(f.weights);
     free(f.table);
+    free(f.fixed_xy);
     if (stats_out)
         *stats_out = total;
     return ok;
