@@ -118,8 +118,8 @@ $(BUILD)/src/accel/grid_packet_avx512.o $(BUILD)/src/accel/grid_packet_avx512x8.
 $(BUILD)/src/render/phong_packet_avx2.o $(BUILD)/src/render/phong_packet_avx512.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 # The Gaussian's vector exp (filter.c) likewise: static 32-byte vectors, no fusing.
 $(BUILD)/src/render/filter.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
-# The film's AVX2 filter sums (film.c) likewise.
-$(BUILD)/src/render/film.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
+# The noise's AVX2 corners (perlin.c) and the film's AVX2 filter sums (film.c) likewise.
+$(BUILD)/src/shade/perlin.o $(BUILD)/src/render/film.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 
 # Test sources include "harness.h" from tests/.
 $(BUILD)/tests/%.o: ALL_CFLAGS += -Itests
