@@ -17,6 +17,9 @@
 #    no probing for network hardware; docs/distributed.md); set it empty for OpenMPI's
 #    own choice. Skipped when raytracer-mpi or mpirun is missing.
 # Every part's merge is compared with the whole render (cmp): a difference is reported.
+# On a machine shared with others, Linux shares CPU between login sessions
+# (/proc/sys/kernel/sched_autogroup_enabled): while other sessions are busy, -np 2 gets
+# about what one process gets, whatever nice says (docs/distributed.md, measured points).
 # DIST_PARTS: "tiles mpi" (default), or one of them.
 # Usage: bash bench/dist.sh RAYTRACER RAYTRACER_MPI COURSE_DIR [RUNS]
 set -u
