@@ -256,8 +256,14 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     }
     const Scene *scene = rt->scene;
     ctx->stats.nonshadow_rays += (uint64_t)n;
-    for (int i = 0; i < n; i++)
-        hits[i] = hit_none();
+    /* hit_none() in every lane: one copy of a packet's worth (a few wide stores)
+     * rather than a struct assignment per lane. */
+#define HIT_NONE_1 {INFINITY, {0, 0, 0}, {0, 0, 0}, 0, RT_NO_ID}
+#define HIT_NONE_4 HIT_NONE_1, HIT_NONE_1, HIT_NONE_1, HIT_NONE_1
+#define HIT_NONE_16 HIT_NONE_4, HIT_NONE_4, HIT_NONE_4, HIT_NONE_4
+    static const Hit none[ACCEL_PACKET_MAX] = {HIT_NONE_16, HIT_NONE_16, HIT_NONE_16, HIT_NONE_16};
+    _Static_assert(ACCEL_PACKET_MAX == 64, "none[] holds 64 lanes");
+    memcpy(hits, none, (size_t)n * sizeof *hits);
     uint64_t found = accel_intersect_packet(rt->accel, rays, n, hits, tmin, ctx);
 
     bool inline_ok = packet_inline_ok(rt);
