@@ -5,6 +5,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -153,14 +154,21 @@ __attribute__((target("avx2"))) static int rows_avx2(Vec3 e, const float *cx, co
             __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
                 _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
             __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ);
-            float ox[8], oy[8], oz[8];
+            /* Each ray in two stores: (eye, dir.x) and (dir.y, dir.z). */
+            float ox[8], oyz[16];
+            __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos);
+            __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos);
             _mm256_storeu_ps(ox, _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos));
-            _mm256_storeu_ps(oy, _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos));
-            _mm256_storeu_ps(oz, _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos));
+            /* y0 z0 y1 z1 | y4 z4 y5 z5 and y2 z2 y3 z3 | y6 z6 y7 z7 (per 128-bit half) */
+            __m256 lo = _mm256_unpacklo_ps(qy, qz), hi = _mm256_unpackhi_ps(qy, qz);
+            _mm256_storeu_ps(oyz, _mm256_permute2f128_ps(lo, hi, 0x20));
+            _mm256_storeu_ps(oyz + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
+            __m128 eye = _mm_setr_ps(e.x, e.y, e.z, 0.0f);
+            _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
             for (int k = 0; k < 8; k++) {
-                Ray *r = block_ray(rays, slot, nx, i + k, j);
-                r->origin = e;
-                r->dir = v3(ox[k], oy[k], oz[k]);
+                float *r = (float *)block_ray(rays, slot, nx, i + k, j);
+                _mm_storeu_ps(r, _mm_insert_ps(eye, _mm_set_ss(ox[k]), 0x30));
+                memcpy(r + 4, oyz + 2 * k, 2 * sizeof(float));
             }
         }
     return i;
@@ -176,15 +184,15 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
      * center + (horizontal (u - 0.5) size + up (v - 0.5) size). */
     Vec3 col[CAMERA_BLOCK_MAX], row[CAMERA_BLOCK_MAX];
     bool ortho = c->kind == CAMERA_ORTHOGRAPHIC;
+    /* u and v of camera_pixel_to_screen, each alone: the same expressions. */
+    float side = (float)(width > height ? width : height);
     for (int i = 0; i < nx; i++) {
-        float u, v;
-        camera_pixel_to_screen(x0 + i, 0, width, height, &u, &v);
+        float u = ((float)(x0 + i) + 0.5f + (side - (float)width) * 0.5f) / side;
         col[i] = ortho ? v3_scale(c->horizontal, (u - 0.5f) * c->size)
                        : v3_add(c->lower_left, v3_scale(c->x_axis, u));
     }
     for (int j = 0; j < ny; j++) {
-        float u, v;
-        camera_pixel_to_screen(0, y0 + j, width, height, &u, &v);
+        float v = ((float)(y0 + j) + 0.5f + (side - (float)height) * 0.5f) / side;
         row[j] = ortho ? v3_scale(c->up, (v - 0.5f) * c->size) : v3_scale(c->y_axis, v);
     }
     if (ortho) {
