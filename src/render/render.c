@@ -86,17 +86,21 @@ typedef struct ImageJob {
 
 static bool job_cancelled(const ImageJob *job) { return job->cancel && *job->cancel; }
 
-/* A whole tile's colours (colors[k] is lane k of the packet, whose pixel lies off[k]
- * bytes after the tile's corner (x0, y0) in byte image img): every colour quantised as
- * image_color_to_byte does, four components at a time (c * 255, then max with 0, which
- * also turns NaN into 0, min with 255 and truncation: the same single-precision
- * operations, so the same bytes), then each pixel's three bytes to its place. */
+/* A whole tile's colours (colors[k] is lane k of the packet; pixel (dx, dy) of the
+ * tile is lane slot[dy * TILE + dx]) into byte image img at the tile's corner (x0, y0):
+ * every colour quantised as image_color_to_byte does, four components at a time
+ * (c * 255, then max with 0, which also turns NaN into 0, min with 255 and truncation:
+ * the same single-precision operations, so the same bytes), then the pixels of each
+ * row left to right, four bytes at a time (a pixel's fourth byte is the next one's
+ * first, written again right after) and three for the last, which stays inside the
+ * tile. */
 static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
-                             const uint32_t *off)
+                             const uint8_t *slot)
 {
     enum { N = 3 * TILE * TILE };
     _Static_assert(sizeof(Vec3) == 3 * sizeof(float), "colours are packed floats");
     uint8_t q[N + 4];
+    memset(q + N, 0, 4); /* read as a fourth byte, never kept */
     const float *c = (const float *)colors;
 #if defined(__SSE2__)
     const __m128 scale = _mm_set1_ps(255.0f), zero = _mm_setzero_ps(),
@@ -115,9 +119,13 @@ static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
     for (int i = 0; i < N; i++)
         q[i] = image_color_to_byte(c[i]);
 #endif
-    uint8_t *b = img->bytes + 3 * ((size_t)y0 * (size_t)img->width + (size_t)x0);
-    for (int k = 0; k < TILE * TILE; k++)
-        memcpy(b + off[k], q + 3 * k, 3);
+    for (int dy = 0; dy < TILE; dy++) {
+        uint8_t *b = img->bytes + 3 * ((size_t)(y0 + dy) * (size_t)img->width + (size_t)x0);
+        const uint8_t *row = slot + dy * TILE;
+        for (int dx = 0; dx < TILE - 1; dx++)
+            memcpy(b + 3 * dx, q + 3 * row[dx], 4); /* q has 4 bytes to spare */
+        memcpy(b + 3 * (TILE - 1), q + 3 * row[TILE - 1], 3);
+    }
 }
 
 /* Rows y0..y1-1 of the rectangle. Tiles stay on the full image's 8 x 8 grid, so a
@@ -145,12 +153,6 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
      * store their bytes a tile at a time. */
     bool full_rows = ylo == y0 && y1 - y0 == TILE;
     bool bytes_only = t->color && t->color->bytes && !t->depth && !t->normals;
-    /* Lane k's byte offset from its tile's corner in the colour image. */
-    uint32_t off[TILE * TILE];
-    if (bytes_only)
-        for (int k = 0; k < TILE * TILE; k++)
-            off[k] = (uint32_t)(3 * ((size_t)(cell[k] / TILE) * (size_t)t->color->width +
-                                     (size_t)(cell[k] % TILE)));
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
     /* Pixel dy * TILE + dx is lane slot[...] of a whole tile's packet. */
@@ -165,7 +167,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
                               rays);
             raytracer_trace_packet(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
-                store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, off);
+                store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, slot);
             } else {
                 for (int k = 0; k < TILE * TILE; k++)
                     store_pixel(t, x0 + cell[k] % TILE, y0 + cell[k] / TILE, colors[k],
