@@ -601,6 +601,23 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
                     }
                     continue;
                 }
+                if (plain) {
+                    /* Random positions without precomputed weights (jittered + box
+                     * 0.5): film_weight's last case, without its other cases' tests
+                     * and the general loop's per-sample channel tests. Not planes. */
+                    const Filter *flt = c->filter;
+                    double da = (double)(a - i), db = (double)(b - j);
+                    for (int s = 0; s < n; s++, d += ss) {
+                        float dx = (float)(da + (double)d[0] - 0.5);
+                        float dy = (float)(db + (double)d[1] - 0.5);
+                        float w = filter_weight(flt, dx, dy);
+                        sum.x += d[2] * w;
+                        sum.y += d[3] * w;
+                        sum.z += d[4] * w;
+                        wsum += w;
+                    }
+                    continue;
+                }
                 /* The general loop: never planes (film_render), so a sample's channels
                  * lie side by side. Adaptive: each pixel weighs as one pixel's area,
                  * however many samples. */
