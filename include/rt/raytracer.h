@@ -50,7 +50,9 @@ bool raytracer_cast(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float t
 bool raytracer_occluded(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin,
                         float dist);
 
-/* Per-thread context: allocates the accelerator's per-thread scratch (mailbox). */
+/* Per-thread context: allocates the accelerator's per-thread scratch (mailbox, packet
+ * ray masks) with rt/bigmem.h: release them with raytracer_ctx_free (or bigmem_free),
+ * never free. */
 bool raytracer_ctx_init(RenderCtx *ctx, const RayTracer *rt);
 void raytracer_ctx_free(RenderCtx *ctx);
 

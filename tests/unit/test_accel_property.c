@@ -12,6 +12,7 @@
 #include "../harness.h"
 #include "rt/accel.h"
 #include "rt/arena.h"
+#include "rt/bigmem.h"
 #include "rt/geom.h"
 #include "rt/material.h"
 #include "rt/raytracer.h"
@@ -392,7 +393,7 @@ static void run_world(uint64_t seed, int objects)
                     continue;
                 }
                 if (!packets) {
-                    free(tr.ctx.packet_rays);
+                    bigmem_free(tr.ctx.packet_rays); /* raytracer_ctx_init's (bigmem) */
                     tr.ctx.packet_rays = NULL;
                 }
                 char what[96];
