@@ -309,18 +309,22 @@ static inline __attribute__((always_inline)) bool cast_march_init(const Grid *g,
 static inline __attribute__((always_inline)) bool cast_march_next(MarchingInfo *mi,
                                                                    RenderCtx *ctx)
 {
-    int a = 0;
-    if (mi->t_next[1] < mi->t_next[a])
-        a = 1;
-    if (mi->t_next[2] < mi->t_next[a])
-        a = 2;
-    if (!(mi->t_next[a] < INFINITY))
+    /* march_next's choice of axis (ties to x, then y), written as selects: which axis
+     * comes next follows the ray's direction cell by cell, and as branches it
+     * mispredicted often. */
+    float t0 = mi->t_next[0], t1 = mi->t_next[1], t2 = mi->t_next[2];
+    bool y = t1 < t0;
+    float tm = y ? t1 : t0;
+    bool z = t2 < tm;
+    int a = z ? 2 : (int)y;
+    tm = z ? t2 : tm;
+    if (!(tm < INFINITY))
         return false;
     int c = mi->cell[a] + mi->step[a];
     if ((unsigned)c >= (unsigned)mi->n[a])
         return false;
     mi->cell[a] = c;
-    mi->t = mi->t_next[a];
+    mi->t = tm;
     int k = c + (mi->step[a] > 0);
     mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
     ctx->stats.cells_traversed++;
