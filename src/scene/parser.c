@@ -818,7 +818,8 @@ static bool parse_camera(Parser *p, bool perspective)
     bool ok;
     if (perspective) {
         if (!(size > 0.0f && size < 180.0f))
-            return fail(p, &size_at, "angle must be between 0 and 180 degrees, found %g",
+            return fail(p, &size_at,
+                        "angle must be more than 0 and less than 180 degrees, found %g",
                         (double)size);
         ok = camera_init_perspective(&cam, center, dir, up,
                                      (float)((double)size * M_PI / 180.0));

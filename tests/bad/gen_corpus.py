@@ -285,7 +285,7 @@ case("camera_up_parallel", CAM.replace("up 0 1 0", "@@up 0 0 2") + LIGHTS,
      "degenerate camera: up is zero or parallel to direction")
 case("camera_zero_size", CAM.replace("size 5", "@@size 0"), "size must be positive, found 0")
 case("camera_angle_200", "PerspectiveCamera {\n    center 0 0 10\n    direction 0 0 -1\n    up 0 1 0\n    @@angle 200\n}\n",
-     "angle must be between 0 and 180 degrees, found 200")
+     "angle must be more than 0 and less than 180 degrees, found 200")
 case("light_zero_direction", CAM + "Lights {\n    numLights 1\n    DirectionalLight {\n        @@direction 0 0 0\n"
      "        color 1 1 1\n    }\n}\n", "light direction is zero")
 case("attenuation_all_zero", CAM + "Lights {\n    numLights 1\n    PointLight {\n        position 0 0 0\n"

@@ -718,7 +718,7 @@ static void test_errors_located(void)
     EXPECT_ERROR("OrthographicCamera { center 0 0 0 direction 0 0 -1 up 0 1 0 size 0 }",
                  "t.txt:1:61: error: size must be positive, found 0");
     EXPECT_ERROR("PerspectiveCamera { center 0 0 0 direction 0 0 -1 up 0 1 0 angle 180 }",
-                 "t.txt:1:60: error: angle must be between 0 and 180 degrees, found 180");
+                 "t.txt:1:60: error: angle must be more than 0 and less than 180 degrees, found 180");
     EXPECT_ERROR("Lights { numLights 2.0 }", "t.txt:1:20: error: expected an integer, found '2.0'");
     EXPECT_ERROR("Lights { numLights -1 }", "t.txt:1:20: error: numLights must be between 0 and 10000000, found -1");
     EXPECT_ERROR("Lights { numLights 99999999999 }", "number out of range: '99999999999'");
