@@ -511,7 +511,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (!take_float(&c, a, &o->weight))
                 return false;
             if (o->weight < 0.0f)
-                return usage_error(&c, "option -weight expects a number >= 0");
+                return usage_error(&c, "option -weight: w = %g must be >= 0", (double)o->weight);
         } else if (!strcmp(a, "-grid")) {
             o->grid = true;
             if (c.i + 1 < argc && !strcmp(argv[c.i + 1], "auto")) {

@@ -79,7 +79,7 @@ static void test_usage_errors(void)
         {"-input s.txt -size -5 10", "out of range"},
         {"-input s.txt -size 0 10", "out of range"},
         {"-input s.txt -weight nan", "finite number"},
-        {"-input s.txt -weight -1", ">= 0"},
+        {"-input s.txt -weight -1", "option -weight: w = -1 must be >= 0"},
         {"-input s.txt -bounces 1.5", "expects an integer"},
         {"-input s.txt -depth 1 1 d.tga", "must differ"},
         {"-input s.txt -grid 0 1 1", "out of range"},
