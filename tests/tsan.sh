@@ -2,7 +2,7 @@
 # `make tsan`: the threaded code under ThreadSanitizer (binaries of build-tsan/). The
 # set-up helpers (rt/par.h), grid binning and OBJ pieces, the property test (ray
 # packets against single rays), renders through the binary on 2 threads (tiles,
-# packets, shadows, the per-thread statistics merge), the OSMesa snapshot's render key
+# packets, shadows, the per-thread statistics merge, an antialiased film), the OSMesa snapshot's render key
 # and the GLUT window's background render under Xvfb. Any report fails.
 set -u
 bin=${RT_BIN:?}
@@ -40,6 +40,10 @@ check render_showcase "$bin" -input scenes/showcase.txt -size 64 48 -output "$ou
 check render_mesh "$bin" -input scenes/feat_mesh_transform.txt -size 64 64 -output "$out/b.tga" \
     -shadows -grid 16 16 16 -threads 2
 check render_no_grid "$bin" -input scenes/tex_nested.txt -size 48 48 -output "$out/c.tga" -threads 2
+# Antialiasing: the sampler's batches, the Gaussian's per-sample weights and the film's
+# bands, shared by the render threads.
+check render_antialiased "$bin" -input scenes/showcase.txt -size 64 48 -output "$out/d.tga" \
+    -jittered_samples 4 -gaussian_filter 0.4 -shadows -grid auto -threads 2
 check preview_snapshots env RT_BIN="$bin" "$tests/unit/test_preview"
 if command -v xvfb-run >/dev/null 2>&1; then
     check preview_window env RT_BIN="$bin" "$tests/e2e/test_gui_xvfb"

@@ -140,10 +140,10 @@ __attribute__((target("avx2"))) static void gaussian_batch_avx2(const Filter *f,
 static void gaussian_weights_1d(const Filter *f, const float *x, float *w, int n)
 {
 #ifdef HAVE_AVX2_BATCH
-    static int avx2 = -1; /* benign race: every thread stores the same answer */
-    if (avx2 < 0)
-        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
-    if (avx2) {
+    /* Asked on every call: the answer is a load from the CPU model the runtime
+     * filled in before main, and a cached copy shared by render threads would be
+     * a data race (undefined behaviour, flagged by ThreadSanitizer). */
+    if (__builtin_cpu_supports("avx2")) {
         gaussian_batch_avx2(f, x, w, n);
         return;
     }

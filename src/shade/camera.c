@@ -214,10 +214,10 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
         cz[i] = col[i].z;
     }
 #ifdef HAVE_ROWS_AVX2
-    static int avx2 = -1; /* benign race: every thread stores the same answer */
-    if (avx2 < 0)
-        avx2 = __builtin_cpu_supports("avx2") ? 1 : 0;
-    if (avx2)
+    /* Asked on every call: the answer is a load from the CPU model the runtime
+     * filled in before main, and a cached copy shared by render threads would be
+     * a data race (undefined behaviour, flagged by ThreadSanitizer). */
+    if (__builtin_cpu_supports("avx2"))
         done = rows_avx2(e, cx, cy, cz, row, done, nx, nx, ny, slot, rays);
 #endif
     done = rows_sse2(e, cx, cy, cz, row, done, nx, nx, ny, slot, rays);
