@@ -2,6 +2,7 @@
  * packet, the rays that go through the single-ray march instead, and the choice of
  * kernel. The walk itself is grid_packet_kernel.h. */
 #include "grid_packet.h"
+#include "rt/cpu.h"
 
 #include <float.h>
 #include <math.h>
@@ -50,14 +51,10 @@ static bool kernel_usable(int i)
 {
     if (i == 0)
         return true;
-#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
-    __builtin_cpu_init();
     if (i == 1)
-        return __builtin_cpu_supports("avx2");
+        return cpu_has_avx2();
     if (i == 2 || i == 3)
-        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-               __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq");
-#endif
+        return cpu_has_avx512();
     return false;
 }
 

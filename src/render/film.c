@@ -1,6 +1,7 @@
 /* The film (A7): samples traced in packets, held strip by strip within a memory budget,
  * filtered into the requested rectangle; and the course's two diagnostic pictures. */
 #include "rt/film.h"
+#include "rt/cpu.h"
 #include "rt/bigmem.h"
 #include "rt/clock.h"
 #include "rt/render.h"
@@ -681,8 +682,7 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     f.cancel = cancel;
     f.cfg = cfg;
 #ifdef FILM_HAVE_AVX2
-    __builtin_cpu_init();
-    f.avx2 = __builtin_cpu_supports("avx2");
+    f.avx2 = cpu_has_avx2();
 #endif
     f.rt = rt;
     f.camera = camera;

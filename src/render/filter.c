@@ -1,6 +1,7 @@
 /* Reconstruction filters (A7 and its extra credit): box, tent, Gaussian, Mitchell-
  * Netravali. One ops table each, looked up by the name the option carries. */
 #include "rt/filter.h"
+#include "rt/cpu.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -140,10 +141,9 @@ __attribute__((target("avx2"))) static void gaussian_batch_avx2(const Filter *f,
 static void gaussian_weights_1d(const Filter *f, const float *x, float *w, int n)
 {
 #ifdef HAVE_AVX2_BATCH
-    /* Asked on every call: the answer is a load from the CPU model the runtime
-     * filled in before main, and a cached copy shared by render threads would be
-     * a data race (undefined behaviour, flagged by ThreadSanitizer). */
-    if (__builtin_cpu_supports("avx2")) {
+    /* Asked on every call (a load): a copy cached in a static that render threads
+     * write would be a data race. */
+    if (cpu_has_avx2()) {
         gaussian_batch_avx2(f, x, w, n);
         return;
     }

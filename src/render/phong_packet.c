@@ -7,6 +7,7 @@
  * width, so colours are the same bits as through the material's ops;
  * tests/unit/test_shading.c holds every kernel to them. */
 #include "phong_packet.h"
+#include "rt/cpu.h"
 
 #include <pthread.h>
 #include <string.h>
@@ -46,14 +47,10 @@ static bool kernel_usable(int i)
 {
     if (i == 0)
         return true;
-#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
-    __builtin_cpu_init();
     if (i == 1)
-        return __builtin_cpu_supports("avx2");
+        return cpu_has_avx2();
     if (i == 2)
-        return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-               __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq");
-#endif
+        return cpu_has_avx512();
     return false;
 }
 

@@ -1,6 +1,7 @@
 /* Samplers (A7 and its extra credit): centre, uniform, random, jittered, n-rooks. One
  * ops table each, looked up by the name the option carries. */
 #include "rt/sampler.h"
+#include "rt/cpu.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -304,9 +305,7 @@ bool sampler_init(Sampler *s, const SamplerOps *ops, int count, uint64_t seed, c
     s->k = k;
     s->seed = seed;
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-    __builtin_cpu_init();
-    s->wide = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-              __builtin_cpu_supports("avx512vl");
+    s->wide = cpu_has_avx512();
 #endif
     return true;
 }

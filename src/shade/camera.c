@@ -2,6 +2,7 @@
  * the ray through a screen point, rounded like the course's camera (rt/camera.h states
  * the formulas, docs/camera.md the measurements behind them). */
 #include "rt/camera.h"
+#include "rt/cpu.h"
 
 #include <float.h>
 #include <math.h>
@@ -214,10 +215,9 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
         cz[i] = col[i].z;
     }
 #ifdef HAVE_ROWS_AVX2
-    /* Asked on every call: the answer is a load from the CPU model the runtime
-     * filled in before main, and a cached copy shared by render threads would be
-     * a data race (undefined behaviour, flagged by ThreadSanitizer). */
-    if (__builtin_cpu_supports("avx2"))
+    /* Asked on every call (a load): a copy cached in a static that render threads
+     * write would be a data race. */
+    if (cpu_has_avx2())
         done = rows_avx2(e, cx, cy, cz, row, done, nx, nx, ny, slot, rays);
 #endif
     done = rows_sse2(e, cx, cy, cz, row, done, nx, nx, ny, slot, rays);

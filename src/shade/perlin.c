@@ -1,6 +1,7 @@
 /* Ken Perlin's improved noise (SIGGRAPH 2002, "Improving Noise"), in double precision as
  * the course's perlin_noise.C, plus the A6 octave sum (docs/textures.md). */
 #include "rt/perlin.h"
+#include "rt/cpu.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -141,7 +142,7 @@ __attribute__((target("avx2"))) static double noise3_avx2(double x, double y, do
 double perlin_noise3(double x, double y, double z)
 {
 #ifdef PERLIN_HAVE_AVX2
-    if (__builtin_cpu_supports("avx2"))
+    if (cpu_has_avx2())
         return noise3_avx2(x, y, z);
 #endif
     return noise3_scalar(x, y, z);

@@ -1,0 +1,42 @@
+/* What the CPU running the program can execute, for the code compiled for one
+ * instruction set beyond the build's baseline (the grid's packet walks, the Phong
+ * kernels, camera rays, the sampler, the filter, the film, the noise).
+ *
+ * Every such choice asks here, so the feature set a kind of kernel needs is written
+ * once. The answers are loads from the CPU model that the compiler's runtime fills in
+ * before main (a constructor), cheap enough for a per-call check, and read-only after
+ * that, so render threads may ask at any time without synchronisation. Not valid in
+ * constructors of this program. On other architectures or compilers both are false:
+ * the portable code runs. */
+#ifndef RT_CPU_H
+#define RT_CPU_H
+
+#include <stdbool.h>
+
+#if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#define RT_CPU_X86 1
+#endif
+
+/* AVX2 (eight floats or four doubles a vector). */
+static inline bool cpu_has_avx2(void)
+{
+#ifdef RT_CPU_X86
+    return __builtin_cpu_supports("avx2");
+#else
+    return false;
+#endif
+}
+
+/* The AVX-512 subsets the 16-lane kernels use: F, VL, BW and DQ (every AVX-512 CPU
+ * since Skylake-SP has all four). */
+static inline bool cpu_has_avx512(void)
+{
+#ifdef RT_CPU_X86
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+           __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512dq");
+#else
+    return false;
+#endif
+}
+
+#endif
