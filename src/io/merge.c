@@ -123,12 +123,12 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
         int gx = 0, gy = 0;
         SrcLoc loc = {out, 0, 0};
         if (find_gap(parts, n, fw, fh, &gx, &gy))
-            diag_error(diag, &loc, "the %d part(s) do not cover the %dx%d image: no part has "
-                       "pixel (%d, %d) (x, y from the top-left); nothing written", n, fw, fh,
-                       gx, gy);
+            diag_error(diag, &loc, "the %d %s not cover the %dx%d image: no part has "
+                       "pixel (%d, %d) (x, y from the top-left); nothing written", n,
+                       n == 1 ? "part does" : "parts do", fw, fh, gx, gy);
         else
-            diag_error(diag, &loc, "the %d part(s) do not cover the %dx%d image; nothing "
-                       "written", n, fw, fh);
+            diag_error(diag, &loc, "the %d %s not cover the %dx%d image; nothing "
+                       "written", n, n == 1 ? "part does" : "parts do", fw, fh);
         ok = false;
     }
     if (ok)
