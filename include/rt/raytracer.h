@@ -44,6 +44,13 @@ Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float 
  * reads the point. */
 void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
                             float tmin, Vec3 *colors, Hit *hits);
+/* raytracer_trace_packet for colours that go to bytes and nowhere else: every component
+ * of colors[i] quantises (image_color_to_byte) to the byte raytracer_trace_packet's
+ * gives, but the float itself may differ. The Phong lanes shaded inline then take the
+ * specular power by repeated squaring instead of powf where the bytes are certain
+ * (src/render/phong_packet.h states the rule and why it is exact). */
+void raytracer_trace_packet_bytes(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
+                                  int n, float tmin, Vec3 *colors, Hit *hits);
 /* Nearest hit (through rt->accel). */
 bool raytracer_cast(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, Hit *hit);
 /* True when something lies on the ray with tmin < t < dist. Counts one shadow ray. */

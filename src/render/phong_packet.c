@@ -20,22 +20,31 @@
 #endif
 #define PP_BEGIN phong_packet_begin_base
 #define PP_LIGHT phong_packet_light_base
+#define PP_SETTLE phong_packet_settle_base
+#define PP_BRACKET phong_packet_bracket_base
 #include "phong_packet_kernel.h"
 
 typedef uint64_t (*BeginFn)(PhongPacket *, int, uint64_t, const PhongParams *const *, bool,
                             Vec3, uint64_t *);
 typedef void (*LightFn)(PhongPacket *, int, uint64_t, Vec3, Vec3);
+typedef uint64_t (*SettleFn)(const PhongPacket *, int, uint64_t);
+typedef void (*BracketFn)(const float *, const float *, int, float *, float *);
 
 typedef struct PhongKernel {
     const char *name;
     BeginFn begin;
     LightFn light;
+    SettleFn settle;
+    BracketFn bracket;
 } PhongKernel;
 
 static const PhongKernel kernels[] = {
-    {PP_ISA ? "sse2" : "generic", phong_packet_begin_base, phong_packet_light_base},
-    {"avx2", phong_packet_begin_avx2, phong_packet_light_avx2},
-    {"avx512", phong_packet_begin_avx512, phong_packet_light_avx512},
+    {PP_ISA ? "sse2" : "generic", phong_packet_begin_base, phong_packet_light_base,
+     phong_packet_settle_base, phong_packet_bracket_base},
+    {"avx2", phong_packet_begin_avx2, phong_packet_light_avx2, phong_packet_settle_avx2,
+     phong_packet_bracket_avx2},
+    {"avx512", phong_packet_begin_avx512, phong_packet_light_avx512,
+     phong_packet_settle_avx512, phong_packet_bracket_avx512},
 };
 enum { NUM_KERNELS = sizeof kernels / sizeof kernels[0] };
 
@@ -87,6 +96,17 @@ uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
 {
     kernel->light(pp, n, mask, l, lc);
+}
+
+uint64_t phong_packet_settle(const PhongPacket *pp, int n, uint64_t mask)
+{
+    return kernel->settle(pp, n, mask);
+}
+
+void phong_packet_bracket(const float *x, const float *e, int n, float *lo, float *hi)
+{
+    pthread_once(&kernel_once, choose_kernel);
+    kernel->bracket(x, e, n, lo, hi);
 }
 
 void phong_packet_colors(const PhongPacket *pp, uint64_t mask, Vec3 *colors)

@@ -18,8 +18,33 @@ typedef struct PhongPacket {
     float sr[ACCEL_PACKET_MAX], sg[ACCEL_PACKET_MAX], sb[ACCEL_PACKET_MAX];
     float e[ACCEL_PACKET_MAX];
     float cr[ACCEL_PACKET_MAX], cg[ACCEL_PACKET_MAX], cb[ACCEL_PACKET_MAX];
+    /* The colour summed so far with the bracket's upper powers (lanes of brk only). */
+    float hr[ACCEL_PACKET_MAX], hg[ACCEL_PACKET_MAX], hb[ACCEL_PACKET_MAX];
     uint64_t no_pow; /* lanes whose specular term needs no powf (phong_term's rule) */
+    /* Lanes whose colour goes only to bytes and whose material allows the bracket
+     * (below): set by the caller before phong_packet_begin to the lanes that may take
+     * it, narrowed there. ebits is the OR of those lanes' integer exponents. */
+    uint64_t brk;
+    unsigned ebits;
 } PhongPacket;
+
+/* The power bracket, for colours that go straight to bytes (raytracer_trace_packet_bytes).
+ * powf(x, e) is the hot path's one libm call; for an integer exponent 0 <= e <= 128
+ * (PHONG_BRACKET_EXP_MAX) and 0 <= x <= 1.0625 the kernel instead computes x^e by
+ * repeated squaring in double (relative error below 2^-45), rounds it to float p, and
+ * widens it to [p_lo, p_hi]: PHONG_BRACKET_ULPS floats each side (p_lo not below +0),
+ * counted on the float's bits. The C library's powf(x, e) lies in that bracket (glibc's
+ * is within one ulp of x^e; tests/unit/test_shading.c checks it for every exponent of
+ * the range over millions of x, and fails if a libm does not). The colour is then
+ * summed twice, once with the lows (cr, cg, cb) and once with the highs (hr, hg, hb),
+ * by the same operations as with powf's power. Those operations are products by the
+ * specular and light colours, which must be >= 0 (and are finite when the result is),
+ * and sums: every one is monotone non-decreasing in the power, and so is the byte
+ * quantisation (image_color_to_byte). So when both sums are finite and quantise to the
+ * same byte in every channel, powf's colour quantises to that byte too; otherwise
+ * (phong_packet_settle's lanes, rare) the caller shades the lane again with powf. */
+#define PHONG_BRACKET_EXP_MAX 128
+#define PHONG_BRACKET_ULPS 4
 
 /* The lanes of cand (below n) hold a hit on a PhongMaterial: the
  * caller has put the hit's normal (as intersected) into nx, ny, nz, the ray direction
@@ -27,18 +52,32 @@ typedef struct PhongPacket {
  * there and lp[i] = NULL. As shade_begin for those lanes: the side (n . d), the facing
  * normal, -normalize(d) into vx, vy, vz, the material's colours and the ambient term
  * a * diffuse. Returns the lanes to shade: cand without its back faces unless
- * shade_back (those are black); *entering gets the returned lanes with n . d < 0. */
+ * shade_back (those are black); *entering gets the returned lanes with n . d < 0.
+ * pp->brk is read as the lanes that may take the power bracket and left as those of
+ * them shaded whose material allows it (an integer exponent 0 .. PHONG_BRACKET_EXP_MAX,
+ * specular colour >= 0); 0 keeps powf everywhere, the same bits as phong_term. */
 uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
                             const PhongParams *const *lp, bool shade_back, Vec3 ambient,
                             uint64_t *entering);
 /* Adds the term of the directional light (direction l to the light, colour lc) to the
- * lanes of mask (below n): phong_term's arithmetic, lane by lane the same bits. */
+ * lanes of mask (below n): phong_term's arithmetic, lane by lane the same bits, except
+ * that lanes of pp->brk take the power bracket (above) when lc >= 0 in every channel
+ * and max(n.h, 0) <= 1.0625, and powf otherwise. */
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+
+/* The lanes of mask & pp->brk whose low and high colours (the bracket above) are not
+ * both finite or do not quantise to the same three bytes: these need powf. */
+uint64_t phong_packet_settle(const PhongPacket *pp, int n, uint64_t mask);
+
+/* lo[i], hi[i] = the bracket of x[i]^e[i] as the kernel in use computes it, for
+ * i < n (a multiple of PHONG_PACKET_GROUP), each e[i] an integer exponent
+ * 0 .. PHONG_BRACKET_EXP_MAX and 0 <= x[i] <= 1.0625. For tests. */
+void phong_packet_bracket(const float *x, const float *e, int n, float *lo, float *hi);
 
 /* colors[i] = phong_packet_color(pp, i) for the lanes of mask. */
 void phong_packet_colors(const PhongPacket *pp, uint64_t mask, Vec3 *colors);
 
-/* phong_packet_begin and _light work on groups of up to PHONG_PACKET_GROUP lanes: n is a
+/* phong_packet_begin, _light and _settle work on groups of up to PHONG_PACKET_GROUP lanes: n is a
  * multiple of it. */
 enum { PHONG_PACKET_GROUP = 16 };
 _Static_assert(ACCEL_PACKET_MAX % PHONG_PACKET_GROUP == 0, "a packet is whole groups");
@@ -54,6 +93,12 @@ uint64_t phong_packet_begin_base(PhongPacket *pp, int n, uint64_t cand,
                                  const PhongParams *const *lp, bool shade_back, Vec3 ambient,
                                  uint64_t *entering);
 void phong_packet_light_base(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+uint64_t phong_packet_settle_base(const PhongPacket *pp, int n, uint64_t mask);
+uint64_t phong_packet_settle_avx2(const PhongPacket *pp, int n, uint64_t mask);
+uint64_t phong_packet_settle_avx512(const PhongPacket *pp, int n, uint64_t mask);
+void phong_packet_bracket_base(const float *x, const float *e, int n, float *lo, float *hi);
+void phong_packet_bracket_avx2(const float *x, const float *e, int n, float *lo, float *hi);
+void phong_packet_bracket_avx512(const float *x, const float *e, int n, float *lo, float *hi);
 uint64_t phong_packet_begin_avx2(PhongPacket *pp, int n, uint64_t cand,
                                  const PhongParams *const *lp, bool shade_back, Vec3 ambient,
                                  uint64_t *entering);

@@ -13,6 +13,8 @@
 #define PP_ISA 2
 #define PP_BEGIN phong_packet_begin_avx2
 #define PP_LIGHT phong_packet_light_avx2
+#define PP_SETTLE phong_packet_settle_avx2
+#define PP_BRACKET phong_packet_bracket_avx2
 #include "phong_packet_kernel.h"
 #if defined(__clang__)
 #pragma clang attribute pop
@@ -29,5 +31,15 @@ uint64_t phong_packet_begin_avx2(PhongPacket *pp, int n, uint64_t cand,
 void phong_packet_light_avx2(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
 {
     phong_packet_light_base(pp, n, mask, l, lc);
+}
+
+uint64_t phong_packet_settle_avx2(const PhongPacket *pp, int n, uint64_t mask)
+{
+    return phong_packet_settle_base(pp, n, mask);
+}
+
+void phong_packet_bracket_avx2(const float *x, const float *e, int n, float *lo, float *hi)
+{
+    phong_packet_bracket_base(x, e, n, lo, hi);
 }
 #endif

@@ -246,8 +246,14 @@ static Vec3 phong_lane_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ra
     return st.color;
 }
 
-void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
-                            float tmin, Vec3 *colors, Hit *hits)
+/* Lights whose shadow masks a packet keeps for the bracket's re-shading (scenes with
+ * more shade every lane with powf). */
+enum { BRACKET_LIGHTS = 16 };
+
+/* raytracer_trace_packet, and with to_bytes raytracer_trace_packet_bytes: the Phong
+ * lanes without bounces may then take the power bracket (phong_packet.h). */
+static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
+                         float tmin, Vec3 *colors, Hit *hits, bool to_bytes)
 {
     if (!accel_has_packets(rt->accel) || ctx->tree || !ctx->packet_rays ||
         n > ACCEL_PACKET_MAX) {
@@ -271,6 +277,7 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
     bool inline_ok = packet_inline_ok(rt);
     ShadeState st[ACCEL_PACKET_MAX];
     PhongPacket pp;
+    pp.brk = 0;
     const PhongParams *lp[ACCEL_PACKET_MAX];
     uint64_t live = 0, phong = 0, entering = 0, bounce = 0;
     const Material *last = NULL;
@@ -323,6 +330,9 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         lp[i] = NULL;
     }
     if (phong) {
+        /* The bracket for colours that go only to bytes: not for lanes with bounces
+         * (shade_finish adds to their colour), nor with too many lights to keep. */
+        pp.brk = to_bytes && scene->num_lights <= BRACKET_LIGHTS ? phong & ~bounce : 0;
         uint64_t shaded = phong_packet_begin(&pp, lanes, phong, lp, rt->shade_back,
                                              scene->ambient, &entering);
         for (uint64_t m = phong & ~shaded; m; m &= m - 1) /* back faces: black */
@@ -348,6 +358,8 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             int i = __builtin_ctzll(m);
             srays[i].origin = hits[i].point;
         }
+    uint64_t lit[BRACKET_LIGHTS]; /* Phong lanes not in the shadow of light li */
+    Vec3 ldir[BRACKET_LIGHTS], lcolor[BRACKET_LIGHTS];
     for (int li = 0; li < scene->num_lights && live; li++) {
         const Light *light = &scene->lights[li];
         Vec3 lcol[ACCEL_PACKET_MAX];
@@ -378,10 +390,30 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
         }
         if (phong & ~blocked) /* phong lanes only exist when every light is directional */
             phong_packet_light(&pp, lanes, phong & ~blocked, l0, lc0);
+        if (pp.brk) {
+            lit[li] = phong & ~blocked;
+            ldir[li] = l0;
+            lcolor[li] = lc0;
+        }
         for (uint64_t m = live & ~phong & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
         }
+    }
+    /* Lanes whose bracket leaves their bytes open are shaded again with powf: the
+     * ambient term again, then each light that reached them. */
+    uint64_t redo = phong && pp.brk ? phong_packet_settle(&pp, lanes, phong) : 0;
+    if (redo) {
+        pp.brk &= ~redo;
+        for (uint64_t m = redo; m; m &= m - 1) {
+            int i = __builtin_ctzll(m);
+            pp.cr[i] = scene->ambient.x * pp.dr[i];
+            pp.cg[i] = scene->ambient.y * pp.dg[i];
+            pp.cb[i] = scene->ambient.z * pp.db[i];
+        }
+        for (int li = 0; li < scene->num_lights; li++)
+            if (lit[li] & redo)
+                phong_packet_light(&pp, lanes, lit[li] & redo, ldir[li], lcolor[li]);
     }
     phong_packet_colors(&pp, phong & ~bounce, colors);
     for (uint64_t m = live & ~(phong & ~bounce); m; m &= m - 1) {
@@ -394,6 +426,18 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
             colors[i] = st[i].color;
         }
     }
+}
+
+void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
+                            float tmin, Vec3 *colors, Hit *hits)
+{
+    trace_packet(rt, ctx, rays, n, tmin, colors, hits, false);
+}
+
+void raytracer_trace_packet_bytes(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
+                                  int n, float tmin, Vec3 *colors, Hit *hits)
+{
+    trace_packet(rt, ctx, rays, n, tmin, colors, hits, true);
 }
 
 bool raytracer_ctx_init(RenderCtx *ctx, const RayTracer *rt)

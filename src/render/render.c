@@ -153,6 +153,10 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
      * store their bytes a tile at a time. */
     bool full_rows = ylo == y0 && y1 - y0 == TILE;
     bool bytes_only = t->color && t->color->bytes && !t->depth && !t->normals;
+    /* Colours that only become bytes may come from the power bracket (rt/raytracer.h):
+     * the same bytes. Depth and normal images read the hits, never the colours. */
+    void (*trace)(const RayTracer *, RenderCtx *, const Ray *, int, float, Vec3 *, Hit *) =
+        t->color && t->color->bytes ? raytracer_trace_packet_bytes : raytracer_trace_packet;
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
     /* Pixel dy * TILE + dx is lane slot[...] of a whole tile's packet. */
@@ -165,7 +169,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
         if (full_rows && x0 >= xlo && x0 + TILE <= xhi) {
             camera_pixel_rays(job->camera, x0, y0, TILE, TILE, t->width, t->height, slot,
                               rays);
-            raytracer_trace_packet(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
+            trace(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
                 store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, slot);
             } else {
@@ -186,7 +190,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
             px[n] = x;
             py[n++] = y;
         }
-        raytracer_trace_packet(job->rt, ctx, rays, n, tmin, colors, hits);
+        trace(job->rt, ctx, rays, n, tmin, colors, hits);
         for (int i = 0; i < n; i++)
             store_pixel(t, px[i], py[i], colors[i], &hits[i]);
     }

@@ -459,8 +459,9 @@ static void test_packet_shading_same_bits(void)
             /* The last two variants: a point light (those lanes go through the ops). */
             m.lights[1].kind = variant >= 4 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
             m.lights[1].position = v3(0.5f, 3, 2);
-            RenderCtx pctx, sctx;
+            RenderCtx pctx, sctx, bctx;
             CHECK(raytracer_ctx_init(&pctx, &rt));
+            CHECK(raytracer_ctx_init(&bctx, &rt));
             CHECK(raytracer_ctx_init(&sctx, &rt));
             CHECK(pctx.packet_rays != NULL);
             for (int ty = 0; ty < 48; ty += 8)
@@ -475,27 +476,44 @@ static void test_packet_shading_same_bits(void)
                     }
                     raytracer_trace_packet(&rt, &pctx, rays, 64, 0, colors, hits);
                     packets++;
+                    Vec3 bcolors[64];
+                    Hit bhits[64];
+                    raytracer_trace_packet_bytes(&rt, &bctx, rays, 64, 0, bcolors, bhits);
                     for (int k = 0; k < 64; k++) {
                         Hit h;
                         Vec3 c = raytracer_trace(&rt, &sctx, &rays[k], 0, 0, 1, 1, &h);
                         if (memcmp(&c, &colors[k], sizeof c) != 0 || memcmp(&h.t, &hits[k].t, sizeof h.t) ||
                             h.material != hits[k].material)
                             differ++;
+                        /* The bytes variant: powf's bytes, the same hits. */
+                        if (image_color_to_byte(c.x) != image_color_to_byte(bcolors[k].x) ||
+                            image_color_to_byte(c.y) != image_color_to_byte(bcolors[k].y) ||
+                            image_color_to_byte(c.z) != image_color_to_byte(bcolors[k].z) ||
+                            memcmp(&h.t, &bhits[k].t, sizeof h.t) || h.material != bhits[k].material)
+                            differ++;
                     }
                     /* A packet of a part of a tile (lanes past n in a kernel's group). */
                     raytracer_trace_packet(&rt, &pctx, rays + 3, 13, 0, colors, hits);
+                    raytracer_trace_packet_bytes(&rt, &bctx, rays + 3, 13, 0, bcolors, bhits);
                     for (int k = 0; k < 13; k++) {
                         Hit h;
                         Vec3 c = raytracer_trace(&rt, &sctx, &rays[3 + k], 0, 0, 1, 1, &h);
                         if (memcmp(&c, &colors[k], sizeof c) != 0 || memcmp(&h.t, &hits[k].t, sizeof h.t) ||
                             h.material != hits[k].material)
                             differ++;
+                        if (image_color_to_byte(c.x) != image_color_to_byte(bcolors[k].x) ||
+                            image_color_to_byte(c.y) != image_color_to_byte(bcolors[k].y) ||
+                            image_color_to_byte(c.z) != image_color_to_byte(bcolors[k].z))
+                            differ++;
                     }
                 }
             CHECK_INT(pctx.stats.nonshadow_rays, sctx.stats.nonshadow_rays);
             CHECK_INT(pctx.stats.shadow_rays, sctx.stats.shadow_rays);
+            CHECK_INT(bctx.stats.nonshadow_rays, sctx.stats.nonshadow_rays);
+            CHECK_INT(bctx.stats.shadow_rays, sctx.stats.shadow_rays);
             raytracer_ctx_free(&pctx);
             raytracer_ctx_free(&sctx);
+            raytracer_ctx_free(&bctx);
         }
     }
     m.lights[1].kind = LIGHT_DIRECTIONAL;
@@ -504,6 +522,257 @@ static void test_packet_shading_same_bits(void)
     CHECK_INT(packets, kernels_run * 6 * 36);
     accel_free(&grid);
     prim_table_free(&prims);
+    arena_free(&m.s.arena);
+}
+
+/* The assumption the power bracket rests on (src/render/phong_packet.h): the C
+ * library's powf(x, e) lies in [lo, hi] as each kernel computes them, for every integer
+ * exponent 0 .. PHONG_BRACKET_EXP_MAX and x in [0, 1.0625]: random x, and every float
+ * of dense ranges near 1, near 0 (denormals), at 2^-20, and where x^e crosses into
+ * float's denormals and underflows to 0. A libm whose powf strays further than the
+ * bracket's margin fails here. */
+static uint64_t bracket_rng(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+static float float_of_bits(uint32_t b)
+{
+    float f;
+    memcpy(&f, &b, sizeof f);
+    return f;
+}
+
+static uint32_t bits_of_float(float f)
+{
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    return b;
+}
+
+static void test_pow_bracket_holds_powf(void)
+{
+    enum { CHUNK = 4096, RANDOM = 256 * 1024 };
+    static float xs[CHUNK], es[CHUNK], want[CHUNK], lo[3][CHUNK], hi[3][CHUNK];
+    const char *default_kernel = phong_packet_kernel();
+    const char *names[] = {"generic", "sse2", "avx2", "avx512"};
+    int usable[4], nk = 0;
+    for (int k = 0; k < 4; k++)
+        if (phong_packet_use_kernel(names[k]))
+            usable[nk++] = k;
+    CHECK(phong_packet_use_kernel(default_kernel));
+    CHECK(nk >= 1 && nk <= 3);
+    uint64_t seed = 42, checked = 0, bad = 0;
+    for (int e = 0; e <= PHONG_BRACKET_EXP_MAX; e++) {
+        /* Starting bits of the dense runs: below 1 and from 1, from +0, at 2^-20,
+         * where x^e is 2^-126 (float's smallest normal) and 2^-150 (rounds to 0). */
+        uint32_t runs[6] = {bits_of_float(1.0f) - CHUNK / 2, bits_of_float(1.0f), 0,
+                            bits_of_float(0x1p-20f), 0, 0};
+        if (e > 0) {
+            runs[4] = bits_of_float(exp2f(-126.0f / (float)e)) - CHUNK / 2;
+            runs[5] = bits_of_float(exp2f(-150.0f / (float)e)) - CHUNK / 2;
+        }
+        for (int chunk = 0; chunk < 6 + RANDOM / CHUNK; chunk++) {
+            for (int i = 0; i < CHUNK; i++) {
+                float x;
+                if (chunk < 6) {
+                    x = float_of_bits(runs[chunk] + (uint32_t)i);
+                } else {
+                    x = (float)(bracket_rng(&seed) >> 40) * 0x1p-24f * 1.0625f;
+                }
+                if (!(x >= 0.0f && x <= 1.0625f))
+                    x = 1.0625f;
+                xs[i] = x;
+                es[i] = (float)e;
+                want[i] = powf(x, (float)e);
+            }
+            for (int k = 0; k < nk; k++) {
+                CHECK(phong_packet_use_kernel(names[usable[k]]));
+                phong_packet_bracket(xs, es, CHUNK, lo[k], hi[k]);
+            }
+            for (int i = 0; i < CHUNK; i++)
+                for (int k = 0; k < nk; k++) {
+                    checked++;
+                    if (!(lo[k][i] >= 0.0f && lo[k][i] <= want[i] && want[i] <= hi[k][i] &&
+                          isfinite(hi[k][i]))) {
+                        if (bad++ < 5)
+                            CHECK_MSG(false, "%s: powf(%a, %d) = %a outside [%a, %a]",
+                                      names[usable[k]], (double)xs[i], e, (double)want[i],
+                                      (double)lo[k][i], (double)hi[k][i]);
+                    }
+                }
+        }
+    }
+    CHECK(phong_packet_use_kernel(default_kernel));
+    CHECK_INT(bad, 0);
+    CHECK(checked >= (uint64_t)nk * 129 * (6 * CHUNK + RANDOM));
+}
+
+/* The kernels with the bracket against themselves without it (which the test below
+ * holds to the materials' ops): random hits under two lights, materials with integer
+ * exponents (bracket) and others (a fraction, a negative specular channel, no
+ * specular), a light with a negative channel. A lane phong_packet_settle leaves alone
+ * must quantise to powf's bytes; a lane without the bracket must be powf's bits. */
+static void test_packet_bracket_bytes(void)
+{
+    PhongParams mats[6];
+    const float exps[6] = {10, 128, 1, 20.5f, 64, 0};
+    for (int k = 0; k < 6; k++) {
+        mats[k] = phong_defaults();
+        mats[k].diffuse = v3(0.79f, 0.66f, 0.44f);
+        mats[k].specular = v3(0.9f, 0.5f, 0.25f);
+        mats[k].exponent = exps[k];
+    }
+    mats[4].specular.y = -0.5f;
+    mats[5].specular = v3(0.0f, 2.0f, 0.0f);
+    const Vec3 ldir[2] = {v3_normalize(v3(0.4f, 0.8f, 0.3f)), v3_normalize(v3(-0.3f, 1, 0.5f))};
+    const Vec3 lcol[3] = {v3(0.3f, 0.3f, 0.3f), v3(0.5f, 0.6f, 0.7f), v3(0.5f, -0.1f, 0.5f)};
+    const char *default_kernel = phong_packet_kernel();
+    const char *names[] = {"generic", "sse2", "avx2", "avx512"};
+    uint64_t seed = 7;
+    long lanes = 0, bracketed = 0, settled = 0, bad = 0;
+    for (int kn = 0; kn < 4; kn++) {
+        if (!phong_packet_use_kernel(names[kn]))
+            continue;
+        for (int round = 0; round < 3000; round++) {
+            PhongPacket ref, br;
+            const PhongParams *lp[ACCEL_PACKET_MAX];
+            for (int i = 0; i < ACCEL_PACKET_MAX; i++) {
+                float r[6];
+                for (int j = 0; j < 6; j++)
+                    r[j] = (float)(bracket_rng(&seed) >> 40) * 0x1p-23f - 1.0f;
+                /* Normals mostly of unit length, towards the lights (a bright lobe). */
+                Vec3 n = v3_normalize(v3(r[0] * 0.3f, 1.0f, r[1] * 0.3f));
+                if (i % 9 == 0)
+                    n = v3_scale(n, 1.03f);
+                Vec3 d = v3_normalize(v3(r[2] * 0.5f, -1.0f + r[3] * 0.2f, r[4] * 0.5f));
+                ref.nx[i] = n.x, ref.ny[i] = n.y, ref.nz[i] = n.z;
+                ref.vx[i] = d.x, ref.vy[i] = d.y, ref.vz[i] = d.z;
+                lp[i] = &mats[(i + round) % 6];
+                if (i % 17 == 5)
+                    lp[i] = &mats[round % 6]; /* groups of one material and mixed */
+            }
+            br = ref;
+            uint64_t ent;
+            ref.brk = 0;
+            br.brk = ~(uint64_t)0;
+            uint64_t sh_ref = phong_packet_begin(&ref, ACCEL_PACKET_MAX, ~(uint64_t)0, lp, true,
+                                                 v3(0.2f, 0.1f, 0.3f), &ent);
+            uint64_t sh_br = phong_packet_begin(&br, ACCEL_PACKET_MAX, ~(uint64_t)0, lp, true,
+                                                v3(0.2f, 0.1f, 0.3f), &ent);
+            CHECK(sh_ref == sh_br);
+            for (int li = 0; li < 2; li++) {
+                Vec3 lc = lcol[(round + li) % 3];
+                uint64_t mask = bracket_rng(&seed) | bracket_rng(&seed); /* some in shadow */
+                phong_packet_light(&ref, ACCEL_PACKET_MAX, mask & sh_ref, ldir[li], lc);
+                phong_packet_light(&br, ACCEL_PACKET_MAX, mask & sh_br, ldir[li], lc);
+            }
+            uint64_t open = phong_packet_settle(&br, ACCEL_PACKET_MAX, sh_br);
+            CHECK((open & ~br.brk) == 0);
+            for (int i = 0; i < ACCEL_PACKET_MAX; i++) {
+                uint64_t bit = (uint64_t)1 << i;
+                if (!(sh_br & bit))
+                    continue;
+                lanes++;
+                bracketed += (br.brk & bit) != 0;
+                settled += (open & bit) != 0;
+                if (open & bit)
+                    continue;
+                const float a[3] = {br.cr[i], br.cg[i], br.cb[i]};
+                const float b[3] = {ref.cr[i], ref.cg[i], ref.cb[i]};
+                for (int c = 0; c < 3; c++) {
+                    bool same = br.brk & bit ? image_color_to_byte(a[c]) == image_color_to_byte(b[c])
+                                             : memcmp(&a[c], &b[c], sizeof a[c]) == 0;
+                    if (!same && bad++ < 5)
+                        CHECK_MSG(false, "%s: lane %d channel %d: %a against powf's %a",
+                                  names[kn], i, c, (double)a[c], (double)b[c]);
+                }
+            }
+        }
+    }
+    CHECK(phong_packet_use_kernel(default_kernel));
+    CHECK_INT(bad, 0);
+    /* The bracket was taken by most lanes, and left their bytes open for very few. */
+    CHECK(bracketed > lanes / 3);
+    CHECK(settled < bracketed / 100);
+}
+
+/* The fallback: a plane lit so that its bytes sit on a boundary inside the bracket
+ * (the low power's byte is not powf's), found by search; the packet path must still
+ * give powf's bytes, with every kernel. */
+static void test_packet_bracket_fallback(void)
+{
+    Mini m;
+    mini_init(&m);
+    CHECK(camera_init_orthographic(&m.s.camera, v3(0, 0, 5), v3(0, 0, -1), v3(0, 1, 0), 2));
+    m.s.ambient = v3(0, 0, 0);
+    m.lights[0] = (Light){LIGHT_DIRECTIONAL, v3_normalize(v3(-0.3f, 0.2f, -1)), v3(0, 0, 0),
+                          v3(1, 1, 1), {1, 0, 0}};
+    m.s.num_lights = 1;
+    /* x = n.h as the shading makes it (v = -normalize(d), h = normalize(l + v)). */
+    Vec3 l, lc;
+    float dist;
+    light_illuminate(&m.lights[0], v3(0, 0, 0), &l, &lc, &dist);
+    Vec3 n = v3(0, 0, 1), v = v3_neg(v3_normalize(v3(0, 0, -1)));
+    float x = v3_dot(n, v3_normalize(v3_add(l, v)));
+    CHECK(x > 0.9f && x < 1.0f);
+    float xs[PHONG_PACKET_GROUP], es[PHONG_PACKET_GROUP], plo[PHONG_PACKET_GROUP],
+        phi[PHONG_PACKET_GROUP];
+    for (int i = 0; i < PHONG_PACKET_GROUP; i++)
+        xs[i] = x, es[i] = 10;
+    phong_packet_bracket(xs, es, PHONG_PACKET_GROUP, plo, phi);
+    volatile float pw = powf(x, 10), lo = plo[0];
+    /* The colour is 0 + 1 * (0 * n.l + s * p) = s * p: the specular colour s whose
+     * byte with powf's power is 128 and with the low power 127. */
+    float s = 128.0f / 255.0f / pw, found = 0;
+    for (int j = 0; j < 4096 && !found; j++) {
+        float c = s * pw, c_lo = s * lo;
+        if (image_color_to_byte(c) == 128 && image_color_to_byte(c_lo) == 127)
+            found = s;
+        s = nextafterf(s, image_color_to_byte(c) >= 128 ? 0.0f : 2.0f);
+    }
+    CHECK(found > 0);
+    PhongParams pp = phong_defaults();
+    pp.diffuse = v3(0, 0, 0);
+    pp.specular = v3(found, found, found);
+    pp.exponent = 10;
+    Material *mat = phong_new(&m.s.arena, &pp);
+    mini_set_root(&m, plane_new(&m.s.arena, v3(0, 0, 1), 0, mat));
+    RayTracer rt = tracer(&m.s);
+    const char *default_kernel = phong_packet_kernel();
+    const char *names[] = {"generic", "sse2", "avx2", "avx512"};
+    int kernels_run = 0, bad = 0;
+    for (int kn = 0; kn < 4; kn++) {
+        if (!phong_packet_use_kernel(names[kn]))
+            continue;
+        kernels_run++;
+        RenderCtx ctx;
+        CHECK(raytracer_ctx_init(&ctx, &rt));
+        Ray rays[64];
+        Vec3 colors[64], ref[64];
+        Hit hits[64];
+        for (int k = 0; k < 64; k++) {
+            float u, w;
+            camera_pixel_to_screen(k % 8, k / 8, 8, 8, &u, &w);
+            rays[k] = camera_generate_ray(&m.s.camera, u, w);
+        }
+        raytracer_trace_packet(&rt, &ctx, rays, 64, 0, ref, hits);
+        raytracer_trace_packet_bytes(&rt, &ctx, rays, 64, 0, colors, hits);
+        for (int k = 0; k < 64; k++) {
+            const float *a = &colors[k].x, *b = &ref[k].x;
+            for (int c = 0; c < 3; c++)
+                if (image_color_to_byte(a[c]) != image_color_to_byte(b[c]) ||
+                    image_color_to_byte(b[c]) != 128)
+                    bad++;
+        }
+        raytracer_ctx_free(&ctx);
+    }
+    CHECK(phong_packet_use_kernel(default_kernel));
+    CHECK(kernels_run >= 1);
+    CHECK_INT(bad, 0);
     arena_free(&m.s.arena);
 }
 
@@ -606,5 +875,8 @@ static const TestCase tests[] = {
     {"tracer: reflection, bounces, weight cutoff", test_reflection_and_cutoff},
     {"tracer: refraction and total internal reflection", test_refraction_and_tir},
     {"tracer: packets shade like single rays, to the bit", test_packet_shading_same_bits},
+    {"shading: powf lies in the power bracket of every kernel", test_pow_bracket_holds_powf},
+    {"shading: the bracket's settled lanes have powf's bytes", test_packet_bracket_bytes},
+    {"tracer: lanes the bracket leaves open get powf's bytes", test_packet_bracket_fallback},
 };
 RT_TEST_MAIN(tests)
