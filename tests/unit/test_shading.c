@@ -740,8 +740,24 @@ static void test_packet_bracket_fallback(void)
     pp.specular = v3(found, found, found);
     pp.exponent = 10;
     Material *mat = phong_new(&m.s.arena, &pp);
-    mini_set_root(&m, plane_new(&m.s.arena, v3(0, 0, 1), 0, mat));
-    RayTracer rt = tracer(&m.s);
+    /* A plane and a small sphere off to the side: the grid needs a bounded object. */
+    Object3D *g = group_new(&m.s.arena, 2);
+    group_set_child(g, 0, plane_new(&m.s.arena, v3(0, 0, 1), 0, mat));
+    group_set_child(g, 1, sphere_new(&m.s.arena, v3(30, 30, 1), 0.5f, mat));
+    group_finish(g);
+    mini_set_root(&m, g);
+    PrimTable prims;
+    CHECK(prim_table_build(&prims, &m.s));
+    Accel grid;
+    AccelConfig cfg = {.grid_n = {4, 4, 4}, .grid_auto = false, .no_marking = false, .visualize = false};
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(accel_init(&grid, accel_find("grid"), &prims, &cfg, &d));
+    CHECK(accel_has_packets(&grid)); /* else the rays go one by one, with powf */
+    RayTracer rt;
+    memset(&rt, 0, sizeof rt);
+    rt.scene = &m.s;
+    rt.accel = &grid;
     const char *default_kernel = phong_packet_kernel();
     const char *names[] = {"generic", "sse2", "avx2", "avx512"};
     int kernels_run = 0, bad = 0;
@@ -751,6 +767,7 @@ static void test_packet_bracket_fallback(void)
         kernels_run++;
         RenderCtx ctx;
         CHECK(raytracer_ctx_init(&ctx, &rt));
+        CHECK(ctx.packet_rays != NULL);
         Ray rays[64];
         Vec3 colors[64], ref[64];
         Hit hits[64];
@@ -773,6 +790,8 @@ static void test_packet_bracket_fallback(void)
     CHECK(phong_packet_use_kernel(default_kernel));
     CHECK(kernels_run >= 1);
     CHECK_INT(bad, 0);
+    accel_free(&grid);
+    prim_table_free(&prims);
     arena_free(&m.s.arena);
 }
 
