@@ -75,7 +75,11 @@ const PhongParams *phong_params_of(const Material *m);
  * specular part is then specular * s = +-0 for any finite s >= 0, the sign being the
  * colour's own, so specular itself is added. s = powf(x, e) with x = max(n.h, 0) is
  * finite when 0 <= e <= 1000 and x <= 1.0625, which |n|^2 <= 1.125 and |h| <= 1 (plus
- * rounding) guarantee; outside that range (or with a NaN) powf runs as always. */
+ * rounding) guarantee; outside that range (or with a NaN) powf runs as always.
+ * This function always calls powf otherwise: it returns floats. The packet shading
+ * leaves powf out in one more case, for colours that only become bytes: an integer
+ * exponent by repeated squaring, bracketed, with powf again wherever the bracket leaves
+ * a byte open (src/render/phong_packet.h says why the bytes are the same). */
 static inline Vec3 phong_term(const PhongParams *p, Vec3 n, Vec3 v, Vec3 l, Vec3 lc)
 {
     float nl = v3_dot(n, l);
