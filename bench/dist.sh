@@ -99,6 +99,59 @@ if [ -z "${SKIP_TILES:-}" ]; then
             "$cached" "$merge" "$(pct "$whole" "$tiles" "$merge")" "$(pct "$whole" "$cached" "$merge")"
     done
 fi
+# Tile shapes (opt-in: DIST_PARTS containing "shapes"; a 4K round takes minutes): 64
+# parts as bands (-tile k 64) against an 8x8 grid of square-ish tiles (-tile k 8x8), both
+# with -cache, of BIN and of STATIC_BIN (default: raytracer-static beside BIN, when
+# built), at each of SHAPE_SIZES (default "1920x1080 3840x2160": the issue's motivating
+# 4K antialiased frame), 16 uniform samples (box filter: no margin) and 16 jittered with
+# the Gaussian 0.4 (its margin is traced again by every tile that borders another: a
+# band borders two along its width, a square along its perimeter). Band k and square k
+# run back to back, so drift hits both alike; the whole render runs before and after
+# (their mean). Every process in its own session (setsid -w: the kernel shares CPU per
+# session); CPU = user+sys of every process.
+case " $DIST_PARTS " in *" shapes "*)
+    STATIC_BIN=${STATIC_BIN:-$(dirname "$BIN")/raytracer-static}
+    SHAPE_BINS=("$BIN")
+    [ -x "$STATIC_BIN" ] && SHAPE_BINS+=("$STATIC_BIN")
+    echo "   tile shapes: CPU ms of 64 bands (-tile k 64) and of an 8x8 grid (-tile k 8x8), both"
+    echo "   with -cache, + merge, vs one whole render; load at the start: $(cut -d' ' -f1-3 /proc/loadavg)"
+    printf '   %-10s %-8s %-30s %9s %9s %9s %6s %9s %9s\n' size binary samples whole bands squares \
+        merge "bands" "squares"
+    for SZ in ${SHAPE_SIZES:-1920x1080 3840x2160}; do
+        SA=(-input "$SCENE" -grid 40 40 33 -shadows -size "${SZ%x*}" "${SZ#*x}" -threads 1)
+        for S in "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
+            for B in "${SHAPE_BINS[@]}"; do
+                rm -f "$TMP/b.cache" "$TMP/s.cache"
+                # shellcheck disable=SC2086
+                w0=$(cpu_ms setsid -w "$B" "${SA[@]}" $S -output "$TMP/whole.tga")
+                t=0 q=0
+                for ((k = 0; k < 64; k++)); do
+                    # shellcheck disable=SC2086
+                    t=$(add "$t" "$(cpu_ms setsid -w "$B" "${SA[@]}" $S -cache "$TMP/b.cache" \
+                        -tile $k 64 -output "$TMP/band$k.tga")")
+                    # shellcheck disable=SC2086
+                    q=$(add "$q" "$(cpu_ms setsid -w "$B" "${SA[@]}" $S -cache "$TMP/s.cache" \
+                        -tile $k 8x8 -output "$TMP/square$k.tga")")
+                done
+                # shellcheck disable=SC2086
+                w1=$(cpu_ms setsid -w "$B" "${SA[@]}" $S -output "$TMP/whole.tga")
+                whole=$(awk -v a="$w0" -v b="$w1" 'BEGIN { printf "%.1f", (a + b) / 2 }')
+                m=$(cpu_ms setsid -w "$B" -merge "$TMP/merged.tga" "$TMP"/band*.tga)
+                cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged bands differ from the whole render"
+                "$B" -merge "$TMP/merged.tga" "$TMP"/square*.tga
+                cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged squares differ from the whole render"
+                rm -f "$TMP"/band*.tga "$TMP"/square*.tga
+                printf '   %-10s %-8s %-30s %9s %9s %9s %6s %9s %9s\n' "$SZ" \
+                    "$(case "$B" in *static) echo static ;; *) echo dynamic ;; esac)" \
+                    "${S/-gaussian_filter/+ Gaussian}" "$whole" "$t" "$q" "$m" "$(pct "$whole" "$t" "$m")" \
+                    "$(pct "$whole" "$q" "$m")"
+            done
+        done
+    done
+    echo "   (whole: mean of the render before and after the parts; w0 w1 spread shows the drift)"
+    echo "   load at the end: $(cut -d' ' -f1-3 /proc/loadavg)"
+    ;;
+esac
 case " $DIST_PARTS " in *" mpi "*) ;; *) echo ""; exit 0 ;; esac
 if [ ! -x "$MPI_BIN" ] || ! command -v mpirun >/dev/null 2>&1; then
     echo "   MPI: raytracer-mpi or mpirun missing (make mpi), skipped"

@@ -60,7 +60,8 @@ typedef struct Options {
     bool region;
     int region_x, region_y, region_w, region_h;
     bool tile;                   /* the region came from -tile k n */
-    int tile_k, tile_n;
+    int tile_k, tile_n;          /* tile k of tile_n: tile_cols columns, tile_n / tile_cols */
+    int tile_cols;               /* rows (1 column: bands; -tile k CxR) */
     ProgressMode progress;       /* -progress ALWAYS, -quiet NEVER, else AUTO */
     bool quiet;                  /* -quiet: no progress line, no hints */
     bool help, version;
@@ -93,5 +94,10 @@ int options_names(const char **names, int max);
  * from the bottom row), so a split render traces the same ray packets as a whole one.
  * Needs 1 <= n <= height and 0 <= k < n. */
 void options_tile_rows(int k, int n, int height, int *y, int *h);
+
+/* Column k (0 = left) of n columns of tiles of an image of width columns: its first
+ * column and its width. As options_tile_rows, on the renderer's 8-column packet grid
+ * (counted from the left column) when n <= ceil(width / 8). Needs 1 <= n <= width. */
+void options_tile_cols(int k, int n, int width, int *x, int *w);
 
 #endif

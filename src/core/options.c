@@ -9,6 +9,7 @@
 #include "rt/image.h"
 #include "rt/suggest.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
@@ -94,7 +95,8 @@ static const char usage_text[] =
         "  -seed n                  seed of the random samplers (default 0)\n"
         "Splitting a render (README.txt: Splitting a render)\n"
         "  -region x y w h          render only the w x h rectangle at (x, y) (top-left)\n"
-        "  -tile k n                render only band k (0 = top) of n horizontal bands\n"
+        "  -tile k n                render only band k (0 = top) of n horizontal bands;\n"
+        "                           n as CxR: tile k of C columns x R rows (row by row)\n"
         "  -merge out part...       (first option) assemble -region/-tile parts into out\n"
         "  -cache file              set-up cache: the first process writes the parsed meshes\n"
         "                           and the grid to file, the others map them (same image)\n"
@@ -292,6 +294,32 @@ static bool take_int(Cursor *c, const char *flag, int lo, int hi, int *out)
         return usage_error(c, "option %s: %s = %ld is out of range %d..%d", flag, name, v, lo,
                            hi);
     *out = (int)v;
+    return true;
+}
+
+/* The n of -tile k n: a count of bands ("8"), or columns x rows of a grid of tiles
+ * ("8x8", numbered row by row from the top left). Sets tile_n (all tiles) and tile_cols
+ * (1 for bands). */
+static bool parse_tile_count(Cursor *c, const char *s, Options *o)
+{
+    char *end;
+    errno = 0;
+    long cols = 1, rows = strtol(s, &end, 10);
+    if (end != s && *end == 'x' && errno != ERANGE) {
+        cols = rows;
+        const char *r = end + 1;
+        rows = strtol(r, &end, 10);
+        if (end == r || !isdigit((unsigned char)*r))
+            end = (char *)s; /* "8x" or "8x-1": not a grid */
+    }
+    if (end == s || *end != '\0' || errno == ERANGE || !isdigit((unsigned char)s[0]))
+        return usage_error(c, "option -tile k n: n expects a count of bands or columns x "
+                           "rows (8 or 8x8), got '%s'", s);
+    if (cols < 1 || rows < 1 || cols > MAX_IMAGE_SIDE || rows > MAX_IMAGE_SIDE)
+        return usage_error(c, "option -tile k n: n = '%s': each count must be in 1..%d", s,
+                           MAX_IMAGE_SIDE);
+    o->tile_cols = (int)cols;
+    o->tile_n = (int)(cols * rows);
     return true;
 }
 
@@ -631,12 +659,13 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             o->tile = false;
             region_given = true;
         } else if (!strcmp(a, "-tile")) {
-            if (!take_int(&c, a, 0, MAX_IMAGE_SIDE - 1, &o->tile_k) ||
-                !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->tile_n))
+            const char *n = NULL;
+            if (!take_int(&c, a, 0, MAX_IMAGE_SIDE * MAX_IMAGE_SIDE - 1, &o->tile_k) ||
+                !take(&c, a, &n) || !parse_tile_count(&c, n, o))
                 return false;
             if (o->tile_k >= o->tile_n)
-                return usage_error(&c, "option -tile k n: k must be below n (0-based), got %d %d",
-                                   o->tile_k, o->tile_n);
+                return usage_error(&c, "option -tile k n: k must be below n (0-based), got %d %s",
+                                   o->tile_k, n);
             o->tile = true;
             o->region = false;
             tile_given = true;
@@ -689,13 +718,18 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return usage_error(&c, "%s and %s name the same file '%s'", names[i], names[j],
                                    files[j]);
     if (o->tile) {
-        if (o->tile_n > o->height)
-            return usage_error(&c, "option -tile k n: n = %d bands is more than the %d rows "
-                               "of the image", o->tile_n, o->height);
+        int rows = o->tile_n / o->tile_cols;
+        if (rows > o->height)
+            return usage_error(&c, "option -tile k n: %d rows of tiles is more than the %d rows "
+                               "of the image", rows, o->height);
+        if (o->tile_cols > o->width)
+            return usage_error(&c, "option -tile k n: %d columns of tiles is more than the %d "
+                               "columns of the image", o->tile_cols, o->width);
         o->region = true;
-        o->region_x = 0;
-        o->region_w = o->width;
-        options_tile_rows(o->tile_k, o->tile_n, o->height, &o->region_y, &o->region_h);
+        options_tile_rows(o->tile_k / o->tile_cols, rows, o->height, &o->region_y,
+                          &o->region_h);
+        options_tile_cols(o->tile_k % o->tile_cols, o->tile_cols, o->width, &o->region_x,
+                          &o->region_w);
     }
     /* Standard output carries the image: the preview's c key prints there. */
     bool to_stdout = false;
@@ -732,6 +766,23 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                            "-stats, -render_samples, -render_filter, -gui, -gui_snapshot)");
     }
     return true;
+}
+
+void options_tile_cols(int k, int n, int width, int *x, int *w)
+{
+    int blocks = (width + 7) / 8;
+    if (n > blocks) { /* too narrow for whole packet columns: split the columns evenly */
+        int s = (int)((long long)k * width / n), e = (int)((long long)(k + 1) * width / n);
+        *x = s;
+        *w = e - s;
+        return;
+    }
+    /* Block b covers columns 8b..8b+7 from the left, like the renderer's packets (the
+     * last one may be narrow). */
+    int s = (int)((long long)k * blocks / n), e = (int)((long long)(k + 1) * blocks / n);
+    int hi = e * 8 > width ? width : e * 8;
+    *x = s * 8;
+    *w = hi - s * 8;
 }
 
 void options_tile_rows(int k, int n, int height, int *y, int *h)
