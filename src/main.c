@@ -271,7 +271,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
                      alloc_image(&target.depth, &depth, o->depth_file, o, bytes, &app->diag) &&
                      alloc_image(&target.normals, &normals, o->normals_file, o, bytes,
                                  &app->diag);
-    if (!dist_all(allocated)) {
+    if (!dist_root_ok(allocated)) {
         status = EXIT_INPUT;
         goto done;
     }

@@ -53,9 +53,12 @@ typedef struct DistJob {
  * false. */
 bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel);
 
-/* True when ok is true on every rank (a collective: every rank calls it at the same
- * point), so a failure on one rank stops them all at the same step. */
-bool dist_all(bool ok);
+/* The root's ok, on every rank (every rank calls it at the same point; the others'
+ * ok is ignored), so a failure only the root can have (its images' memory: the other
+ * ranks allocate nothing) stops them all at the same step. The root does not wait for
+ * the others: it sends its answer and goes on (a collective that waited would hold the
+ * root's render until the last rank has built its scene and grid). */
+bool dist_root_ok(bool ok);
 
 /* v[0..n-1] becomes the maximum over all ranks, on the root (phase times). */
 void dist_max(double *v, int n);

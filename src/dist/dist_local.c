@@ -34,7 +34,7 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     return ok;
 }
 
-bool dist_all(bool ok) { return ok; }
+bool dist_root_ok(bool ok) { return ok; }
 
 void dist_max(double *v, int n)
 {

@@ -228,7 +228,8 @@ static void test_region_18a(void) { check_regions("18a"); }
 
 /* Renders line id whole and as n tiles (in ext), merges the parts in a shuffled order
  * and compares the merged files with the whole render's, byte for byte. */
-static void check_tiles_with(const char *id, int n, const char *ext, const char *const *extra)
+static void check_tiles_of(const char *id, const char *count, int n, const char *ext,
+                           const char *const *extra)
 {
     const char *course = e2e_course_or_skip();
     Args base;
@@ -251,7 +252,7 @@ static void check_tiles_with(const char *id, int n, const char *ext, const char 
         Args b = base;
         char ks[16], ns[16], prefix[32];
         snprintf(ks, sizeof ks, "%d", k);
-        snprintf(ns, sizeof ns, "%d", n);
+        snprintf(ns, sizeof ns, "%s", count);
         snprintf(prefix, sizeof prefix, "tile%02d", k);
         add(&b, "-tile");
         add(&b, ks);
@@ -283,6 +284,14 @@ static void check_tiles_with(const char *id, int n, const char *ext, const char 
     e2e_rmtree(dir);
 }
 
+/* n bands (-tile k n). */
+static void check_tiles_with(const char *id, int n, const char *ext, const char *const *extra)
+{
+    char count[16];
+    snprintf(count, sizeof count, "%d", n);
+    check_tiles_of(id, count, n, ext, extra);
+}
+
 static void check_tiles(const char *id, int n, const char *ext)
 {
     check_tiles_with(id, n, ext, NULL);
@@ -293,6 +302,10 @@ static void test_tiles_7(void) { check_tiles("18a", 7, "tga"); }
 /* 64 bands of a 300-row image are thinner than the 8-row packet bands: rows split. */
 static void test_tiles_64(void) { check_tiles("17a", 64, "tga"); }
 static void test_tiles_ppm(void) { check_tiles("11b", 5, "ppm"); }
+/* A grid of tiles (-tile k CxR): columns on the 8-column packet grid, and (8x8 of a
+ * 300x300 image) rows and columns thinner than a packet. */
+static void test_tiles_grid(void) { check_tiles_of("18a", "3x2", 6, "tga", NULL); }
+static void test_tiles_grid_64(void) { check_tiles_of("17a", "8x8", 64, "tga", NULL); }
 static void test_tiles_png(void)
 {
     if (!image_format_supported("png"))
@@ -318,6 +331,8 @@ static void test_region_aa_03d(void) { check_regions_with("03d", AA_ADAPTIVE_MIT
 static void test_region_aa_14(void) { check_regions_with("14", AA_RANDOM_BOX); }
 static void test_tiles_aa_18a(void) { check_tiles_with("18a", 5, "tga", AA_JITTER_GAUSS); }
 static void test_tiles_aa_11b(void) { check_tiles_with("11b", 9, "tga", AA_ADAPTIVE_MITCHELL); }
+/* The Gaussian's margin crosses the tiles' left and right edges too. */
+static void test_tiles_grid_aa(void) { check_tiles_of("18a", "4x3", 12, "tga", AA_JITTER_GAUSS); }
 
 /* Bands on the packet grid trace the whole render's packets: the -stats counters of
  * the tiles add up to the whole render's exactly. */
@@ -502,6 +517,14 @@ static void test_region_usage_errors(void)
         {"-size", "40", "30", "-tile", "2", "2", NULL},
         {"-size", "40", "30", "-tile", "0", "31", NULL},
         {"-size", "40", "30", "-tile", "-1", "3", NULL},
+        {"-size", "40", "30", "-tile", "12", "4x3", NULL},
+        {"-size", "40", "30", "-tile", "0", "41x1", NULL},
+        {"-size", "40", "30", "-tile", "0", "1x31", NULL},
+        {"-size", "40", "30", "-tile", "0", "0x3", NULL},
+        {"-size", "40", "30", "-tile", "0", "4x", NULL},
+        {"-size", "40", "30", "-tile", "0", "4x3x2", NULL},
+        {"-size", "40", "30", "-tile", "0", "x3", NULL},
+        {"-size", "40", "30", "-tile", "0", "4x-3", NULL},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         const char *args[16] = {"-input", "scene.txt"};
@@ -535,6 +558,30 @@ static void test_tile_rows_cover(void)
                 next = y + h;
             }
             CHECK_INT(next, height);
+            if (harness_failures)
+                return;
+        }
+    }
+}
+
+/* Columns of tiles cover the image left to right without overlap, and on the 8-column
+ * packet grid (counted from the left) whenever there are enough of those. */
+static void test_tile_cols_cover(void)
+{
+    for (int width = 1; width <= 70; width++) {
+        for (int n = 1; n <= width; n++) {
+            int next = 0;
+            for (int k = 0; k < n; k++) {
+                int x, w;
+                options_tile_cols(k, n, width, &x, &w);
+                CHECK_MSG(x == next && w >= 1, "width %d, %d columns: column %d at %d+%d, "
+                          "expected to start at %d", width, n, k, x, w, next);
+                if (n <= (width + 7) / 8)
+                    CHECK_MSG(x % 8 == 0, "width %d, %d columns: column %d off the packet "
+                              "grid", width, n, k);
+                next = x + w;
+            }
+            CHECK_INT(next, width);
             if (harness_failures)
                 return;
         }
@@ -608,6 +655,7 @@ static const TestCase tests[] = {
     {"region_record_formats", test_region_record_formats},
     {"region_usage_errors", test_region_usage_errors},
     {"tile_rows_cover", test_tile_rows_cover},
+    {"tile_cols_cover", test_tile_cols_cover},
     {"region_03d", test_region_03d},
     {"region_11b", test_region_11b},
     {"region_14", test_region_14},
@@ -617,6 +665,8 @@ static const TestCase tests[] = {
     {"tiles_7", test_tiles_7},
     {"tiles_64", test_tiles_64},
     {"tiles_ppm", test_tiles_ppm},
+    {"tiles_grid", test_tiles_grid},
+    {"tiles_grid_64", test_tiles_grid_64},
     {"tiles_png", test_tiles_png},
     {"region_aa_17a", test_region_aa_17a},
     {"region_aa_11b", test_region_aa_11b},
@@ -624,6 +674,7 @@ static const TestCase tests[] = {
     {"region_aa_14", test_region_aa_14},
     {"tiles_aa_18a", test_tiles_aa_18a},
     {"tiles_aa_11b", test_tiles_aa_11b},
+    {"tiles_grid_aa", test_tiles_grid_aa},
     {"tile_stats_add_up", test_tile_stats_add_up},
     {"bad_merges", test_bad_merges},
 };
