@@ -15,11 +15,13 @@
 #    does not inflate the way it does the wall time. MPIRUN_FLAGS defaults to the
 #    one-machine transports (--mca pml ob1 --mca btl self,vader: shared memory only,
 #    no probing for network hardware; docs/distributed.md); set it empty for OpenMPI's
-#    own choice. Skipped when raytracer-mpi or mpirun is missing.
+#    own choice; MPIRUN_ENV (default PMIX_MCA_gds=hash) is mpirun's environment. Skipped
+#    when raytracer-mpi or mpirun is missing.
 # Every part's merge is compared with the whole render (cmp): a difference is reported.
 # On a machine shared with others, Linux shares CPU between login sessions
 # (/proc/sys/kernel/sched_autogroup_enabled): while other sessions are busy, -np 2 gets
-# about what one process gets, whatever nice says (docs/distributed.md, measured points).
+# about what one process gets, whatever nice says (docs/distributed.md, measured points):
+# run this script in a session of its own (setsid bash bench/dist.sh ...).
 # DIST_PARTS: "tiles mpi" (default), or one of them.
 # Usage: bash bench/dist.sh RAYTRACER RAYTRACER_MPI COURSE_DIR [RUNS]
 set -u
@@ -43,6 +45,10 @@ wall_cpu_ms() {
 }
 DIST_PARTS=${DIST_PARTS:-tiles mpi}
 MPIRUN_FLAGS=${MPIRUN_FLAGS-"--mca pml ob1 --mca btl self,vader"}
+# Environment for mpirun (assignments, as for env): PMIx's hash store instead of its
+# shared-memory one (mpirun then sets up no shared-memory segments and locks for the
+# job's data; measured in bench/REPORT.txt, dist's section); empty for none.
+MPIRUN_ENV=${MPIRUN_ENV-"PMIX_MCA_gds=hash"}
 SCENE=$COURSE/scene6_07_bunny_mesh_40k.txt
 A=(-input "$SCENE" -grid 40 40 33 -shadows -size 1920 1080 -threads 1)
 N_TILES=64
@@ -107,8 +113,10 @@ fi
 # the Gaussian 0.4 (its margin is traced again by every tile that borders another: a
 # band borders two along its width, a square along its perimeter). Band k and square k
 # run back to back, so drift hits both alike; the whole render runs before and after
-# (their mean). Every process in its own session (setsid -w: the kernel shares CPU per
-# session); CPU = user+sys of every process.
+# (their mean). CPU = user+sys of every process. Run the whole script in a session of
+# its own (setsid bash bench/dist.sh ...: the kernel shares CPU per session), not each
+# part: `setsid -w` per part would add its own process (~8 ms of CPU here) to every
+# part's figure.
 case " $DIST_PARTS " in *" shapes "*)
     STATIC_BIN=${STATIC_BIN:-$(dirname "$BIN")/raytracer-static}
     SHAPE_BINS=("$BIN")
@@ -123,20 +131,20 @@ case " $DIST_PARTS " in *" shapes "*)
             for B in "${SHAPE_BINS[@]}"; do
                 rm -f "$TMP/b.cache" "$TMP/s.cache"
                 # shellcheck disable=SC2086
-                w0=$(cpu_ms setsid -w "$B" "${SA[@]}" $S -output "$TMP/whole.tga")
+                w0=$(cpu_ms "$B" "${SA[@]}" $S -output "$TMP/whole.tga")
                 t=0 q=0
                 for ((k = 0; k < 64; k++)); do
                     # shellcheck disable=SC2086
-                    t=$(add "$t" "$(cpu_ms setsid -w "$B" "${SA[@]}" $S -cache "$TMP/b.cache" \
+                    t=$(add "$t" "$(cpu_ms "$B" "${SA[@]}" $S -cache "$TMP/b.cache" \
                         -tile $k 64 -output "$TMP/band$k.tga")")
                     # shellcheck disable=SC2086
-                    q=$(add "$q" "$(cpu_ms setsid -w "$B" "${SA[@]}" $S -cache "$TMP/s.cache" \
+                    q=$(add "$q" "$(cpu_ms "$B" "${SA[@]}" $S -cache "$TMP/s.cache" \
                         -tile $k 8x8 -output "$TMP/square$k.tga")")
                 done
                 # shellcheck disable=SC2086
-                w1=$(cpu_ms setsid -w "$B" "${SA[@]}" $S -output "$TMP/whole.tga")
+                w1=$(cpu_ms "$B" "${SA[@]}" $S -output "$TMP/whole.tga")
                 whole=$(awk -v a="$w0" -v b="$w1" 'BEGIN { printf "%.1f", (a + b) / 2 }')
-                m=$(cpu_ms setsid -w "$B" -merge "$TMP/merged.tga" "$TMP"/band*.tga)
+                m=$(cpu_ms "$B" -merge "$TMP/merged.tga" "$TMP"/band*.tga)
                 cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged bands differ from the whole render"
                 "$B" -merge "$TMP/merged.tga" "$TMP"/square*.tga
                 cmp -s "$TMP/merged.tga" "$TMP/whole.tga" || echo "   !! merged squares differ from the whole render"
@@ -158,7 +166,7 @@ if [ ! -x "$MPI_BIN" ] || ! command -v mpirun >/dev/null 2>&1; then
     echo ""
     exit 0
 fi
-echo "   MPI: mpirun --oversubscribe ${MPIRUN_FLAGS:-(no flags)}; load at the start: $(cut -d' ' -f1-3 /proc/loadavg)"
+echo "   MPI: ${MPIRUN_ENV:+$MPIRUN_ENV }mpirun --oversubscribe ${MPIRUN_FLAGS:-(no flags)}; load at the start: $(cut -d' ' -f1-3 /proc/loadavg)"
 printf '   %-42s %10s %10s %10s %8s %8s   %s\n' samples "np 1" "np 2" "np 4" "x np2" "x np4" \
     "CPU ms np 1 / 2 / 4"
 for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; do
@@ -166,7 +174,7 @@ for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; d
     for ((k = 0; k < RUNS; k++)); do
         for np in 1 2 4; do
             # shellcheck disable=SC2086
-            read -r t c < <(wall_cpu_ms mpirun --oversubscribe $MPIRUN_FLAGS -np $np "$MPI_BIN" \
+            read -r t c < <(wall_cpu_ms env $MPIRUN_ENV mpirun --oversubscribe $MPIRUN_FLAGS -np $np "$MPI_BIN" \
                 "${A[@]}" $S -output "$TMP/m$np.tga")
             eval "w$np+=(\"$t\") c$np+=(\"$c\")"
         done
