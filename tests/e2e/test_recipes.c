@@ -169,6 +169,26 @@ static void test_tiles_sbatch_fallback(void)
         CHECK_MSG(e2e_count_entries(s.dir) == 4 && e2e_exists(stale_part),
                   "tiles.sbatch touched another run's folder or left its own");
     e2e_rmtree(stale);
+    /* TILE_COLS: a grid of 2 columns x 3 rows instead of 6 bands, the same image */
+    snprintf(cmd, sizeof cmd,
+             "TILES=6 TILE_COLS=2 RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' "
+             "scene.txt frame.tga -size %s %s -shadows -bounces 2", s.bin, s.root, SIZE_W,
+             SIZE_H);
+    if (run_recipe(&s, cmd, "tiles.sbatch (no Slurm, a 2x3 grid)"))
+        CHECK_MSG(e2e_count_entries(s.dir) == 3, "tiles.sbatch left its parts behind");
+    /* 6 tiles do not make whole rows of 4 columns: refused before anything runs */
+    E2eRun g;
+    snprintf(cmd, sizeof cmd,
+             "TILES=6 TILE_COLS=4 RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' "
+             "scene.txt other.tga -size %s %s", s.bin, s.root, SIZE_W, SIZE_H);
+    char gfull[8 * PATH_MAX];
+    snprintf(gfull, sizeof gfull, "cd '%s' && %s", s.dir, cmd);
+    char *gargv[] = {(char *)"/bin/sh", (char *)"-c", gfull, NULL};
+    CHECK(e2e_run(gargv, &g));
+    CHECK_MSG(g.status == 2, "tiles.sbatch with TILE_COLS=4 of 6: exit %d, expected 2",
+              g.status);
+    CHECK_CONTAINS(g.err, "TILE_COLS=4");
+    e2e_run_free(&g);
     /* -tile and -region are the script's: refused (status 2) before anything runs */
     static const char *const own[] = {"-tile 0 2", "-region 0 0 8 8"};
     E2eRun r;
