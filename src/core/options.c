@@ -313,10 +313,13 @@ static bool parse_tile_count(Cursor *c, const char *s, Options *o)
             end = (char *)s; /* "8x" or "8x-1": not a grid */
     }
     if (end == s || *end != '\0' || errno == ERANGE || !isdigit((unsigned char)s[0]))
-        return usage_error(c, "option -tile k n: n expects a count of bands or columns x "
-                           "rows (8 or 8x8), got '%s'", s);
+        return usage_error(c, "option -tile: n expects an integer or columns x rows (8 or "
+                           "8x8), got '%s'", s);
+    if (!strchr(s, 'x') && (rows < 1 || rows > MAX_IMAGE_SIDE))
+        return usage_error(c, "option -tile: n = %ld is out of range 1..%d", rows,
+                           MAX_IMAGE_SIDE);
     if (cols < 1 || rows < 1 || cols > MAX_IMAGE_SIDE || rows > MAX_IMAGE_SIDE)
-        return usage_error(c, "option -tile k n: n = '%s': each count must be in 1..%d", s,
+        return usage_error(c, "option -tile: n = %s: columns and rows must be in 1..%d", s,
                            MAX_IMAGE_SIDE);
     o->tile_cols = (int)cols;
     o->tile_n = (int)(cols * rows);
