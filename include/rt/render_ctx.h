@@ -12,9 +12,9 @@ typedef struct RenderCtx {
     uint32_t *mailbox;     /* grid marking: one stamp per grid entry-primitive, or NULL */
     uint32_t num_mailbox;  /* entries in mailbox */
     uint32_t ray_stamp;    /* stamp of the ray being marched (0 is never a live stamp) */
-    uint64_t *packet_rays; /* packet marking: per grid entry-primitive, the rays of the
-                              current packet (stamp ray_stamp) that have tested it; NULL
-                              disables packet traversal (grid_*_packet go ray by ray) */
+    uint64_t *packet_rays; /* non-NULL: packet traversal on (raytracer_ctx_init makes one
+                              mask; the packets mark in a table of their own, in
+                              src/accel/grid_packet.h); NULL: grid_*_packet go ray by ray */
     RayTree *tree;         /* non-NULL only while the GUI records one ray tree */
     volatile int *cancel;  /* the run's stop flag (render_parallel sets it), or NULL: once
                               non-zero no reflected or refracted ray is spawned, so one

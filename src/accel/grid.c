@@ -42,6 +42,7 @@ void grid_free(Grid *g)
         bigmem_free(g->cell_start);
         grid_pack_free(g);
     }
+    bigmem_free(g->occupied);
     bigmem_free(atomic_load_explicit(&g->course_count, memory_order_relaxed));
     pthread_mutex_destroy(&g->course_lock);
     bigmem_free(g->prims);

@@ -199,6 +199,8 @@ bool grid_bin_fill_pack(GridBuild *b)
     /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c). */
     if (ok)
         ok = grid_pack(g);
+    if (ok)
+        grid_occupancy_make(g);
     free(job.chunk);
     return ok;
 }

@@ -143,6 +143,7 @@ Grid *grid_cache_load(const PrimTable *t, SetupCache *c, SetupKey key, Diag *dia
                 g->tri_hit[p].material = g->prims[p].obj->material;
             }
     }
+    grid_occupancy_make(g);
     int n[3] = {h.n[0], h.n[1], h.n[2]}, req[3] = {h.req[0], h.req[1], h.req[2]};
     if (memcmp(n, req, sizeof n) != 0)
         grid_warn_refit(diag, req, n, grid_ref_cap(t->num_bounded));

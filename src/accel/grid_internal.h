@@ -65,6 +65,11 @@ struct Grid {
     uint32_t num_cells;
     uint32_t *cell_start;   /* num_cells + 1 offsets into cell_items (CSR) */
     uint32_t *cell_items;   /* indices into prims: the marching sets (tight insertion) */
+    /* Bit c (word c / 64, bit c % 64) set when cell c has entries, or NULL: the
+     * packet walk reads it before cell_start, so the empty cells it crosses (most of
+     * them) cost a bit in an array 32 times smaller than cell_start (grid_pack.c,
+     * grid_occupancy_make). The grid's own memory, also with a set-up cache. */
+    uint64_t *occupied;
     /* Per cell: entries by the course rules (grid_course.c), the -visualize_grid count.
      * Only -visualize_grid, the preview and -timings read them, so they are made on
      * first use (grid_course_counts) instead of by every build: a split render's
@@ -121,6 +126,9 @@ Grid *grid_alloc(void);
 
 /* Builds g->tri and tags the cell items (after the CSR fill); false when out of memory. */
 bool grid_pack(Grid *g);
+/* Makes g->occupied from cell_start (left NULL when out of memory: the walk then reads
+ * cell_start for every cell, with the same answers). */
+void grid_occupancy_make(Grid *g);
 void grid_pack_free(Grid *g);
 
 /* Where the march (its box clip, first cell and grid_ray_too_far) starts for a query

@@ -154,6 +154,18 @@ void grid_set_packing(Grid *g, bool on)
 
 bool grid_packing(const Grid *g) { return g->tri && !g->packing_off; }
 
+void grid_occupancy_make(Grid *g)
+{
+    size_t words = ((size_t)g->num_cells + 63) / 64;
+    uint64_t *occ = bigmem_calloc(words ? words : 1, sizeof *occ);
+    if (occ) {
+        const uint32_t *start = g->cell_start;
+        for (uint32_t c = 0; c < g->num_cells; c++)
+            occ[c >> 6] |= (uint64_t)(start[c + 1] != start[c]) << (c & 63);
+    }
+    g->occupied = occ;
+}
+
 void grid_pack_free(Grid *g)
 {
     bigmem_free(g->tri);

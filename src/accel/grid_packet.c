@@ -14,6 +14,18 @@
 #define PK_SPREAD grid_packet_spread_generic
 #include "grid_packet_kernel.h"
 
+static _Thread_local PacketMarks thread_marks;
+
+PacketMarks *grid_packet_marks(void)
+{
+    PacketMarks *m = &thread_marks;
+    if (++m->gen == 0) { /* after 2^32 walks: no slot may look current */
+        memset(m->slot, 0, sizeof m->slot);
+        m->gen = 1;
+    }
+    return m;
+}
+
 typedef void (*WalkFn)(const Grid *, Packet *, RenderCtx *);
 typedef uint64_t (*PrepFn)(const Grid *, Packet *, uint64_t, const float *, uint64_t *);
 typedef float (*SpreadFn)(const Grid *, const Packet *, uint64_t);

@@ -53,6 +53,26 @@ typedef struct Packet {
     const Ray *rays;
 } Packet;
 
+/* Packet marking: which of a packet's rays have tested a primitive. A direct-mapped
+ * table of the thread (16 KB, so it stays in the first-level cache), slot prim mod
+ * PK_MARK_SLOTS, valid for the walk whose generation it carries. A slot taken over by
+ * another primitive only forgets marks, and a forgotten mark costs a repeated test with
+ * the same answer (the same t and id, which hit_accepts does not take twice); the per-
+ * primitive arrays it replaces (12 bytes a primitive: 16 MB on a 1.3M-triangle mesh,
+ * read at every entry) made most entries a cache miss. */
+#define PK_MARK_SLOTS 1024
+typedef struct PacketMark {
+    uint32_t gen;               /* the walk that wrote it (0: none yet) */
+    uint32_t prim;
+    uint64_t rays;              /* that walk's rays that have tested prim */
+} PacketMark;
+typedef struct PacketMarks {
+    uint32_t gen;
+    PacketMark slot[PK_MARK_SLOTS];
+} PacketMarks;
+/* This thread's table with a fresh generation (grid_packet.c). */
+PacketMarks *grid_packet_marks(void);
+
 /* One kernel per instruction set: walks the packet's active rays (grid_packet_kernel.h). */
 void grid_packet_walk_generic(const Grid *g, Packet *pk, RenderCtx *ctx);
 void grid_packet_walk_avx2(const Grid *g, Packet *pk, RenderCtx *ctx);

@@ -289,12 +289,15 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
     const float pad_u = g->pad[U], pad_v = g->pad[V];
     const int nk = g->n[K], nu = g->n[U], nv = g->n[V];
     const uint32_t *start = g->cell_start, *items = g->cell_items;
+    const uint64_t *occ = g->occupied;
+    const PackedTri *tri = g->tri;
     const pk_fv inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
     const pk_f8 inf8 = pk8_splat(INFINITY), ninf8 = pk8_splat(-INFINITY);
 
-    uint32_t stamp = grid_begin_ray(g, ctx);
-    uint32_t *mb = stamp ? ctx->mailbox : NULL;
-    uint64_t *mrays = ctx->packet_rays;
+    /* Marking as for the single-ray march (on when the context has a mailbox), in the
+     * thread's small table (grid_packet.h). */
+    PacketMarks *marks = grid_begin_ray(g, ctx) ? grid_packet_marks() : NULL;
+    const uint32_t gen = marks ? marks->gen : 0;
     /* Statistics: each ray counts the cells of its own range in every slice, summed
      * lane by lane and added up once at the end. A ray's ranges are disjoint sets of
      * cells, so a lane (at most 8 rays) gains at most 8 x 16M < 2^31 (grids hold at most
@@ -388,9 +391,16 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                 for (int iu = iu0; iu <= iu1; iu++) {
                     c[U] = iu;
                     uint32_t cell = grid_cell_index(g, c[0], c[1], c[2]);
+                    if (occ && !(occ[cell >> 6] >> (cell & 63) & 1))
+                        continue; /* empty: cell_start not read */
                     uint32_t e = start[cell], end = start[cell + 1];
                     if (e == end)
                         continue;
+                    /* The cell's packed triangles on their way into the cache
+                     * together, instead of one miss after the other. */
+                    if (tri)
+                        for (uint32_t f = e; f < end; f++)
+                            __builtin_prefetch(&tri[GRID_ITEM_INDEX(items[f])]);
                     uint64_t crossing = in;
                     if (!one_cell) {
                         crossing = 0;
@@ -435,10 +445,11 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                             if (!want)
                                 continue;
                         }
-                        if (mb) {
+                        if (marks) {
                             /* Packet marking: a ray that has tested p skips it. */
-                            if (mb[p] == stamp) {
-                                uint64_t seen = mrays[p] & want;
+                            PacketMark *pm = &marks->slot[p & (PK_MARK_SLOTS - 1)];
+                            if (pm->gen == gen && pm->prim == p) {
+                                uint64_t seen = pm->rays & want;
                                 if (g->marking) {
                                     ctx->stats.mailbox_skips += (uint64_t)__builtin_popcountll(seen);
                                     want &= ~seen;
@@ -447,10 +458,11 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                                 } else {
                                     ctx->stats.repeat_tests += (uint64_t)__builtin_popcountll(seen);
                                 }
-                                mrays[p] |= want;
+                                pm->rays |= want;
                             } else {
-                                mb[p] = stamp;
-                                mrays[p] = want;
+                                pm->gen = gen;
+                                pm->prim = p;
+                                pm->rays = want;
                             }
                         }
                         if (item & GRID_ITEM_TRI) {

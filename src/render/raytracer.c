@@ -445,14 +445,16 @@ bool raytracer_ctx_init(RenderCtx *ctx, const RayTracer *rt)
     memset(ctx, 0, sizeof *ctx);
     uint32_t n = accel_scratch_size(rt->accel);
     if (n) {
-        /* bigmem: a 40k-triangle grid's stamps (160 KB) and packet masks (320 KB) come
-         * from its huge-page pool instead of ~120 fresh 4 KB pages per thread. */
+        /* bigmem: a 40k-triangle grid's stamps (160 KB) come from its huge-page pool
+         * instead of ~40 fresh 4 KB pages per thread. */
         ctx->mailbox = bigmem_calloc(n, sizeof *ctx->mailbox);
         if (!ctx->mailbox)
             return false;
         ctx->num_mailbox = n;
         if (!rt->single_rays && accel_has_packets(rt->accel)) {
-            ctx->packet_rays = bigmem_calloc(n, sizeof *ctx->packet_rays);
+            /* One mask: the packets mark in a small table of their own (grid_packet.h),
+             * so this only switches them on. */
+            ctx->packet_rays = bigmem_calloc(1, sizeof *ctx->packet_rays);
             if (!ctx->packet_rays) {
                 raytracer_ctx_free(ctx);
                 return false;
