@@ -595,6 +595,8 @@ static int run(App *app)
     }
     const Grid *grid = grid_of_accel(&app->accel);
     if (o->timings && grid && dist_is_root()) {
+        /* Both sums below run on the set-up threads (the grid's build let them go). */
+        par_prepare();
         uint64_t course, marching;
         grid_entry_totals(grid, &course, &marching);
         int n[3];
@@ -603,6 +605,7 @@ static int run(App *app)
                 "%llu (cap %llu)\n", (unsigned long long)marching, (unsigned long long)course,
                 (unsigned long long)grid_ref_estimate(&app->prims, n),
                 (unsigned long long)grid_ref_cap(app->prims.num_bounded));
+        par_release();
     }
     /* Without an accelerator every ray tests every primitive: fine for the course's
      * small scenes, thousands of times slower on a mesh. The course's semantics stay (no

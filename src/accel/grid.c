@@ -237,6 +237,59 @@ Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)
 
 /* ---- the course counts, on first use ---- */
 
+/* Primitives per chunk of the course counts' parallel pass. */
+enum { COURSE_CHUNK = 2048 };
+
+/* The course counts' pass on the set-up threads (rt/par.h): worker 0 counts into the
+ * result, the others into arrays of their own that are added in afterwards. The counts
+ * are sums, so any split gives the same array. */
+typedef struct CourseJob {
+    const Grid *g;
+    uint32_t *count[PAR_MAX_WORKERS];
+    bool oom;
+} CourseJob;
+
+static void course_chunk(void *ctx, int k, int worker)
+{
+    CourseJob *job = ctx;
+    const Grid *g = job->g;
+    if (!job->count[worker]) {
+        uint32_t *c = bigmem_calloc(g->num_cells, sizeof *c);
+        if (!c) {
+            /* Read only after the par_for returns: a plain flag suffices. */
+            job->oom = true;
+            return;
+        }
+        job->count[worker] = c;
+    }
+    uint32_t p0 = (uint32_t)k * COURSE_CHUNK;
+    uint32_t p1 = g->num_prims - p0 > COURSE_CHUNK ? p0 + COURSE_CHUNK : g->num_prims;
+    for (uint32_t p = p0; p < p1; p++) {
+        GridBuildRec rec;
+        grid_make_rec(&g->prims[p], grid_prim_rec_kind(&g->prims[p]), &rec);
+        grid_course_insert(g, job->count[worker], &rec);
+    }
+}
+
+/* The counts into c (zeroed): false when out of memory. */
+static bool course_count_all(const Grid *g, uint32_t *c)
+{
+    uint32_t nchunks = g->num_prims / COURSE_CHUNK + (g->num_prims % COURSE_CHUNK != 0);
+    CourseJob job;
+    memset(&job, 0, sizeof job);
+    job.g = g;
+    job.count[0] = c;
+    par_for((int)nchunks, course_chunk, &job);
+    for (int w = 1; w < PAR_MAX_WORKERS; w++) {
+        if (!job.count[w])
+            continue;
+        for (uint32_t i = 0; i < g->num_cells; i++)
+            c[i] += job.count[w][i];
+        bigmem_free(job.count[w]);
+    }
+    return !job.oom;
+}
+
 const uint32_t *grid_course_counts(const Grid *g)
 {
     uint32_t *c = atomic_load_explicit(&g->course_count, memory_order_acquire);
@@ -251,12 +304,12 @@ const uint32_t *grid_course_counts(const Grid *g)
         c = bigmem_calloc(g->num_cells, sizeof *c);
         /* The counts are sums, so the order of the primitives (grid_pack renumbered
          * them) does not matter. */
-        for (uint32_t p = 0; c && p < g->num_prims; p++) {
-            GridBuildRec rec;
-            grid_make_rec(&g->prims[p], grid_prim_rec_kind(&g->prims[p]), &rec);
-            grid_course_insert(g, c, &rec);
+        if (c && !course_count_all(g, c)) {
+            bigmem_free(c);
+            c = NULL;
         }
-        atomic_store_explicit(&mg->course_count, c, memory_order_release);
+        if (c)
+            atomic_store_explicit(&mg->course_count, c, memory_order_release);
     }
     pthread_mutex_unlock(&mg->course_lock);
     return c;

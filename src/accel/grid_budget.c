@@ -12,7 +12,10 @@
 #include "grid_build.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+#include "rt/par.h"
 
 uint64_t grid_ref_cap(uint32_t num_bounded)
 {
@@ -55,10 +58,71 @@ static uint64_t tri_refs_bound(const Grid *g, const double inv_size[3], const Pr
     return r;
 }
 
+/* Primitives per chunk of the estimate's parallel pass. */
+enum { EST_CHUNK = 2048 };
+
+/* The estimate's per-primitive term (see estimate). */
+static uint64_t est_term(const Grid *g, const double inv_size[3], const Prim *p, bool quick)
+{
+    uint64_t r = quick && obj_kind(p->obj) == OBJ_TRIANGLE ? tri_refs_bound(g, inv_size, p) : 0;
+    return r ? r : prim_refs(g, p);
+}
+
+/* The sum of est_term over the table's bounded primitives from index i0 on, with sum
+ * and seen already counted before i0; past stop, the extrapolation (see estimate). */
+static uint64_t est_serial(const PrimTable *t, const Grid *g, const double inv_size[3],
+                           uint32_t i0, uint64_t sum, uint32_t seen, uint64_t stop, bool quick)
+{
+    for (uint32_t i = i0; i < t->num_prims; i++) {
+        const Prim *p = &t->prims[i];
+        if (!p->bounded)
+            continue;
+        sum += est_term(g, inv_size, p, quick);
+        seen++;
+        if (sum > stop && seen < t->num_bounded)
+            return (uint64_t)((double)sum * ((double)t->num_bounded / (double)seen));
+    }
+    return sum;
+}
+
+/* The parallel pass: each chunk's sum and count of bounded primitives. */
+typedef struct EstJob {
+    const PrimTable *t;
+    const Grid *g;
+    const double *inv_size;
+    bool quick;
+    uint64_t *sum;
+    uint32_t *seen;
+} EstJob;
+
+static void est_chunk(void *ctx, int k, int worker)
+{
+    (void)worker;
+    const EstJob *job = ctx;
+    uint32_t i0 = (uint32_t)k * EST_CHUNK;
+    uint32_t i1 = job->t->num_prims - i0 > EST_CHUNK ? i0 + EST_CHUNK : job->t->num_prims;
+    uint64_t sum = 0;
+    uint32_t seen = 0;
+    for (uint32_t i = i0; i < i1; i++) {
+        const Prim *p = &job->t->prims[i];
+        if (!p->bounded)
+            continue;
+        sum += est_term(job->g, job->inv_size, p, job->quick);
+        seen++;
+    }
+    job->sum[k] = sum;
+    job->seen[k] = seen;
+}
+
 /* The estimate for n, or (when it passes stop) an extrapolation from the primitives
  * added so far, which is enough to choose the next resolution to try. quick: take
  * tri_refs_bound for triangles, an upper bound on the estimate (used to skip the
- * exact sum when even the bound fits the cap, as on every dense mesh). */
+ * exact sum when even the bound fits the cap, as on every dense mesh).
+ * On the set-up threads (rt/par.h) when it usually runs to the end (the quick bound,
+ * the full sum): chunk sums, added in chunk order up to the chunk where the running sum
+ * passes stop, from which on the primitives are added one by one as before. Sums of
+ * integers, so the result is the serial loop's on any number of threads. The exact
+ * estimates of a refit, which usually stop early, stay serial. */
 static uint64_t estimate(const PrimTable *t, const int n[3], uint64_t stop, bool quick)
 {
     if (!t || t->num_bounded == 0 || bbox_is_empty(&t->scene_bounds))
@@ -71,20 +135,28 @@ static uint64_t estimate(const PrimTable *t, const int n[3], uint64_t stop, bool
     double inv_size[3];
     for (int a = 0; a < 3; a++)
         inv_size[a] = 1.0 / (double)g.size[a];
-    uint64_t sum = 0;
-    uint32_t seen = 0;
-    for (uint32_t i = 0; i < t->num_prims; i++) {
-        const Prim *p = &t->prims[i];
-        if (!p->bounded)
-            continue;
-        uint64_t r = quick && obj_kind(p->obj) == OBJ_TRIANGLE ? tri_refs_bound(&g, inv_size, p)
-                                                               : 0;
-        sum += r ? r : prim_refs(&g, p);
-        seen++;
-        if (sum > stop && seen < t->num_bounded)
-            return (uint64_t)((double)sum * ((double)t->num_bounded / (double)seen));
+    uint32_t nchunks = t->num_prims / EST_CHUNK + (t->num_prims % EST_CHUNK != 0);
+    if ((!quick && stop != UINT64_MAX) || nchunks < 2 || par_threads() < 2)
+        return est_serial(t, &g, inv_size, 0, 0, 0, stop, quick);
+    uint64_t *sums = malloc(nchunks * sizeof *sums);
+    uint32_t *seens = malloc(nchunks * sizeof *seens);
+    if (!sums || !seens) {
+        free(sums);
+        free(seens);
+        return est_serial(t, &g, inv_size, 0, 0, 0, stop, quick);
     }
-    return sum;
+    EstJob job = {t, &g, inv_size, quick, sums, seens};
+    par_for((int)nchunks, est_chunk, &job);
+    uint64_t sum = 0;
+    uint32_t seen = 0, k = 0;
+    for (; k < nchunks && sum + sums[k] <= stop; k++) {
+        sum += sums[k];
+        seen += seens[k];
+    }
+    free(sums);
+    free(seens);
+    return k == nchunks ? sum
+                        : est_serial(t, &g, inv_size, k * EST_CHUNK, sum, seen, stop, quick);
 }
 
 uint64_t grid_ref_estimate(const PrimTable *t, const int n[3])

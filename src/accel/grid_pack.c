@@ -11,6 +11,7 @@
 
 #include "rt/bigmem.h"
 #include "rt/geom.h"
+#include "rt/par.h"
 
 /* The renumbering of the primitives in the order the cells first mention them, so the
  * packed triangles (and the mailbox stamps) a cell's entries point to lie next to each
@@ -98,6 +99,40 @@ static void pack_prim(const Grid *g, const GridPrim *gp, PackedTri *pt, TriHit *
     }
 }
 
+/* Primitives (and entries) per chunk of the pack's parallel passes. */
+enum { PACK_CHUNK = 4096 };
+
+typedef struct PackJob {
+    Grid *g;
+    const uint32_t *newix;
+} PackJob;
+
+/* Chunk k of the table: each primitive packed into its new slot (disjoint slots: newix
+ * is a permutation). */
+static void pack_chunk(void *ctx, int k, int worker)
+{
+    (void)worker;
+    const PackJob *job = ctx;
+    Grid *g = job->g;
+    uint32_t p0 = (uint32_t)k * PACK_CHUNK;
+    uint32_t p1 = g->num_prims - p0 > PACK_CHUNK ? p0 + PACK_CHUNK : g->num_prims;
+    for (uint32_t p = p0; p < p1; p++)
+        pack_prim(g, &g->prims[p], &g->tri[job->newix[p]], &g->tri_hit[job->newix[p]]);
+}
+
+/* Chunk k of the entries: tagged when they name a packed triangle. */
+static void tag_chunk(void *ctx, int k, int worker)
+{
+    (void)worker;
+    const PackJob *job = ctx;
+    Grid *g = job->g;
+    size_t n = g->cell_start[g->num_cells];
+    size_t e0 = (size_t)k * PACK_CHUNK, e1 = n - e0 > PACK_CHUNK ? e0 + PACK_CHUNK : n;
+    for (size_t e = e0; e < e1; e++)
+        if (g->tri[g->cell_items[e]].id != RT_NO_ID)
+            g->cell_items[e] |= GRID_ITEM_TRI;
+}
+
 bool grid_pack(Grid *g)
 {
     g->tri = NULL;
@@ -117,15 +152,16 @@ bool grid_pack(Grid *g)
     }
     /* Packed in table order (the leaves' memory order: a mesh's triangles one after the
      * other) into their new slots, then the table follows. In the new order every
-     * leaf read was a cache miss (on the 40k bunny most of the pack's time). */
-    for (uint32_t p = 0; p < g->num_prims; p++)
-        pack_prim(g, &g->prims[p], &g->tri[newix[p]], &g->tri_hit[newix[p]]);
+     * leaf read was a cache miss (on the 40k bunny most of the pack's time). Both the
+     * packing and the tagging write each slot or entry from one chunk only, so they run
+     * on the set-up threads (rt/par.h) with the same result. */
+    PackJob job = {g, newix};
+    par_for((int)(g->num_prims / PACK_CHUNK + (g->num_prims % PACK_CHUNK != 0)), pack_chunk,
+            &job);
     move_prims(g, newix);
     bigmem_free(newix);
     size_t n = g->cell_start[g->num_cells];
-    for (size_t e = 0; e < n; e++)
-        if (g->tri[g->cell_items[e]].id != RT_NO_ID)
-            g->cell_items[e] |= GRID_ITEM_TRI;
+    par_for((int)(n / PACK_CHUNK + (n % PACK_CHUNK != 0)), tag_chunk, &job);
     return true;
 }
 

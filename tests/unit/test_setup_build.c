@@ -1,7 +1,8 @@
 /* The parallel set-up gives the serial one's results to the bit: OBJ files read in
  * pieces (every record form, errors and forward references in late pieces), meshes
  * built in chunks (the box, signed zeros included), and grids binned by several
- * threads (the CSR arrays, entry order included), for 0, 1, 2 and 3 helpers. */
+ * threads (the CSR arrays, entry order included, the packed triangles, the course counts
+ * and the reference estimates), for 0, 1, 2 and 3 helpers. */
 #define _POSIX_C_SOURCE 200809L
 #include <float.h>
 #include <math.h>
@@ -306,6 +307,19 @@ static uint64_t grid_hash(const Grid *g)
         MIX(&depth, sizeof depth);
     }
     MIX(&g->num_unbounded, sizeof g->num_unbounded);
+    /* The packed triangles (field by field: no padding bytes) and their entries' tags. */
+    for (uint32_t i = 0; g->tri && i < g->num_prims; i++) {
+        const PackedTri *t = &g->tri[i];
+        MIX(&t->v0, sizeof t->v0);
+        MIX(&t->e1, sizeof t->e1);
+        MIX(&t->e2, sizeof t->e2);
+        MIX(&t->id, sizeof t->id);
+        MIX(&t->box, sizeof t->box);
+        if (t->id != RT_NO_ID) {
+            MIX(&g->tri_hit[i].normal, sizeof g->tri_hit[i].normal);
+            MIX(&g->tri_hit[i].material, sizeof g->tri_hit[i].material);
+        }
+    }
 #undef MIX
     return h;
 }
@@ -321,6 +335,28 @@ static void check_grids(const Scene *s, int nx, int ny, int nz, const char *what
         return;
     uint64_t href = grid_hash(ref);
     CHECK(ref->num_prims > 2048); /* several chunks, so the helpers have work */
+    CHECK(ref->tri != NULL);
+    /* Every entry of a packed triangle is tagged, and only those. */
+    int untagged = 0;
+    for (uint32_t e = 0; ref->tri && e < ref->cell_start[ref->num_cells]; e++) {
+        uint32_t it = ref->cell_items[e];
+        untagged += ((it & GRID_ITEM_TRI) != 0) != (ref->tri[GRID_ITEM_INDEX(it)].id != RT_NO_ID);
+    }
+    CHECK_INT(untagged, 0);
+    /* The reference budget's estimates (chunk sums on the helpers): the full sum, and
+     * refits whose quick bound passes the cap in a late chunk, in an early one, and not
+     * at all, against the serial answers. */
+    PrimTable t;
+    CHECK(prim_table_build(&t, s));
+    int dims[3] = {nx, ny, nz};
+    uint64_t est_ref = grid_ref_estimate(&t, dims);
+    uint64_t caps[4] = {est_ref, est_ref - est_ref / 8, est_ref / 6, 2 * (uint64_t)t.num_bounded};
+    int fit_ref[4][3];
+    uint64_t fit_est_ref[4];
+    for (int c = 0; c < 4; c++) {
+        memcpy(fit_ref[c], dims, sizeof dims);
+        grid_fit_refs(&t, fit_ref[c], caps[c], &fit_est_ref[c]);
+    }
     for (int h = 1; h < N_HELPERS; h++) {
         par_set_helpers(k_helpers[h]);
         Grid *g = grid_build(s, nx, ny, nz, &d);
@@ -331,8 +367,22 @@ static void check_grids(const Scene *s, int nx, int ny, int nz, const char *what
             CHECK_INT(g->cell_start[g->num_cells], ref->cell_start[ref->num_cells]);
         }
         grid_free(g);
+        CHECK_MSG(grid_ref_estimate(&t, dims) == est_ref, "%s, %d helpers: estimate differs",
+                  what, k_helpers[h]);
+        for (int c = 0; c < 4; c++) {
+            int n[3];
+            uint64_t est;
+            memcpy(n, dims, sizeof dims);
+            grid_fit_refs(&t, n, caps[c], &est);
+            CHECK_MSG(memcmp(n, fit_ref[c], sizeof n) == 0 && est == fit_est_ref[c],
+                      "%s, %d helpers, cap %llu: %dx%dx%d (%llu) instead of %dx%dx%d (%llu)",
+                      what, k_helpers[h], (unsigned long long)caps[c], n[0], n[1], n[2],
+                      (unsigned long long)est, fit_ref[c][0], fit_ref[c][1], fit_ref[c][2],
+                      (unsigned long long)fit_est_ref[c]);
+        }
     }
     par_set_helpers(-1);
+    prim_table_free(&t);
     grid_free(ref);
 }
 
