@@ -108,8 +108,34 @@ typedef struct ImageOutput {
     const Image *image;
     const char *path;     /* IMAGE_STDOUT: standard output, written after the files */
     const char *format;   /* a codec's name; NULL: by the extension (TGA for stdout) */
+    /* NULL, or the file's bytes already made from image (image_encoding_begin, every
+     * row then given to image_encoding_row): written as they are, not encoded again.
+     * The caller keeps owning them. */
+    const struct ImageEncoding *encoded;
 } ImageOutput;
 bool image_write_all(const ImageOutput *outs, int n, Diag *diag);
+
+/* An image file made row by row while its image is being made (the renderer calls
+ * image_encoding_row for each finished row, on its worker threads), for the formats
+ * that store uncompressed rows at fixed places (TGA, PPM): the write after the render
+ * then only writes. The bytes are exactly the codec's encode's. */
+typedef struct ImageEncoding {
+    uint8_t *data;        /* the whole file (rt/bigmem.h), its header written */
+    size_t len;
+    size_t top;           /* offset of the image's top row (both formats store it first) */
+    int width, height;    /* of the image it was begun for */
+    bool bgr;             /* B G R per pixel (TGA) */
+} ImageEncoding;
+/* Begins the file of img (its size and region record) for path in format (as
+ * ImageOutput). False, with *e zeroed and nothing reported, when the format has no
+ * such layout (PNG), the codec is not found or memory is short: the caller encodes at
+ * the end as before (image_write_all reports what is wrong). */
+bool image_encoding_begin(ImageEncoding *e, const Image *img, const char *path,
+                          const char *format);
+/* Row y of img (0 = bottom, as Image) into its place: rows are disjoint, so threads may
+ * encode different rows at once. */
+void image_encoding_row(const ImageEncoding *e, const Image *img, int y);
+void image_encoding_free(ImageEncoding *e);
 
 /* For a signal handler (async-signal-safe): when image_write_all is writing its
  * temporary files, removes them and returns true (the caller then ends the process
@@ -134,6 +160,11 @@ typedef struct ImageCodec {
      * 1080p TGA is 6 MB, which huge pages fault in 2 MB at a time); false only when out
      * of memory. */
     bool (*encode)(const Image *img, uint8_t **out, size_t *out_len);
+    /* NULL, or for formats of uncompressed rows, top row first: allocates the file of
+     * img (rt/bigmem.h) with its header written, its rows left for the caller: *top is
+     * the top row's offset, rows follow at 3 * width bytes each, B G R when *bgr, else
+     * R G B (image_row_bytes). False only when out of memory. */
+    bool (*layout)(const Image *img, uint8_t **out, size_t *out_len, size_t *top, bool *bgr);
     /* Fills a fresh image (the caller frees it with image_free) or returns false with a
      * one-line reason in err and img left empty; never reads past data + len. */
     bool (*decode)(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen);

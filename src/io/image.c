@@ -105,6 +105,7 @@ typedef struct Pending {
     bool direct;            /* an existing device or pipe: written in place */
     uint8_t *data;
     size_t len;
+    bool borrowed;          /* data is the caller's (ImageOutput.encoded) */
 } Pending;
 
 /* Writes p's bytes to "<dir>/.<name>.XXXXXX" in slot `slot`; rename(2) within one
@@ -298,6 +299,38 @@ static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
     return ok;
 }
 
+bool image_encoding_begin(ImageEncoding *e, const Image *img, const char *path,
+                          const char *format)
+{
+    memset(e, 0, sizeof *e);
+    if (!img || img->width <= 0 || img->height <= 0 || !path)
+        return false;
+    const ImageCodec *codec = codec_for_writing(path, format, NULL);
+    if (!codec || !codec->layout)
+        return false;
+    if (!codec->layout(img, &e->data, &e->len, &e->top, &e->bgr)) {
+        memset(e, 0, sizeof *e);
+        return false;
+    }
+    e->width = img->width;
+    e->height = img->height;
+    return true;
+}
+
+void image_encoding_row(const ImageEncoding *e, const Image *img, int y)
+{
+    if (!e->data || y < 0 || y >= e->height)
+        return;
+    size_t row = (size_t)e->width * 3;
+    image_row_bytes(img, y, e->bgr, e->data + e->top + (size_t)(e->height - 1 - y) * row);
+}
+
+void image_encoding_free(ImageEncoding *e)
+{
+    bigmem_free(e->data);
+    memset(e, 0, sizeof *e);
+}
+
 /* Decides how the bytes reach path: in place for existing devices and pipes; through a
  * temporary file and rename otherwise, following a symbolic link to its target so the
  * link stays a link. */
@@ -332,7 +365,16 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
     for (int i = 0; i < n && ok; i++) {
         pend[i].path = outs[i].path;
         pend[i].format = outs[i].format;
-        ok = encode(outs[i].image, outs[i].path, &pend[i], diag) && plan(&pend[i], diag);
+        const ImageEncoding *pre = outs[i].encoded;
+        if (pre && pre->data && outs[i].image && pre->width == outs[i].image->width &&
+            pre->height == outs[i].image->height) {
+            pend[i].data = pre->data;
+            pend[i].len = pre->len;
+            pend[i].borrowed = true;
+            ok = plan(&pend[i], diag);
+        } else {
+            ok = encode(outs[i].image, outs[i].path, &pend[i], diag) && plan(&pend[i], diag);
+        }
     }
     /* 1. Every file-backed image into its temporary file; 2. the pipes and devices;
      * 3. only when all of that worked, the renames (with the stop signals held, so a
@@ -361,7 +403,8 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
     g_write_phase = 0;
     restore_signals(&old);
     for (int i = 0; i < n; i++) {
-        bigmem_free(pend[i].data);
+        if (!pend[i].borrowed)
+            bigmem_free(pend[i].data);
         free(pend[i].target);
     }
     return ok;
@@ -369,7 +412,7 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
 
 bool image_write(const Image *img, const char *path, Diag *diag)
 {
-    ImageOutput one = {img, path, NULL};
+    ImageOutput one = {img, path, NULL, NULL};
     return image_write_all(&one, 1, diag);
 }
 

@@ -243,8 +243,9 @@ static bool png_sniff(const uint8_t *d, size_t len)
 static const char *const png_extensions[] = {".png", NULL};
 
 #ifdef RT_HAVE_PNG
-const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, png_decode, NULL};
+const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, NULL, png_decode,
+                              NULL};
 #else
-const ImageCodec png_codec = {"png", png_extensions, png_sniff, NULL, NULL,
+const ImageCodec png_codec = {"png", png_extensions, png_sniff, NULL, NULL, NULL,
                               "install libpng-dev and rebuild (make PNG=1)"};
 #endif

@@ -8,7 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
+static bool ppm_layout(const Image *img, uint8_t **out, size_t *out_len, size_t *top,
+                       bool *bgr)
 {
     int w = img->width, h = img->height;
     /* A part image (-region) names its place in a comment line after the magic. */
@@ -25,11 +26,23 @@ static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
     if (!b)
         return false;
     memcpy(b, head, (size_t)n);
-    uint8_t *p = b + n;
-    for (int y = h - 1; y >= 0; y--, p += (size_t)w * 3) /* top row first */
-        image_row_bytes(img, y, false, p);
     *out = b;
     *out_len = len;
+    *top = (size_t)n; /* top row first, R G B */
+    *bgr = false;
+    return true;
+}
+
+static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
+{
+    size_t top;
+    bool bgr;
+    if (!ppm_layout(img, out, out_len, &top, &bgr))
+        return false;
+    int w = img->width, h = img->height;
+    uint8_t *p = *out + top;
+    for (int y = h - 1; y >= 0; y--, p += (size_t)w * 3)
+        image_row_bytes(img, y, bgr, p);
     return true;
 }
 
@@ -132,4 +145,5 @@ static bool ppm_sniff(const uint8_t *d, size_t len)
 
 static const char *const ppm_extensions[] = {".ppm", NULL};
 
-const ImageCodec ppm_codec = {"ppm", ppm_extensions, ppm_sniff, ppm_encode, ppm_decode, NULL};
+const ImageCodec ppm_codec = {"ppm", ppm_extensions, ppm_sniff, ppm_encode, ppm_layout, ppm_decode,
+                              NULL};

@@ -10,7 +10,8 @@
 
 enum { TGA_HEADER = 18 };
 
-static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
+static bool tga_layout(const Image *img, uint8_t **out, size_t *out_len, size_t *top,
+                       bool *bgr)
 {
     int w = img->width, h = img->height;
     /* A part image (-region) names its place in the image ID field, which the format
@@ -27,6 +28,7 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     uint8_t *b = bigmem_alloc(len);
     if (!b)
         return false;
+    memset(b, 0, TGA_HEADER);
     b[0] = (uint8_t)id_len;
     memcpy(b + TGA_HEADER, id, id_len);
     /* The course's header: no ID (except the region record), no colour map, type 2
@@ -39,12 +41,24 @@ static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
     b[15] = (uint8_t)((h >> 8) & 0xff);
     b[16] = 24;
     b[17] = 0x20;
-    uint8_t *p = b + TGA_HEADER + id_len;
-    /* The image's top row (y = h-1) is stored first, each pixel as B, G, R. */
-    for (int y = h - 1; y >= 0; y--, p += (size_t)w * 3)
-        image_row_bytes(img, y, true, p);
     *out = b;
     *out_len = len;
+    *top = TGA_HEADER + id_len;
+    *bgr = true; /* each pixel as B, G, R */
+    return true;
+}
+
+static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
+{
+    size_t top;
+    bool bgr;
+    if (!tga_layout(img, out, out_len, &top, &bgr))
+        return false;
+    int w = img->width, h = img->height;
+    uint8_t *p = *out + top;
+    /* The image's top row (y = h-1) is stored first. */
+    for (int y = h - 1; y >= 0; y--, p += (size_t)w * 3)
+        image_row_bytes(img, y, bgr, p);
     return true;
 }
 
@@ -129,4 +143,5 @@ static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size
 static const char *const tga_extensions[] = {".tga", NULL};
 
 /* No signature: TGA is what image_read assumes when no other format's matched. */
-const ImageCodec tga_codec = {"tga", tga_extensions, NULL, tga_encode, tga_decode, NULL};
+const ImageCodec tga_codec = {"tga", tga_extensions, NULL, tga_encode, tga_layout, tga_decode,
+                              NULL};
