@@ -208,9 +208,16 @@ static void encode_row(void *user, int y)
     int r = y - rj->y0;
     if (r < 0 || r >= rj->h)
         return;
+    /* The rows of a band come in increasing order from one thread: at its last row
+     * inside the rectangle, the band's rows go to the files at once. */
+    bool last = (y + 1) % RENDER_TILE == 0 || r == rj->h - 1;
+    int lo = y - y % RENDER_TILE - rj->y0;
     for (int i = 0; i < 3; i++)
-        if (rj->enc[i].data)
+        if (rj->enc[i].data) {
             image_encoding_row(&rj->enc[i], rj->img[i], r);
+            if (last)
+                image_encoding_flush(&rj->enc[i], lo > 0 ? lo : 0, r);
+        }
     atomic_fetch_add_explicit(&rj->rows, 1, memory_order_relaxed);
 }
 
@@ -395,8 +402,12 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
             for (int i = 0; i < 3; i++)
                 if (imgs[i] && paths[i] && imgs[i]->bytes &&
                     image_encoding_begin(&rj.enc[i], imgs[i], paths[i],
-                                         stdout_format(o, paths[i])))
+                                         stdout_format(o, paths[i]))) {
                     rj.img[i] = imgs[i];
+                    /* Into its temporary file band by band: the write overlaps the
+                     * render (best effort: else it is written after the render). */
+                    image_encoding_stream(&rj.enc[i], paths[i]);
+                }
         }
         DistJob job;
         memset(&job, 0, sizeof job);

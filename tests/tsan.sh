@@ -2,7 +2,7 @@
 # `make tsan`: the threaded code under ThreadSanitizer (binaries of build-tsan/). The
 # set-up helpers (rt/par.h), grid binning and OBJ pieces, the property test (ray
 # packets against single rays), renders through the binary on 2 threads (tiles,
-# packets, shadows, the per-thread statistics merge, an antialiased film), the OSMesa snapshot's render key
+# packets, shadows, outputs streamed by the render threads, the per-thread statistics merge, an antialiased film), the OSMesa snapshot's render key
 # and the GLUT window's background render under Xvfb. Any report fails.
 set -u
 bin=${RT_BIN:?}
@@ -39,6 +39,11 @@ check render_showcase "$bin" -input scenes/showcase.txt -size 64 48 -output "$ou
     -shadows -bounces 3 -grid auto -stats -threads 2
 check render_mesh "$bin" -input scenes/feat_mesh_transform.txt -size 64 64 -output "$out/b.tga" \
     -shadows -grid 16 16 16 -threads 2
+# Three outputs made and written band by band by the render threads (rt/image.h,
+# image_encoding_stream), and -timings' course counts and estimate on the set-up threads.
+check render_streamed "$bin" -input scenes/feat_mesh_transform.txt -size 64 64 \
+    -output "$out/e.ppm" -depth 8 12 "$out/e_d.tga" -normals "$out/e_n.ppm" -shadows \
+    -grid 16 16 16 -timings -threads 2
 check render_no_grid "$bin" -input scenes/tex_nested.txt -size 48 48 -output "$out/c.tga" -threads 2
 # Antialiasing: the sampler's batches, the Gaussian's per-sample weights and the film's
 # bands, shared by the render threads.

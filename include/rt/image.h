@@ -3,6 +3,7 @@
 #ifndef RT_IMAGE_H
 #define RT_IMAGE_H
 
+#include <stdatomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -111,7 +112,7 @@ typedef struct ImageOutput {
     /* NULL, or the file's bytes already made from image (image_encoding_begin, every
      * row then given to image_encoding_row): written as they are, not encoded again.
      * The caller keeps owning them. */
-    const struct ImageEncoding *encoded;
+    struct ImageEncoding *encoded;
 } ImageOutput;
 bool image_write_all(const ImageOutput *outs, int n, Diag *diag);
 
@@ -125,6 +126,12 @@ typedef struct ImageEncoding {
     size_t top;           /* offset of the image's top row (both formats store it first) */
     int width, height;    /* of the image it was begun for */
     bool bgr;             /* B G R per pixel (TGA) */
+    /* Streamed (image_encoding_stream): the temporary file written as rows are
+     * flushed, its slot for image_write_abort, the path it will be renamed to, and the
+     * first failed write's errno (0: none). fd and slot -1 otherwise. */
+    int fd, slot;
+    char *target;
+    atomic_int err;
 } ImageEncoding;
 /* Begins the file of img (its size and region record) for path in format (as
  * ImageOutput). False, with *e zeroed and nothing reported, when the format has no
@@ -135,6 +142,18 @@ bool image_encoding_begin(ImageEncoding *e, const Image *img, const char *path,
 /* Row y of img (0 = bottom, as Image) into its place: rows are disjoint, so threads may
  * encode different rows at once. */
 void image_encoding_row(const ImageEncoding *e, const Image *img, int y);
+/* Also writes the file while it is made: creates its temporary file now (in the folder
+ * of path, named and registered as image_write_all's, header written), into which
+ * image_encoding_flush writes finished rows; image_write_all then only renames it (or
+ * reports the first failed write and removes it). False, and nothing made, for
+ * standard output, pipes and devices (written at the end) or when the file cannot be
+ * made (the write reports it later). */
+bool image_encoding_stream(ImageEncoding *e, const char *path);
+/* Rows y_lo..y_hi of the image, already encoded, into the streamed file at their place
+ * (nothing when not streamed). Threads may flush disjoint rows at once. */
+void image_encoding_flush(ImageEncoding *e, int y_lo, int y_hi);
+/* Frees the bytes; a streamed file not handed to image_write_all is closed and removed
+ * (a failed or stopped render leaves no file). */
 void image_encoding_free(ImageEncoding *e);
 
 /* For a signal handler (async-signal-safe): when image_write_all is writing its

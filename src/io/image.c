@@ -12,6 +12,7 @@
 #include <limits.h>
 #include <pthread.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -106,25 +107,36 @@ typedef struct Pending {
     uint8_t *data;
     size_t len;
     bool borrowed;          /* data is the caller's (ImageOutput.encoded) */
+    int slot;               /* its temporary file's slot, -1 while it has none */
+    ImageEncoding *streamed; /* already in its temporary file (image_encoding_stream) */
 } Pending;
 
-/* Writes p's bytes to "<dir>/.<name>.XXXXXX" in slot `slot`; rename(2) within one
- * folder is atomic, so readers (and a crash) later see either no file or the whole
- * file. */
-static bool stage(Pending *p, int slot, Diag *diag)
+/* A slot for a new temporary file: the first not in use (only the main thread makes
+ * them), -1 when all are. */
+static int free_slot(void)
 {
-    const char *path = p->target;
-    size_t plen = strlen(path);
-    const char *slash = strrchr(path, '/');
-    size_t dirlen = slash ? (size_t)(slash - path) + 1 : 0;
+    for (int i = 0; i < IMAGE_MAX_OUTPUTS; i++)
+        if (!g_tmp_live[i])
+            return i;
+    return -1;
+}
+
+/* Creates the temporary file "<dir>/.<name>.XXXXXX" for target in slot (registered for
+ * image_write_abort) with the permissions a plain fopen would give; its descriptor,
+ * or -1 with errno set. */
+static int make_temp(const char *target, int slot)
+{
+    size_t plen = strlen(target);
+    const char *slash = strrchr(target, '/');
+    size_t dirlen = slash ? (size_t)(slash - target) + 1 : 0;
     if (plen + 9 > TMP_NAME_MAX) {
-        report(diag, p->path, "cannot write image: ", strerror(ENAMETOOLONG));
-        return false;
+        errno = ENAMETOOLONG;
+        return -1;
     }
     char *tmp = g_tmp_name[slot];
-    memcpy(tmp, path, dirlen);
+    memcpy(tmp, target, dirlen);
     tmp[dirlen] = '.';
-    memcpy(tmp + dirlen + 1, path + dirlen, plen - dirlen);
+    memcpy(tmp + dirlen + 1, target + dirlen, plen - dirlen);
     memcpy(tmp + plen + 1, ".XXXXXX", 8);
 
     sigset_t old;
@@ -135,14 +147,66 @@ static bool stage(Pending *p, int slot, Diag *diag)
         g_tmp_live[slot] = 1;
     restore_signals(&old);
     if (fd < 0) {
-        report(diag, p->path, "cannot write image: ", strerror(e));
-        return false;
+        errno = e;
+        return -1;
     }
     /* mkstemp creates the file 0600; give it the permissions a plain fopen would. */
     mode_t mask = umask(0);
     umask(mask);
-    bool ok = fchmod(fd, (mode_t)(0666 & ~mask)) == 0 && write_all(fd, p->data, p->len);
-    e = errno;
+    if (fchmod(fd, (mode_t)(0666 & ~mask)) != 0) {
+        e = errno;
+        close(fd);
+        errno = e;
+        return -2; /* made, so still to be removed */
+    }
+    return fd;
+}
+
+/* Removes slot's temporary file, if any. */
+static void drop_temp(int slot)
+{
+    if (slot < 0 || !g_tmp_live[slot])
+        return;
+    sigset_t old;
+    block_stop_signals(&old);
+    unlink(g_tmp_name[slot]);
+    g_tmp_live[slot] = 0;
+    restore_signals(&old);
+}
+
+/* Writes p's bytes to "<dir>/.<name>.XXXXXX" in a free slot; rename(2) within one
+ * folder is atomic, so readers (and a crash) later see either no file or the whole
+ * file. A streamed output is already there: only its descriptor is closed (the error
+ * of any of its writes is reported here). */
+static bool stage(Pending *p, Diag *diag)
+{
+    if (p->streamed) {
+        ImageEncoding *e = p->streamed;
+        int err = atomic_load(&e->err);
+        int fd = e->fd;
+        e->fd = -1;
+        if (close(fd) != 0 && !err)
+            err = errno;
+        if (err)
+            report(diag, p->path, "cannot write image: ", strerror(err));
+        return err == 0;
+    }
+    int slot = free_slot();
+    if (slot < 0) {
+        report(diag, p->path, "cannot write image: ", "too many outputs");
+        return false;
+    }
+    int fd = make_temp(p->target, slot);
+    if (fd < 0) {
+        int e = errno;
+        if (fd == -2)
+            p->slot = slot;
+        report(diag, p->path, "cannot write image: ", strerror(e));
+        return false;
+    }
+    p->slot = slot;
+    bool ok = write_all(fd, p->data, p->len);
+    int e = errno;
     if (close(fd) != 0 && ok) {
         ok = false;
         e = errno;
@@ -299,6 +363,8 @@ static bool encode(const Image *img, const char *path, Pending *p, Diag *diag)
     return ok;
 }
 
+static bool plan(Pending *p, Diag *diag);
+
 bool image_encoding_begin(ImageEncoding *e, const Image *img, const char *path,
                           const char *format)
 {
@@ -314,6 +380,7 @@ bool image_encoding_begin(ImageEncoding *e, const Image *img, const char *path,
     }
     e->width = img->width;
     e->height = img->height;
+    e->fd = e->slot = -1;
     return true;
 }
 
@@ -327,8 +394,77 @@ void image_encoding_row(const ImageEncoding *e, const Image *img, int y)
 
 void image_encoding_free(ImageEncoding *e)
 {
+    if (e->data && e->fd >= 0)
+        close(e->fd);
+    if (e->data && e->slot >= 0)
+        drop_temp(e->slot);
     bigmem_free(e->data);
+    free(e->target);
     memset(e, 0, sizeof *e);
+    e->fd = e->slot = -1;
+}
+
+/* pwrite of all n bytes at off. */
+static bool pwrite_all(int fd, const uint8_t *p, size_t n, off_t off)
+{
+    while (n > 0) {
+        ssize_t w = pwrite(fd, p, n, off);
+        if (w < 0) {
+            if (errno == EINTR)
+                continue;
+            return false;
+        }
+        if (w == 0) {
+            errno = EIO;
+            return false;
+        }
+        p += w;
+        n -= (size_t)w;
+        off += w;
+    }
+    return true;
+}
+
+bool image_encoding_stream(ImageEncoding *e, const char *path)
+{
+    if (!e->data || e->fd >= 0 || !path)
+        return false;
+    Pending p;
+    memset(&p, 0, sizeof p);
+    p.path = path;
+    if (!plan(&p, NULL) || p.direct) {
+        free(p.target);
+        return false;
+    }
+    int slot = free_slot();
+    int fd = slot < 0 ? -1 : make_temp(p.target, slot);
+    if (fd == -2)
+        drop_temp(slot);
+    if (fd < 0 || !pwrite_all(fd, e->data, e->top, 0)) {
+        if (fd >= 0) {
+            close(fd);
+            drop_temp(slot);
+        }
+        free(p.target);
+        return false;
+    }
+    e->fd = fd;
+    e->slot = slot;
+    e->target = p.target;
+    atomic_init(&e->err, 0);
+    return true;
+}
+
+void image_encoding_flush(ImageEncoding *e, int y_lo, int y_hi)
+{
+    if (!e->data || e->fd < 0 || y_lo < 0 || y_hi >= e->height || y_lo > y_hi)
+        return;
+    size_t row = (size_t)e->width * 3;
+    size_t off = e->top + (size_t)(e->height - 1 - y_hi) * row;
+    if (!pwrite_all(e->fd, e->data + off, (size_t)(y_hi - y_lo + 1) * row, (off_t)off)) {
+        int expected = 0;
+        atomic_compare_exchange_strong(&e->err, &expected, errno ? errno : EIO);
+    }
 }
 
 /* Decides how the bytes reach path: in place for existing devices and pipes; through a
@@ -353,6 +489,12 @@ static bool plan(Pending *p, Diag *diag)
     return true;
 }
 
+/* Whether e holds the file of img (ImageOutput.encoded). */
+static bool encoding_usable(const ImageEncoding *e, const Image *img)
+{
+    return e && e->data && img && e->width == img->width && e->height == img->height;
+}
+
 bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
 {
     if (n < 0 || n > IMAGE_MAX_OUTPUTS) {
@@ -362,16 +504,34 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
     Pending pend[IMAGE_MAX_OUTPUTS];
     memset(pend, 0, sizeof pend);
     bool ok = true;
+    /* The streamed outputs' temporary files first: whatever fails below, they are
+     * renamed or removed with the others. */
+    for (int i = 0; i < n; i++) {
+        pend[i].slot = -1;
+        ImageEncoding *pre = outs[i].encoded;
+        if (encoding_usable(pre, outs[i].image) && pre->fd >= 0 && pre->slot >= 0 &&
+            g_tmp_live[pre->slot]) {
+            pend[i].slot = pre->slot;
+            pre->slot = -1; /* image_write_all's now */
+        }
+    }
     for (int i = 0; i < n && ok; i++) {
         pend[i].path = outs[i].path;
         pend[i].format = outs[i].format;
-        const ImageEncoding *pre = outs[i].encoded;
-        if (pre && pre->data && outs[i].image && pre->width == outs[i].image->width &&
-            pre->height == outs[i].image->height) {
+        ImageEncoding *pre = outs[i].encoded;
+        if (encoding_usable(pre, outs[i].image)) {
             pend[i].data = pre->data;
             pend[i].len = pre->len;
             pend[i].borrowed = true;
-            ok = plan(&pend[i], diag);
+            if (pend[i].slot >= 0) {
+                pend[i].streamed = pre;
+                pend[i].target = strdup(pre->target);
+                ok = pend[i].target != NULL;
+                if (!ok)
+                    report(diag, pend[i].path, "cannot write image: ", strerror(ENOMEM));
+            } else {
+                ok = plan(&pend[i], diag);
+            }
         } else {
             ok = encode(outs[i].image, outs[i].path, &pend[i], diag) && plan(&pend[i], diag);
         }
@@ -382,7 +542,7 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
     g_write_phase = 1;
     for (int i = 0; i < n && ok; i++)
         if (!pend[i].direct)
-            ok = stage(&pend[i], i, diag);
+            ok = stage(&pend[i], diag);
     for (int i = 0; i < n && ok; i++)
         if (pend[i].direct)
             ok = write_direct(&pend[i], diag);
@@ -390,15 +550,16 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
     block_stop_signals(&old);
     g_write_phase = 2;
     for (int i = 0; i < n; i++) {
-        if (!g_tmp_live[i])
+        int slot = pend[i].slot;
+        if (slot < 0 || !g_tmp_live[slot])
             continue;
-        if (ok && rename(g_tmp_name[i], pend[i].target) != 0) {
+        if (ok && rename(g_tmp_name[slot], pend[i].target) != 0) {
             report(diag, pend[i].path, "cannot write image: ", strerror(errno));
             ok = false;
         }
         if (!ok)
-            unlink(g_tmp_name[i]);
-        g_tmp_live[i] = 0;
+            unlink(g_tmp_name[slot]);
+        g_tmp_live[slot] = 0;
     }
     g_write_phase = 0;
     restore_signals(&old);

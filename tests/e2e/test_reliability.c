@@ -130,6 +130,53 @@ static void signal_inside_pixel(int sig)
     e2e_rmtree(dir);
 }
 
+/* A signal while the render streams its image into a temporary file (the renderer
+ * writes each finished band into it, rt/image.h image_encoding_stream): the test waits
+ * until the temporary file exists (the one pixel of deep_ray_tree.txt then takes for
+ * ever; 60 s is only a guard), then signals. Expected: exit 128 + signal, no image and
+ * no temporary file left. */
+static void signal_while_streaming(int sig)
+{
+    char dir[PATH_MAX], out[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigstream") != NULL);
+    e2e_join(out, sizeof out, dir, "o.ppm");
+    repro(scene, sizeof scene, "deep_ray_tree.txt");
+    const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-size", "1", "1",
+                          "-shade_back", "-bounces", "60", "-weight", "0", "-threads", "2",
+                          NULL};
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    bool seen = false;
+    for (int i = 0; i < 6000 && !seen; i++) {
+        seen = has_temp_file(dir);
+        if (!seen) {
+            struct timespec pause = {0, 10 * 1000 * 1000};
+            nanosleep(&pause, NULL);
+        }
+    }
+    CHECK_MSG(seen, "no temporary image while rendering");
+    kill(pid, sig);
+    int st = 0;
+    bool hung = !e2e_wait_or_kill(pid, 60, &st);
+    char err[4096] = "";
+    e2e_read_close(errfd, err, sizeof err);
+    CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
+              "signal %d: %s %d, expected exit %d", sig, WIFEXITED(st) ? "exit" : "killed by",
+              WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + sig);
+    if (!hung)
+        CHECK_CONTAINS(err, "interrupted");
+    CHECK_MSG(!e2e_exists(out), "an image was written");
+    CHECK_MSG(!has_temp_file(dir), "a temporary image was left behind");
+    CHECK_INT(e2e_count_entries(dir), 0);
+    e2e_rmtree(dir);
+}
+
+static void test_sigterm_while_streaming(void) { signal_while_streaming(SIGTERM); }
+static void test_sigint_while_streaming(void) { signal_while_streaming(SIGINT); }
+
 static void test_sigint_inside_pixel(void) { signal_inside_pixel(SIGINT); }
 static void test_sigterm_inside_pixel(void) { signal_inside_pixel(SIGTERM); }
 
@@ -427,6 +474,8 @@ static const TestCase tests[] = {
     {"sigint_during_write", test_sigint_during_write},
     {"sigint_inside_pixel", test_sigint_inside_pixel},
     {"sigterm_inside_pixel", test_sigterm_inside_pixel},
+    {"sigterm_while_streaming", test_sigterm_while_streaming},
+    {"sigint_while_streaming", test_sigint_while_streaming},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"same_path_twice", test_same_path_twice},
     {"stats_write_errors", test_stats_write_errors},

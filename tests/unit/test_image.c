@@ -5,6 +5,7 @@
 #include "../harness.h"
 
 #include <dirent.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <sys/resource.h>
@@ -809,6 +810,121 @@ static void test_encoding_rows(void)
     rmdir(dir);
 }
 
+/* A whole file's bytes (malloc'd), NULL when it cannot be read. */
+static uint8_t *read_all(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    size_t cap = 1 << 16, n = 0;
+    uint8_t *b = malloc(cap);
+    size_t got;
+    while (b && (got = fread(b + n, 1, cap - n, f)) > 0) {
+        n += got;
+        if (n == cap) {
+            uint8_t *nb = realloc(b, cap *= 2);
+            if (!nb)
+                free(b);
+            b = nb;
+        }
+    }
+    fclose(f);
+    *len = n;
+    return b;
+}
+
+/* Streamed files (image_encoding_stream): the temporary file exists while rows are
+ * flushed (in any order), image_write_all renames it into place with encode's bytes and
+ * leaves nothing else; freed without a write, it is removed; a write that fails midway
+ * (a file size limit) is reported by image_write_all, which removes it: no output, no
+ * temporary file. Standard output is not streamed. */
+static void test_encoding_stream(void)
+{
+    int w = 30, h = 20;
+    Image img;
+    CHECK(image_init_bytes(&img, w, h));
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++)
+            image_put(&img, x, y, v3((float)x / 30.0f, 0.5f, (float)y / 20.0f));
+    const char *names[] = {"s.tga", "s.ppm"};
+    for (int n = 0; n < 2; n++) {
+        char *dir = make_tmpdir();
+        CHECK(dir != NULL);
+        char path[128];
+        snprintf(path, sizeof path, "%s/%s", dir, names[n]);
+        ImageEncoding e;
+        CHECK(image_encoding_begin(&e, &img, path, NULL));
+        CHECK(image_encoding_stream(&e, path));
+        CHECK_INT(count_entries(dir), 1); /* the temporary file */
+        for (int y0 = 16; y0 >= 0; y0 -= 8) { /* bands, top band (rows 16-19) first */
+            int y1 = y0 + 8 < h ? y0 + 8 : h;
+            for (int y = y0; y < y1; y++)
+                image_encoding_row(&e, &img, y);
+            image_encoding_flush(&e, y0, y1 - 1);
+        }
+        struct stat st;
+        CHECK(stat(path, &st) != 0); /* not there before the write */
+        ImageOutput out = {&img, path, NULL, &e};
+        Diag d;
+        diag_init(&d, NULL);
+        CHECK_MSG(image_write_all(&out, 1, &d), "%s", d.last);
+        CHECK_INT(count_entries(dir), 1);
+        uint8_t *ref = NULL, *got = NULL;
+        size_t len = 0, glen = 0;
+        CHECK(image_codec_for_path(path)->encode(&img, &ref, &len));
+        got = read_all(path, &glen);
+        CHECK_MSG(got && glen == len && memcmp(got, ref, len) == 0, "%s: file differs",
+                  names[n]);
+        free(got);
+        bigmem_free(ref);
+        image_encoding_free(&e);
+        CHECK_INT(count_entries(dir), 1);
+
+        /* Freed without a write: nothing is left. */
+        unlink(path);
+        CHECK(image_encoding_begin(&e, &img, path, NULL));
+        CHECK(image_encoding_stream(&e, path));
+        image_encoding_flush(&e, 0, 7);
+        CHECK_INT(count_entries(dir), 1);
+        image_encoding_free(&e);
+        CHECK_INT(count_entries(dir), 0);
+        remove_tree(dir);
+    }
+
+    /* Standard output is written at the end, not streamed. */
+    ImageEncoding e;
+    CHECK(image_encoding_begin(&e, &img, "-", NULL));
+    CHECK(!image_encoding_stream(&e, "-"));
+    image_encoding_free(&e);
+
+    /* A failing write midway: the header fits the limit, the rows do not. */
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    char path[128];
+    snprintf(path, sizeof path, "%s/big.tga", dir);
+    signal(SIGXFSZ, SIG_IGN);
+    struct rlimit old_lim, lim;
+    CHECK(getrlimit(RLIMIT_FSIZE, &old_lim) == 0);
+    lim = old_lim;
+    lim.rlim_cur = 600; /* the soft limit only: the test can raise it again */
+    CHECK(setrlimit(RLIMIT_FSIZE, &lim) == 0);
+    CHECK(image_encoding_begin(&e, &img, path, NULL));
+    CHECK(image_encoding_stream(&e, path));
+    for (int y = 0; y < h; y++)
+        image_encoding_row(&e, &img, y);
+    image_encoding_flush(&e, 0, h - 1);
+    ImageOutput out = {&img, path, NULL, &e};
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(!image_write_all(&out, 1, &d));
+    CHECK_CONTAINS(d.last, "cannot write image: File too large");
+    image_encoding_free(&e);
+    CHECK_INT(count_entries(dir), 0);
+    setrlimit(RLIMIT_FSIZE, &old_lim);
+    remove_tree(dir);
+    image_free(&img);
+}
+
 /* A failed decode leaves every field of the image defined (no pixels, no bytes), whatever
  * the caller's struct held before, so image_free after a failure is always safe: callers
  * (merge, imgdiff, the fuzz targets) keep an uninitialised Image on the stack. Inputs:
@@ -872,6 +988,8 @@ static const TestCase tests[] = {
     {"image_compare: figures on hand-made images", test_compare_figures},
     {"image: a failed decode leaves no pointer for image_free", test_failed_decode_defines_image},
     {"image: files made row by row = encode; written as they are", test_encoding_rows},
+    {"image: streamed files: renamed whole, removed when not written or failed",
+     test_encoding_stream},
 };
 
 RT_TEST_MAIN(tests)
