@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "rt/bigmem.h"
+#include "rt/par.h"
 #include "rt/scene.h"
 
 typedef struct Walk {
@@ -106,6 +107,99 @@ static void add_leaf(Walk *w, const Object3D *o, const XformPath *path)
     t->num_bounded += p->bounded;
 }
 
+/* A group of many leaves (a mesh: 40k triangles) fills its run of the table in
+ * chunks on the set-up threads (rt/par.h). */
+enum { LEAF_CHUNK = 4096 };
+
+/* The leaves' chunk job: each chunk writes its own slots and counts, combined in chunk
+ * order afterwards, so the table and its counters are add_leaf's on any thread count. */
+typedef struct LeafJob {
+    const Object3D *group;
+    const PrimXform *xf;
+    Prim *dst;            /* the group's first slot */
+    int n;
+    uint32_t *bounded;    /* per chunk */
+    uint32_t *kept_out;   /* per chunk */
+    int *first_out;       /* per chunk: index in the group of its first kept-out leaf */
+} LeafJob;
+
+static void leaf_chunk(void *ctx, int k, int worker)
+{
+    (void)worker;
+    const LeafJob *job = ctx;
+    int i0 = k * LEAF_CHUNK, i1 = job->n - i0 > LEAF_CHUNK ? i0 + LEAF_CHUNK : job->n;
+    uint32_t bounded = 0, kept_out = 0;
+    int first_out = -1;
+    for (int i = i0; i < i1; i++) {
+        const Object3D *o = group_child(job->group, i);
+        Prim *p = &job->dst[i];
+        p->obj = o;
+        p->xf = job->xf;
+        p->id = o->id;
+        p->bounded = o->bounded;
+        p->bounds = o->ops->bounds(o, job->xf ? &job->xf->m : NULL);
+        if (p->bounded && !box_within_limit(&p->bounds)) {
+            if (kept_out++ == 0)
+                first_out = i;
+            p->bounded = false;
+        }
+        bounded += p->bounded;
+    }
+    job->bounded[k] = bounded;
+    job->kept_out[k] = kept_out;
+    job->first_out[k] = first_out;
+}
+
+/* Adds group o's children when they are all leaves and many (true), as add_leaf would
+ * one by one; false, with nothing done, otherwise. */
+static bool add_leaf_group(Walk *w, const Object3D *o, const XformPath *path)
+{
+    int n = group_count(o);
+    if (n < 2 * LEAF_CHUNK || par_threads() < 2)
+        return false;
+    for (int i = 0; i < n; i++) {
+        const Object3D *c = group_child(o, i);
+        ObjKind k = c ? obj_kind(c) : OBJ_GROUP;
+        if (k == OBJ_GROUP || k == OBJ_TRANSFORM)
+            return false;
+    }
+    PrimTable *t = w->t;
+    if ((uint64_t)t->num_prims + (uint64_t)n > (uint64_t)w->cap) {
+        uint64_t cap = (uint64_t)t->num_prims + (uint64_t)n;
+        Prim *p = cap < UINT32_MAX / 2 ? bigmem_resize(t->prims, (size_t)cap * sizeof *p) : NULL;
+        if (!p) {
+            w->oom = true;
+            return true;
+        }
+        t->prims = p;
+        w->cap = (uint32_t)cap;
+    }
+    const PrimXform *xf = intern(w, path);
+    if (w->oom)
+        return true;
+    int nchunks = n / LEAF_CHUNK + (n % LEAF_CHUNK != 0);
+    uint32_t *counts = malloc((size_t)nchunks * 2 * sizeof *counts);
+    int *first = malloc((size_t)nchunks * sizeof *first);
+    if (!counts || !first) {
+        free(counts);
+        free(first);
+        w->oom = true;
+        return true;
+    }
+    LeafJob job = {o, xf, t->prims + t->num_prims, n, counts, counts + nchunks, first};
+    par_for(nchunks, leaf_chunk, &job);
+    for (int k = 0; k < nchunks; k++) {
+        if (job.kept_out[k] > 0 && t->num_kept_out == 0)
+            t->first_kept_out = t->num_prims + (uint32_t)job.first_out[k];
+        t->num_kept_out += job.kept_out[k];
+        t->num_bounded += job.bounded[k];
+    }
+    t->num_prims += (uint32_t)n;
+    free(counts);
+    free(first);
+    return true;
+}
+
 /* Groups recurse, Transforms push themselves onto path, leaves are added. */
 static void walk(Walk *w, const Object3D *o, XformPath *path)
 {
@@ -113,6 +207,8 @@ static void walk(Walk *w, const Object3D *o, XformPath *path)
         return;
     switch (obj_kind(o)) {
     case OBJ_GROUP:
+        if (add_leaf_group(w, o, path))
+            return;
         for (int i = 0; i < group_count(o); i++)
             walk(w, group_child(o, i), path);
         return;

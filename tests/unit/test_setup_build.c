@@ -2,7 +2,8 @@
  * pieces (every record form, errors and forward references in late pieces), meshes
  * built in chunks (the box, signed zeros included), and grids binned by several
  * threads (the CSR arrays, entry order included, the packed triangles, the course counts
- * and the reference estimates), for 0, 1, 2 and 3 helpers. */
+ * and the reference estimates), and primitive tables filled in chunks (kept-out leaves
+ * included), for 0, 1, 2 and 3 helpers. */
 #define _POSIX_C_SOURCE 200809L
 #include <float.h>
 #include <math.h>
@@ -324,6 +325,38 @@ static uint64_t grid_hash(const Grid *g)
     return h;
 }
 
+/* The primitive table of s with 1-3 helpers equals the serial one (a mesh's leaves
+ * are added in chunks): every slot, its Transform chain, and the counters. */
+static void check_tables(const Scene *s, const char *what)
+{
+    PrimTable ref, t;
+    par_set_helpers(0);
+    CHECK(prim_table_build(&ref, s));
+    for (int h = 1; h < N_HELPERS; h++) {
+        par_set_helpers(k_helpers[h]);
+        CHECK(prim_table_build(&t, s));
+        CHECK_INT(t.num_prims, ref.num_prims);
+        CHECK_INT(t.num_bounded, ref.num_bounded);
+        CHECK_INT(t.num_kept_out, ref.num_kept_out);
+        CHECK_INT(t.first_kept_out, ref.first_kept_out);
+        CHECK_INT(t.num_xforms, ref.num_xforms);
+        CHECK(memcmp(&t.scene_bounds, &ref.scene_bounds, sizeof t.scene_bounds) == 0);
+        int bad = 0;
+        for (uint32_t i = 0; i < t.num_prims && i < ref.num_prims; i++) {
+            const Prim *a = &t.prims[i], *b = &ref.prims[i];
+            bool xf_same = (a->xf == NULL) == (b->xf == NULL) &&
+                           (!a->xf || (a->xf->path.depth == b->xf->path.depth &&
+                                       memcmp(&a->xf->m, &b->xf->m, sizeof a->xf->m) == 0));
+            bad += !(a->obj == b->obj && a->id == b->id && a->bounded == b->bounded && xf_same &&
+                     memcmp(&a->bounds, &b->bounds, sizeof a->bounds) == 0);
+        }
+        CHECK_MSG(bad == 0, "%s, %d helpers: %d table slots differ", what, k_helpers[h], bad);
+        prim_table_free(&t);
+    }
+    par_set_helpers(-1);
+    prim_table_free(&ref);
+}
+
 static void check_grids(const Scene *s, int nx, int ny, int nz, const char *what)
 {
     Diag d;
@@ -419,9 +452,32 @@ static void test_grid_threads_match(void)
     Scene *s = scene_load_string(scene, "setup.txt", dir, &d);
     CHECK_MSG(s != NULL, "%s", d.last);
     if (s) {
+        check_tables(s, "generated");
         check_grids(s, 40, 40, 33, "generated");
         check_grids(s, 7, 3, 50, "generated");
         check_grids(s, 1, 1, 1, "generated");
+        scene_free(s);
+    }
+    /* Leaves kept out of the grid for their huge boxes, after others: the first one's
+     * index and the counts. */
+    const char *huge =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Lights { numLights 0 }\n"
+        "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 1 1 } }\n"
+        "Group { numObjects 3 MaterialIndex 0\n"
+        "  TriangleMesh { obj_file big.obj }\n"
+        "  Transform { Scale 1e11 1 1 Transform { Scale 1e11 1 1 Transform { Scale 1e11 1 1\n"
+        "    TriangleMesh { obj_file big.obj } } } }\n"
+        "  Sphere { center 0.5 0.5 0.5 radius 0.7 }\n"
+        "}\n";
+    s = scene_load_string(huge, "huge.txt", dir, &d);
+    CHECK_MSG(s != NULL, "%s", d.last);
+    if (s) {
+        PrimTable t;
+        CHECK(prim_table_build(&t, s));
+        CHECK(t.num_kept_out > 0 && t.first_kept_out > 0);
+        prim_table_free(&t);
+        check_tables(s, "kept out");
         scene_free(s);
     }
     unlink(path);
@@ -446,6 +502,8 @@ static void test_grid_threads_match_bunny(void)
         if (!s)
             return;
         CHECK_INT(s->num_primitives, 40001);
+        if (h == 0)
+            check_tables(s, "bunny 40k");
         check_grids(s, 40, 40, 33, "bunny 40k");
         if (h == 0)
             check_grids(s, 13, 9, 70, "bunny 40k");
