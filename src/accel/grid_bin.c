@@ -164,11 +164,15 @@ bool grid_bin_fill_pack(GridBuild *b)
     if (ok) {
         /* Offsets; cell_start[c] is the fill cursor. */
         uint32_t *start = g->cell_start, run = 0;
+        const uint32_t *more[PAR_MAX_WORKERS]; /* the helpers' counts that exist */
+        int nmore = 0;
+        for (int w = 1; w < PAR_MAX_WORKERS; w++)
+            if (job.part[w].count)
+                more[nmore++] = job.part[w].count;
         for (uint32_t c = 0; c < cells; c++) {
             uint32_t m = start[c + 1];
-            for (int w = 1; w < PAR_MAX_WORKERS; w++)
-                if (job.part[w].count)
-                    m += job.part[w].count[c];
+            for (int k = 0; k < nmore; k++)
+                m += more[k][c];
             start[c] = run;
             run += m;
         }
