@@ -190,6 +190,9 @@ void grid_set_packing(Grid *g, bool on)
 
 bool grid_packing(const Grid *g) { return g->tri && !g->packing_off; }
 
+/* Packed triangles above this size are prefetched by the packet walk. */
+#define GRID_PREFETCH_BYTES ((size_t)8 << 20)
+
 void grid_occupancy_make(Grid *g)
 {
     size_t words = ((size_t)g->num_cells + 63) / 64;
@@ -200,6 +203,9 @@ void grid_occupancy_make(Grid *g)
             occ[c >> 6] |= (uint64_t)(start[c + 1] != start[c]) << (c & 63);
     }
     g->occupied = occ;
+    /* Prefetching pays where the packed triangles outgrow the caches (blob's
+     * measurements in bench/REPORT.txt); below, it is only instructions. */
+    g->prefetch_tri = g->tri && (size_t)g->num_prims * sizeof *g->tri > GRID_PREFETCH_BYTES;
 }
 
 void grid_pack_free(Grid *g)

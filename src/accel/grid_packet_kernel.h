@@ -290,7 +290,7 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
     const int nk = g->n[K], nu = g->n[U], nv = g->n[V];
     const uint32_t *start = g->cell_start, *items = g->cell_items;
     const uint64_t *occ = g->occupied;
-    const PackedTri *tri = g->tri;
+    const PackedTri *prefetch = g->prefetch_tri ? g->tri : NULL;
     const pk_fv inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
     const pk_f8 inf8 = pk8_splat(INFINITY), ninf8 = pk8_splat(-INFINITY);
 
@@ -397,10 +397,11 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                     if (e == end)
                         continue;
                     /* The cell's packed triangles on their way into the cache
-                     * together, instead of one miss after the other. */
-                    if (tri)
+                     * together, instead of one miss after the other (on grids
+                     * whose triangles outgrow the cache, grid_internal.h). */
+                    if (prefetch)
                         for (uint32_t f = e; f < end; f++)
-                            __builtin_prefetch(&tri[GRID_ITEM_INDEX(items[f])]);
+                            __builtin_prefetch(&prefetch[GRID_ITEM_INDEX(items[f])]);
                     uint64_t crossing = in;
                     if (!one_cell) {
                         crossing = 0;
