@@ -122,8 +122,8 @@ static int free_slot(void)
 }
 
 /* Creates the temporary file "<dir>/.<name>.XXXXXX" for target in slot (registered for
- * image_write_abort) with the permissions a plain fopen would give; its descriptor,
- * or -1 with errno set. */
+ * image_write_abort) with the permissions of the file it will replace, or those a plain
+ * fopen would give; its descriptor, or -1 with errno set. */
 static int make_temp(const char *target, int slot)
 {
     size_t plen = strlen(target);
@@ -150,10 +150,20 @@ static int make_temp(const char *target, int slot)
         errno = e;
         return -1;
     }
-    /* mkstemp creates the file 0600; give it the permissions a plain fopen would. */
-    mode_t mask = umask(0);
-    umask(mask);
-    if (fchmod(fd, (mode_t)(0666 & ~mask)) != 0) {
+    /* mkstemp creates the file 0600. A file it will replace keeps its permission bits
+     * (a private 0600 image stays private, a 0444 one read-only: the rename must not
+     * widen or change them); a new file gets what a plain fopen would give. Only the
+     * rwx bits are carried over, never set-id or sticky bits. */
+    mode_t mode;
+    struct stat st;
+    if (stat(target, &st) == 0 && S_ISREG(st.st_mode)) {
+        mode = st.st_mode & 0777;
+    } else {
+        mode_t mask = umask(0);
+        umask(mask);
+        mode = 0666 & ~mask;
+    }
+    if (fchmod(fd, mode) != 0) {
         e = errno;
         close(fd);
         errno = e;

@@ -435,6 +435,46 @@ static void test_write_read_by_extension(void)
     remove_tree(dir);
 }
 
+/* Replacing an image keeps the old file's permission bits (the new bytes arrive by a
+ * rename, so without care a private 0600 file would come back 0644); a new file gets
+ * the umask's. Both the plain write and the streamed one go through the same temporary
+ * file. */
+static void test_write_keeps_permissions(void)
+{
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    Image img;
+    make_small(&img);
+    Diag diag;
+    diag_init(&diag, NULL);
+    char path[256];
+    snprintf(path, sizeof path, "%s/keep.tga", dir);
+    const mode_t modes[] = {0600, 0640, 0444, 0755};
+    for (size_t i = 0; i < sizeof modes / sizeof modes[0]; i++) {
+        CHECK_MSG(image_write(&img, path, &diag), "%s: %s", path, diag.last);
+        CHECK(chmod(path, modes[i]) == 0);
+        CHECK_MSG(image_write(&img, path, &diag), "%s: %s", path, diag.last);
+        struct stat st;
+        CHECK(stat(path, &st) == 0);
+        CHECK_MSG((st.st_mode & 07777) == modes[i], "mode %o after replacing a %o file",
+                  (unsigned)(st.st_mode & 07777), (unsigned)modes[i]);
+        CHECK(chmod(path, 0644) == 0);
+    }
+    /* A new file: 0666 less the umask. */
+    mode_t mask = umask(022);
+    snprintf(path, sizeof path, "%s/new.tga", dir);
+    CHECK(image_write(&img, path, &diag));
+    struct stat st;
+    CHECK(stat(path, &st) == 0);
+    CHECK_INT((int)(st.st_mode & 07777), 0644);
+    umask(mask);
+    CHECK_INT(count_entries(dir), 2);
+    image_free(&img);
+    remove_tree(dir);
+}
+
 static void test_write_failure_leaves_nothing(void)
 {
     char *dir = make_tmpdir();
@@ -980,6 +1020,7 @@ static const TestCase tests[] = {
     {"image: PPM comments, truncation, bad headers", test_ppm_comments_and_rejects},
     {"image: PNG round trip", test_png_round_trip},
     {"image: write/read by extension", test_write_read_by_extension},
+    {"image: replacing a file keeps its permissions", test_write_keeps_permissions},
     {"image: failed write leaves nothing", test_write_failure_leaves_nothing},
     {"image: unwritable folder", test_write_unwritable_folder},
     {"image: devices written into, links followed", test_write_devices_and_links},
