@@ -1,7 +1,7 @@
 /* Image files by name: the codec follows the extension when writing and the file's
  * signature when reading (src/io/codec_table.c), and a write goes to a temporary file in
  * the target folder that is renamed into place, so a failed run leaves no file. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE /* fallocate (Linux); otherwise POSIX 2008 */
 #include "rt/image.h"
 #include "rt/bigmem.h"
 #include "codec.h"
@@ -62,6 +62,23 @@ static bool write_all(int fd, const uint8_t *p, size_t n)
         n -= (size_t)w;
     }
     return true;
+}
+
+/* Gives the file of fd its len bytes of disk now (best effort: a file system without
+ * fallocate gets them as the bytes are written). Why: ext4 allocates written blocks
+ * late, and renaming a file over an existing one makes it allocate and start writing
+ * back all of the new file's blocks inside rename(2) (its "replace by rename" safety):
+ * 3-5 ms for a 1080p TGA on the machines measured, on the calling thread after the
+ * render. Blocks allocated beforehand leave rename nothing to allocate. */
+static void preallocate(int fd, size_t len)
+{
+#if defined(__linux__)
+    if (len > 0 && (off_t)len > 0)
+        (void)fallocate(fd, 0, 0, (off_t)len);
+#else
+    (void)fd;
+    (void)len;
+#endif
 }
 
 /* The temporary files of the write in progress, for image_write_abort (called from a
@@ -215,6 +232,7 @@ static bool stage(Pending *p, Diag *diag)
         return false;
     }
     p->slot = slot;
+    preallocate(fd, p->len);
     bool ok = write_all(fd, p->data, p->len);
     int e = errno;
     if (close(fd) != 0 && ok) {
@@ -450,6 +468,8 @@ bool image_encoding_stream(ImageEncoding *e, const char *path)
     int fd = slot < 0 ? -1 : make_temp(p.target, slot);
     if (fd == -2)
         drop_temp(slot);
+    if (fd >= 0)
+        preallocate(fd, e->len);
     if (fd < 0 || !pwrite_all(fd, e->data, e->top, 0)) {
         if (fd >= 0) {
             close(fd);
