@@ -75,6 +75,13 @@ static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
         image_put(t->normals, x, y, render_normal_color(hit));
 }
 
+/* The last bands of a render with several threads are split into parts of whole
+ * tiles: when one thread takes the last band, the others would otherwise wait for all
+ * of it (about a millisecond of a 1080p band: half of one on average, at every
+ * render's end); split, they share its parts. The tiles and so the packets are the
+ * same, hence the same pixels and counters. */
+enum { SPLIT_PARTS = 4 };
+
 typedef struct ImageJob {
     const RayTracer *rt;
     const Camera *camera;
@@ -82,6 +89,9 @@ typedef struct ImageJob {
     RenderRowFn row_done;
     void *user;
     volatile int *cancel;   /* polled before every tile, not only every band */
+    int split_from;         /* bands from this one on come in `parts` parts (jobs) */
+    int parts;              /* 1: no band is split */
+    atomic_int *parts_left; /* per split band: its parts not yet rendered */
 } ImageJob;
 
 static bool job_cancelled(const ImageJob *job) { return job->cancel && *job->cancel; }
@@ -128,10 +138,11 @@ static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
     }
 }
 
-/* Rows y0..y1-1 of the rectangle. Tiles stay on the full image's 8 x 8 grid, so a
- * rectangle on that grid traces the very packets of the whole render; pixels of a
- * tile outside the rectangle are left out of its packet. */
-static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
+/* Rows y0..y1-1 of the rectangle, in the tiles whose left column is in [xa, xb)
+ * (a part of the band; xa a multiple of TILE). Tiles stay on the full image's 8 x 8
+ * grid, so a rectangle on that grid traces the very packets of the whole render;
+ * pixels of a tile outside the rectangle are left out of its packet. */
+static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int xa, int xb)
 {
     RenderTarget *t = job->target;
     float tmin = camera_tmin(job->camera);
@@ -164,7 +175,8 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
     for (int k = 0; k < TILE * TILE; k++)
         slot[cell[k]] = (uint8_t)k;
     Ray block[TILE * TILE]; /* a cut tile's rays, row by row */
-    for (int x0 = xlo / TILE * TILE; x0 < xhi && !job_cancelled(job); x0 += TILE) {
+    int xend = xb < xhi ? xb : xhi;
+    for (int x0 = xa; x0 < xend && !job_cancelled(job); x0 += TILE) {
         int n = 0;
         if (full_rows && x0 >= xlo && x0 + TILE <= xhi) {
             camera_pixel_rays(job->camera, x0, y0, TILE, TILE, t->width, t->height, slot,
@@ -196,21 +208,43 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1)
     }
 }
 
-static void image_band(void *user, RenderCtx *ctx, int band)
+static void image_band(void *user, RenderCtx *ctx, int index)
 {
-    /* Bands of the full image's 8-row grid that meet the rectangle. */
+    /* Bands of the full image's 8-row grid that meet the rectangle; from split_from on,
+     * `parts` jobs per band, each a run of its tile columns. */
     const ImageJob *job = user;
     const RenderTarget *t = job->target;
+    int band = index, part = 0;
+    if (index >= job->split_from) {
+        band = job->split_from + (index - job->split_from) / job->parts;
+        part = (index - job->split_from) % job->parts;
+    }
     int top = t->y0 + t->h;
     int y0 = (t->y0 / TILE + band) * TILE, y1 = y0 + TILE < top ? y0 + TILE : top;
+    int xa = t->x0 / TILE * TILE, xb = t->x0 + t->w;
+    if (band >= job->split_from) {
+        int cols = (xb - xa + TILE - 1) / TILE; /* tile columns, >= parts */
+        int c0 = cols * part / job->parts, c1 = cols * (part + 1) / job->parts;
+        xb = xa + c1 * TILE;
+        xa += c0 * TILE;
+    }
     const RtStats *st = &ctx->stats;
     uint64_t rays = st->nonshadow_rays + st->shadow_rays;
-    render_band(job, ctx, y0, y1);
+    render_band(job, ctx, y0, y1, xa, xb);
     if (job_cancelled(job))
         return; /* rows cut short are not done */
+    uint64_t traced = st->nonshadow_rays + st->shadow_rays - rays;
+    /* A split band's rows are done when its last part is: that part's thread reports
+     * them (the release and acquire of the count make the other parts' pixels visible
+     * to it). */
+    if (band >= job->split_from &&
+        atomic_fetch_sub_explicit(&job->parts_left[band - job->split_from], 1,
+                                  memory_order_acq_rel) != 1) {
+        progress_add(t->progress, 0, traced);
+        return;
+    }
     int lo = y0 > t->y0 ? y0 : t->y0; /* the rows of this band inside the rectangle */
-    progress_add(t->progress, (uint64_t)(y1 - lo),
-                 st->nonshadow_rays + st->shadow_rays - rays);
+    progress_add(t->progress, (uint64_t)(y1 - lo), traced);
     if (job->row_done)
         for (int y = y0; y < y1; y++)
             job->row_done(job->user, y);
@@ -301,7 +335,25 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         target->w = target->width;
         target->h = target->height;
     }
-    ImageJob job = {rt, camera, target, row_done, user, cancel};
     int bands = (target->y0 + target->h + TILE - 1) / TILE - target->y0 / TILE;
-    return render_parallel(rt, threads, bands, image_band, &job, stats_out, cancel);
+    ImageJob job = {rt, camera, target, row_done, user, cancel, bands, 1, NULL};
+    /* With several threads, the last 2 bands per thread in parts (SPLIT_PARTS), when
+     * the rectangle is that many tiles wide. */
+    int nthreads = threads > 0 ? threads : render_default_threads();
+    int cols = (target->x0 + target->w + TILE - 1) / TILE - target->x0 / TILE;
+    int split = nthreads > 1 && cols >= SPLIT_PARTS ? 2 * nthreads : 0;
+    if (split > bands / 2)
+        split = bands / 2;
+    atomic_int *left = split > 0 ? malloc((size_t)split * sizeof *left) : NULL;
+    if (left) {
+        for (int b = 0; b < split; b++)
+            atomic_init(&left[b], SPLIT_PARTS);
+        job.split_from = bands - split;
+        job.parts = SPLIT_PARTS;
+        job.parts_left = left;
+    }
+    int jobs = job.split_from + (bands - job.split_from) * job.parts;
+    bool ok = render_parallel(rt, threads, jobs, image_band, &job, stats_out, cancel);
+    free(left);
+    return ok;
 }

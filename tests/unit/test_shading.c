@@ -8,6 +8,7 @@
 #include "../../src/render/phong_packet.h"
 
 #include <float.h>
+#include <stdatomic.h>
 #include <string.h>
 
 static void test_pixel_mapping(void)
@@ -879,7 +880,82 @@ static void test_render_cancel(void)
     arena_free(&m.s.arena);
 }
 
+/* The last bands of a render with several threads come in parts (render.c): every
+ * pixel and counter is the one thread's, and each row of the rectangle is reported
+ * exactly once, when all of its pixels are there (also with a rectangle off the tile
+ * grid and a cut top band). */
+typedef struct RowCheck {
+    const Image *img;
+    int x0, y0, w, h;
+    atomic_int reported[64];
+    atomic_int early; /* rows reported before all their pixels were written */
+} RowCheck;
+
+static void check_row(void *user, int y)
+{
+    RowCheck *rc = user;
+    int r = y - rc->y0;
+    if (r < 0 || r >= rc->h || r >= 64)
+        return;
+    atomic_fetch_add(&rc->reported[r], 1);
+    for (int x = 0; x < rc->w; x++)
+        if (image_get(rc->img, x, r).x < 0.0f)
+            atomic_fetch_add(&rc->early, 1);
+}
+
+static void test_render_split_bands(void)
+{
+    Mini m;
+    mini_init(&m);
+    CHECK(camera_init_orthographic(&m.s.camera, v3(0, 0, 10), v3(0, 0, -1), v3(0, 1, 0), 4));
+    PhongParams pp = phong_defaults();
+    Material *white = phong_new(&m.s.arena, &pp);
+    mini_set_root(&m, sphere_new(&m.s.arena, v3(0.3f, -0.2f, 0), 1.5f, white));
+    RayTracer rt = tracer(&m.s);
+    /* The whole 70 x 45 image (45 rows: a cut top band), then a rectangle of it. */
+    const int rects[2][4] = {{0, 0, 70, 45}, {5, 3, 50, 30}};
+    for (int c = 0; c < 2; c++) {
+        int x0 = rects[c][0], y0 = rects[c][1], w = rects[c][2], h = rects[c][3];
+        Image ref;
+        CHECK(image_init(&ref, w, h));
+        RtStats ref_st;
+        for (int threads = 1; threads <= 4; threads++) {
+            Image img;
+            CHECK(image_init(&img, w, h));
+            image_fill(&img, v3(-1, -1, -1)); /* "never written" */
+            static RowCheck rc;
+            memset(&rc, 0, sizeof rc);
+            rc.img = &img;
+            rc.x0 = x0;
+            rc.y0 = y0;
+            rc.w = w;
+            rc.h = h;
+            RenderTarget t = {70, 45, &img, NULL, 0, 1, NULL, x0, y0, w, h, NULL};
+            RtStats st;
+            CHECK(render_image(&rt, &m.s.camera, &t, threads, &st, check_row, &rc, NULL));
+            CHECK_INT(atomic_load(&rc.early), 0);
+            for (int r = 0; r < h; r++)
+                CHECK_MSG(atomic_load(&rc.reported[r]) == 1, "%d threads: row %d reported %d times",
+                          threads, r, atomic_load(&rc.reported[r]));
+            if (threads == 1) {
+                memcpy(ref.pixels, img.pixels, (size_t)w * (size_t)h * sizeof *img.pixels);
+                ref_st = st;
+            } else {
+                CHECK_MSG(memcmp(ref.pixels, img.pixels, (size_t)w * (size_t)h *
+                                 sizeof *img.pixels) == 0, "%d threads: pixels differ", threads);
+                CHECK(memcmp(&ref_st, &st, sizeof st) == 0);
+            }
+            image_free(&img);
+        }
+        image_free(&ref);
+    }
+    accel_free(&tracer_accel);
+    prim_table_free(&tracer_prims);
+    arena_free(&m.s.arena);
+}
+
 static const TestCase tests[] = {
+    {"render: the last bands in parts: same pixels, each row once, complete", test_render_split_bands},
     {"render: stops at the cancel flag", test_render_cancel},
     {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
