@@ -15,6 +15,7 @@
 #include "rt/film.h"
 #include "rt/grid.h"
 #include "rt/accel.h"
+#include "rt/bigmem.h"
 #include "rt/twolevel.h"
 #include "rt/image.h"
 #include "rt/options.h"
@@ -78,6 +79,7 @@ typedef struct App {
     RayTracer rt;
     SetupCache *cache;  /* -cache FILE, NULL without */
     double t_parse, t_grid;
+    bool last_render;   /* render_and_write's images are the run's last work */
 } App;
 
 static void print_version(void)
@@ -530,6 +532,10 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
                 "calling thread: the whole cost with -threads 1)\n", fc.trace_cpu * 1e3,
                 fc.filter_cpu * 1e3);
 done:
+    /* The run ends here: the big frees below and in main leave their mappings to the
+     * exit (rt/bigmem.h). */
+    if (app->last_render)
+        bigmem_leave_to_exit();
     for (int i = 0; i < 3; i++)
         image_encoding_free(&encoded[i]);
     if (target.color && (target.color->pixels || target.color->bytes))
@@ -714,6 +720,7 @@ static int run(App *app)
             return preview_snapshot(&cfg, &app->diag);
         return preview_run_window(&cfg, &app->diag);
     }
+    app->last_render = true;
     return render_and_write(app, &s->camera, NULL);
 }
 

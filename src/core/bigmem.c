@@ -181,13 +181,23 @@ void *bigmem_resize(void *p, size_t size)
     return q;
 }
 
+/* Set once by bigmem_leave_to_exit; read by any thread that frees. */
+static atomic_bool g_leave_to_exit;
+
+void bigmem_leave_to_exit(void)
+{
+    atomic_store_explicit(&g_leave_to_exit, true, memory_order_relaxed);
+}
+
 void bigmem_free(void *p)
 {
     if (!p)
         return;
     BigmemHeader *h = header_of(p);
-    if (h->map_len)
-        munmap(h, h->map_len);
+    if (h->map_len) {
+        if (!atomic_load_explicit(&g_leave_to_exit, memory_order_relaxed))
+            munmap(h, h->map_len);
+    }
     else if (!h->pooled)
         free(h);
 }

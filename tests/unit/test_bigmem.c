@@ -4,10 +4,13 @@
  * refused absurd sizes. */
 #include "harness.h"
 
+#include <errno.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
 
 #include "rt/bigmem.h"
 
@@ -177,7 +180,42 @@ static void test_huge_page_advice(void)
     bigmem_free(p);
 }
 
+/* Whether the page at p is mapped (mincore fails with ENOMEM on unmapped memory). */
+static bool page_mapped(const void *p)
+{
+    long ps = sysconf(_SC_PAGESIZE);
+    uintptr_t a = (uintptr_t)p & ~(uintptr_t)(ps - 1);
+    unsigned char v;
+    return mincore((void *)a, (size_t)ps, &v) == 0 || errno != ENOMEM;
+}
+
+/* bigmem_leave_to_exit: a mapped block freed before it is unmapped; after it, its
+ * mapping stays (with its bytes) for the exit to take; smaller blocks are freed and
+ * handed out again as before. */
+static void test_leave_to_exit(void)
+{
+    if (!bigmem_maps_large())
+        return; /* AddressSanitizer builds: every block is malloc'd */
+    size_t big = (size_t)BIGMEM_MIN_BYTES * 4;
+    unsigned char *a = bigmem_alloc(big);
+    CHECK(a != NULL && bigmem_is_mapped(a));
+    CHECK(page_mapped(a + big / 2));
+    bigmem_free(a);
+    CHECK(!page_mapped(a + big / 2)); /* unmapped at once */
+    unsigned char *b = bigmem_alloc(big);
+    CHECK(b != NULL && bigmem_is_mapped(b));
+    fill(b, big, 7);
+    bigmem_leave_to_exit();
+    bigmem_free(b);
+    CHECK(page_mapped(b + big / 2));
+    CHECK(filled(b, big, 7)); /* left as it was */
+    unsigned char *c = bigmem_alloc(100); /* malloc'd: freed and usable as ever */
+    CHECK(c != NULL && all_zero(c, 100));
+    bigmem_free(c);
+}
+
 static const TestCase tests[] = {
+    {"bigmem: left to the exit, mappings stay; before, they go", test_leave_to_exit},
     {"bigmem: sizes on both paths, zeroed and aligned", test_alloc_sizes},
     {"bigmem: resize keeps the contents across the paths", test_resize_keeps_contents},
     {"bigmem: middle sizes from the pool, zeroed, never handed out twice", test_middle_sizes},
