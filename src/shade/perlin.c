@@ -4,12 +4,16 @@
 #include "rt/cpu.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
+#include <string.h>
 
 /* Ken Perlin's published permutation of 0..255 (a constant of the algorithm). The
- * algorithm indexes up to P[P[P[X+1]+Y+1]+Z+1] <= 511, so the table is stored twice;
- * the second copy is filled once, see perm(). */
-static const unsigned char PERLIN_PERM[256] = {
+ * algorithm indexes up to P[P[P[X+1]+Y+1]+Z+1] <= 511; perm() takes the index modulo
+ * 256 instead of storing the table twice. Three zero bytes follow the 256: the lane
+ * kernels below gather a 32-bit word at byte i and keep its low byte (P[i] on a
+ * little-endian x86), and the word at i = 255 reaches three bytes further. */
+static const unsigned char PERLIN_PERM[256 + 3] = {
     151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225,
     140, 36,  103, 30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148,
     247, 120, 234, 75,  0,   26,  197, 62,  94,  252, 219, 203, 117, 35,  11,  32,
@@ -137,7 +141,188 @@ __attribute__((target("avx2"))) static double noise3_avx2(double x, double y, do
     return lerp(w, lerp(v, l00, l10), lerp(v, l01, l11));
 }
 #define PERLIN_HAVE_AVX2 1
+
+/* The lane kernels (perlin_lanes.h): one point per lane, the permutation read by
+ * gathers of the byte table (each lane's word at byte i, its low byte kept). */
+#include <immintrin.h>
+
+static const int *perm_words(void) { return (const int *)(const void *)PERLIN_PERM; }
+
+/* AVX-512 (F, VL, DQ): eight doubles a vector, the ints in a 256-bit vector. */
+#define PL_TARGET __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw")))
+#define PL_W 8
+#define PL_D __m512d
+#define PL_I __m256i
+#define PL_(name) name##_x8
+#define PL_FN octaves_lanes_avx512
+PL_TARGET static inline __m512d d_set_x8(double a) { return _mm512_set1_pd(a); }
+PL_TARGET static inline __m512d d_load_x8(const double *p) { return _mm512_loadu_pd(p); }
+PL_TARGET static inline void d_store_x8(double *p, __m512d a) { _mm512_storeu_pd(p, a); }
+PL_TARGET static inline __m512d d_add_x8(__m512d a, __m512d b) { return _mm512_add_pd(a, b); }
+PL_TARGET static inline __m512d d_sub_x8(__m512d a, __m512d b) { return _mm512_sub_pd(a, b); }
+PL_TARGET static inline __m512d d_mul_x8(__m512d a, __m512d b) { return _mm512_mul_pd(a, b); }
+PL_TARGET static inline __m512d d_div_x8(__m512d a, __m512d b) { return _mm512_div_pd(a, b); }
+PL_TARGET static inline __m512d d_floor_x8(__m512d a)
+{
+    return _mm512_roundscale_pd(a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+}
+PL_TARGET static inline __m512d d_zero_unless_small_x8(__m512d r, __m512d fx, __m512d fy,
+                                                       __m512d fz)
+{
+    __m512d lim = _mm512_set1_pd(1e9);
+    __mmask8 ok = _mm512_cmp_pd_mask(_mm512_abs_pd(fx), lim, _CMP_LT_OQ) &
+                  _mm512_cmp_pd_mask(_mm512_abs_pd(fy), lim, _CMP_LT_OQ) &
+                  _mm512_cmp_pd_mask(_mm512_abs_pd(fz), lim, _CMP_LT_OQ);
+    return _mm512_maskz_mov_pd(ok, r);
+}
+PL_TARGET static inline __m256i i_trunc_x8(__m512d a) { return _mm512_cvttpd_epi32(a); }
+PL_TARGET static inline __m256i i_set_x8(int a) { return _mm256_set1_epi32(a); }
+PL_TARGET static inline __m256i i_add_x8(__m256i a, __m256i b) { return _mm256_add_epi32(a, b); }
+PL_TARGET static inline __m256i i_and_x8(__m256i a, __m256i b) { return _mm256_and_si256(a, b); }
+PL_TARGET static inline __m256i i_perm_x8(__m256i i)
+{
+    __m256i m = _mm256_set1_epi32(255);
+    return _mm256_and_si256(_mm256_i32gather_epi32(perm_words(), _mm256_and_si256(i, m), 1), m);
+}
+/* grad: u and v selected by the hash's compares, negated by flipping the sign bit
+ * (exactly IEEE negation), as grad4. */
+PL_TARGET static inline __m512d grad_x8(__m256i h, __m512d x, __m512d y, __m512d z)
+{
+    h = _mm256_and_si256(h, _mm256_set1_epi32(15));
+    __mmask8 to_x = _mm256_cmplt_epi32_mask(h, _mm256_set1_epi32(8));
+    __mmask8 v_y = _mm256_cmplt_epi32_mask(h, _mm256_set1_epi32(4));
+    __mmask8 v_x = _mm256_cmpeq_epi32_mask(h, _mm256_set1_epi32(12)) |
+                   _mm256_cmpeq_epi32_mask(h, _mm256_set1_epi32(14));
+    __mmask8 neg_u = _mm256_test_epi32_mask(h, _mm256_set1_epi32(1));
+    __mmask8 neg_v = _mm256_test_epi32_mask(h, _mm256_set1_epi32(2));
+    __m512d sign = _mm512_set1_pd(-0.0);
+    __m512d u = _mm512_mask_blend_pd(to_x, y, x);
+    __m512d v = _mm512_mask_blend_pd(v_y, _mm512_mask_blend_pd(v_x, z, x), y);
+    u = _mm512_mask_xor_pd(u, neg_u, u, sign);
+    v = _mm512_mask_xor_pd(v, neg_v, v, sign);
+    return _mm512_add_pd(u, v);
+}
+#include "perlin_lanes.h"
+#undef PL_TARGET
+#undef PL_W
+#undef PL_D
+#undef PL_I
+#undef PL_
+#undef PL_FN
+
+/* AVX2: four doubles a vector, the ints in a 128-bit vector. */
+#define PL_TARGET __attribute__((target("avx2")))
+#define PL_W 4
+#define PL_D __m256d
+#define PL_I __m128i
+#define PL_(name) name##_x4
+#define PL_FN octaves_lanes_avx2
+PL_TARGET static inline __m256d d_set_x4(double a) { return _mm256_set1_pd(a); }
+PL_TARGET static inline __m256d d_load_x4(const double *p) { return _mm256_loadu_pd(p); }
+PL_TARGET static inline void d_store_x4(double *p, __m256d a) { _mm256_storeu_pd(p, a); }
+PL_TARGET static inline __m256d d_add_x4(__m256d a, __m256d b) { return _mm256_add_pd(a, b); }
+PL_TARGET static inline __m256d d_sub_x4(__m256d a, __m256d b) { return _mm256_sub_pd(a, b); }
+PL_TARGET static inline __m256d d_mul_x4(__m256d a, __m256d b) { return _mm256_mul_pd(a, b); }
+PL_TARGET static inline __m256d d_div_x4(__m256d a, __m256d b) { return _mm256_div_pd(a, b); }
+PL_TARGET static inline __m256d d_floor_x4(__m256d a)
+{
+    return _mm256_round_pd(a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+}
+PL_TARGET static inline __m256d d_zero_unless_small_x4(__m256d r, __m256d fx, __m256d fy,
+                                                       __m256d fz)
+{
+    __m256d lim = _mm256_set1_pd(1e9), sign = _mm256_set1_pd(-0.0);
+    __m256d ok = _mm256_and_pd(
+        _mm256_and_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, fx), lim, _CMP_LT_OQ),
+                      _mm256_cmp_pd(_mm256_andnot_pd(sign, fy), lim, _CMP_LT_OQ)),
+        _mm256_cmp_pd(_mm256_andnot_pd(sign, fz), lim, _CMP_LT_OQ));
+    return _mm256_and_pd(ok, r);
+}
+PL_TARGET static inline __m128i i_trunc_x4(__m256d a) { return _mm256_cvttpd_epi32(a); }
+PL_TARGET static inline __m128i i_set_x4(int a) { return _mm_set1_epi32(a); }
+PL_TARGET static inline __m128i i_add_x4(__m128i a, __m128i b) { return _mm_add_epi32(a, b); }
+PL_TARGET static inline __m128i i_and_x4(__m128i a, __m128i b) { return _mm_and_si128(a, b); }
+PL_TARGET static inline __m128i i_perm_x4(__m128i i)
+{
+    __m128i m = _mm_set1_epi32(255);
+    return _mm_and_si128(_mm_i32gather_epi32(perm_words(), _mm_and_si128(i, m), 1), m);
+}
+PL_TARGET static inline __m256d grad_x4(__m128i h, __m256d x, __m256d y, __m256d z)
+{
+    return (__m256d)grad4((PerlinV4i)_mm256_cvtepi32_epi64(h), (PerlinV4d)x, (PerlinV4d)y,
+                          (PerlinV4d)z);
+}
+#include "perlin_lanes.h"
+#undef PL_TARGET
+#undef PL_W
+#undef PL_D
+#undef PL_I
+#undef PL_
+#undef PL_FN
 #endif
+
+/* The portable lane kernel: the scalar code point by point. */
+static void octaves_lanes_scalar(const double *x, const double *y, const double *z, int n,
+                                 int octaves, double *out)
+{
+    for (int i = 0; i < n; i++)
+        out[i] = perlin_octaves(x[i], y[i], z[i], octaves);
+}
+
+typedef void (*LanesFn)(const double *, const double *, const double *, int, int, double *);
+
+typedef struct LanesKernel {
+    const char *name;
+    LanesFn fn;
+    bool (*usable)(void);
+} LanesKernel;
+
+static bool always(void) { return true; }
+
+static const LanesKernel lanes_kernels[] = {
+    {"scalar", octaves_lanes_scalar, always},
+#ifdef PERLIN_HAVE_AVX2
+    {"avx2", octaves_lanes_avx2, cpu_has_avx2},
+    {"avx512", octaves_lanes_avx512, cpu_has_avx512},
+#endif
+};
+enum { NUM_LANES_KERNELS = sizeof lanes_kernels / sizeof lanes_kernels[0] };
+
+static const LanesKernel *lanes_kernel = &lanes_kernels[0];
+static pthread_once_t lanes_once = PTHREAD_ONCE_INIT;
+
+static void choose_lanes_kernel(void)
+{
+    for (int i = NUM_LANES_KERNELS - 1; i > 0; i--)
+        if (lanes_kernels[i].usable()) {
+            lanes_kernel = &lanes_kernels[i];
+            return;
+        }
+}
+
+const char *perlin_lanes_kernel(void)
+{
+    pthread_once(&lanes_once, choose_lanes_kernel);
+    return lanes_kernel->name;
+}
+
+bool perlin_use_lanes_kernel(const char *name)
+{
+    pthread_once(&lanes_once, choose_lanes_kernel);
+    for (int i = 0; i < NUM_LANES_KERNELS; i++)
+        if (!strcmp(name, lanes_kernels[i].name) && lanes_kernels[i].usable()) {
+            lanes_kernel = &lanes_kernels[i];
+            return true;
+        }
+    return false;
+}
+
+void perlin_octaves_lanes(const double *x, const double *y, const double *z, int n,
+                          int octaves, double *out)
+{
+    pthread_once(&lanes_once, choose_lanes_kernel);
+    lanes_kernel->fn(x, y, z, n, octaves, out);
+}
 
 double perlin_noise3(double x, double y, double z)
 {

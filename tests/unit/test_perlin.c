@@ -245,6 +245,58 @@ static void test_bits_of_reference(void)
     CHECK_MSG(differ == 0, "%ld of 300000 points differ from the reference's bits", differ);
 }
 
+/* perlin_octaves_lanes with every lane kernel this CPU runs against perlin_octaves, bit
+ * for bit: random points at three scales, points on lattice planes (zero distances,
+ * -0), negative cells, huge and non-finite coordinates (the lanes that answer 0),
+ * every count of points up to two vectors and more (the partial last vector) and
+ * octave counts 0 .. 7. */
+static void test_lanes_bits(void)
+{
+    enum { N = 203 };
+    static double x[N], y[N], z[N], out[N];
+    const char *def = perlin_lanes_kernel();
+    const char *names[] = {"scalar", "avx2", "avx512"};
+    int kernels_run = 0;
+    long differ = 0, points = 0;
+    for (int kn = 0; kn < 3; kn++) {
+        if (!perlin_use_lanes_kernel(names[kn]))
+            continue;
+        kernels_run++;
+        uint64_t s = 0x243F6A8885A308D3ULL;
+        for (int round = 0; round < 120; round++) {
+            int n = round < 20 ? round : N - round % 7;
+            int octaves = round % 8;
+            for (int i = 0; i < n; i++) {
+                double c[3];
+                for (int k = 0; k < 3; k++) {
+                    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+                    double r = (double)(s >> 11) / 9007199254740992.0 - 0.5;
+                    c[k] = r * (round % 3 == 0 ? 3000.0 : round % 3 == 1 ? 40.0 : 2.0);
+                }
+                if (i % 11 == 3)
+                    c[i % 3] = floor(c[i % 3]);
+                if (i % 29 == 5)
+                    c[(i + 1) % 3] = i % 2 ? 2e9 : -1e300;
+                if (i % 37 == 7)
+                    c[i % 3] = i % 2 ? (double)NAN : -(double)INFINITY;
+                x[i] = c[0];
+                y[i] = c[1];
+                z[i] = c[2];
+            }
+            perlin_octaves_lanes(x, y, z, n, octaves, out);
+            for (int i = 0; i < n; i++) {
+                double want = perlin_octaves(x[i], y[i], z[i], octaves);
+                differ += memcmp(&want, &out[i], sizeof want) != 0;
+                points++;
+            }
+        }
+    }
+    CHECK(perlin_use_lanes_kernel(def));
+    CHECK_MSG(differ == 0, "%ld of %ld points differ from perlin_octaves' bits", differ, points);
+    CHECK(kernels_run >= 1);
+    printf("    lane kernels run: %d (default %s)\n", kernels_run, def);
+}
+
 static const TestCase tests[] = {
     {"perlin: published reference value", test_published_value},
     {"perlin: independent values", test_independent_values},
@@ -257,5 +309,6 @@ static const TestCase tests[] = {
     {"perlin: octave sum", test_octaves},
     {"perlin: the reference formulation's bits", test_bits_of_reference},
     {"perlin: octave cut-off weights (-noise_cutoff)", test_octave_cutoff},
+    {"perlin: the lane kernels give perlin_octaves' bits", test_lanes_bits},
 };
 RT_TEST_MAIN(tests)
