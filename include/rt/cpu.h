@@ -39,4 +39,15 @@ static inline bool cpu_has_avx512(void)
 #endif
 }
 
+/* cpu_has_avx512 and VBMI (byte permutes across a whole vector: Ice Lake, Zen 4 and
+ * later), for the noise's table lookups in registers. */
+static inline bool cpu_has_avx512vbmi(void)
+{
+#ifdef RT_CPU_X86
+    return cpu_has_avx512() && __builtin_cpu_supports("avx512vbmi");
+#else
+    return false;
+#endif
+}
+
 #endif

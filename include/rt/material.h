@@ -107,4 +107,20 @@ Material *marble_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
 Material *wood_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
                    const Material *m2, int octaves, float frequency, float amplitude);
 
+/* For the packet tracer, which shades procedural hits without the ops (the same bits):
+ * mat_checker_child: the child a Checkerboard delegates every question about world
+ * point p to (the same for shade, diffuse, reflective, transparent and ior); NULL when
+ * m is not a Checkerboard.
+ * mat_phong_blend: whether m is a Noise, Marble or Wood whose children are both
+ * PhongMaterials; if so their parameters (p1 is weighted by t, p2 by 1 - t) and
+ * whether both have zero reflective and transparent colours (*plain).
+ * mat_blend_weights: t[i] = the weight of such a blend at world point p[i], i < n, the
+ * same bits as its shading uses with the footprint 0 (-noise_cutoff off). Its ops give
+ * then: diffuse = blend(diffuse), shade = blend(phong_term) with blend(a, b) = a when
+ * t >= 1, b when t <= 0, else v3_lerp(a, b, t). */
+const Material *mat_checker_child(const Material *m, Vec3 p);
+bool mat_phong_blend(const Material *m, const PhongParams **p1, const PhongParams **p2,
+                     bool *plain);
+void mat_blend_weights(const Material *m, const Vec3 *p, int n, float *t);
+
 #endif

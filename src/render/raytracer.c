@@ -246,6 +246,142 @@ static Vec3 phong_lane_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ra
     return st.color;
 }
 
+/* How a packet shades the hits on one material (packet_kind). */
+typedef enum PacketKind {
+    PACKET_OPS,     /* through the material's ops (shade_begin, shade_light, shade_finish) */
+    PACKET_PHONG,   /* a PhongMaterial: the Phong packet kernel */
+    PACKET_CHECKER, /* a Checkerboard: each lane as the child it picks there */
+    PACKET_BLEND,   /* a Noise, Marble or Wood of two PhongMaterials: blend lanes */
+} PacketKind;
+
+/* The kind of material m when the packet shades inline (packet_inline_ok). Blend lanes
+ * need the footprint 0 (their weights are computed for it) and no shade_finish: no
+ * bounces, or zero reflective and transparent colours (shade_finish adds nothing). */
+static PacketKind packet_kind(const RayTracer *rt, const Material *m, bool blends_ok)
+{
+    const PhongParams *p1, *p2;
+    bool plain;
+    if (phong_params_of(m))
+        return PACKET_PHONG;
+    if (mat_checker_child(m, v3(0, 0, 0)))
+        return PACKET_CHECKER;
+    if (blends_ok && mat_phong_blend(m, &p1, &p2, &plain) && (plain || rt->bounces == 0))
+        return PACKET_BLEND;
+    return PACKET_OPS;
+}
+
+/* a for t >= 1, b for t <= 0, else t a + (1 - t) b: procedural_blend_shade's and the
+ * colour accessors' blend of their children's answers. */
+static inline Vec3 blend_of(Vec3 a, Vec3 b, float t)
+{
+    return t >= 1.0f ? a : t <= 0.0f ? b : v3_lerp(a, b, t);
+}
+
+/* One directional light's term on a blend lane: procedural_blend_shade over two
+ * PhongMaterials (each phong_shade is phong_term with v = -normalize(ray dir)), with
+ * the view vector v made once per lane and the child of weight 0 not asked. */
+static inline Vec3 blend_light(const PhongParams *p1, const PhongParams *p2, float t, Vec3 n,
+                               Vec3 v, Vec3 l, Vec3 lc)
+{
+    if (t >= 1.0f)
+        return phong_term(p1, n, v, l, lc);
+    if (t <= 0.0f)
+        return phong_term(p2, n, v, l, lc);
+    return v3_lerp(phong_term(p1, n, v, l, lc), phong_term(p2, n, v, l, lc), t);
+}
+
+/* One child's phong_term where it leaves powf out (no specular colour, the exponent
+ * and the normal in phong_term's range): its specular factor is then 0, and nl is the
+ * caller's n . l, which phong_term computes alike for both children. */
+static inline Vec3 phong_term_flat(const PhongParams *p, float diffuse, Vec3 lc)
+{
+    Vec3 c = v3_add(v3_scale(p->diffuse, diffuse), v3_scale(p->specular, 0.0f));
+    return v3_mul(lc, c);
+}
+
+/* blend_light for a lane of the quick mask (below): both children's phong_term as
+ * phong_term_flat, n . l once. */
+static inline Vec3 blend_light_flat(const PhongParams *p1, const PhongParams *p2, float t,
+                                    Vec3 n, Vec3 l, Vec3 lc)
+{
+    float nl = v3_dot(n, l);
+    float diffuse = nl > 0.0f ? nl : 0.0f;
+    if (t >= 1.0f)
+        return phong_term_flat(p1, diffuse, lc);
+    if (t <= 0.0f)
+        return phong_term_flat(p2, diffuse, lc);
+    return v3_lerp(phong_term_flat(p1, diffuse, lc), phong_term_flat(p2, diffuse, lc), t);
+}
+
+/* Whether phong_term leaves powf out for material p at every normal n with
+ * n . n <= 1.125 (its rule, less the per-normal part). */
+static bool phong_flat(const PhongParams *p)
+{
+    return v3_is_zero(p->specular) && p->exponent >= 0.0f && p->exponent <= 1000.0f;
+}
+
+/* The blend lanes of a packet: each lane's children, weight, facing normal, view
+ * vector and colour so far (lanes of the packet's blend mask only), and the lanes
+ * whose two children leave powf out there (quick: blend_light_flat). */
+typedef struct BlendLanes {
+    const PhongParams *p1[ACCEL_PACKET_MAX], *p2[ACCEL_PACKET_MAX];
+    float t[ACCEL_PACKET_MAX];
+    Vec3 n[ACCEL_PACKET_MAX], v[ACCEL_PACKET_MAX], color[ACCEL_PACKET_MAX];
+    uint64_t quick;
+} BlendLanes;
+
+/* shade_begin for the blend lanes of mask (their hit points made): the weights of each
+ * material's lanes together (mat_blend_weights: the noise a vector of points at a
+ * time), then the side, the facing normal and the ambient term. Returns the lanes to
+ * shade: mask without back faces unless -shade_back (those get black). */
+static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hits,
+                            uint64_t mask, BlendLanes *bl, Vec3 *colors)
+{
+    Vec3 pts[ACCEL_PACKET_MAX];
+    float t[ACCEL_PACKET_MAX];
+    int idx[ACCEL_PACKET_MAX];
+    uint64_t shaded = 0;
+    bl->quick = 0;
+    while (mask) {
+        const Material *m = hits[__builtin_ctzll(mask)].material;
+        int k = 0;
+        for (uint64_t r = mask; r; r &= r - 1) {
+            int i = __builtin_ctzll(r);
+            if (hits[i].material == m) {
+                idx[k] = i;
+                pts[k++] = hits[i].point;
+                mask &= ~((uint64_t)1 << i);
+            }
+        }
+        const PhongParams *p1, *p2;
+        bool plain;
+        mat_phong_blend(m, &p1, &p2, &plain);
+        mat_blend_weights(m, pts, k, t);
+        bool flat = phong_flat(p1) && phong_flat(p2);
+        for (int j = 0; j < k; j++) {
+            int i = idx[j];
+            Vec3 d = rays[i].dir, n = hits[i].normal;
+            if (!(v3_dot(n, d) < 0.0f) && v3_dot(n, d) > 0.0f) {
+                if (!rt->shade_back) {
+                    colors[i] = v3(0, 0, 0);
+                    continue;
+                }
+                n = v3_neg(n);
+            }
+            bl->p1[i] = p1;
+            bl->p2[i] = p2;
+            bl->t[i] = t[j];
+            bl->n[i] = n;
+            bl->v[i] = v3_neg(v3_normalize(d));
+            bl->color[i] = v3_mul(rt->scene->ambient, blend_of(p1->diffuse, p2->diffuse, t[j]));
+            shaded |= (uint64_t)1 << i;
+            if (flat && v3_dot(n, n) <= 1.125f)
+                bl->quick |= (uint64_t)1 << i;
+        }
+    }
+    return shaded;
+}
+
 /* Lights whose shadow masks a packet keeps for the bracket's re-shading (scenes with
  * more shade every lane with powf). */
 enum { BRACKET_LIGHTS = 16 };
@@ -275,6 +411,10 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     uint64_t found = accel_intersect_packet(rt->accel, rays, n, hits, tmin, ctx);
 
     bool inline_ok = packet_inline_ok(rt);
+    bool blends_ok = inline_ok && mat_footprint() == 0.0f;
+    PacketKind last_kind = PACKET_OPS;
+    uint64_t blend = 0;
+    BlendLanes bl;
     ShadeState st[ACCEL_PACKET_MAX];
     PhongPacket pp;
     pp.brk = 0;
@@ -295,13 +435,30 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         int i = __builtin_ctzll(m);
         uint64_t bit = (uint64_t)1 << i;
         const PhongParams *p = NULL;
+        bool lane_bounce = false;
         if (inline_ok) {
             if (hits[i].material != last) { /* neighbouring lanes mostly share one */
                 last = hits[i].material;
                 last_p = phong_params_of(last);
                 last_bounce = last_p && phong_lane_bounces(rt, last_p);
+                last_kind = packet_kind(rt, last, blends_ok);
             }
             p = last_p;
+            lane_bounce = last_bounce;
+            if (last_kind == PACKET_CHECKER) {
+                /* The child the checker picks at the hit answers every question about
+                 * it (shade_finish asks the checker again, which picks it again). */
+                hits[i].point = ray_at(&rays[i], hits[i].t);
+                const Material *c = last;
+                while (c && !phong_params_of(c))
+                    c = mat_checker_child(c, hits[i].point);
+                p = c ? phong_params_of(c) : NULL;
+                lane_bounce = p && phong_lane_bounces(rt, p);
+            } else if (last_kind == PACKET_BLEND) {
+                hits[i].point = ray_at(&rays[i], hits[i].t);
+                blend |= bit;
+                continue;
+            }
         }
         if (p) {
             pp.nx[i] = hits[i].normal.x;
@@ -312,7 +469,7 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
             pp.vz[i] = rays[i].dir.z;
             lp[i] = p;
             phong |= bit;
-            bounce |= last_bounce ? bit : 0;
+            bounce |= lane_bounce ? bit : 0;
             continue;
         }
         hits[i].point = ray_at(&rays[i], hits[i].t);
@@ -321,9 +478,14 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         else
             colors[i] = st[i].color;
     }
-    /* Every other lane of the groups (lanes past n too) holds zeros. */
+    if (blend) {
+        blend = blend_begin(rt, rays, hits, blend, &bl, colors);
+        live |= blend;
+    }
+    /* Every other lane of the groups (lanes past n too) holds zeros (when the kernel
+     * runs at all). */
     uint64_t group_lanes = lanes >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << lanes) - 1;
-    for (uint64_t m = group_lanes & ~phong; m; m &= m - 1) {
+    for (uint64_t m = phong ? group_lanes & ~phong : 0; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         pp.nx[i] = pp.ny[i] = pp.nz[i] = 0.0f;
         pp.vx[i] = pp.vy[i] = pp.vz[i] = 0.0f;
@@ -375,7 +537,7 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
                 srays[i].dir = l0;
                 dist[i] = dist0;
             }
-            for (uint64_t m = live & ~phong; m; m &= m - 1)
+            for (uint64_t m = live & ~phong & ~blend; m; m &= m - 1)
                 lcol[__builtin_ctzll(m)] = lc0;
         } else {
             for (uint64_t m = rays_needed; m; m &= m - 1) {
@@ -395,9 +557,20 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
             ldir[li] = l0;
             lcolor[li] = lc0;
         }
-        for (uint64_t m = live & ~phong & ~blocked; m; m &= m - 1) {
+        for (uint64_t m = live & ~phong & ~blend & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
+        }
+        /* Blend lanes exist only when every light is directional, as phong lanes. */
+        for (uint64_t m = blend & bl.quick & ~blocked; m; m &= m - 1) {
+            int i = __builtin_ctzll(m);
+            bl.color[i] = v3_add(bl.color[i],
+                                 blend_light_flat(bl.p1[i], bl.p2[i], bl.t[i], bl.n[i], l0, lc0));
+        }
+        for (uint64_t m = blend & ~bl.quick & ~blocked; m; m &= m - 1) {
+            int i = __builtin_ctzll(m);
+            bl.color[i] = v3_add(bl.color[i], blend_light(bl.p1[i], bl.p2[i], bl.t[i], bl.n[i],
+                                                          bl.v[i], l0, lc0));
         }
     }
     /* Lanes whose bracket leaves their bytes open are shaded again with powf: the
@@ -416,7 +589,11 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
                 phong_packet_light(&pp, lanes, lit[li] & redo, ldir[li], lcolor[li]);
     }
     phong_packet_colors(&pp, phong & ~bounce, colors);
-    for (uint64_t m = live & ~(phong & ~bounce); m; m &= m - 1) {
+    for (uint64_t m = blend; m; m &= m - 1) { /* no shade_finish (packet_kind) */
+        int i = __builtin_ctzll(m);
+        colors[i] = bl.color[i];
+    }
+    for (uint64_t m = live & ~blend & ~(phong & ~bounce); m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         uint64_t bit = (uint64_t)1 << i;
         if (phong & bit) {

@@ -50,3 +50,8 @@ Material *checkerboard_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
     ProceduralBlend *b = procedural_alloc(a, &checkerboard_ops, texture_xf, m1, m2);
     return b ? &b->proc.base : NULL;
 }
+
+const Material *mat_checker_child(const Material *m, Vec3 p)
+{
+    return m->ops == &checkerboard_ops ? checkerboard_select(m, p) : NULL;
+}

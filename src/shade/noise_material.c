@@ -13,10 +13,23 @@ static float noise_weight(const ProceduralBlend *b, Vec3 p)
     return t <= 0.0 ? 0.0f : t >= 1.0 ? 1.0f : (float)t;
 }
 
+/* noise_weight at n points, the noise a vector of points at a time: the same bits. */
+static void noise_weights(const ProceduralBlend *b, const Vec3 *p, int n, float *t)
+{
+    double x[PROCEDURAL_WEIGHTS_MAX], y[PROCEDURAL_WEIGHTS_MAX], z[PROCEDURAL_WEIGHTS_MAX],
+        nz[PROCEDURAL_WEIGHTS_MAX];
+    procedural_octaves_at(b, p, n, false, x, y, z, nz);
+    for (int i = 0; i < n; i++) {
+        double v = nz[i] + 0.5;
+        t[i] = v <= 0.0 ? 0.0f : v >= 1.0 ? 1.0f : (float)v;
+    }
+}
+
 PROCEDURAL_BLEND_OPS(noise, "Noise", noise_weight);
 
 Material *noise_new(Arena *a, const Mat4 *texture_xf, const Material *m1, const Material *m2,
                     int octaves)
 {
-    return procedural_blend_new(a, &noise_ops, texture_xf, m1, m2, octaves, 0.0f, 0.0f);
+    return procedural_blend_new(a, &noise_ops, texture_xf, m1, m2, octaves, 0.0f, 0.0f,
+                                noise_weights);
 }

@@ -10,9 +10,10 @@
 
 /* Ken Perlin's published permutation of 0..255 (a constant of the algorithm). The
  * algorithm indexes up to P[P[P[X+1]+Y+1]+Z+1] <= 511; perm() takes the index modulo
- * 256 instead of storing the table twice. Three zero bytes follow the 256: the lane
- * kernels below gather a 32-bit word at byte i and keep its low byte (P[i] on a
- * little-endian x86), and the word at i = 255 reaches three bytes further. */
+ * 256 instead of storing the table twice. The first three entries follow the 256
+ * again: the lane kernels below gather the 32-bit word at byte i (0 <= i <= 255),
+ * whose two low bytes are P[i] and P[(i + 1) mod 256] on a little-endian x86, the two
+ * values every step of the hash asks for. */
 static const unsigned char PERLIN_PERM[256 + 3] = {
     151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225,
     140, 36,  103, 30,  69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148,
@@ -30,6 +31,7 @@ static const unsigned char PERLIN_PERM[256 + 3] = {
     81,  51,  145, 235, 249, 14,  239, 107, 49,  192, 214, 31,  181, 199, 106, 157,
     184, 84,  204, 176, 115, 121, 50,  45,  127, 4,   150, 254, 138, 236, 205, 93,
     222, 114, 67,  29,  24,  72,  243, 141, 128, 195, 78,  66,  215, 61,  156, 180,
+    151, 160, 137, /* P[0], P[1], P[2] again */
 };
 
 /* P[i] for i in 0..511: the doubled table without a mutable global (threads share it). */
@@ -161,7 +163,6 @@ PL_TARGET static inline void d_store_x8(double *p, __m512d a) { _mm512_storeu_pd
 PL_TARGET static inline __m512d d_add_x8(__m512d a, __m512d b) { return _mm512_add_pd(a, b); }
 PL_TARGET static inline __m512d d_sub_x8(__m512d a, __m512d b) { return _mm512_sub_pd(a, b); }
 PL_TARGET static inline __m512d d_mul_x8(__m512d a, __m512d b) { return _mm512_mul_pd(a, b); }
-PL_TARGET static inline __m512d d_div_x8(__m512d a, __m512d b) { return _mm512_div_pd(a, b); }
 PL_TARGET static inline __m512d d_floor_x8(__m512d a)
 {
     return _mm512_roundscale_pd(a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
@@ -179,10 +180,18 @@ PL_TARGET static inline __m256i i_trunc_x8(__m512d a) { return _mm512_cvttpd_epi
 PL_TARGET static inline __m256i i_set_x8(int a) { return _mm256_set1_epi32(a); }
 PL_TARGET static inline __m256i i_add_x8(__m256i a, __m256i b) { return _mm256_add_epi32(a, b); }
 PL_TARGET static inline __m256i i_and_x8(__m256i a, __m256i b) { return _mm256_and_si256(a, b); }
-PL_TARGET static inline __m256i i_perm_x8(__m256i i)
+/* P[i & 255] + 256 P[(i + 1) & 255] per lane (and higher bytes above). */
+PL_TARGET static inline __m256i i_perm2_x8(__m256i i)
 {
-    __m256i m = _mm256_set1_epi32(255);
-    return _mm256_and_si256(_mm256_i32gather_epi32(perm_words(), _mm256_and_si256(i, m), 1), m);
+    return _mm256_i32gather_epi32(perm_words(), _mm256_and_si256(i, _mm256_set1_epi32(255)), 1);
+}
+PL_TARGET static inline __m256i i_byte0_x8(__m256i w)
+{
+    return _mm256_and_si256(w, _mm256_set1_epi32(255));
+}
+PL_TARGET static inline __m256i i_byte1_x8(__m256i w)
+{
+    return _mm256_and_si256(_mm256_srli_epi32(w, 8), _mm256_set1_epi32(255));
 }
 /* grad: u and v selected by the hash's compares, negated by flipping the sign bit
  * (exactly IEEE negation), as grad4. */
@@ -210,6 +219,113 @@ PL_TARGET static inline __m512d grad_x8(__m256i h, __m512d x, __m512d y, __m512d
 #undef PL_
 #undef PL_FN
 
+/* AVX-512 with VBMI: the same eight lanes, the hashes in bytes. Every step of the hash
+ * is wanted modulo 256 only (perm takes its index modulo 256, grad the low four bits),
+ * so byte arithmetic, which wraps, gives the same values; the table's 256 bytes sit
+ * in four registers and a lookup of 64 bytes is two two-register byte permutes and a
+ * blend on the index's top bit, instead of a gather from memory (whose latency the
+ * three dependent steps of the hash serialise). The eight points' bytes fill a
+ * 64-bit quarter of a vector: [X, X+1] looked up gives [P(X), P(X+1)], plus Y the
+ * quarters [A, B]; [A, A+1, B, B+1] gives, plus Z, [AA, AB, BA, BB]; those and their
+ * +1 give the eight corner hashes at once, in the quarters 0 .. 7: AA, AB, BA, BB,
+ * AA+1, AB+1, BA+1, BB+1. */
+#define VB_TARGET __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw,avx512vbmi")))
+
+/* P[idx & 255] for every byte of idx: the table in t[0..3], 64 bytes each. */
+VB_TARGET static inline __m512i vb_lookup(__m512i idx, const __m512i *t)
+{
+    __m512i lo = _mm512_permutex2var_epi8(t[0], idx, t[1]);
+    __m512i hi = _mm512_permutex2var_epi8(t[2], idx, t[3]);
+    return _mm512_mask_blend_epi8(_mm512_movepi8_mask(idx), lo, hi);
+}
+
+/* grad for the lanes of one corner (the masks' byte c of each quarter: bits 8c..8c+7). */
+VB_TARGET static inline __m512d vb_grad(int c, __mmask64 to_x, __mmask64 v_y, __mmask64 v_x,
+                                        __mmask64 neg_u, __mmask64 neg_v, __m512d x,
+                                        __m512d y, __m512d z)
+{
+    __m512d sign = _mm512_set1_pd(-0.0);
+    __m512d u = _mm512_mask_blend_pd((__mmask8)(to_x >> (8 * c)), y, x);
+    __m512d v = _mm512_mask_blend_pd((__mmask8)(v_y >> (8 * c)),
+                                     _mm512_mask_blend_pd((__mmask8)(v_x >> (8 * c)), z, x), y);
+    u = _mm512_mask_xor_pd(u, (__mmask8)(neg_u >> (8 * c)), u, sign);
+    v = _mm512_mask_xor_pd(v, (__mmask8)(neg_v >> (8 * c)), v, sign);
+    return _mm512_add_pd(u, v);
+}
+
+/* The low bytes of eight ints (the cell modulo 256) in the low quarter. */
+VB_TARGET static inline __m128i vb_bytes(__m512d f)
+{
+    return _mm256_cvtepi32_epi8(_mm512_cvttpd_epi32(f));
+}
+
+VB_TARGET static inline __m512d noise_v8(__m512d x, __m512d y, __m512d z)
+{
+    const __m512i t[4] = {_mm512_loadu_si512(PERLIN_PERM), _mm512_loadu_si512(PERLIN_PERM + 64),
+                          _mm512_loadu_si512(PERLIN_PERM + 128),
+                          _mm512_loadu_si512(PERLIN_PERM + 192)};
+    const long long ones = 0x0101010101010101LL;
+    __m512d fx = d_floor_x8(x), fy = d_floor_x8(y), fz = d_floor_x8(z);
+    __m128i X = vb_bytes(fx), Y = vb_bytes(fy), Z = vb_bytes(fz);
+    __m512d one = _mm512_set1_pd(1.0);
+    __m512d x0 = _mm512_sub_pd(x, fx), y0 = _mm512_sub_pd(y, fy), z0 = _mm512_sub_pd(z, fz);
+    __m512d u = fade_x8(x0), v = fade_x8(y0), w = fade_x8(z0);
+    /* [X, X+1] -> [P(X) + Y, P(X+1) + Y] = [A, B] */
+    __m128i i1 = _mm_add_epi8(_mm_unpacklo_epi64(X, X), _mm_set_epi64x(ones, 0));
+    __m128i ab = _mm_add_epi8(_mm512_castsi512_si128(vb_lookup(_mm512_zextsi128_si512(i1), t)),
+                              _mm_unpacklo_epi64(Y, Y));
+    /* [A, A+1, B, B+1] -> [AA, AB, BA, BB] */
+    __m256i i2 = _mm256_add_epi8(
+        _mm256_permute4x64_epi64(_mm256_zextsi128_si256(ab), _MM_SHUFFLE(1, 1, 0, 0)),
+        _mm256_set_epi64x(ones, 0, ones, 0));
+    __m256i h2 = _mm256_add_epi8(_mm512_castsi512_si256(vb_lookup(_mm512_zextsi256_si512(i2), t)),
+                                 _mm256_broadcastq_epi64(Z));
+    /* [AA, AB, BA, BB, AA+1, AB+1, BA+1, BB+1] -> the corner hashes */
+    __m512i i3 = _mm512_add_epi8(_mm512_broadcast_i64x4(h2),
+                                 _mm512_set_epi64(ones, ones, ones, ones, 0, 0, 0, 0));
+    __m512i h = _mm512_and_si512(vb_lookup(i3, t), _mm512_set1_epi8(15));
+    __mmask64 to_x = _mm512_cmplt_epu8_mask(h, _mm512_set1_epi8(8));
+    __mmask64 v_y = _mm512_cmplt_epu8_mask(h, _mm512_set1_epi8(4));
+    __mmask64 v_x = _mm512_cmpeq_epi8_mask(h, _mm512_set1_epi8(12)) |
+                    _mm512_cmpeq_epi8_mask(h, _mm512_set1_epi8(14));
+    __mmask64 neg_u = _mm512_test_epi8_mask(h, _mm512_set1_epi8(1));
+    __mmask64 neg_v = _mm512_test_epi8_mask(h, _mm512_set1_epi8(2));
+    __m512d x1 = _mm512_sub_pd(x0, one), y1 = _mm512_sub_pd(y0, one), z1 = _mm512_sub_pd(z0, one);
+    __m512d g000 = vb_grad(0, to_x, v_y, v_x, neg_u, neg_v, x0, y0, z0);
+    __m512d g010 = vb_grad(1, to_x, v_y, v_x, neg_u, neg_v, x0, y1, z0);
+    __m512d g100 = vb_grad(2, to_x, v_y, v_x, neg_u, neg_v, x1, y0, z0);
+    __m512d g110 = vb_grad(3, to_x, v_y, v_x, neg_u, neg_v, x1, y1, z0);
+    __m512d g001 = vb_grad(4, to_x, v_y, v_x, neg_u, neg_v, x0, y0, z1);
+    __m512d g011 = vb_grad(5, to_x, v_y, v_x, neg_u, neg_v, x0, y1, z1);
+    __m512d g101 = vb_grad(6, to_x, v_y, v_x, neg_u, neg_v, x1, y0, z1);
+    __m512d g111 = vb_grad(7, to_x, v_y, v_x, neg_u, neg_v, x1, y1, z1);
+    __m512d r = lerp_x8(w, lerp_x8(v, lerp_x8(u, g000, g100), lerp_x8(u, g010, g110)),
+                        lerp_x8(v, lerp_x8(u, g001, g101), lerp_x8(u, g011, g111)));
+    return d_zero_unless_small_x8(r, fx, fy, fz);
+}
+
+#define PL_OWN_NOISE 1
+#define PL_TARGET VB_TARGET
+#define PL_W 8
+#define PL_D __m512d
+#define PL_I __m256i
+#define PL_(name) name##_v8
+#define PL_FN octaves_lanes_avx512vbmi
+#define d_set_v8 d_set_x8
+#define d_load_v8 d_load_x8
+#define d_store_v8 d_store_x8
+#define d_add_v8 d_add_x8
+#define d_sub_v8 d_sub_x8
+#define d_mul_v8 d_mul_x8
+#include "perlin_lanes.h"
+#undef PL_OWN_NOISE
+#undef PL_TARGET
+#undef PL_W
+#undef PL_D
+#undef PL_I
+#undef PL_
+#undef PL_FN
+
 /* AVX2: four doubles a vector, the ints in a 128-bit vector. */
 #define PL_TARGET __attribute__((target("avx2")))
 #define PL_W 4
@@ -223,7 +339,6 @@ PL_TARGET static inline void d_store_x4(double *p, __m256d a) { _mm256_storeu_pd
 PL_TARGET static inline __m256d d_add_x4(__m256d a, __m256d b) { return _mm256_add_pd(a, b); }
 PL_TARGET static inline __m256d d_sub_x4(__m256d a, __m256d b) { return _mm256_sub_pd(a, b); }
 PL_TARGET static inline __m256d d_mul_x4(__m256d a, __m256d b) { return _mm256_mul_pd(a, b); }
-PL_TARGET static inline __m256d d_div_x4(__m256d a, __m256d b) { return _mm256_div_pd(a, b); }
 PL_TARGET static inline __m256d d_floor_x4(__m256d a)
 {
     return _mm256_round_pd(a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
@@ -242,10 +357,14 @@ PL_TARGET static inline __m128i i_trunc_x4(__m256d a) { return _mm256_cvttpd_epi
 PL_TARGET static inline __m128i i_set_x4(int a) { return _mm_set1_epi32(a); }
 PL_TARGET static inline __m128i i_add_x4(__m128i a, __m128i b) { return _mm_add_epi32(a, b); }
 PL_TARGET static inline __m128i i_and_x4(__m128i a, __m128i b) { return _mm_and_si128(a, b); }
-PL_TARGET static inline __m128i i_perm_x4(__m128i i)
+PL_TARGET static inline __m128i i_perm2_x4(__m128i i)
 {
-    __m128i m = _mm_set1_epi32(255);
-    return _mm_and_si128(_mm_i32gather_epi32(perm_words(), _mm_and_si128(i, m), 1), m);
+    return _mm_i32gather_epi32(perm_words(), _mm_and_si128(i, _mm_set1_epi32(255)), 1);
+}
+PL_TARGET static inline __m128i i_byte0_x4(__m128i w) { return _mm_and_si128(w, _mm_set1_epi32(255)); }
+PL_TARGET static inline __m128i i_byte1_x4(__m128i w)
+{
+    return _mm_and_si128(_mm_srli_epi32(w, 8), _mm_set1_epi32(255));
 }
 PL_TARGET static inline __m256d grad_x4(__m128i h, __m256d x, __m256d y, __m256d z)
 {
@@ -284,6 +403,7 @@ static const LanesKernel lanes_kernels[] = {
 #ifdef PERLIN_HAVE_AVX2
     {"avx2", octaves_lanes_avx2, cpu_has_avx2},
     {"avx512", octaves_lanes_avx512, cpu_has_avx512},
+    {"avx512vbmi", octaves_lanes_avx512vbmi, cpu_has_avx512vbmi},
 #endif
 };
 enum { NUM_LANES_KERNELS = sizeof lanes_kernels / sizeof lanes_kernels[0] };

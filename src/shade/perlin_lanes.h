@@ -3,14 +3,17 @@
  * kernel by perlin.c after it has defined, for that set, PL_W, the name PL_FN, the
  * function attribute PL_TARGET, the vector types PL_D (PL_W doubles) and PL_I (PL_W
  * 32-bit ints) and the suffix macro PL_(name) naming its primitives: d_set, d_load,
- * d_store, d_add, d_sub, d_mul, d_div, d_floor, d_zero_unless_small (the lanes whose
- * |floor| is not below 1e9 set to +0), i_trunc, i_set, i_add, i_and, i_perm (P[i & 255]
- * per lane) and grad.
+ * d_store, d_add, d_sub, d_mul, d_floor, d_zero_unless_small (the lanes whose
+ * |floor| is not below 1e9 set to +0), i_trunc, i_set, i_add, i_and, i_perm2 (the
+ * word at byte i & 255 of the table: P[i & 255] in byte 0, P[(i + 1) & 255] in byte 1),
+ * i_byte0, i_byte1 and grad (of the hash's low four bits). A kernel with PL_OWN_NOISE
+ * defines its own noise (PL_(noise)) and then needs only d_set, d_load, d_store, d_add
+ * and d_mul here.
  *
  * Lane by lane every value is the operation noise3_scalar and perlin_octaves apply, on
  * the same operands in the same order (floor, the subtraction of the cell, the quintic
  * fade in Horner form, the hashes, the gradients by selection and sign flips, the
- * seven lerps, the octave's division and sum), each a single IEEE double operation;
+ * seven lerps, the octave's scaling and sum), each a single IEEE double operation;
  * nothing is fused (perlin.c is built with -ffp-contract=off). So each lane gives
  * perlin_octaves' bits; tests/unit/test_perlin.c holds every kernel to it. */
 
@@ -26,28 +29,35 @@ PL_TARGET static inline PL_D PL_(lerp)(PL_D t, PL_D a, PL_D b)
     return PL_(d_add)(a, PL_(d_mul)(t, PL_(d_sub)(b, a)));
 }
 
+#ifndef PL_OWN_NOISE
 PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z)
 {
     PL_D fx = PL_(d_floor)(x), fy = PL_(d_floor)(y), fz = PL_(d_floor)(z);
-    PL_I m255 = PL_(i_set)(255), one_i = PL_(i_set)(1);
+    PL_I m255 = PL_(i_set)(255);
     PL_I X = PL_(i_and)(PL_(i_trunc)(fx), m255), Y = PL_(i_and)(PL_(i_trunc)(fy), m255),
          Z = PL_(i_and)(PL_(i_trunc)(fz), m255);
     PL_D one = PL_(d_set)(1.0);
     PL_D x0 = PL_(d_sub)(x, fx), y0 = PL_(d_sub)(y, fy), z0 = PL_(d_sub)(z, fz);
     PL_D u = PL_(fade)(x0), v = PL_(fade)(y0), w = PL_(fade)(z0);
-    PL_I A = PL_(i_add)(PL_(i_perm)(X), Y);
-    PL_I AA = PL_(i_add)(PL_(i_perm)(A), Z), AB = PL_(i_add)(PL_(i_perm)(PL_(i_add)(A, one_i)), Z);
-    PL_I B = PL_(i_add)(PL_(i_perm)(PL_(i_add)(X, one_i)), Y);
-    PL_I BA = PL_(i_add)(PL_(i_perm)(B), Z), BB = PL_(i_add)(PL_(i_perm)(PL_(i_add)(B, one_i)), Z);
+    /* Each gather gives perm(i) and perm(i + 1) (i_perm2): A, B from X; AA, AB from A;
+     * BA, BB from B; then the corner hashes perm(AA), perm(AA + 1) and so on. */
+    PL_I px = PL_(i_perm2)(X);
+    PL_I A = PL_(i_add)(PL_(i_byte0)(px), Y), B = PL_(i_add)(PL_(i_byte1)(px), Y);
+    PL_I pa = PL_(i_perm2)(A), pb = PL_(i_perm2)(B);
+    PL_I AA = PL_(i_add)(PL_(i_byte0)(pa), Z), AB = PL_(i_add)(PL_(i_byte1)(pa), Z);
+    PL_I BA = PL_(i_add)(PL_(i_byte0)(pb), Z), BB = PL_(i_add)(PL_(i_byte1)(pb), Z);
+    PL_I haa = PL_(i_perm2)(AA), hab = PL_(i_perm2)(AB), hba = PL_(i_perm2)(BA),
+         hbb = PL_(i_perm2)(BB);
     PL_D x1 = PL_(d_sub)(x0, one), y1 = PL_(d_sub)(y0, one), z1 = PL_(d_sub)(z0, one);
-    PL_D g000 = PL_(grad)(PL_(i_perm)(AA), x0, y0, z0);
-    PL_D g100 = PL_(grad)(PL_(i_perm)(BA), x1, y0, z0);
-    PL_D g010 = PL_(grad)(PL_(i_perm)(AB), x0, y1, z0);
-    PL_D g110 = PL_(grad)(PL_(i_perm)(BB), x1, y1, z0);
-    PL_D g001 = PL_(grad)(PL_(i_perm)(PL_(i_add)(AA, one_i)), x0, y0, z1);
-    PL_D g101 = PL_(grad)(PL_(i_perm)(PL_(i_add)(BA, one_i)), x1, y0, z1);
-    PL_D g011 = PL_(grad)(PL_(i_perm)(PL_(i_add)(AB, one_i)), x0, y1, z1);
-    PL_D g111 = PL_(grad)(PL_(i_perm)(PL_(i_add)(BB, one_i)), x1, y1, z1);
+    /* grad uses the hash's low four bits only: no byte mask needed for byte 0. */
+    PL_D g000 = PL_(grad)(haa, x0, y0, z0);
+    PL_D g100 = PL_(grad)(hba, x1, y0, z0);
+    PL_D g010 = PL_(grad)(hab, x0, y1, z0);
+    PL_D g110 = PL_(grad)(hbb, x1, y1, z0);
+    PL_D g001 = PL_(grad)(PL_(i_byte1)(haa), x0, y0, z1);
+    PL_D g101 = PL_(grad)(PL_(i_byte1)(hba), x1, y0, z1);
+    PL_D g011 = PL_(grad)(PL_(i_byte1)(hab), x0, y1, z1);
+    PL_D g111 = PL_(grad)(PL_(i_byte1)(hbb), x1, y1, z1);
     PL_D r = PL_(lerp)(w,
                        PL_(lerp)(v, PL_(lerp)(u, g000, g100), PL_(lerp)(u, g010, g110)),
                        PL_(lerp)(v, PL_(lerp)(u, g001, g101), PL_(lerp)(u, g011, g111)));
@@ -55,6 +65,7 @@ PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z)
      * code returns before computing anything (the lanes' garbage is dropped here). */
     return PL_(d_zero_unless_small)(r, fx, fy, fz);
 }
+#endif
 
 PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, int n,
                             int octaves, double *out)
@@ -78,9 +89,12 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
         PL_D sum = PL_(d_set)(0.0);
         double scale = 1.0;
         for (int o = 0; o < octaves; o++) {
-            PL_D s = PL_(d_set)(scale);
+            /* noise / scale as noise * (1 / scale): scale is a power of two (at most
+             * 2^63), so 1 / scale is exact, and both are the correctly rounded value
+             * of the same real number (also below the normal range): the same bits. */
+            PL_D s = PL_(d_set)(scale), r = PL_(d_set)(1.0 / scale);
             PL_D nv = PL_(noise)(PL_(d_mul)(vx, s), PL_(d_mul)(vy, s), PL_(d_mul)(vz, s));
-            sum = PL_(d_add)(sum, PL_(d_div)(nv, s));
+            sum = PL_(d_add)(sum, PL_(d_mul)(nv, r));
             scale *= 2.0;
         }
         if (k < PL_W) {

@@ -1,6 +1,7 @@
 /* Shared parts of the procedural solid textures (docs/textures.md): allocation with the
  * texture matrix copied in, the GL preview rule, and the weighted blend of two children. */
 #include "procedural.h"
+#include "rt/perlin.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -46,16 +47,22 @@ ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *
     b->proc.xf = texture_xf ? *texture_xf : mat4_identity();
     b->proc.no_reflective = zero_everywhere(m1, 0) && zero_everywhere(m2, 0);
     b->proc.no_transparent = zero_everywhere(m1, 1) && zero_everywhere(m2, 1);
+    b->octaves = 0;
+    b->frequency = b->amplitude = 0.0f;
+    b->serial = 0;
+    b->xf_scale = 1.0f;
+    b->weights = NULL;
     return b;
 }
 
 Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *texture_xf,
                                const Material *m1, const Material *m2, int octaves,
-                               float frequency, float amplitude)
+                               float frequency, float amplitude, ProceduralWeightsFn weights)
 {
     ProceduralBlend *b = procedural_alloc(a, ops, texture_xf, m1, m2);
     if (!b)
         return NULL;
+    b->weights = weights;
     b->octaves = octaves < 0 ? 0 : octaves > PROCEDURAL_MAX_OCTAVES ? PROCEDURAL_MAX_OCTAVES
                                                                      : octaves;
     b->frequency = frequency;
@@ -183,4 +190,50 @@ float procedural_blend_ior(const Procedural *pr, float t, Vec3 p)
     if (t <= 0.0f)
         return mat_ior_at(pr->m2, p);
     return t * mat_ior_at(pr->m1, p) + (1.0f - t) * mat_ior_at(pr->m2, p);
+}
+
+void procedural_octaves_at(const ProceduralBlend *b, const Vec3 *p, int n, bool grain,
+                           double *x, double *y, double *z, double *noise)
+{
+    double y5[PROCEDURAL_WEIGHTS_MAX];
+    for (int i = 0; i < n; i++) {
+        Vec3 q = procedural_texture_point(&b->proc, p[i]);
+        x[i] = (double)q.x;
+        y[i] = (double)q.y;
+        z[i] = (double)q.z;
+        y5[i] = 0.2 * y[i];
+    }
+    perlin_octaves_lanes(x, grain ? y5 : y, z, n, b->octaves, noise);
+}
+
+/* A blend with a weights function, both of whose children are PhongMaterials. */
+static const ProceduralBlend *phong_blend(const Material *m)
+{
+    if (m->ops->preview_material != procedural_preview)
+        return NULL;
+    const ProceduralBlend *b = (const ProceduralBlend *)m;
+    if (!b->weights || !phong_params_of(b->proc.m1) || !phong_params_of(b->proc.m2))
+        return NULL;
+    return b;
+}
+
+bool mat_phong_blend(const Material *m, const PhongParams **p1, const PhongParams **p2,
+                     bool *plain)
+{
+    const ProceduralBlend *b = phong_blend(m);
+    if (!b)
+        return false;
+    *p1 = phong_params_of(b->proc.m1);
+    *p2 = phong_params_of(b->proc.m2);
+    *plain = b->proc.no_reflective && b->proc.no_transparent;
+    return true;
+}
+
+void mat_blend_weights(const Material *m, const Vec3 *p, int n, float *t)
+{
+    const ProceduralBlend *b = (const ProceduralBlend *)m;
+    for (int i = 0; i < n; i += PROCEDURAL_WEIGHTS_MAX) {
+        int k = n - i < PROCEDURAL_WEIGHTS_MAX ? n - i : PROCEDURAL_WEIGHTS_MAX;
+        b->weights(b, p + i, k, t + i);
+    }
 }

@@ -34,7 +34,16 @@ typedef struct ProceduralBlend {
     float xf_scale;         /* largest stretch of xf's linear part (max column length):
                                a world footprint w covers at most w * xf_scale texture
                                units */
+    /* t[i] = the weight at world point p[i], i < n, for the footprint 0: the same bits
+     * as the material's single-point weight, computed for many points at once
+     * (mat_blend_weights). NULL for Checkerboard. */
+    void (*weights)(const struct ProceduralBlend *b, const Vec3 *p, int n, float *t);
 } ProceduralBlend;
+
+typedef void (*ProceduralWeightsFn)(const ProceduralBlend *b, const Vec3 *p, int n, float *t);
+
+/* The most points a weights function is given at once (its callers split more). */
+#define PROCEDURAL_WEIGHTS_MAX 64
 
 /* More octaves add terms below 2^-64 of the first one; the cap keeps an absurd
  * "octaves 2000000000" from turning every shading call into a near-hang. */
@@ -49,7 +58,14 @@ ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *
  * PROCEDURAL_MAX_OCTAVES as the maximum. */
 Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *texture_xf,
                                const Material *m1, const Material *m2, int octaves,
-                               float frequency, float amplitude);
+                               float frequency, float amplitude, ProceduralWeightsFn weights);
+
+/* The texture-space points q of world points p[0..n-1] (n <= PROCEDURAL_WEIGHTS_MAX),
+ * as doubles in x, y, z, and the octave sum N(q.x, q.y, q.z) in noise, or with grain
+ * N(q.x, 0.2 q.y, q.z) (Wood's), each for the footprint 0 (every octave): for the
+ * weights functions. */
+void procedural_octaves_at(const ProceduralBlend *b, const Vec3 *p, int n, bool grain,
+                           double *x, double *y, double *z, double *noise);
 
 /* The texture-space point of world point p: q = M p. */
 static inline Vec3 procedural_texture_point(const Procedural *pr, Vec3 p)

@@ -255,10 +255,10 @@ static void test_lanes_bits(void)
     enum { N = 203 };
     static double x[N], y[N], z[N], out[N];
     const char *def = perlin_lanes_kernel();
-    const char *names[] = {"scalar", "avx2", "avx512"};
+    const char *names[] = {"scalar", "avx2", "avx512", "avx512vbmi"};
     int kernels_run = 0;
     long differ = 0, points = 0;
-    for (int kn = 0; kn < 3; kn++) {
+    for (int kn = 0; kn < 4; kn++) {
         if (!perlin_use_lanes_kernel(names[kn]))
             continue;
         kernels_run++;
