@@ -120,6 +120,8 @@ $(BUILD)/src/render/phong_packet_avx2.o $(BUILD)/src/render/phong_packet_avx512.
 $(BUILD)/src/render/filter.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 # The noise's AVX2 corners (perlin.c) and the film's AVX2 filter sums (film.c) likewise.
 $(BUILD)/src/shade/perlin.o $(BUILD)/src/render/film.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
+# The blend lanes' four-float vectors (raytracer.c) likewise.
+$(BUILD)/src/render/raytracer.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 
 # Test sources include "harness.h" from tests/.
 $(BUILD)/tests/%.o: ALL_CFLAGS += -Itests

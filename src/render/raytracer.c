@@ -290,29 +290,6 @@ static inline Vec3 blend_light(const PhongParams *p1, const PhongParams *p2, flo
     return v3_lerp(phong_term(p1, n, v, l, lc), phong_term(p2, n, v, l, lc), t);
 }
 
-/* One child's phong_term where it leaves powf out (no specular colour, the exponent
- * and the normal in phong_term's range): its specular factor is then 0, and nl is the
- * caller's n . l, which phong_term computes alike for both children. */
-static inline Vec3 phong_term_flat(const PhongParams *p, float diffuse, Vec3 lc)
-{
-    Vec3 c = v3_add(v3_scale(p->diffuse, diffuse), v3_scale(p->specular, 0.0f));
-    return v3_mul(lc, c);
-}
-
-/* blend_light for a lane of the quick mask (below): both children's phong_term as
- * phong_term_flat, n . l once. */
-static inline Vec3 blend_light_flat(const PhongParams *p1, const PhongParams *p2, float t,
-                                    Vec3 n, Vec3 l, Vec3 lc)
-{
-    float nl = v3_dot(n, l);
-    float diffuse = nl > 0.0f ? nl : 0.0f;
-    if (t >= 1.0f)
-        return phong_term_flat(p1, diffuse, lc);
-    if (t <= 0.0f)
-        return phong_term_flat(p2, diffuse, lc);
-    return v3_lerp(phong_term_flat(p1, diffuse, lc), phong_term_flat(p2, diffuse, lc), t);
-}
-
 /* Whether phong_term leaves powf out for material p at every normal n with
  * n . n <= 1.125 (its rule, less the per-normal part). */
 static bool phong_flat(const PhongParams *p)
@@ -320,15 +297,75 @@ static bool phong_flat(const PhongParams *p)
     return v3_is_zero(p->specular) && p->exponent >= 0.0f && p->exponent <= 1000.0f;
 }
 
-/* The blend lanes of a packet: each lane's children, weight, facing normal, view
- * vector and colour so far (lanes of the packet's blend mask only), and the lanes
- * whose two children leave powf out there (quick: blend_light_flat). */
+/* The blend lanes of a packet (lanes of the packet's blend mask only): each lane's
+ * children, weight, facing normal and colour so far in columns, the view vector for
+ * the lanes that need it, and the lanes whose two children leave powf out there
+ * (quick: blend_lights_flat). */
 typedef struct BlendLanes {
     const PhongParams *p1[ACCEL_PACKET_MAX], *p2[ACCEL_PACKET_MAX];
     float t[ACCEL_PACKET_MAX];
-    Vec3 n[ACCEL_PACKET_MAX], v[ACCEL_PACKET_MAX], color[ACCEL_PACKET_MAX];
+    float nx[ACCEL_PACKET_MAX], ny[ACCEL_PACKET_MAX], nz[ACCEL_PACKET_MAX];
+    float d1[3][ACCEL_PACKET_MAX], s1[3][ACCEL_PACKET_MAX]; /* p1's diffuse, specular */
+    float d2[3][ACCEL_PACKET_MAX], s2[3][ACCEL_PACKET_MAX]; /* p2's */
+    float c[3][ACCEL_PACKET_MAX];
+    Vec3 v[ACCEL_PACKET_MAX]; /* lanes not quick */
     uint64_t quick;
 } BlendLanes;
+
+static inline Vec3 blend_normal(const BlendLanes *bl, int i)
+{
+    return v3(bl->nx[i], bl->ny[i], bl->nz[i]);
+}
+
+/* Four lanes of floats, for the quick blend lanes (plain GCC/clang vectors: SSE on
+ * x86-64, whatever the target has elsewhere). Each lane's operations are
+ * phong_term's and v3_lerp's single IEEE operations in their order (no FMA: the
+ * baseline has none, and the file is built with -ffp-contract=off). */
+typedef float BlendV __attribute__((vector_size(16)));
+typedef int32_t BlendM __attribute__((vector_size(16)));
+
+static inline BlendV bv_load(const float *p)
+{
+    BlendV v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+static inline void bv_store(float *p, BlendV v) { memcpy(p, &v, sizeof v); }
+static inline BlendV bv_set(float a) { return (BlendV){a, a, a, a}; }
+static inline BlendV bv_sel(BlendM m, BlendV a, BlendV b)
+{
+    return (BlendV)(((BlendM)a & m) | ((BlendM)b & ~m));
+}
+
+/* One directional light (l, lc) on the quick lanes of mask: per lane and channel
+ * k, with nl = n . l, diffuse = nl > 0 ? nl : 0, term_j = lc_k (d_j diffuse + s_j 0)
+ * (phong_term without powf, whose specular factor is then 0), and the blend
+ * blend_of(term_1, term_2, t) added to the colour. */
+static void blend_lights_flat(BlendLanes *bl, uint64_t mask, Vec3 l, Vec3 lc)
+{
+    BlendV lx = bv_set(l.x), ly = bv_set(l.y), lz = bv_set(l.z), zero = bv_set(0.0f),
+           one = bv_set(1.0f);
+    const float lck[3] = {lc.x, lc.y, lc.z};
+    for (int g = 0; g < ACCEL_PACKET_MAX; g += 4) {
+        unsigned m = (unsigned)(mask >> g) & 15u;
+        if (!m)
+            continue;
+        BlendM on = {-(int32_t)(m & 1), -(int32_t)(m >> 1 & 1), -(int32_t)(m >> 2 & 1),
+                     -(int32_t)(m >> 3 & 1)};
+        BlendV nl = bv_load(bl->nx + g) * lx + bv_load(bl->ny + g) * ly + bv_load(bl->nz + g) * lz;
+        BlendV diffuse = bv_sel(nl > zero, nl, zero);
+        BlendV t = bv_load(bl->t + g), u = one - t;
+        BlendM hi = t >= one, lo = t <= zero;
+        for (int k = 0; k < 3; k++) {
+            BlendV c = bv_set(lck[k]);
+            BlendV a = c * (bv_load(bl->d1[k] + g) * diffuse + bv_load(bl->s1[k] + g) * zero);
+            BlendV b = c * (bv_load(bl->d2[k] + g) * diffuse + bv_load(bl->s2[k] + g) * zero);
+            BlendV term = bv_sel(hi, a, bv_sel(lo, b, a * t + b * u));
+            BlendV old = bv_load(bl->c[k] + g);
+            bv_store(bl->c[k] + g, bv_sel(on, old + term, old));
+        }
+    }
+}
 
 /* shade_begin for the blend lanes of mask (their hit points made): the weights of each
  * material's lanes together (mat_blend_weights: the noise a vector of points at a
@@ -371,12 +408,31 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
             bl->p1[i] = p1;
             bl->p2[i] = p2;
             bl->t[i] = t[j];
-            bl->n[i] = n;
-            bl->v[i] = v3_neg(v3_normalize(d));
-            bl->color[i] = v3_mul(rt->scene->ambient, blend_of(p1->diffuse, p2->diffuse, t[j]));
+            bl->nx[i] = n.x;
+            bl->ny[i] = n.y;
+            bl->nz[i] = n.z;
+            Vec3 a = v3_mul(rt->scene->ambient, blend_of(p1->diffuse, p2->diffuse, t[j]));
+            bl->c[0][i] = a.x;
+            bl->c[1][i] = a.y;
+            bl->c[2][i] = a.z;
             shaded |= (uint64_t)1 << i;
-            if (flat && v3_dot(n, n) <= 1.125f)
+            if (flat && v3_dot(n, n) <= 1.125f) {
                 bl->quick |= (uint64_t)1 << i;
+                bl->d1[0][i] = p1->diffuse.x;
+                bl->d1[1][i] = p1->diffuse.y;
+                bl->d1[2][i] = p1->diffuse.z;
+                bl->s1[0][i] = p1->specular.x;
+                bl->s1[1][i] = p1->specular.y;
+                bl->s1[2][i] = p1->specular.z;
+                bl->d2[0][i] = p2->diffuse.x;
+                bl->d2[1][i] = p2->diffuse.y;
+                bl->d2[2][i] = p2->diffuse.z;
+                bl->s2[0][i] = p2->specular.x;
+                bl->s2[1][i] = p2->specular.y;
+                bl->s2[2][i] = p2->specular.z;
+            } else {
+                bl->v[i] = v3_neg(v3_normalize(d));
+            }
         }
     }
     return shaded;
@@ -562,15 +618,16 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
             shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
         }
         /* Blend lanes exist only when every light is directional, as phong lanes. */
-        for (uint64_t m = blend & bl.quick & ~blocked; m; m &= m - 1) {
-            int i = __builtin_ctzll(m);
-            bl.color[i] = v3_add(bl.color[i],
-                                 blend_light_flat(bl.p1[i], bl.p2[i], bl.t[i], bl.n[i], l0, lc0));
-        }
+        if (blend & bl.quick & ~blocked)
+            blend_lights_flat(&bl, blend & bl.quick & ~blocked, l0, lc0);
         for (uint64_t m = blend & ~bl.quick & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
-            bl.color[i] = v3_add(bl.color[i], blend_light(bl.p1[i], bl.p2[i], bl.t[i], bl.n[i],
-                                                          bl.v[i], l0, lc0));
+            Vec3 c = v3(bl.c[0][i], bl.c[1][i], bl.c[2][i]);
+            c = v3_add(c, blend_light(bl.p1[i], bl.p2[i], bl.t[i], blend_normal(&bl, i), bl.v[i],
+                                      l0, lc0));
+            bl.c[0][i] = c.x;
+            bl.c[1][i] = c.y;
+            bl.c[2][i] = c.z;
         }
     }
     /* Lanes whose bracket leaves their bytes open are shaded again with powf: the
@@ -591,7 +648,7 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     phong_packet_colors(&pp, phong & ~bounce, colors);
     for (uint64_t m = blend; m; m &= m - 1) { /* no shade_finish (packet_kind) */
         int i = __builtin_ctzll(m);
-        colors[i] = bl.color[i];
+        colors[i] = v3(bl.c[0][i], bl.c[1][i], bl.c[2][i]);
     }
     for (uint64_t m = live & ~blend & ~(phong & ~bounce); m; m &= m - 1) {
         int i = __builtin_ctzll(m);

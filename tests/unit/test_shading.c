@@ -4,6 +4,7 @@
 #include "rt/arena.h"
 #include "rt/geom.h"
 #include "rt/raytracer.h"
+#include "rt/perlin.h"
 #include "rt/render.h"
 #include "../../src/render/phong_packet.h"
 
@@ -387,6 +388,135 @@ static void test_refraction_and_tir(void)
     c = raytracer_trace(&rt, &c2, &in, 0, 1, 1, 1.5f, NULL);
     CHECK_NEAR(c.x, 0, 0);
     CHECK_INT(c2.stats.nonshadow_rays, 1);
+    arena_free(&m.s.arena);
+}
+
+/* Packets shade procedural hits inline too (raytracer_trace_packet: Checkerboard lanes
+ * as the Phong child they pick, Noise/Marble/Wood lanes of two PhongMaterials with
+ * their weights a material's lanes at once); every colour must be the bits
+ * raytracer_trace gives ray by ray through the ops, with every noise lane kernel this
+ * CPU runs: Marble with a texture matrix, Noise (clamped weights at 0 and 1), Wood, a
+ * blend with a specular child (powf: not the quick lanes), a blend with a mirror child
+ * (shade_finish: through the ops when there are bounces), a checker of a checker, a
+ * checker over a Marble and a Noise over a Marble (through the ops); shadows,
+ * -shade_back, bounces and a point light (everything through the ops) vary. */
+static void test_packet_procedural_same_bits(void)
+{
+    enum { NM = 14 };
+    Mini m;
+    mini_init(&m);
+    Material *mats[NM];
+    m.s.ambient = v3(0.3f, 0.2f, 0.25f);
+    m.lights[0] = (Light){LIGHT_DIRECTIONAL, v3_normalize(v3(0.4f, -0.8f, -0.3f)), v3(0, 0, 0),
+                          v3(0.6f, 0.5f, 0.4f), {1, 0, 0}};
+    m.lights[1] = (Light){LIGHT_DIRECTIONAL, v3_normalize(v3(-0.3f, -1, -0.5f)), v3(0, 0, 0),
+                          v3(0.5f, 0.5f, 0.5f), {1, 0, 0}};
+    m.s.num_lights = 2;
+    PhongParams a = phong_defaults(), b = phong_defaults(), shiny = phong_defaults(),
+                mirror = phong_defaults();
+    a.diffuse = v3(0.5f, 0.2f, 0.1f);
+    b.diffuse = v3(1, 0.8f, 0.8f);
+    b.specular = v3(0, -0.0f, 0); /* zero: the quick lanes, a -0 kept */
+    shiny.diffuse = v3(0.2f, 0.6f, 0.9f);
+    shiny.specular = v3(0.5f, 0.5f, 0.5f);
+    shiny.exponent = 12;
+    mirror.diffuse = v3(0.1f, 0.1f, 0.1f);
+    mirror.reflective = v3(0.5f, 0.5f, 0.5f);
+    mats[0] = phong_new(&m.s.arena, &a);
+    mats[1] = phong_new(&m.s.arena, &b);
+    mats[2] = phong_new(&m.s.arena, &shiny);
+    mats[3] = phong_new(&m.s.arena, &mirror);
+    Mat4 sc = mat4_scale(v3(2.5f, 2.5f, 2.5f)), ro = mat4_rotate_y(30);
+    Mat4 xf = mat4_mul(&sc, &ro);
+    mats[4] = marble_new(&m.s.arena, &xf, mats[0], mats[1], 5, 8, 4);
+    mats[5] = noise_new(&m.s.arena, NULL, mats[1], mats[0], 4);
+    Mat4 wxf = mat4_scale(v3(3, 3, 3));
+    mats[6] = wood_new(&m.s.arena, &wxf, mats[0], mats[1], 3, 10, 2);
+    mats[7] = marble_new(&m.s.arena, NULL, mats[2], mats[0], 3, 6, 3);  /* specular child */
+    mats[8] = noise_new(&m.s.arena, &xf, mats[3], mats[1], 3);          /* mirror child */
+    Mat4 cxf = mat4_scale(v3(4, 4, 4));
+    mats[9] = checkerboard_new(&m.s.arena, &cxf, mats[0], mats[2]);
+    mats[10] = checkerboard_new(&m.s.arena, NULL, mats[9], mats[1]);    /* nested */
+    mats[11] = checkerboard_new(&m.s.arena, &cxf, mats[4], mats[1]);    /* over a Marble */
+    mats[12] = noise_new(&m.s.arena, NULL, mats[4], mats[1], 2);        /* of a Marble */
+    mats[13] = marble_new(&m.s.arena, &xf, mats[0], mats[1], 0, 8, 4);  /* no octaves */
+    Object3D *g = group_new(&m.s.arena, 11);
+    group_set_child(g, 0, plane_new(&m.s.arena, v3(0, 1, 0), -1, mats[5]));
+    group_set_child(g, 1, sphere_new(&m.s.arena, v3(-0.6f, 0, 0), 0.45f, mats[4]));
+    group_set_child(g, 2, sphere_new(&m.s.arena, v3(0.5f, 0.1f, -0.5f), 0.4f, mats[6]));
+    group_set_child(g, 3, sphere_new(&m.s.arena, v3(0.1f, -0.6f, 0.6f), 0.3f, mats[7]));
+    group_set_child(g, 4, sphere_new(&m.s.arena, v3(0.2f, 0.6f, 0.1f), 0.3f, mats[8]));
+    group_set_child(g, 5, sphere_new(&m.s.arena, v3(-0.5f, 0.7f, -0.3f), 0.3f, mats[10]));
+    group_set_child(g, 6, sphere_new(&m.s.arena, v3(0.8f, -0.4f, 0.2f), 0.25f, mats[11]));
+    group_set_child(g, 7, sphere_new(&m.s.arena, v3(-0.9f, -0.6f, 0.3f), 0.25f, mats[12]));
+    group_set_child(g, 8, sphere_new(&m.s.arena, v3(0.9f, 0.6f, -0.2f), 0.25f, mats[13]));
+    /* Seen from behind: back faces of a blend and of a checker. */
+    group_set_child(g, 9, triangle_new(&m.s.arena, v3(-1, 0.3f, 0.5f), v3(-0.4f, 1, 0.5f),
+                                       v3(-0.5f, 0.2f, 0.5f), mats[4]));
+    group_set_child(g, 10, triangle_new(&m.s.arena, v3(0.3f, -0.3f, 0.9f), v3(1, -0.2f, 0.9f),
+                                        v3(0.6f, 0.4f, 0.9f), mats[9]));
+    group_finish(g);
+    mini_set_root(&m, g);
+    PrimTable prims;
+    CHECK(prim_table_build(&prims, &m.s));
+    Accel grid;
+    AccelConfig cfg = {.grid_n = {6, 6, 6}, .grid_auto = false, .no_marking = false, .visualize = false};
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(accel_init(&grid, accel_find("grid"), &prims, &cfg, &d));
+    int differ = 0, kernels_run = 0, lanes = 0;
+    const char *default_kernel = perlin_lanes_kernel();
+    const char *kernels[] = {"scalar", "avx2", "avx512", "avx512vbmi"};
+    for (int kn = 0; kn < 4; kn++) {
+        if (!perlin_use_lanes_kernel(kernels[kn]))
+            continue;
+        kernels_run++;
+        for (int variant = 0; variant < 6; variant++) {
+            RayTracer rt;
+            memset(&rt, 0, sizeof rt);
+            rt.scene = &m.s;
+            rt.accel = &grid;
+            rt.shadows = variant % 2 == 0;
+            rt.shade_back = variant % 3 == 1;
+            rt.bounces = variant >= 2 ? 2 : 0;
+            rt.weight = 0.01f;
+            m.lights[1].kind = variant >= 5 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
+            m.lights[1].position = v3(0.5f, 3, 2);
+            RenderCtx pctx, sctx;
+            CHECK(raytracer_ctx_init(&pctx, &rt));
+            CHECK(raytracer_ctx_init(&sctx, &rt));
+            for (int ty = 0; ty < 64; ty += 8)
+                for (int tx = 0; tx < 64; tx += 8) {
+                    Ray rays[64];
+                    Vec3 colors[64];
+                    Hit hits[64];
+                    for (int k = 0; k < 64; k++) {
+                        float u, v;
+                        camera_pixel_to_screen(tx + k % 8, ty + k / 8, 64, 64, &u, &v);
+                        rays[k] = camera_generate_ray(&m.s.camera, u, v);
+                    }
+                    int n = (tx + ty) % 16 == 8 ? 29 : 64; /* partial packets too */
+                    raytracer_trace_packet(&rt, &pctx, rays, n, 0, colors, hits);
+                    for (int k = 0; k < n; k++) {
+                        Hit h;
+                        Vec3 c = raytracer_trace(&rt, &sctx, &rays[k], 0, 0, 1, 1, &h);
+                        differ += memcmp(&c, &colors[k], sizeof c) != 0 ||
+                                  memcmp(&h.t, &hits[k].t, sizeof h.t) != 0 ||
+                                  h.material != hits[k].material;
+                        lanes++;
+                    }
+                }
+            CHECK_INT(pctx.stats.shadow_rays, sctx.stats.shadow_rays);
+            raytracer_ctx_free(&pctx);
+            raytracer_ctx_free(&sctx);
+        }
+    }
+    m.lights[1].kind = LIGHT_DIRECTIONAL;
+    CHECK(perlin_use_lanes_kernel(default_kernel));
+    CHECK_MSG(differ == 0, "%d of %d lanes differ from the single rays' bits", differ, lanes);
+    CHECK(kernels_run >= 1);
+    accel_free(&grid);
+    prim_table_free(&prims);
     arena_free(&m.s.arena);
 }
 
@@ -970,6 +1100,8 @@ static const TestCase tests[] = {
     {"tracer: reflection, bounces, weight cutoff", test_reflection_and_cutoff},
     {"tracer: refraction and total internal reflection", test_refraction_and_tir},
     {"tracer: packets shade like single rays, to the bit", test_packet_shading_same_bits},
+    {"tracer: procedural packet lanes shade like single rays, to the bit",
+     test_packet_procedural_same_bits},
     {"shading: powf lies in the power bracket of every kernel", test_pow_bracket_holds_powf},
     {"shading: the bracket's settled lanes have powf's bytes", test_packet_bracket_bytes},
     {"tracer: lanes the bracket leaves open get powf's bytes", test_packet_bracket_fallback},
