@@ -298,18 +298,20 @@ static bool phong_flat(const PhongParams *p)
 }
 
 /* The blend lanes of a packet (lanes of the packet's blend mask only): each lane's
- * children, weight, facing normal and colour so far in columns, the view vector for
- * the lanes that need it, and the lanes whose two children leave powf out there
- * (quick: blend_lights_flat). */
+ * weight, facing normal and colour so far in columns; the lanes whose two children
+ * leave powf out there (quick: blend_lights_flat), grouped by material; the children
+ * and the view vector of the other lanes. */
 typedef struct BlendLanes {
     const PhongParams *p1[ACCEL_PACKET_MAX], *p2[ACCEL_PACKET_MAX];
     float t[ACCEL_PACKET_MAX];
     float nx[ACCEL_PACKET_MAX], ny[ACCEL_PACKET_MAX], nz[ACCEL_PACKET_MAX];
-    float d1[3][ACCEL_PACKET_MAX], s1[3][ACCEL_PACKET_MAX]; /* p1's diffuse, specular */
-    float d2[3][ACCEL_PACKET_MAX], s2[3][ACCEL_PACKET_MAX]; /* p2's */
     float c[3][ACCEL_PACKET_MAX];
     Vec3 v[ACCEL_PACKET_MAX]; /* lanes not quick */
     uint64_t quick;
+    /* The quick lanes by material: group j's lanes, its two children. */
+    int groups;
+    uint64_t group_lanes[ACCEL_PACKET_MAX];
+    const PhongParams *g1[ACCEL_PACKET_MAX], *g2[ACCEL_PACKET_MAX];
 } BlendLanes;
 
 static inline Vec3 blend_normal(const BlendLanes *bl, int i)
@@ -337,16 +339,22 @@ static inline BlendV bv_sel(BlendM m, BlendV a, BlendV b)
     return (BlendV)(((BlendM)a & m) | ((BlendM)b & ~m));
 }
 
-/* One directional light (l, lc) on the quick lanes of mask: per lane and channel
+/* One directional light (l, lc) on the quick lanes of mask, all of one material of
+ * children p1, p2: per lane and channel
  * k, with nl = n . l, diffuse = nl > 0 ? nl : 0, term_j = lc_k (d_j diffuse + s_j 0)
  * (phong_term without powf, whose specular factor is then 0), and the blend
  * blend_of(term_1, term_2, t) added to the colour. */
-static void blend_lights_flat(BlendLanes *bl, uint64_t mask, Vec3 l, Vec3 lc)
+static void blend_lights_group(BlendLanes *bl, uint64_t mask, const PhongParams *p1,
+                               const PhongParams *p2, Vec3 l, Vec3 lc)
 {
     BlendV lx = bv_set(l.x), ly = bv_set(l.y), lz = bv_set(l.z), zero = bv_set(0.0f),
            one = bv_set(1.0f);
     const float lck[3] = {lc.x, lc.y, lc.z};
-    for (int g = 0; g < ACCEL_PACKET_MAX; g += 4) {
+    const float d1[3] = {p1->diffuse.x, p1->diffuse.y, p1->diffuse.z};
+    const float s1[3] = {p1->specular.x, p1->specular.y, p1->specular.z};
+    const float d2[3] = {p2->diffuse.x, p2->diffuse.y, p2->diffuse.z};
+    const float s2[3] = {p2->specular.x, p2->specular.y, p2->specular.z};
+    for (int g = __builtin_ctzll(mask) & ~3; g < ACCEL_PACKET_MAX && mask >> g; g += 4) {
         unsigned m = (unsigned)(mask >> g) & 15u;
         if (!m)
             continue;
@@ -358,13 +366,20 @@ static void blend_lights_flat(BlendLanes *bl, uint64_t mask, Vec3 l, Vec3 lc)
         BlendM hi = t >= one, lo = t <= zero;
         for (int k = 0; k < 3; k++) {
             BlendV c = bv_set(lck[k]);
-            BlendV a = c * (bv_load(bl->d1[k] + g) * diffuse + bv_load(bl->s1[k] + g) * zero);
-            BlendV b = c * (bv_load(bl->d2[k] + g) * diffuse + bv_load(bl->s2[k] + g) * zero);
+            BlendV a = c * (bv_set(d1[k]) * diffuse + bv_set(s1[k]) * zero);
+            BlendV b = c * (bv_set(d2[k]) * diffuse + bv_set(s2[k]) * zero);
             BlendV term = bv_sel(hi, a, bv_sel(lo, b, a * t + b * u));
             BlendV old = bv_load(bl->c[k] + g);
             bv_store(bl->c[k] + g, bv_sel(on, old + term, old));
         }
     }
+}
+
+static void blend_lights_flat(BlendLanes *bl, uint64_t mask, Vec3 l, Vec3 lc)
+{
+    for (int j = 0; j < bl->groups; j++)
+        if (bl->group_lanes[j] & mask)
+            blend_lights_group(bl, bl->group_lanes[j] & mask, bl->g1[j], bl->g2[j], l, lc);
 }
 
 /* shade_begin for the blend lanes of mask (their hit points made): the weights of each
@@ -379,6 +394,7 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
     int idx[ACCEL_PACKET_MAX];
     uint64_t shaded = 0;
     bl->quick = 0;
+    bl->groups = 0;
     while (mask) {
         const Material *m = hits[__builtin_ctzll(mask)].material;
         int k = 0;
@@ -395,6 +411,7 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
         mat_phong_blend(m, &p1, &p2, &plain);
         mat_blend_weights(m, pts, k, t);
         bool flat = phong_flat(p1) && phong_flat(p2);
+        uint64_t group = 0;
         for (int j = 0; j < k; j++) {
             int i = idx[j];
             Vec3 d = rays[i].dir, n = hits[i].normal;
@@ -405,8 +422,6 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
                 }
                 n = v3_neg(n);
             }
-            bl->p1[i] = p1;
-            bl->p2[i] = p2;
             bl->t[i] = t[j];
             bl->nx[i] = n.x;
             bl->ny[i] = n.y;
@@ -417,22 +432,18 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
             bl->c[2][i] = a.z;
             shaded |= (uint64_t)1 << i;
             if (flat && v3_dot(n, n) <= 1.125f) {
-                bl->quick |= (uint64_t)1 << i;
-                bl->d1[0][i] = p1->diffuse.x;
-                bl->d1[1][i] = p1->diffuse.y;
-                bl->d1[2][i] = p1->diffuse.z;
-                bl->s1[0][i] = p1->specular.x;
-                bl->s1[1][i] = p1->specular.y;
-                bl->s1[2][i] = p1->specular.z;
-                bl->d2[0][i] = p2->diffuse.x;
-                bl->d2[1][i] = p2->diffuse.y;
-                bl->d2[2][i] = p2->diffuse.z;
-                bl->s2[0][i] = p2->specular.x;
-                bl->s2[1][i] = p2->specular.y;
-                bl->s2[2][i] = p2->specular.z;
+                group |= (uint64_t)1 << i;
             } else {
+                bl->p1[i] = p1;
+                bl->p2[i] = p2;
                 bl->v[i] = v3_neg(v3_normalize(d));
             }
+        }
+        if (group) {
+            bl->quick |= group;
+            bl->group_lanes[bl->groups] = group;
+            bl->g1[bl->groups] = p1;
+            bl->g2[bl->groups++] = p2;
         }
     }
     return shaded;
