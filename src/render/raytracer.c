@@ -449,6 +449,41 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
     return shaded;
 }
 
+/* Lane i of pp (a hit on PhongMaterial p): the normal as intersected and the ray
+ * direction into the columns (phong_packet_begin does the rest). */
+static inline void phong_lane_put(PhongPacket *pp, const PhongParams **lp, const Hit *h,
+                                  const Ray *r, int i, const PhongParams *p)
+{
+    pp->nx[i] = h->normal.x;
+    pp->ny[i] = h->normal.y;
+    pp->nz[i] = h->normal.z;
+    pp->vx[i] = r->dir.x;
+    pp->vy[i] = r->dir.y;
+    pp->vz[i] = r->dir.z;
+    lp[i] = p;
+}
+
+/* A lane on a Checkerboard (its hit point made): the child the checker picks at the
+ * hit answers every question about it (shade_finish asks the checker again, which
+ * picks it again), so a PhongMaterial child makes it a Phong lane (true); false
+ * leaves it to the ops. Out of line: the Phong lanes' loop stays as tight as without. */
+__attribute__((noinline)) static bool checker_lane(const RayTracer *rt, PhongPacket *pp,
+                                                   const PhongParams **lp, const Hit *h,
+                                                   const Ray *r, int i, uint64_t *phong,
+                                                   uint64_t *bounce)
+{
+    const Material *c = h->material;
+    while (c && !phong_params_of(c))
+        c = mat_checker_child(c, h->point);
+    const PhongParams *p = c ? phong_params_of(c) : NULL;
+    if (!p)
+        return false;
+    phong_lane_put(pp, lp, h, r, i, p);
+    *phong |= (uint64_t)1 << i;
+    *bounce |= phong_lane_bounces(rt, p) ? (uint64_t)1 << i : 0;
+    return true;
+}
+
 /* Lights whose shadow masks a packet keeps for the bracket's re-shading (scenes with
  * more shade every lane with powf). */
 enum { BRACKET_LIGHTS = 16 };
@@ -502,44 +537,29 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         int i = __builtin_ctzll(m);
         uint64_t bit = (uint64_t)1 << i;
         const PhongParams *p = NULL;
-        bool lane_bounce = false;
         if (inline_ok) {
             if (hits[i].material != last) { /* neighbouring lanes mostly share one */
                 last = hits[i].material;
                 last_p = phong_params_of(last);
                 last_bounce = last_p && phong_lane_bounces(rt, last_p);
-                last_kind = packet_kind(rt, last, blends_ok);
+                last_kind = last_p ? PACKET_PHONG : packet_kind(rt, last, blends_ok);
             }
             p = last_p;
-            lane_bounce = last_bounce;
-            if (last_kind == PACKET_CHECKER) {
-                /* The child the checker picks at the hit answers every question about
-                 * it (shade_finish asks the checker again, which picks it again). */
-                hits[i].point = ray_at(&rays[i], hits[i].t);
-                const Material *c = last;
-                while (c && !phong_params_of(c))
-                    c = mat_checker_child(c, hits[i].point);
-                p = c ? phong_params_of(c) : NULL;
-                lane_bounce = p && phong_lane_bounces(rt, p);
-            } else if (last_kind == PACKET_BLEND) {
-                hits[i].point = ray_at(&rays[i], hits[i].t);
-                blend |= bit;
-                continue;
-            }
         }
         if (p) {
-            pp.nx[i] = hits[i].normal.x;
-            pp.ny[i] = hits[i].normal.y;
-            pp.nz[i] = hits[i].normal.z;
-            pp.vx[i] = rays[i].dir.x;
-            pp.vy[i] = rays[i].dir.y;
-            pp.vz[i] = rays[i].dir.z;
-            lp[i] = p;
+            phong_lane_put(&pp, lp, &hits[i], &rays[i], i, p);
             phong |= bit;
-            bounce |= lane_bounce ? bit : 0;
+            bounce |= last_bounce ? bit : 0;
             continue;
         }
         hits[i].point = ray_at(&rays[i], hits[i].t);
+        if (last_kind == PACKET_BLEND) { /* (only set when inline_ok) */
+            blend |= bit;
+            continue;
+        }
+        if (last_kind == PACKET_CHECKER &&
+            checker_lane(rt, &pp, lp, &hits[i], &rays[i], i, &phong, &bounce))
+            continue;
         if (shade_begin(rt, &rays[i], &hits[i], rt->pixel_width, &st[i]))
             live |= bit;
         else
