@@ -531,6 +531,8 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         fprintf(stderr, "timings: film: tracing %.3f ms, filtering %.3f ms (CPU time of the "
                 "calling thread: the whole cost with -threads 1)\n", fc.trace_cpu * 1e3,
                 fc.filter_cpu * 1e3);
+    if (o->timings && dist_is_root())
+        dist_report(stderr);
 done:
     /* The run ends here: the big frees below and in main leave their mappings to the
      * exit (rt/bigmem.h). */

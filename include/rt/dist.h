@@ -6,6 +6,7 @@
 #define RT_DIST_H
 
 #include <stdbool.h>
+#include <stdio.h>
 #include "rt/render.h"
 #include "rt/scene.h"
 
@@ -62,5 +63,10 @@ bool dist_root_ok(bool ok);
 
 /* v[0..n-1] becomes the maximum over all ranks, on the root (phase times). */
 void dist_max(double *v, int n);
+
+/* -timings, on the root after dist_render: MPI's start-up time and how the last
+ * render's tiles went (per rank: tiles, first request, last tile; the tail). Nothing
+ * when alone. */
+void dist_report(FILE *out);
 
 #endif

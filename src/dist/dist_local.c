@@ -41,3 +41,5 @@ void dist_max(double *v, int n)
     (void)v;
     (void)n;
 }
+
+void dist_report(FILE *out) { (void)out; }

@@ -75,6 +75,27 @@ static void reduce_to_root(void *v, void *sum, int n, MPI_Datatype type, MPI_Op 
     wait_request(&req, NULL);
 }
 
+/* MPI counts are ints: big blocks go in pieces. */
+static void bcast_bytes(uint8_t *p, size_t n)
+{
+    const size_t piece = (size_t)1 << 30;
+    for (size_t off = 0; off < n; off += piece) {
+        size_t k = n - off < piece ? n - off : piece;
+        bcast(p + off, (int)k, MPI_BYTE);
+    }
+}
+
+static void join_init(void);
+
+/* Something only this rank can see went wrong (out of memory): end the whole job. */
+static void die(const char *what)
+{
+    fprintf(stderr, "raytracer-mpi: error: rank %d: %s; aborting the job\n", g_rank, what);
+    join_init();
+    MPI_Abort(MPI_COMM_WORLD, 1);
+    _exit(1);
+}
+
 /* ---- job start, end, abort ---------------------------------------------------------- */
 
 /* mpirun ends a job whose rank died (or that was interrupted) by sending SIGTERM to
@@ -93,26 +114,178 @@ static void on_abort(int sig)
     _exit(1);
 }
 
-bool dist_init(int *argc, char ***argv)
+/* ---- start-up beside rank 0's own work --------------------------------------------- */
+
+/* MPI_Init takes 40-100 ms of every job on one machine (plugins, the PMIx handshake;
+ * docs/distributed.md), all of it before a rank could do anything. Rank 0 needs MPI
+ * only once it has something to send: when the launcher tells a process its rank and
+ * the job's size before MPI_Init (OpenMPI's mpirun sets OMPI_COMM_WORLD_RANK and
+ * OMPI_COMM_WORLD_SIZE), rank 0 calls MPI_Init_thread on a thread of its own and goes
+ * on at once: it parses the scene, builds its grid and starts rendering tiles, and
+ * what it has to broadcast meanwhile (the scene's bytes, its answers) waits in
+ * g_pending. The first call that needs MPI (dist_render once rank 0's render thread is
+ * running, or dist_finish, dist_max, dist_describe, die) joins that thread and sends
+ * what waited, in the order it was queued: every rank makes the same collectives in
+ * the same order as without the overlap. Any other rank, or a process the launcher
+ * told nothing (a singleton, another launcher), initialises first as before. Only one
+ * thread calls MPI at a time, not always the same one: MPI_THREAD_SERIALIZED. */
+static pthread_t g_init_thread;
+static bool g_init_pending;    /* MPI_Init_thread runs on g_init_thread */
+static int g_init_rc, g_init_provided;
+static double g_init_ms;       /* MPI_Init_thread's wall time (-timings) */
+static bool g_init_beside;     /* it ran beside rank 0's set-up (g_init_thread) */
+
+/* Root's broadcasts queued while MPI starts: count elements of type at data (owned:
+ * freed once sent). Four at most (the scene's length and bytes, dist_root_ok's answer,
+ * the root's thread count); more is a bug. */
+typedef struct Pending {
+    void *data;
+    uint64_t count;
+    MPI_Datatype type;
+} Pending;
+enum { MAX_PENDING = 8 };
+static Pending g_pending[MAX_PENDING];
+static int g_npending;
+
+static double now_ms(void)
 {
-    int provided = 0;
-    if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
-        fprintf(stderr, "raytracer-mpi: error: MPI_Init failed\n");
-        return false;
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
+}
+
+/* A non-negative decimal number from the environment, or -1. */
+static int env_count(const char *name)
+{
+    const char *v = getenv(name);
+    if (!v || !*v)
+        return -1;
+    long n = 0;
+    for (const char *p = v; *p; p++) {
+        if (*p < '0' || *p > '9' || n > 1000000)
+            return -1;
+        n = n * 10 + (*p - '0');
     }
-    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
-    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    return (int)n;
+}
+
+static void *init_main(void *arg)
+{
+    (void)arg;
+    double t0 = now_ms();
+    /* No argc/argv: main reads them at the same time (MPI-2 allows NULL). */
+    g_init_rc = MPI_Init_thread(NULL, NULL, MPI_THREAD_SERIALIZED, &g_init_provided);
+    g_init_ms = now_ms() - t0;
+    return NULL;
+}
+
+/* What dist_describe prints (MPI initialised). */
+static void describe(void)
+{
     char version[MPI_MAX_LIBRARY_VERSION_STRING];
     int len = 0;
     MPI_Get_library_version(version, &len);
     version[strcspn(version, ",\n")] = '\0';
     snprintf(g_describe, sizeof g_describe, "yes, this run has %d rank%s (%.60s)", g_size,
              g_size == 1 ? "" : "s", version);
+}
+
+/* Waits for rank 0's MPI_Init_thread (when it runs on its own thread); no queued
+ * broadcast is sent. A failure ends the process: nothing has been written yet. */
+static void join_init(void)
+{
+    if (!g_init_pending)
+        return;
+    pthread_join(g_init_thread, NULL);
+    g_init_pending = false;
+    int rank = -1, size = -1;
+    if (g_init_rc == MPI_SUCCESS) {
+        MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+        MPI_Comm_size(MPI_COMM_WORLD, &size);
+    }
+    if (g_init_rc != MPI_SUCCESS || g_init_provided < MPI_THREAD_SERIALIZED || rank != g_rank ||
+        size != g_size) {
+        fprintf(stderr, "raytracer-mpi: error: %s\n",
+                g_init_rc != MPI_SUCCESS ? "MPI_Init failed"
+                : g_init_provided < MPI_THREAD_SERIALIZED
+                    ? "the MPI library cannot be called from more than one thread"
+                    : "MPI's rank and size differ from the launcher's "
+                      "OMPI_COMM_WORLD_RANK and OMPI_COMM_WORLD_SIZE");
+        if (g_init_rc == MPI_SUCCESS)
+            MPI_Abort(MPI_COMM_WORLD, 1);
+        _exit(1);
+    }
+    describe();
+}
+
+/* Joins MPI's start (join_init) and sends the root's queued broadcasts. Every function
+ * below that calls MPI calls this first. */
+static void ready(void)
+{
+    join_init();
+    for (int k = 0; k < g_npending; k++) {
+        Pending *q = &g_pending[k];
+        if (q->type == MPI_BYTE)
+            bcast_bytes(q->data, q->count);
+        else
+            bcast(q->data, (int)q->count, q->type);
+        free(q->data);
+    }
+    g_npending = 0;
+}
+
+/* A broadcast of the root's count elements of type (elem bytes each: no MPI call may
+ * ask while MPI starts) at p: sent now, or queued while MPI starts. take: p is malloc'd
+ * and becomes the queue's (freed once sent); without take it is copied. Returns false
+ * when a copy cannot be made (out of memory). */
+static bool root_bcast(void *p, uint64_t count, MPI_Datatype type, size_t elem, bool take)
+{
+    if (!g_init_pending) {
+        if (type == MPI_BYTE)
+            bcast_bytes(p, count);
+        else
+            bcast(p, (int)count, type);
+        if (take)
+            free(p);
+        return true;
+    }
+    void *data = p;
+    if (!take && (data = malloc((size_t)count * elem)))
+        memcpy(data, p, (size_t)count * elem);
+    if (!data || g_npending == MAX_PENDING)
+        return false;
+    g_pending[g_npending++] = (Pending){data, count, type};
+    return true;
+}
+
+bool dist_init(int *argc, char ***argv)
+{
+    int env_rank = env_count("OMPI_COMM_WORLD_RANK");
+    int env_size = env_count("OMPI_COMM_WORLD_SIZE");
+    if (env_rank == 0 && env_size > 0) {
+        g_rank = 0;
+        g_size = env_size;
+        g_init_pending = pthread_create(&g_init_thread, NULL, init_main, NULL) == 0;
+        g_init_beside = g_init_pending;
+        if (g_init_pending)
+            return true;
+    }
+    int provided = 0;
+    double t0 = now_ms();
+    if (MPI_Init_thread(argc, argv, MPI_THREAD_SERIALIZED, &provided) != MPI_SUCCESS) {
+        fprintf(stderr, "raytracer-mpi: error: MPI_Init failed\n");
+        return false;
+    }
+    g_init_ms = now_ms() - t0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &g_rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &g_size);
+    describe();
     return true;
 }
 
 int dist_finish(int status)
 {
+    ready();
     /* The root's status is everyone's: a write error on rank 0 fails the whole job. */
     bcast(&status, 1, MPI_INT);
     /* From here the outcome is settled and reported. When a rank leaves with status 1
@@ -126,7 +299,11 @@ int dist_finish(int status)
 
 bool dist_is_root(void) { return g_rank == 0; }
 int dist_size(void) { return g_size; }
-const char *dist_describe(void) { return g_describe; }
+const char *dist_describe(void)
+{
+    ready();
+    return g_describe;
+}
 
 /* A broadcast from the root: the root's part is a small eager send, complete at once
  * (an all-reduce here made rank 0 wait 40-80 ms for the second rank's set-up before it
@@ -134,34 +311,22 @@ const char *dist_describe(void) { return g_describe; }
 bool dist_root_ok(bool ok)
 {
     int v = ok ? 1 : 0;
-    bcast(&v, 1, MPI_INT);
+    if (g_rank == 0) {
+        if (!root_bcast(&v, 1, MPI_INT, sizeof v, false))
+            die("out of memory");
+    } else {
+        bcast(&v, 1, MPI_INT);
+    }
     return v != 0;
 }
 
 void dist_max(double *v, int n)
 {
+    ready();
     reduce_to_root(v, NULL, n, MPI_DOUBLE, MPI_MAX);
 }
 
-/* Something only this rank can see went wrong (out of memory): end the whole job. */
-static void die(const char *what)
-{
-    fprintf(stderr, "raytracer-mpi: error: rank %d: %s; aborting the job\n", g_rank, what);
-    MPI_Abort(MPI_COMM_WORLD, 1);
-    _exit(1);
-}
-
 /* ---- the scene, broadcast --------------------------------------------------------- */
-
-/* MPI counts are ints: big blocks go in pieces. */
-static void bcast_bytes(uint8_t *p, size_t n)
-{
-    const size_t piece = (size_t)1 << 30;
-    for (size_t off = 0; off < n; off += piece) {
-        size_t k = n - off < piece ? n - off : piece;
-        bcast(p + off, (int)k, MPI_BYTE);
-    }
-}
 
 /* The job's signal handling, set when the job starts its work (main installs its own
  * stop handlers after dist_init; these replace two of them). SIGTERM is how mpirun
@@ -184,102 +349,129 @@ Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
     if (g_size == 1)
         return scene_load_with(path, NULL, cache, diag);
     job_signals();
-    uint64_t len = 0;
-    uint8_t *packed = NULL;
-    Scene *s = NULL;
     if (g_rank == 0) {
         SceneFiles *files = scene_files_new(true);
         if (!files)
             die("out of memory");
-        s = scene_load_with(path, files, cache, diag);
+        Scene *s = scene_load_with(path, files, cache, diag);
+        uint8_t *packed = NULL;
         size_t n = 0;
         if (s && !scene_files_pack(files, &packed, &n))
             die("out of memory");
         scene_files_free(files);
-        len = s ? (uint64_t)n : 0; /* 0: the scene failed; rank 0 has said why */
+        uint64_t len = s ? (uint64_t)n : 0; /* 0: the scene failed; rank 0 has said why */
+        /* Sent now, or once MPI has started (ready): the bytes become the queue's. */
+        if (!root_bcast(&len, 1, MPI_UINT64_T, sizeof len, false) ||
+            (len > 0 && !root_bcast(packed, len, MPI_BYTE, 1, true)))
+            die("out of memory");
+        return s;
     }
+    uint64_t len = 0;
     bcast(&len, 1, MPI_UINT64_T);
     if (len == 0)
-        return s;
-    if (g_rank != 0 && !(packed = bigmem_alloc(len)))
+        return NULL;
+    uint8_t *packed = bigmem_alloc(len);
+    if (!packed)
         die("out of memory for the scene files");
     bcast_bytes(packed, len);
-    if (g_rank != 0) {
-        SceneFiles *files = scene_files_unpack(packed, len);
-        if (!files)
-            die("could not unpack the scene files");
-        Diag quiet;
-        diag_init(&quiet, NULL);
-        s = scene_load_with(path, files, cache, &quiet);
-        scene_files_free(files);
-        if (!s)
-            die(quiet.last[0] ? quiet.last : "the scene failed to load from rank 0's bytes");
-    }
-    if (g_rank == 0)
-        free(packed); /* scene_files_pack's */
-    else
-        bigmem_free(packed);
+    SceneFiles *files = scene_files_unpack(packed, len);
+    if (!files)
+        die("could not unpack the scene files");
+    Diag quiet;
+    diag_init(&quiet, NULL);
+    Scene *s = scene_load_with(path, files, cache, &quiet);
+    scene_files_free(files);
+    if (!s)
+        die(quiet.last[0] ? quiet.last : "the scene failed to load from rank 0's bytes");
+    bigmem_free(packed);
     return s;
 }
 
 /* ---- rendering -------------------------------------------------------------------- */
 
 /* The rectangle is cut into bands of whole 8-row packet bands of the full image (so
- * the counters add up to a single process's exactly), guided: each tile takes a share
- * 1/(2 N) of the rows still to hand out on N ranks, so the first tiles are big (few
- * messages, few film margins traced twice) and the last are the smallest, and the
- * rank that finishes last has at most a small tile to go. A tile has at least as many
- * packet bands as the root has threads (each band keeps one render thread busy) and
- * at most what keeps a tile's message within TILE_MAX_BYTES. */
+ * the counters add up to a single process's exactly), guided and as they are handed
+ * out: each tile takes a share 1/(2 N) of the rows still to hand out on N ranks, so
+ * the first tiles are big (few messages, few film margins traced twice), the last are
+ * the smallest, and the rank that finishes last has at most a small tile to go. Cut
+ * at hand-out time, not in advance, so that a rank that starts late (rank 0 renders
+ * while the others are still starting MPI and building their scene) gets a share of
+ * what is left, not one of the first, biggest tiles: cut in advance, a second rank
+ * arriving 0.5 s late at 1080p took a 272-row tile and finished 0.6 s after rank 0.
+ * A tile has at least as many packet bands as the root has threads (each band keeps
+ * one render thread busy) and at most what keeps a tile's message within
+ * TILE_MAX_BYTES. */
 enum { TILE_MAX_BYTES = 16 << 20 };
 
 typedef struct Farm {
     const DistJob *full;     /* the whole rectangle (and the root's images) */
-    int ntiles;
-    int max_rows;            /* the largest tile's rows (buffers) */
-    int *start;              /* tile t: rows [start[t], start[t + 1]), clipped */
-    atomic_int next;         /* the work queue: next tile to hand out */
-    atomic_int done;         /* tiles finished (progress) */
+    int min_rows, max_rows;  /* a tile's rows (max_rows: buffers) */
+    /* The root's work queue (lock): rows [next_row, end_row) are still to hand out;
+     * tile t (t < ntiles) is rows [lo[t], hi[t]), clipped to the rectangle. */
+    pthread_mutex_t lock;
+    int next_row, end_row, ntiles, cap_tiles;
+    int *lo, *hi;
+    atomic_int done;         /* rows finished (progress) */
     volatile int *cancel;
     RtStats local;           /* the root's own tiles */
     bool local_failed;
+    double t0;               /* the root: when its dist_render started (now_ms) */
 } Farm;
 
-/* Cuts rows [lo, hi) into guided tiles of min_rows..max_rows rows (multiples of
- * RENDER_TILE) for ranks ranks; stores their first rows and hi in start (when not
- * NULL) and returns how many there are. */
-static int cut_tiles(int lo, int hi, int min_rows, int max_rows, int ranks, int *start)
+/* -timings under MPI (dist_report): what the root saw of its last dist_render, per
+ * rank, in ms after that render's start on the root's clock: the first request (rank
+ * 0: its first tile taken), the last tile placed, and the tiles rendered. */
+typedef struct RankLog {
+    double first, last;
+    int tiles;
+} RankLog;
+static RankLog *g_log;
+static int g_log_tiles;
+
+/* The root: cuts the next tile off the queue, a guided share of min_rows..max_rows
+ * rows (multiples of RENDER_TILE); its number, or -1 when none is left. */
+static int take_tile(Farm *f)
 {
-    int n = 0;
-    for (int y = lo; y < hi; n++) {
-        int rows = (hi - y) / (2 * ranks);
+    pthread_mutex_lock(&f->lock);
+    int t = -1;
+    if (f->next_row < f->end_row && f->ntiles < f->cap_tiles) {
+        int rows = (f->end_row - f->next_row) / (2 * g_size);
         rows = (rows + RENDER_TILE - 1) / RENDER_TILE * RENDER_TILE;
-        rows = rows < min_rows ? min_rows : rows > max_rows ? max_rows : rows;
-        if (start)
-            start[n] = y;
-        y += rows;
+        rows = rows < f->min_rows ? f->min_rows : rows > f->max_rows ? f->max_rows : rows;
+        t = f->ntiles++;
+        f->lo[t] = f->next_row;
+        f->next_row += rows;
+        f->hi[t] = f->next_row < f->end_row ? f->next_row : f->end_row;
     }
-    if (start)
-        start[n] = hi;
-    return n;
+    pthread_mutex_unlock(&f->lock);
+    return t;
 }
 
-/* Tile t: rows [*y0, *y1) of the full image, inside the rectangle. */
-static void tile_rows(const Farm *f, int t, int *y0, int *y1)
+/* Rows [*y0, *y1) of the full image clipped to the rectangle. */
+static void clip_rows(const Farm *f, int *y0, int *y1)
 {
-    int lo = f->start[t], hi = f->start[t + 1];
     int top = f->full->y0 + f->full->h;
-    *y0 = lo < f->full->y0 ? f->full->y0 : lo;
-    *y1 = hi > top ? top : hi;
+    *y0 = *y0 < f->full->y0 ? f->full->y0 : *y0;
+    *y1 = *y1 > top ? top : *y1;
 }
 
-/* The images of one tile, rendered; pixels in *buf: colour, depth, normals (those
- * requested), each w x rows Vec3 bottom row first. */
-static bool render_tile(Farm *f, int t, Vec3 *buf, RtStats *stats)
+/* The root: tile t's rows, clipped. */
+static void tile_rows(Farm *f, int t, int *y0, int *y1)
+{
+    pthread_mutex_lock(&f->lock);
+    *y0 = f->lo[t];
+    *y1 = f->hi[t];
+    pthread_mutex_unlock(&f->lock);
+    clip_rows(f, y0, y1);
+}
+
+/* The images of the tile of rows [lo, hi), rendered; pixels in *buf: colour, depth,
+ * normals (those requested), each w x rows Vec3 bottom row first. */
+static bool render_tile(Farm *f, int lo, int hi, Vec3 *buf, RtStats *stats)
 {
     const DistJob *full = f->full;
-    int y0, y1;
-    tile_rows(f, t, &y0, &y1);
+    int y0 = lo, y1 = hi;
+    clip_rows(f, &y0, &y1);
     int w = full->w, rows = y1 - y0;
     size_t n = (size_t)w * (size_t)rows;
     Image img[3];
@@ -308,6 +500,7 @@ static void place_tile(Farm *f, int t, const Vec3 *buf)
     int y0, y1;
     tile_rows(f, t, &y0, &y1);
     size_t n = (size_t)full->w * (size_t)(y1 - y0);
+    atomic_fetch_add(&f->done, y1 - y0);
     Image *imgs[3] = {full->color, full->depth, full->normals};
     for (int k = 0; k < 3; k++) {
         if (!imgs[k])
@@ -331,28 +524,36 @@ static void *local_main(void *arg)
     for (;;) {
         if (*f->cancel)
             break;
-        int t = atomic_fetch_add(&f->next, 1);
-        if (t >= f->ntiles)
+        int t = take_tile(f);
+        if (t < 0)
             break;
-        if (!render_tile(f, t, buf, &f->local)) {
+        if (g_log && g_log[0].first < 0)
+            g_log[0].first = now_ms() - f->t0;
+        pthread_mutex_lock(&f->lock);
+        int lo = f->lo[t], hi = f->hi[t];
+        pthread_mutex_unlock(&f->lock);
+        if (!render_tile(f, lo, hi, buf, &f->local)) {
             f->local_failed = true;
             break;
         }
         place_tile(f, t, buf);
-        atomic_fetch_add(&f->done, 1);
+        if (g_log) { /* only this thread writes rank 0's entry; read after the join */
+            g_log[0].tiles++;
+            g_log[0].last = now_ms() - f->t0;
+        }
     }
     bigmem_free(buf);
     return NULL;
 }
 
-/* "tiles done" on a terminal, rewritten in place; nothing when stderr is a file. */
+/* "rows done" on a terminal, rewritten in place; nothing when stderr is a file. */
 static void progress(const Farm *f, int *shown, bool last)
 {
     int d = atomic_load(&f->done);
     if (d == *shown && !last)
         return;
     *shown = d;
-    fprintf(stderr, "\rraytracer-mpi: %d/%d tiles on %d ranks%s", d, f->ntiles, g_size,
+    fprintf(stderr, "\rraytracer-mpi: %d/%d rows on %d ranks%s", d, f->full->h, g_size,
             last ? "\n" : "");
     fflush(stderr);
 }
@@ -367,6 +568,10 @@ enum { REQUESTS_IN_FLIGHT = 2 };
  * rt/bigmem.h (huge pages), which saves a page fault per 4 KB (a 272-row 1080p tile is
  * 6 MB; ~100 ms of faults over a job's buffers here). */
 
+/* Rank 0's answer to a request: the tile's number and its rows [lo, hi) (unclipped);
+ * number -1: no more. */
+enum { ANSWER_INTS = 3 };
+
 /* Bytes of a tile's message: the header (two ints: the tile finished, -1 for a bare
  * request, and one unused) and its pixels. */
 static size_t tile_message_bytes(const Farm *f, int rows)
@@ -378,7 +583,7 @@ static size_t tile_message_bytes(const Farm *f, int rows)
 /* Rank 0: serves tile requests until every other rank has been told "no more" once for
  * each request it keeps in flight, while local_main renders on its own thread. A
  * request is a message of the tile just finished (with its pixels) or a bare one; the
- * answer is the next tile (-1: no more). Between messages the thread naps, so it
+ * answer is the next tile, cut now (Answer; tile -1: no more). Between messages the thread naps, so it
  * costs next to nothing beside the renderers on the same cores; a worker never waits
  * for it, since the answer it needs next was sent a tile earlier. */
 static void serve(Farm *f)
@@ -414,16 +619,32 @@ static void serve(Farm *f)
         wait_request(&req, NULL);
         int finished;
         memcpy(&finished, msg, sizeof finished);
-        if (finished >= 0 && finished < f->ntiles) {
+        RankLog *log = g_log && st.MPI_SOURCE > 0 && st.MPI_SOURCE < g_size
+                           ? &g_log[st.MPI_SOURCE] : NULL;
+        if (log && log->first < 0)
+            log->first = now_ms() - f->t0;
+        pthread_mutex_lock(&f->lock);
+        bool known = finished >= 0 && finished < f->ntiles;
+        pthread_mutex_unlock(&f->lock);
+        if (known) {
             place_tile(f, finished, (const Vec3 *)(void *)(msg + 2 * sizeof(int)));
-            atomic_fetch_add(&f->done, 1);
+            if (log) {
+                log->tiles++;
+                log->last = now_ms() - f->t0;
+            }
         }
-        int next = *f->cancel ? f->ntiles : atomic_fetch_add(&f->next, 1);
-        if (next >= f->ntiles) {
-            next = -1;
+        int next = *f->cancel ? -1 : take_tile(f);
+        int answer[ANSWER_INTS] = {-1, 0, 0};
+        if (next < 0) {
             active--;
+        } else {
+            answer[0] = next;
+            pthread_mutex_lock(&f->lock);
+            answer[1] = f->lo[next];
+            answer[2] = f->hi[next];
+            pthread_mutex_unlock(&f->lock);
         }
-        MPI_Send(&next, 1, MPI_INT, st.MPI_SOURCE, TAG_WORK, MPI_COMM_WORLD);
+        MPI_Send(answer, ANSWER_INTS, MPI_INT, st.MPI_SOURCE, TAG_WORK, MPI_COMM_WORLD);
         if (tty)
             progress(f, &shown, false);
     }
@@ -445,7 +666,7 @@ typedef struct Worker {
     pthread_mutex_t lock;
     pthread_cond_t wake;       /* the render thread: a tile to render, or stop */
     pthread_cond_t rendered;   /* the main thread: a tile is rendered (or failed) */
-    int state[NSLOTS], tile[NSLOTS];
+    int state[NSLOTS], tile[NSLOTS][ANSWER_INTS]; /* tile: rank 0's answer */
     uint8_t *buf[NSLOTS];      /* each a whole message: header and pixels */
     MPI_Request send[NSLOTS];
     bool stop, failed;
@@ -460,7 +681,7 @@ static void *worker_render_main(void *arg)
     for (;;) {
         int s = -1;
         for (int k = 0; k < NSLOTS; k++)
-            if (w->state[k] == SLOT_TODO && (s < 0 || w->tile[k] < w->tile[s]))
+            if (w->state[k] == SLOT_TODO && (s < 0 || w->tile[k][0] < w->tile[s][0]))
                 s = k;
         if (s < 0) {
             if (w->stop)
@@ -471,7 +692,7 @@ static void *worker_render_main(void *arg)
         w->state[s] = SLOT_RENDERING;
         pthread_mutex_unlock(&w->lock);
         Vec3 *pix = (Vec3 *)(void *)(w->buf[s] + 2 * sizeof(int));
-        bool ok = render_tile(w->farm, w->tile[s], pix, w->stats);
+        bool ok = render_tile(w->farm, w->tile[s][1], w->tile[s][2], pix, w->stats);
         pthread_mutex_lock(&w->lock);
         w->state[s] = SLOT_DONE;
         pthread_cond_signal(&w->rendered);
@@ -525,10 +746,10 @@ static void work(Farm *f, RtStats *stats)
     for (int k = 0; k < REQUESTS_IN_FLIGHT; k++)
         MPI_Send(bare, (int)sizeof bare, MPI_BYTE, 0, TAG_RESULT, MPI_COMM_WORLD);
     int in_flight = REQUESTS_IN_FLIGHT;
-    int answer = 0;
+    int answer[ANSWER_INTS] = {-1, 0, 0};
     MPI_Request answer_req;
-    MPI_Irecv(&answer, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
-    int held[REQUESTS_IN_FLIGHT], nheld = 0; /* tiles waiting for a free slot */
+    MPI_Irecv(answer, ANSWER_INTS, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
+    int held[REQUESTS_IN_FLIGHT][ANSWER_INTS], nheld = 0; /* tiles waiting for a slot */
     long ns = NAP_MIN_NS;
     for (;;) {
         bool moved = false;
@@ -540,10 +761,15 @@ static void work(Farm *f, RtStats *stats)
             in_flight--;
             if (die_on_tile)
                 raise(SIGKILL);
-            if (answer >= 0)
-                held[nheld++] = answer;
+            if (answer[0] >= 0) {
+                if (answer[2] <= answer[1] || answer[2] - answer[1] > f->max_rows ||
+                    nheld == REQUESTS_IN_FLIGHT)
+                    die("malformed answer from rank 0");
+                memcpy(held[nheld++], answer, sizeof answer);
+            }
             if (in_flight > 0)
-                MPI_Irecv(&answer, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
+                MPI_Irecv(answer, ANSWER_INTS, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD,
+                          &answer_req);
         }
         bool busy = false, sending = false;
         pthread_mutex_lock(&w.lock);
@@ -561,19 +787,20 @@ static void work(Farm *f, RtStats *stats)
                 }
             }
             if (w.state[k] == SLOT_DONE) {
-                int y0, y1;
-                tile_rows(f, w.tile[k], &y0, &y1);
-                memcpy(w.buf[k], &w.tile[k], sizeof(int));
+                int y0 = w.tile[k][1], y1 = w.tile[k][2];
+                clip_rows(f, &y0, &y1);
+                memcpy(w.buf[k], &w.tile[k][0], sizeof(int));
                 MPI_Isend(w.buf[k], (int)tile_message_bytes(f, y1 - y0), MPI_BYTE, 0,
                           TAG_RESULT, MPI_COMM_WORLD, &w.send[k]);
                 w.state[k] = SLOT_SENDING;
                 in_flight++;
                 moved = true;
                 if (in_flight == 1) /* the answer Irecv stopped after the last answer */
-                    MPI_Irecv(&answer, 1, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD, &answer_req);
+                    MPI_Irecv(answer, ANSWER_INTS, MPI_INT, 0, TAG_WORK, MPI_COMM_WORLD,
+                              &answer_req);
             }
             if (w.state[k] == SLOT_FREE && nheld > 0) {
-                w.tile[k] = held[0];
+                memcpy(w.tile[k], held[0], sizeof held[0]);
                 memmove(held, held + 1, (size_t)--nheld * sizeof held[0]);
                 w.state[k] = SLOT_TODO;
                 pthread_cond_signal(&w.wake);
@@ -626,9 +853,13 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     memset(&f, 0, sizeof f);
     f.full = job;
     f.cancel = cancel;
+    f.t0 = now_ms();
     /* Everyone must cut the same tiles: rank 0's thread count decides. */
     int root_threads = job->threads > 0 ? job->threads : render_default_threads();
-    bcast(&root_threads, 1, MPI_INT);
+    if (g_rank != 0)
+        bcast(&root_threads, 1, MPI_INT);
+    else if (!root_bcast(&root_threads, 1, MPI_INT, sizeof root_threads, false))
+        die("out of memory");
     int min_rows = RENDER_TILE * (root_threads < 64 ? root_threads : 64);
     while (min_rows < job->min_tile_rows)
         min_rows += RENDER_TILE;
@@ -641,12 +872,24 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     f.max_rows = (int)fit / RENDER_TILE * RENDER_TILE;
     if (f.max_rows < min_rows)
         f.max_rows = min_rows;
-    f.ntiles = cut_tiles(lo, hi, min_rows, f.max_rows, g_size, NULL);
-    if (!(f.start = malloc(((size_t)f.ntiles + 1) * sizeof *f.start)))
-        die("out of memory");
-    cut_tiles(lo, hi, min_rows, f.max_rows, g_size, f.start);
-    atomic_init(&f.next, 0);
+    f.min_rows = min_rows;
+    f.next_row = lo;
+    f.end_row = hi;
+    pthread_mutex_init(&f.lock, NULL);
     atomic_init(&f.done, 0);
+    if (g_rank == 0) {
+        /* Every tile but the last has min_rows rows or more. */
+        f.cap_tiles = (hi - lo) / min_rows + 1;
+        f.lo = malloc((size_t)f.cap_tiles * sizeof *f.lo);
+        f.hi = malloc((size_t)f.cap_tiles * sizeof *f.hi);
+        if (!f.lo || !f.hi)
+            die("out of memory");
+        /* the per-rank log (-timings); none when out of memory */
+        free(g_log);
+        if ((g_log = calloc((size_t)g_size, sizeof *g_log)))
+            for (int r = 0; r < g_size; r++)
+                g_log[r].first = -1.0;
+    }
 
     RtStats mine;
     memset(&mine, 0, sizeof mine);
@@ -654,6 +897,9 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     if (g_rank == 0) {
         pthread_t th;
         bool started = pthread_create(&th, NULL, local_main, &f) == 0;
+        /* MPI's start (when it runs beside this) and the queued broadcasts: the other
+         * ranks get the scene while this rank's render thread is already at work. */
+        ready();
         serve(&f);
         if (started)
             pthread_join(th, NULL);
@@ -670,7 +916,10 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     } else {
         work(&f, &mine);
     }
-    free(f.start);
+    g_log_tiles = f.ntiles;
+    free(f.lo);
+    free(f.hi);
+    pthread_mutex_destroy(&f.lock);
     bcast(&cancelled, 1, MPI_INT);
     /* RtStats is plain 64-bit counters (rt/stats.h): summed as an array. */
     enum { NCOUNTS = sizeof(RtStats) / sizeof(uint64_t) };
@@ -688,4 +937,29 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
         return false;
     }
     return true;
+}
+
+void dist_report(FILE *out)
+{
+    fprintf(out, "timings: mpi: MPI_Init %.1f ms %s", g_init_ms,
+            g_init_beside ? "beside rank 0's set-up and render" : "before the set-up");
+    if (!g_log) {
+        fputc('\n', out);
+        return;
+    }
+    /* A rank is done at its last tile (or, with none, at its first request): the one
+     * done first waited for the last, the tail of the queue. */
+    double first_done = 0.0, last_done = 0.0;
+    for (int r = 0; r < g_size; r++) {
+        double d = g_log[r].tiles ? g_log[r].last : g_log[r].first;
+        first_done = r == 0 || d < first_done ? d : first_done;
+        last_done = d > last_done ? d : last_done;
+    }
+    fprintf(out, "; %d tiles, the first rank done %.1f ms before the last; per rank, ms "
+            "after rank 0's render start (first request, last tile placed):",
+            g_log_tiles, last_done - first_done);
+    for (int r = 0; r < g_size; r++)
+        fprintf(out, " %d: %d tiles %.1f %.1f%s", r, g_log[r].tiles, g_log[r].first,
+                g_log[r].last, r + 1 < g_size ? "," : "");
+    fputc('\n', out);
 }
