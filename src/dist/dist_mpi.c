@@ -847,6 +847,9 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
                               job->depth, job->normals, &st, cancel);
         if (stats_out)
             *stats_out = st;
+        /* MPI's start ran beside the render: joined before any file is written, so a
+         * failed start leaves no image. */
+        ready();
         return ok;
     }
     Farm f;

@@ -312,6 +312,44 @@ static void test_mpi_timings_version(void)
     CHECK_INT(run(&c, &r), 0);
     CHECK_INT(count(r.err, "timings: parse"), 1);
     e2e_run_free(&r);
+    /* Under mpirun rank 0 started MPI beside its set-up (OMPI_COMM_WORLD_RANK/SIZE),
+     * and the per-rank tile counts add up to the tiles cut. */
+    mpirun_prefix(&c, "3");
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-size");
+    add(&c, "64");
+    add(&c, "640");
+    add(&c, "-threads");
+    add(&c, "1");
+    add(&c, "-timings");
+    add(&c, "-output");
+    add(&c, out);
+    CHECK_INT(run(&c, &r), 0);
+    CHECK_INT(count(r.err, "timings: mpi: MPI_Init "), 1);
+    CHECK_CONTAINS(r.err, " ms beside rank 0's set-up and render; ");
+    const char *line = strstr(r.err, "timings: mpi: ");
+    const char *tiles = line ? strstr(line, " tiles, the first rank done ") : NULL;
+    int total = -1, sum = 0, ranks = 0;
+    if (tiles) {
+        while (tiles > line && tiles[-1] >= '0' && tiles[-1] <= '9')
+            tiles--;
+        total = atoi(tiles);
+        const char *p = strstr(tiles, "last tile placed):");
+        for (int rank = 0; p && rank < 3; rank++) {
+            char key[16];
+            snprintf(key, sizeof key, " %d: ", rank);
+            if (!(p = strstr(p, key)))
+                break;
+            p += strlen(key);
+            sum += atoi(p);
+            ranks++;
+        }
+    }
+    CHECK_MSG(total > 0 && ranks == 3 && sum == total, "per-rank tiles %d over %d ranks, "
+              "%d cut:\n%s", sum, ranks, total, r.err);
+    e2e_run_free(&r);
     mpirun_prefix(&c, "2");
     add(&c, mpi);
     add(&c, "--version");
@@ -362,6 +400,72 @@ static void test_mpi_singleton_early_signal(void)
     e2e_rmtree(dir);
 }
 
+/* Ctrl-C to mpirun (it forwards SIGINT, then ends the ranks with SIGTERM) while MPI is
+ * starting beside rank 0's set-up and later, during the render of
+ * tests/repro/deep_ray_tree.txt (endless): the job fails, no image nor temporary file
+ * is left. The 60 s limit is only a guard against a hang. */
+static void test_mpi_sigint_to_mpirun(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], out[PATH_MAX], scene[PATH_MAX], repro[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpiint") != NULL);
+    e2e_join(out, sizeof out, dir, "out.tga");
+    snprintf(repro, sizeof repro, "%s/tests/repro", harness_root());
+    e2e_join(scene, sizeof scene, repro, "deep_ray_tree.txt");
+    const char *args[] = {g_mpirun, "--oversubscribe", "-np", "2", mpi, "-input", scene,
+                          "-output", out, "-size", "4", "4", "-shade_back", "-bounces",
+                          "60", "-weight", "0", NULL};
+    for (int ms = 50; ms < 2000 && !harness_failures; ms *= 3) {
+        pid_t pid = e2e_spawn(args, NULL);
+        CHECK(pid > 0);
+        if (pid <= 0)
+            break;
+        struct timespec pause = {ms / 1000, (long)(ms % 1000) * 1000 * 1000};
+        nanosleep(&pause, NULL);
+        kill(pid, SIGINT);
+        int st = 0;
+        bool hung = !e2e_wait_or_kill(pid, 60, &st);
+        CHECK_MSG(!hung, "SIGINT to mpirun after %d ms: still running after 60 s", ms);
+        CHECK_MSG(!hung && !(WIFEXITED(st) && WEXITSTATUS(st) == 0),
+                  "SIGINT to mpirun after %d ms: exit 0", ms);
+        CHECK_MSG(e2e_count_entries(dir) == 0, "SIGINT to mpirun after %d ms: files left "
+                  "in %s", ms, dir);
+    }
+    e2e_rmtree(dir);
+}
+
+/* A launcher environment that disagrees with MPI (rank 0 of 2 by OMPI_COMM_WORLD_RANK
+ * and OMPI_COMM_WORLD_SIZE, a singleton to MPI): rank 0 must not serve tiles to a rank
+ * that never comes; it says so and fails, with no image. */
+static void test_mpi_env_mismatch(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpienv") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    setenv("OMPI_COMM_WORLD_RANK", "0", 1);
+    setenv("OMPI_COMM_WORLD_SIZE", "2", 1);
+    Cmd c;
+    c.n = 0;
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-output");
+    add(&c, out);
+    E2eRun r;
+    int st = run(&c, &r);
+    unsetenv("OMPI_COMM_WORLD_RANK");
+    unsetenv("OMPI_COMM_WORLD_SIZE");
+    CHECK_MSG(st == 1 && !r.timed_out, "exit %d%s, expected 1", st,
+              r.timed_out ? " (timed out)" : "");
+    CHECK_INT(count(r.err, "MPI's rank and size differ from the launcher's"), 1);
+    CHECK_MSG(!e2e_exists(out), "an image was written");
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"mpi_03d", test_mpi_03d},
     {"mpi_11b", test_mpi_11b},
@@ -372,5 +476,7 @@ static const TestCase tests[] = {
     {"mpi_killed_rank", test_mpi_killed_rank},
     {"mpi_timings_version", test_mpi_timings_version},
     {"mpi_singleton_early_signal", test_mpi_singleton_early_signal},
+    {"mpi_sigint_to_mpirun", test_mpi_sigint_to_mpirun},
+    {"mpi_env_mismatch", test_mpi_env_mismatch},
 };
 RT_TEST_MAIN(tests)
