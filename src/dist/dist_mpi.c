@@ -3,8 +3,10 @@
  * broadcasts their bytes; every rank builds the same scene and grid; rank 0 hands out
  * bands of rows first-come first-served (a work queue: a rank that draws an expensive
  * band simply asks for fewer), renders bands itself on a second thread, and gathers
- * the pixels. Only rank 0's main thread calls MPI besides the workers' main threads
- * (MPI_THREAD_FUNNELED). No rank waits inside a blocking MPI call: MPI libraries
+ * the pixels. Under mpirun rank 0 starts MPI on a thread of its own while it parses,
+ * builds and starts rendering (start-up, below). One thread of a rank calls MPI at a
+ * time (MPI_THREAD_SERIALIZED): rank 0's start-up thread, then its main thread; a
+ * worker's main thread. No rank waits inside a blocking MPI call: MPI libraries
  * busy-poll there (OpenMPI unless told otherwise), which would take a core from the
  * renderers of a rank sharing it; every wait is a test and a growing sleep (nap).
  * docs/distributed.md describes the protocol and its costs. */
