@@ -560,11 +560,15 @@ static void progress(const Farm *f, int *shown, bool last)
     fflush(stderr);
 }
 
-/* Requests a worker keeps in flight: while it renders one tile the answer naming its
- * next one is already on its way, so it never waits a round trip between tiles. Rank 0
+/* Requests a worker keeps in flight. Two (the answer naming its next tile on its way
+ * while it renders one) saved the round trip between tiles but made the tail long: a
+ * worker then always holds a tile cut one tile earlier, and at 1080p on 2 ranks it
+ * finished 45-73 ms after rank 0 (-timings, 4 runs); with one, 9-21 ms, and the job's
+ * wall time fell 50-100 ms (paired runs, bench/REPORT.txt). The round trip is short:
+ * rank 0 answers as soon as it sees a request, before it receives the pixels. Rank 0
  * answers every request; once the queue is empty every answer is "no more", so a
  * worker's last REQUESTS_IN_FLIGHT answers are all "no more". */
-enum { REQUESTS_IN_FLIGHT = 2 };
+enum { REQUESTS_IN_FLIGHT = 1 };
 
 /* Tile buffers and the scene's bytes are big and touched once per job: they come from
  * rt/bigmem.h (huge pages), which saves a page fault per 4 KB (a 272-row 1080p tile is
@@ -585,9 +589,10 @@ static size_t tile_message_bytes(const Farm *f, int rows)
 /* Rank 0: serves tile requests until every other rank has been told "no more" once for
  * each request it keeps in flight, while local_main renders on its own thread. A
  * request is a message of the tile just finished (with its pixels) or a bare one; the
- * answer is the next tile, cut now (Answer; tile -1: no more). Between messages the thread naps, so it
- * costs next to nothing beside the renderers on the same cores; a worker never waits
- * for it, since the answer it needs next was sent a tile earlier. */
+ * answer is the next tile, cut now (tile -1: no more), sent as soon as the request is
+ * seen, before its pixels are received and placed, so the worker renders again while
+ * they are copied. Between messages the thread naps, so it costs next to nothing
+ * beside the renderers on the same cores. */
 static void serve(Farm *f)
 {
     size_t cap = tile_message_bytes(f, f->max_rows);
@@ -614,6 +619,18 @@ static void serve(Farm *f)
         MPI_Get_count(&st, MPI_BYTE, &count);
         if (count < (int)sizeof(int) || (size_t)count > cap)
             die("malformed message from a rank");
+        int next = *f->cancel ? -1 : take_tile(f);
+        int answer[ANSWER_INTS] = {-1, 0, 0};
+        if (next < 0) {
+            active--;
+        } else {
+            answer[0] = next;
+            pthread_mutex_lock(&f->lock);
+            answer[1] = f->lo[next];
+            answer[2] = f->hi[next];
+            pthread_mutex_unlock(&f->lock);
+        }
+        MPI_Send(answer, ANSWER_INTS, MPI_INT, st.MPI_SOURCE, TAG_WORK, MPI_COMM_WORLD);
         /* A big message may need its sender's progress to arrive (a rendezvous over a
          * network): its worker tests its sends between naps, so this is short. */
         MPI_Request req;
@@ -635,18 +652,6 @@ static void serve(Farm *f)
                 log->last = now_ms() - f->t0;
             }
         }
-        int next = *f->cancel ? -1 : take_tile(f);
-        int answer[ANSWER_INTS] = {-1, 0, 0};
-        if (next < 0) {
-            active--;
-        } else {
-            answer[0] = next;
-            pthread_mutex_lock(&f->lock);
-            answer[1] = f->lo[next];
-            answer[2] = f->hi[next];
-            pthread_mutex_unlock(&f->lock);
-        }
-        MPI_Send(answer, ANSWER_INTS, MPI_INT, st.MPI_SOURCE, TAG_WORK, MPI_COMM_WORLD);
         if (tty)
             progress(f, &shown, false);
     }
