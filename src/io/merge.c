@@ -53,6 +53,10 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
         diag_error(diag, &loc, "no parts to merge");
         return false;
     }
+    /* The output is checked first, as a render checks it before its work: a missing or
+     * read-only folder is named before any part is read. */
+    if (!image_check_output(out, NULL, diag))
+        return false;
     Part *parts = calloc((size_t)n, sizeof *parts);
     if (!parts) {
         diag_error(diag, NULL, "out of memory");

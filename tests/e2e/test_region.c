@@ -461,6 +461,20 @@ static void test_bad_merges(void)
     char missing[PATH_MAX];
     e2e_join(missing, sizeof missing, dir, "missing.tga");
     expect_refused(dir, (const char *[]){missing, top, NULL}, missing, "cannot read image");
+    /* an output in a missing folder is refused with the words a render uses, naming the
+     * folder, before any part is read (the junk part would be named otherwise) */
+    {
+        char nodir[PATH_MAX], into[PATH_MAX];
+        e2e_join(nodir, sizeof nodir, dir, "nodir");
+        e2e_join(into, sizeof into, nodir, "merged.tga");
+        E2eRun rr;
+        CHECK_INT(run_status((const char *[]){"-merge", into, junk, top, NULL}, &rr), 1);
+        CHECK_CONTAINS(rr.err, "merged.tga: error: cannot write image: folder '");
+        CHECK_CONTAINS(rr.err, "nodir': No such file or directory");
+        CHECK_MSG(strstr(rr.err, "junk.tga") == NULL, "the part was read first: %s", rr.err);
+        CHECK(e2e_count_entries(dir) == 7);
+        e2e_run_free(&rr);
+    }
     /* and the good pair merges */
     char out[PATH_MAX];
     e2e_join(out, sizeof out, dir, "merged.tga");
