@@ -14,8 +14,8 @@
 #    whole job (mpirun and its ranks), median of RUNS, which the machine's other load
 #    does not inflate the way it does the wall time. In the same rounds, the host's own
 #    ceiling: two plain renders at once against one (2 T1 / T2; 2.00 on two free
-#    cores), so -np 2's figure can be read against what the machine gave. A second row
-#    renders course line 17a at the same size (N = 1 and 2). MPIRUN_FLAGS defaults to the
+#    cores), so -np 2's figure can be read against what the machine gave. A last row
+#    renders course line 11b at the same size (N = 1 and 2). MPIRUN_FLAGS defaults to the
 #    one-machine transports (--mca pml ob1 --mca btl self,vader: shared memory only,
 #    no probing for network hardware; docs/distributed.md); set it empty for OpenMPI's
 #    own choice; MPIRUN_ENV (default PMIX_MCA_gds=hash) is mpirun's environment. Skipped
@@ -211,13 +211,15 @@ for S in "" "-uniform_samples 16" "-jittered_samples 16 -gaussian_filter 0.4"; d
     # shellcheck disable=SC2086
     mpi_row "07 ${S:-(1 centred sample)}" 1 "${A[@]}" $S
 done
-# A heavier frame of the same size (course line 17a, the marble vase with reflections,
-# 16 uniform samples: ~7 s of CPU against line 07's ~3), where OpenMPI's fixed ~0.3 s
-# per job weighs less; -np 1 and 2 only. Beside line 07, not instead of it.
-SCENE17=$COURSE/scene6_17_marble_vase.txt
-if [ -f "$SCENE17" ]; then
-    mpi_row "17a -uniform_samples 16" 0 -input "$SCENE17" -grid 15 30 15 -bounces 1 -shadows \
-        -size 1920 1080 -threads 1 -uniform_samples 16
+# A heavier frame of the same size (course line 11b, the mirrored floor with shadows
+# and one bounce, 16 uniform samples: ~12 s of CPU against line 07's ~3; line 17a,
+# first chosen, fell to ~3 s with the packet shading of its materials), where
+# OpenMPI's fixed ~0.3 s per job weighs less; -np 1 and 2 only. Beside line 07, not
+# instead of it.
+SCENE11=$COURSE/scene6_11_mirrored_floor.txt
+if [ -f "$SCENE11" ]; then
+    mpi_row "11b -uniform_samples 16" 0 -input "$SCENE11" -shadows -bounces 1 -weight 0.01 \
+        -grid 40 10 40 -size 1920 1080 -threads 1 -uniform_samples 16
 fi
 echo "   load at the end: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo ""
