@@ -427,6 +427,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         job.min_tile_rows = film ? 16 * filter.support : 0;
         job.render = render_rect;
         job.user = &rj;
+        job.progress = preview ? PROGRESS_NEVER : o->progress;
         ok = dist_render(&job, &counts, cancel);
         if (atomic_load(&rj.rows) == rj.h)
             for (int i = 0; i < 3; i++)

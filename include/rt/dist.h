@@ -42,6 +42,11 @@ typedef struct DistJob {
     Image *color, *depth, *normals;
     int threads;               /* the root's -threads (0: all cores): tiles are cut to it */
     int min_tile_rows;         /* at least this many rows per tile (film margins) */
+    /* The root's "rows done" line on stderr, when there are other ranks: -progress
+     * (PROGRESS_ALWAYS) draws it, -quiet or the preview (PROGRESS_NEVER) not, else
+     * only when stderr is a terminal. Under OpenMPI's mpirun it never is (the ranks'
+     * stderr is a pipe to mpirun), so there the line needs -progress. */
+    ProgressMode progress;
     DistRectFn render;
     void *user;
 } DistJob;

@@ -548,7 +548,7 @@ static void *local_main(void *arg)
     return NULL;
 }
 
-/* "rows done" on a terminal, rewritten in place; nothing when stderr is a file. */
+/* "rows done", rewritten in place, when the job asks for it (DistJob.progress). */
 static void progress(const Farm *f, int *shown, bool last)
 {
     int d = atomic_load(&f->done);
@@ -599,7 +599,7 @@ static void serve(Farm *f)
     uint8_t *msg = bigmem_alloc(cap);
     if (!msg)
         die("out of memory");
-    bool tty = isatty(2) == 1;
+    bool tty = progress_wanted(f->full->progress, stderr);
     int shown = -1;
     int active = (g_size - 1) * REQUESTS_IN_FLIGHT;
     long ns = NAP_MIN_NS;
@@ -917,7 +917,7 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
             local_main(&f); /* no thread: render what is left here */
         if (f.local_failed)
             die("could not render a tile (out of memory?)");
-        if (isatty(2)) {
+        if (progress_wanted(job->progress, stderr)) {
             int shown = -1;
             progress(&f, &shown, true);
         }

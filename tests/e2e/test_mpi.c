@@ -365,6 +365,41 @@ static void test_mpi_timings_version(void)
     e2e_rmtree(dir);
 }
 
+/* Rank 0's "rows done" line: OpenMPI's mpirun gives the ranks a pipe for stderr, so
+ * rank 0 never sees a terminal, and the line came with neither -progress nor a
+ * terminal: -progress must draw it under mpirun, and without it (stderr a pipe here)
+ * there is none. */
+static void test_mpi_progress(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpiprog") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    for (int with = 0; with < 2; with++) {
+        Cmd c;
+        mpirun_prefix(&c, "2");
+        add(&c, mpi);
+        add(&c, "-input");
+        add(&c, scene);
+        add(&c, "-size");
+        add(&c, "64");
+        add(&c, "256");
+        if (with)
+            add(&c, "-progress");
+        add(&c, "-output");
+        add(&c, out);
+        E2eRun r;
+        CHECK_INT(run(&c, &r), 0);
+        CHECK_MSG(with ? strstr(r.err, "/256 rows on 2 ranks") != NULL
+                       : strstr(r.err, "rows on") == NULL,
+                  "%s -progress: stderr:\n%s", with ? "with" : "without", r.err);
+        e2e_run_free(&r);
+    }
+    e2e_rmtree(dir);
+}
+
 /* Ctrl-C at any moment of a run started without mpirun (a singleton: MPI_Init starts
  * an orted and takes a while): a signal during MPI_Init was lost, and the render of
  * tests/repro/deep_ray_tree.txt (endless) ran on. Signals at 0.1 .. 0.9 s; each run
@@ -475,6 +510,7 @@ static const TestCase tests[] = {
     {"mpi_scene_error", test_mpi_scene_error},
     {"mpi_killed_rank", test_mpi_killed_rank},
     {"mpi_timings_version", test_mpi_timings_version},
+    {"mpi_progress", test_mpi_progress},
     {"mpi_singleton_early_signal", test_mpi_singleton_early_signal},
     {"mpi_sigint_to_mpirun", test_mpi_sigint_to_mpirun},
     {"mpi_env_mismatch", test_mpi_env_mismatch},
