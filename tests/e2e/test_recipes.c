@@ -189,6 +189,24 @@ static void test_tiles_sbatch_fallback(void)
               g.status);
     CHECK_CONTAINS(g.err, "TILE_COLS=4");
     e2e_run_free(&g);
+    /* TILES not a count: refused naming it (bash stopped on 'x: unbound variable' in
+     * its loop, and TILES=0 merged no parts) */
+    static const char *const bad_tiles[] = {"x", "0", "-2"};
+    for (int i = 0; i < 3; i++) {
+        snprintf(cmd, sizeof cmd,
+                 "TILES=%s RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' "
+                 "scene.txt other.tga -size %s %s", bad_tiles[i], s.bin, s.root, SIZE_W,
+                 SIZE_H);
+        snprintf(gfull, sizeof gfull, "cd '%s' && %s", s.dir, cmd);
+        CHECK(e2e_run(gargv, &g));
+        char want[32];
+        snprintf(want, sizeof want, "TILES=%s: expected a count", bad_tiles[i]);
+        const char *nl = strchr(g.err, '\n');
+        CHECK_MSG(g.status == 2 && strstr(g.err, want) && nl && !nl[1],
+                  "tiles.sbatch with TILES=%s: exit %d, stderr:\n%s", bad_tiles[i], g.status,
+                  g.err);
+        e2e_run_free(&g);
+    }
     /* -tile and -region are the script's: refused (status 2) before anything runs */
     static const char *const own[] = {"-tile 0 2", "-region 0 0 8 8"};
     E2eRun r;
