@@ -968,8 +968,16 @@ void dist_report(FILE *out)
     fprintf(out, "; %d tiles, the first rank done %.1f ms before the last; per rank, ms "
             "after rank 0's render start (first request, last tile placed):",
             g_log_tiles, last_done - first_done);
-    for (int r = 0; r < g_size; r++)
-        fprintf(out, " %d: %d tiles %.1f %.1f%s", r, g_log[r].tiles, g_log[r].first,
-                g_log[r].last, r + 1 < g_size ? "," : "");
+    /* A rank with no tile placed has no last time: "-", not a 0.0 that reads as a
+     * tile placed at the render's start (a rank that joined after rank 0 had rendered
+     * everything). */
+    for (int r = 0; r < g_size; r++) {
+        fprintf(out, " %d: %d tiles %.1f ", r, g_log[r].tiles, g_log[r].first);
+        if (g_log[r].tiles)
+            fprintf(out, "%.1f", g_log[r].last);
+        else
+            fputc('-', out);
+        fputs(r + 1 < g_size ? "," : "", out);
+    }
     fputc('\n', out);
 }

@@ -350,6 +350,25 @@ static void test_mpi_timings_version(void)
     CHECK_MSG(total > 0 && ranks == 3 && sum == total, "per-rank tiles %d over %d ranks, "
               "%d cut:\n%s", sum, ranks, total, r.err);
     e2e_run_free(&r);
+    /* An 8x8 image is one tile: one of the two ranks places none, and its entry has no
+     * last time ("-"; it said 0.0, as if a tile had been placed at the start). */
+    mpirun_prefix(&c, "2");
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-size");
+    add(&c, "8");
+    add(&c, "8");
+    add(&c, "-timings");
+    add(&c, "-output");
+    add(&c, out);
+    CHECK_INT(run(&c, &r), 0);
+    const char *none = strstr(r.err, ": 0 tiles ");
+    double first = -1.0;
+    char last = 0;
+    CHECK_MSG(none && sscanf(none, ": 0 tiles %lf %c", &first, &last) == 2 && last == '-',
+              "the rank with no tile:\n%s", r.err);
+    e2e_run_free(&r);
     mpirun_prefix(&c, "2");
     add(&c, mpi);
     add(&c, "--version");
