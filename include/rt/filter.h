@@ -62,4 +62,9 @@ void filter_weights_1d(const Filter *f, const float *x, float *w, int n);
  * then they are 1 float ulp apart). Tested against libm in tests/unit/test_antialias.c. */
 double filter_exp_nonpos(double t);
 
+/* The widest vector path the separable Gaussian may use: 0 the plain build, 1 AVX2,
+ * 2 AVX-512 (the default; a path the CPU lacks is never taken). For tests, which hold
+ * every path to the plain build's bits; call it before any render starts. */
+void filter_gaussian_path_set(int cap);
+
 #endif

@@ -39,12 +39,17 @@ static float gaussian_weight(const Filter *f, float x, float y)
 }
 
 /* Four lanes (GCC/clang vector extensions; two SSE2 registers on a plain x86-64
- * build, one AVX register where enabled): every lane runs the same IEEE operations as
- * the others, so a value's bits do not depend on its lane or on the build's ISA. */
+ * build, one AVX register where enabled), or eight (one AVX-512 register): every lane
+ * runs the same IEEE operations as the others, so a value's bits do not depend on its
+ * lane, on the width or on the build's ISA. */
 typedef double V4d __attribute__((vector_size(32)));
 typedef float V4f __attribute__((vector_size(16)));
 typedef uint64_t V4u __attribute__((vector_size(32)));
 typedef int64_t V4i __attribute__((vector_size(32)));
+typedef double V8d __attribute__((vector_size(64)));
+typedef float V8f __attribute__((vector_size(32)));
+typedef uint64_t V8u __attribute__((vector_size(64)));
+typedef int64_t V8i __attribute__((vector_size(64)));
 
 /* exp(t) = 2^k exp(r) with k = round(t / ln 2) and |r| <= ln(2)/2 + tiny; exp(r) by its
  * Taylor series to degree 12 (remainder below 3e-16 relative there), summed in
@@ -53,35 +58,40 @@ typedef int64_t V4i __attribute__((vector_size(32)));
  * slower than libm). k is read from the bits of the rounding sum (t / ln 2 + 1.5 * 2^52
  * holds round(t / ln 2) in its low mantissa bits) and 2^k is built from its bits: no
  * calls, no branches. ln 2 is split in two (the high part has 32 significant bits, so
- * k * ln2_hi is exact for |k| < 2^21) to keep r accurate. */
-__attribute__((always_inline)) static inline V4d exp_nonpos4(V4d t)
-{
-    const double shift = 0x1.8p52, inv_ln2 = 0x1.71547652b82fep0;
-    const double ln2_hi = 0x1.62e42feep-1, ln2_lo = 0x1.a39ef35793c76p-33;
-    const V4d lo = {-700.0, -700.0, -700.0, -700.0};
-    V4i keep = t >= lo; /* all ones where t >= -700 (false for NaN) */
-    t = (V4d)(((V4i)t & keep) | ((V4i)lo & ~keep));
-    V4d kd = t * inv_ln2 + shift;
-    V4u kbits = (V4u)kd;
-    kd -= shift;
-    V4d r = t - kd * ln2_hi;
-    r -= kd * ln2_lo;
-    V4d r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
-    V4d p01 = r + 1.0;
-    V4d p23 = r * (1.0 / 6.0) + 0.5;
-    V4d p45 = r * (1.0 / 120.0) + 1.0 / 24.0;
-    V4d p67 = r * (1.0 / 5040.0) + 1.0 / 720.0;
-    V4d p89 = r * (1.0 / 362880.0) + 1.0 / 40320.0;
-    V4d pab = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;
-    V4d q0 = p23 * r2 + p01, q1 = p67 * r2 + p45, q2 = pab * r2 + p89;
-    V4d s0 = q1 * r4 + q0, s1 = r4 * (1.0 / 479001600.0) + q2;
-    V4d p = s1 * r8 + s0;
-    /* k = kbits - bits(shift) lies in [-1010, 0]: 2^k is a normal double. */
-    uint64_t shift_bits;
-    memcpy(&shift_bits, &shift, sizeof shift_bits);
-    V4u sbits = (kbits - shift_bits + 1023u) << 52;
-    return p * (V4d)sbits;
-}
+ * k * ln2_hi is exact for |k| < 2^21) to keep r accurate. One body for both widths (a
+ * macro: the operations, and so the bits, cannot drift apart). */
+#define FILTER_EXP_NONPOS(NAME, VD, VU, VI)                                                \
+    __attribute__((always_inline)) static inline VD NAME(VD t)                            \
+    {                                                                                      \
+        const double shift = 0x1.8p52, inv_ln2 = 0x1.71547652b82fep0;                      \
+        const double ln2_hi = 0x1.62e42feep-1, ln2_lo = 0x1.a39ef35793c76p-33;             \
+        const VD lo = (VD){0} - 700.0;                                                     \
+        VI keep = t >= lo; /* all ones where t >= -700 (false for NaN) */                  \
+        t = (VD)(((VI)t & keep) | ((VI)lo & ~keep));                                       \
+        VD kd = t * inv_ln2 + shift;                                                       \
+        VU kbits = (VU)kd;                                                                 \
+        kd -= shift;                                                                       \
+        VD r = t - kd * ln2_hi;                                                            \
+        r -= kd * ln2_lo;                                                                  \
+        VD r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;                                         \
+        VD p01 = r + 1.0;                                                                  \
+        VD p23 = r * (1.0 / 6.0) + 0.5;                                                    \
+        VD p45 = r * (1.0 / 120.0) + 1.0 / 24.0;                                           \
+        VD p67 = r * (1.0 / 5040.0) + 1.0 / 720.0;                                         \
+        VD p89 = r * (1.0 / 362880.0) + 1.0 / 40320.0;                                     \
+        VD pab = r * (1.0 / 39916800.0) + 1.0 / 3628800.0;                                 \
+        VD q0 = p23 * r2 + p01, q1 = p67 * r2 + p45, q2 = pab * r2 + p89;                  \
+        VD s0 = q1 * r4 + q0, s1 = r4 * (1.0 / 479001600.0) + q2;                          \
+        VD p = s1 * r8 + s0;                                                               \
+        /* k = kbits - bits(shift) lies in [-1010, 0]: 2^k is a normal double. */          \
+        uint64_t shift_bits;                                                               \
+        memcpy(&shift_bits, &shift, sizeof shift_bits);                                    \
+        VU sbits = (kbits - shift_bits + 1023u) << 52;                                     \
+        return p * (VD)sbits;                                                              \
+    }
+
+FILTER_EXP_NONPOS(exp_nonpos4, V4d, V4u, V4i)
+FILTER_EXP_NONPOS(exp_nonpos8, V8d, V8u, V8i)
 
 double filter_exp_nonpos(double t)
 {
@@ -90,60 +100,81 @@ double filter_exp_nonpos(double t)
 }
 
 /* The separable Gaussian of the film (random positions): exp(-x^2 / (2 sigma^2)) by
- * exp_nonpos4, not libm (the 2(2R+1) weights of every sample were a fifth of a
+ * exp_nonpos4/8, not libm (the 2(2R+1) weights of every sample were a fifth of a
  * jittered 16-sample render of course line 07). The 2-D weight (fixed positions and
  * the filter pictures, which reproduce the course's images to the bit) keeps libm.
  * The exponent is x^2 times -1/(2 sigma^2): within an ulp of the quotient, which moves
- * exp by under 2e-15 relative for the |t| < 18 of any support. Eight weights per step
+ * exp by under 2e-15 relative for the |t| < 18 of any support. Two vectors per step
  * (two independent chains); a last partial group goes through a padded copy. The AVX2
- * build of the same loop does the same operations (no FMA). */
-__attribute__((always_inline)) static inline V4f gaussian4(V4f x, double neg_inv)
-{
-    V4d t = __builtin_convertvector(x * x, V4d) * neg_inv;
-    return __builtin_convertvector(exp_nonpos4(t), V4f);
-}
+ * build of the four-lane loop and the AVX-512 build of the eight-lane one do the same
+ * operations per lane (no FMA: the file is built with -ffp-contract=off). */
+#define FILTER_GAUSSIAN_BATCH(NAME, GAUSS, EXP, VD, VF, L)                                 \
+    __attribute__((always_inline)) static inline VF GAUSS(VF x, double neg_inv)           \
+    {                                                                                      \
+        VD t = __builtin_convertvector(x * x, VD) * neg_inv;                               \
+        return __builtin_convertvector(EXP(t), VF);                                        \
+    }                                                                                      \
+    __attribute__((always_inline)) static inline void NAME(const Filter *f, const float *x, \
+                                                           float *w, int n)                \
+    {                                                                                      \
+        double s = (double)f->r;                                                           \
+        double neg_inv = -1.0 / (2.0 * s * s);                                             \
+        int i = 0;                                                                         \
+        for (; i + 2 * (L) <= n; i += 2 * (L)) {                                           \
+            VF a, b;                                                                       \
+            memcpy(&a, x + i, sizeof a);                                                   \
+            memcpy(&b, x + i + (L), sizeof b);                                             \
+            a = GAUSS(a, neg_inv);                                                         \
+            b = GAUSS(b, neg_inv);                                                         \
+            memcpy(w + i, &a, sizeof a);                                                   \
+            memcpy(w + i + (L), &b, sizeof b);                                             \
+        }                                                                                  \
+        for (; i < n; i += (L)) {                                                          \
+            int m = n - i < (L) ? n - i : (L);                                             \
+            VF a = {0.0f};                                                                 \
+            memcpy(&a, x + i, (size_t)m * sizeof x[0]);                                    \
+            a = GAUSS(a, neg_inv);                                                         \
+            memcpy(w + i, &a, (size_t)m * sizeof w[0]);                                    \
+        }                                                                                  \
+    }
 
-__attribute__((always_inline)) static inline void gaussian_batch(const Filter *f,
-                                                                 const float *x, float *w,
-                                                                 int n)
-{
-    double s = (double)f->r;
-    double neg_inv = -1.0 / (2.0 * s * s);
-    int i = 0;
-    for (; i + 8 <= n; i += 8) {
-        V4f a, b;
-        memcpy(&a, x + i, sizeof a);
-        memcpy(&b, x + i + 4, sizeof b);
-        a = gaussian4(a, neg_inv);
-        b = gaussian4(b, neg_inv);
-        memcpy(w + i, &a, sizeof a);
-        memcpy(w + i + 4, &b, sizeof b);
-    }
-    for (; i < n; i += 4) {
-        int m = n - i < 4 ? n - i : 4;
-        V4f a = {0.0f, 0.0f, 0.0f, 0.0f};
-        memcpy(&a, x + i, (size_t)m * sizeof x[0]);
-        a = gaussian4(a, neg_inv);
-        memcpy(w + i, &a, (size_t)m * sizeof w[0]);
-    }
-}
+FILTER_GAUSSIAN_BATCH(gaussian_batch, gaussian4, exp_nonpos4, V4d, V4f, 4)
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+FILTER_GAUSSIAN_BATCH(gaussian_batch8, gaussian8, exp_nonpos8, V8d, V8f, 8)
+
 __attribute__((target("avx2"))) static void gaussian_batch_avx2(const Filter *f,
                                                                 const float *x, float *w,
                                                                 int n)
 {
     gaussian_batch(f, x, w, n);
 }
+
+__attribute__((target("avx512f,avx512vl,avx512bw,avx512dq"))) static void
+gaussian_batch_avx512(const Filter *f, const float *x, float *w, int n)
+{
+    gaussian_batch8(f, x, w, n);
+}
 #define HAVE_AVX2_BATCH 1
 #endif
+
+/* The width the Gaussian's batches use: 0 the plain build, 1 AVX2, 2 AVX-512.
+ * filter_gaussian_path_set lowers it (tests hold each path to the plain build's bits);
+ * it is set before any render starts, never by a render thread. */
+static int gaussian_path_cap = 2;
+
+void filter_gaussian_path_set(int cap) { gaussian_path_cap = cap; }
 
 static void gaussian_weights_1d(const Filter *f, const float *x, float *w, int n)
 {
 #ifdef HAVE_AVX2_BATCH
     /* Asked on every call (a load): a copy cached in a static that render threads
      * write would be a data race. */
-    if (cpu_has_avx2()) {
+    if (gaussian_path_cap >= 2 && cpu_has_avx512()) {
+        gaussian_batch_avx512(f, x, w, n);
+        return;
+    }
+    if (gaussian_path_cap >= 1 && cpu_has_avx2()) {
         gaussian_batch_avx2(f, x, w, n);
         return;
     }

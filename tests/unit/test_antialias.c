@@ -246,6 +246,44 @@ static void test_gaussian_fast_exp(void)
     }
 }
 
+/* Every vector path of the separable Gaussian (plain, AVX2, AVX-512, as far as this
+ * CPU has them) gives the plain build's bits: the images may not depend on the CPU.
+ * Arguments across each support and beyond (through the exp's clamp), every batch
+ * length up to 40 (the partial groups) and a long batch at odd offsets. */
+static void test_gaussian_paths(void)
+{
+    char why[160];
+    static const float sigmas[] = {0.26f, 0.4f, 0.6f, 1.0f, 2.3f, 16.0f};
+    enum { N = 4099 };
+    static float x[N], w0[N], w[N];
+    for (int k = 0; k < 6; k++) {
+        Filter f;
+        CHECK(filter_init(&f, filter_find("gaussian"), sigmas[k], why, sizeof why));
+        float span = (float)(f.support + 1) * 3.0f;
+        for (int i = 0; i < N; i++)
+            x[i] = ((float)i / (float)(N - 1) * 2.0f - 1.0f) * span + (float)(i % 7) * 1e-4f;
+        filter_gaussian_path_set(0);
+        filter_weights_1d(&f, x, w0, N);
+        for (int cap = 1; cap <= 2; cap++) {
+            filter_gaussian_path_set(cap);
+            filter_weights_1d(&f, x, w, N);
+            int bad = 0;
+            for (int i = 0; i < N; i++)
+                bad += memcmp(&w[i], &w0[i], sizeof w[i]) != 0;
+            CHECK_MSG(bad == 0, "sigma %g path %d: %d of %d weights differ from the plain build",
+                      (double)f.r, cap, bad, N);
+            for (int n = 1; n <= 40; n++)
+                for (int o = 0; o < 3; o++) {
+                    filter_weights_1d(&f, x + 1000 + 37 * n + o, w, n);
+                    CHECK_MSG(memcmp(w, w0 + 1000 + 37 * n + o, (size_t)n * sizeof w[0]) == 0,
+                              "sigma %g path %d: batch of %d at %d differs", (double)f.r, cap,
+                              n, 1000 + 37 * n + o);
+                }
+        }
+        filter_gaussian_path_set(2);
+    }
+}
+
 /* ---- the film on a course scene --------------------------------------------------- */
 
 typedef struct Fixture {
@@ -510,6 +548,7 @@ static const TestCase tests[] = {
     {"samplers: poisson (best candidate) keeps samples apart", test_poisson_sampler},
     {"filters: symmetric weights, support radii, bad radii", test_filter_symmetry_and_support},
     {"filters: the Gaussian's exp against libm; batch == single", test_gaussian_fast_exp},
+    {"filters: every vector path of the Gaussian gives the plain build's bits", test_gaussian_paths},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
     {"film: colour-only vector filter == general loop; any column offset",
