@@ -274,6 +274,13 @@ static bool take(Cursor *c, const char *flag, const char **out)
                            flag, c->argv[c->i + 1], synopsis[0] ? " (" : "", synopsis,
                            synopsis[0] ? ")" : "");
     }
+    /* An empty value (-output "$OUT" with OUT unset) names nothing: said here, not as
+     * an error about a file without a name (": error: ..."). A key script may be empty. */
+    if (!c->argv[c->i + 1][0] && strcmp(flag, "-gui_keys") != 0) {
+        option_synopsis(flag, synopsis, sizeof synopsis);
+        return usage_error(c, "option %s: the value is empty%s%s%s", flag,
+                           synopsis[0] ? " (" : "", synopsis, synopsis[0] ? ")" : "");
+    }
     *out = c->argv[++c->i];
     return true;
 }

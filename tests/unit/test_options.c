@@ -127,6 +127,52 @@ static void test_usage_errors(void)
     }
 }
 
+/* An empty value (a shell variable left unset) is a usage error naming the option; it
+ * reached the file layer and came back as ": error: ..." with no name. */
+static void test_empty_values(void)
+{
+    static const char *const flags[][3] = {
+        {"-input", "", NULL}, {"-output", "", NULL}, {"-normals", "", NULL},
+        {"-cache", "", NULL}, {"-size", "", "10"},
+    };
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
+        char *argv[12];
+        int argc = 0;
+        argv[argc++] = (char *)"raytracer";
+        if (strcmp(flags[i][0], "-input") != 0) {
+            argv[argc++] = (char *)"-input";
+            argv[argc++] = (char *)"s.txt";
+            argv[argc++] = (char *)"-output";
+            argv[argc++] = (char *)"o.tga";
+        }
+        for (int k = 0; k < 3 && flags[i][k]; k++)
+            argv[argc++] = (char *)flags[i][k];
+        if (strcmp(flags[i][0], "-input") == 0) {
+            argv[argc++] = (char *)"-output";
+            argv[argc++] = (char *)"o.tga";
+        }
+        argv[argc] = NULL;
+        char err[512] = "";
+        FILE *f = fmemopen(err, sizeof err, "w");
+        Options o;
+        options_defaults(&o);
+        bool ok = options_parse(&o, argc, argv, f);
+        fclose(f);
+        char want[64];
+        snprintf(want, sizeof want, "raytracer: option %s: the value is empty", flags[i][0]);
+        CHECK_MSG(!ok && strstr(err, want), "%s '': %s", flags[i][0], err);
+    }
+    /* the preview's key script may be empty */
+    char *keys[] = {(char *)"raytracer", (char *)"-input", (char *)"s.txt", (char *)"-output",
+                    (char *)"o.tga", (char *)"-gui_keys", (char *)"", NULL};
+    char err[512] = "";
+    FILE *f = fmemopen(err, sizeof err, "w");
+    Options o;
+    options_defaults(&o);
+    CHECK_MSG(options_parse(&o, 7, keys, f), "-gui_keys '' refused");
+    fclose(f);
+}
+
 static void test_stats_block(void)
 {
     char buf[4096] = "";
@@ -253,6 +299,7 @@ static const TestCase tests[] = {
     {"options: a full course command line", test_course_line},
     {"options: defaults, repeats, -grid auto, -h", test_defaults_and_repeats},
     {"options: usage errors say why", test_usage_errors},
+    {"options: an empty value is a usage error", test_empty_values},
     {"options: -h lists the codec table and the accelerator registry", test_usage_lists_tables},
     {"stats: the course block, label for label", test_stats_block},
     {"stats: rays per second, the course's formula", test_stats_rays_per_second},
