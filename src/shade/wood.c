@@ -9,17 +9,22 @@
  *   theta = f (sqrt(x^2 + z^2) + 0.05 y) + a N(x, 0.2 y, z)
  *   v = clamp(sin theta + 0.5, 0, 1),   t = v^2 on m1.
  * Rings around y, slightly slanted along y; the noise is stretched 5x along y (grain). */
+static inline float wood_t(const ProceduralBlend *b, double x, double y, double z, double n)
+{
+    double theta = (double)b->frequency * (sqrt(x * x + z * z) + 0.05 * y) +
+                   (double)b->amplitude * n;
+    double v = sin(theta) + 0.5;
+    v = v <= 0.0 ? 0.0 : v >= 1.0 ? 1.0 : v;
+    return (float)(v * v);
+}
+
 static float wood_weight(const ProceduralBlend *b, Vec3 p)
 {
     Vec3 q = procedural_texture_point(&b->proc, p);
     double x = (double)q.x, y = (double)q.y, z = (double)q.z;
     /* (x, 0.2 y, z) shrinks distances: the footprint bounds the noise's one too. */
     double n = perlin_octaves_cutoff(x, 0.2 * y, z, b->octaves, procedural_footprint(b));
-    double theta = (double)b->frequency * (sqrt(x * x + z * z) + 0.05 * y) +
-                   (double)b->amplitude * n;
-    double v = sin(theta) + 0.5;
-    v = v <= 0.0 ? 0.0 : v >= 1.0 ? 1.0 : v;
-    return (float)(v * v);
+    return wood_t(b, x, y, z, n);
 }
 
 /* wood_weight at n points, the noise a vector of points at a time: the same bits. */
@@ -28,13 +33,8 @@ static void wood_weights(const ProceduralBlend *b, const Vec3 *p, int n, float *
     double x[PROCEDURAL_WEIGHTS_MAX], y[PROCEDURAL_WEIGHTS_MAX], z[PROCEDURAL_WEIGHTS_MAX],
         nz[PROCEDURAL_WEIGHTS_MAX];
     procedural_octaves_at(b, p, n, true, x, y, z, nz);
-    for (int i = 0; i < n; i++) {
-        double theta = (double)b->frequency * (sqrt(x[i] * x[i] + z[i] * z[i]) + 0.05 * y[i]) +
-                       (double)b->amplitude * nz[i];
-        double v = sin(theta) + 0.5;
-        v = v <= 0.0 ? 0.0 : v >= 1.0 ? 1.0 : v;
-        t[i] = (float)(v * v);
-    }
+    for (int i = 0; i < n; i++)
+        t[i] = wood_t(b, x[i], y[i], z[i], nz[i]);
 }
 
 PROCEDURAL_BLEND_OPS(wood, "Wood", wood_weight);
