@@ -415,7 +415,7 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
         for (int j = 0; j < k; j++) {
             int i = idx[j];
             Vec3 d = rays[i].dir, n = hits[i].normal;
-            if (!(v3_dot(n, d) < 0.0f) && v3_dot(n, d) > 0.0f) {
+            if (v3_dot(n, d) > 0.0f) { /* shade_begin's back face */
                 if (!rt->shade_back) {
                     colors[i] = v3(0, 0, 0);
                     continue;
