@@ -331,6 +331,99 @@ static inline __attribute__((always_inline)) bool cast_march_next(MarchingInfo *
     return true;
 }
 
+/* The cast's march in registers, for the queries without a ray tree: cast_march_next
+ * step for step, the same axis chosen by the same comparisons and the same t's (the
+ * stepped axis' next boundary by the same expression, base + (float)k * dt, with k
+ * kept as a float: exact below 2^24), with the cell's index kept as one number (plus
+ * the axis' stride at each step) and the steps left to the box's end counted down per
+ * axis instead of the cell's coordinates. */
+typedef struct LeanMarch {
+    float t;                    /* entry t of the current cell */
+    float tn0, tn1, tn2;        /* t_next per axis */
+    float b0, b1, b2, dt0, dt1, dt2, k0, k1, k2, s0, s1, s2; /* base, dt, k, step */
+    int left0, left1, left2;    /* steps left inside the box per axis */
+    int32_t d0, d1, d2;         /* index stride of one step per axis (signed) */
+    uint32_t c;                 /* the current cell's index (grid_cell_index) */
+    uint64_t cells;             /* cells entered, for cells_traversed */
+} LeanMarch;
+
+static inline __attribute__((always_inline)) void lean_start(const Grid *g,
+                                                              const MarchingInfo *mi,
+                                                              LeanMarch *m)
+{
+    m->t = mi->t;
+    m->tn0 = mi->t_next[0];
+    m->tn1 = mi->t_next[1];
+    m->tn2 = mi->t_next[2];
+    m->b0 = mi->base[0];
+    m->b1 = mi->base[1];
+    m->b2 = mi->base[2];
+    m->dt0 = mi->dt[0];
+    m->dt1 = mi->dt[1];
+    m->dt2 = mi->dt[2];
+    /* k of t_next, as cast_march_init set it */
+    m->k0 = (float)(mi->cell[0] + (mi->step[0] > 0));
+    m->k1 = (float)(mi->cell[1] + (mi->step[1] > 0));
+    m->k2 = (float)(mi->cell[2] + (mi->step[2] > 0));
+    m->s0 = (float)mi->step[0];
+    m->s1 = (float)mi->step[1];
+    m->s2 = (float)mi->step[2];
+    m->left0 = mi->step[0] > 0 ? g->n[0] - 1 - mi->cell[0] : mi->cell[0];
+    m->left1 = mi->step[1] > 0 ? g->n[1] - 1 - mi->cell[1] : mi->cell[1];
+    m->left2 = mi->step[2] > 0 ? g->n[2] - 1 - mi->cell[2] : mi->cell[2];
+    m->d0 = mi->step[0];
+    m->d1 = mi->step[1] * g->n[0];
+    m->d2 = mi->step[2] * g->n[0] * g->n[1];
+    m->c = grid_cell_index(g, mi->cell[0], mi->cell[1], mi->cell[2]);
+    m->cells = 0;
+}
+
+/* march_exit_t of the current cell. */
+static inline __attribute__((always_inline)) float lean_exit_t(const LeanMarch *m)
+{
+    float a = m->tn0 < m->tn1 ? m->tn0 : m->tn1;
+    return a < m->tn2 ? a : m->tn2;
+}
+
+/* cast_march_next: the axis (ties to x, then y) and the step, by selects. */
+static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
+{
+    bool y = m->tn1 < m->tn0;
+    float tm = y ? m->tn1 : m->tn0;
+    bool z = m->tn2 < tm;
+    tm = z ? m->tn2 : tm;
+    if (!(tm < INFINITY))
+        return false;
+    bool x = !y && !z;
+    y = y && !z;
+    int l0 = m->left0 - x, l1 = m->left1 - y, l2 = m->left2 - z;
+    if ((l0 | l1 | l2) < 0)
+        return false; /* the step leaves the box */
+    m->left0 = l0;
+    m->left1 = l1;
+    m->left2 = l2;
+    m->c += (uint32_t)(x ? m->d0 : y ? m->d1 : m->d2);
+    if (x) {
+        m->k0 += m->s0;
+        m->tn0 = m->b0 + m->k0 * m->dt0;
+    } else if (y) {
+        m->k1 += m->s1;
+        m->tn1 = m->b1 + m->k1 * m->dt1;
+    } else {
+        m->k2 += m->s2;
+        m->tn2 = m->b2 + m->k2 * m->dt2;
+    }
+    m->t = tm;
+    m->cells++;
+    return true;
+}
+
+/* Whether cell c has entries: the occupancy bits when the grid has them. */
+static inline __attribute__((always_inline)) bool cell_occupied(const Grid *g, uint32_t c)
+{
+    return !g->occupied || (g->occupied[c >> 6] >> (c & 63) & 1);
+}
+
 /* The next cell by whichever march started (lean: cast_march_init). */
 static inline __attribute__((always_inline)) bool march_step(MarchingInfo *mi,
                                                               RenderCtx *ctx, bool lean)
@@ -439,6 +532,20 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
         return start == MARCH_ALL && brute_intersect(g, ray, hit, tmin, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
     bool lean = !ctx->tree;
+    if (lean) { /* the loop below, in registers */
+        LeanMarch m;
+        lean_start(g, &mi, &m);
+        do {
+            if (m.t > hit->t)
+                break;
+            if (cell_occupied(g, m.c))
+                found |= test_cell(g, m.c, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
+            if (hit->t <= lean_exit_t(&m))
+                break;
+        } while (lean_next(&m));
+        ctx->stats.cells_traversed += m.cells;
+        return found;
+    }
     do {
         /* 4. The cell starts beyond the best hit: nothing in it or later is nearer. */
         if (mi.t > hit->t)
@@ -483,6 +590,22 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
         return start == MARCH_ALL && brute_occluded(g, ray, tmin, tmax, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
     bool lean = !ctx->tree;
+    if (lean) { /* the loop below, in registers */
+        LeanMarch m;
+        lean_start(g, &mi, &m);
+        bool occluded = false;
+        do {
+            if (m.t > tmax)
+                break;
+            if (cell_occupied(g, m.c) &&
+                test_cell(g, m.c, ray, &h, tmin, ctx, mb, stamp, rsimd, true)) {
+                occluded = true; /* the first occluder settles it */
+                break;
+            }
+        } while (lean_next(&m));
+        ctx->stats.cells_traversed += m.cells;
+        return occluded;
+    }
     do {
         if (mi.t > tmax)
             break;

@@ -694,12 +694,89 @@ static void test_shrinking_transform_tmin(void)
     arena_free(&s.arena);
 }
 
+/* Rays along lattice diagonals of a cubic grid whose cells are exact binary fractions:
+ * their boundary crossings tie on two or three axes at once at every step, where the
+ * march's rule (ties to x, then y) decides which neighbour comes first. The cast's own
+ * march (no ray tree) must take the same cells as march_init/march_next, so every ray's
+ * cells, tests and hit are compared with and without a ray tree over a soup of small
+ * triangles that fills the cells unevenly (a different neighbour, other tests). */
+static void test_lattice_ties(void)
+{
+    rng_state = 4242u;
+    Scene s;
+    memset(&s, 0, sizeof s);
+    arena_init(&s.arena);
+    PhongParams pp = phong_defaults();
+    Material *m = phong_new(&s.arena, &pp);
+    enum { TRIS = 600 };
+    Object3D *root = group_new(&s.arena, TRIS + 2);
+    /* Two specks pin the box to [-2, 2]^3: cells of 0.5 on an 8^3 grid. */
+    group_set_child(root, 0, triangle_new(&s.arena, v3(-2, -2, -2), v3(-1.99f, -2, -2),
+                                          v3(-2, -1.99f, -2), m));
+    group_set_child(root, 1, triangle_new(&s.arena, v3(2, 2, 2), v3(1.99f, 2, 2),
+                                          v3(2, 1.99f, 2), m));
+    for (int i = 0; i < TRIS; i++) {
+        Vec3 c = vrand(-1.9f, 1.9f);
+        group_set_child(root, i + 2, triangle_new(&s.arena, v3_add(c, vrand(-0.1f, 0.1f)),
+                                                  v3_add(c, vrand(-0.1f, 0.1f)),
+                                                  v3_add(c, vrand(-0.1f, 0.1f)), m));
+    }
+    group_finish(root);
+    s.root = root;
+    s.num_primitives = group_assign_ids(root);
+    s.bounds = root->bbox;
+    Diag d;
+    diag_init(&d, stderr);
+    Grid *g = grid_build(&s, 8, 8, 8, &d);
+    CHECK(g != NULL);
+    if (g) {
+        RenderCtx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.num_mailbox = grid_mailbox_size(g);
+        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        long rays = 0;
+        for (int i = 0; i < 2000; i++) {
+            TestRay tr;
+            /* A lattice point (inside or on the box), a direction of +-1 or 0 per axis
+             * (at least two non-zero) scaled by 1 or 0.5: exact inverses. */
+            tr.ray.origin = v3(-2.0f + 0.5f * (float)irand(9), -2.0f + 0.5f * (float)irand(9),
+                               -2.0f + 0.5f * (float)irand(9));
+            float dc[3];
+            int nonzero;
+            do {
+                nonzero = 0;
+                for (int a = 0; a < 3; a++) {
+                    dc[a] = (float)(irand(3) - 1);
+                    nonzero += dc[a] != 0.0f;
+                }
+            } while (nonzero < 2);
+            float sc = irand(2) ? 1.0f : 0.5f;
+            tr.ray.dir = v3(dc[0] * sc, dc[1] * sc, dc[2] * sc);
+            tr.tmin = irand(2) ? 0.0f : 1e-3f;
+            for (int occl = 0; occl < 2; occl++) {
+                RtStats before = ctx.stats;
+                Hit h = hit_none();
+                float tmax = 2.0f + (float)irand(8);
+                bool f = occl ? grid_occluded(g, &tr.ray, tr.tmin, tmax, &ctx)
+                              : grid_intersect(g, &tr.ray, &h, tr.tmin, &ctx);
+                check_same_march(g, &ctx, &before, &tr, tmax, occl, f, &h);
+                rays++;
+            }
+        }
+        CHECK(rays == 4000);
+        free(ctx.mailbox);
+        grid_free(g);
+    }
+    arena_free(&s.arena);
+}
+
 static const TestCase tests[] = {
     {"tile_order", test_tile_order},
     {"random_scenes_marking_on", test_random_scenes_marking_on},
     {"random_scenes_marking_off", test_random_scenes_marking_off},
     {"no_mailbox", test_no_mailbox},
     {"shrinking_transform_tmin", test_shrinking_transform_tmin},
+    {"lattice_ties", test_lattice_ties},
 };
 
 RT_TEST_MAIN(tests)
