@@ -24,6 +24,9 @@ typedef struct ObjMesh {
  * (nothing left allocated). */
 bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag);
 void objfile_mesh_free(ObjMesh *m);
+/* For tests: how many files objfile_parse has read in parallel pieces so far (the
+ * others went through the serial reader). */
+unsigned long objfile_pieces_read(void);
 
 /* A Group of one Triangle per face, all with material m, from arena a. block: NULL, or
  * the file's arena buffer (file_read_reusable), no longer needed, which is taken over

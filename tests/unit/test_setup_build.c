@@ -79,7 +79,7 @@ static void put_coord(Text *t)
 /* An OBJ text of about `bytes` bytes: vertices and faces interleaved (faces use only
  * vertices read before them, so the file is valid), in every form the reader accepts.
  * negative: also faces with negative indices (pieces then give up: serial reading). */
-static char *make_obj(size_t bytes, bool negative, size_t *len)
+static char *make_obj_faces(size_t bytes, bool negative, bool polygons, size_t *len)
 {
     Text t = {0};
     int nv = 0;
@@ -97,7 +97,7 @@ static char *make_obj(size_t bytes, bool negative, size_t *len)
             put(&t, "f %d %d %d\n", 1 + (int)(rnd() % (unsigned)nv),
                 1 + (int)(rnd() % (unsigned)nv), 1 + (int)(rnd() % (unsigned)nv));
         } else if (r == 12) {
-            int m = 3 + (int)(rnd() % 4);
+            int m = polygons ? 3 + (int)(rnd() % 4) : 3;
             put(&t, "f");
             for (int k = 0; k < m; k++) {
                 int v = 1 + (int)(rnd() % (unsigned)nv);
@@ -124,6 +124,11 @@ static char *make_obj(size_t bytes, bool negative, size_t *len)
     }
     *len = t.len;
     return t.s;
+}
+
+static char *make_obj(size_t bytes, bool negative, size_t *len)
+{
+    return make_obj_faces(bytes, negative, true, len);
 }
 
 /* Parses text with h helpers; the diagnostics go to *d. */
@@ -177,6 +182,30 @@ static void test_obj_pieces_match_serial(void)
         check_same_parse(text, len, "valid file");
         free(text);
     }
+}
+
+/* Triangles only (in every vertex form, with comments, tabs, CRs and leading blanks):
+ * the pieces are counted and read straight into place, and the mesh is the serial
+ * reader's. Polygons send the file to the serial reader (the test above). */
+static void test_obj_pieces_in_place(void)
+{
+    size_t len;
+    char *text = make_obj_faces((size_t)600 << 10, false, false, &len);
+    unsigned long before = objfile_pieces_read();
+    check_same_parse(text, len, "triangles only");
+    CHECK_MSG(objfile_pieces_read() - before == N_HELPERS - 1,
+              "files read in pieces: %lu of %d", objfile_pieces_read() - before,
+              N_HELPERS - 1);
+    /* The last line without its line end, and a vertex line of a single "v": the
+     * counts hold at the text's end, and an error is still the serial reader's. */
+    char *cut = malloc(len + 16);
+    memcpy(cut, text, len - 1);
+    cut[len - 1] = '\0';
+    check_same_parse(cut, len - 1, "no final line end");
+    size_t n = len + (size_t)sprintf(cut + len - 1, "\nv") - 1;
+    check_same_parse(cut, n, "lone v at the end");
+    free(cut);
+    free(text);
 }
 
 static void test_obj_pieces_negative_indices(void)
@@ -581,7 +610,8 @@ static void test_float_step(void)
 static const TestCase tests[] = {
     {"setup: grid_float_step matches nextafterf", test_float_step},
     {"setup: big file read by parallel preads = ordinary read", test_read_parallel_match},
-    {"setup: OBJ read in pieces = serial read, every record form", test_obj_pieces_match_serial},
+    {"setup: OBJ with polygons (serial fallback) = serial read, every form", test_obj_pieces_match_serial},
+    {"setup: OBJ pieces of triangles read in place = serial read", test_obj_pieces_in_place},
     {"setup: OBJ pieces with negative indices (serial fallback)", test_obj_pieces_negative_indices},
     {"setup: OBJ errors in late pieces: serial message and place", test_obj_pieces_errors},
     {"setup: mesh built in chunks: same triangles, same box bits", test_mesh_chunks_match},
