@@ -129,8 +129,12 @@ float grid_table_tmin_scale(const PrimTable *t);
 /* grid.c: a zeroed Grid with its lock, or NULL. */
 Grid *grid_alloc(void);
 
-/* Builds g->tri and tags the cell items (after the CSR fill); false when out of memory. */
+/* Builds g->tri and tags the cell items (after the CSR fill); false when out of memory.
+ * g->tri and g->tri_hit: NULL, or zeroed arrays of num_prims made for it beforehand
+ * (grid_bin.c has their pages faulted in on the set-up threads). */
 bool grid_pack(Grid *g);
+/* Whether grid_pack packs g (it has primitives, and not too many for the tag bit). */
+bool grid_pack_wanted(const Grid *g);
 /* Makes g->occupied from cell_start (left NULL when out of memory: the walk then reads
  * cell_start for every cell, with the same answers) and sets g->prefetch_tri. */
 void grid_occupancy_make(Grid *g);

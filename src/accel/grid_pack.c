@@ -133,19 +133,26 @@ static void tag_chunk(void *ctx, int k, int worker)
             g->cell_items[e] |= GRID_ITEM_TRI;
 }
 
-bool grid_pack(Grid *g)
+bool grid_pack_wanted(const Grid *g)
 {
-    g->tri = NULL;
-    g->tri_hit = NULL;
     /* The tag bit must stay free: from 2^31 primitives on, scene order and the generic
      * path. */
-    if (g->num_prims == 0 || g->num_prims >= GRID_ITEM_TRI)
+    return g->num_prims > 0 && g->num_prims < GRID_ITEM_TRI;
+}
+
+bool grid_pack(Grid *g)
+{
+    if (!grid_pack_wanted(g)) {
+        grid_pack_free(g);
         return true;
+    }
     uint32_t *newix = renumber_entries(g);
     if (!newix)
         return false;
-    g->tri = bigmem_calloc(g->num_prims, sizeof *g->tri);
-    g->tri_hit = bigmem_calloc(g->num_prims, sizeof *g->tri_hit);
+    if (!g->tri)
+        g->tri = bigmem_calloc(g->num_prims, sizeof *g->tri);
+    if (!g->tri_hit)
+        g->tri_hit = bigmem_calloc(g->num_prims, sizeof *g->tri_hit);
     if (!g->tri || !g->tri_hit) {
         bigmem_free(newix);
         return false;

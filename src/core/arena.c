@@ -124,9 +124,19 @@ void *arena_adopt_buffer(Arena *a, void *buf, size_t size, bool *zeroed)
         size = 1;
     *zeroed = false;
     if (buf && size <= SIZE_MAX / 2 && header_size() + size > bigmem_capacity(buffer_block(buf))) {
-        arena_buffer_free(buf);
         *zeroed = true;
-        return arena_alloc(a, size);
+        void *fresh = arena_alloc(a, size);
+        if (!fresh) {
+            arena_buffer_free(buf);
+            return NULL;
+        }
+        /* buf behind the head, full (never handed out), freed with the arena. */
+        ArenaBlock *old = buffer_block(buf);
+        old->size = 0;
+        old->used = 0;
+        old->next = a->head->next;
+        a->head->next = old;
+        return fresh;
     }
     char *data = arena_buffer_resize(buf, size);
     if (!data) {
