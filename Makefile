@@ -122,6 +122,8 @@ $(BUILD)/src/render/filter.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 $(BUILD)/src/shade/perlin.o $(BUILD)/src/render/film.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 # The blend lanes' four-float vectors (raytracer.c) likewise.
 $(BUILD)/src/render/raytracer.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
+# The camera's AVX-512 sample rays (camera.c): no fusing.
+$(BUILD)/src/shade/camera.o: ALL_CFLAGS += -ffp-contract=off
 
 # Test sources include "harness.h" from tests/.
 $(BUILD)/tests/%.o: ALL_CFLAGS += -Itests
