@@ -51,6 +51,10 @@ static inline float filter_weight(const Filter *f, float x, float y)
     return f->ops->weight(f, x, y);
 }
 
+/* Whether f is the box filter (weight 1 where |x| <= r and |y| <= r, compared in float,
+ * else 0): the film sums a pixel's own samples without a call per weight. */
+bool filter_is_box(const Filter *f);
+
 /* w[i] = the separable weight_1d at x[i] for i < n (ops->weights_1d when the filter
  * has one, else one call each); the filter must have weight_1d. */
 void filter_weights_1d(const Filter *f, const float *x, float *w, int n);

@@ -6,6 +6,7 @@
 #include "rt/clock.h"
 #include "rt/render.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -126,6 +127,7 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
  * is (position - 0.5) - R in double, plus k, rounded to float once. */
 typedef double FilmV4d __attribute__((vector_size(32)));
 typedef float FilmV4f __attribute__((vector_size(16)));
+typedef int32_t FilmV4i __attribute__((vector_size(16)));
 
 static void film_sample_weights(const Film *f, int x, int y, int n, const float *xy)
 {
@@ -543,6 +545,66 @@ static void film_filter_span(const Film *f, int j, int b0, int b1, int i0, int i
     }
 }
 
+/* Output pixels i0 .. i1-1 of row j when each is the box-weighted average of its own
+ * random-position samples only (R = 0, colour only, pixel by pixel: jittered or random
+ * samples with the box 0.5), the box compared in float as box_weight does, written out
+ * (no call per sample). FILM_OWN pixels at a time in the lanes of a vector, each lane
+ * adding its own pixel's terms in film_filter_row's order with the same float
+ * operations, so the same bits (17a 400x400, jittered 16: filtering 9.0 -> 5.2 ms).
+ * The fixed weights' table (uniform) stays in film_filter_row's loop: four pixels at
+ * a time were slower there (3.3 -> 4.2 ms). Returns the first pixel not done (pixels
+ * with another count than the sampler's go to film_filter_row's loop). */
+enum { FILM_OWN = 4 };
+
+static int film_filter_own(const Film *f, int j, int i0, int i1)
+{
+    const FilmConfig *c = f->cfg;
+    if (f->table || !filter_is_box(c->filter))
+        return i0;
+    const float r = c->filter->r;
+    const int n = f->slots;
+    const size_t ss = f->ss;
+    int i = i0;
+    for (; i + FILM_OWN <= i1; i += FILM_OWN) {
+        const float *d0 = film_sample(f, i, j, 0), *d1 = film_sample(f, i + 1, j, 0);
+        const float *d2 = film_sample(f, i + 2, j, 0), *d3 = film_sample(f, i + 3, j, 0);
+        bool full = true;
+        for (int k = 0; k < FILM_OWN; k++)
+            full &= *film_count(f, i + k, j) == n;
+        if (!full)
+            break;
+        /* Lane k: pixel i + k (lane-wise IEEE operations: each lane is the scalar sum). */
+        FilmV4f sr = {0, 0, 0, 0}, sg = sr, sb = sr, sw = sr;
+        const FilmV4f one = {1.0f, 1.0f, 1.0f, 1.0f}, rr = {r, r, r, r};
+        for (int s = 0; s < n; s++, d0 += ss, d1 += ss, d2 += ss, d3 += ss) {
+            /* film_filter_row's random-position case with a = i, b = j */
+            const double da = 0.0, db = 0.0;
+            FilmV4f dx = {(float)(da + (double)d0[0] - 0.5), (float)(da + (double)d1[0] - 0.5),
+                          (float)(da + (double)d2[0] - 0.5), (float)(da + (double)d3[0] - 0.5)};
+            FilmV4f dy = {(float)(db + (double)d0[1] - 0.5), (float)(db + (double)d1[1] - 0.5),
+                          (float)(db + (double)d2[1] - 0.5), (float)(db + (double)d3[1] - 0.5)};
+            FilmV4f ax = {fabsf(dx[0]), fabsf(dx[1]), fabsf(dx[2]), fabsf(dx[3])};
+            FilmV4f ay = {fabsf(dy[0]), fabsf(dy[1]), fabsf(dy[2]), fabsf(dy[3])};
+            FilmV4i in = (ax <= rr) & (ay <= rr);
+            FilmV4f w = (FilmV4f)((FilmV4i)one & in); /* 1.0f or +0.0f, as box_weight */
+            FilmV4f vr = {d0[2], d1[2], d2[2], d3[2]};
+            FilmV4f vg = {d0[3], d1[3], d2[3], d3[3]};
+            FilmV4f vb = {d0[4], d1[4], d2[4], d3[4]};
+            sr += vr * w;
+            sg += vg * w;
+            sb += vb * w;
+            sw += w;
+        }
+        if (c->color)
+            for (int k = 0; k < FILM_OWN; k++) {
+                float w = sw[k];
+                image_put(c->color, i + k - c->x0, j - c->y0,
+                          w != 0.0f ? v3(sr[k] / w, sg[k] / w, sb[k] / w) : v3(0, 0, 0));
+            }
+    }
+    return i;
+}
+
 /* Output row (out0 + job) of the rectangle: every pixel is the weighted average of the
  * samples of its support (cropped at the image border), columns outer, rows inner,
  * samples innermost, in float, divided by the sum of the weights used. */
@@ -565,7 +627,10 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
         in0 = c->x0 > R ? c->x0 : R;
         in1 = c->x0 + c->width < c->full_width - R ? c->x0 + c->width : c->full_width - R;
     }
-    for (int i = c->x0; i < c->x0 + c->width; i++) {
+    int first = c->x0;
+    if (plain && R == 0 && !f->planes && !f->per)
+        first = film_filter_own(f, j, c->x0, c->x0 + c->width); /* the box's own pixels */
+    for (int i = first; i < c->x0 + c->width; i++) {
         if (i == in0 && in1 > in0) {
             film_filter_span(f, j, b0, b1, in0, in1);
             i = in1 - 1;

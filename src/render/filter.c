@@ -239,6 +239,8 @@ void filter_weights_1d(const Filter *f, const float *x, float *w, int n)
         w[i] = f->ops->weight_1d(f, x[i]);
 }
 
+bool filter_is_box(const Filter *f) { return f->ops == &box_ops; }
+
 static const FilterOps *const all_filters[] = {&box_ops, &tent_ops, &gaussian_ops,
                                                &mitchell_ops};
 

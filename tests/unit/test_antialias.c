@@ -503,7 +503,9 @@ static void test_film_progress(void)
  * depth image every pixel goes through the general loop. The colour must be the same
  * bytes either way, and a rectangle at any column offset (which regroups the pixels of
  * a vector) the crop of the full render. Fixed weights (uniform: the table) and
- * separable ones (Gaussian: R = 1 and 2); R = 0 (box 0.5) keeps the scalar loop. */
+ * separable ones (Gaussian: R = 1 and 2); R = 0: the table (uniform) in the scalar
+ * loop, random positions with the box four pixels at a time (film_filter_own; box 0.3
+ * also gives weights 0 and pixels with no weight at all). */
 static void test_film_vector_filter(void)
 {
     Fixture fx;
@@ -513,15 +515,17 @@ static void test_film_vector_filter(void)
     make_sampler(&jit, "jittered", 16, 3);
     make_sampler(&uni, "uniform", 9, 0);
     make_sampler(&rnd, "random", 5, 1);
-    Filter g4, g9, box;
+    Filter g4, g9, box, box3;
     char why[160];
     CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
     CHECK(filter_init(&g9, filter_find("gaussian"), 0.9f, why, sizeof why));
     CHECK(filter_init(&box, filter_find("box"), 0.5f, why, sizeof why));
+    CHECK(filter_init(&box3, filter_find("box"), 0.3f, why, sizeof why));
     struct { const Sampler *s; const Filter *f; } cases[] = {
-        {&jit, &g4}, {&jit, &box}, {&uni, &box}, {&uni, &g4}, {&rnd, &g9}};
+        {&jit, &g4}, {&jit, &box}, {&uni, &box}, {&uni, &g4}, {&rnd, &g9}, {&rnd, &box3},
+        {&jit, &box3}};
     const int W = 37, H = 21;
-    for (int c = 0; c < 5; c++) {
+    for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
         Image plain, with_d, depth;
         render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, 0, 0, W, H, 0, 2, &plain, NULL);
         render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, 0, 0, W, H, 0, 1, &with_d, &depth);
