@@ -54,8 +54,17 @@ void *arena_alloc(Arena *a, size_t size)
             return NULL;
         b->size = want;
         b->used = 0;
-        b->next = a->head;
-        a->head = b;
+        /* The block with more room left serves what comes next: a big request (a mesh's
+         * triangles) fills its block, and the small ones after it should not need a
+         * new block (of a quarter of the arena: a huge page zeroed) while the old head
+         * still has room. */
+        if (a->head && want - size < a->head->size - a->head->used) {
+            b->next = a->head->next;
+            a->head->next = b;
+        } else {
+            b->next = a->head;
+            a->head = b;
+        }
     }
     void *p = (char *)b + header_size() + b->used;
     b->used += size;

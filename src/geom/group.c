@@ -30,6 +30,17 @@ static const Object3DOps group_ops = {.type_name = "Group", .kind = OBJ_GROUP,
                                       .intersect = group_intersect,
                                       .occluded = group_occluded};
 
+/* A new Group in g's memory with the given children array. */
+static Object3D *group_init(Group *g, int capacity, Object3D **children)
+{
+    g->children = children;
+    g->count = capacity;
+    g->base.ops = &group_ops;
+    g->base.bbox = bbox_empty();
+    g->base.id = RT_NO_ID;
+    return &g->base;
+}
+
 Object3D *group_new(Arena *a, int capacity)
 {
     if (capacity < 0)
@@ -37,14 +48,18 @@ Object3D *group_new(Arena *a, int capacity)
     Group *g = arena_alloc(a, sizeof *g);
     if (!g)
         return NULL;
-    g->children = arena_calloc(a, capacity ? (size_t)capacity : 1, sizeof *g->children);
-    if (!g->children)
+    Object3D **children = arena_calloc(a, capacity ? (size_t)capacity : 1, sizeof *children);
+    if (!children)
         return NULL;
-    g->count = capacity;
-    g->base.ops = &group_ops;
-    g->base.bbox = bbox_empty();
-    g->base.id = RT_NO_ID;
-    return &g->base;
+    return group_init(g, capacity, children);
+}
+
+Object3D *group_new_with(Arena *a, int capacity, Object3D **children)
+{
+    if (capacity < 0)
+        return NULL;
+    Group *g = arena_alloc(a, sizeof *g);
+    return g ? group_init(g, capacity, children) : NULL;
 }
 
 void group_set_child(Object3D *group, int index, Object3D *child)

@@ -11,4 +11,9 @@ typedef struct Group {
     Object3D **children;
 } Group;
 
+/* group_new with its children array given (capacity entries, filled by the caller; it
+ * may set children later, before any use): mesh.c puts the array in the triangles'
+ * block. NULL when out of memory. */
+Object3D *group_new_with(Arena *a, int capacity, Object3D **children);
+
 #endif

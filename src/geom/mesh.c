@@ -4,6 +4,7 @@
  * triangle_new's. */
 #include "rt/geom.h"
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -69,18 +70,30 @@ static void mesh_chunk(void *ctx, int c, int worker)
 Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
                                const int (*faces)[3], int n, const Material *m)
 {
-    Object3D *go = n >= 0 ? group_new(a, n) : NULL;
-    if (!go || n == 0) {
+    if (n <= 0 || (size_t)n > SIZE_MAX / 2 / (sizeof(Triangle) + sizeof(Object3D *))) {
         arena_buffer_free(block);
-        return n == 0 ? go : NULL;
+        return n == 0 ? group_new(a, 0) : NULL;
     }
-    /* An adopted block may hold old bytes (the OBJ text): every triangle is then
-     * cleared before it is filled, so padding is zero as from arena_calloc. */
-    bool zeroed = true;
-    Triangle *tris = block ? arena_adopt_buffer(a, block, (size_t)n * sizeof *tris, &zeroed)
-                           : arena_calloc(a, (size_t)n, sizeof *tris);
-    if (!tris)
+    /* The Group first (small: from the arena's current block), then one block for the
+     * triangles and, behind them, the Group's children: a children array of its own
+     * (320 KB for 40k triangles) was a mapping of its own, with a 2 MB page zeroed for
+     * it, while the triangles' block ends in a page that is mostly unused. */
+    Object3D *go = group_new_with(a, n, NULL);
+    if (!go) {
+        arena_buffer_free(block);
         return NULL;
+    }
+    size_t tri_bytes = (size_t)n * sizeof(Triangle);
+    size_t bytes = tri_bytes + (size_t)n * sizeof(Object3D *);
+    /* An adopted block may hold old bytes (the OBJ text): every triangle is then
+     * cleared before it is filled, so padding is zero as from arena_calloc (every child
+     * pointer is written). */
+    bool zeroed = true;
+    char *mem = block ? arena_adopt_buffer(a, block, bytes, &zeroed) : arena_calloc(a, 1, bytes);
+    if (!mem)
+        return NULL;
+    Triangle *tris = (Triangle *)(void *)mem;
+    ((Group *)go)->children = (Object3D **)(void *)(mem + tri_bytes);
     int nchunks = par_threads() > 1 ? n / MESH_CHUNK + (n % MESH_CHUNK != 0) : 1;
     BBox one;
     MeshJob job = {tris, verts, faces, n, n, m, !zeroed, (Group *)go, &one};
