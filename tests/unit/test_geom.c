@@ -1,9 +1,12 @@
 /* Unit tests of the primitives: hit, miss, tangent, inside, transforms with
  * non-uniform scale, tie-break order and intersection counting. */
 #include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "harness.h"
 #include "rt/arena.h"
+#include "rt/bigmem.h"
 #include "rt/geom.h"
 #include "rt/material.h"
 
@@ -320,7 +323,78 @@ static void test_occluded_matches_intersect(void)
     CHECK_MSG(occluded > 400 && occluded < 3600, "%d of 4000 rays occluded", occluded);
 }
 
+/* A request that fills a new block of its own (a mesh's triangles) leaves the block with
+ * room as the one that serves the next small allocations; the big one is zeroed. */
+static void test_arena_big_block_behind_head(void)
+{
+    Arena a;
+    arena_init(&a);
+    char *s1 = arena_alloc(&a, 100);
+    size_t big_n = (size_t)BIGMEM_MIN_BYTES * 3;
+    unsigned char *big = arena_alloc(&a, big_n);
+    char *s2 = arena_alloc(&a, 100);
+    CHECK(s1 && big && s2);
+    if (s1 && big && s2) {
+        CHECK_MSG(s2 == s1 + 112, "the small allocation after the big one is %td bytes "
+                  "after the one before it (112: the same block)", s2 - s1);
+        size_t nonzero = 0;
+        for (size_t i = 0; i < big_n; i += 4096)
+            nonzero += big[i] != 0 || big[big_n - 1 - i] != 0;
+        CHECK_INT(nonzero, 0);
+    }
+    arena_free(&a);
+}
+
+/* A mesh built in a too-small adopted buffer (fresh memory then), and in a big enough
+ * one (old bytes cleared): the same triangles and children either way. */
+static void test_mesh_children_in_block(void)
+{
+    enum { N = 3000 };
+    Vec3 *verts = malloc((N + 2) * sizeof *verts);
+    int(*faces)[3] = malloc(N * sizeof *faces);
+    for (int i = 0; i < N + 2; i++)
+        verts[i] = v3((float)i, (float)(i % 7), (float)(i % 13));
+    for (int i = 0; i < N; i++) {
+        faces[i][0] = i;
+        faces[i][1] = i + 1;
+        faces[i][2] = i + 2;
+    }
+    Arena a;
+    arena_init(&a);
+    char *small = arena_buffer_new(1000);
+    char *roomy = arena_buffer_new((size_t)N * 200);
+    memset(small, 0x5a, 1000);
+    memset(roomy, 0x5a, (size_t)N * 200);
+    Object3D *g1 = triangle_mesh_new_in(&a, small, verts, (const int(*)[3])faces, N, NULL);
+    Object3D *g2 = triangle_mesh_new_in(&a, roomy, verts, (const int(*)[3])faces, N, NULL);
+    Object3D *g3 = triangle_mesh_new(&a, verts, (const int(*)[3])faces, N, NULL);
+    CHECK(g1 && g2 && g3);
+    if (g1 && g2 && g3) {
+        CHECK_INT(group_count(g1), N);
+        CHECK_INT(group_count(g2), N);
+        int bad = 0;
+        for (int i = 0; i < N && group_count(g1) == N && group_count(g2) == N; i++) {
+            const Object3D *t[3] = {group_child(g1, i), group_child(g2, i), group_child(g3, i)};
+            Vec3 v[3][3], n[3];
+            for (int k = 0; k < 3; k++) {
+                triangle_vertices(t[k], v[k]);
+                n[k] = triangle_normal(t[k]);
+            }
+            for (int k = 0; k < 2; k++)
+                bad += memcmp(v[k], v[2], sizeof v[2]) != 0 || memcmp(&n[k], &n[2], sizeof n[2]) != 0 ||
+                       memcmp(&t[k]->bbox, &t[2]->bbox, sizeof t[2]->bbox) != 0 ||
+                       t[k]->material != t[2]->material || t[k]->ops != t[2]->ops;
+        }
+        CHECK_INT(bad, 0);
+    }
+    arena_free(&a);
+    free(verts);
+    free(faces);
+}
+
 static const TestCase tests[] = {
+    {"geom: arena: a block filled by one request goes behind the head", test_arena_big_block_behind_head},
+    {"geom: mesh in a fresh, an adopted and a plain block: same triangles", test_mesh_children_in_block},
     {"geom: sphere hit, miss, inside, tangent", test_sphere},
     {"geom: plane", test_plane},
     {"geom: triangle hit, miss, edge, parallel", test_triangle},
