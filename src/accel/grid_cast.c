@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "rt/geom.h"
+#include "rt/options.h" /* RT_GRID_MAX_CELLS */
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -306,37 +307,13 @@ static inline __attribute__((always_inline)) bool cast_march_init(const Grid *g,
     return true;
 }
 
-static inline __attribute__((always_inline)) bool cast_march_next(MarchingInfo *mi,
-                                                                   RenderCtx *ctx)
-{
-    /* march_next's choice of axis (ties to x, then y), written as selects: which axis
-     * comes next follows the ray's direction cell by cell, and as branches it
-     * mispredicted often. */
-    float t0 = mi->t_next[0], t1 = mi->t_next[1], t2 = mi->t_next[2];
-    bool y = t1 < t0;
-    float tm = y ? t1 : t0;
-    bool z = t2 < tm;
-    int a = z ? 2 : (int)y;
-    tm = z ? t2 : tm;
-    if (!(tm < INFINITY))
-        return false;
-    int c = mi->cell[a] + mi->step[a];
-    if ((unsigned)c >= (unsigned)mi->n[a])
-        return false;
-    mi->cell[a] = c;
-    mi->t = tm;
-    int k = c + (mi->step[a] > 0);
-    mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
-    ctx->stats.cells_traversed++;
-    return true;
-}
-
-/* The cast's march in registers, for the queries without a ray tree: cast_march_next
- * step for step, the same axis chosen by the same comparisons and the same t's (the
- * stepped axis' next boundary by the same expression, base + (float)k * dt, with k
- * kept as a float: exact below 2^24), with the cell's index kept as one number (plus
- * the axis' stride at each step) and the steps left to the box's end counted down per
- * axis instead of the cell's coordinates. */
+/* The cast's march after cast_march_init, for the queries without a ray tree, in
+ * registers: march_next step for step (the axis with the smallest t_next, ties to x,
+ * then y; the same t's: the stepped axis' next boundary is base + (float)k * dt, with
+ * k kept as a float, exact because no axis has 2^24 cells), with the cell's index kept
+ * as one number (plus the axis' stride at each step) and the steps left to the box's
+ * end counted down per axis instead of the cell's coordinates. */
+_Static_assert(RT_GRID_MAX_CELLS <= (1 << 24), "a cell coordinate + 1 is exact in a float");
 typedef struct LeanMarch {
     float t;                    /* entry t of the current cell */
     float tn0, tn1, tn2;        /* t_next per axis */
@@ -385,7 +362,9 @@ static inline __attribute__((always_inline)) float lean_exit_t(const LeanMarch *
     return a < m->tn2 ? a : m->tn2;
 }
 
-/* cast_march_next: the axis (ties to x, then y) and the step, by selects. */
+/* The next cell: the axis (ties to x, then y) and the step, by selects (as branches,
+ * which axis comes next mispredicted often); false when the ray leaves the box or
+ * runs parallel to every axis left. */
 static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
 {
     bool y = m->tn1 < m->tn0;
@@ -422,13 +401,6 @@ static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
 static inline __attribute__((always_inline)) bool cell_occupied(const Grid *g, uint32_t c)
 {
     return !g->occupied || (g->occupied[c >> 6] >> (c & 63) & 1);
-}
-
-/* The next cell by whichever march started (lean: cast_march_init). */
-static inline __attribute__((always_inline)) bool march_step(MarchingInfo *mi,
-                                                              RenderCtx *ctx, bool lean)
-{
-    return lean ? cast_march_next(mi, ctx) : march_next(mi, ctx);
 }
 
 /* How a query proceeds: the ray misses the grid's box, marches its cells, or starts
@@ -531,8 +503,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
     if (start != MARCH_CELLS)
         return start == MARCH_ALL && brute_intersect(g, ray, hit, tmin, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
-    bool lean = !ctx->tree;
-    if (lean) { /* the loop below, in registers */
+    if (!ctx->tree) { /* the loop below, in registers */
         LeanMarch m;
         lean_start(g, &mi, &m);
         do {
@@ -557,7 +528,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
          * holds up to float rounding at borders). A hit beyond it stays a candidate. */
         if (hit->t <= march_exit_t(&mi))
             break;
-    } while (march_step(&mi, ctx, lean));
+    } while (march_next(&mi, ctx));
     return found;
 }
 
@@ -589,8 +560,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
     if (start != MARCH_CELLS)
         return start == MARCH_ALL && brute_occluded(g, ray, tmin, tmax, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
-    bool lean = !ctx->tree;
-    if (lean) { /* the loop below, in registers */
+    if (!ctx->tree) { /* the loop below, in registers */
         LeanMarch m;
         lean_start(g, &mi, &m);
         bool occluded = false;
@@ -612,7 +582,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
         if (test_cell(g, c, ray, &h, tmin, ctx, mb, stamp, rsimd, true))
             return true; /* the first occluder settles it */
-    } while (march_step(&mi, ctx, lean));
+    } while (march_next(&mi, ctx));
     return false;
 }
 
