@@ -12,6 +12,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "../harness.h"
@@ -575,6 +577,46 @@ static void test_read_parallel_match(void)
     rmdir(dir);
 }
 
+/* A stream (a FIFO: no size to read at once) of 65535, 65536 and 300001 bytes: the
+ * buffer of 64 KB exactly full at its end, one byte beyond it (the byte read to see
+ * whether the buffer is full must land in the grown buffer), and several doublings. */
+static void test_read_stream(void)
+{
+    char dir[] = "/tmp/rt_setup_XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    char path[256];
+    snprintf(path, sizeof path, "%s/stream.obj", dir);
+    CHECK(mkfifo(path, 0600) == 0);
+    static const size_t sizes[] = {65535, 65536, 300001};
+    for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
+        size_t len = sizes[i];
+        char *text = malloc(len);
+        CHECK(text != NULL);
+        if (!text)
+            break;
+        for (size_t k = 0; k < len; k++)
+            text[k] = (char)('a' + k % 23);
+        pid_t pid = fork();
+        CHECK(pid >= 0);
+        if (pid == 0) {
+            FILE *w = fopen(path, "wb");
+            _exit(w && fwrite(text, 1, len, w) == len && fclose(w) == 0 ? 0 : 1);
+        }
+        char *buf = NULL;
+        size_t n = 0;
+        CHECK(file_read_all(path, &buf, &n));
+        int status = 0;
+        CHECK(pid > 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status) &&
+              WEXITSTATUS(status) == 0);
+        CHECK_MSG(buf && n == len && memcmp(buf, text, len) == 0 && buf[n] == '\0',
+                  "%zu bytes: read %zu, not the same", len, n);
+        free(buf);
+        free(text);
+    }
+    unlink(path);
+    rmdir(dir);
+}
+
 /* The grid's bit-stepping nextafterf agrees with libm's on the special values and on
  * a spread of 131k bit patterns over the whole float range (every sign, exponent, NaN). */
 static bool same_float_bits(float a, float b)
@@ -610,6 +652,7 @@ static void test_float_step(void)
 static const TestCase tests[] = {
     {"setup: grid_float_step matches nextafterf", test_float_step},
     {"setup: big file read by parallel preads = ordinary read", test_read_parallel_match},
+    {"setup: a stream read whole (64 KB buffer full, one byte more, doublings)", test_read_stream},
     {"setup: OBJ with polygons (serial fallback) = serial read, every form", test_obj_pieces_match_serial},
     {"setup: OBJ pieces of triangles read in place = serial read", test_obj_pieces_in_place},
     {"setup: OBJ pieces with negative indices (serial fallback)", test_obj_pieces_negative_indices},
