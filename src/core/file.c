@@ -151,6 +151,15 @@ bool file_identity_settled(const FileIdentity *id)
 static bool read_all_id(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok,
                         FileIdentity *id, bool *stable);
 
+/* A read that failed after its buffer was made: buf freed, f closed, errno = err. */
+static bool read_failed(FILE *f, char *buf, bool reusable, int err)
+{
+    buf_free(buf, reusable);
+    fclose(f);
+    errno = err;
+    return false;
+}
+
 static bool read_all(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok)
 {
     return read_all_id(path, out, len, reusable, stdin_ok, NULL, NULL);
@@ -217,28 +226,15 @@ static bool read_all_id(const char *path, char **out, size_t *len, bool reusable
             char more;
             size_t one = fread(&more, 1, 1, f);
             if (one == 0) {
-                if (ferror(f)) {
-                    int e = errno ? errno : EIO;
-                    buf_free(buf, reusable);
-                    fclose(f);
-                    errno = e;
-                    return false;
-                }
+                if (ferror(f))
+                    return read_failed(f, buf, reusable, errno ? errno : EIO);
                 break;
             }
-            if (cap >= RT_FILE_MAX_BYTES) {
-                buf_free(buf, reusable);
-                fclose(f);
-                errno = EFBIG;
-                return false;
-            }
+            if (cap >= RT_FILE_MAX_BYTES)
+                return read_failed(f, buf, reusable, EFBIG);
             char *nb = buf_realloc(buf, cap * 2, reusable);
-            if (!nb) {
-                buf_free(buf, reusable);
-                fclose(f);
-                errno = ENOMEM;
-                return false;
-            }
+            if (!nb)
+                return read_failed(f, buf, reusable, ENOMEM);
             buf = nb;
             cap *= 2;
             buf[n++] = more;
@@ -246,13 +242,8 @@ static bool read_all_id(const char *path, char **out, size_t *len, bool reusable
         size_t got = fread(buf + n, 1, cap - 1 - n, f);
         n += got;
         if (got == 0) {
-            if (ferror(f)) {
-                int e = errno ? errno : EIO;
-                buf_free(buf, reusable);
-                fclose(f);
-                errno = e;
-                return false;
-            }
+            if (ferror(f))
+                return read_failed(f, buf, reusable, errno ? errno : EIO);
             break;
         }
     }
