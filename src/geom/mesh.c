@@ -83,6 +83,8 @@ Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
         arena_buffer_free(block);
         return NULL;
     }
+    /* The children start right behind the triangles: aligned for any n. */
+    _Static_assert(sizeof(Triangle) % _Alignof(Object3D *) == 0, "children aligned");
     size_t tri_bytes = (size_t)n * sizeof(Triangle);
     size_t bytes = tri_bytes + (size_t)n * sizeof(Object3D *);
     /* An adopted block may hold old bytes (the OBJ text): every triangle is then
