@@ -188,11 +188,13 @@ bool grid_bin_fill_pack(GridBuild *b)
         job.fault_len[0] = g->tri ? (size_t)n * sizeof *g->tri : 0;
         job.fault_len[1] = g->tri_hit ? (size_t)n * sizeof *g->tri_hit : 0;
         for (int a = 0; a < 2; a++)
-            job.fault_chunks[a] = (uint32_t)((job.fault_len[a] + PREFAULT_BYTES - 1) / PREFAULT_BYTES);
+            job.fault_chunks[a] =
+                (uint32_t)((job.fault_len[a] + PREFAULT_BYTES - 1) / PREFAULT_BYTES);
     }
     uint64_t total = 0;
     if (ok) {
-        par_for((int)(job.nchunks + job.fault_chunks[0] + job.fault_chunks[1]), bin_chunk, &job);
+        uint32_t all_chunks = job.nchunks + job.fault_chunks[0] + job.fault_chunks[1];
+        par_for((int)all_chunks, bin_chunk, &job);
         for (int w = 0; w < PAR_MAX_WORKERS; w++) {
             b->too_many = b->too_many || job.part[w].too_many;
             total += job.part[w].num_pairs;

@@ -37,9 +37,9 @@ struct GridBuildRec {
  * share nothing they write (worker 0 writes the grid's arrays). Each on a cache line of
  * its own: push_pair writes num_pairs for every entry, and with two workers' parts on
  * one line that line went back and forth between the cores (2 threads, 40k bunny: the
- * binning's CPU 6.7 -> 5.7 ms, wall 3.5 -> 3.0 ms). Which worker bins which primitives varies from run to run;
- * the result does not: the counts are sums, and the fill pass reads the chunks' cell
- * lists in primitive order. */
+ * binning's CPU 6.7 -> 5.7 ms, wall 3.5 -> 3.0 ms). Which worker bins which
+ * primitives varies from run to run; the result does not: the counts are sums, and the
+ * fill pass reads the chunks' cell lists in primitive order. */
 typedef struct BinPart {
     _Alignas(64) const Grid *g;
     const double *cell_axis; /* GridBuild.cell_axis */
