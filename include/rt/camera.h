@@ -50,7 +50,8 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
                        int height, const uint8_t *slot, Ray *rays);
 /* The rays of n sample points of pixel (x, y) of a W x H image, the points at offsets
  * xy[2k], xy[2k+1] in [0,1)^2 (A7 samplers): rays[k] is camera_generate_ray of
- * camera_sample_to_screen to the bit, four samples at a time in vector lanes where the
+ * camera_sample_to_screen to the bit, sixteen samples at a time where the CPU running
+ * it has AVX-512 (asked on every call), then four at a time in SSE lanes where the
  * target has them (the film's primary rays: 16 per pixel). */
 void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
                         int height, Ray *rays);

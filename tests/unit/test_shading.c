@@ -88,7 +88,8 @@ static void test_pixel_rays_block(void)
 }
 
 /* camera_sample_rays gives each sample camera_generate_ray(camera_sample_to_screen) to
- * the bit, for sample counts with and without a partial group of four. */
+ * the bit, for sample counts 1 to 37: with and without a partial group of four, and with
+ * one or two groups of sixteen (the AVX-512 lanes) before them. */
 static void test_sample_rays(void)
 {
     Camera cams[3];
