@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "../harness.h"
+#include "../../src/accel/grid_internal.h"
 #include "rt/arena.h"
 #include "rt/geom.h"
 #include "rt/grid.h"
@@ -753,17 +754,24 @@ static void test_lattice_ties(void)
             float sc = irand(2) ? 1.0f : 0.5f;
             tr.ray.dir = v3(dc[0] * sc, dc[1] * sc, dc[2] * sc);
             tr.tmin = irand(2) ? 0.0f : 1e-3f;
-            for (int occl = 0; occl < 2; occl++) {
-                RtStats before = ctx.stats;
-                Hit h = hit_none();
-                float tmax = 2.0f + (float)irand(8);
-                bool f = occl ? grid_occluded(g, &tr.ray, tr.tmin, tmax, &ctx)
-                              : grid_intersect(g, &tr.ray, &h, tr.tmin, &ctx);
-                check_same_march(g, &ctx, &before, &tr, tmax, occl, f, &h);
-                rays++;
-            }
+            float tmax = 2.0f + (float)irand(8);
+            /* With the occupancy bits (empty cells skipped by a bit) and without them
+             * (what grid_occupancy_make leaves when out of memory). */
+            uint64_t *bits = g->occupied;
+            for (int use_bits = 0; use_bits < 2; use_bits++)
+                for (int occl = 0; occl < 2; occl++) {
+                    g->occupied = use_bits ? bits : NULL;
+                    RtStats before = ctx.stats;
+                    Hit h = hit_none();
+                    bool f = occl ? grid_occluded(g, &tr.ray, tr.tmin, tmax, &ctx)
+                                  : grid_intersect(g, &tr.ray, &h, tr.tmin, &ctx);
+                    g->occupied = bits;
+                    check_same_march(g, &ctx, &before, &tr, tmax, occl, f, &h);
+                    rays++;
+                }
         }
-        CHECK(rays == 4000);
+        CHECK(g->occupied != NULL); /* the bits were exercised */
+        CHECK(rays == 8000);
         free(ctx.mailbox);
         grid_free(g);
     }
