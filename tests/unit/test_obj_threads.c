@@ -10,6 +10,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "../harness.h"
@@ -547,6 +549,43 @@ static void test_file_sizes(void)
             par_set_helpers(-1);
         }
     }
+    /* A FIFO has no size: the buffer starts at 64 KB and grows when full after a 1-byte
+     * probe (src/core/file.c); lengths around each capacity, written in odd chunks. */
+    static const size_t fifo_sizes[] = {0, 1, 65534, 65535, 65536, 65537, 131071,
+                                        131072, 131073, 262143, 262144, 262145};
+    snprintf(path, sizeof path, "%s/fifo.obj", dir);
+    for (size_t k = 0; k < sizeof fifo_sizes / sizeof *fifo_sizes; k++) {
+        size_t len = fifo_sizes[k];
+        CHECK(mkfifo(path, 0600) == 0);
+        pid_t pid = fork();
+        CHECK(pid >= 0);
+        if (pid == 0) {
+            FILE *w = fopen(path, "wb");
+            size_t off = 0;
+            while (w && off < len) {
+                size_t part = 1 + (off * 7919u) % 40000u;
+                if (part > len - off)
+                    part = len - off;
+                fwrite(base.s + off, 1, part, w);
+                fflush(w);
+                off += part;
+            }
+            if (w)
+                fclose(w);
+            _exit(0);
+        }
+        char *buf = NULL;
+        size_t n = 0;
+        CHECK(file_read_all(path, &buf, &n));
+        CHECK_MSG(buf && n == len && memcmp(buf, base.s, len) == 0 && buf[n] == '\0',
+                  "FIFO of %zu bytes: read differs (%zu bytes)", len, n);
+        if (buf && n == len)
+            check_text(buf, n, -1, "FIFO read");
+        free(buf);
+        int status;
+        waitpid(pid, &status, 0);
+        unlink(path);
+    }
     free(base.s);
     unlink(path);
     rmdir(dir);
@@ -565,7 +604,7 @@ static void run_placed(void) { test_placed_lines(); report(200); }
 static void run_cuts(void) { test_cut_positions(); report(60); }
 static void run_degenerate(void) { test_degenerate(); report(8); }
 static void run_mutations(void) { test_mutations(); report(200); }
-static void run_file_sizes(void) { test_file_sizes(); report(15); }
+static void run_file_sizes(void) { test_file_sizes(); report(25); }
 
 static const TestCase tests[] = {
     {"obj threads: valid texts, every line end and last line", run_valid},
@@ -574,7 +613,7 @@ static const TestCase tests[] = {
     {"obj threads: empty, comments only, blanks only, lone CRs, NUL, long lines",
      run_degenerate},
     {"obj threads: seeded mutations of valid files", run_mutations},
-    {"obj threads: whole-file reads at buffer sizes, 0 and 2 helpers", run_file_sizes},
+    {"obj threads: whole-file and FIFO reads at buffer sizes", run_file_sizes},
 };
 
 RT_TEST_MAIN(tests)
