@@ -34,6 +34,7 @@ check() { # check NAME ARGS...
 }
 check unit_setup_par "$tests/unit/test_setup_par"
 check unit_setup_build "$tests/unit/test_setup_build"
+check unit_obj_threads "$tests/unit/test_obj_threads"
 check unit_grid_property "$tests/unit/test_grid_property"
 check render_showcase "$bin" -input scenes/showcase.txt -size 64 48 -output "$out/a.tga" \
     -shadows -bounces 3 -grid auto -stats -threads 2
