@@ -264,7 +264,23 @@ typedef struct RunTotals {
     long rays, hits, occl, grid_tests, brute_tests, repeats_seen;
 } RunTotals;
 
-/* One ray: grid vs brute force, marking checked through the wrapper counts. */
+/* A render context for grid g: its mailbox, and the packet walk's per-primitive stamps
+ * when packets are traced. Freed by grid_test_ctx_free. */
+static void grid_test_ctx(RenderCtx *ctx, const Grid *g, bool packets)
+{
+    memset(ctx, 0, sizeof *ctx);
+    ctx->num_mailbox = grid_mailbox_size(g);
+    ctx->mailbox = calloc(ctx->num_mailbox + 1, sizeof *ctx->mailbox);
+    if (packets)
+        ctx->packet_rays = calloc(ctx->num_mailbox + 1, sizeof *ctx->packet_rays);
+}
+
+static void grid_test_ctx_free(RenderCtx *ctx)
+{
+    free(ctx->packet_rays);
+    free(ctx->mailbox);
+}
+
 /* The cast marches on its own when no ray tree is recorded (grid_cast.c) and through
  * march_init/march_next when one is: both must visit the same cells and make the same
  * tests, so -stats counts and answers do not depend on the preview. Runs the query
@@ -297,6 +313,7 @@ static void check_same_march(const Grid *g, RenderCtx *ctx, const RtStats *befor
     CHECK(t.stats.mailbox_skips == ctx->stats.mailbox_skips - before->mailbox_skips);
 }
 
+/* One ray: grid vs brute force, marking checked through the wrapper counts. */
 static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const TestRay *tr,
                       RunTotals *tot, Hit *brute_out)
 {
@@ -488,10 +505,7 @@ static void run_scene(int seed, int objects, int planes, int rays, bool marking,
         grid_set_marking(g, marking);
         grid_set_packing(g, packing);
         RenderCtx ctx;
-        memset(&ctx, 0, sizeof ctx);
-        ctx.num_mailbox = grid_mailbox_size(g);
-        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
-        ctx.packet_rays = calloc(ctx.num_mailbox + 1, sizeof *ctx.packet_rays);
+        grid_test_ctx(&ctx, g, true);
         /* Start near the wrap-around of the stamps: it must clear and go on. */
         ctx.ray_stamp = UINT32_MAX - 5;
         for (int i = 0; i < rays; i++) {
@@ -533,8 +547,7 @@ static void run_scene(int seed, int objects, int planes, int rays, bool marking,
         CHECK(grid_packet_use_kernel(default_kernel));
         if (marking)
             CHECK_INT(ctx.stats.repeat_tests, 0);
-        free(ctx.packet_rays);
-        free(ctx.mailbox);
+        grid_test_ctx_free(&ctx);
         grid_free(g);
     }
     free(test_counts);
@@ -659,10 +672,7 @@ static void test_shrinking_transform_tmin(void)
     CHECK(g != NULL);
     if (g) {
         RenderCtx ctx;
-        memset(&ctx, 0, sizeof ctx);
-        ctx.num_mailbox = grid_mailbox_size(g);
-        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
-        ctx.packet_rays = calloc(ctx.num_mailbox + 1, sizeof *ctx.packet_rays);
+        grid_test_ctx(&ctx, g, true);
         float tmax[8];
         for (int i = 0; i < 8; i++)
             tmax[i] = 1.0f;
@@ -688,8 +698,7 @@ static void test_shrinking_transform_tmin(void)
                 CHECK_MSG(occl >> i & 1, "packet ray %d: not occluded", i);
             }
         }
-        free(ctx.packet_rays);
-        free(ctx.mailbox);
+        grid_test_ctx_free(&ctx);
         grid_free(g);
     }
     arena_free(&s.arena);
@@ -732,9 +741,7 @@ static void test_lattice_ties(void)
     CHECK(g != NULL);
     if (g) {
         RenderCtx ctx;
-        memset(&ctx, 0, sizeof ctx);
-        ctx.num_mailbox = grid_mailbox_size(g);
-        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        grid_test_ctx(&ctx, g, false);
         long rays = 0;
         for (int i = 0; i < 2000; i++) {
             TestRay tr;
@@ -772,7 +779,7 @@ static void test_lattice_ties(void)
         }
         CHECK(g->occupied != NULL); /* the bits were exercised */
         CHECK(rays == 8000);
-        free(ctx.mailbox);
+        grid_test_ctx_free(&ctx);
         grid_free(g);
     }
     arena_free(&s.arena);

@@ -15,6 +15,7 @@
 #include <unistd.h>
 
 #include "../harness.h"
+#include "../test_rng.h"
 #include "../../src/scene/obj_loader.h"
 #include "rt/arena.h"
 #include "rt/file.h"
@@ -23,18 +24,9 @@
 enum { N_HELPER_COUNTS = 3 };
 static const int k_helpers[N_HELPER_COUNTS] = {1, 2, 3};
 
-/* Fixed seed: the same texts and mutations on every run. */
-static uint64_t g_rng = 0x9e3779b97f4a7c15ull;
-
-static uint64_t rnd(void)
-{
-    g_rng ^= g_rng << 13;
-    g_rng ^= g_rng >> 7;
-    g_rng ^= g_rng << 17;
-    return g_rng;
-}
-
-static unsigned pick(unsigned n) { return (unsigned)(rnd() % n); }
+/* rng_state starts at 0 and is never reseeded: the same texts and mutations on every
+ * run. */
+static unsigned pick(unsigned n) { return (unsigned)(rng_next() % n); }
 
 /* A growing text buffer, always NUL-terminated (the reader's sentinel). */
 typedef struct Text {
@@ -88,7 +80,7 @@ static const char *line_end(int crlf)
 
 static void put_coord(Text *t)
 {
-    double x = ((double)(rnd() >> 11) * 0x1p-53 - 0.5) * 6.0;
+    double x = ((double)(rng_next() >> 11) * 0x1p-53 - 0.5) * 6.0;
     switch (pick(10)) {
     case 0: put(t, " %.6g", x); break;
     case 1: put(t, " %.9e", x); break;
@@ -481,7 +473,7 @@ static void test_mutations(void)
                 if (pick(2)) /* near a cut */
                     pos = t.len * (1 + pick((unsigned)npieces)) / npieces;
                 else
-                    pos = (size_t)(rnd() % t.len);
+                    pos = (size_t)(rng_next() % t.len);
                 pos = pos + pick(64) < t.len ? pos + pick(64) : t.len - 1;
                 char c = pick(4) ? alphabet[pick(sizeof alphabet - 2)] : (char)pick(256);
                 switch (pick(3)) {
