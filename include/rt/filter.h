@@ -59,6 +59,14 @@ bool filter_is_box(const Filter *f);
  * has one, else one call each); the filter must have weight_1d. */
 void filter_weights_1d(const Filter *f, const float *x, float *w, int n);
 
+/* The separable weights of n sample positions towards the 2R+1 pixels around:
+ * w[k * plane + i] = weight_1d(f, (float)((double)pos[i] - 0.5 - R + k)) for k <= 2R,
+ * i < n, the argument's sum in double rounded to float once (the film's offset from
+ * the centre of pixel k - R). The same bits as filter_weights_1d on those arguments;
+ * the Gaussian makes them in its vector lanes. */
+void filter_weights_1d_offsets(const Filter *f, const float *pos, int n, int R, float *w,
+                               size_t plane);
+
 /* exp(t) for -700 <= t <= 0 without libm, the separable Gaussian's (below -700, and
  * NaN, it returns exp(-700), whose float is 0 like exp(t)'s): relative error below
  * 1e-15 (a few double ulps), so rounded to float it equals the rounded libm exp except

@@ -185,39 +185,18 @@ static void film_sample_weights(const Film *f, int x, int y, int n, const float 
 /* The separable weights of every sample of film row y, once it is traced (every pixel
  * holding `slots` samples: not with adaptive refinement, whose pixels get theirs in
  * film_sample_weights): a plane at a time, the positions of one sample slot across the
- * row as the arguments, the weights straight into their plane, in long batches.
- * Arguments as film_sample_weights': (position - 0.5) - R in double, plus k, rounded
- * to float once. */
+ * row as the arguments (filter_weights_1d_offsets: (position - 0.5) - R in double,
+ * plus k, rounded to float once, as film_sample_weights' arguments), the 2R+1 weights
+ * of each straight into their planes, fw floats apart. */
 static void film_row_weights(const Film *f, int y)
 {
-    enum { CHUNK = 256 };
-    int R = f->R, side = 2 * R + 1, fw = f->fw;
-    double base[CHUNK];
-    float arg[CHUNK];
+    int side = 2 * f->R + 1;
     for (int s = 0; s < f->slots; s++)
-        for (int axis = 0; axis < 2; axis++) {
-            const float *pos = film_sample(f, f->sx0, y, s) + (size_t)axis * f->cs;
-            for (int x0 = 0; x0 < fw; x0 += CHUNK) {
-                int m = fw - x0 < CHUNK ? fw - x0 : CHUNK;
-                for (int i = 0; i < m; i++)
-                    base[i] = (double)pos[x0 + i] - 0.5 - (double)R;
-                for (int k = 0; k < side; k++) {
-                    double dk = (double)k;
-                    FilmV4d vk = {dk, dk, dk, dk};
-                    int i = 0;
-                    for (; i + 4 <= m; i += 4) {
-                        FilmV4d v;
-                        memcpy(&v, base + i, sizeof v);
-                        FilmV4f a = __builtin_convertvector(v + vk, FilmV4f);
-                        memcpy(arg + i, &a, sizeof a);
-                    }
-                    for (; i < m; i++)
-                        arg[i] = (float)(base[i] + dk);
-                    filter_weights_1d(f->cfg->filter, arg,
-                                      film_weights(f, f->sx0, y, s, axis * side + k) + x0, m);
-                }
-            }
-        }
+        for (int axis = 0; axis < 2; axis++)
+            filter_weights_1d_offsets(f->cfg->filter,
+                                      film_sample(f, f->sx0, y, s) + (size_t)axis * f->cs,
+                                      f->fw, f->R, film_weights(f, f->sx0, y, s, axis * side),
+                                      (size_t)f->fw);
 }
 
 /* Places the samples of pixel (x, y) with sampler s and queues their rays; sample i's
@@ -825,13 +804,23 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
      * rows held are rounded down to a multiple of TILE, or up (at most TILE - 1 rows
      * over the budget) when that would leave a worker without a band of its own or
      * too few rows for the margins. Below one band's rows (tiny budgets) as they are. */
+    int workers = threads > 0 ? threads : render_default_threads();
     if (cap >= TILE) {
         size_t down = cap - cap % TILE;
-        int workers = threads > 0 ? threads : render_default_threads();
         if (down / TILE < (size_t)workers || down < (size_t)(2 * R + TILE))
             down += TILE;
         cap = down;
     }
+    /* One worker and no rows shared between strips (R = 0): a strip of one band. Its
+     * buffer is then reused band after band, so the render touches 1 MB of fresh
+     * memory instead of the budget's 8 (16 samples at 400 wide): on this VM a fresh
+     * huge page sometimes costs a millisecond to fault in (clear_page_erms 0.2-9% of
+     * a 16-sample 17a render between runs). With several workers every strip keeps
+     * the budget's bands: a strip of one band per worker waits at each strip's end
+     * for its slowest band (2 threads, 2 bands a strip: +9% wall time). With R > 0
+     * the shared rows are moved at every strip, so thin strips cost moves. */
+    if (workers == 1 && R == 0 && cap > (size_t)TILE)
+        cap = TILE;
     if (cap > (size_t)(f.sy1 - f.sy0))
         cap = (size_t)(f.sy1 - f.sy0);
     f.rows_cap = (int)cap;

@@ -284,6 +284,56 @@ static void test_gaussian_paths(void)
     }
 }
 
+/* filter_weights_1d_offsets (the film's weights of a row of sample positions towards
+ * the 2R+1 pixels around) against filter_weights_1d on the arguments made one by one
+ * as its contract says, (position - 0.5) - R + k in double rounded to float once, bit
+ * for bit: the separable filters at several radii, every vector path of the Gaussian,
+ * every length up to 40 (partial vector groups) and a long row, positions with full
+ * mantissas (a rounding of the argument in float, or of the difference before k is
+ * added, gives other floats for many of them). */
+static void test_weights_offsets(void)
+{
+    char why[160];
+    static const struct { const char *name; float r; } filters[] = {
+        {"gaussian", 0.26f}, {"gaussian", 0.4f}, {"gaussian", 1.0f}, {"gaussian", 2.3f},
+        {"box", 1.3f}, {"mitchell", 2.0f}, {"mitchell", 0.7f}};
+    enum { N = 603, SIDE_MAX = 2 * 6 + 1 };
+    static float pos[N], w[SIDE_MAX * N], ref[N], arg[N];
+    uint64_t h = 0x9e3779b97f4a7c15u;
+    for (int i = 0; i < N; i++) {
+        h ^= h << 13, h ^= h >> 7, h ^= h << 17;
+        pos[i] = (float)(h >> 40) * 0x1p-24f; /* [0, 1), 24 random bits */
+    }
+    pos[0] = 0.0f;
+    pos[1] = nextafterf(1.0f, 0.0f);
+    for (size_t k = 0; k < sizeof filters / sizeof filters[0]; k++) {
+        Filter f;
+        CHECK(filter_init(&f, filter_find(filters[k].name), filters[k].r, why, sizeof why));
+        int R = f.support, side = 2 * R + 1;
+        CHECK(side <= SIDE_MAX);
+        for (int cap = 0; cap <= 2; cap++) {
+            filter_gaussian_path_set(cap);
+            /* every length up to 40 at offsets 1, 2, 0, ... (odd starts), then a
+             * long row */
+            for (int n = 1; n <= N - 2; n = n < 40 ? n + 1 : N - 1) {
+                int o = n % 3;
+                memset(w, 0xff, sizeof w);
+                filter_weights_1d_offsets(&f, pos + o, n, R, w, (size_t)n);
+                int bad = 0;
+                for (int t = 0; t < side; t++) {
+                    for (int i = 0; i < n; i++)
+                        arg[i] = (float)((double)pos[o + i] - 0.5 - (double)R + (double)t);
+                    filter_weights_1d(&f, arg, ref, n);
+                    bad += memcmp(w + (size_t)t * (size_t)n, ref, (size_t)n * sizeof ref[0]) != 0;
+                }
+                CHECK_MSG(bad == 0, "%s %g path %d, %d positions: %d of %d planes differ",
+                          filters[k].name, (double)f.r, cap, n, bad, side);
+            }
+        }
+        filter_gaussian_path_set(2);
+    }
+}
+
 /* ---- the film on a course scene --------------------------------------------------- */
 
 typedef struct Fixture {
@@ -414,6 +464,44 @@ static void test_film_region_and_budget(void)
         image_free(&full);
         image_free(&full_d);
     }
+    fixture_close(&fx);
+}
+
+/* One worker and no shared rows (R = 0: the box 0.5 with any sampler): the film holds
+ * one band of rows at a time, strip after strip; the bytes are those of the one strip
+ * that two workers' default budget holds (the whole image here), with and without the
+ * depth image (pixel by pixel, the general loop), fixed and random positions. */
+static void test_film_band_strips(void)
+{
+    Fixture fx;
+    if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
+        return;
+    Sampler jit, uni, rnd;
+    make_sampler(&jit, "jittered", 16, 0);
+    make_sampler(&uni, "uniform", 9, 0);
+    make_sampler(&rnd, "random", 4, 5);
+    Filter box;
+    filter_init_default(&box);
+    CHECK(box.support == 0);
+    const Sampler *ss[] = {&jit, &uni, &rnd};
+    const int W = 61, H = 47; /* 47 rows: five whole bands and a partial one */
+    for (int c = 0; c < 3; c++)
+        for (int d = 0; d < 2; d++) {
+            Image one, one_d, bands, bands_d;
+            render_rect(&fx, ss[c], &box, NULL, W, H, 0, 0, W, H, 0, 2, &one,
+                        d ? &one_d : NULL);
+            render_rect(&fx, ss[c], &box, NULL, W, H, 0, 0, W, H, 0, 1, &bands,
+                        d ? &bands_d : NULL);
+            CHECK_MSG(same_pixels(&bands, &one, 0, 0) &&
+                          (!d || same_pixels(&bands_d, &one_d, 0, 0)),
+                      "sampler %d, depth %d: band by band differs from one strip", c, d);
+            image_free(&one);
+            image_free(&bands);
+            if (d) {
+                image_free(&one_d);
+                image_free(&bands_d);
+            }
+        }
     fixture_close(&fx);
 }
 
@@ -553,10 +641,13 @@ static const TestCase tests[] = {
     {"filters: symmetric weights, support radii, bad radii", test_filter_symmetry_and_support},
     {"filters: the Gaussian's exp against libm; batch == single", test_gaussian_fast_exp},
     {"filters: every vector path of the Gaussian gives the plain build's bits", test_gaussian_paths},
+    {"filters: a row's weights towards 2R+1 pixels == one argument at a time",
+     test_weights_offsets},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
     {"film: colour-only vector filter == general loop; any column offset",
      test_film_vector_filter},
+    {"film: one worker, R = 0: a strip per band == one strip", test_film_band_strips},
     {"film: one centred sample + box 0.5 == the image loop", test_film_default_is_image_loop},
     {"film: progress counts every traced pixel once", test_film_progress},
 };
