@@ -437,6 +437,10 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
                 image_encoding_free(&rj.enc[i]);
     }
     double t_render = clock_now() - t0, cpu_render = clock_thread_cpu() - cpu0;
+    /* The run's last render is over: the helpers exit now, during the write, rather
+     * than being woken by the process's exit to be ended (rt/par.h). */
+    if (app->last_render)
+        par_release();
     progress_finish(target.progress);
     target.progress = NULL;
     if (*cancel && cancel != &g_cancel)
@@ -570,6 +574,10 @@ static int run(App *app)
                                                               : stdout_format(o, outputs[i]),
                                               &app->diag))
             return EXIT_INPUT;
+    /* The set-up's helpers start now and stay for the render (rt/par.h): each starts
+     * once, while the scene file is read, instead of once per parallel step and again
+     * for the render. */
+    par_hold();
     double t0 = clock_now();
     if (o->cache_file) {
         /* A cache that cannot be used is not an error: the set-up is built instead. */
@@ -676,7 +684,7 @@ static int run(App *app)
     }
     const Grid *grid = grid_of_accel(&app->accel);
     if (o->timings && grid && dist_is_root()) {
-        /* Both sums below run on the set-up threads (the grid's build let them go). */
+        /* Both sums below run on the set-up threads. */
         par_prepare();
         uint64_t course, marching;
         grid_entry_totals(grid, &course, &marching);
@@ -686,7 +694,6 @@ static int run(App *app)
                 "%llu (cap %llu)\n", (unsigned long long)marching, (unsigned long long)course,
                 (unsigned long long)grid_ref_estimate(&app->prims, n),
                 (unsigned long long)grid_ref_cap(app->prims.num_bounded));
-        par_release();
     }
     /* Without an accelerator every ray tests every primitive: fine for the course's
      * small scenes, thousands of times slower on a mesh. The course's semantics stay (no

@@ -1,6 +1,8 @@
 /* Set-up parallelism: a loop split into chunks, run by the calling thread and by helper
  * threads that join in when they get a CPU. For the build steps before the render (OBJ
- * reading, mesh construction, grid binning); the render has its own threads. */
+ * reading, mesh construction, grid binning), and for the render's workers themselves
+ * (par_try_for): one process then starts its helper threads once, not once per step
+ * and again for the render. */
 #ifndef RT_PAR_H
 #define RT_PAR_H
 
@@ -24,12 +26,27 @@ typedef void (*ParChunkFn)(void *ctx, int i, int worker);
  * running (another thread, or from inside a chunk) runs all its chunks on the caller. */
 void par_for(int n, ParChunkFn fn, void *ctx);
 
+/* par_for for chunks that are whole threads' work (the render's workers, each pulling
+ * jobs from a shared counter until none is left, so a chunk the caller runs after its
+ * own finds nothing to do): runs it and returns true only when it can run on the
+ * helpers, i.e. n >= 2, n <= par_threads() and no other par_for is in progress;
+ * otherwise false, with nothing run (the caller starts threads of its own). */
+bool par_try_for(int n, ParChunkFn fn, void *ctx);
+
 /* Starts the helpers now, for par_for calls soon after; between calls they wait
  * (spinning briefly, then asleep until the next job) at most a few milliseconds before
- * they exit. */
+ * they exit (unless held). */
 void par_prepare(void);
-/* The set-up is over: idle helpers exit now (the render's threads want the cores). */
+/* Starts the helpers now and keeps them until par_release: an idle helper spins
+ * briefly, then sleeps (no CPU, no timer) until the next job. For a run whose set-up
+ * and render come next: each helper is started once, its start-up overlaps the scene's
+ * reading, and it is still there for the render. Nothing when no helper is wanted
+ * (par_set_helpers(0), one CPU). A forked child does not inherit the hold. */
+void par_hold(void);
+/* Ends par_hold; idle helpers exit now (a running job's helpers once it is done). */
 void par_release(void);
+/* Helpers started and not yet exited (for tests). */
+int par_helpers_running(void);
 
 /* Threads a par_for may use now: 1 + the helpers wanted (1: everything on the caller,
  * so splitting work only costs). */

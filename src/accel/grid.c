@@ -212,10 +212,9 @@ Grid *grid_build_table(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     /* Wake the binning helpers now: the set-up gives them time to get a CPU. */
     if (t->num_bounded >= 2 * BIN_CHUNK)
         par_prepare();
-    Grid *g = build(t, nx, ny, nz, diag);
-    /* The grid is the last step before the render, which wants the cores. */
-    par_release();
-    return g;
+    /* The helpers are not let go after the grid: idle, they sleep, and the render's
+     * workers run on them (rt/par.h). */
+    return build(t, nx, ny, nz, diag);
 }
 
 Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)

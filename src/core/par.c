@@ -1,5 +1,6 @@
 /* Set-up parallelism (rt/par.h): one job at a time, its chunks handed out under a spin
- * lock to the caller and to detached helper threads that linger briefly between jobs. */
+ * lock to the caller and to detached helper threads that linger briefly between jobs,
+ * or stay (asleep when idle) from par_hold to par_release. */
 #ifdef __linux__
 #define _GNU_SOURCE /* pthread_attr_setaffinity_np, sched_getcpu */
 #endif
@@ -38,6 +39,7 @@ static struct {
 } g_job;
 static bool g_alive[PAR_MAX_WORKERS]; /* helper slots 1.. taken (0 is the caller) */
 static int64_t g_deadline;            /* idle helpers exit after it (CLOCK_MONOTONIC ns) */
+static bool g_hold;                   /* par_hold: idle helpers stay until par_release */
 static int g_want = -1;               /* par_set_helpers; < 0: automatic */
 static bool g_running;                /* a par_for is in progress */
 static pthread_once_t g_once = PTHREAD_ONCE_INIT;
@@ -99,6 +101,7 @@ static void reset_in_child(void)
         g_alive[w] = false;
     g_job.open = false;
     g_running = false;
+    g_hold = false; /* the child has no helper to keep; its own start anew */
     pthread_mutex_init(&g_sleep_lock, NULL);
     g_sleepers = 0;
     g_caller_waits = false;
@@ -131,8 +134,11 @@ static void helper_sleep(void)
     lock();
     bool wait = !chunk_waiting();
     int64_t until = g_deadline;
+    bool held = g_hold;
     unlock();
-    if (wait) {
+    if (wait && held) {
+        pthread_cond_wait(&g_wake, &g_sleep_lock); /* par_for or par_release wakes it */
+    } else if (wait) {
         if (until < now_ns() + 1000)
             until = now_ns() + 1000;
         struct timespec ts = {(time_t)(until / 1000000000LL), (long)(until % 1000000000LL)};
@@ -205,7 +211,7 @@ static void *helper_main(void *arg)
             idle_since = -1;
             continue;
         }
-        if (!g_job.open && t > g_deadline) {
+        if (!g_job.open && !g_hold && t > g_deadline) {
             g_alive[worker] = false;
             unlock();
             return NULL;
@@ -295,7 +301,19 @@ void par_prepare(void)
         return;
     int64_t t = now_ns();
     lock();
-    g_deadline = t + PAR_LINGER_NS;
+    if (g_deadline < t + PAR_LINGER_NS)
+        g_deadline = t + PAR_LINGER_NS;
+    unlock();
+    ensure_helpers();
+}
+
+void par_hold(void)
+{
+    /* Without a condition variable an idle helper only yields: held, it would spin. */
+    if (helpers_wanted() == 0 || !g_wake_ok)
+        return;
+    lock();
+    g_hold = true;
     unlock();
     ensure_helpers();
 }
@@ -303,24 +321,41 @@ void par_prepare(void)
 void par_release(void)
 {
     lock();
+    g_hold = false;
     g_deadline = 0;
     unlock();
     wake_helpers(); /* to exit now */
+}
+
+int par_helpers_running(void)
+{
+    int n = 0;
+    lock();
+    for (int w = 1; w < PAR_MAX_WORKERS; w++)
+        n += g_alive[w];
+    unlock();
+    return n;
 }
 
 void par_set_helpers(int n) { g_want = n; }
 
 int par_threads(void) { return 1 + helpers_wanted(); }
 
-void par_for(int n, ParChunkFn fn, void *ctx)
+/* par_for and par_try_for; shared_only: give up (false, nothing run) rather than run inline
+ * when the helpers cannot take part as asked. */
+static bool run_job(int n, ParChunkFn fn, void *ctx, bool shared_only)
 {
     if (n <= 0)
-        return;
+        return true;
+    if (shared_only && (n == 1 || n > 1 + helpers_wanted()))
+        return false;
     lock();
     bool inline_only = g_running || n == 1;
     if (!inline_only)
         g_running = true;
     unlock();
+    if (shared_only && inline_only)
+        return false;
     if (inline_only || helpers_wanted() == 0) {
         for (int i = 0; i < n; i++)
             fn(ctx, i, 0);
@@ -329,7 +364,7 @@ void par_for(int n, ParChunkFn fn, void *ctx)
             g_running = false;
             unlock();
         }
-        return;
+        return true;
     }
     int64_t t = now_ns();
     lock();
@@ -370,10 +405,14 @@ void par_for(int n, ParChunkFn fn, void *ctx)
         }
         unlock();
         if (all)
-            break;
+            return true;
         if (now_ns() < spin_end)
             cpu_relax();
         else
             caller_sleep();
     }
 }
+
+void par_for(int n, ParChunkFn fn, void *ctx) { (void)run_job(n, fn, ctx, false); }
+
+bool par_try_for(int n, ParChunkFn fn, void *ctx) { return run_job(n, fn, ctx, true); }

@@ -21,7 +21,6 @@ typedef struct ParRun {
     int jobs;
     volatile int *cancel;
     atomic_int next;
-    const struct Worker *first; /* worker 0, run by the calling thread */
 } ParRun;
 
 /* Each worker on cache lines of its own: its counters change at every cell and test,
@@ -250,12 +249,10 @@ static void image_band(void *user, RenderCtx *ctx, int index)
             job->row_done(job->user, y);
 }
 
-static void *worker_main(void *arg)
+/* Worker w's loop: jobs from the shared counter until none is left (or a stop). */
+static void worker_loop(Worker *w)
 {
-    Worker *w = arg;
     ParRun *run = w->run;
-    if (w != run->first)
-        par_thread_release_cpus(); /* started off the creator's CPU; now free */
     for (;;) {
         if (run->cancel && *run->cancel)
             break;
@@ -264,7 +261,24 @@ static void *worker_main(void *arg)
             break;
         run->fn(run->user, &w->ctx, job);
     }
+}
+
+/* A thread of render_parallel's own. */
+static void *worker_main(void *arg)
+{
+    par_thread_release_cpus(); /* started off the creator's CPU; now free */
+    worker_loop(arg);
     return NULL;
+}
+
+/* Chunk i of par_try_for: worker i's loop, on the set-up's threads. A helper was
+ * started off its creator's CPU (rt/par.h) and is freed here; the caller never was. */
+static void worker_chunk(void *ctx, int i, int thread)
+{
+    Worker *workers = ctx;
+    if (thread != 0)
+        par_thread_release_cpus();
+    worker_loop(&workers[i]);
 }
 
 bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn, void *user,
@@ -277,7 +291,7 @@ bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn,
     if (threads < 1)
         threads = 1;
 
-    ParRun run = {fn, user, jobs, cancel, 0, NULL};
+    ParRun run = {fn, user, jobs, cancel, 0};
     Worker *workers = aligned_alloc(_Alignof(Worker), (size_t)threads * sizeof *workers);
     if (!workers)
         return false;
@@ -291,12 +305,17 @@ bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn,
         }
         workers[i].ctx.cancel = cancel; /* shading polls it inside a pixel's ray tree */
     }
-    if (ok) {
-        /* Worker 0 runs on this thread: -threads 1 starts no thread at all. */
-        /* The workers start on other CPUs than this one (rt/par.h): on a small image
-         * a worker sharing this CPU for its first milliseconds would cost more than
-         * it brings. */
-        run.first = &workers[0];
+    /* Worker 0 runs on this thread: -threads 1 starts no thread at all. The others run
+     * on the set-up's helpers when they can (rt/par.h: already started, usually during
+     * the scene's reading, so the render starts no thread and waits for none to get a
+     * CPU); a worker whose chunk the calling thread takes after its own finds no job
+     * left, so the result is the same. */
+    bool on_helpers = ok && threads > 1 && par_try_for(threads, worker_chunk, workers);
+    if (ok && !on_helpers) {
+        /* Threads of its own: more than the set-up's helpers, or they are busy. The
+         * workers start on other CPUs than this one (rt/par.h): on a small image a
+         * worker sharing this CPU for its first milliseconds would cost more than it
+         * brings. */
         pthread_attr_t attr;
         bool attr_ok = pthread_attr_init(&attr) == 0;
         if (attr_ok)
@@ -306,7 +325,7 @@ bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn,
                                                 worker_main, &workers[i]) == 0;
         if (attr_ok)
             pthread_attr_destroy(&attr);
-        worker_main(&workers[0]);
+        worker_loop(&workers[0]);
         /* A thread that failed to start loses nothing: the others take its jobs. */
         for (int i = 1; i < threads; i++)
             if (workers[i].started)

@@ -1,9 +1,12 @@
 /* The set-up's parallel loop (rt/par.h): every chunk runs exactly once, on a worker
  * index in range, with any number of helpers; nested and concurrent calls run inline;
- * a helper does join in; the helpers come back after par_release. */
+ * a helper does join in; the helpers come back after par_release; par_hold keeps one
+ * helper across jobs until par_release; par_try_for runs or declines whole. */
 #include <pthread.h>
 #include <stdatomic.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "../harness.h"
 #include "rt/par.h"
@@ -194,12 +197,156 @@ static void test_sleeping_helper_joins_in(void)
     par_set_helpers(-1);
 }
 
+/* par_hold: the helper that ran a chunk of one job is the one that runs a chunk of the
+ * next, even after a pause far beyond the lingering of an unheld helper (each thread
+ * marks itself in a thread-local on its first chunk: a new thread would find no mark);
+ * par_release then ends it (it is gone, waited for without a clock but with a 60 s
+ * bound so a broken release fails instead of hanging). */
+static _Thread_local int t_marked;
+
+typedef struct Mark {
+    Join j;
+    atomic_int helper_was_marked; /* a helper chunk found its thread marked */
+    atomic_int helper_new;        /* a helper chunk found it unmarked */
+} Mark;
+
+static void mark_chunk(void *ctx, int i, int worker)
+{
+    Mark *m = ctx;
+    if (worker != 0)
+        atomic_fetch_add(t_marked ? &m->helper_was_marked : &m->helper_new, 1);
+    t_marked = 1;
+    join_chunk(&m->j, i, worker);
+}
+
+static bool wait_helpers_gone(void)
+{
+    for (int i = 0; i < 60000 && par_helpers_running() > 0; i++) {
+        struct timespec ms = {0, 1000000L};
+        nanosleep(&ms, NULL);
+    }
+    return par_helpers_running() == 0;
+}
+
+static void test_hold_keeps_helper(void)
+{
+    par_set_helpers(1);
+    par_release();
+    CHECK_MSG(wait_helpers_gone(), "a released helper did not exit");
+    par_hold();
+    CHECK_INT(par_helpers_running(), 1);
+    for (int round = 0; round < 3; round++) {
+        Mark m;
+        memset(&m, 0, sizeof m);
+        m.j = (Join){PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER, false, false};
+        par_for(4, mark_chunk, &m);
+        CHECK_MSG(m.j.helper_seen && !m.j.gave_up, "no helper ran a chunk (round %d)", round);
+        if (round > 0)
+            CHECK_MSG(atomic_load(&m.helper_new) == 0 && atomic_load(&m.helper_was_marked) > 0,
+                      "round %d: a new helper thread (%d chunks) instead of the held one",
+                      round, atomic_load(&m.helper_new));
+        pthread_cond_destroy(&m.j.seen_cond);
+        pthread_mutex_destroy(&m.j.lock);
+        /* Ten times the lingering of an unheld helper (PAR_LINGER_NS, 3 ms). */
+        struct timespec pause = {0, 30000000L};
+        nanosleep(&pause, NULL);
+        CHECK_INT(par_helpers_running(), 1);
+    }
+    par_release();
+    CHECK_MSG(wait_helpers_gone(), "the held helper did not exit after par_release");
+    par_set_helpers(-1);
+}
+
+/* No helper wanted (-threads 1): par_hold starts none, par_try_for declines. */
+static void count_two(void *ctx, int i, int worker)
+{
+    (void)worker;
+    atomic_fetch_add(&((atomic_int *)ctx)[i], 1);
+}
+
+static void test_no_helper_wanted(void)
+{
+    par_release();
+    CHECK_MSG(wait_helpers_gone(), "a released helper did not exit");
+    par_set_helpers(0);
+    par_hold();
+    CHECK_INT(par_helpers_running(), 0);
+    atomic_int hits[2] = {0, 0};
+    CHECK(!par_try_for(2, count_two, hits));
+    CHECK_INT(atomic_load(&hits[0]) + atomic_load(&hits[1]), 0);
+    par_release();
+    par_set_helpers(-1);
+}
+
+/* par_try_for runs every chunk once when the helpers can take part, and declines (nothing
+ * run) for one chunk, for more chunks than threads, and inside another job. */
+static void try_inner(void *ctx, int i, int worker)
+{
+    (void)i;
+    (void)worker;
+    atomic_int *hits = ctx;
+    if (par_try_for(2, count_two, hits + 2))
+        atomic_fetch_add(&hits[4], 1); /* must not happen: a job is in progress */
+}
+
+static void test_try_for(void)
+{
+    par_set_helpers(2);
+    for (int n = 2; n <= 3; n++) {
+        atomic_int hits[3] = {0, 0, 0};
+        CHECK(par_try_for(n, count_two, hits));
+        for (int i = 0; i < 3; i++)
+            CHECK_INT(atomic_load(&hits[i]), i < n ? 1 : 0);
+    }
+    atomic_int none[4] = {0, 0, 0, 0};
+    CHECK(!par_try_for(1, count_two, none));
+    CHECK(!par_try_for(4, count_two, none));
+    CHECK_INT(atomic_load(&none[0]) + atomic_load(&none[1]) + atomic_load(&none[2]), 0);
+    atomic_int nest[5] = {0, 0, 0, 0, 0};
+    par_for(2, try_inner, nest);
+    CHECK_INT(atomic_load(&nest[4]), 0);
+    CHECK_INT(atomic_load(&nest[2]) + atomic_load(&nest[3]), 0);
+    par_set_helpers(-1);
+}
+
+/* A child forked while a helper is held has none, holds nothing, and its par_for still
+ * runs every chunk (its own helper, started there). */
+static void test_fork_child(void)
+{
+    par_set_helpers(1);
+    par_hold();
+    CHECK_INT(par_helpers_running(), 1);
+    pid_t pid = fork();
+    if (pid == 0) {
+        int bad = par_helpers_running() != 0;
+        static Count c;
+        memset(&c, 0, sizeof c);
+        par_for(64, count_chunk, &c);
+        for (int i = 0; i < 64; i++)
+            bad |= atomic_load(&c.hits[i]) != 1;
+        par_release();
+        _exit(bad ? 1 : 0);
+    }
+    CHECK(pid > 0);
+    int st = 0;
+    if (pid > 0)
+        CHECK(waitpid(pid, &st, 0) == pid && WIFEXITED(st) && WEXITSTATUS(st) == 0);
+    CHECK_INT(par_helpers_running(), 1); /* the parent's is still held */
+    par_release();
+    CHECK_MSG(wait_helpers_gone(), "the held helper did not exit after par_release");
+    par_set_helpers(-1);
+}
+
 static const TestCase tests[] = {
     {"par: every chunk runs exactly once, workers in range", test_every_chunk_once},
     {"par: a nested par_for runs inline on its thread", test_nested_runs_inline},
     {"par: concurrent callers both complete", test_concurrent_callers},
     {"par: a helper joins in, again after par_release", test_helper_joins_in},
     {"par: a helper sleeping between jobs joins the next", test_sleeping_helper_joins_in},
+    {"par: a held helper serves every job until par_release ends it", test_hold_keeps_helper},
+    {"par: no helper wanted: par_hold starts none, par_try_for declines", test_no_helper_wanted},
+    {"par: par_try_for runs each chunk once or declines", test_try_for},
+    {"par: a forked child holds no helper and its par_for works", test_fork_child},
 };
 
 RT_TEST_MAIN(tests)
