@@ -83,6 +83,10 @@ struct Grid {
     pthread_mutex_t course_lock;
     GridPrim *prims;        /* bounded primitives, depth-first order */
     uint32_t num_prims;
+    /* NULL, or num_prims more: grid_pack writes the renumbered order into it on the
+     * set-up threads, then the two swap (the old order is kept until grid_free: an
+     * munmap during the set-up would cost about what the serial move it spares did). */
+    GridPrim *prims_spare;
     GridPrim *unbounded;    /* planes: tested for every ray */
     uint32_t num_unbounded;
     bool marking;           /* mailboxing on (default; grid_set_marking) */
@@ -130,9 +134,14 @@ float grid_table_tmin_scale(const PrimTable *t);
 Grid *grid_alloc(void);
 
 /* Builds g->tri and tags the cell items (after the CSR fill); false when out of memory.
- * g->tri and g->tri_hit: NULL, or zeroed arrays of num_prims made for it beforehand
- * (grid_bin.c has their pages faulted in on the set-up threads). */
+ * g->tri, g->tri_hit and g->prims_spare: NULL, or zeroed arrays of num_prims made for it
+ * beforehand (grid_pack_prepare; grid_bin.c has their pages faulted in on the set-up
+ * threads). */
 bool grid_pack(Grid *g);
+/* Makes grid_pack's arrays for n primitives now (those it cannot have stay NULL: grid_pack
+ * makes or does without them). Touches nothing else of g, so it may run beside the
+ * build's other steps. */
+void grid_pack_prepare(Grid *g, uint32_t n);
 /* Whether grid_pack packs g (it has primitives, and not too many for the tag bit). */
 bool grid_pack_wanted(const Grid *g);
 /* Makes g->occupied from cell_start (left NULL when out of memory: the walk then reads

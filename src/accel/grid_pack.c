@@ -108,6 +108,7 @@ enum { PACK_CHUNK = 4096, TAG_CHUNK = 256 << 10 };
 typedef struct PackJob {
     Grid *g;
     const uint32_t *newix;
+    GridPrim *dst; /* NULL, or where prims go in their new order */
 } PackJob;
 
 /* Chunk k of the table: each primitive packed into its new slot (disjoint slots: newix
@@ -121,6 +122,9 @@ static void pack_chunk(void *ctx, int k, int worker)
     uint32_t p1 = g->num_prims - p0 > PACK_CHUNK ? p0 + PACK_CHUNK : g->num_prims;
     for (uint32_t p = p0; p < p1; p++)
         pack_prim(g, &g->prims[p], &g->tri[job->newix[p]], &g->tri_hit[job->newix[p]]);
+    if (job->dst)
+        for (uint32_t p = p0; p < p1; p++)
+            job->dst[job->newix[p]] = g->prims[p];
 }
 
 /* Chunk k of the entries: tagged when they name a packed triangle. */
@@ -134,6 +138,18 @@ static void tag_chunk(void *ctx, int k, int worker)
     for (size_t e = e0; e < e1; e++)
         if (g->tri[g->cell_items[e]].id != RT_NO_ID)
             g->cell_items[e] |= GRID_ITEM_TRI;
+}
+
+void grid_pack_prepare(Grid *g, uint32_t n)
+{
+    if (n == 0)
+        return;
+    if (!g->tri)
+        g->tri = bigmem_calloc(n, sizeof *g->tri);
+    if (!g->tri_hit)
+        g->tri_hit = bigmem_calloc(n, sizeof *g->tri_hit);
+    if (!g->prims_spare)
+        g->prims_spare = bigmem_calloc(n, sizeof *g->prims_spare);
 }
 
 bool grid_pack_wanted(const Grid *g)
@@ -165,10 +181,17 @@ bool grid_pack(Grid *g)
      * leaf read was a cache miss (on the 40k bunny most of the pack's time). Both the
      * packing and the tagging write each slot or entry from one chunk only, so they run
      * on the set-up threads (rt/par.h) with the same result. */
-    PackJob job = {g, newix};
+    /* The table into its new order: copied by the same chunks when there is a second
+     * array (made beforehand, with set-up threads), else moved in place afterwards. */
+    PackJob job = {g, newix, g->prims_spare};
     par_for((int)(g->num_prims / PACK_CHUNK + (g->num_prims % PACK_CHUNK != 0)), pack_chunk,
             &job);
-    move_prims(g, newix);
+    if (job.dst) {
+        g->prims_spare = g->prims;
+        g->prims = job.dst;
+    } else {
+        move_prims(g, newix);
+    }
     bigmem_free(newix);
     size_t n = g->cell_start[g->num_cells];
     par_for((int)(n / TAG_CHUNK + (n % TAG_CHUNK != 0)), tag_chunk, &job);

@@ -309,6 +309,14 @@ static void test_try_for(void)
     par_set_helpers(-1);
 }
 
+#if defined(__SANITIZE_THREAD__)
+#define RT_TEST_TSAN 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define RT_TEST_TSAN 1
+#endif
+#endif
+
 /* A child forked while a helper is held has none, holds nothing, and its par_for still
  * runs every chunk (its own helper, started there). */
 static void test_fork_child(void)
@@ -319,6 +327,9 @@ static void test_fork_child(void)
     pid_t pid = fork();
     if (pid == 0) {
         int bad = par_helpers_running() != 0;
+#ifdef RT_TEST_TSAN
+        par_set_helpers(0); /* TSan cannot start threads in a multi-threaded fork's child */
+#endif
         static Count c;
         memset(&c, 0, sizeof c);
         par_for(64, count_chunk, &c);
