@@ -4,6 +4,9 @@
 #include "rt/cpu.h"
 
 #include <math.h>
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#endif
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
@@ -108,14 +111,10 @@ double filter_exp_nonpos(double t)
  * (two independent chains); a last partial group goes through a padded copy. The AVX2
  * build of the four-lane loop and the AVX-512 build of the eight-lane one do the same
  * operations per lane (no FMA: the file is built with -ffp-contract=off). */
-#define FILTER_GAUSSIAN_BATCH(NAME, GAUSS, EXP, VD, VF, L)                                 \
-    __attribute__((always_inline)) static inline VF GAUSS(VF x, double neg_inv)           \
-    {                                                                                      \
-        VD t = __builtin_convertvector(x * x, VD) * neg_inv;                               \
-        return __builtin_convertvector(EXP(t), VF);                                        \
-    }                                                                                      \
-    __attribute__((always_inline)) static inline void NAME(const Filter *f, const float *x, \
-                                                           float *w, int n)                \
+#define FILTER_GAUSSIAN_BATCH(NAME, GAUSS, VF, L, ...)                                     \
+    __attribute__((always_inline __VA_ARGS__)) static inline void NAME(const Filter *f,    \
+                                                                       const float *x,     \
+                                                                       float *w, int n)    \
     {                                                                                      \
         double s = (double)f->r;                                                           \
         double neg_inv = -1.0 / (2.0 * s * s);                                             \
@@ -138,17 +137,25 @@ double filter_exp_nonpos(double t)
         }                                                                                  \
     }
 
-FILTER_GAUSSIAN_BATCH(gaussian_batch, gaussian4, exp_nonpos4, V4d, V4f, 4)
+/* exp(x^2 times -1/(2 sigma^2)), rounded to float: the film's separable Gaussian. */
+#define FILTER_GAUSSIAN(GAUSS, EXP, VD, VF)                                                \
+    __attribute__((always_inline)) static inline VF GAUSS(VF x, double neg_inv)           \
+    {                                                                                      \
+        VD t = __builtin_convertvector(x * x, VD) * neg_inv;                               \
+        return __builtin_convertvector(EXP(t), VF);                                        \
+    }
+
+FILTER_GAUSSIAN(gaussian4, exp_nonpos4, V4d, V4f)
+FILTER_GAUSSIAN_BATCH(gaussian_batch, gaussian4, V4f, 4, )
 
 /* filter_weights_1d_offsets for the Gaussian: L positions at a time, their 2R+1
  * arguments made in the lanes (the same double operations and one rounding to float
  * as the generic loop) and their weights by GAUSS, stored straight into the planes.
  * The film's arguments no longer go through arrays of their own (a tenth of a
  * 16-sample Gaussian render of course line 17a was that pass). */
-#define FILTER_GAUSSIAN_OFFSETS(NAME, GAUSS, VD, VF, L)                                    \
-    __attribute__((always_inline)) static inline void NAME(const Filter *f, const float *pos, \
-                                                           int n, int R, float *w,         \
-                                                           size_t plane)                   \
+#define FILTER_GAUSSIAN_OFFSETS(NAME, GAUSS, VD, VF, L, ...)                               \
+    __attribute__((always_inline __VA_ARGS__)) static inline void NAME(                    \
+        const Filter *f, const float *pos, int n, int R, float *w, size_t plane)          \
     {                                                                                      \
         double s = (double)f->r;                                                           \
         double neg_inv = -1.0 / (2.0 * s * s);                                             \
@@ -175,10 +182,63 @@ FILTER_GAUSSIAN_BATCH(gaussian_batch, gaussian4, exp_nonpos4, V4d, V4f, 4)
         }                                                                                  \
     }
 
-FILTER_GAUSSIAN_OFFSETS(gaussian_offsets, gaussian4, V4d, V4f, 4)
+FILTER_GAUSSIAN_OFFSETS(gaussian_offsets, gaussian4, V4d, V4f, 4, )
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-FILTER_GAUSSIAN_BATCH(gaussian_batch8, gaussian8, exp_nonpos8, V8d, V8f, 8)
+#define FILTER_AVX512 , target("avx512f,avx512vl,avx512bw,avx512dq")
+
+/* The AVX-512 Gaussian: a cheaper exp F that decides the float of exp_nonpos8 (E) in
+ * nearly every lane, E itself where it cannot. F: t = k ln2/8 + r, |r| <= ln2/16 + tiny
+ * (r exact: k ln2_hi/8 is exact and t - k ln2_hi/8 is a Sterbenz difference),
+ * 2^(k/8) = 2^floor(k/8) times a table of 2^(j/8), j = k mod 8 (one permute), exp(r)
+ * by its Taylor series to degree 5. Its error against E, over every t >= -80:
+ * truncation |r|^6/720 e^|r| < 9.4e-12, roundings (polynomial, table, products) and
+ * E's own error (< 1e-15) a few 1e-16: below 9.5e-12 relative, under 2^17 units of
+ * the last place of a double in E's binade (2^-52 relative at the binade's top, so
+ * 9.5e-12 * 2^53 = 85,600 units), under 2^18 in F's own (at most one binade lower).
+ * Rounding to float drops the 29 low mantissa bits L of the double; the rounding
+ * boundaries (halfway between two floats) are L = 2^28, every other boundary of the
+ * float grid is a float itself. So where |L(F) - 2^28| >= 2^18, no boundary lies
+ * between F and E and (float)F == (float)E: the same bits as the other paths. Lanes
+ * within 2^18 of a boundary (about one in 1000), with t < -80 (the float may be
+ * subnormal or 0) or NaN get E: the whole vector is computed again with exp_nonpos8
+ * (about one vector in 125). Tested: test_gaussian_paths (rounding boundaries
+ * searched out). */
+__attribute__((always_inline FILTER_AVX512)) static inline V8f gaussian8(V8f x,
+                                                                         double neg_inv)
+{
+    V8d t = __builtin_convertvector(x * x, V8d) * neg_inv;
+    const double shift = 0x1.8p52, inv = 0x1.71547652b82fep3; /* 8 / ln 2 */
+    const double c_hi = 0x1.62e42feep-4, c_lo = 0x1.a39ef35793c76p-36; /* ln 2 / 8 */
+    V8d kd = t * inv + shift;
+    V8u kbits = (V8u)kd;
+    kd -= shift;
+    V8d r = t - kd * c_hi;
+    r -= kd * c_lo;
+    V8d r2 = r * r;
+    V8d p = (r + 1.0) + ((r * (1.0 / 6.0) + 0.5) + (r * (1.0 / 120.0) + 1.0 / 24.0) * r2) * r2;
+    /* 2^(j/8), j = 0..7: the permute reads the low three bits of kbits, k mod 8. */
+    const V8d table = {0x1p0, 0x1.172b83c7d517bp0, 0x1.306fe0a31b715p0, 0x1.4bfdad5362a27p0,
+                       0x1.6a09e667f3bcdp0, 0x1.8ace5422aa0dbp0, 0x1.ae89f995ad3adp0,
+                       0x1.d5818dcfba487p0};
+    V8d tj = (V8d)_mm512_permutexvar_pd((__m512i)kbits, (__m512d)table);
+    uint64_t shift_bits;
+    memcpy(&shift_bits, &shift, sizeof shift_bits);
+    V8i k = (V8i)(kbits - shift_bits); /* in [-924, 0] for t >= -80 */
+    V8u scale = (V8u)((k >> 3) + 1023) << 52;
+    V8d e = p * tj * (V8d)scale;
+    const uint64_t low = ((uint64_t)1 << 29) - 1, half = (uint64_t)1 << 28;
+    const uint64_t margin = (uint64_t)1 << 18;
+    V8i near = (V8i)((((V8u)e & low) - (half - margin)) < 2 * margin);
+    V8i bad = near | ~(V8i)(t >= -80.0);
+    if (_mm512_test_epi64_mask((__m512i)bad, (__m512i)bad)) {
+        V8d exact = exp_nonpos8(t);
+        e = (V8d)(((V8i)exact & bad) | ((V8i)e & ~bad));
+    }
+    return __builtin_convertvector(e, V8f);
+}
+
+FILTER_GAUSSIAN_BATCH(gaussian_batch8, gaussian8, V8f, 8, FILTER_AVX512)
 
 __attribute__((target("avx2"))) static void gaussian_batch_avx2(const Filter *f,
                                                                 const float *x, float *w,
@@ -193,7 +253,7 @@ gaussian_batch_avx512(const Filter *f, const float *x, float *w, int n)
     gaussian_batch8(f, x, w, n);
 }
 
-FILTER_GAUSSIAN_OFFSETS(gaussian_offsets8, gaussian8, V8d, V8f, 8)
+FILTER_GAUSSIAN_OFFSETS(gaussian_offsets8, gaussian8, V8d, V8f, 8, FILTER_AVX512)
 
 __attribute__((target("avx2"))) static void gaussian_offsets_avx2(const Filter *f,
                                                                   const float *pos, int n,

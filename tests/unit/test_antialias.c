@@ -284,6 +284,52 @@ static void test_gaussian_paths(void)
     }
 }
 
+/* The AVX-512 Gaussian decides most floats with a cheaper exp and falls back to the
+ * plain one near a float rounding boundary: arguments searched out whose exp lies
+ * within 2^12 double units of a boundary (halfway between two floats), where the
+ * cheaper exp's own float is often the other one, give the plain build's bits on
+ * every path, alone and in a long batch (fails when the fallback is dropped). */
+static void test_gaussian_rounding_boundaries(void)
+{
+    char why[160];
+    static const float sigmas[] = {0.4f, 1.0f, 0.26f};
+    enum { CAP = 4096 };
+    static float x[CAP], w0[CAP], w[CAP];
+    for (int k = 0; k < 3; k++) {
+        Filter f;
+        CHECK(filter_init(&f, filter_find("gaussian"), sigmas[k], why, sizeof why));
+        double s = (double)f.r, neg_inv = -1.0 / (2.0 * s * s);
+        int n = 0;
+        for (int32_t i = 0; i < 3 << 20 && n < CAP; i++) {
+            float xi = (float)i * 0x1p-20f; /* [0, 3) */
+            double e = filter_exp_nonpos((double)(xi * xi) * neg_inv);
+            uint64_t bits;
+            memcpy(&bits, &e, sizeof bits);
+            uint64_t low = bits & (((uint64_t)1 << 29) - 1), half = (uint64_t)1 << 28;
+            uint64_t dist = low > half ? low - half : half - low;
+            if (dist < ((uint64_t)1 << 12) && (float)e >= 0x1p-100f)
+                x[n++] = (i & 1) ? -xi : xi;
+        }
+        CHECK_MSG(n >= 20, "sigma %g: only %d arguments near a rounding boundary", (double)f.r, n);
+        filter_gaussian_path_set(0);
+        filter_weights_1d(&f, x, w0, n);
+        for (int cap = 1; cap <= 2; cap++) {
+            filter_gaussian_path_set(cap);
+            filter_weights_1d(&f, x, w, n);
+            int bad = 0;
+            for (int i = 0; i < n; i++) {
+                float one;
+                filter_weights_1d(&f, x + i, &one, 1);
+                bad += memcmp(&w[i], &w0[i], sizeof w[i]) != 0;
+                bad += memcmp(&one, &w0[i], sizeof one) != 0;
+            }
+            CHECK_MSG(bad == 0, "sigma %g path %d: %d of %d weights near a boundary differ",
+                      (double)f.r, cap, bad, 2 * n);
+        }
+        filter_gaussian_path_set(2);
+    }
+}
+
 /* filter_weights_1d_offsets (the film's weights of a row of sample positions towards
  * the 2R+1 pixels around) against filter_weights_1d on the arguments made one by one
  * as its contract says, (position - 0.5) - R + k in double rounded to float once, bit
@@ -641,6 +687,8 @@ static const TestCase tests[] = {
     {"filters: symmetric weights, support radii, bad radii", test_filter_symmetry_and_support},
     {"filters: the Gaussian's exp against libm; batch == single", test_gaussian_fast_exp},
     {"filters: every vector path of the Gaussian gives the plain build's bits", test_gaussian_paths},
+    {"filters: the Gaussian's paths agree at float rounding boundaries",
+     test_gaussian_rounding_boundaries},
     {"filters: a row's weights towards 2R+1 pixels == one argument at a time",
      test_weights_offsets},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
