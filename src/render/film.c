@@ -91,7 +91,20 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
     Hit hits[ACCEL_PACKET_MAX];
     raytracer_trace_packet(f->rt, ctx, st->rays, st->n, f->tmin, colors, hits);
     size_t cs = st->cs;
-    for (int i = 0; i < st->n; i++) {
+    int lanes = st->n;
+    st->n = 0;
+    if (f->off_depth < 0 && f->off_normal < 0 && cs == 1) {
+        /* Colour only into a tile's scratch or a pixel-by-pixel film: the usual case,
+         * without the per-lane tests of the general loop below. */
+        for (int i = 0; i < lanes; i++) {
+            float *d = st->dest[i];
+            d[2] = colors[i].x;
+            d[3] = colors[i].y;
+            d[4] = colors[i].z;
+        }
+        return;
+    }
+    for (int i = 0; i < lanes; i++) {
         float *d = st->dest[i];
         if (cs == 1) { /* the usual case: a sample's channels side by side */
             d[2] = colors[i].x;
@@ -117,7 +130,6 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
             e[2 * cs] = n.z;
         }
     }
-    st->n = 0;
 }
 
 /* The separable filter's weights of the n samples at offsets xy of pixel (x, y):
