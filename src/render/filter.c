@@ -111,10 +111,9 @@ double filter_exp_nonpos(double t)
  * (two independent chains); a last partial group goes through a padded copy. The AVX2
  * build of the four-lane loop and the AVX-512 build of the eight-lane one do the same
  * operations per lane (no FMA: the file is built with -ffp-contract=off). */
-#define FILTER_GAUSSIAN_BATCH(NAME, GAUSS, VF, L, ...)                                     \
-    __attribute__((always_inline __VA_ARGS__)) static inline void NAME(const Filter *f,    \
-                                                                       const float *x,     \
-                                                                       float *w, int n)    \
+#define FILTER_GAUSSIAN_BATCH(NAME, GAUSS, VF, L)                                          \
+    __attribute__((always_inline)) static inline void NAME(const Filter *f, const float *x, \
+                                                           float *w, int n)                \
     {                                                                                      \
         double s = (double)f->r;                                                           \
         double neg_inv = -1.0 / (2.0 * s * s);                                             \
@@ -146,16 +145,17 @@ double filter_exp_nonpos(double t)
     }
 
 FILTER_GAUSSIAN(gaussian4, exp_nonpos4, V4d, V4f)
-FILTER_GAUSSIAN_BATCH(gaussian_batch, gaussian4, V4f, 4, )
+FILTER_GAUSSIAN_BATCH(gaussian_batch, gaussian4, V4f, 4)
 
 /* filter_weights_1d_offsets for the Gaussian: L positions at a time, their 2R+1
  * arguments made in the lanes (the same double operations and one rounding to float
  * as the generic loop) and their weights by GAUSS, stored straight into the planes.
  * The film's arguments no longer go through arrays of their own (a tenth of a
  * 16-sample Gaussian render of course line 17a was that pass). */
-#define FILTER_GAUSSIAN_OFFSETS(NAME, GAUSS, VD, VF, L, ...)                               \
-    __attribute__((always_inline __VA_ARGS__)) static inline void NAME(                    \
-        const Filter *f, const float *pos, int n, int R, float *w, size_t plane)          \
+#define FILTER_GAUSSIAN_OFFSETS(NAME, GAUSS, VD, VF, L)                                    \
+    __attribute__((always_inline)) static inline void NAME(const Filter *f, const float *pos, \
+                                                           int n, int R, float *w,         \
+                                                           size_t plane)                   \
     {                                                                                      \
         double s = (double)f->r;                                                           \
         double neg_inv = -1.0 / (2.0 * s * s);                                             \
@@ -182,63 +182,64 @@ FILTER_GAUSSIAN_BATCH(gaussian_batch, gaussian4, V4f, 4, )
         }                                                                                  \
     }
 
-FILTER_GAUSSIAN_OFFSETS(gaussian_offsets, gaussian4, V4d, V4f, 4, )
+FILTER_GAUSSIAN_OFFSETS(gaussian_offsets, gaussian4, V4d, V4f, 4)
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define FILTER_AVX512 , target("avx512f,avx512vl,avx512bw,avx512dq")
+#define FILTER_AVX512 target("avx512f,avx512vl,avx512bw,avx512dq")
 
 /* The AVX-512 Gaussian: a cheaper exp F that decides the float of exp_nonpos8 (E) in
- * nearly every lane, E itself where it cannot. F: t = k ln2/8 + r, |r| <= ln2/16 + tiny
- * (r exact: k ln2_hi/8 is exact and t - k ln2_hi/8 is a Sterbenz difference),
- * 2^(k/8) = 2^floor(k/8) times a table of 2^(j/8), j = k mod 8 (one permute), exp(r)
- * by its Taylor series to degree 5. Its error against E, over every t >= -80:
- * truncation |r|^6/720 e^|r| < 9.4e-12, roundings (polynomial, table, products) and
- * E's own error (< 1e-15) a few 1e-16: below 9.5e-12 relative, under 2^17 units of
- * the last place of a double in E's binade (2^-52 relative at the binade's top, so
- * 9.5e-12 * 2^53 = 85,600 units), under 2^18 in F's own (at most one binade lower).
- * Rounding to float drops the 29 low mantissa bits L of the double; the rounding
- * boundaries (halfway between two floats) are L = 2^28, every other boundary of the
- * float grid is a float itself. So where |L(F) - 2^28| >= 2^18, no boundary lies
- * between F and E and (float)F == (float)E: the same bits as the other paths. Lanes
- * within 2^18 of a boundary (about one in 1000), with t < -80 (the float may be
- * subnormal or 0) or NaN get E: the whole vector is computed again with exp_nonpos8
- * (about one vector in 125). Tested: test_gaussian_paths (rounding boundaries
- * searched out). */
-__attribute__((always_inline FILTER_AVX512)) static inline V8f gaussian8(V8f x,
-                                                                         double neg_inv)
+ * nearly every lane, E itself where it cannot. F: t = k ln2/8 + r with k = round(t 8 /
+ * ln 2), so |r| <= ln2/16 + tiny; 2^(k/8) = 2^floor(k/8) (vscalefpd) times a table of
+ * 2^(j/8), j = k mod 8 (one permute); exp(r) by its Taylor series to degree 5 (Horner,
+ * fused multiply-adds: F's own bits never reach an image, only its error bound
+ * matters). Its error against E, over every t >= -80: truncation |r|^6/720 e^|r| <
+ * 9.4e-12; roundings (reduction, polynomial, table, product) and E's own error (< 1e-15)
+ * a few 1e-16: below 9.5e-12 relative, so under 2^17 units in the last place of a
+ * double in E's binade (at most 2^-52 relative: 9.5e-12 * 2^53 = 85,600 units), under
+ * 2^18 in F's own (at most one binade lower). Rounding to float drops the 29 low
+ * mantissa bits L of the double; the rounding boundaries (halfway between two floats)
+ * are at L = 2^28 (every other point of the float grid is a float itself). So where
+ * |L(F) - 2^28| >= 2^18 no boundary lies between F and E, and (float)F == (float)E:
+ * the bits of the other paths. Lanes within 2^18 of a boundary (about one in 1000),
+ * with t < -80 (the float may be subnormal or 0) or NaN take E: the vector is computed
+ * again by exp_nonpos8 (about one vector in 125). t itself and the argument x are the
+ * other paths' (no fused operation there). Tested: test_gaussian_rounding_boundaries
+ * (fails when the fallback is dropped) and test_gaussian_paths. Weights alone (L1,
+ * 400x400x16's worth): 1.47 ns each with exp_nonpos8, 1.0 with this. */
+__attribute__((always_inline, FILTER_AVX512)) static inline __m256 gaussian8(__m256 x,
+                                                                            __m512d neg_inv)
 {
-    V8d t = __builtin_convertvector(x * x, V8d) * neg_inv;
-    const double shift = 0x1.8p52, inv = 0x1.71547652b82fep3; /* 8 / ln 2 */
-    const double c_hi = 0x1.62e42feep-4, c_lo = 0x1.a39ef35793c76p-36; /* ln 2 / 8 */
-    V8d kd = t * inv + shift;
-    V8u kbits = (V8u)kd;
-    kd -= shift;
-    V8d r = t - kd * c_hi;
-    r -= kd * c_lo;
-    V8d r2 = r * r;
-    V8d p = (r + 1.0) + ((r * (1.0 / 6.0) + 0.5) + (r * (1.0 / 120.0) + 1.0 / 24.0) * r2) * r2;
+    __m512d t = _mm512_mul_pd(_mm512_cvtps_pd(_mm256_mul_ps(x, x)), neg_inv);
+    const __m512d shift = _mm512_set1_pd(0x1.8p52);
+    __m512d kd = _mm512_fmadd_pd(t, _mm512_set1_pd(0x1.71547652b82fep3), shift); /* 8/ln2 */
+    __m512i kbits = _mm512_castpd_si512(kd);
+    kd = _mm512_sub_pd(kd, shift);
+    __m512d r = _mm512_fnmadd_pd(kd, _mm512_set1_pd(0x1.62e42feep-4), t); /* ln2/8 high */
+    r = _mm512_fnmadd_pd(kd, _mm512_set1_pd(0x1.a39ef35793c76p-36), r);   /* ... low */
+    __m512d p = _mm512_fmadd_pd(_mm512_set1_pd(1.0 / 120.0), r, _mm512_set1_pd(1.0 / 24.0));
+    p = _mm512_fmadd_pd(p, r, _mm512_set1_pd(1.0 / 6.0));
+    p = _mm512_fmadd_pd(p, r, _mm512_set1_pd(0.5));
+    p = _mm512_fmadd_pd(p, r, _mm512_set1_pd(1.0));
+    p = _mm512_fmadd_pd(p, r, _mm512_set1_pd(1.0));
     /* 2^(j/8), j = 0..7: the permute reads the low three bits of kbits, k mod 8. */
-    const V8d table = {0x1p0, 0x1.172b83c7d517bp0, 0x1.306fe0a31b715p0, 0x1.4bfdad5362a27p0,
-                       0x1.6a09e667f3bcdp0, 0x1.8ace5422aa0dbp0, 0x1.ae89f995ad3adp0,
-                       0x1.d5818dcfba487p0};
-    V8d tj = (V8d)_mm512_permutexvar_pd((__m512i)kbits, (__m512d)table);
-    uint64_t shift_bits;
-    memcpy(&shift_bits, &shift, sizeof shift_bits);
-    V8i k = (V8i)(kbits - shift_bits); /* in [-924, 0] for t >= -80 */
-    V8u scale = (V8u)((k >> 3) + 1023) << 52;
-    V8d e = p * tj * (V8d)scale;
-    const uint64_t low = ((uint64_t)1 << 29) - 1, half = (uint64_t)1 << 28;
-    const uint64_t margin = (uint64_t)1 << 18;
-    V8i near = (V8i)((((V8u)e & low) - (half - margin)) < 2 * margin);
-    V8i bad = near | ~(V8i)(t >= -80.0);
-    if (_mm512_test_epi64_mask((__m512i)bad, (__m512i)bad)) {
-        V8d exact = exp_nonpos8(t);
-        e = (V8d)(((V8i)exact & bad) | ((V8i)e & ~bad));
+    const __m512d table = _mm512_setr_pd(0x1p0, 0x1.172b83c7d517bp0, 0x1.306fe0a31b715p0,
+                                         0x1.4bfdad5362a27p0, 0x1.6a09e667f3bcdp0,
+                                         0x1.8ace5422aa0dbp0, 0x1.ae89f995ad3adp0,
+                                         0x1.d5818dcfba487p0);
+    __m512d e = _mm512_mul_pd(p, _mm512_permutexvar_pd(kbits, table));
+    e = _mm512_scalef_pd(e, _mm512_mul_pd(kd, _mm512_set1_pd(0.125))); /* 2^floor(k/8) */
+    const long long half = 1LL << 28, margin = 1LL << 18;
+    __m512i low = _mm512_and_si512(_mm512_castpd_si512(e), _mm512_set1_epi64((1LL << 29) - 1));
+    __mmask8 near = _mm512_cmplt_epu64_mask(_mm512_sub_epi64(low, _mm512_set1_epi64(half - margin)),
+                                            _mm512_set1_epi64(2 * margin));
+    __mmask8 in = _mm512_cmp_pd_mask(t, _mm512_set1_pd(-80.0), _CMP_GE_OQ);
+    __mmask8 bad = (__mmask8)(near | (__mmask8)~in);
+    if (bad) {
+        V8d exact = exp_nonpos8((V8d)t);
+        e = _mm512_mask_blend_pd(bad, e, (__m512d)exact);
     }
-    return __builtin_convertvector(e, V8f);
+    return _mm512_cvtpd_ps(e);
 }
-
-FILTER_GAUSSIAN_BATCH(gaussian_batch8, gaussian8, V8f, 8, FILTER_AVX512)
 
 __attribute__((target("avx2"))) static void gaussian_batch_avx2(const Filter *f,
                                                                 const float *x, float *w,
@@ -247,13 +248,19 @@ __attribute__((target("avx2"))) static void gaussian_batch_avx2(const Filter *f,
     gaussian_batch(f, x, w, n);
 }
 
-__attribute__((target("avx512f,avx512vl,avx512bw,avx512dq"))) static void
-gaussian_batch_avx512(const Filter *f, const float *x, float *w, int n)
+/* The batch eight weights at a time; a last partial group through masked loads and
+ * stores (its padding lanes compute exp(0)). */
+__attribute__((FILTER_AVX512)) static void gaussian_batch_avx512(const Filter *f,
+                                                                 const float *x, float *w,
+                                                                 int n)
 {
-    gaussian_batch8(f, x, w, n);
+    double s = (double)f->r;
+    __m512d neg_inv = _mm512_set1_pd(-1.0 / (2.0 * s * s));
+    for (int i = 0; i < n; i += 8) {
+        __mmask8 m = n - i >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (n - i)) - 1);
+        _mm256_mask_storeu_ps(w + i, m, gaussian8(_mm256_maskz_loadu_ps(m, x + i), neg_inv));
+    }
 }
-
-FILTER_GAUSSIAN_OFFSETS(gaussian_offsets8, gaussian8, V8d, V8f, 8, FILTER_AVX512)
 
 __attribute__((target("avx2"))) static void gaussian_offsets_avx2(const Filter *f,
                                                                   const float *pos, int n,
@@ -262,11 +269,26 @@ __attribute__((target("avx2"))) static void gaussian_offsets_avx2(const Filter *
     gaussian_offsets(f, pos, n, R, w, plane);
 }
 
-__attribute__((target("avx512f,avx512vl,avx512bw,avx512dq"))) static void
-gaussian_offsets_avx512(const Filter *f, const float *pos, int n, int R, float *w,
-                        size_t plane)
+/* gaussian_offsets' loop in AVX-512: the arguments by the same double operations and
+ * rounding (vcvtpd2ps, as the vector extension's conversion), masked at the end. */
+__attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter *f,
+                                                                   const float *pos, int n,
+                                                                   int R, float *w,
+                                                                   size_t plane)
 {
-    gaussian_offsets8(f, pos, n, R, w, plane);
+    double s = (double)f->r;
+    __m512d neg_inv = _mm512_set1_pd(-1.0 / (2.0 * s * s));
+    __m512d half = _mm512_set1_pd(0.5), dr = _mm512_set1_pd((double)R);
+    for (int i = 0; i < n; i += 8) {
+        __mmask8 m = n - i >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (n - i)) - 1);
+        __m512d b = _mm512_sub_pd(_mm512_sub_pd(_mm512_cvtps_pd(_mm256_maskz_loadu_ps(m, pos + i)),
+                                                half),
+                                  dr);
+        for (int k = 0; k <= 2 * R; k++) {
+            __m256 x = _mm512_cvtpd_ps(_mm512_add_pd(b, _mm512_set1_pd((double)k)));
+            _mm256_mask_storeu_ps(w + (size_t)k * plane + (size_t)i, m, gaussian8(x, neg_inv));
+        }
+    }
 }
 #define HAVE_AVX2_BATCH 1
 #endif
