@@ -63,8 +63,8 @@ typedef int64_t V8i __attribute__((vector_size(64)));
  * calls, no branches. ln 2 is split in two (the high part has 32 significant bits, so
  * k * ln2_hi is exact for |k| < 2^21) to keep r accurate. One body for both widths (a
  * macro: the operations, and so the bits, cannot drift apart). */
-#define FILTER_EXP_NONPOS(NAME, VD, VU, VI)                                                \
-    __attribute__((always_inline)) static inline VD NAME(VD t)                            \
+#define FILTER_EXP_NONPOS(NAME, VD, VU, VI, ...)                                           \
+    __attribute__((always_inline __VA_ARGS__)) static inline VD NAME(VD t)                \
     {                                                                                      \
         const double shift = 0x1.8p52, inv_ln2 = 0x1.71547652b82fep0;                      \
         const double ln2_hi = 0x1.62e42feep-1, ln2_lo = 0x1.a39ef35793c76p-33;             \
@@ -93,8 +93,7 @@ typedef int64_t V8i __attribute__((vector_size(64)));
         return p * (VD)sbits;                                                              \
     }
 
-FILTER_EXP_NONPOS(exp_nonpos4, V4d, V4u, V4i)
-FILTER_EXP_NONPOS(exp_nonpos8, V8d, V8u, V8i)
+FILTER_EXP_NONPOS(exp_nonpos4, V4d, V4u, V4i, )
 
 double filter_exp_nonpos(double t)
 {
@@ -186,6 +185,10 @@ FILTER_GAUSSIAN_OFFSETS(gaussian_offsets, gaussian4, V4d, V4f, 4)
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #define FILTER_AVX512 target("avx512f,avx512vl,avx512bw,avx512dq")
+
+/* Eight lanes, for the AVX-512 functions (a 64-byte vector passed to or from a function
+ * built without AVX-512 would change the calling convention). */
+FILTER_EXP_NONPOS(exp_nonpos8, V8d, V8u, V8i, , FILTER_AVX512)
 
 /* The AVX-512 Gaussian: a cheaper exp F that decides the float of exp_nonpos8 (E) in
  * nearly every lane, E itself where it cannot. F: t = k ln2/8 + r with k = round(t 8 /
