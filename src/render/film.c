@@ -7,6 +7,9 @@
 #include "rt/render.h"
 
 #include <math.h>
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#endif
 #include <stdlib.h>
 #include <string.h>
 
@@ -299,6 +302,65 @@ static void film_draw_samples(const Film *f, int x, int y)
 /* The first row (or column) of the packet tile holding row (column) v >= 0. */
 static int film_grid_floor(int v) { return v - v % TILE; }
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* A whole tile row from the scratch into the planes: float k (channel k % 5 of sample
+ * k / 5) of pixel dx, at src + dx * per_px + k, goes to d + (k / 5) ss + (k % 5) cs + dx.
+ * Eight floats of the eight pixels at a time: an 8 x 8 transpose in registers, then one
+ * store of the eight columns per float (one by one, each sample's five channels cost
+ * eight scattered stores per pixel). Copies only: the bits are the scratch's. */
+__attribute__((target("avx2"))) static void film_copy_row8(const float *src, size_t per_px,
+                                                          int floats, float *d, size_t ss,
+                                                          size_t cs)
+{
+    int k = 0, c = 0; /* float k is channel c of its sample, stored at d + o */
+    size_t o = 0;
+#define FILM_ROW8_STORE(v)                                                                \
+    do {                                                                                  \
+        _mm256_storeu_ps(d + o, (v));                                                     \
+        o += cs;                                                                          \
+        if (++c == 5) {                                                                   \
+            c = 0;                                                                        \
+            o += ss - 5 * cs;                                                             \
+        }                                                                                 \
+    } while (0)
+    for (; k + 8 <= floats; k += 8) {
+        const float *p = src + k;
+        __m256 r0 = _mm256_loadu_ps(p), r1 = _mm256_loadu_ps(p + per_px);
+        __m256 r2 = _mm256_loadu_ps(p + 2 * per_px), r3 = _mm256_loadu_ps(p + 3 * per_px);
+        __m256 r4 = _mm256_loadu_ps(p + 4 * per_px), r5 = _mm256_loadu_ps(p + 5 * per_px);
+        __m256 r6 = _mm256_loadu_ps(p + 6 * per_px), r7 = _mm256_loadu_ps(p + 7 * per_px);
+        __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
+        __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
+        __m256 t4 = _mm256_unpacklo_ps(r4, r5), t5 = _mm256_unpackhi_ps(r4, r5);
+        __m256 t6 = _mm256_unpacklo_ps(r6, r7), t7 = _mm256_unpackhi_ps(r6, r7);
+        /* u0: float 0 of pixels 0-3 (low half) and float 4 (high half); u1: 1 and 5 ... */
+        __m256 u0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
+        __m256 u1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
+        __m256 u2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));
+        __m256 u3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));
+        __m256 u4 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0));
+        __m256 u5 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
+        __m256 u6 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0));
+        __m256 u7 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(3, 2, 3, 2));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u0, u4, 0x20));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u1, u5, 0x20));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u2, u6, 0x20));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u3, u7, 0x20));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u0, u4, 0x31));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u1, u5, 0x31));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u2, u6, 0x31));
+        FILM_ROW8_STORE(_mm256_permute2f128_ps(u3, u7, 0x31));
+    }
+#undef FILM_ROW8_STORE
+    for (; k < floats; k++)
+        for (int dx = 0; dx < 8; dx++)
+            d[(size_t)(k / 5) * ss + (size_t)(k % 5) * cs + (size_t)dx] =
+                src[(size_t)dx * per_px + (size_t)k];
+}
+#define FILM_HAVE_COPY_ROW8 1
+_Static_assert(TILE == 8, "film_copy_row8 copies rows of eight pixels");
+#endif
+
 /* One 8 x 8 tile of a band (columns x0.., rows by.., those inside [sx0, sx1) and
  * [y0, y1)): its pixels' samples queued in Morton order (with `refine`: only the
  * pixels whose first samples disagree, sampled again), traced, and, through the
@@ -335,6 +397,19 @@ static void film_tile(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by,
         if (!row)
             continue;
         int y = by + dy;
+#ifdef FILM_HAVE_COPY_ROW8
+        /* A whole row of pixels with the sampler's count, colour only: transposed. */
+        if (f->avx2 && row == 0xff && f->stride == 5) {
+            bool full = true;
+            for (int dx = 0; dx < TILE; dx++)
+                full &= *film_count(f, x0 + dx, y) == f->slots;
+            if (full) {
+                film_copy_row8(scratch + (size_t)(dy * TILE) * per_px, per_px, f->slots * 5,
+                               film_sample(f, x0, y, 0), f->ss, cs);
+                continue;
+            }
+        }
+#endif
         for (int dx = 0; dx < TILE; dx++) {
             if (!(row >> dx & 1))
                 continue;
