@@ -29,40 +29,6 @@ static void append_prim(GridBuild *b, const Prim *p, RecKind kind)
     g->num_prims++;
 }
 
-/* The bounded primitives go into cells in table (depth-first) order; the others are
- * tested for every ray. */
-typedef struct AppendJob {
-    GridBuild *b;
-    const PrimTable *t;
-} AppendJob;
-
-static void append_all(const AppendJob *job)
-{
-    Grid *g = job->b->g;
-    for (uint32_t i = 0; i < job->t->num_prims; i++) {
-        const Prim *p = &job->t->prims[i];
-        if (p->bounded) {
-            append_prim(job->b, p, grid_rec_kind(p));
-        } else {
-            g->unbounded[g->num_unbounded].obj = p->obj;
-            g->unbounded[g->num_unbounded].xf = p->xf;
-            g->num_unbounded++;
-        }
-    }
-}
-
-/* Chunk 0 makes grid_pack's arrays (it touches none of what chunk 1 writes), chunk 1
- * appends. */
-static void append_or_prepare(void *ctx, int i, int worker)
-{
-    (void)worker;
-    const AppendJob *job = ctx;
-    if (i == 0)
-        grid_pack_prepare(job->b->g, job->t->num_bounded);
-    else
-        append_all(job);
-}
-
 void grid_free(Grid *g)
 {
     if (!g)
@@ -209,14 +175,18 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     g->unbounded = bigmem_calloc(nu ? nu : 1, sizeof *g->unbounded);
     if (!g->prims || !b.prim_ncells || !g->unbounded)
         goto oom;
-    /* With set-up threads, grid_pack's arrays are made by one while the other appends
-     * (about 0.3 ms each on the 40k bunny: three mappings whose first 2 MB page is
-     * zeroed, against a pass over the table); with one, grid_pack makes them. */
-    AppendJob job = {&b, t};
-    if (nb >= 2 * BIN_CHUNK && nb < GRID_ITEM_TRI && par_threads() > 1)
-        par_for(2, append_or_prepare, &job);
-    else
-        append_all(&job);
+    /* The bounded primitives go into cells in table (depth-first) order; the others are
+     * tested for every ray. */
+    for (uint32_t i = 0; i < t->num_prims; i++) {
+        const Prim *p = &t->prims[i];
+        if (p->bounded) {
+            append_prim(&b, p, grid_rec_kind(p));
+        } else {
+            g->unbounded[g->num_unbounded].obj = p->obj;
+            g->unbounded[g->num_unbounded].xf = p->xf;
+            g->num_unbounded++;
+        }
+    }
     if (!grid_bin_fill_pack(&b)) {
         if (!b.too_many)
             goto oom;

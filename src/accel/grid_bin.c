@@ -178,9 +178,10 @@ bool grid_bin_fill_pack(GridBuild *b)
     job.nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
     job.chunk = calloc(job.nchunks ? job.nchunks : 1, sizeof *job.chunk);
     bool ok = job.chunk != NULL;
-    /* grid_pack's arrays, made beforehand (grid.c) so the job faults them in (when they
-     * could not be had, grid_pack tries again and reports). */
+    /* grid_pack's arrays, made now so the job faults them in (when they cannot be had,
+     * grid_pack tries again and reports). */
     if (ok && grid_pack_wanted(g) && par_threads() > 1) {
+        grid_pack_prepare(g, n);
         job.fault[0] = (char *)g->tri;
         job.fault[1] = (char *)g->tri_hit;
         job.fault_len[0] = g->tri ? (size_t)n * sizeof *g->tri : 0;

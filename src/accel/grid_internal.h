@@ -139,8 +139,10 @@ Grid *grid_alloc(void);
  * threads). */
 bool grid_pack(Grid *g);
 /* Makes grid_pack's arrays for n primitives now (those it cannot have stay NULL: grid_pack
- * makes or does without them). Touches nothing else of g, so it may run beside the
- * build's other steps. */
+ * makes or does without them). With set-up threads (grid_bin.c): the pack's chunks then
+ * write the new order into g->prims_spare. (Made by a helper beside the table walk
+ * instead, they took longer: two threads mapping and faulting at once contend for the
+ * address space, and the trimming munmaps interrupt the other CPU.) */
 void grid_pack_prepare(Grid *g, uint32_t n);
 /* Whether grid_pack packs g (it has primitives, and not too many for the tag bit). */
 bool grid_pack_wanted(const Grid *g);
