@@ -284,11 +284,42 @@ static void test_gaussian_paths(void)
     }
 }
 
+/* Adds to x (n of cap) the floats of the 10 binades below the argument of t = -80
+ * whose exp lies within 24576 double units of a float rounding boundary and whose t,
+ * reduced as the AVX-512 Gaussian reduces it (t - k ln2/8), lies in the outer 3% of
+ * its interval: there the cheaper exp's degree-5 series is furthest off (up to about
+ * 82,000 units), so these are the arguments a margin too small for that error gets
+ * wrong (2^16: 6-9 of them per sigma; the grid's arguments above miss it). */
+static int gaussian_worst_arguments(double neg_inv, float *x, int n, int cap)
+{
+    const double k_per_t = 0x1.71547652b82fep3, t_per_k = 0x1.62e42fefa39efp-4; /* 8/ln2 */
+    float xmax = (float)sqrt(-80.0 / neg_inv);
+    uint32_t b1;
+    memcpy(&b1, &xmax, sizeof b1);
+    for (uint32_t b = b1 - (10u << 23); b < b1 && n < cap; b++) {
+        float xi;
+        memcpy(&xi, &b, sizeof xi);
+        double t = (double)(xi * xi) * neg_inv;
+        double r = t - nearbyint(t * k_per_t) * t_per_k;
+        if (fabs(r) < 0.97 * 0.5 * t_per_k)
+            continue;
+        double e = filter_exp_nonpos(t);
+        uint64_t bits;
+        memcpy(&bits, &e, sizeof bits);
+        uint64_t low = bits & (((uint64_t)1 << 29) - 1), half = (uint64_t)1 << 28;
+        if ((low > half ? low - half : half - low) < 24576)
+            x[n++] = xi;
+    }
+    return n;
+}
+
 /* The AVX-512 Gaussian decides most floats with a cheaper exp and falls back to the
  * plain one near a float rounding boundary: arguments searched out whose exp lies
  * within 2^12 double units of a boundary (halfway between two floats), where the
- * cheaper exp's own float is often the other one, give the plain build's bits on
- * every path, alone and in a long batch (fails when the fallback is dropped). */
+ * cheaper exp's own float is often the other one, and those where the cheaper exp is
+ * furthest off (gaussian_worst_arguments), give the plain build's bits on every path,
+ * alone and in a long batch (fails when the fallback is dropped, and with a margin of
+ * 2^16 units instead of 2^18). */
 static void test_gaussian_rounding_boundaries(void)
 {
     char why[160];
@@ -311,6 +342,11 @@ static void test_gaussian_rounding_boundaries(void)
                 x[n++] = (i & 1) ? -xi : xi;
         }
         CHECK_MSG(n >= 20, "sigma %g: only %d arguments near a rounding boundary", (double)f.r, n);
+        int n0 = n;
+        if (k < 2) /* 0.3 s a sigma at -O2: two are enough */
+            n = gaussian_worst_arguments(neg_inv, x, n, CAP);
+        CHECK_MSG(k == 2 || n - n0 >= 60, "sigma %g: only %d arguments where the cheaper exp is "
+                  "furthest off", (double)f.r, n - n0);
         filter_gaussian_path_set(0);
         filter_weights_1d(&f, x, w0, n);
         for (int cap = 1; cap <= 2; cap++) {
