@@ -28,9 +28,11 @@ void par_for(int n, ParChunkFn fn, void *ctx);
 
 /* par_for for chunks that are whole threads' work (the render's workers, each pulling
  * jobs from a shared counter until none is left, so a chunk the caller runs after its
- * own finds nothing to do): runs it and returns true only when it can run on the
- * helpers, i.e. n >= 2, n <= par_threads() and no other par_for is in progress;
- * otherwise false, with nothing run (the caller starts threads of its own). */
+ * own finds nothing to do): runs it and returns true when the helpers may take part,
+ * i.e. n >= 2, n <= par_threads() and no other par_for is in progress; otherwise
+ * false, with nothing run (the caller starts threads of its own). A helper that could
+ * not be started is missing as in par_for: its chunks then run on the caller, one
+ * after another. */
 bool par_try_for(int n, ParChunkFn fn, void *ctx);
 
 /* Starts the helpers now, for par_for calls soon after; between calls they wait
@@ -43,7 +45,8 @@ void par_prepare(void);
  * reading, and it is still there for the render. Nothing when no helper is wanted
  * (par_set_helpers(0), one CPU). A forked child does not inherit the hold. */
 void par_hold(void);
-/* Ends par_hold; idle helpers exit now (a running job's helpers once it is done). */
+/* Ends par_hold; idle helpers exit now. A job running meanwhile keeps its helpers, and
+ * they linger a few milliseconds after it (as after any par_for) before they exit. */
 void par_release(void);
 /* Helpers started and not yet exited (for tests). */
 int par_helpers_running(void);

@@ -305,11 +305,12 @@ bool render_parallel(const RayTracer *rt, int threads, int jobs, RenderJobFn fn,
         }
         workers[i].ctx.cancel = cancel; /* shading polls it inside a pixel's ray tree */
     }
-    /* Worker 0 runs on this thread: -threads 1 starts no thread at all. The others run
-     * on the set-up's helpers when they can (rt/par.h: already started, usually during
-     * the scene's reading, so the render starts no thread and waits for none to get a
-     * CPU); a worker whose chunk the calling thread takes after its own finds no job
-     * left, so the result is the same. */
+    /* -threads 1 runs its one worker on this thread and starts no thread at all. With
+     * more, the workers run on the set-up's helpers when they can (rt/par.h: already
+     * started, usually during the scene's reading, so the render starts no thread and
+     * waits for none to get a CPU). Any thread may run any worker's chunk (this one
+     * too, a helper still spinning from the last job may take chunk 0); a worker whose
+     * chunk runs after another's finds no job left, so the result is the same. */
     bool on_helpers = ok && threads > 1 && par_try_for(threads, worker_chunk, workers);
     if (ok && !on_helpers) {
         /* Threads of its own: more than the set-up's helpers, or they are busy. The
