@@ -28,6 +28,11 @@ typedef struct FilterOps {
      * bits, in one call (the film asks for the 2(2R+1) weights of a pixel's samples
      * together, which a filter can compute in vector lanes). NULL: weight_1d each. */
     void (*weights_1d)(const Filter *f, const float *x, float *w, int n);
+    /* Optional form of filter_weights_1d_offsets (below), the same bits, for a filter
+     * that makes the arguments in its own lanes. NULL: the arguments in double, rounded
+     * to float, through weights_1d (or weight_1d each). */
+    void (*weights_1d_offsets)(const Filter *f, const float *pos, int n, int R, float *w,
+                               size_t plane);
     /* Half-width beyond which the weight is negligible or zero: r, or 2 sigma. */
     double (*extent)(const Filter *f);
 } FilterOps;

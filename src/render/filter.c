@@ -200,8 +200,8 @@ FILTER_EXP_NONPOS(exp_nonpos8, V8d, V8u, V8i, , FILTER_AVX512)
  * roundings (reduction, polynomial, table, product) and E's own error (< 1e-15) a few
  * 1e-16: below 9.7e-12 relative, so under 2^17 units in the last place of a double in
  * E's binade (an ulp is at least 2^-53 of the value: 9.7e-12 * 2^53 = 87,400 units;
- * measured: 82,200), under 2^18 in F's own (at most one binade lower). Rounding to float drops the 29 low
- * mantissa bits L of the double; the rounding boundaries (halfway between two floats)
+ * measured: 82,200), under 2^18 in F's own (at most one binade lower). Rounding to
+ * float drops the 29 low mantissa bits L of the double; the rounding boundaries (halfway between two floats)
  * are at L = 2^28 (every other point of the float grid is a float itself). So where
  * |L(F) - 2^28| >= 2^18 no boundary lies between F and E, and (float)F == (float)E:
  * the bits of the other paths. Lanes within 2^18 of a boundary (about one in 1000),
@@ -375,14 +375,15 @@ static float mitchell_weight(const Filter *f, float x, float y)
                    mitchell_1d(2.0 * (double)y / (double)f->r));
 }
 
-static const FilterOps box_ops = {"box", "radius", box_weight, box_weight_1d, NULL,
+static const FilterOps box_ops = {"box", "radius", box_weight, box_weight_1d, NULL, NULL,
                                   radius_extent};
-static const FilterOps tent_ops = {"tent", "radius", tent_weight, NULL, NULL, radius_extent};
+static const FilterOps tent_ops = {"tent", "radius", tent_weight, NULL, NULL, NULL,
+                                   radius_extent};
 static const FilterOps gaussian_ops = {"gaussian", "sigma", gaussian_weight,
                                        gaussian_weight_1d, gaussian_weights_1d,
-                                       gaussian_extent};
+                                       gaussian_weights_1d_offsets, gaussian_extent};
 static const FilterOps mitchell_ops = {"mitchell", "radius", mitchell_weight,
-                                       mitchell_weight_1d, NULL, radius_extent};
+                                       mitchell_weight_1d, NULL, NULL, radius_extent};
 
 void filter_weights_1d(const Filter *f, const float *x, float *w, int n)
 {
@@ -397,8 +398,8 @@ void filter_weights_1d(const Filter *f, const float *x, float *w, int n)
 void filter_weights_1d_offsets(const Filter *f, const float *pos, int n, int R, float *w,
                                size_t plane)
 {
-    if (f->ops == &gaussian_ops) {
-        gaussian_weights_1d_offsets(f, pos, n, R, w, plane);
+    if (f->ops->weights_1d_offsets) {
+        f->ops->weights_1d_offsets(f, pos, n, R, w, plane);
         return;
     }
     enum { CHUNK = 256 };
