@@ -93,12 +93,69 @@ static void print_version(void)
     printf("mpi: %s\n", dist_describe());
 }
 
+/* The kinds of image a render writes, in a part's render identity. */
+enum { IMAGE_KIND_COLOR = 1, IMAGE_KIND_DEPTH, IMAGE_KIND_NORMALS };
+
+static SetupKey key_float(SetupKey k, float v)
+{
+    uint32_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    return setup_hash_u64(k, bits);
+}
+
+static SetupKey key_text(SetupKey k, const char *s)
+{
+    return s ? setup_hash(s, strlen(s) + 1, k) : setup_hash_u64(k, 0);
+}
+
+/* A part image's render identity (rt/image.h): the key of the scene's inputs (the
+ * scene text and every OBJ file's bytes, Scene.inputs) chained with the image's kind
+ * and every option that can change one of its pixels. Left out, because no pixel
+ * depends on them: -threads, -grid and -accel (byte-identical images; but they shape
+ * -visualize_grid's picture, so then they count), -cache, -no_packets, -stats,
+ * -timings, -progress, -quiet, the output's name and format, the preview's options,
+ * and the region itself (the record says where the part sits). */
+static uint64_t render_identity(const Scene *s, const Options *o, int kind)
+{
+    SetupKey k = setup_hash_u64(s->inputs, (uint64_t)kind);
+    k = setup_hash_u64(k, (uint64_t)o->width << 32 | (uint64_t)o->height);
+    k = setup_hash_u64(k, (uint64_t)o->shade_back | (uint64_t)o->shadows << 1 |
+                              (uint64_t)o->noise_cutoff << 2 | (uint64_t)o->adaptive << 3 |
+                              (uint64_t)o->visualize_grid << 4 |
+                              (uint64_t)o->visualize_grid_count << 5);
+    k = setup_hash_u64(k, (uint64_t)(uint32_t)o->bounces);
+    k = key_float(k, o->weight);
+    if (kind == IMAGE_KIND_DEPTH) {
+        k = key_float(k, o->depth_min);
+        k = key_float(k, o->depth_max);
+    }
+    k = key_text(k, o->sampler);
+    k = setup_hash_u64(k, (uint64_t)(uint32_t)o->samples);
+    if (o->adaptive) {
+        k = setup_hash_u64(k, (uint64_t)(uint32_t)o->adaptive_min << 32 |
+                                  (uint32_t)o->adaptive_max);
+        k = key_float(k, o->adaptive_threshold);
+    }
+    k = key_text(k, o->filter);
+    k = key_float(k, o->filter_param);
+    k = setup_hash_u64(k, o->seed);
+    if (o->visualize_grid || o->visualize_grid_count) {
+        k = setup_hash_u64(k, (uint64_t)o->grid | (uint64_t)o->grid_auto << 1 |
+                                  (uint64_t)o->no_marking << 2);
+        for (int i = 0; i < 3; i++)
+            k = setup_hash_u64(k, (uint64_t)(uint32_t)o->grid_n[i]);
+        k = key_text(k, o->accel);
+    }
+    return k.a ^ k.b;
+}
+
 /* Allocates the image of the rendered rectangle; a part image (-region, -tile) records
- * where it sits in the full image. bytes: a byte image (rt/image.h), for an image that
- * is only written: the renderer quantises each pixel as it stores it, and the encoder
- * copies rows (a 1080p frame is 6 MB instead of 25 MB of floats read back). */
+ * where it sits in the full image and its render identity. bytes: a byte image
+ * (rt/image.h), for an image that is only written: the renderer quantises each pixel as
+ * it stores it, and the encoder copies rows (a 1080p frame is 6 MB instead of 25 MB of
+ * floats read back). */
 static bool alloc_image(Image **slot, Image *storage, const char *want, const Options *o,
-                        bool bytes, Diag *d)
+                        bool bytes, const Scene *s, int kind, Diag *d)
 {
     *slot = NULL;
     if (!want)
@@ -121,6 +178,8 @@ static bool alloc_image(Image **slot, Image *storage, const char *want, const Op
         storage->region.y = o->region_y;
         storage->region.full_width = o->width;
         storage->region.full_height = o->height;
+        storage->region.has_id = true;
+        storage->region.id = render_identity(s, o, kind);
     }
     *slot = storage;
     return true;
@@ -306,10 +365,14 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
      * ranks send float tiles to the root). A 1080p frame is then 6 MB instead of 25,
      * and a -tile part of 16 rows 92 KB instead of 368. */
     bool bytes = dist_size() == 1;
-    bool allocated = alloc_image(&target.color, &color, o->output, o, bytes, &app->diag) &&
-                     alloc_image(&target.depth, &depth, o->depth_file, o, bytes, &app->diag) &&
-                     alloc_image(&target.normals, &normals, o->normals_file, o, bytes,
-                                 &app->diag);
+    const Scene *s = app->scene;
+    bool allocated =
+        alloc_image(&target.color, &color, o->output, o, bytes, s, IMAGE_KIND_COLOR,
+                    &app->diag) &&
+        alloc_image(&target.depth, &depth, o->depth_file, o, bytes, s, IMAGE_KIND_DEPTH,
+                    &app->diag) &&
+        alloc_image(&target.normals, &normals, o->normals_file, o, bytes, s,
+                    IMAGE_KIND_NORMALS, &app->diag);
     if (!dist_root_ok(allocated)) {
         status = EXIT_INPUT;
         goto done;
@@ -586,7 +649,9 @@ static int run(App *app)
             fprintf(stderr, "timings: set-up cache %s not used (%s): building\n",
                     o->cache_file, setup_cache_rejected(app->cache));
     }
-    app->scene = dist_scene_load(o->input, app->cache, &app->diag);
+    /* A part image records the render's identity (rt/image.h): the scene's files are
+     * keyed as they are read. */
+    app->scene = dist_scene_load(o->input, app->cache, o->region, &app->diag);
     app->t_parse = clock_now() - t0;
     if (!app->scene)
         return EXIT_INPUT;

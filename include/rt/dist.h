@@ -24,8 +24,9 @@ const char *dist_describe(void);
 /* Loads the scene on every rank: the root reads path and its OBJ files and sends their
  * bytes to the others, which build the same scene from them (no shared file system
  * needed). Errors are reported to diag on the root only; every rank returns NULL.
- * cache: the set-up cache (-cache; NULL: none), used by every rank's load. */
-Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag);
+ * cache: the set-up cache (-cache; NULL: none), used by every rank's load. identify:
+ * the root keys the scene's inputs (scene_load_with) for a part image's record. */
+Scene *dist_scene_load(const char *path, SetupCache *cache, bool identify, Diag *diag);
 
 /* Renders the rectangle of w x h pixels at (x0, y0) (full-image pixels, y from the
  * bottom) into the images given (each w x h; NULL: not wanted), adding its counters to

@@ -12,12 +12,21 @@
 
 /* Where a part image sits in the full image it was cut from (-region, -tile): its
  * top-left pixel (x, y), counted from the full image's top-left corner as files store
- * images, and the full image's size. Files carry it as one line of text (REGION_TAG
- * x y w h full_width full_height): the TGA image ID field, a PNG tEXt chunk with the
- * keyword REGION_TAG, or a PPM comment line "# REGION_TAG ...". */
+ * images, and the full image's size; and which render it is a part of. Files carry it
+ * as one line of text (REGION_TAG x y w h full_width full_height render=ID, ID 16
+ * lowercase hex digits; files of earlier versions end before " render="): the TGA
+ * image ID field, a PNG tEXt chunk with the keyword REGION_TAG, or a PPM comment line
+ * "# REGION_TAG ...".
+ * The render identity: parts with the same one come from the same scene text, the same
+ * OBJ files' bytes and the same options that decide pixels (the image's kind -- colour,
+ * depth or normals -- included); options that never change a pixel (-threads, -grid,
+ * -accel, -cache, -stats, the output's format, ...) do not enter it, so parts rendered
+ * with different ones merge. -merge refuses parts of different identities. */
 typedef struct ImageRegion {
     int x, y;
     int full_width, full_height;
+    bool has_id;        /* false: a record without one (an earlier version's part) */
+    uint64_t id;
 } ImageRegion;
 #define IMAGE_REGION_TAG "raytracer-region"
 

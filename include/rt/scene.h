@@ -44,8 +44,10 @@ typedef struct Scene {
     bool no_lights;             /* the zero-lights rule fired (WARNING printed by main) */
     SceneFiles *files;          /* while loading: where files come from (NULL: the disk) */
     SetupCache *cache;          /* while loading: meshes from and for -cache (NULL: none) */
-    SetupKey inputs;            /* with a cache: the hash of every file the load read (the
-                                   scene text, then each OBJ file), in order */
+    bool identify;              /* while loading: key the inputs even without a cache */
+    SetupKey inputs;            /* with a cache or identify: the hash of every file the
+                                   load read (the scene text, then each OBJ file's bytes),
+                                   in order; the same with or without the cache */
     /* Where each leaf was written, for messages about one leaf (scene_leaf_loc): leaf ids
      * are depth-first, i.e. file order, so runs in file order, by first id (malloc'd). */
     SceneLeafRun *leaf_runs;
@@ -80,8 +82,11 @@ Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag);
 
 /* The same with the set-up cache (rt/setup_cache.h; NULL: none): OBJ files whose bytes
  * the cache knows are not parsed again, the others are added to it, and Scene.inputs
- * keys what is built from the scene. Same scene either way. */
-Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, Diag *diag);
+ * keys what is built from the scene. Same scene either way. identify: Scene.inputs is
+ * computed without a cache too (a part image's render identity, rt/image.h); it costs
+ * a pass over each file's bytes, so only renders that record it ask for it. */
+Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, bool identify,
+                       Diag *diag);
 
 SceneFiles *scene_files_new(bool record);
 void scene_files_free(SceneFiles *f);   /* NULL allowed */

@@ -18,9 +18,9 @@ const char *dist_describe(void)
     return "not in this binary (make mpi builds ./raytracer-mpi, which has it)";
 }
 
-Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
+Scene *dist_scene_load(const char *path, SetupCache *cache, bool identify, Diag *diag)
 {
-    return scene_load_with(path, NULL, cache, diag);
+    return scene_load_with(path, NULL, cache, identify, diag);
 }
 
 bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)

@@ -346,16 +346,16 @@ static void job_signals(void)
         signal(SIGINT, SIG_IGN);
 }
 
-Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
+Scene *dist_scene_load(const char *path, SetupCache *cache, bool identify, Diag *diag)
 {
     if (g_size == 1)
-        return scene_load_with(path, NULL, cache, diag);
+        return scene_load_with(path, NULL, cache, identify, diag);
     job_signals();
     if (g_rank == 0) {
         SceneFiles *files = scene_files_new(true);
         if (!files)
             die("out of memory");
-        Scene *s = scene_load_with(path, files, cache, diag);
+        Scene *s = scene_load_with(path, files, cache, identify, diag);
         uint8_t *packed = NULL;
         size_t n = 0;
         if (s && !scene_files_pack(files, &packed, &n))
@@ -381,7 +381,7 @@ Scene *dist_scene_load(const char *path, SetupCache *cache, Diag *diag)
         die("could not unpack the scene files");
     Diag quiet;
     diag_init(&quiet, NULL);
-    Scene *s = scene_load_with(path, files, cache, &quiet);
+    Scene *s = scene_load_with(path, files, cache, false, &quiet); /* only the root writes */
     scene_files_free(files);
     if (!s)
         die(quiet.last[0] ? quiet.last : "the scene failed to load from rank 0's bytes");

@@ -4,6 +4,7 @@
 
 #include "rt/bigmem.h"
 
+#include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -96,14 +97,17 @@ bool image_region_format(const Image *img, char *buf, size_t size)
     const ImageRegion *r = &img->region;
     int n = snprintf(buf, size, "%d %d %d %d %d %d", r->x, r->y, img->width, img->height,
                      r->full_width, r->full_height);
+    if (n > 0 && (size_t)n < size && r->has_id)
+        n += snprintf(buf + n, size - (size_t)n, " render=%016" PRIx64, r->id);
     return n > 0 && (size_t)n < size;
 }
 
 bool image_region_parse(const char *text, size_t len, int w, int h, ImageRegion *out,
                         char *err, size_t errlen)
 {
-    /* Six decimal numbers separated by single spaces, nothing else: the record is ours,
-     * so anything looser is a damaged file. */
+    /* Six decimal numbers separated by single spaces, then the render identity or
+     * nothing (an earlier version's record): the record is ours, so anything looser is
+     * a damaged file. */
     long v[6];
     size_t i = 0;
     for (int k = 0; k < 6; k++) {
@@ -122,8 +126,23 @@ bool image_region_parse(const char *text, size_t len, int w, int h, ImageRegion 
             goto bad;
         v[k] = x;
     }
-    if (i != len)
-        goto bad;
+    static const char id_tag[] = " render=";
+    size_t tag = sizeof id_tag - 1;
+    uint64_t id = 0;
+    bool has_id = i < len;
+    if (has_id) {
+        if (len - i != tag + 16 || memcmp(text + i, id_tag, tag) != 0)
+            goto bad;
+        for (i += tag; i < len; i++) {
+            char c = text[i];
+            if (c >= '0' && c <= '9')
+                id = id << 4 | (uint64_t)(c - '0');
+            else if (c >= 'a' && c <= 'f')
+                id = id << 4 | (uint64_t)(c - 'a' + 10);
+            else
+                goto bad;
+        }
+    }
     if (v[2] != w || v[3] != h) {
         snprintf(err, errlen, "region record says %ldx%ld but the image is %dx%d", v[2], v[3],
                  w, h);
@@ -139,6 +158,8 @@ bool image_region_parse(const char *text, size_t len, int w, int h, ImageRegion 
     out->y = (int)v[1];
     out->full_width = (int)v[4];
     out->full_height = (int)v[5];
+    out->has_id = has_id;
+    out->id = id;
     return true;
 bad:
     snprintf(err, errlen, "malformed region record '%.*s'", len > 80 ? 80 : (int)len, text);

@@ -5,6 +5,7 @@
  * byte image (rt/image.h) that the encoder only copies. */
 #include "rt/image.h"
 
+#include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -64,6 +65,8 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
     }
     bool ok = true;
     int fw = 0, fh = 0;
+    bool has_id = false;
+    uint64_t id = 0;
     long long area = 0;
     Image full;
     memset(&full, 0, sizeof full);
@@ -91,6 +94,8 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
         if (i == 0) {
             fw = r->full_width;
             fh = r->full_height;
+            has_id = r->has_id;
+            id = r->id;
             if (!image_init_bytes(&full, fw, fh)) {
                 diag_error(diag, NULL, "out of memory for a %dx%d image", fw, fh);
                 ok = false;
@@ -98,6 +103,24 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
         } else if (r->full_width != fw || r->full_height != fh) {
             diag_error(diag, &loc, "part of a %dx%d image, but %s is part of a %dx%d image",
                        r->full_width, r->full_height, parts[0].path, fw, fh);
+            ok = false;
+        } else if (r->has_id != has_id) {
+            /* Without an identity nothing tells whether the parts belong together: an
+             * earlier version's parts merge only among themselves. */
+            if (r->has_id)
+                diag_error(diag, &loc, "has a render identity but %s has none (written "
+                           "by an earlier raytracer): cannot tell whether they come from "
+                           "the same render; render all the parts again", parts[0].path);
+            else
+                diag_error(diag, &loc, "has no render identity (written by an earlier "
+                           "raytracer) but %s has one: cannot tell whether they come from "
+                           "the same render; render all the parts again", parts[0].path);
+            ok = false;
+        } else if (r->id != id) {
+            diag_error(diag, &loc, "part of another render than %s (render identity "
+                       "%016" PRIx64 " against %016" PRIx64 "): another scene, other OBJ "
+                       "files, another image kind or other options that change pixels",
+                       parts[0].path, r->id, id);
             ok = false;
         }
         for (int j = 0; j < i && ok; j++) {

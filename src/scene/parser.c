@@ -753,6 +753,11 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
                 }
             }
             p->s->inputs = setup_hash(&key, sizeof key, p->s->inputs);
+        } else if (p->s->identify) {
+            /* The same key of the bytes as with a cache: a render's identity does not
+             * depend on -cache. */
+            key = setup_hash(buf, len, (SetupKey){SETUP_TAG_MESH, len});
+            p->s->inputs = setup_hash(&key, sizeof key, p->s->inputs);
         }
         ok = cached || objfile_parse(buf, len, tried[used], &mesh, p->diag);
         if (ok && !cached && p->s->cache && mesh.ntris > 0)

@@ -59,7 +59,7 @@ bool scene_leaf_loc(const Scene *s, uint32_t id, SrcLoc *loc)
 
 static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
                                 const char *base_dir, SceneFiles *files, SetupCache *cache,
-                                Diag *diag)
+                                bool identify, Diag *diag)
 {
     Scene *s = scene_new(name);
     if (!s) {
@@ -69,11 +69,13 @@ static Scene *scene_from_buffer(const char *buf, size_t len, const char *name,
     }
     s->files = files;
     s->cache = cache;
-    if (cache)
+    s->identify = identify;
+    if (cache || identify)
         s->inputs = setup_hash(buf, len, (SetupKey){0x5343454e45ull, len});
     bool parsed = scene_parse(s, buf, len, s->path, base_dir, diag);
     s->files = NULL;
     s->cache = NULL;
+    s->identify = false;
     if (!parsed) {
         scene_free(s);
         return NULL;
@@ -95,13 +97,14 @@ Scene *scene_load_string(const char *text, const char *name, const char *base_di
                          Diag *diag)
 {
     return scene_from_buffer(text, strlen(text), name ? name : "<string>", base_dir, NULL,
-                             NULL, diag);
+                             NULL, false, diag);
 }
 
 Scene *scene_load_buffer(const char *buf, size_t len, const char *name, const char *base_dir,
                          Diag *diag)
 {
-    return scene_from_buffer(buf, len, name ? name : "<buffer>", base_dir, NULL, NULL, diag);
+    return scene_from_buffer(buf, len, name ? name : "<buffer>", base_dir, NULL, NULL, false,
+                             diag);
 }
 
 Scene *scene_load(const char *path, Diag *diag)
@@ -111,10 +114,11 @@ Scene *scene_load(const char *path, Diag *diag)
 
 Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag)
 {
-    return scene_load_with(path, files, NULL, diag);
+    return scene_load_with(path, files, NULL, false, diag);
 }
 
-Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, Diag *diag)
+Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, bool identify,
+                       Diag *diag)
 {
     char *buf;
     size_t len;
@@ -142,7 +146,7 @@ Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, D
         memcpy(dir, path, n);
         dir[n] = '\0';
     }
-    Scene *s = scene_from_buffer(buf, len, name, dir, files, cache, diag);
+    Scene *s = scene_from_buffer(buf, len, name, dir, files, cache, identify, diag);
     free(dir);
     free(buf);
     return s;

@@ -522,6 +522,149 @@ static void test_bad_merges(void)
     e2e_rmtree(dir);
 }
 
+/* ---- render identities ------------------------------------------------------------ */
+
+/* A scene whose triangle comes from an OBJ file (its bytes are part of the identity). */
+static const char MESH_SCENE[] =
+    "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+    "Lights { numLights 1 DirectionalLight { direction 0.3 -0.5 -1 color 1 1 1 } }\n"
+    "Background { color 0.1 0.2 0.3 ambientLight 0.2 0.2 0.2 }\n"
+    "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+    "Group { numObjects 2 MaterialIndex 0 Sphere { center 0.5 0.5 1 radius 0.7 }\n"
+    "  TriangleMesh { obj_file tri.obj } }\n";
+static const char TRI_OBJ[] = "v -2 -2 0\nv 2 -2 0\nv 0 2 0\nf 1 2 3\n";
+/* The same triangle and one comment more: other bytes, the same pixels. */
+static const char TRI_OBJ_COMMENTED[] = "# edited\nv -2 -2 0\nv 2 -2 0\nv 0 2 0\nf 1 2 3\n";
+
+/* Renders band k of 2 of the 40x30 mesh scene with extra options into out. */
+static void identity_part(const char *scene, int k, const char *const *extra, const char *out)
+{
+    const char *args[32] = {"-input", scene, "-size", "40", "30", "-output", out,
+                            "-tile",  k ? "1" : "0", "2"};
+    int n = 10;
+    for (int i = 0; extra[i] && n < 31; i++)
+        args[n++] = extra[i];
+    args[n] = NULL;
+    E2eRun r;
+    char why[512];
+    CHECK_MSG(run_status(args, &r) == 0, "part %s: %s", out, e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+}
+
+static void expect_merge(const char *dir, const char *a, const char *b, int status,
+                         const char *says)
+{
+    char out[PATH_MAX];
+    e2e_join(out, sizeof out, dir, "merged.tga");
+    remove(out);
+    E2eRun r;
+    char why[512];
+    CHECK_MSG(run_status((const char *[]){"-merge", out, a, b, NULL}, &r) == status,
+              "merge %s %s: expected %d: %s", a, b, status, e2e_describe(&r, why, sizeof why));
+    if (says)
+        CHECK_CONTAINS(r.err, says);
+    CHECK_MSG(e2e_exists(out) == (status == 0), "merge %s %s: output %s", a, b,
+              e2e_exists(out) ? "written" : "missing");
+    e2e_run_free(&r);
+}
+
+/* A part as an earlier version wrote it: the same pixels and place, no identity. */
+static bool strip_identity(const char *from, const char *to)
+{
+    Image img;
+    Diag d;
+    diag_init(&d, NULL);
+    if (!image_read(&img, from, &d))
+        return false;
+    bool ok = img.has_region && img.region.has_id;
+    img.region.has_id = false;
+    ok = ok && image_write(&img, to, &d);
+    image_free(&img);
+    return ok;
+}
+
+static void test_render_identity(void)
+{
+    char dir[PATH_MAX], scene[PATH_MAX], obj[PATH_MAX], whole[PATH_MAX], merged[PATH_MAX];
+    char top[PATH_MAX], bottom[PATH_MAX], p[12][PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "identity") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(obj, sizeof obj, dir, "tri.obj");
+    e2e_join(whole, sizeof whole, dir, "whole.tga");
+    e2e_join(merged, sizeof merged, dir, "merged.tga");
+    e2e_join(top, sizeof top, dir, "top.tga");
+    e2e_join(bottom, sizeof bottom, dir, "bottom.tga");
+    for (int i = 0; i < 12; i++) {
+        char name[32];
+        snprintf(name, sizeof name, "p%d.%s", i, i == 3 ? "png" : i == 4 ? "ppm" : "tga");
+        e2e_join(p[i], sizeof p[i], dir, name);
+    }
+    CHECK(e2e_write_file(scene, MESH_SCENE));
+    CHECK(e2e_write_file(obj, TRI_OBJ));
+    render_part(scene, "40", "30", (const char *[]){NULL}, whole);
+    identity_part(scene, 0, (const char *[]){NULL}, top);
+    identity_part(scene, 1, (const char *[]){NULL}, bottom);
+    /* Options no pixel depends on: the parts still merge, into the whole render. */
+    identity_part(scene, 1, (const char *[]){"-threads", "3", "-grid", "4", "4", "4", NULL}, p[0]);
+    identity_part(scene, 1, (const char *[]){"-accel", "none", "-no_packets", "-stats", NULL},
+                  p[1]);
+    char cache[PATH_MAX];
+    e2e_join(cache, sizeof cache, dir, "setup.cache");
+    identity_part(scene, 1, (const char *[]){"-cache", cache, "-grid", "auto", NULL}, p[2]);
+    if (image_format_supported("png"))
+        identity_part(scene, 1, (const char *[]){"-quiet", NULL}, p[3]);
+    identity_part(scene, 1, (const char *[]){"-timings", NULL}, p[4]);
+    /* Options that change pixels, another image kind, another OBJ file's bytes. */
+    identity_part(scene, 1, (const char *[]){"-shadows", NULL}, p[5]);
+    identity_part(scene, 1, (const char *[]){"-jittered_samples", "4", NULL}, p[6]);
+    identity_part(scene, 1, (const char *[]){"-jittered_samples", "4", "-seed", "1", NULL}, p[7]);
+    char normals[PATH_MAX];
+    e2e_join(normals, sizeof normals, dir, "normals.tga");
+    identity_part(scene, 1, (const char *[]){"-normals", normals, NULL}, p[8]);
+    if (harness_failures) {
+        e2e_rmtree(dir);
+        return;
+    }
+    CHECK(e2e_write_file(obj, TRI_OBJ_COMMENTED));
+    identity_part(scene, 1, (const char *[]){NULL}, p[9]);
+    /* ... twice with the cache, which then maps the mesh instead of parsing it: the
+     * identity keys the file's bytes either way */
+    identity_part(scene, 0, (const char *[]){"-cache", cache, NULL}, p[10]);
+    identity_part(scene, 0, (const char *[]){"-cache", cache, NULL}, p[11]);
+    if (harness_failures) {
+        e2e_rmtree(dir);
+        return;
+    }
+    /* p8's colour image is the plain render's; its normal image is another kind. */
+    for (int i = 0; i < 9; i++) {
+        if ((i == 3 && !image_format_supported("png")) || (i >= 5 && i < 8))
+            continue;
+        expect_merge(dir, top, p[i], 0, NULL);
+        CHECK_MSG(same_file(merged, whole), "parts with %s merged into other bytes", p[i]);
+    }
+    for (int i = 5; i < 8; i++)
+        expect_merge(dir, top, p[i], 1, "part of another render than");
+    expect_merge(dir, top, normals, 1, "part of another render than");
+    /* The edited OBJ's pixels are the same, its bytes are not: refused, and its own
+     * parts merge (with and without the cache) into the same image. */
+    expect_merge(dir, p[9], top, 1, "part of another render than");
+    expect_merge(dir, p[10], p[9], 0, NULL);
+    CHECK(same_file(merged, whole));
+    expect_merge(dir, p[11], p[9], 0, NULL);
+    CHECK(same_file(merged, whole));
+    /* Parts without an identity (an earlier version's) merge only among themselves. */
+    char old_top[PATH_MAX], old_bottom[PATH_MAX];
+    e2e_join(old_top, sizeof old_top, dir, "old_top.tga");
+    e2e_join(old_bottom, sizeof old_bottom, dir, "old_bottom.tga");
+    CHECK(strip_identity(top, old_top));
+    CHECK(strip_identity(bottom, old_bottom));
+    expect_merge(dir, old_top, old_bottom, 0, NULL);
+    CHECK(same_file(merged, whole));
+    expect_merge(dir, old_top, bottom, 1, "has a render identity but");
+    expect_merge(dir, top, old_bottom, 1, "has no render identity (written by an earlier");
+    e2e_rmtree(dir);
+}
+
 static void test_region_usage_errors(void)
 {
     static const char *const bad[][10] = {
@@ -609,7 +752,7 @@ static void test_region_record_formats(void)
     Image img;
     CHECK(image_init(&img, 3, 2));
     img.has_region = true;
-    img.region = (ImageRegion){5, 7, 20, 10};
+    img.region = (ImageRegion){5, 7, 20, 10, false, 0};
     image_set(&img, 1, 0, v3(1.0f, 0.5f, 0.25f));
     const ImageCodec *tga = image_codec_find("tga"), *ppm = image_codec_find("ppm");
     static const char *const names[3] = {"tga", "ppm", "png"};
@@ -649,12 +792,46 @@ static void test_region_record_formats(void)
         image_free(&back);
     }
     bigmem_free(buf);
-    img.region = (ImageRegion){18, 0, 20, 10};
+    img.region = (ImageRegion){18, 0, 20, 10, false, 0};
     CHECK(ppm->encode(&img, &buf, &len));
     Image back;
     char err[200] = "";
     CHECK(!ppm->decode(buf, len, &back, err, sizeof err));
     CHECK_CONTAINS(err, "does not lie inside");
+    bigmem_free(buf);
+    /* The render identity: 16 lowercase hex digits after " render=", or nothing. */
+    img.region = (ImageRegion){5, 7, 20, 10, true, 0x0123456789abcdefull};
+    for (int f = 0; f < 3; f++) {
+        if (!image_format_supported(names[f]))
+            continue;
+        const ImageCodec *codec = image_codec_find(names[f]);
+        CHECK(codec->encode(&img, &buf, &len));
+        char err2[200] = "";
+        CHECK_MSG(codec->decode(buf, len, &back, err2, sizeof err2), "%s: %s", names[f], err2);
+        CHECK(back.has_region && back.region.has_id);
+        CHECK(back.region.id == 0x0123456789abcdefull);
+        CHECK_INT(back.region.x, 5);
+        image_free(&back);
+        bigmem_free(buf);
+    }
+    CHECK(tga->encode(&img, &buf, &len));
+    char *hex = memchr(buf, '=', len);
+    CHECK(hex != NULL && buf[0] > 16 && hex - (char *)buf == 18 + buf[0] - 17);
+    if (hex) {
+        static const char bad[] = {'A', 'g', ' ', '-'};
+        for (size_t i = 0; i < sizeof bad; i++) {
+            char keep = hex[5];
+            hex[5] = bad[i];
+            CHECK_MSG(!tga->decode(buf, len, &back, err, sizeof err), "id digit '%c'", bad[i]);
+            CHECK_CONTAINS(err, "malformed region record");
+            hex[5] = keep;
+        }
+        hex[-1] = 'x'; /* " rendex=" */
+        CHECK(!tga->decode(buf, len, &back, err, sizeof err));
+        hex[-1] = 'r';
+        CHECK(tga->decode(buf, len, &back, err, sizeof err));
+        image_free(&back);
+    }
     bigmem_free(buf);
     /* Whole images carry no record. */
     img.has_region = false;
@@ -691,5 +868,6 @@ static const TestCase tests[] = {
     {"tiles_grid_aa", test_tiles_grid_aa},
     {"tile_stats_add_up", test_tile_stats_add_up},
     {"bad_merges", test_bad_merges},
+    {"render_identity", test_render_identity},
 };
 RT_TEST_MAIN(tests)
