@@ -732,7 +732,7 @@ static void test_byte_image_same_files(void)
             }
         if (region) {
             f.has_region = b.has_region = true;
-            f.region = b.region = (ImageRegion){3, 4, 20, 30};
+            f.region = b.region = (ImageRegion){3, 4, 20, 30, true, 0x00c0ffee12345678ull};
         }
         for (int i = 0; image_codec_at(i); i++) {
             const ImageCodec *c = image_codec_at(i);
@@ -782,7 +782,7 @@ static void test_encoding_rows(void)
                     image_put(&img, x, y, v3((float)x / 9.0f, (float)y / 6.0f, 0.3f));
             if (region) {
                 img.has_region = true;
-                img.region = (ImageRegion){2, 1, 30, 20};
+                img.region = (ImageRegion){2, 1, 30, 20, false, 0};
             }
             for (size_t n = 0; n < sizeof names / sizeof names[0]; n++) {
                 ImageEncoding e;
