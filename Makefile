@@ -137,14 +137,24 @@ $(BUILD)/tests/%: $(BUILD)/tests/%.o $(HARNESS_OBJ) $(LIB) $(FLAGS_FILE)
 	$(say) LINK $@
 	$(Q)$(CC) -o $@ $(filter-out $(FLAGS_FILE),$^) $(LDLIBS_ALL)
 
+# The allocation-failure injector of tests/e2e/test_oom.c, preloaded into the binary
+# under test: a shared library of its own, without the sanitizers (their runtime must
+# be the first library a process loads; the test skips itself in those builds).
+OOM_SHIM := $(BUILD)/tests/liboom_shim.so
+$(OOM_SHIM): tests/support/oom_shim.c $(FLAGS_FILE)
+	@mkdir -p $(dir $@)
+	$(say) CC $@
+	$(Q)$(CC) -O2 -fPIC -shared -Wall -Wextra $(WERROR_FLAG) -o $@ $< -ldl
+
 $(BUILD)/tools/%: $(BUILD)/tools/%.o $(LIB) $(FLAGS_FILE)
 	$(say) LINK $@
 	$(Q)$(CC) -o $@ $(filter-out $(FLAGS_FILE),$^) $(LDLIBS_ALL)
 
 # The test command of README.txt. RT_BIN/RT_IMGDIFF point the end-to-end tests at
 # this build's binaries.
-test: $(BIN) tools $(TEST_BINS)
+test: $(BIN) tools $(TEST_BINS) $(OOM_SHIM)
 	$(Q)RT_BIN=$(abspath $(BIN)) RT_TOOLS=$(abspath $(BUILD)/tools) \
+	    RT_OOM_SHIM=$(abspath $(OOM_SHIM)) \
 	    RT_MPI_BIN=$(abspath $(MPI_BIN)) RT_STATIC_BIN=$(abspath raytracer-static) \
 	    sh tests/run_tests.sh $(TEST_BINS)
 

@@ -1,0 +1,253 @@
+/* End-to-end tests of the program when memory runs out. A preloaded injector
+ * (tests/support/oom_shim.c) makes one allocation of a command fail -- malloc, calloc,
+ * realloc, the aligned forms or mmap -- and the test does so for every allocation the
+ * command makes, one run each. Every run must end by itself, either
+ *   - with status 0 and exactly the bytes of the normal run (an allocation the program
+ *     can do without: a helper thread's memory, a cache, a faster path), or
+ *   - with status 1, a message on stderr that says memory ran out, no image written and
+ *     no temporary file left behind;
+ * never with a crash, an abort, a hang or a half-written image. */
+#define _POSIX_C_SOURCE 200809L
+#include <dirent.h>
+#include <limits.h>
+#include <unistd.h>
+
+#include "../harness.h"
+#include "e2e_util.h"
+
+#include "rt/image.h"
+
+/* The injector: RT_OOM_SHIM (the test command sets it), else the library beside the
+ * test binaries of this build (build/tests/liboom_shim.so for build/tests/e2e/test_oom). */
+static bool shim_path(char *buf, size_t size)
+{
+    const char *env = getenv("RT_OOM_SHIM");
+    if (env && *env) {
+        snprintf(buf, size, "%s", env);
+        return access(buf, R_OK) == 0;
+    }
+    char self[PATH_MAX];
+    ssize_t n = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (n <= 0)
+        return false;
+    self[n] = '\0';
+    char *slash = strrchr(self, '/');
+    if (!slash)
+        return false;
+    *slash = '\0';
+    int len = snprintf(buf, size, "%s/../liboom_shim.so", self);
+    return len > 0 && (size_t)len < size && access(buf, R_OK) == 0;
+}
+
+static bool has_temp_file(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return false;
+    bool found = false;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL)
+        if (e->d_name[0] == '.' && strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
+            found = true;
+    closedir(d);
+    return found;
+}
+
+enum { MAX_OUTS = 4 };
+
+typedef struct Sweep {
+    const char *shim;
+    const char *dir;
+    const char *const *args;   /* the command's arguments, NULL-terminated */
+    const char *outs[MAX_OUTS]; /* the files it writes (NULL-terminated) */
+    const char *scratch;       /* a file removed before every run (NULL: none) */
+} Sweep;
+
+/* Runs the command under the injector with OOM_FAIL_AT = fail_at (0: no failure) and,
+ * when count_file is given, the injector's count of allocations written there. */
+static bool run_injected(const Sweep *s, long fail_at, const char *count_file, E2eRun *r)
+{
+    for (int k = 0; k < MAX_OUTS && s->outs[k]; k++)
+        remove(s->outs[k]);
+    if (s->scratch)
+        remove(s->scratch);
+    char at[32];
+    snprintf(at, sizeof at, "%ld", fail_at);
+    /* The child inherits these; this process was loaded long before, without them. */
+    setenv("LD_PRELOAD", s->shim, 1);
+    setenv("OOM_FAIL_AT", at, 1);
+    if (count_file)
+        setenv("OOM_COUNT_FILE", count_file, 1);
+    bool started = e2e_run_bin(harness_bin(), s->args, r);
+    unsetenv("LD_PRELOAD");
+    unsetenv("OOM_FAIL_AT");
+    unsetenv("OOM_COUNT_FILE");
+    return started;
+}
+
+static void sweep(const Sweep *s)
+{
+    char count_file[PATH_MAX], why[512];
+    e2e_join(count_file, sizeof count_file, s->dir, "count.txt");
+    E2eRun r;
+    CHECK(run_injected(s, 0, count_file, &r));
+    CHECK_MSG(r.status == 0, "the run without a failure: %s", e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    char *ref[MAX_OUTS] = {NULL};
+    size_t ref_len[MAX_OUTS] = {0};
+    int nouts = 0;
+    for (; nouts < MAX_OUTS && s->outs[nouts]; nouts++) {
+        ref[nouts] = e2e_read_file(s->outs[nouts], &ref_len[nouts]);
+        CHECK_MSG(ref[nouts] != NULL, "the run without a failure wrote no %s", s->outs[nouts]);
+    }
+    char *text = e2e_read_file(count_file, NULL);
+    long calls = text ? atol(text) : 0;
+    free(text);
+    remove(count_file);
+    /* The injector counts this process's own allocations only if it was preloaded: a
+     * command with none would mean it was not, and the sweep would prove nothing. */
+    CHECK_MSG(calls > 0, "the injector saw no allocation: not preloaded?");
+    if (harness_failures)
+        goto done;
+    int absorbed = 0, refused = 0;
+    /* With threads the order of allocations may vary a little between runs: a few
+     * failure points past the count of the first run are tried too. */
+    for (long at = 1; at <= calls + 4 && !harness_failures; at++) {
+        CHECK(run_injected(s, at, NULL, &r));
+        if (r.status == 0) {
+            absorbed++;
+            for (int k = 0; k < nouts; k++) {
+                size_t len = 0;
+                char *got = e2e_read_file(s->outs[k], &len);
+                CHECK_MSG(got && len == ref_len[k] && memcmp(got, ref[k], len) == 0,
+                          "allocation %ld failed, status 0, but %s differs from the normal "
+                          "run's", at, s->outs[k]);
+                free(got);
+            }
+        } else if (r.status == 1) {
+            refused++;
+            CHECK_MSG(strstr(r.err, "error: ") && strstr(r.err, "memory"),
+                      "allocation %ld failed: status 1 without a message about memory: %s", at,
+                      r.err);
+            for (int k = 0; k < nouts; k++)
+                CHECK_MSG(!e2e_exists(s->outs[k]), "allocation %ld failed: status 1 but %s "
+                          "was written", at, s->outs[k]);
+        } else {
+            CHECK_MSG(false, "allocation %ld failed: %s", at, e2e_describe(&r, why, sizeof why));
+        }
+        CHECK_MSG(!has_temp_file(s->dir), "allocation %ld failed: a temporary file was left "
+                  "in %s", at, s->dir);
+        e2e_run_free(&r);
+    }
+    CHECK_MSG(refused > 0, "no failure was refused (%d absorbed): the injector did nothing?",
+              absorbed);
+done:
+    for (int k = 0; k < nouts; k++)
+        free(ref[k]);
+}
+
+static bool setup(char *shim, size_t shim_size, char *dir, size_t dir_size, const char *name,
+                  char *scene, size_t scene_size)
+{
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    harness_skip("the sanitizers' runtime must be the first library loaded: no injector");
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+    harness_skip("the sanitizers' runtime must be the first library loaded: no injector");
+#endif
+#endif
+    CHECK_MSG(shim_path(shim, shim_size), "no allocation injector (build/tests/liboom_shim.so; "
+              "make test builds it)");
+    if (harness_failures)
+        return false;
+    e2e_join(scene, scene_size, harness_root(), "scenes/feat_mesh_transform.txt");
+    CHECK_MSG(e2e_exists(scene), "missing %s", scene);
+    CHECK(e2e_tmpdir(dir, dir_size, name) != NULL);
+    return !harness_failures;
+}
+
+/* A render with everything that allocates: OBJ meshes, the two-level grid, shadow rays,
+ * the film's strips and weights, two render threads. */
+static void test_oom_render(void)
+{
+    char shim[PATH_MAX], dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    if (!setup(shim, sizeof shim, dir, sizeof dir, "oom_render", scene, sizeof scene))
+        return;
+    e2e_join(out, sizeof out, dir, "a.tga");
+    const char *args[] = {"-input", scene, "-size", "64", "48", "-grid", "auto", "-shadows",
+                          "-jittered_samples", "4", "-gaussian_filter", "0.4", "-threads", "2",
+                          "-output", out, NULL};
+    Sweep s = {shim, dir, args, {out, NULL}, NULL};
+    sweep(&s);
+    e2e_rmtree(dir);
+}
+
+/* A part image with all three kinds of image, the counters, a uniform grid. */
+static void test_oom_part(void)
+{
+    char shim[PATH_MAX], dir[PATH_MAX], scene[PATH_MAX], col[PATH_MAX], nor[PATH_MAX],
+        dep[PATH_MAX];
+    if (!setup(shim, sizeof shim, dir, sizeof dir, "oom_part", scene, sizeof scene))
+        return;
+    e2e_join(col, sizeof col, dir, image_format_supported("png") ? "b.png" : "b.tga");
+    e2e_join(nor, sizeof nor, dir, "n.ppm");
+    e2e_join(dep, sizeof dep, dir, "d.tga");
+    const char *args[] = {"-input", scene, "-size", "48", "32", "-tile", "1", "2",
+                          "-output", col, "-normals", nor, "-depth", "5", "15", dep,
+                          "-stats", "-grid", "6", "6", "6", "-threads", "2", NULL};
+    Sweep s = {shim, dir, args, {col, nor, dep, NULL}, NULL};
+    sweep(&s);
+    e2e_rmtree(dir);
+}
+
+/* The set-up cache written from scratch by every run, with uniform samples. */
+static void test_oom_cache(void)
+{
+    char shim[PATH_MAX], dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX], cache[PATH_MAX];
+    if (!setup(shim, sizeof shim, dir, sizeof dir, "oom_cache", scene, sizeof scene))
+        return;
+    e2e_join(out, sizeof out, dir, "c.tga");
+    e2e_join(cache, sizeof cache, dir, "setup.cache");
+    const char *args[] = {"-input", scene, "-size", "40", "30", "-grid", "8", "8", "8",
+                          "-uniform_samples", "4", "-cache", cache, "-output", out, NULL};
+    Sweep s = {shim, dir, args, {out, NULL}, cache};
+    sweep(&s);
+    e2e_rmtree(dir);
+}
+
+/* -merge of two parts rendered beforehand (outside the swept folder). */
+static void test_oom_merge(void)
+{
+    char shim[PATH_MAX], dir[PATH_MAX], scene[PATH_MAX], parts[PATH_MAX], p0[PATH_MAX],
+        p1[PATH_MAX], out[PATH_MAX];
+    if (!setup(shim, sizeof shim, dir, sizeof dir, "oom_merge", scene, sizeof scene))
+        return;
+    CHECK(e2e_tmpdir(parts, sizeof parts, "oom_parts") != NULL);
+    e2e_join(p0, sizeof p0, parts, "p0.tga");
+    e2e_join(p1, sizeof p1, parts, "p1.tga");
+    e2e_join(out, sizeof out, dir, "m.tga");
+    for (int k = 0; k < 2; k++) {
+        E2eRun r;
+        CHECK_INT(e2e_run_bin(harness_bin(),
+                              (const char *[]){"-input", scene, "-size", "48", "32", "-tile",
+                                               k ? "1" : "0", "2", "-output", k ? p1 : p0, NULL},
+                              &r),
+                  true);
+        CHECK_INT(r.status, 0);
+        e2e_run_free(&r);
+    }
+    const char *args[] = {"-merge", out, p1, p0, NULL};
+    Sweep s = {shim, dir, args, {out, NULL}, NULL};
+    if (!harness_failures)
+        sweep(&s);
+    e2e_rmtree(parts);
+    e2e_rmtree(dir);
+}
+
+static const TestCase tests[] = {
+    {"oom_render", test_oom_render},
+    {"oom_part", test_oom_part},
+    {"oom_cache", test_oom_cache},
+    {"oom_merge", test_oom_merge},
+};
+RT_TEST_MAIN(tests)
