@@ -141,6 +141,9 @@ static void sweep(const Sweep *s)
     }
     CHECK_MSG(refused > 0, "no failure was refused (%d absorbed): the injector did nothing?",
               absorbed);
+    printf("(%d failure points: %d absorbed, %d refused) ", absorbed + refused, absorbed,
+           refused);
+    fflush(stdout);
 done:
     for (int k = 0; k < nouts; k++)
         free(ref[k]);
