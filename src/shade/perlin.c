@@ -150,6 +150,25 @@ __attribute__((target("avx2"))) static double noise3_avx2(double x, double y, do
 
 static const int *perm_words(void) { return (const int *)(const void *)PERLIN_PERM; }
 
+/* The lane kernels' noise_cell (perlin_lanes.h): for hash h & 15 and corner c = i + 2j +
+ * 4k of a cell, which of the twelve vectors d[axis * 4 + bit * 2 + negated] (the
+ * distances x - i', y - j', z - k' for bits i', j', k' of 0 and 1, and their
+ * negations) grad adds as u (low nibble) and as v (high nibble): u is x (h < 8) or y;
+ * v is y (h < 4), x (h 12 and 14) or z; bit 0 of h negates u, bit 1 negates v. */
+#define CELL_U(h, i, j) (((h) < 8 ? 2 * (i) : 4 + 2 * (j)) + ((h) & 1))
+#define CELL_V(h, i, j, k)                                                                   \
+    (((h) < 4 ? 4 + 2 * (j) : (h) == 12 || (h) == 14 ? 2 * (i) : 8 + 2 * (k)) + ((h) >> 1 & 1))
+#define CELL_UV(h, c)                                                                        \
+    (CELL_U(h, (c)&1, (c) >> 1 & 1) | CELL_V(h, (c)&1, (c) >> 1 & 1, (c) >> 2) << 4)
+#define CELL_ROW(h)                                                                          \
+    {CELL_UV(h, 0), CELL_UV(h, 1), CELL_UV(h, 2), CELL_UV(h, 3),                           \
+     CELL_UV(h, 4), CELL_UV(h, 5), CELL_UV(h, 6), CELL_UV(h, 7)}
+static const unsigned char CELL_PICK[16][8] = {
+    CELL_ROW(0),  CELL_ROW(1),  CELL_ROW(2),  CELL_ROW(3),  CELL_ROW(4),  CELL_ROW(5),
+    CELL_ROW(6),  CELL_ROW(7),  CELL_ROW(8),  CELL_ROW(9),  CELL_ROW(10), CELL_ROW(11),
+    CELL_ROW(12), CELL_ROW(13), CELL_ROW(14), CELL_ROW(15),
+};
+
 /* AVX-512 (F, VL, DQ): eight doubles a vector, the ints in a 256-bit vector. */
 #define PL_TARGET __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw")))
 #define PL_W 8
@@ -163,9 +182,24 @@ PL_TARGET static inline void d_store_x8(double *p, __m512d a) { _mm512_storeu_pd
 PL_TARGET static inline __m512d d_add_x8(__m512d a, __m512d b) { return _mm512_add_pd(a, b); }
 PL_TARGET static inline __m512d d_sub_x8(__m512d a, __m512d b) { return _mm512_sub_pd(a, b); }
 PL_TARGET static inline __m512d d_mul_x8(__m512d a, __m512d b) { return _mm512_mul_pd(a, b); }
+PL_TARGET static inline __m512d d_neg_x8(__m512d a)
+{
+    return _mm512_xor_pd(a, _mm512_set1_pd(-0.0));
+}
 PL_TARGET static inline __m512d d_floor_x8(__m512d a)
 {
     return _mm512_roundscale_pd(a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+}
+PL_TARGET static inline double d_lane0_x8(__m512d a) { return _mm512_cvtsd_f64(a); }
+PL_TARGET static inline bool d_one_cell_x8(__m512d fx, __m512d fy, __m512d fz)
+{
+    __m512d x0 = _mm512_broadcastsd_pd(_mm512_castpd512_pd128(fx));
+    __m512d y0 = _mm512_broadcastsd_pd(_mm512_castpd512_pd128(fy));
+    __m512d z0 = _mm512_broadcastsd_pd(_mm512_castpd512_pd128(fz));
+    __mmask8 same = _mm512_cmp_pd_mask(fx, x0, _CMP_EQ_OQ) &
+                    _mm512_cmp_pd_mask(fy, y0, _CMP_EQ_OQ) &
+                    _mm512_cmp_pd_mask(fz, z0, _CMP_EQ_OQ);
+    return same == 0xFF;
 }
 PL_TARGET static inline __m512d d_zero_unless_small_x8(__m512d r, __m512d fx, __m512d fy,
                                                        __m512d fz)
@@ -259,13 +293,13 @@ VB_TARGET static inline __m128i vb_bytes(__m512d f)
     return _mm256_cvtepi32_epi8(_mm512_cvttpd_epi32(f));
 }
 
-VB_TARGET static inline __m512d noise_v8(__m512d x, __m512d y, __m512d z)
+VB_TARGET static inline __m512d noise_v8(__m512d x, __m512d y, __m512d z, __m512d fx,
+                                        __m512d fy, __m512d fz)
 {
     const __m512i t[4] = {_mm512_loadu_si512(PERLIN_PERM), _mm512_loadu_si512(PERLIN_PERM + 64),
                           _mm512_loadu_si512(PERLIN_PERM + 128),
                           _mm512_loadu_si512(PERLIN_PERM + 192)};
     const long long ones = 0x0101010101010101LL;
-    __m512d fx = d_floor_x8(x), fy = d_floor_x8(y), fz = d_floor_x8(z);
     __m128i X = vb_bytes(fx), Y = vb_bytes(fy), Z = vb_bytes(fz);
     __m512d one = _mm512_set1_pd(1.0);
     __m512d x0 = _mm512_sub_pd(x, fx), y0 = _mm512_sub_pd(y, fy), z0 = _mm512_sub_pd(z, fz);
@@ -317,6 +351,10 @@ VB_TARGET static inline __m512d noise_v8(__m512d x, __m512d y, __m512d z)
 #define d_add_v8 d_add_x8
 #define d_sub_v8 d_sub_x8
 #define d_mul_v8 d_mul_x8
+#define d_neg_v8 d_neg_x8
+#define d_floor_v8 d_floor_x8
+#define d_lane0_v8 d_lane0_x8
+#define d_one_cell_v8 d_one_cell_x8
 #include "perlin_lanes.h"
 #undef PL_OWN_NOISE
 #undef PL_TARGET
@@ -339,9 +377,23 @@ PL_TARGET static inline void d_store_x4(double *p, __m256d a) { _mm256_storeu_pd
 PL_TARGET static inline __m256d d_add_x4(__m256d a, __m256d b) { return _mm256_add_pd(a, b); }
 PL_TARGET static inline __m256d d_sub_x4(__m256d a, __m256d b) { return _mm256_sub_pd(a, b); }
 PL_TARGET static inline __m256d d_mul_x4(__m256d a, __m256d b) { return _mm256_mul_pd(a, b); }
+PL_TARGET static inline __m256d d_neg_x4(__m256d a)
+{
+    return _mm256_xor_pd(a, _mm256_set1_pd(-0.0));
+}
 PL_TARGET static inline __m256d d_floor_x4(__m256d a)
 {
     return _mm256_round_pd(a, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+}
+PL_TARGET static inline double d_lane0_x4(__m256d a) { return _mm256_cvtsd_f64(a); }
+PL_TARGET static inline bool d_one_cell_x4(__m256d fx, __m256d fy, __m256d fz)
+{
+    __m256d x0 = _mm256_permute4x64_pd(fx, 0), y0 = _mm256_permute4x64_pd(fy, 0),
+            z0 = _mm256_permute4x64_pd(fz, 0);
+    __m256d same = _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(fx, x0, _CMP_EQ_OQ),
+                                               _mm256_cmp_pd(fy, y0, _CMP_EQ_OQ)),
+                                 _mm256_cmp_pd(fz, z0, _CMP_EQ_OQ));
+    return _mm256_movemask_pd(same) == 15;
 }
 PL_TARGET static inline __m256d d_zero_unless_small_x4(__m256d r, __m256d fx, __m256d fy,
                                                        __m256d fz)

@@ -3,19 +3,27 @@
  * kernel by perlin.c after it has defined, for that set, PL_W, the name PL_FN, the
  * function attribute PL_TARGET, the vector types PL_D (PL_W doubles) and PL_I (PL_W
  * 32-bit ints) and the suffix macro PL_(name) naming its primitives: d_set, d_load,
- * d_store, d_add, d_sub, d_mul, d_floor, d_zero_unless_small (the lanes whose
- * |floor| is not below 1e9 set to +0), i_trunc, i_set, i_add, i_and, i_perm2 (the
- * word at byte i & 255 of the table: P[i & 255] in byte 0, P[(i + 1) & 255] in byte 1),
- * i_byte0, i_byte1 and grad (of the hash's low four bits). A kernel with PL_OWN_NOISE
- * defines its own noise (PL_(noise)) and then needs only d_set, d_load, d_store, d_add
- * and d_mul here.
+ * d_store, d_add, d_sub, d_mul, d_neg (the sign bit flipped), d_floor, d_lane0 (lane
+ * 0's value), d_one_cell (whether every lane's three floors equal lane 0's),
+ * d_zero_unless_small (the lanes whose |floor| is not below 1e9 set to +0), i_trunc,
+ * i_set, i_add, i_and, i_perm2 (the word at byte i & 255 of the table: P[i & 255] in
+ * byte 0, P[(i + 1) & 255] in byte 1), i_byte0, i_byte1 and grad (of the hash's low
+ * four bits). A kernel with PL_OWN_NOISE defines its own noise (PL_(noise), given the
+ * floors) and then needs none of the i_ primitives nor grad and d_zero_unless_small.
  *
  * Lane by lane every value is the operation noise3_scalar and perlin_octaves apply, on
  * the same operands in the same order (floor, the subtraction of the cell, the quintic
  * fade in Horner form, the hashes, the gradients by selection and sign flips, the
  * seven lerps, the octave's scaling and sum), each a single IEEE double operation;
  * nothing is fused (perlin.c is built with -ffp-contract=off). So each lane gives
- * perlin_octaves' bits; tests/unit/test_perlin.c holds every kernel to it. */
+ * perlin_octaves' bits; tests/unit/test_perlin.c holds every kernel to it.
+ *
+ * A vector whose lanes all lie in one lattice cell (the samples of one pixel, at every
+ * octave but the finest; neighbouring pixels at the coarse ones) takes noise_cell: the
+ * eight corner hashes are the same in every lane, so they are looked up once, in
+ * scalar code, and each corner's gradient is two whole vectors added, picked by the
+ * hash (CELL_PICK) from the distances and their negations: the values grad selects
+ * and sign-flips lane by lane, so the same bits again. */
 
 PL_TARGET static inline PL_D PL_(fade)(PL_D t)
 {
@@ -30,9 +38,9 @@ PL_TARGET static inline PL_D PL_(lerp)(PL_D t, PL_D a, PL_D b)
 }
 
 #ifndef PL_OWN_NOISE
-PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z)
+/* fx, fy, fz: the floors of x, y, z (the caller has them for its cell test). */
+PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy, PL_D fz)
 {
-    PL_D fx = PL_(d_floor)(x), fy = PL_(d_floor)(y), fz = PL_(d_floor)(z);
     PL_I m255 = PL_(i_set)(255);
     PL_I X = PL_(i_and)(PL_(i_trunc)(fx), m255), Y = PL_(i_and)(PL_(i_trunc)(fy), m255),
          Z = PL_(i_and)(PL_(i_trunc)(fz), m255);
@@ -67,6 +75,39 @@ PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z)
 }
 #endif
 
+/* noise where every lane's floors are fx0, fy0, fz0 (each below 1e9 in magnitude, so
+ * no lane answers 0): the cell's hashes as noise3_scalar computes them, the
+ * distances, fades and lerps as noise. d holds the six distances and their
+ * negations at the indices CELL_PICK gives (axis * 4 + corner bit * 2 + negated). */
+PL_TARGET static inline PL_D PL_(noise_cell)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy, PL_D fz,
+                                             double fx0, double fy0, double fz0)
+{
+    int X = (int)fx0 & 255, Y = (int)fy0 & 255, Z = (int)fz0 & 255;
+    PL_D one = PL_(d_set)(1.0);
+    PL_D x0 = PL_(d_sub)(x, fx), y0 = PL_(d_sub)(y, fy), z0 = PL_(d_sub)(z, fz);
+    PL_D u = PL_(fade)(x0), v = PL_(fade)(y0), w = PL_(fade)(z0);
+    PL_D x1 = PL_(d_sub)(x0, one), y1 = PL_(d_sub)(y0, one), z1 = PL_(d_sub)(z0, one);
+    PL_D d[12] = {x0, PL_(d_neg)(x0), x1, PL_(d_neg)(x1), y0, PL_(d_neg)(y0),
+                  y1, PL_(d_neg)(y1), z0, PL_(d_neg)(z0), z1, PL_(d_neg)(z1)};
+    int A = perm(X) + Y, AA = perm(A) + Z, AB = perm(A + 1) + Z;
+    int B = perm(X + 1) + Y, BA = perm(B) + Z, BB = perm(B + 1) + Z;
+    /* Corner c = i + 2j + 4k: its hash picks its u and v (low and high nibble). */
+    int p000 = CELL_PICK[perm(AA) & 15][0], p100 = CELL_PICK[perm(BA) & 15][1],
+        p010 = CELL_PICK[perm(AB) & 15][2], p110 = CELL_PICK[perm(BB) & 15][3],
+        p001 = CELL_PICK[perm(AA + 1) & 15][4], p101 = CELL_PICK[perm(BA + 1) & 15][5],
+        p011 = CELL_PICK[perm(AB + 1) & 15][6], p111 = CELL_PICK[perm(BB + 1) & 15][7];
+    PL_D g000 = PL_(d_add)(d[p000 & 15], d[p000 >> 4]);
+    PL_D g100 = PL_(d_add)(d[p100 & 15], d[p100 >> 4]);
+    PL_D g010 = PL_(d_add)(d[p010 & 15], d[p010 >> 4]);
+    PL_D g110 = PL_(d_add)(d[p110 & 15], d[p110 >> 4]);
+    PL_D g001 = PL_(d_add)(d[p001 & 15], d[p001 >> 4]);
+    PL_D g101 = PL_(d_add)(d[p101 & 15], d[p101 >> 4]);
+    PL_D g011 = PL_(d_add)(d[p011 & 15], d[p011 >> 4]);
+    PL_D g111 = PL_(d_add)(d[p111 & 15], d[p111 >> 4]);
+    return PL_(lerp)(w, PL_(lerp)(v, PL_(lerp)(u, g000, g100), PL_(lerp)(u, g010, g110)),
+                     PL_(lerp)(v, PL_(lerp)(u, g001, g101), PL_(lerp)(u, g011, g111)));
+}
+
 PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, int n,
                             int octaves, double *out)
 {
@@ -74,13 +115,15 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
         double bx[PL_W], by[PL_W], bz[PL_W], bo[PL_W];
         int k = n - i < PL_W ? n - i : PL_W;
         const double *px = x + i, *py = y + i, *pz = z + i;
-        if (k < PL_W) { /* the last, partial vector: padded with zeros */
-            memset(bx, 0, sizeof bx);
-            memset(by, 0, sizeof by);
-            memset(bz, 0, sizeof bz);
-            memcpy(bx, px, (size_t)k * sizeof *bx);
-            memcpy(by, py, (size_t)k * sizeof *by);
-            memcpy(bz, pz, (size_t)k * sizeof *bz);
+        if (k < PL_W) {
+            /* The last, partial vector: padded with copies of its first point, which
+             * lie in its cell (zeros would keep it from noise_cell); the padding
+             * lanes' results are dropped. */
+            for (int l = 0; l < PL_W; l++) {
+                bx[l] = px[l < k ? l : 0];
+                by[l] = py[l < k ? l : 0];
+                bz[l] = pz[l < k ? l : 0];
+            }
             px = bx;
             py = by;
             pz = bz;
@@ -88,12 +131,24 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
         PL_D vx = PL_(d_load)(px), vy = PL_(d_load)(py), vz = PL_(d_load)(pz);
         PL_D sum = PL_(d_set)(0.0);
         double scale = 1.0;
+        /* Lanes apart at one octave are apart at every finer one (the cells nest: the
+         * scaling by 2 is exact), so the cell test stops at the first miss. Only the
+         * speed depends on this: either path gives the same bits. */
+        bool cell = true;
         for (int o = 0; o < octaves; o++) {
             /* noise / scale as noise * (1 / scale): scale is a power of two (at most
              * 2^63), so 1 / scale is exact, and both are the correctly rounded value
              * of the same real number (also below the normal range): the same bits. */
             PL_D s = PL_(d_set)(scale), r = PL_(d_set)(1.0 / scale);
-            PL_D nv = PL_(noise)(PL_(d_mul)(vx, s), PL_(d_mul)(vy, s), PL_(d_mul)(vz, s));
+            PL_D xs = PL_(d_mul)(vx, s), ys = PL_(d_mul)(vy, s), zs = PL_(d_mul)(vz, s);
+            PL_D fx = PL_(d_floor)(xs), fy = PL_(d_floor)(ys), fz = PL_(d_floor)(zs);
+            double fx0 = PL_(d_lane0)(fx), fy0 = PL_(d_lane0)(fy), fz0 = PL_(d_lane0)(fz);
+            /* Not finite or 1e9 and beyond: noise's lanes that answer 0 (and a NaN
+             * floor equals nothing, so it never passes d_one_cell). */
+            cell = cell && fabs(fx0) < 1e9 && fabs(fy0) < 1e9 && fabs(fz0) < 1e9 &&
+                   PL_(d_one_cell)(fx, fy, fz);
+            PL_D nv = cell ? PL_(noise_cell)(xs, ys, zs, fx, fy, fz, fx0, fy0, fz0)
+                           : PL_(noise)(xs, ys, zs, fx, fy, fz);
             sum = PL_(d_add)(sum, PL_(d_mul)(nv, r));
             scale *= 2.0;
         }
