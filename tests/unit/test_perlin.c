@@ -297,6 +297,69 @@ static void test_lanes_bits(void)
     printf("    lane kernels run: %d (default %s)\n", kernels_run, def);
 }
 
+/* The lane kernels' shared-cell path (noise_cell: a vector whose lanes all lie in one
+ * lattice cell at an octave) against perlin_octaves, bit for bit: vectors of points
+ * in one cell of the finest octave (2^-7, so in one cell at every coarser one too),
+ * at cells of either sign, at the 255/0 wrap of the permutation (cells -1, 0, 255,
+ * 256), on lattice planes (zero distances, -0, the cell's own corner), far out
+ * (1e9 and beyond: the lanes answer 0) and with one NaN or infinite lane; vectors
+ * that share a cell up to some octave and then straddle two (the test stops at the
+ * first miss); and every count 1 .. 19 (the partial last vector's padding). Groups
+ * of 8 points: one vector of the AVX-512 kernels, two of AVX2. */
+static void test_lanes_cells(void)
+{
+    enum { N = 64 };
+    static double x[N], y[N], z[N], out[N];
+    static const double bases[] = {0.0,   1.0,  -1.0,  255.0, 256.0,  -256.0, 511.0,
+                                   -0.5,  3.25, -7.75, 1e3,   -4e5,   9e8,    -9.99e8,
+                                   1e9,   -2e9, 1e12,  4.5e8, 12.125, -33.5};
+    enum { NB = sizeof bases / sizeof bases[0] };
+    const char *def = perlin_lanes_kernel();
+    const char *names[] = {"scalar", "avx2", "avx512", "avx512vbmi"};
+    long differ = 0, points = 0;
+    for (int kn = 0; kn < 4; kn++) {
+        if (!perlin_use_lanes_kernel(names[kn]))
+            continue;
+        uint64_t s = 0x452821E638D01377ULL;
+        for (int round = 0; round < 400; round++) {
+            int n = round < 40 ? 1 + round % 19 : N;
+            for (int i = 0; i < n; i++) {
+                double c[3];
+                for (int k = 0; k < 3; k++) {
+                    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+                    double r = (double)(s >> 11) / 9007199254740992.0; /* [0, 1) */
+                    /* The group's base: a multiple of 2^-7 (its cell at octave 7)
+                     * near one of the bases; a spread below 2^-7 keeps the group in
+                     * that cell, one of 2^-2 .. 2^-6 lets it straddle at a coarser
+                     * octave (round % 5 picks). */
+                    int g = i / 8 + round;
+                    double b = bases[(g * 7 + k * 3) % NB] + (double)((g * 13 + k * 5) % 17) / 128.0;
+                    double spread = round % 5 == 0 ? ldexp(1.0, -2 - round / 5 % 5) : 1.0 / 128.0;
+                    c[k] = b + r * spread;
+                    if ((i + k + round) % 6 == 0)
+                        c[k] = b; /* on the cell's lattice plane: a zero distance */
+                    if ((i + k + round) % 23 == 0 && b == 0.0)
+                        c[k] = -0.0;
+                }
+                if (round % 9 == 4 && i % 8 == round % 8)
+                    c[round % 3] = round % 2 ? (double)NAN : (double)INFINITY;
+                x[i] = c[0];
+                y[i] = c[1];
+                z[i] = c[2];
+            }
+            int octaves = 1 + round % 8;
+            perlin_octaves_lanes(x, y, z, n, octaves, out);
+            for (int i = 0; i < n; i++) {
+                double want = perlin_octaves(x[i], y[i], z[i], octaves);
+                differ += memcmp(&want, &out[i], sizeof want) != 0;
+                points++;
+            }
+        }
+    }
+    CHECK(perlin_use_lanes_kernel(def));
+    CHECK_MSG(differ == 0, "%ld of %ld points differ from perlin_octaves' bits", differ, points);
+}
+
 static const TestCase tests[] = {
     {"perlin: published reference value", test_published_value},
     {"perlin: independent values", test_independent_values},
@@ -310,5 +373,6 @@ static const TestCase tests[] = {
     {"perlin: the reference formulation's bits", test_bits_of_reference},
     {"perlin: octave cut-off weights (-noise_cutoff)", test_octave_cutoff},
     {"perlin: the lane kernels give perlin_octaves' bits", test_lanes_bits},
+    {"perlin: the lane kernels' shared-cell path gives the same bits", test_lanes_cells},
 };
 RT_TEST_MAIN(tests)
