@@ -18,8 +18,9 @@
  * nothing is fused (perlin.c is built with -ffp-contract=off). So each lane gives
  * perlin_octaves' bits; tests/unit/test_perlin.c holds every kernel to it.
  *
- * A vector whose lanes all lie in one lattice cell (the samples of one pixel, at every
- * octave but the finest; neighbouring pixels at the coarse ones) takes noise_cell: the
+ * A vector whose lanes all lie in one lattice cell (the samples of one pixel or of
+ * neighbouring pixels: on course line 17a at 400 x 400 with 16 samples, 87% of the
+ * vectors at the coarsest of its 5 octaves, 47% at the finest) takes noise_cell: the
  * eight corner hashes are the same in every lane, so they are looked up once, in
  * scalar code, and each corner's gradient is two whole vectors added, picked by the
  * hash (CELL_PICK) from the distances and their negations: the values grad selects
