@@ -274,7 +274,11 @@ __attribute__((target("avx2"))) static void gaussian_offsets_avx2(const Filter *
 }
 
 /* gaussian_offsets' loop in AVX-512: the arguments by the same double operations and
- * rounding (vcvtpd2ps, as the vector extension's conversion), masked at the end. */
+ * rounding (vcvtpd2ps, as the vector extension's conversion). Sixteen positions at a
+ * time, two vectors of eight whose weights are independent chains (the exp's steps are
+ * latency-bound one vector at a time: 0.72 -> 0.60 ns a weight in L1; four vectors at
+ * a time gained nothing more); the rest eight at a time, the last group masked. k is
+ * an exact small integer in double either way (0, 1, 2 ... by adding 1.0). */
 __attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter *f,
                                                                    const float *pos, int n,
                                                                    int R, float *w,
@@ -283,13 +287,30 @@ __attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter 
     double s = (double)f->r;
     __m512d neg_inv = _mm512_set1_pd(-1.0 / (2.0 * s * s));
     __m512d half = _mm512_set1_pd(0.5), dr = _mm512_set1_pd((double)R);
-    for (int i = 0; i < n; i += 8) {
+    const __m512d one = _mm512_set1_pd(1.0);
+    int i = 0;
+    for (; i + 16 <= n; i += 16) {
+        __m512d b0 = _mm512_sub_pd(_mm512_sub_pd(_mm512_cvtps_pd(_mm256_loadu_ps(pos + i)), half),
+                                   dr);
+        __m512d b1 = _mm512_sub_pd(
+            _mm512_sub_pd(_mm512_cvtps_pd(_mm256_loadu_ps(pos + i + 8)), half), dr);
+        __m512d kv = _mm512_setzero_pd();
+        for (int k = 0; k <= 2 * R; k++, kv = _mm512_add_pd(kv, one)) {
+            __m256 x0 = _mm512_cvtpd_ps(_mm512_add_pd(b0, kv));
+            __m256 x1 = _mm512_cvtpd_ps(_mm512_add_pd(b1, kv));
+            float *d = w + (size_t)k * plane + (size_t)i;
+            _mm256_storeu_ps(d, gaussian8(x0, neg_inv));
+            _mm256_storeu_ps(d + 8, gaussian8(x1, neg_inv));
+        }
+    }
+    for (; i < n; i += 8) {
         __mmask8 m = n - i >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (n - i)) - 1);
         __m512d b = _mm512_sub_pd(_mm512_sub_pd(_mm512_cvtps_pd(_mm256_maskz_loadu_ps(m, pos + i)),
                                                 half),
                                   dr);
-        for (int k = 0; k <= 2 * R; k++) {
-            __m256 x = _mm512_cvtpd_ps(_mm512_add_pd(b, _mm512_set1_pd((double)k)));
+        __m512d kv = _mm512_setzero_pd();
+        for (int k = 0; k <= 2 * R; k++, kv = _mm512_add_pd(kv, one)) {
+            __m256 x = _mm512_cvtpd_ps(_mm512_add_pd(b, kv));
             _mm256_mask_storeu_ps(w + (size_t)k * plane + (size_t)i, m, gaussian8(x, neg_inv));
         }
     }
