@@ -195,12 +195,17 @@ FILTER_EXP_NONPOS(exp_nonpos8, V8d, V8u, V8i, , FILTER_AVX512)
  * ln 2), so |r| <= ln2/16 + tiny; 2^(k/8) = 2^floor(k/8) (vscalefpd) times a table of
  * 2^(j/8), j = k mod 8 (one permute); exp(r) by its Taylor series to degree 5 (Horner,
  * fused multiply-adds: F's own bits never reach an image, only its error bound
- * matters). Its error against E, over every t >= -80: truncation |r|^6/720 e^|r| <
- * 9.6e-12 (9.53e-12 exactly at r = -ln2/16, the worst; measured: 9.529e-12);
- * roundings (reduction, polynomial, table, product) and E's own error (< 1e-15) a few
- * 1e-16: below 9.7e-12 relative, so under 2^17 units in the last place of a double in
+ * matters). r = t - k ln2/8 in one fused multiply-add with ln2/8 rounded to one double
+ * c (|c - ln2/8| < 3e-18; |k| <= 80 * 8/ln2 < 924, so r is off by < 2.8e-15, and so
+ * is F, relatively: E's split of ln 2 is not needed here, and one step less was 6%
+ * of the weights' time). Its error against E, over every t >= -80: truncation
+ * |r|^6/720 e^|r| < 9.6e-12 (9.53e-12 exactly at r = -ln2/16, the worst; measured:
+ * 9.529e-12); the reduction's 2.8e-15; the other roundings (polynomial, table,
+ * product) and E's own error (< 1e-15) a few 1e-16: below 9.7e-12 relative
+ * (9.53e-12 + 2.8e-15 + 2e-15), so under 2^17 units in the last place of a double in
  * E's binade (an ulp is at least 2^-53 of the value: 9.7e-12 * 2^53 = 87,400 units;
- * measured: 82,200), under 2^18 in F's own (at most one binade lower). Rounding to
+ * measured: 82,200 with ln 2 split, which the one-double c moves by < 25 units), under
+ * 2^18 in F's own (at most one binade lower). Rounding to
  * float drops the 29 low mantissa bits L of the double; the rounding boundaries (halfway between two floats)
  * are at L = 2^28 (every other point of the float grid is a float itself). So where
  * |L(F) - 2^28| >= 2^18 no boundary lies between F and E, and (float)F == (float)E:
@@ -209,7 +214,9 @@ FILTER_EXP_NONPOS(exp_nonpos8, V8d, V8u, V8i, , FILTER_AVX512)
  * again by exp_nonpos8 (about one vector in 125). t itself and the argument x are the
  * other paths' (no fused operation there). Tested: test_gaussian_rounding_boundaries
  * (fails when the fallback is dropped) and test_gaussian_paths. Weights alone (L1,
- * 400x400x16's worth): 1.47 ns each with exp_nonpos8, 1.0 with this. */
+ * 400x400x16's worth): 1.47 ns each with exp_nonpos8, 1.0 with this; the offsets of a
+ * 402-wide row (gaussian_offsets_avx512, sigma 0.4, L1, best of 5): 0.72 ns a weight,
+ * 0.60 with two vectors at a time, 0.575 with c. */
 __attribute__((always_inline, FILTER_AVX512)) static inline __m256 gaussian8(__m256 x,
                                                                             __m512d neg_inv)
 {
@@ -218,8 +225,8 @@ __attribute__((always_inline, FILTER_AVX512)) static inline __m256 gaussian8(__m
     __m512d kd = _mm512_fmadd_pd(t, _mm512_set1_pd(0x1.71547652b82fep3), shift); /* 8/ln2 */
     __m512i kbits = _mm512_castpd_si512(kd);
     kd = _mm512_sub_pd(kd, shift);
-    __m512d r = _mm512_fnmadd_pd(kd, _mm512_set1_pd(0x1.62e42feep-4), t); /* ln2/8 high */
-    r = _mm512_fnmadd_pd(kd, _mm512_set1_pd(0x1.a39ef35793c76p-36), r);   /* ... low */
+    /* ln2/8 in one double (see the bound above: no split needed for F) */
+    __m512d r = _mm512_fnmadd_pd(kd, _mm512_set1_pd(0x1.62e42fefa39efp-4), t);
     __m512d p = _mm512_fmadd_pd(_mm512_set1_pd(1.0 / 120.0), r, _mm512_set1_pd(1.0 / 24.0));
     p = _mm512_fmadd_pd(p, r, _mm512_set1_pd(1.0 / 6.0));
     p = _mm512_fmadd_pd(p, r, _mm512_set1_pd(0.5));
