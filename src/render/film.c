@@ -52,7 +52,8 @@ typedef struct Film {
     bool avx2;                  /* the CPU has AVX2 (film_filter_span's vectors) */
     bool avx512;                /* ... and AVX-512 (film_span_sums_avx512) */
     int r0, r1;                 /* rows being traced (film_band) */
-    int out0;                   /* first output row of the strip being filtered */
+    int out0, out1;             /* output rows of the strip being filtered */
+    bool pairs;                 /* filter jobs of two rows (film_filter_pair) */
     volatile int *cancel;       /* the stop flag, polled before every tile as well */
 } Film;
 
@@ -687,6 +688,122 @@ __attribute__((FILM_AVX512)) static void film_span_sums_avx512(const Film *f, in
     }
 }
 #define FILM_HAVE_AVX512 1
+
+/* Two output rows j and j + 1 at once (separable weights): their supports share the
+ * rows b0n .. b1 (all but one at each end with R = 1), and a term of a shared row and
+ * sample loads its colour and column weight once for both rows (12 loads for two terms
+ * instead of 20), the rows' sums side by side in registers (16 vectors for 32 pixels).
+ * Each row still adds its own terms in film_filter_row's order: per column offset ta,
+ * the rows only j has (b0 .. b0n-1), then the shared rows, then the rows only j + 1
+ * has (b1+1 .. b1n), samples innermost, each term as in film_span_sums_avx512. terms
+ * are listed in that order (col, wx, and the two rows' row weights, NULL where a row
+ * has no term); at most FILM_TERMS2 (callers check film_pair_terms). */
+enum { FILM_TERMS2 = 512 };
+
+static int film_pair_terms(const Film *f, int b0, int b1n)
+{
+    return (2 * f->R + 1) * (b1n - b0 + 1) * f->slots;
+}
+
+/* One term into one row's sums: weights w0, w1 of the block's two vectors. */
+#define FILM_PAIR_ADD(acc, c, w0, w1)                                                     \
+    do {                                                                                  \
+        acc[0] = _mm512_add_ps(acc[0], _mm512_mul_ps(c[0], w0));                          \
+        acc[1] = _mm512_add_ps(acc[1], _mm512_mul_ps(c[1], w1));                          \
+        acc[2] = _mm512_add_ps(acc[2], _mm512_mul_ps(c[2], w0));                          \
+        acc[3] = _mm512_add_ps(acc[3], _mm512_mul_ps(c[3], w1));                          \
+        acc[4] = _mm512_add_ps(acc[4], _mm512_mul_ps(c[4], w0));                          \
+        acc[5] = _mm512_add_ps(acc[5], _mm512_mul_ps(c[5], w1));                          \
+        acc[6] = _mm512_add_ps(acc[6], w0);                                               \
+        acc[7] = _mm512_add_ps(acc[7], w1);                                               \
+    } while (0)
+
+/* sa[0..3]: row j's r, g, b and weight sums (zero on entry), sb[0..3] row j + 1's. */
+__attribute__((FILM_AVX512)) static void film_span_sums2_avx512(const Film *f, int j, int b0,
+                                                                int b1, int b0n, int b1n,
+                                                                int p0, int m,
+                                                                float *const *sa,
+                                                                float *const *sb)
+{
+    int R = f->R, side = 2 * R + 1, n = f->slots, rows = b1n - b0 + 1;
+    size_t cs = f->cs;
+    const float *col[FILM_TERMS2], *wxp[FILM_TERMS2], *wya[FILM_TERMS2], *wyb[FILM_TERMS2];
+    int k = 0;
+    for (int ta = 0; ta < side; ta++) {
+        int a = p0 - R + ta;
+        for (int b = b0; b <= b1n; b++)
+            for (int s = 0; s < n; s++, k++) {
+                col[k] = film_sample(f, a, b, s) + 2 * cs;
+                wxp[k] = film_weights(f, a, b, s, ta);
+                wya[k] = b <= b1 ? film_weights(f, a, b, s, side + b - j + R) : NULL;
+                wyb[k] = b >= b0n ? film_weights(f, a, b, s, side + b - j - 1 + R) : NULL;
+            }
+    }
+    int only_a = (b0n - b0) * n, both = (b1 - b0n + 1) * n, per_ta = rows * n;
+    for (int q = 0; q < m; q += FILM_BLOCK) {
+        int left = m - q;
+        __mmask16 m0 = left >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << left) - 1);
+        __mmask16 m1 = left >= 32   ? (__mmask16)0xffff
+                       : left <= 16 ? (__mmask16)0
+                                    : (__mmask16)((1u << (left - 16)) - 1);
+        __m512 A[8], B[8], c[6];
+        for (int i = 0; i < 8; i++)
+            A[i] = B[i] = _mm512_setzero_ps();
+#define FILM_PAIR_LOAD(k)                                                                 \
+    do {                                                                                  \
+        const float *cr_ = col[k] + q;                                                    \
+        for (int ch_ = 0; ch_ < 3; ch_++, cr_ += cs) {                                    \
+            _mm_prefetch((const char *)(cr_ + FILM_BLOCK), _MM_HINT_T0);                  \
+            _mm_prefetch((const char *)(cr_ + FILM_BLOCK + 16), _MM_HINT_T0);             \
+            c[2 * ch_] = _mm512_maskz_loadu_ps(m0, cr_);                                  \
+            c[2 * ch_ + 1] = _mm512_maskz_loadu_ps(m1, cr_ + 16);                         \
+        }                                                                                 \
+        const float *x_ = wxp[k] + q;                                                     \
+        _mm_prefetch((const char *)(x_ + FILM_BLOCK), _MM_HINT_T0);                       \
+        _mm_prefetch((const char *)(x_ + FILM_BLOCK + 16), _MM_HINT_T0);                  \
+        x0 = _mm512_maskz_loadu_ps(m0, x_);                                               \
+        x1 = _mm512_maskz_loadu_ps(m1, x_ + 16);                                          \
+    } while (0)
+#define FILM_PAIR_W(wy, k, w0, w1)                                                        \
+    do {                                                                                  \
+        const float *y_ = wy[k] + q;                                                      \
+        _mm_prefetch((const char *)(y_ + FILM_BLOCK), _MM_HINT_T0);                       \
+        _mm_prefetch((const char *)(y_ + FILM_BLOCK + 16), _MM_HINT_T0);                  \
+        w0 = _mm512_mul_ps(x0, _mm512_maskz_loadu_ps(m0, y_));                            \
+        w1 = _mm512_mul_ps(x1, _mm512_maskz_loadu_ps(m1, y_ + 16));                       \
+    } while (0)
+        for (int ta = 0; ta < side; ta++) {
+            int t = ta * per_ta, e;
+            __m512 x0, x1, u0, u1, v0, v1;
+            for (e = t + only_a; t < e; t++) {
+                FILM_PAIR_LOAD(t);
+                FILM_PAIR_W(wya, t, u0, u1);
+                FILM_PAIR_ADD(A, c, u0, u1);
+            }
+            for (e = t + both; t < e; t++) {
+                FILM_PAIR_LOAD(t);
+                FILM_PAIR_W(wya, t, u0, u1);
+                FILM_PAIR_W(wyb, t, v0, v1);
+                FILM_PAIR_ADD(A, c, u0, u1);
+                FILM_PAIR_ADD(B, c, v0, v1);
+            }
+            for (e = (ta + 1) * per_ta; t < e; t++) {
+                FILM_PAIR_LOAD(t);
+                FILM_PAIR_W(wyb, t, v0, v1);
+                FILM_PAIR_ADD(B, c, v0, v1);
+            }
+        }
+#undef FILM_PAIR_LOAD
+#undef FILM_PAIR_W
+        for (int i = 0; i < 4; i++) {
+            _mm512_mask_storeu_ps(sa[i] + q, m0, A[2 * i]);
+            _mm512_mask_storeu_ps(sa[i] + q + 16, m1, A[2 * i + 1]);
+            _mm512_mask_storeu_ps(sb[i] + q, m0, B[2 * i]);
+            _mm512_mask_storeu_ps(sb[i] + q + 16, m1, B[2 * i + 1]);
+        }
+    }
+}
+#undef FILM_PAIR_ADD
 #endif
 
 static void film_filter_span(const Film *f, int j, int b0, int b1, int i0, int i1)
@@ -718,6 +835,41 @@ static void film_filter_span(const Film *f, int j, int b0, int b1, int i0, int i
             }
     }
 }
+
+#ifdef FILM_HAVE_AVX512
+/* Output rows j and j + 1 (j + 1 < the image height), pixels i0 .. i1-1 of each, as
+ * film_filter_span does each row (film_span_sums2_avx512; more terms than it lists:
+ * one row at a time). */
+static void film_filter_span2(const Film *f, int j, int i0, int i1)
+{
+    const FilmConfig *c = f->cfg;
+    int R = f->R, last = c->full_height - 1;
+    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < last ? j + R : last;
+    int b0n = j + 1 - R > 0 ? j + 1 - R : 0, b1n = j + 1 + R < last ? j + 1 + R : last;
+    if (film_pair_terms(f, b0, b1n) > FILM_TERMS2) {
+        film_filter_span(f, j, b0, b1, i0, i1);
+        film_filter_span(f, j + 1, b0n, b1n, i0, i1);
+        return;
+    }
+    float sums[8][FILM_SPAN];
+    float *const sa[4] = {sums[0], sums[1], sums[2], sums[3]};
+    float *const sb[4] = {sums[4], sums[5], sums[6], sums[7]};
+    for (int p0 = i0; p0 < i1; p0 += FILM_SPAN) {
+        int m = i1 - p0 < FILM_SPAN ? i1 - p0 : FILM_SPAN;
+        film_span_sums2_avx512(f, j, b0, b1, b0n, b1n, p0, m, sa, sb);
+        if (c->color)
+            for (int r = 0; r < 2; r++) {
+                float *const *t = r ? sb : sa;
+                for (int q = 0; q < m; q++) {
+                    float w = t[3][q];
+                    image_put(c->color, p0 + q - c->x0, j + r - c->y0,
+                              w != 0.0f ? v3(t[0][q] / w, t[1][q] / w, t[2][q] / w)
+                                        : v3(0, 0, 0));
+                }
+            }
+    }
+}
+#endif
 
 /* Output pixels i0 .. i1-1 of row j when each is the box-weighted average of its own
  * random-position samples only (R = 0, colour only, pixel by pixel: jittered or random
@@ -782,12 +934,10 @@ static int film_filter_own(const Film *f, int j, int i0, int i1)
 /* Output row (out0 + job) of the rectangle: every pixel is the weighted average of the
  * samples of its support (cropped at the image border), columns outer, rows inner,
  * samples innermost, in float, divided by the sum of the weights used. */
-static void film_filter_row(void *user, RenderCtx *ctx, int job)
+static void film_filter_line(const Film *f, int j, bool span)
 {
-    (void)ctx;
-    const Film *f = user;
     const FilmConfig *c = f->cfg;
-    int j = f->out0 + job, R = f->R;
+    int R = f->R;
     int b0 = j - R > 0 ? j - R : 0;
     int b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
     bool adaptive = c->refine != NULL;
@@ -806,7 +956,8 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
         first = film_filter_own(f, j, c->x0, c->x0 + c->width); /* the box's own pixels */
     for (int i = first; i < c->x0 + c->width; i++) {
         if (i == in0 && in1 > in0) {
-            film_filter_span(f, j, b0, b1, in0, in1);
+            if (span) /* else the caller's (film_filter_pair) */
+                film_filter_span(f, j, b0, b1, in0, in1);
             i = in1 - 1;
             continue;
         }
@@ -891,6 +1042,40 @@ static void film_filter_row(void *user, RenderCtx *ctx, int job)
             image_put(c->normals, x, y,
                       wsum != 0.0f ? v3(sum_n.x / wsum, sum_n.y / wsum, sum_n.z / wsum) : zero);
     }
+}
+
+static void film_filter_row(void *user, RenderCtx *ctx, int job)
+{
+    (void)ctx;
+    const Film *f = user;
+    film_filter_line(f, f->out0 + job, true);
+}
+
+/* Output rows out0 + 2 job and the next (when the strip has it), their spans together
+ * (film_filter_span2), their other pixels by film_filter_line. f->pairs only: the
+ * span's case (colour only, planes, separable weights) on a CPU with AVX-512. */
+static void film_filter_pair(void *user, RenderCtx *ctx, int job)
+{
+    (void)ctx;
+    const Film *f = user;
+    const FilmConfig *c = f->cfg;
+    int j = f->out0 + 2 * job, R = f->R;
+#ifdef FILM_HAVE_AVX512
+    int in0 = c->x0 > R ? c->x0 : R;
+    int in1 = c->x0 + c->width < c->full_width - R ? c->x0 + c->width : c->full_width - R;
+    if (j + 1 < f->out1 && in1 > in0) {
+        film_filter_line(f, j, false);
+        film_filter_line(f, j + 1, false);
+        film_filter_span2(f, j, in0, in1);
+        return;
+    }
+#else
+    (void)c;
+    (void)R;
+#endif
+    film_filter_line(f, j, true);
+    if (j + 1 < f->out1)
+        film_filter_line(f, j + 1, true);
 }
 
 /* The traced columns or rows [lo, hi) of a span [x0, x0 + n) of an image of `full`. */
@@ -978,6 +1163,8 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
      * (the weight pass and the tile copy; paired runs in bench/REPORT.txt). */
     f.planes = !cfg->refine && !cfg->depth && !cfg->normals && R > 0 && (f.per || f.table);
     f.row_weights = f.per && f.planes;
+    /* Filter jobs of two rows where their spans share loads (film_span_sums2_avx512). */
+    f.pairs = f.row_weights && f.avx512;
     size_t px_floats = (size_t)f.slots * (size_t)f.stride;
     f.rs = (size_t)f.fw * px_floats;
     if (f.planes) {
@@ -1065,9 +1252,15 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
             f.rows = f.r1 - f.y0;
         }
         f.out0 = oy;
+        f.out1 = out1;
         if (ok) {
             double t0 = clock_thread_cpu();
-            ok = render_parallel(NULL, threads, out1 - oy, film_filter_row, &f, NULL, cancel);
+            if (f.pairs)
+                ok = render_parallel(NULL, threads, (out1 - oy + 1) / 2, film_filter_pair, &f,
+                                     NULL, cancel);
+            else
+                ok = render_parallel(NULL, threads, out1 - oy, film_filter_row, &f, NULL,
+                                     cancel);
             cfg->filter_cpu += clock_thread_cpu() - t0;
         }
         oy = out1;

@@ -681,8 +681,11 @@ static void test_film_vector_filter(void)
     Fixture fx;
     if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
         return;
-    Sampler jit, uni, rnd;
+    Sampler jit, uni, rnd, jit64;
     make_sampler(&jit, "jittered", 16, 3);
+    /* 64 samples: more terms than the AVX-512 sums list at once (batches; two rows'
+     * spans one at a time) */
+    make_sampler(&jit64, "jittered", 64, 3);
     make_sampler(&uni, "uniform", 9, 0);
     make_sampler(&rnd, "random", 5, 1);
     Filter g4, g9, box, box3;
@@ -693,7 +696,7 @@ static void test_film_vector_filter(void)
     CHECK(filter_init(&box3, filter_find("box"), 0.3f, why, sizeof why));
     struct { const Sampler *s; const Filter *f; } cases[] = {
         {&jit, &g4}, {&jit, &box}, {&uni, &box}, {&uni, &g4}, {&rnd, &g9}, {&rnd, &box3},
-        {&jit, &box3}};
+        {&jit, &box3}, {&jit64, &g4}};
     const int W = 37, H = 21;
     for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
         Image plain, with_d, depth;
