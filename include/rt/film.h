@@ -9,9 +9,10 @@
  *
  * Memory stays bounded: the rectangle is filtered in strips of rows; only the sample
  * rows a strip needs (its rows plus R above and below) are held, within a budget
- * (FILM_DEFAULT_BUDGET; with one worker and R = 0 a strip is one 8-row band of packet
- * tiles, the budget only an upper bound), and the R rows shared with the next strip are
- * kept, not traced again: every sample is traced exactly once. */
+ * (FILM_DEFAULT_BUDGET; with one worker a strip holds one new 8-row band of packet
+ * tiles and the 2R rows kept from the strip before, the budget only an upper bound), in
+ * a ring of rows: the 2R rows shared with the next strip stay in place, not traced
+ * again: every sample is traced exactly once. */
 #ifndef RT_FILM_H
 #define RT_FILM_H
 

@@ -16,10 +16,11 @@
 #define TILE RENDER_TILE
 
 /* One strip's worth of samples: film rows y0 .. y0+rows-1 (image rows), columns
- * sx0 .. sx0+fw-1. Pixel (x, y) holds count[(y - y0) fw + x - sx0] samples; a sample
+ * sx0 .. sx0+fw-1, in a ring of rows_cap buffer rows (film_row(y): row y0 at buffer
+ * row ring0). Pixel (x, y) holds count[film_row(y) fw + x - sx0] samples; a sample
  * has `stride` channels: offset x, y; colour; depth grey and |normal| when wanted.
- * Channel c of sample s of pixel (x, y) is at row * rs + (x - sx0) * xs + s * ss +
- * c * cs. In planes (the colour-only filters with neighbours to weigh): for each film
+ * Channel c of sample s of pixel (x, y) is at film_row(y) * rs + (x - sx0) * xs +
+ * s * ss + c * cs. In planes (the colour-only filters with neighbours to weigh): for each film
  * row, sample slot and channel a row of fw floats, one per column (xs = 1, cs = fw);
  * else pixel by pixel, a sample's channels side by side (cs = 1). The separable filter's weights
  * towards the 2R+1 columns and rows around (when used: `per` = 2(2R+1) of them, column
@@ -1212,14 +1213,17 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
             down += TILE;
         cap = down;
     }
-    /* One worker and no rows shared between strips (R = 0): a strip of one band. Its
+    /* One worker: a strip of one new band and the 2R rows kept from the strip before
+     * (film_row's ring: kept rows are not moved, so thin strips cost no moves). The
      * buffer is then reused band after band, so the render touches 1 MB of fresh
-     * memory instead of the budget's 8 (16 samples at 400 wide): on this VM a fresh
-     * huge page sometimes costs a millisecond to fault in (clear_page_erms 0.2-9% of
-     * a 16-sample 17a render between runs). With several workers every strip keeps
-     * the budget's bands: a strip of one band per worker waits at each strip's end
-     * for its slowest band (2 threads, 2 bands a strip: +9% wall time). With R > 0
-     * the shared rows are moved at every strip, so thin strips cost moves. */
+     * memory instead of the budget's 8 (16 samples at 400 wide, R = 0), or 2.8 MB
+     * instead of 6.8 (the Gaussian 0.4, R = 1: with its weights 283 KB a row, the
+     * budget held 24 rows); on this VM a fresh huge page sometimes costs a millisecond
+     * to fault in (clear_page_erms 0.2-9% of a 16-sample 17a render between runs), and
+     * the strip just traced is filtered while more of it is still in cache. With
+     * several workers every strip keeps the budget's bands: a strip of one band per
+     * worker waits at each strip's end for its slowest band (2 threads, 2 bands a
+     * strip: +9% wall time). */
     if (workers == 1 && cap > (size_t)(TILE + 2 * R))
         cap = (size_t)(TILE + 2 * R);
     if (cap > (size_t)(f.sy1 - f.sy0))
