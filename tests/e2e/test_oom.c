@@ -39,21 +39,35 @@ static bool shim_path(char *buf, size_t size)
     return len > 0 && (size_t)len < size && access(buf, R_OK) == 0;
 }
 
-static bool has_temp_file(const char *dir)
+enum { MAX_OUTS = 4 };
+
+/* A file in dir that is none of the command's outputs nor its scratch file: a
+ * temporary file left behind (an image's ".name.XXXXXX", the set-up cache's
+ * "cache.tmp.PID.N", or any other). Its name goes to stray. */
+static bool has_stray_file(const char *dir, const char *const *outs, const char *scratch,
+                           char *stray, size_t size)
 {
     DIR *d = opendir(dir);
     if (!d)
         return false;
     bool found = false;
     struct dirent *e;
-    while ((e = readdir(d)) != NULL)
-        if (e->d_name[0] == '.' && strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0)
+    while (!found && (e = readdir(d)) != NULL) {
+        if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+            continue;
+        char path[PATH_MAX];
+        e2e_join(path, sizeof path, dir, e->d_name);
+        bool known = scratch && !strcmp(path, scratch);
+        for (int k = 0; k < MAX_OUTS && outs[k] && !known; k++)
+            known = !strcmp(path, outs[k]);
+        if (!known) {
+            snprintf(stray, size, "%s", e->d_name);
             found = true;
+        }
+    }
     closedir(d);
     return found;
 }
-
-enum { MAX_OUTS = 4 };
 
 typedef struct Sweep {
     const char *shim;
@@ -135,8 +149,10 @@ static void sweep(const Sweep *s)
         } else {
             CHECK_MSG(false, "allocation %ld failed: %s", at, e2e_describe(&r, why, sizeof why));
         }
-        CHECK_MSG(!has_temp_file(s->dir), "allocation %ld failed: a temporary file was left "
-                  "in %s", at, s->dir);
+        char stray[256] = "";
+        CHECK_MSG(!has_stray_file(s->dir, s->outs, s->scratch, stray, sizeof stray),
+                  "allocation %ld failed: a temporary file %s was left in %s", at, stray,
+                  s->dir);
         e2e_run_free(&r);
     }
     CHECK_MSG(refused > 0, "no failure was refused (%d absorbed): the injector did nothing?",
