@@ -59,7 +59,7 @@ typedef struct Film {
 } Film;
 
 /* The buffer row of film row y (y0 <= y < y0 + rows_cap): the buffer is a ring of
- * rows_cap rows, film row y0 at buffer row ring0, so the R rows a strip shares with
+ * rows_cap rows, film row y0 at buffer row ring0, so the 2R rows a strip shares with
  * the next stay where they are (the ring turns instead of their data moving). A
  * compare, not a division: film_queue_pixel and the tile copy ask it per pixel. */
 static inline size_t film_row(const Film *f, int y)
@@ -1214,7 +1214,8 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
         cap = down;
     }
     /* One worker: a strip of one new band and the 2R rows kept from the strip before
-     * (film_row's ring: kept rows are not moved, so thin strips cost no moves). The
+     * at most (fewer when the budget holds fewer: 64 samples 2048 wide, 3 rows), in
+     * film_row's ring (kept rows are not moved, so thin strips cost no moves). The
      * buffer is then reused band after band, so the render touches 1 MB of fresh
      * memory instead of the budget's 8 (16 samples at 400 wide, R = 0), or 2.8 MB
      * instead of 6.8 (the Gaussian 0.4, R = 1: with its weights 283 KB a row, the
