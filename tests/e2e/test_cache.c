@@ -4,7 +4,8 @@
  * truncated, damaged, foreign or stale cache is never used and never breaks a render;
  * a cache that cannot be written is a warning; racing writers leave one valid file;
  * ./raytracer-static, when built, renders the same bytes; an OBJ file known by its
- * settled identity is not read, and a changed one is. */
+ * settled identity is not read (and a part image rendered so carries the render
+ * identity of one whose process read it), and a changed one is. */
 #define _GNU_SOURCE /* memmem */
 #include "../harness.h"
 #include "e2e_util.h"
