@@ -21,7 +21,8 @@
  * has `stride` channels: offset x, y; colour; depth grey and |normal| when wanted.
  * Channel c of sample s of pixel (x, y) is at film_row(y) * rs + (x - sx0) * xs +
  * s * ss + c * cs. In planes (the colour-only filters with neighbours to weigh): for each film
- * row, sample slot and channel a row of fw floats, one per column (xs = 1, cs = fw);
+ * row, sample slot and channel a row of fw floats, one per column, rows pw floats
+ * apart (film_plane_width: xs = 1, cs = pw);
  * else pixel by pixel, a sample's channels side by side (cs = 1). The separable filter's weights
  * towards the 2R+1 columns and rows around (when used: `per` = 2(2R+1) of them, column
  * weights first) are planes of their own in the same order. Neighbouring pixels' same
@@ -34,6 +35,7 @@ typedef struct Film {
     float tmin;
     int R;
     int sx0, sx1, sy0, sy1, fw;
+    int pw;                     /* floats from a plane row to the next (film_plane_width) */
     int slots;                  /* most samples a pixel can hold */
     int stride;                 /* floats per sample */
     int off_depth, off_normal;  /* -1: not stored */
@@ -82,7 +84,7 @@ static float *film_sample(const Film *f, int x, int y, int s)
 static float *film_weights(const Film *f, int x, int y, int s, int k)
 {
     size_t r = film_row(f, y) * (size_t)f->slots + (size_t)s;
-    return f->weights + r * f->ws + (size_t)k * (size_t)f->fw + (size_t)(x - f->sx0);
+    return f->weights + r * f->ws + (size_t)k * (size_t)f->pw + (size_t)(x - f->sx0);
 }
 
 static int *film_count(const Film *f, int x, int y)
@@ -216,7 +218,7 @@ static void film_sample_weights(const Film *f, int x, int y, int n, const float 
  * film_sample_weights): a plane at a time, the positions of one sample slot across the
  * row as the arguments (filter_weights_1d_offsets: (position - 0.5) - R in double,
  * plus k, rounded to float once, as film_sample_weights' arguments), the 2R+1 weights
- * of each straight into their planes, fw floats apart. */
+ * of each straight into their planes, pw floats apart. */
 static void film_row_weights(const Film *f, int y)
 {
     int side = 2 * f->R + 1;
@@ -225,7 +227,7 @@ static void film_row_weights(const Film *f, int y)
             filter_weights_1d_offsets(f->cfg->filter,
                                       film_sample(f, f->sx0, y, s) + (size_t)axis * f->cs,
                                       f->fw, f->R, film_weights(f, f->sx0, y, s, axis * side),
-                                      (size_t)f->fw);
+                                      (size_t)f->pw);
 }
 
 /* Places the samples of pixel (x, y) with sampler s and queues their rays; sample i's
@@ -1095,6 +1097,27 @@ static void film_filter_pair(void *user, RenderCtx *ctx, int job)
         film_filter_line(f, j + 1, true);
 }
 
+/* The floats from one plane row to the next (data in planes, weights) for rows of fw
+ * floats: fw, or from 4 KB on a multiple of 16 floats whose distance to a multiple of
+ * 4 KB (1024 floats) is at least 256 bytes. The AVX-512 sums read a block of 32
+ * columns of every term's planes (hundreds of rows) before the next block: rows a
+ * multiple of 4 KB apart, give or take a few floats (widths 1024, 2048, 4096: fw =
+ * width + 2R), fall into a few cache sets: the Gaussian 0.4's filtering took 1.3-1.7
+ * times the AVX2 sums' (bench/REPORT.txt, review19; padded, 0.6-0.9 times: 36 samples
+ * at 1024 x 64, 20.8 ms -> 9.3; 64 samples at 2048 x 32, 54 -> 24). Only columns
+ * sx0 .. sx1-1 of a row are read or written. */
+static int film_plane_width(int fw)
+{
+    if (fw < 1024)
+        return fw;
+    int pw = (fw + 15) & ~15, r = pw % 1024;
+    if (r < 64)
+        pw += 64 - r;
+    else if (r > 1024 - 64)
+        pw += 1024 - r + 64;
+    return pw;
+}
+
 /* The traced columns or rows [lo, hi) of a span [x0, x0 + n) of an image of `full`. */
 static void film_margin(int x0, int n, int R, int full, int *lo, int *hi)
 {
@@ -1183,21 +1206,22 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     /* Filter jobs of two rows where their spans share loads (film_span_sums2_avx512). */
     f.pairs = f.row_weights && f.avx512;
     size_t px_floats = (size_t)f.slots * (size_t)f.stride;
-    f.rs = (size_t)f.fw * px_floats;
+    f.pw = f.planes || f.per ? film_plane_width(f.fw) : f.fw;
+    f.rs = (size_t)(f.planes ? f.pw : f.fw) * px_floats;
     if (f.planes) {
-        f.cs = (size_t)f.fw;
-        f.ss = (size_t)f.stride * (size_t)f.fw;
+        f.cs = (size_t)f.pw;
+        f.ss = (size_t)f.stride * (size_t)f.pw;
         f.xs = 1;
     } else {
         f.cs = 1;
         f.ss = (size_t)f.stride;
         f.xs = px_floats;
     }
-    f.ws = (size_t)f.per * (size_t)f.fw;
+    f.ws = (size_t)f.per * (size_t)f.pw;
 
     /* Strip height from the budget; at least 2R + 1 rows so a strip makes progress. */
     size_t budget = cfg->budget ? cfg->budget : FILM_DEFAULT_BUDGET;
-    size_t row_bytes = (size_t)f.fw * ((size_t)f.slots * (size_t)(f.stride + f.per) *
+    size_t row_bytes = (size_t)f.pw * ((size_t)f.slots * (size_t)(f.stride + f.per) *
                                        sizeof(float) + sizeof(int));
     size_t cap = budget / row_bytes;
     if (cap < (size_t)(2 * R + 1))
@@ -1230,10 +1254,10 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
     if (cap > (size_t)(f.sy1 - f.sy0))
         cap = (size_t)(f.sy1 - f.sy0);
     f.rows_cap = (int)cap;
-    f.data = bigmem_alloc(cap * (size_t)f.fw * (size_t)f.slots * (size_t)f.stride * sizeof(float));
+    f.data = bigmem_alloc(cap * (size_t)f.pw * (size_t)f.slots * (size_t)f.stride * sizeof(float));
     f.count = bigmem_alloc(cap * (size_t)f.fw * sizeof(int));
     if (f.per)
-        f.weights = bigmem_alloc(cap * (size_t)f.fw * (size_t)f.slots * (size_t)f.per *
+        f.weights = bigmem_alloc(cap * (size_t)f.pw * (size_t)f.slots * (size_t)f.per *
                                  sizeof(float));
     bool ok = f.data && f.count && (!f.per || f.weights);
 

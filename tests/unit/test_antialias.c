@@ -716,6 +716,30 @@ static void test_film_vector_filter(void)
         image_free(&with_d);
         image_free(&depth);
     }
+    /* Rows of 1024 floats and more: the planes' rows padded apart (film_plane_width;
+     * 1024 wide and R = 1 or 2: 1026 or 1028 floats, not the padded stride), read and
+     * written at the padded stride everywhere. */
+    for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
+        if (cases[c].f == &box || cases[c].f == &box3)
+            continue;
+        const int WW = 1024, HH = 3;
+        Image plain, with_d, depth, part;
+        render_rect(&fx, cases[c].s, cases[c].f, NULL, WW, HH, 0, 0, WW, HH, 0, 1, &plain,
+                    NULL);
+        render_rect(&fx, cases[c].s, cases[c].f, NULL, WW, HH, 0, 0, WW, HH, 0, 2, &with_d,
+                    &depth);
+        CHECK_MSG(same_pixels(&with_d, &plain, 0, 0),
+                  "case %d, %d wide: colour-only filtering differs from the general loop's", c,
+                  WW);
+        render_rect(&fx, cases[c].s, cases[c].f, NULL, WW, HH, 3, 1, WW - 5, 1, 0, 2, &part,
+                    NULL);
+        CHECK_MSG(same_pixels(&part, &plain, 3, 1),
+                  "case %d, %d wide: a rectangle differs from the crop", c, WW);
+        image_free(&plain);
+        image_free(&with_d);
+        image_free(&depth);
+        image_free(&part);
+    }
     fixture_close(&fx);
 }
 
