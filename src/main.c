@@ -109,36 +109,45 @@ static SetupKey key_text(SetupKey k, const char *s)
 }
 
 /* A part image's render identity (rt/image.h): the key of the scene's inputs (the
- * scene text and every OBJ file's bytes, Scene.inputs) chained with the image's kind
- * and every option that can change one of its pixels. Left out, because no pixel
- * depends on them: -threads, -grid and -accel (byte-identical images; but they shape
- * -visualize_grid's picture, so then they count), -cache, -no_packets, -stats,
- * -timings, -progress, -quiet, the output's name and format, the preview's options,
- * and the region itself (the record says where the part sits). */
+ * scene text and every OBJ file's bytes, Scene.inputs) chained with the program's
+ * version, the image's kind and every option that can change one of its pixels. Left
+ * out, because no pixel depends on them: -threads, -grid and -accel (byte-identical
+ * images; but they shape -visualize_grid's picture, so then they count), -cache,
+ * -no_packets, -stats, -timings, -progress, -quiet, the output's name and format, the
+ * preview's options, and the region itself (the record says where the part sits).
+ * Options are taken as the renderer uses them, so that equal renders spelt
+ * differently agree: -seed only for the samplers that draw random numbers, the count
+ * only of the sampler in use, -weight only with -bounces above 0, and no filter as
+ * the box of radius 0.5 it stands for. */
 static uint64_t render_identity(const Scene *s, const Options *o, int kind)
 {
-    SetupKey k = setup_hash_u64(s->inputs, (uint64_t)kind);
+    static const char version[] = RT_VERSION;
+    SetupKey k = setup_hash(version, sizeof version, s->inputs);
+    k = setup_hash_u64(k, (uint64_t)kind);
     k = setup_hash_u64(k, (uint64_t)o->width << 32 | (uint64_t)o->height);
     k = setup_hash_u64(k, (uint64_t)o->shade_back | (uint64_t)o->shadows << 1 |
                               (uint64_t)o->noise_cutoff << 2 | (uint64_t)o->adaptive << 3 |
                               (uint64_t)o->visualize_grid << 4 |
                               (uint64_t)o->visualize_grid_count << 5);
     k = setup_hash_u64(k, (uint64_t)(uint32_t)o->bounces);
-    k = key_float(k, o->weight);
+    if (o->bounces > 0)
+        k = key_float(k, o->weight);
     if (kind == IMAGE_KIND_DEPTH) {
         k = key_float(k, o->depth_min);
         k = key_float(k, o->depth_max);
     }
     k = key_text(k, o->sampler);
-    k = setup_hash_u64(k, (uint64_t)(uint32_t)o->samples);
+    if (o->sampler)
+        k = setup_hash_u64(k, (uint64_t)(uint32_t)o->samples);
     if (o->adaptive) {
         k = setup_hash_u64(k, (uint64_t)(uint32_t)o->adaptive_min << 32 |
                                   (uint32_t)o->adaptive_max);
         k = key_float(k, o->adaptive_threshold);
     }
-    k = key_text(k, o->filter);
-    k = key_float(k, o->filter_param);
-    k = setup_hash_u64(k, o->seed);
+    k = key_text(k, o->filter ? o->filter : "box");
+    k = key_float(k, o->filter ? o->filter_param : 0.5f);
+    if (o->adaptive || (o->sampler && strcmp(o->sampler, "uniform") != 0))
+        k = setup_hash_u64(k, o->seed);
     if (o->visualize_grid || o->visualize_grid_count) {
         k = setup_hash_u64(k, (uint64_t)o->grid | (uint64_t)o->grid_auto << 1 |
                                   (uint64_t)o->no_marking << 2);
