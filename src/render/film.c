@@ -616,6 +616,17 @@ enum { FILM_TERMS = 256, FILM_BLOCK = 32 };
 
 #define FILM_AVX512 target("avx512f,avx512vl,avx512bw,avx512dq")
 
+/* The masks of a block's two vectors of 16 pixels when `left` pixels of the span
+ * remain from the block's first on (the span's last block may be short). */
+__attribute__((always_inline, FILM_AVX512)) static inline void
+film_block_masks(int left, __mmask16 *m0, __mmask16 *m1)
+{
+    *m0 = left >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << left) - 1);
+    *m1 = left >= 32 ? (__mmask16)0xffff
+          : left <= 16 ? (__mmask16)0
+                       : (__mmask16)((1u << (left - 16)) - 1);
+}
+
 __attribute__((FILM_AVX512)) static void film_span_sums_avx512(const Film *f, int j, int b0,
                                                                int b1, int p0, int m,
                                                                float *sr, float *sg,
@@ -640,11 +651,8 @@ __attribute__((FILM_AVX512)) static void film_span_sums_avx512(const Film *f, in
             }
         }
         for (int q = 0; q < m; q += FILM_BLOCK) {
-            int left = m - q;
-            __mmask16 m0 = left >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << left) - 1);
-            __mmask16 m1 = left >= 32   ? (__mmask16)0xffff
-                           : left <= 16 ? (__mmask16)0
-                                        : (__mmask16)((1u << (left - 16)) - 1);
+            __mmask16 m0, m1;
+            film_block_masks(m - q, &m0, &m1);
             __m512 r0 = _mm512_maskz_loadu_ps(m0, sr + q), r1 = _mm512_maskz_loadu_ps(m1, sr + q + 16);
             __m512 g0 = _mm512_maskz_loadu_ps(m0, sg + q), g1 = _mm512_maskz_loadu_ps(m1, sg + q + 16);
             __m512 c0 = _mm512_maskz_loadu_ps(m0, sb + q), c1 = _mm512_maskz_loadu_ps(m1, sb + q + 16);
@@ -746,11 +754,8 @@ __attribute__((FILM_AVX512)) static void film_span_sums2_avx512(const Film *f, i
     }
     int only_a = (b0n - b0) * n, both = (b1 - b0n + 1) * n, per_ta = rows * n;
     for (int q = 0; q < m; q += FILM_BLOCK) {
-        int left = m - q;
-        __mmask16 m0 = left >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << left) - 1);
-        __mmask16 m1 = left >= 32   ? (__mmask16)0xffff
-                       : left <= 16 ? (__mmask16)0
-                                    : (__mmask16)((1u << (left - 16)) - 1);
+        __mmask16 m0, m1;
+        film_block_masks(m - q, &m0, &m1);
         const __m512 z = _mm512_setzero_ps();
         __m512 A0 = z, A1 = z, A2 = z, A3 = z, A4 = z, A5 = z, A6 = z, A7 = z;
         __m512 B0 = z, B1 = z, B2 = z, B3 = z, B4 = z, B5 = z, B6 = z, B7 = z;
@@ -825,6 +830,30 @@ __attribute__((FILM_AVX512)) static void film_span_sums2_avx512(const Film *f, i
 #undef FILM_PAIR_ADD
 #endif
 
+/* Output pixels p0 .. p0+m-1 of row j from their sums: colour over weight (black where
+ * no weight reached the pixel). */
+static void film_put_sums(const FilmConfig *c, int j, int p0, int m, const float *sr,
+                          const float *sg, const float *sb, const float *sw)
+{
+    if (!c->color)
+        return;
+    for (int q = 0; q < m; q++) {
+        float w = sw[q];
+        image_put(c->color, p0 + q - c->x0, j - c->y0,
+                  w != 0.0f ? v3(sr[q] / w, sg[q] / w, sb[q] / w) : v3(0, 0, 0));
+    }
+}
+
+/* The output columns [*in0, *in1) of the rectangle whose supports lie inside the
+ * image (the spans film_filter_span sums; empty when *in1 <= *in0). */
+static void film_span_cols(const Film *f, int *in0, int *in1)
+{
+    const FilmConfig *c = f->cfg;
+    int R = f->R;
+    *in0 = c->x0 > R ? c->x0 : R;
+    *in1 = c->x0 + c->width < c->full_width - R ? c->x0 + c->width : c->full_width - R;
+}
+
 static void film_filter_span(const Film *f, int j, int b0, int b1, int i0, int i1)
 {
     const FilmConfig *c = f->cfg;
@@ -846,12 +875,7 @@ static void film_filter_span(const Film *f, int j, int b0, int b1, int i0, int i
         else
 #endif
             film_span_sums(f, j, b0, b1, p0, m, sr, sg, sb, sw);
-        if (c->color)
-            for (int q = 0; q < m; q++) {
-                float w = sw[q];
-                image_put(c->color, p0 + q - c->x0, j - c->y0,
-                          w != 0.0f ? v3(sr[q] / w, sg[q] / w, sb[q] / w) : v3(0, 0, 0));
-            }
+        film_put_sums(c, j, p0, m, sr, sg, sb, sw);
     }
 }
 
@@ -876,16 +900,8 @@ static void film_filter_span2(const Film *f, int j, int i0, int i1)
     for (int p0 = i0; p0 < i1; p0 += FILM_SPAN) {
         int m = i1 - p0 < FILM_SPAN ? i1 - p0 : FILM_SPAN;
         film_span_sums2_avx512(f, j, b0, b1, b0n, b1n, p0, m, sa, sb);
-        if (c->color)
-            for (int r = 0; r < 2; r++) {
-                float *const *t = r ? sb : sa;
-                for (int q = 0; q < m; q++) {
-                    float w = t[3][q];
-                    image_put(c->color, p0 + q - c->x0, j + r - c->y0,
-                              w != 0.0f ? v3(t[0][q] / w, t[1][q] / w, t[2][q] / w)
-                                        : v3(0, 0, 0));
-                }
-            }
+        film_put_sums(c, j, p0, m, sa[0], sa[1], sa[2], sa[3]);
+        film_put_sums(c, j + 1, p0, m, sb[0], sb[1], sb[2], sb[3]);
     }
 }
 #endif
@@ -967,8 +983,7 @@ static void film_filter_line(const Film *f, int j, bool span)
     /* The span of output pixels film_filter_span sums (none: in0 = in1 = -1). */
     int in0 = -1, in1 = -1;
     if (plain && f->planes && (f->per || f->table)) {
-        in0 = c->x0 > R ? c->x0 : R;
-        in1 = c->x0 + c->width < c->full_width - R ? c->x0 + c->width : c->full_width - R;
+        film_span_cols(f, &in0, &in1);
     }
     int first = c->x0;
     if (plain && R == 0 && !f->planes && !f->per)
@@ -1077,20 +1092,16 @@ static void film_filter_pair(void *user, RenderCtx *ctx, int job)
 {
     (void)ctx;
     const Film *f = user;
-    const FilmConfig *c = f->cfg;
-    int j = f->out0 + 2 * job, R = f->R;
+    int j = f->out0 + 2 * job;
 #ifdef FILM_HAVE_AVX512
-    int in0 = c->x0 > R ? c->x0 : R;
-    int in1 = c->x0 + c->width < c->full_width - R ? c->x0 + c->width : c->full_width - R;
+    int in0, in1;
+    film_span_cols(f, &in0, &in1);
     if (j + 1 < f->out1 && in1 > in0) {
         film_filter_line(f, j, false);
         film_filter_line(f, j + 1, false);
         film_filter_span2(f, j, in0, in1);
         return;
     }
-#else
-    (void)c;
-    (void)R;
 #endif
     film_filter_line(f, j, true);
     if (j + 1 < f->out1)
