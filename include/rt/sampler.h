@@ -55,4 +55,9 @@ static inline void sampler_pixel(const Sampler *s, int x, int y, float *xy)
 float sampler_random(uint64_t seed, uint32_t stream, int x, int y, uint32_t index,
                      uint32_t dim);
 
+/* For tests: places the 2 * count draws u (interleaved like xy: u[2i + d] is sample i's
+ * draw in dimension d, in [0,1)) into the strata of the jittered sampler s as its
+ * pixels do, in the same lanes (AVX-512 where s->wide), into xy. */
+void sampler_jittered_place(const Sampler *s, const float *u, float *xy);
+
 #endif

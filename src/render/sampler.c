@@ -4,6 +4,9 @@
 #include "rt/cpu.h"
 
 #include <math.h>
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#endif
 #include <stdio.h>
 #include <string.h>
 
@@ -58,28 +61,37 @@ static void center_pixel(const Sampler *s, int x, int y, float *xy)
 }
 
 /* The strata of the k x k grid's n2 = 2 k^2 coordinates in the interleaved order of
- * xy (2i: column a, 2i + 1: row b of sample i = a + k*b), as floats (exact), padded
- * with zeros to a multiple of four: the vector loops below read whole vectors. Made
- * once per thread and k (a pure function of k). */
+ * xy (2i: column a, 2i + 1: row b of sample i = a + k*b), as floats (exact), and each
+ * stratum's end (a + 1) / k in float (jittered_pixel's bound, the same float add and
+ * divide as in_stratum's), padded with zeros to a multiple of four: the vector loops
+ * below read whole vectors. Made once per thread and k (a pure function of k). */
 typedef float SamplerV4f __attribute__((vector_size(16)));
 typedef int32_t SamplerV4i __attribute__((vector_size(16)));
 
-static const float *grid_strata(int k)
+typedef struct Strata {
+    int k;
+    float st[2 * SAMPLER_MAX_COUNT + 4];
+    float hi[2 * SAMPLER_MAX_COUNT + 4];
+} Strata;
+
+static const Strata *grid_strata(int k)
 {
-    static _Thread_local int made_k;
-    static _Thread_local float st[2 * SAMPLER_MAX_COUNT + 4];
-    if (made_k != k) {
+    static _Thread_local Strata g;
+    if (g.k != k) {
         int j = 0;
+        float kf = (float)k;
         for (int b = 0; b < k; b++)
             for (int a = 0; a < k; a++, j += 2) {
-                st[j] = (float)a;
-                st[j + 1] = (float)b;
+                g.st[j] = (float)a;
+                g.st[j + 1] = (float)b;
+                g.hi[j] = (g.st[j] + 1.0f) / kf;
+                g.hi[j + 1] = (g.st[j + 1] + 1.0f) / kf;
             }
         for (; j % 4; j++)
-            st[j] = 0.0f;
-        made_k = k;
+            g.st[j] = g.hi[j] = 0.0f;
+        g.k = k;
     }
-    return st;
+    return &g;
 }
 
 /* The centres of a k x k grid, sample s = a + k*b in column a, row b (the course's
@@ -90,7 +102,7 @@ static void uniform_pixel(const Sampler *s, int x, int y, float *xy)
     (void)x;
     (void)y;
     int k = s->k, n2 = 2 * s->count, j = 0;
-    const float *st = grid_strata(k);
+    const float *st = grid_strata(k)->st;
     float kf = (float)k;
     SamplerV4f kv = {kf, kf, kf, kf};
     for (; j + 4 <= n2; j += 4) {
@@ -113,7 +125,8 @@ static void random_pixel(const Sampler *s, int x, int y, float *xy)
 }
 
 /* Jittered sampling, batched: the pixel's 2 k^2 draws first (interleaved: draw 2i + d
- * is sample i's dimension d), then all in_stratum placements four at a time. The
+ * is sample i's dimension d), then all in_stratum placements four at a time (AVX-512:
+ * sixteen, jittered_pixel_avx512). The
  * counters of draw j are (index j / 2, dim j % 2); key ^ (stream << 48 | dim << 32 |
  * index) is key ^ stream << 48 ^ dim << 32 ^ index (disjoint bit fields). Every lane
  * runs pixel_draw's and in_stratum's operations (the same 64-bit integer steps, the
@@ -121,38 +134,108 @@ static void random_pixel(const Sampler *s, int x, int y, float *xy)
  * whose bits are one less), so the positions are the same bits as one at a time (the
  * one-at-a-time loop: 32 scalar hashes and 64 scalar divisions per pixel at 16
  * samples). */
-typedef float SamplerV8f __attribute__((vector_size(32)));
-typedef uint64_t SamplerV8u __attribute__((vector_size(64)));
-
 static void jittered_draws(uint64_t key, uint32_t stream, int n2, float *u)
 {
     for (int j = 0; j < n2; j++)
         u[j] = pixel_draw(key, stream, (uint32_t)(j >> 1), (uint32_t)(j & 1));
 }
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-/* Eight hashes per step in AVX-512 (native 64-bit multiplies, vpmullq; AVX2 has none,
- * and emulated in 32-bit multiplies the hash measured no faster than scalar code).
- * (float) of h >> 40 < 2^24 is exact in any conversion. Chosen by sampler_init from
- * the CPU (valgrind's CPU has no AVX-512: it runs the scalar hashes). */
-__attribute__((target("avx512f,avx512dq,avx512vl"))) static void
-jittered_draws_avx512(uint64_t key, uint32_t stream, int n2, float *u)
+/* The placements of the n2 draws u (interleaved as xy) four at a time: in_stratum's
+ * float add, divide and compare in every lane; the stratum's end from the table (the
+ * same float), and nextafterf(hi, 0) of a positive hi is the float whose bits are one
+ * less. */
+static void jittered_place(const Strata *g, int k, int n2, const float *u, float *xy)
 {
-    const SamplerV8u lane = {0, 1, 2, 3, 4, 5, 6, 7};
-    uint64_t base = key ^ (uint64_t)stream << 48;
-    int j0 = 0;
-    for (; j0 + 8 <= n2; j0 += 8) {
-        SamplerV8u j = lane + (uint64_t)j0;
-        SamplerV8u z = base ^ ((j & 1) << 32) ^ (j >> 1);
-        z += 0x9e3779b97f4a7c15ULL;
-        z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-        z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-        z ^= z >> 31;
-        SamplerV8f f = __builtin_convertvector(z >> 40, SamplerV8f) * 0x1p-24f;
-        memcpy(u + j0, &f, sizeof f);
+    int j = 0;
+    float kf = (float)k;
+    SamplerV4f kv = {kf, kf, kf, kf};
+    for (; j + 4 <= n2; j += 4) {
+        SamplerV4f a, xi, hi;
+        memcpy(&a, g->st + j, sizeof a);
+        memcpy(&xi, u + j, sizeof xi);
+        memcpy(&hi, g->hi + j, sizeof hi);
+        SamplerV4f v = (a + xi) / kv;
+        SamplerV4i below = (SamplerV4i)hi - 1;
+        SamplerV4i keep = v < hi;
+        SamplerV4f r = (SamplerV4f)(((SamplerV4i)v & keep) | (below & ~keep));
+        memcpy(xy + j, &r, sizeof r);
     }
-    for (; j0 < n2; j0++) /* n2 = 2 k^2: a tail of 2 for odd k */
-        u[j0] = pixel_draw(key, stream, (uint32_t)(j0 >> 1), (uint32_t)(j0 & 1));
+    for (; j < n2; j++)
+        xy[j] = in_stratum((int)g->st[j], u[j], k);
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* AVX-512: the draws and their placements sixteen coordinates at a time (a 16-sample
+ * pixel in two steps), without a round trip through memory between them. Draws eight
+ * hashes per step (native 64-bit multiplies, vpmullq; AVX2 has none, and emulated in
+ * 32-bit multiplies the hash measured no faster than scalar code); (float) of h >> 40
+ * < 2^24 is exact in any conversion. The placement is jittered_place's, sixteen lanes
+ * (one division per 16 coordinates instead of two per 4: the 4-lane divisions were
+ * most of the sampler's time on 16-sample renders). Lanes past n2 compute draws that
+ * are never stored. Chosen by sampler_init from the CPU (valgrind's CPU has no
+ * AVX-512: it runs the plain loops). */
+#define SAMPLER_AVX512 target("avx512f,avx512dq,avx512vl")
+
+__attribute__((always_inline, SAMPLER_AVX512)) static inline __m256
+jittered_draws8(__m512i base, int j0)
+{
+    __m512i j = _mm512_add_epi64(_mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7),
+                                 _mm512_set1_epi64(j0));
+    /* key ^ (stream << 48 | dim << 32 | index) with dim = j & 1, index = j >> 1 */
+    __m512i z = _mm512_xor_si512(
+        base, _mm512_xor_si512(_mm512_slli_epi64(_mm512_and_si512(j, _mm512_set1_epi64(1)), 32),
+                               _mm512_srli_epi64(j, 1)));
+    z = _mm512_add_epi64(z, _mm512_set1_epi64((long long)0x9e3779b97f4a7c15ULL));
+    z = _mm512_mullo_epi64(_mm512_xor_si512(z, _mm512_srli_epi64(z, 30)),
+                           _mm512_set1_epi64((long long)0xbf58476d1ce4e5b9ULL));
+    z = _mm512_mullo_epi64(_mm512_xor_si512(z, _mm512_srli_epi64(z, 27)),
+                           _mm512_set1_epi64((long long)0x94d049bb133111ebULL));
+    z = _mm512_xor_si512(z, _mm512_srli_epi64(z, 31));
+    return _mm256_mul_ps(_mm512_cvtepu64_ps(_mm512_srli_epi64(z, 40)), _mm256_set1_ps(0x1p-24f));
+}
+
+/* Coordinates j0 .. j0+15 (mask m: those below n2) of the draws u placed into xy. */
+__attribute__((always_inline, SAMPLER_AVX512)) static inline void
+jittered_place16(const Strata *g, __m512 kv, int j0, __mmask16 m, __m512 u, float *xy)
+{
+    __m512 a = _mm512_maskz_loadu_ps(m, g->st + j0);
+    __m512 hi = _mm512_maskz_loadu_ps(m, g->hi + j0);
+    __m512 v = _mm512_div_ps(_mm512_add_ps(a, u), kv);
+    __m512i below = _mm512_sub_epi32(_mm512_castps_si512(hi), _mm512_set1_epi32(1));
+    __mmask16 keep = _mm512_cmp_ps_mask(v, hi, _CMP_LT_OQ);
+    __m512 r = _mm512_mask_blend_ps(keep, _mm512_castsi512_ps(below), v);
+    _mm512_mask_storeu_ps(xy + j0, m, r);
+}
+
+__attribute__((always_inline, SAMPLER_AVX512)) static inline __mmask16 sampler_mask16(int left)
+{
+    return left >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << left) - 1);
+}
+
+__attribute__((SAMPLER_AVX512)) static void jittered_pixel_avx512(const Strata *g, int k,
+                                                                 uint64_t key,
+                                                                 uint32_t stream, int n2,
+                                                                 float *xy)
+{
+    __m512i base = _mm512_set1_epi64((long long)(key ^ (uint64_t)stream << 48));
+    __m512 kv = _mm512_set1_ps((float)k);
+    for (int j0 = 0; j0 < n2; j0 += 16) {
+        __m512 u = _mm512_insertf32x8(_mm512_castps256_ps512(jittered_draws8(base, j0)),
+                                      jittered_draws8(base, j0 + 8), 1);
+        jittered_place16(g, kv, j0, sampler_mask16(n2 - j0), u, xy);
+    }
+}
+
+/* jittered_place in the lanes of jittered_pixel_avx512 (for sampler_jittered_place). */
+__attribute__((SAMPLER_AVX512)) static void jittered_place_avx512(const Strata *g, int k,
+                                                                 int n2, const float *u,
+                                                                 float *xy)
+{
+    __m512 kv = _mm512_set1_ps((float)k);
+    for (int j0 = 0; j0 < n2; j0 += 16) {
+        __mmask16 m = sampler_mask16(n2 - j0);
+        jittered_place16(g, kv, j0, m, _mm512_maskz_loadu_ps(m, u + j0), xy);
+    }
 }
 #define SAMPLER_HAVE_AVX512 1
 #endif
@@ -160,31 +243,30 @@ jittered_draws_avx512(uint64_t key, uint32_t stream, int n2, float *u)
 /* One random position in each cell of the k x k grid, cells in the uniform order. */
 static void jittered_pixel(const Sampler *s, int x, int y, float *xy)
 {
-    int k = s->k, n2 = 2 * s->count, j = 0;
+    int k = s->k, n2 = 2 * s->count;
     uint64_t key = pixel_key(s->seed, x, y);
-    float u[2 * SAMPLER_MAX_COUNT + 4];
+    const Strata *g = grid_strata(k);
 #ifdef SAMPLER_HAVE_AVX512
-    if (s->wide)
-        jittered_draws_avx512(key, s->stream, n2, u);
-    else
-#endif
-        jittered_draws(key, s->stream, n2, u);
-    const float *st = grid_strata(k);
-    float kf = (float)k;
-    SamplerV4f kv = {kf, kf, kf, kf};
-    for (; j + 4 <= n2; j += 4) {
-        SamplerV4f a, xi;
-        memcpy(&a, st + j, sizeof a);
-        memcpy(&xi, u + j, sizeof xi);
-        SamplerV4f v = (a + xi) / kv;
-        SamplerV4f hi = (a + 1.0f) / kv;
-        SamplerV4i below = (SamplerV4i)hi - 1;
-        SamplerV4i keep = v < hi;
-        SamplerV4f r = (SamplerV4f)(((SamplerV4i)v & keep) | (below & ~keep));
-        memcpy(xy + j, &r, sizeof r);
+    if (s->wide) {
+        jittered_pixel_avx512(g, k, key, s->stream, n2, xy);
+        return;
     }
-    for (; j < n2; j++)
-        xy[j] = in_stratum((int)st[j], u[j], k);
+#endif
+    float u[2 * SAMPLER_MAX_COUNT + 4];
+    jittered_draws(key, s->stream, n2, u);
+    jittered_place(g, k, n2, u, xy);
+}
+
+void sampler_jittered_place(const Sampler *s, const float *u, float *xy)
+{
+    const Strata *g = grid_strata(s->k);
+#ifdef SAMPLER_HAVE_AVX512
+    if (s->wide) {
+        jittered_place_avx512(g, s->k, 2 * s->count, u, xy);
+        return;
+    }
+#endif
+    jittered_place(g, s->k, 2 * s->count, u, xy);
 }
 
 /* N-rooks (Shirley 1991): sample s lies in row stratum s of n and in column stratum

@@ -98,6 +98,46 @@ static void test_sampler_determinism(void)
     CHECK_NEAR(sum / 100000, 0.5, 0.01);
 }
 
+/* The jittered placement's lanes (sampler_jittered_place: the code of jittered_pixel's
+ * placement, AVX-512 where the CPU has it, and the plain vectors) against the rule one
+ * coordinate at a time, with draws chosen to hit its edges: 0, the smallest draw, and
+ * draws just below 1, where (a + xi) / k rounds up to the stratum's end (a >= 1) and
+ * the rule takes the float below it. Counts 1..81 cover every tail of 16 lanes. Fails
+ * when the end's fallback or a stratum is off in any lane. */
+static void test_jittered_place(void)
+{
+    static const float special[] = {0.0f, 0x1p-24f, 0.5f, 1.0f - 0x1p-24f, 1.0f - 0x1p-23f,
+                                    1.0f - 0x3p-24f, 0.999f};
+    float u[2 * 81], xy[2 * 81];
+    int rounded_up = 0;
+    uint64_t r = 12345;
+    for (int wide = 0; wide < 2; wide++)
+        for (int k = 1; k <= 9; k++) {
+            Sampler s;
+            make_sampler(&s, "jittered", k * k, 0);
+            if (wide && !s.wide)
+                continue; /* no AVX-512 on this CPU: the plain lanes only */
+            s.wide = wide != 0;
+            for (int round = 0; round < 20; round++) {
+                int n2 = 2 * k * k;
+                for (int j = 0; j < n2; j++) {
+                    r = r * 6364136223846793005ULL + 1442695040888963407ULL;
+                    int pick = (int)(r >> 33) % 10;
+                    u[j] = pick < 7 ? special[pick] : (float)(r >> 40) * 0x1p-24f;
+                }
+                sampler_jittered_place(&s, u, xy);
+                for (int j = 0; j < n2; j++) {
+                    int i = j / 2, a = j % 2 ? i / k : i % k;
+                    float want = jitter_rule(a, u[j], k);
+                    CHECK_MSG(xy[j] == want, "k %d wide %d coordinate %d: %a, rule %a", k,
+                              wide, j, (double)xy[j], (double)want);
+                    rounded_up += want < ((float)a + u[j]) / (float)k;
+                }
+            }
+        }
+    CHECK(rounded_up > 0); /* the stratum-end fallback was exercised */
+}
+
 /* Smallest distance between two samples of a pixel. */
 static float min_spacing(const float *xy, int n)
 {
@@ -746,6 +786,7 @@ static void test_film_vector_filter(void)
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
+    {"samplers: jittered placement's lanes == the rule at stratum edges", test_jittered_place},
     {"samplers: poisson (best candidate) keeps samples apart", test_poisson_sampler},
     {"filters: symmetric weights, support radii, bad radii", test_filter_symmetry_and_support},
     {"filters: the Gaussian's exp against libm; batch == single", test_gaussian_fast_exp},
