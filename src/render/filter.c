@@ -217,10 +217,12 @@ FILTER_EXP_NONPOS(exp_nonpos8, V8d, V8u, V8i, , FILTER_AVX512)
  * 400x400x16's worth): 1.47 ns each with exp_nonpos8, 1.0 with this; the offsets of a
  * 402-wide row (gaussian_offsets_avx512, sigma 0.4, L1, best of 5): 0.72 ns a weight,
  * 0.60 with two vectors at a time, 0.575 with c. */
-__attribute__((always_inline, FILTER_AVX512)) static inline __m256 gaussian8(__m256 x,
-                                                                            __m512d neg_inv)
+/* F of t in eight lanes, and in *near the lanes whose F lies within 2^18 units of a
+ * float rounding boundary: the low 29 bits L in [2^28 - 2^18, 2^28 + 2^18), i.e. bits
+ * 19..28 of (bits - (2^28 - 2^18)) all zero (one subtract and one test). */
+__attribute__((always_inline, FILTER_AVX512)) static inline __m512d gaussian_f8(__m512d t,
+                                                                              __mmask8 *near)
 {
-    __m512d t = _mm512_mul_pd(_mm512_cvtps_pd(_mm256_mul_ps(x, x)), neg_inv);
     const __m512d shift = _mm512_set1_pd(0x1.8p52);
     __m512d kd = _mm512_fmadd_pd(t, _mm512_set1_pd(0x1.71547652b82fep3), shift); /* 8/ln2 */
     __m512i kbits = _mm512_castpd_si512(kd);
@@ -240,9 +242,18 @@ __attribute__((always_inline, FILTER_AVX512)) static inline __m256 gaussian8(__m
     __m512d e = _mm512_mul_pd(p, _mm512_permutexvar_pd(kbits, table));
     e = _mm512_scalef_pd(e, _mm512_mul_pd(kd, _mm512_set1_pd(0.125))); /* 2^floor(k/8) */
     const long long half = 1LL << 28, margin = 1LL << 18;
-    __m512i low = _mm512_and_si512(_mm512_castpd_si512(e), _mm512_set1_epi64((1LL << 29) - 1));
-    __mmask8 near = _mm512_cmplt_epu64_mask(_mm512_sub_epi64(low, _mm512_set1_epi64(half - margin)),
-                                            _mm512_set1_epi64(2 * margin));
+    *near = _mm512_testn_epi64_mask(
+        _mm512_sub_epi64(_mm512_castpd_si512(e), _mm512_set1_epi64(half - margin)),
+        _mm512_set1_epi64(((1LL << 29) - 1) & ~(2 * margin - 1)));
+    return e;
+}
+
+__attribute__((always_inline, FILTER_AVX512)) static inline __m256 gaussian8(__m256 x,
+                                                                            __m512d neg_inv)
+{
+    __m512d t = _mm512_mul_pd(_mm512_cvtps_pd(_mm256_mul_ps(x, x)), neg_inv);
+    __mmask8 near;
+    __m512d e = gaussian_f8(t, &near);
     __mmask8 in = _mm512_cmp_pd_mask(t, _mm512_set1_pd(-80.0), _CMP_GE_OQ);
     __mmask8 bad = (__mmask8)(near | (__mmask8)~in);
     if (bad) {
@@ -280,47 +291,84 @@ __attribute__((target("avx2"))) static void gaussian_offsets_avx2(const Filter *
     gaussian_offsets(f, pos, n, R, w, plane);
 }
 
-/* gaussian_offsets' loop in AVX-512: the arguments by the same double operations and
- * rounding (vcvtpd2ps, as the vector extension's conversion). Sixteen positions at a
- * time, two vectors of eight whose weights are independent chains (the exp's steps are
- * latency-bound one vector at a time: 0.72 -> 0.60 ns a weight in L1; four vectors at
- * a time gained nothing more); the rest eight at a time, the last group masked. k is
- * an exact small integer in double either way (0, 1, 2 ... by adding 1.0). */
+/* gaussian_offsets' loop in AVX-512, sixteen positions per step. For R <=
+ * FILTER_FLOAT_ARG_R the argument towards pixel k - R is p + (k - R - 0.5) in one float
+ * add, the exact sum rounded to float once: the other paths' ((double)p - 0.5 - R) + k
+ * rounded to float is the same float for every float p at R = 1 and 2 (all 2^32 bit
+ * patterns compared, bench/REPORT.txt film20; those double steps are exact unless p is
+ * tiny or huge against R + 0.5, and then no float rounding boundary lies within their
+ * error). Not for large R: at R = 16, with the sum near 16.5, a double step rounds p =
+ * 2^-26 (1 + 2^-23) onto the float halfway point -0.5 + 2^-26 (two such p of all
+ * 2^32), so larger R make the arguments by the double steps (vcvtpd2ps, as the vector
+ * extension's conversion; k is an exact small integer in double). The squares for 16
+ * lanes at once; t, F and the boundary test as gaussian8's, eight lanes per half (two
+ * independent exp chains: one vector at a time the exp's steps were latency-bound,
+ * 0.72 against 0.60 ns a weight in L1). Lanes whose square is above `far` (t might be
+ * below -80) or NaN take E, as gaussian8's t < -80 lanes do: far is below 80 /
+ * (-neg_inv) by more than the product's rounding, so d2 <= far gives t >= -80. The
+ * last group is masked (its padding lanes compute the weights of position 0). Weights
+ * of a 402-wide row in L1 (sigma 0.4, best of 7): 0.58-0.60 ns each with the double
+ * arguments and eight-lane squares, 0.51-0.52 with these. */
+enum { FILTER_FLOAT_ARG_R = 2 };
+
+__attribute__((always_inline, FILTER_AVX512)) static inline void
+gaussian_offsets16(const Filter *f, const float *pos, int n, int R, float *w, size_t plane,
+                   bool float_arg)
+{
+    double s = (double)f->r, ni = -1.0 / (2.0 * s * s);
+    __m512d neg_inv = _mm512_set1_pd(ni);
+    __m512 far = _mm512_set1_ps((float)(80.0 / -ni * (1.0 - 0x1p-20)));
+    const __m512 one = _mm512_set1_ps(1.0f);
+    const __m512d half = _mm512_set1_pd(0.5), dr = _mm512_set1_pd((double)R);
+    for (int i = 0; i < n; i += 16) {
+        __mmask16 m = n - i >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << (n - i)) - 1);
+        __m512 p = _mm512_maskz_loadu_ps(m, pos + i);
+        __m512 c = _mm512_set1_ps(-(float)R - 0.5f); /* k - R - 0.5, exact */
+        __m512d b0 = _mm512_setzero_pd(), b1 = b0;
+        if (!float_arg) {
+            b0 = _mm512_sub_pd(_mm512_sub_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(p)), half), dr);
+            b1 = _mm512_sub_pd(_mm512_sub_pd(_mm512_cvtps_pd(_mm512_extractf32x8_ps(p, 1)), half),
+                               dr);
+        }
+        for (int k = 0; k <= 2 * R; k++, c = _mm512_add_ps(c, one)) {
+            __m512 x;
+            if (float_arg) {
+                x = _mm512_add_ps(p, c);
+            } else {
+                __m512d kv = _mm512_set1_pd((double)k);
+                x = _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtpd_ps(_mm512_add_pd(b0, kv))),
+                                       _mm512_cvtpd_ps(_mm512_add_pd(b1, kv)), 1);
+            }
+            __m512 d2 = _mm512_mul_ps(x, x);
+            __m512d t0 = _mm512_mul_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(d2)), neg_inv);
+            __m512d t1 = _mm512_mul_pd(_mm512_cvtps_pd(_mm512_extractf32x8_ps(d2, 1)), neg_inv);
+            __mmask8 n0, n1;
+            __m512d e0 = gaussian_f8(t0, &n0), e1 = gaussian_f8(t1, &n1);
+            unsigned bad = ~(unsigned)_mm512_cmp_ps_mask(d2, far, _CMP_LE_OQ) & 0xffffu;
+            bad |= (unsigned)n0 | (unsigned)n1 << 8;
+            if (bad) {
+                if (bad & 0xffu)
+                    e0 = _mm512_mask_blend_pd((__mmask8)bad, e0, (__m512d)exp_nonpos8((V8d)t0));
+                if (bad >> 8)
+                    e1 = _mm512_mask_blend_pd((__mmask8)(bad >> 8), e1,
+                                              (__m512d)exp_nonpos8((V8d)t1));
+            }
+            __m512 g = _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtpd_ps(e0)),
+                                          _mm512_cvtpd_ps(e1), 1);
+            _mm512_mask_storeu_ps(w + (size_t)k * plane + (size_t)i, m, g);
+        }
+    }
+}
+
 __attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter *f,
                                                                    const float *pos, int n,
                                                                    int R, float *w,
                                                                    size_t plane)
 {
-    double s = (double)f->r;
-    __m512d neg_inv = _mm512_set1_pd(-1.0 / (2.0 * s * s));
-    __m512d half = _mm512_set1_pd(0.5), dr = _mm512_set1_pd((double)R);
-    const __m512d one = _mm512_set1_pd(1.0);
-    int i = 0;
-    for (; i + 16 <= n; i += 16) {
-        __m512d b0 = _mm512_sub_pd(_mm512_sub_pd(_mm512_cvtps_pd(_mm256_loadu_ps(pos + i)), half),
-                                   dr);
-        __m512d b1 = _mm512_sub_pd(
-            _mm512_sub_pd(_mm512_cvtps_pd(_mm256_loadu_ps(pos + i + 8)), half), dr);
-        __m512d kv = _mm512_setzero_pd();
-        for (int k = 0; k <= 2 * R; k++, kv = _mm512_add_pd(kv, one)) {
-            __m256 x0 = _mm512_cvtpd_ps(_mm512_add_pd(b0, kv));
-            __m256 x1 = _mm512_cvtpd_ps(_mm512_add_pd(b1, kv));
-            float *d = w + (size_t)k * plane + (size_t)i;
-            _mm256_storeu_ps(d, gaussian8(x0, neg_inv));
-            _mm256_storeu_ps(d + 8, gaussian8(x1, neg_inv));
-        }
-    }
-    for (; i < n; i += 8) {
-        __mmask8 m = n - i >= 8 ? (__mmask8)0xff : (__mmask8)((1u << (n - i)) - 1);
-        __m512d b = _mm512_sub_pd(_mm512_sub_pd(_mm512_cvtps_pd(_mm256_maskz_loadu_ps(m, pos + i)),
-                                                half),
-                                  dr);
-        __m512d kv = _mm512_setzero_pd();
-        for (int k = 0; k <= 2 * R; k++, kv = _mm512_add_pd(kv, one)) {
-            __m256 x = _mm512_cvtpd_ps(_mm512_add_pd(b, kv));
-            _mm256_mask_storeu_ps(w + (size_t)k * plane + (size_t)i, m, gaussian8(x, neg_inv));
-        }
-    }
+    if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets16(f, pos, n, R, w, plane, true);
+    else
+        gaussian_offsets16(f, pos, n, R, w, plane, false);
 }
 #define HAVE_AVX2_BATCH 1
 #endif

@@ -456,6 +456,75 @@ static void test_weights_offsets(void)
     }
 }
 
+/* filter_weights_1d_offsets on every vector path of the Gaussian against the plain
+ * build's, bit for bit, on positions where it matters most: those whose weights lie
+ * near a float rounding boundary (the cheaper exp's fallback), tiny positions whose
+ * double steps round at R = 16 (2^-26 (1 + k 2^-23); there a float argument differs
+ * by an ulp for two of them, though not their weights), 0, the largest float below 1;
+ * sigmas whose R takes the float argument (R <= 2) and the double steps (R = 3, 5,
+ * 16); runs of 1..47 positions (masked tails of 16). Fails when the fallback is
+ * dropped. */
+static void test_weights_offsets_boundaries(void)
+{
+    char why[160];
+    static const float sigmas[] = {0.26f, 0.4f, 1.0f, 1.7f, 2.3f, 8.2f};
+    enum { LEN = 47, SIDE_MAX = 33, POS = 2400 };
+    static float pos[POS], w[SIDE_MAX * LEN], ref[SIDE_MAX * LEN];
+    for (size_t q = 0; q < sizeof sigmas / sizeof sigmas[0]; q++) {
+        Filter f;
+        CHECK(filter_init(&f, filter_find("gaussian"), sigmas[q], why, sizeof why));
+        int R = f.support, side = 2 * R + 1;
+        CHECK(side <= SIDE_MAX);
+        double s = (double)f.r, neg_inv = -1.0 / (2.0 * s * s);
+        int np = 0;
+        pos[np++] = 0.0f;
+        pos[np++] = nextafterf(1.0f, 0.0f);
+        for (int k = 0; k < 16; k++)
+            pos[np++] = 0x1p-26f * (1.0f + (float)k * 0x1p-23f);
+        uint64_t h = 0x2545f4914f6cdd1dULL ^ (uint64_t)q;
+        int near = 0;
+        for (int tries = 0; tries < 4000000 && near < 60; tries++) {
+            h ^= h << 13, h ^= h >> 7, h ^= h << 17;
+            float p = (float)(h >> 40) * 0x1p-24f;
+            for (int k = 0; k < side; k++) {
+                float x = (float)((double)p - 0.5 - (double)R + (double)k);
+                double e = filter_exp_nonpos((double)(x * x) * neg_inv);
+                uint64_t bits;
+                memcpy(&bits, &e, sizeof bits);
+                uint64_t low = bits & (((uint64_t)1 << 29) - 1), half = (uint64_t)1 << 28;
+                uint64_t dist = low > half ? low - half : half - low;
+                if (dist < ((uint64_t)1 << 14) && (float)e >= 0x1p-100f) {
+                    pos[np++] = p;
+                    near++;
+                    break;
+                }
+            }
+        }
+        CHECK_MSG(near >= 20, "sigma %g: only %d positions near a rounding boundary",
+                  (double)f.r, near);
+        while (np < POS) {
+            h ^= h << 13, h ^= h >> 7, h ^= h << 17;
+            pos[np++] = (float)(h >> 40) * 0x1p-24f;
+        }
+        int bad = 0;
+        for (int start = 0; start + LEN <= np && !bad; start += LEN)
+            for (int n = 1; n <= LEN && !bad; n += (n < 17 ? 1 : 10)) {
+                filter_gaussian_path_set(0);
+                filter_weights_1d_offsets(&f, pos + start, n, R, ref, (size_t)LEN);
+                for (int cap = 1; cap <= 2; cap++) {
+                    filter_gaussian_path_set(cap);
+                    memset(w, 0xff, sizeof w);
+                    filter_weights_1d_offsets(&f, pos + start, n, R, w, (size_t)LEN);
+                    for (int k = 0; k < side; k++)
+                        bad += memcmp(w + k * LEN, ref + k * LEN, (size_t)n * sizeof(float)) != 0;
+                    CHECK_MSG(bad == 0, "sigma %g path %d, %d positions from %d: %d planes "
+                              "differ", (double)f.r, cap, n, start, bad);
+                }
+            }
+        filter_gaussian_path_set(2);
+    }
+}
+
 /* ---- the film on a course scene --------------------------------------------------- */
 
 typedef struct Fixture {
@@ -795,6 +864,8 @@ static const TestCase tests[] = {
      test_gaussian_rounding_boundaries},
     {"filters: a row's weights towards 2R+1 pixels == one argument at a time",
      test_weights_offsets},
+    {"filters: a row's weights on every path at rounding boundaries, tiny positions",
+     test_weights_offsets_boundaries},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
     {"film: colour-only vector filter == general loop; any column offset",
