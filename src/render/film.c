@@ -102,6 +102,81 @@ typedef struct Stream {
     float *dest[ACCEL_PACKET_MAX];
 } Stream;
 
+/* A colour-only sample with its channels side by side (a tile's scratch, or a film
+ * pixel by pixel: cs = 1, five floats a sample) takes its position when queued and its
+ * colour when traced. A pixel's samples are consecutive lanes of the stream and lie
+ * five floats apart, so sixteen of them are an 80-float block: with AVX-512 the
+ * positions go in as five masked stores of permuted vectors of the pixel's xy, and
+ * the colours of 16 lanes (48 floats of the packet's colours) as five more, instead of
+ * two and three scalar stores per sample through per-lane pointers. Float f = 16 o + l
+ * of a block (vector o, lane l) is channel c = f % 5 of sample i = f / 5: the permute
+ * index of channels 0 and 1 into the 32 floats of xy, and of channels 2..4 into two of
+ * the colours' three vectors (float 3 i + c - 2: vectors 0 and 1 for o < 2, else 1 and
+ * 2), with the masks of those lanes. Only copies: the same bits. */
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define FILM_RUN_F(o, l) (16 * (o) + (l))
+#define FILM_RUN_I(o, l) (FILM_RUN_F(o, l) / 5)
+#define FILM_RUN_C(o, l) (FILM_RUN_F(o, l) % 5)
+#define FILM_RUN_XY(o, l) (FILM_RUN_C(o, l) < 2 ? 2 * FILM_RUN_I(o, l) + FILM_RUN_C(o, l) : 0)
+#define FILM_RUN_RGB(o, l)                                                                \
+    (FILM_RUN_C(o, l) >= 2 ? 3 * FILM_RUN_I(o, l) + FILM_RUN_C(o, l) - 2 - ((o) < 2 ? 0 : 16) : 0)
+#define FILM_RUN_ROW(T, o)                                                                \
+    {T(o, 0), T(o, 1), T(o, 2),  T(o, 3),  T(o, 4),  T(o, 5),  T(o, 6),  T(o, 7),          \
+     T(o, 8), T(o, 9), T(o, 10), T(o, 11), T(o, 12), T(o, 13), T(o, 14), T(o, 15)}
+#define FILM_RUN_TABLE(T)                                                                 \
+    {FILM_RUN_ROW(T, 0), FILM_RUN_ROW(T, 1), FILM_RUN_ROW(T, 2), FILM_RUN_ROW(T, 3),      \
+     FILM_RUN_ROW(T, 4)}
+#define FILM_RUN_XYBIT(o, l) (FILM_RUN_C(o, l) < 2 ? 1u << (l) : 0u)
+#define FILM_RUN_RGBBIT(o, l) (FILM_RUN_C(o, l) >= 2 ? 1u << (l) : 0u)
+#define FILM_RUN_MASK(P, o)                                                               \
+    (uint16_t)(P(o, 0) | P(o, 1) | P(o, 2) | P(o, 3) | P(o, 4) | P(o, 5) | P(o, 6) |       \
+               P(o, 7) | P(o, 8) | P(o, 9) | P(o, 10) | P(o, 11) | P(o, 12) | P(o, 13) |  \
+               P(o, 14) | P(o, 15))
+#define FILM_RUN_MASKS(P)                                                                 \
+    {FILM_RUN_MASK(P, 0), FILM_RUN_MASK(P, 1), FILM_RUN_MASK(P, 2), FILM_RUN_MASK(P, 3),  \
+     FILM_RUN_MASK(P, 4)}
+static const int32_t film_run_xy[5][16] __attribute__((aligned(64))) = FILM_RUN_TABLE(FILM_RUN_XY);
+static const int32_t film_run_rgb[5][16] __attribute__((aligned(64))) =
+    FILM_RUN_TABLE(FILM_RUN_RGB);
+static const uint16_t film_run_xymask[5] = FILM_RUN_MASKS(FILM_RUN_XYBIT);
+static const uint16_t film_run_rgbmask[5] = FILM_RUN_MASKS(FILM_RUN_RGBBIT);
+_Static_assert(sizeof(Vec3) == 3 * sizeof(float), "a colour is three packed floats");
+
+#define FILM_RUN_AVX512 target("avx512f,avx512vl,avx512bw,avx512dq")
+
+/* Samples i .. i+15 of a block at d: channel 0 and 1 from xy[0..31]. */
+__attribute__((FILM_RUN_AVX512)) static void film_run_positions(float *d, const float *xy)
+{
+    __m512 a = _mm512_loadu_ps(xy), b = _mm512_loadu_ps(xy + 16);
+    for (int o = 0; o < 5; o++)
+        _mm512_mask_storeu_ps(d + 16 * o, film_run_xymask[o],
+                              _mm512_permutex2var_ps(a, _mm512_load_si512(film_run_xy[o]), b));
+}
+
+/* Whether the 16 lanes' destinations from dest[0] on are one block (five floats
+ * apart), and if so their colours (c[0..15]) into channels 2..4. */
+__attribute__((FILM_RUN_AVX512)) static bool film_run_colors(float *const *dest, const Vec3 *c)
+{
+    __m512i base = _mm512_set1_epi64((long long)(uintptr_t)dest[0]);
+    const __m512i step = _mm512_setr_epi64(0, 20, 40, 60, 80, 100, 120, 140);
+    __m512i lo = _mm512_add_epi64(base, step);
+    __m512i hi = _mm512_add_epi64(lo, _mm512_set1_epi64(160));
+    if (_mm512_cmpneq_epi64_mask(_mm512_loadu_si512(dest), lo) ||
+        _mm512_cmpneq_epi64_mask(_mm512_loadu_si512(dest + 8), hi))
+        return false;
+    const float *cf = (const float *)c;
+    __m512 v0 = _mm512_loadu_ps(cf), v1 = _mm512_loadu_ps(cf + 16), v2 = _mm512_loadu_ps(cf + 32);
+    float *d = dest[0];
+    for (int o = 0; o < 5; o++) {
+        __m512i idx = _mm512_load_si512(film_run_rgb[o]);
+        __m512 t = o < 2 ? _mm512_permutex2var_ps(v0, idx, v1) : _mm512_permutex2var_ps(v1, idx, v2);
+        _mm512_mask_storeu_ps(d + 16 * o, film_run_rgbmask[o], t);
+    }
+    return true;
+}
+#define FILM_HAVE_RUNS 1
+#endif
+
 static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
 {
     if (st->n == 0)
@@ -115,7 +190,14 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
     if (f->off_depth < 0 && f->off_normal < 0 && cs == 1) {
         /* Colour only into a tile's scratch or a pixel-by-pixel film: the usual case,
          * without the per-lane tests of the general loop below. */
-        for (int i = 0; i < lanes; i++) {
+        int i = 0;
+#ifdef FILM_HAVE_RUNS
+        if (f->avx512)
+            for (; i + 16 <= lanes; i += 16)
+                if (!film_run_colors(st->dest + i, colors + i))
+                    break;
+#endif
+        for (; i < lanes; i++) {
             float *d = st->dest[i];
             d[2] = colors[i].x;
             d[3] = colors[i].y;
@@ -255,7 +337,16 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
         m = m < s->count - i0 ? m : s->count - i0;
         camera_sample_rays(f->camera, x, y, xy + 2 * i0, m, c->full_width, c->full_height,
                            &st->rays[st->n]);
-        for (int i = i0; i < i0 + m; i++, d += step) {
+        int i = i0;
+#ifdef FILM_HAVE_RUNS
+        if (f->avx512 && cs == 1 && step == 5)
+            for (; i + 16 <= i0 + m; i += 16, d += 80) {
+                film_run_positions(d, xy + 2 * i);
+                for (int k = 0; k < 16; k++)
+                    st->dest[st->n++] = d + 5 * k;
+            }
+#endif
+        for (; i < i0 + m; i++, d += step) {
             d[0] = xy[2 * i];
             d[cs] = xy[2 * i + 1];
             st->dest[st->n++] = d;

@@ -224,10 +224,15 @@ __attribute__((SAMPLER_AVX512)) static void jittered_pixel_avx512(const Strata *
     __m512i base = _mm512_set1_epi64((long long)(key ^ (uint64_t)stream << 48));
     bool pow2 = (k & (k - 1)) == 0;
     __m512 kv = _mm512_set1_ps(pow2 ? 1.0f / (float)k : (float)k);
-    for (int j0 = 0; j0 < n2; j0 += 16) {
-        __m512 u = _mm512_insertf32x8(_mm512_castps256_ps512(jittered_draws8(base, j0)),
-                                      jittered_draws8(base, j0 + 8), 1);
-        jittered_place16(g, kv, pow2, j0, sampler_mask16(n2 - j0), u, xy);
+    /* 32 coordinates a step (16 samples: one): four independent hash chains */
+    for (int j0 = 0; j0 < n2; j0 += 32) {
+        __m256 d0 = jittered_draws8(base, j0), d1 = jittered_draws8(base, j0 + 8);
+        __m256 d2 = jittered_draws8(base, j0 + 16), d3 = jittered_draws8(base, j0 + 24);
+        jittered_place16(g, kv, pow2, j0, sampler_mask16(n2 - j0),
+                         _mm512_insertf32x8(_mm512_castps256_ps512(d0), d1, 1), xy);
+        if (j0 + 16 < n2)
+            jittered_place16(g, kv, pow2, j0 + 16, sampler_mask16(n2 - j0 - 16),
+                             _mm512_insertf32x8(_mm512_castps256_ps512(d2), d3, 1), xy);
     }
 }
 
