@@ -144,13 +144,19 @@ _Static_assert(sizeof(Vec3) == 3 * sizeof(float), "a colour is three packed floa
 
 #define FILM_RUN_AVX512 target("avx512f,avx512vl,avx512bw,avx512dq")
 
-/* Samples i .. i+15 of a block at d: channel 0 and 1 from xy[0..31]. */
-__attribute__((FILM_RUN_AVX512)) static void film_run_positions(float *d, const float *xy)
+/* The 16 samples of a block at d: channels 0 and 1 from xy[0..31], and their
+ * destinations d + 5 k into dest[0..15]. */
+__attribute__((FILM_RUN_AVX512)) static void film_run_positions(float *d, const float *xy,
+                                                               float **dest)
 {
     __m512 a = _mm512_loadu_ps(xy), b = _mm512_loadu_ps(xy + 16);
     for (int o = 0; o < 5; o++)
         _mm512_mask_storeu_ps(d + 16 * o, film_run_xymask[o],
                               _mm512_permutex2var_ps(a, _mm512_load_si512(film_run_xy[o]), b));
+    __m512i lo = _mm512_add_epi64(_mm512_set1_epi64((long long)(uintptr_t)d),
+                                  _mm512_setr_epi64(0, 20, 40, 60, 80, 100, 120, 140));
+    _mm512_storeu_si512(dest, lo);
+    _mm512_storeu_si512(dest + 8, _mm512_add_epi64(lo, _mm512_set1_epi64(160)));
 }
 
 /* Whether the 16 lanes' destinations from dest[0] on are one block (five floats
@@ -340,11 +346,8 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
         int i = i0;
 #ifdef FILM_HAVE_RUNS
         if (f->avx512 && cs == 1 && step == 5)
-            for (; i + 16 <= i0 + m; i += 16, d += 80) {
-                film_run_positions(d, xy + 2 * i);
-                for (int k = 0; k < 16; k++)
-                    st->dest[st->n++] = d + 5 * k;
-            }
+            for (; i + 16 <= i0 + m; i += 16, d += 80, st->n += 16)
+                film_run_positions(d, xy + 2 * i, st->dest + st->n);
 #endif
         for (; i < i0 + m; i++, d += step) {
             d[0] = xy[2 * i];
