@@ -53,6 +53,12 @@ typedef struct AccelOps {
     /* For the rays of mask: bit i is occluded(self, &rays[i], tmin, tmax[i], ctx). */
     uint64_t (*occluded_packet)(const void *self, const Ray *rays, uint64_t mask, float tmin,
                                 const float *tmax, RenderCtx *ctx);
+    /* Optional (NULL: the renderer uses occluded_packet): shadow rays towards a
+     * directional light, one direction and one tmax for all. Bit i is occluded(self,
+     * ray, tmin, tmax, ctx) for the ray from rays[i].origin in direction dir; the rays'
+     * own directions are not read. */
+    uint64_t (*occluded_packet_dir)(const void *self, const Ray *rays, uint64_t mask,
+                                    float tmin, float tmax, Vec3 dir, RenderCtx *ctx);
     /* Per-thread scratch: mailbox slots the RenderCtx needs (0: none). */
     uint32_t (*scratch_size)(const void *self);
     /* Statistics: fills what the accelerator adds to the report (the grid's cells);
@@ -106,6 +112,23 @@ static inline uint64_t accel_occluded_packet(const Accel *a, const Ray *rays, ui
                                              float tmin, const float *tmax, RenderCtx *ctx)
 {
     return a->ops->occluded_packet(a->self, rays, mask, tmin, tmax, ctx);
+}
+/* The rays of mask from rays[i].origin in direction dir up to tmax (occluded_packet_dir,
+ * or occluded_packet after writing dir into those rays when the accelerator has no
+ * such op). */
+static inline uint64_t accel_occluded_packet_dir(const Accel *a, Ray *rays, uint64_t mask,
+                                                 float tmin, float tmax, Vec3 dir,
+                                                 RenderCtx *ctx)
+{
+    if (a->ops->occluded_packet_dir)
+        return a->ops->occluded_packet_dir(a->self, rays, mask, tmin, tmax, dir, ctx);
+    float t[ACCEL_PACKET_MAX];
+    for (uint64_t m = mask; m; m &= m - 1) {
+        int i = __builtin_ctzll(m);
+        rays[i].dir = dir;
+        t[i] = tmax;
+    }
+    return a->ops->occluded_packet(a->self, rays, mask, tmin, t, ctx);
 }
 static inline uint32_t accel_scratch_size(const Accel *a)
 {

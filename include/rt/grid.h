@@ -65,6 +65,12 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
  * grid_occluded(g, &rays[i], tmin, tmax[i], ctx). */
 uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
                               const float *tmax, RenderCtx *ctx);
+/* Shadow rays towards a directional light: bit i of the result is grid_occluded(g,
+ * ray, tmin, tmax, ctx) for the ray from rays[i].origin in direction dir (the rays'
+ * own directions are not read). The same answers and counters; the packet's set-up
+ * reads no direction and divides once. */
+uint64_t grid_occluded_packet_dir(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
+                                  float tmax, Vec3 dir, RenderCtx *ctx);
 /* Which SIMD kernel the packets use: "avx2" or "generic" (the CPU is asked once), or
  * "avx512" when asked for below. */
 const char *grid_packet_kernel(void);

@@ -66,6 +66,13 @@ static uint64_t grid_accel_occluded_packet(const void *self, const Ray *rays, ui
     return grid_occluded_packet(self, rays, mask, tmin, tmax, ctx);
 }
 
+static uint64_t grid_accel_occluded_packet_dir(const void *self, const Ray *rays,
+                                               uint64_t mask, float tmin, float tmax,
+                                               Vec3 dir, RenderCtx *ctx)
+{
+    return grid_occluded_packet_dir(self, rays, mask, tmin, tmax, dir, ctx);
+}
+
 static uint32_t grid_accel_scratch(const void *self) { return grid_mailbox_size(self); }
 
 /* The course's statistics print the grid's resolution (its box is the scene's). */
@@ -104,6 +111,7 @@ const AccelOps accel_grid_ops = {
     .occluded = grid_accel_occluded,
     .intersect_packet = grid_accel_intersect_packet,
     .occluded_packet = grid_accel_occluded_packet,
+    .occluded_packet_dir = grid_accel_occluded_packet_dir,
     .scratch_size = grid_accel_scratch,
     .report = grid_accel_report,
     .visualize = &grid_cells_ops,

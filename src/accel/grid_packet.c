@@ -105,10 +105,39 @@ bool grid_packet_use_kernel(const char *name)
  * grid_packet_kernel.h): returns the rays the packet walks; *single_out gets those it
  * leaves to the single-ray march. Rays that miss the box are in neither: their march
  * would not start either. */
+/* packet_prepare's axis and sign for candidates that all have direction d, without
+ * their sums, where the sums' rounding cannot change them. The sums of n copies of a
+ * component (four partial sums, then two adds: each step monotone, and rounding is
+ * symmetric in sign) order their magnitudes as the components' own, and equal
+ * magnitudes give equal sums, so only |a| > |b| can come out as a tie; their relative
+ * error is at most gamma_63 < 3.8e-6 (n <= 64), so beyond a factor 1.0001 it cannot.
+ * False (the caller sums) inside that band, and for components too large to sum
+ * finitely (or NaN). */
+static bool same_dir_axis(const float d[3], int *axis, int *sign)
+{
+    float m[3] = {fabsf(d[0]), fabsf(d[1]), fabsf(d[2])};
+    for (int a = 0; a < 3; a++)
+        if (!(m[a] <= 1e30f))
+            return false;
+    int K = 0;
+    for (int a = 1; a < 3; a++) { /* the sums' "if |sum[a]| > |sum[K]| then K = a" */
+        if (m[a] <= m[K])
+            continue;
+        if (!(m[a] > m[K] * 1.0001f))
+            return false;
+        K = a;
+    }
+    *axis = K;
+    *sign = d[K] < 0.0f ? -1 : 1;
+    return true;
+}
+
 static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                uint64_t *single_out)
 {
-    const Ray *rays = pk->rays;
+    pthread_once(&walk_once, choose_walk);
+    if (pk->same_dir && same_dir_axis(pk->dir, &pk->axis, &pk->sign))
+        return prep_fn(g, pk, cand, tmax, single_out);
     /* Four partial sums: one chain of dependent adds over 64 rays was 5% of the 1080p
      * primary pass. (Any axis gives the same answers; this one only keeps packets
      * wide.) */
@@ -117,20 +146,20 @@ static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const f
     if ((cand & (cand + 1)) == 0) {
         int n = __builtin_popcountll(cand); /* rays 0 .. n-1 */
         for (int i = 0; i < n; i++)
-            part[i & 3] = v3_add(part[i & 3], rays[i].dir);
+            part[i & 3] = v3_add(part[i & 3], packet_ray(pk, i).dir);
     } else {
         int j = 0;
         for (uint64_t m = cand; m; m &= m - 1, j++)
-            part[j & 3] = v3_add(part[j & 3], rays[__builtin_ctzll(m)].dir);
+            part[j & 3] = v3_add(part[j & 3], packet_ray(pk, __builtin_ctzll(m)).dir);
     }
     Vec3 sum = v3_add(v3_add(part[0], part[1]), v3_add(part[2], part[3]));
     if (!(isfinite(sum.x) && isfinite(sum.y) && isfinite(sum.z))) {
         /* Rare: leave out the rays whose direction is not finite. */
         sum = v3(0.0f, 0.0f, 0.0f);
         for (uint64_t m = cand; m; m &= m - 1) {
-            const Ray *r = &rays[__builtin_ctzll(m)];
-            if (isfinite(r->dir.x) && isfinite(r->dir.y) && isfinite(r->dir.z))
-                sum = v3_add(sum, r->dir);
+            Vec3 d = packet_ray(pk, __builtin_ctzll(m)).dir;
+            if (isfinite(d.x) && isfinite(d.y) && isfinite(d.z))
+                sum = v3_add(sum, d);
         }
     }
     int K = 0;
@@ -140,7 +169,6 @@ static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const f
         K = 2;
     pk->axis = K;
     pk->sign = v3_comp(sum, K) < 0.0f ? -1 : 1;
-    pthread_once(&walk_once, choose_walk);
     return prep_fn(g, pk, cand, tmax, single_out);
 }
 
@@ -235,18 +263,6 @@ static uint64_t march_intersect_each(const Grid *g, const Ray *rays, uint64_t ma
     return found;
 }
 
-static uint64_t march_occluded_each(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
-                                    const float *tmax, RenderCtx *ctx)
-{
-    uint64_t occluded = 0;
-    for (; mask; mask &= mask - 1) {
-        int i = __builtin_ctzll(mask);
-        if (grid_march_occluded(g, &rays[i], tmin, tmax[i], ctx))
-            occluded |= (uint64_t)1 << i;
-    }
-    return occluded;
-}
-
 uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits, float tmin,
                                RenderCtx *ctx)
 {
@@ -272,6 +288,7 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
     pk.tmin = tmin;
     pk.march_tmin = grid_march_tmin(g, tmin);
     pk.shadow = false;
+    pk.same_dir = false;
     pk.hits = hits;
     pk.rays = rays;
     for (int i = 0; i < n; i++) {
@@ -302,38 +319,77 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
     return found | march_intersect_each(g, rays, single, hits, tmin, ctx);
 }
 
-uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
-                              const float *tmax, RenderCtx *ctx)
+/* The shadow queries: with dir, ray i is (rays[i].origin, *dir) up to tmax1 (tmax and
+ * the rays' directions unread); else rays[i] up to tmax[i]. */
+static uint64_t occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
+                                const float *tmax, const Vec3 *dir, float tmax1,
+                                RenderCtx *ctx)
 {
     uint64_t occluded = 0, cand = mask;
     Packet pk; /* 64-aligned by its type */
+    pk.rays = rays;
+    pk.same_dir = dir != NULL;
+    if (dir) {
+        pk.dir[0] = dir->x;
+        pk.dir[1] = dir->y;
+        pk.dir[2] = dir->z;
+        pk.same_tmax = tmax1;
+    }
     bool packets = ctx->packet_rays && __builtin_popcountll(cand) >= 2;
     if (!packets || !packet_planes(g, &pk)) {
         cand = 0;
         for (uint64_t m = mask; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
+            Ray r = packet_ray(&pk, i);
+            float t1 = dir ? tmax1 : tmax[i];
             bool blocked = false;
             for (uint32_t u = 0; u < g->num_unbounded && !blocked; u++)
-                blocked = grid_occluded_prim(&g->unbounded[u], &rays[i], tmin, tmax[i], ctx);
+                blocked = grid_occluded_prim(&g->unbounded[u], &r, tmin, t1, ctx);
             if (blocked)
                 occluded |= (uint64_t)1 << i;
             else
                 cand |= (uint64_t)1 << i;
         }
     }
-    if (!packets || __builtin_popcountll(cand) < 2)
-        return occluded | march_occluded_each(g, rays, cand, tmin, tmax, ctx);
-    ctx->stats.intersections += (uint64_t)__builtin_popcountll(cand) * (uint64_t)pk.num_planes;
-
-    packet_clear(&pk);
-    pk.tmin = tmin;
-    pk.march_tmin = grid_march_tmin(g, tmin);
-    pk.shadow = true;
-    pk.rays = rays;
-    for (uint64_t m = cand; m; m &= m - 1) {
-        int i = __builtin_ctzll(m);
-        pk.best_t[i / PK_LANES][i % PK_LANES] = tmax[i];
+    uint64_t single = cand;
+    if (packets && __builtin_popcountll(cand) >= 2) {
+        ctx->stats.intersections +=
+            (uint64_t)__builtin_popcountll(cand) * (uint64_t)pk.num_planes;
+        packet_clear(&pk);
+        pk.tmin = tmin;
+        pk.march_tmin = grid_march_tmin(g, tmin);
+        pk.shadow = true;
+        if (dir) {
+            const pk_f8 t8 = {tmax1, tmax1, tmax1, tmax1, tmax1, tmax1, tmax1, tmax1};
+            for (int gi = 0; gi < PK_GROUPS; gi++)
+                pk.best_t[gi] = t8;
+        } else {
+            for (uint64_t m = cand; m; m &= m - 1) {
+                int i = __builtin_ctzll(m);
+                pk.best_t[i / PK_LANES][i % PK_LANES] = tmax[i];
+            }
+        }
+        single = packet_trace(g, &pk, 64 - __builtin_clzll(cand), cand, dir ? NULL : tmax, ctx);
+        occluded |= pk.hit;
     }
-    uint64_t single = packet_trace(g, &pk, 64 - __builtin_clzll(cand), cand, tmax, ctx);
-    return occluded | pk.hit | march_occluded_each(g, rays, single, tmin, tmax, ctx);
+    /* The single-ray march for the rest. */
+    for (; single; single &= single - 1) {
+        int i = __builtin_ctzll(single);
+        Ray r = packet_ray(&pk, i);
+        if (grid_march_occluded(g, &r, tmin, dir ? tmax1 : tmax[i], ctx))
+            occluded |= (uint64_t)1 << i;
+    }
+    return occluded;
+}
+
+uint64_t grid_occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
+                              const float *tmax, RenderCtx *ctx)
+{
+    return occluded_packet(g, rays, mask, tmin, tmax, NULL, 0.0f, ctx);
+}
+
+uint64_t grid_occluded_packet_dir(const Grid *g, const Ray *rays, uint64_t mask, float tmin,
+                                  float tmax, Vec3 dir, RenderCtx *ctx)
+{
+    return occluded_packet(g, rays, mask, tmin, NULL, &dir, tmax, ctx);
 }

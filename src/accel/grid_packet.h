@@ -47,11 +47,26 @@ typedef struct Packet {
     float tmin;
     float march_tmin;           /* grid_march_tmin(tmin): where the walk starts */
     bool shadow;
+    /* Shadow rays towards a directional light (grid_occluded_packet_dir): every ray
+     * has direction dir and tmax same_tmax; the rays' own directions are not read. */
+    bool same_dir;
+    float dir[3];
+    float same_tmax;
     int num_planes;             /* planes the set-up tests (0: none, or done per ray) */
     PacketPlane planes[PK_MAX_PLANES];
     Hit *hits;                  /* nearest: the caller's hits */
     const Ray *rays;
 } Packet;
+
+/* Ray i of the packet as the single-ray code takes it (with same_dir, its origin and
+ * the shared direction). */
+static inline Ray packet_ray(const Packet *pk, int i)
+{
+    Ray r;
+    r.origin = pk->rays[i].origin;
+    r.dir = pk->same_dir ? v3(pk->dir[0], pk->dir[1], pk->dir[2]) : pk->rays[i].dir;
+    return r;
+}
 
 /* Packet marking: which of a packet's rays have tested a primitive. A direct-mapped
  * table of the thread (16 KB, so it stays in the first-level cache), slot prim mod

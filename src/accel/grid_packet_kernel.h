@@ -262,7 +262,7 @@ static void pk_test_prim(const Grid *g, Packet *pk, uint32_t p, uint64_t want, R
         int i = __builtin_ctzll(want);
         want &= want - 1;
         int gi = i / PK_LANES, l = i % PK_LANES;
-        const Ray *ray = &pk->rays[i];
+        const Ray r = packet_ray(pk, i), *ray = &r;
         if (pk->shadow) {
             if (grid_occluded_prim(&g->prims[p], ray, pk->tmin, pk->best_t[gi][l], ctx))
                 pk->hit |= (uint64_t)1 << i;
@@ -532,12 +532,22 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
     const pk_fv near = pk_splat(0.5f * (g->min_pad / (4.0f * FLT_EPSILON) - g->box_mag));
     const pk_fv zero = pk_splat(0.0f), one = pk_splat(1.0f), tminv = pk_splat(pk->march_tmin);
     const pk_fv inf = pk_splat(INFINITY), ninf = pk_splat(-INFINITY);
+    /* One direction and one tmax for every ray (pk->same_dir: shadow rays towards a
+     * directional light): their lanes and the reciprocals made once here, the same
+     * floats the gathers and the lane-wise divisions below would give. */
+    const bool same = pk->same_dir;
+    const pk_fv tm_same = same ? pk_splat(pk->same_tmax) : inf;
+    pk_fv sd[3], sinv[3];
+    for (int a = 0; a < 3; a++) {
+        sd[a] = same ? pk_splat(pk->dir[a]) : one;
+        sinv[a] = same ? pk_splat(1.0f / pk->dir[a]) : one;
+    }
     uint64_t single = 0, walk = 0;
     for (int gi = 0; gi < PK_NG; gi++) {
         unsigned byte = (unsigned)(cand >> (PK_W * gi)) & PK_WMASK;
         if (!byte)
             continue;
-        pk_fv o[3], d[3], tm = inf;
+        pk_fv o[3], d[3], tm = tm_same; /* tmax (below) only without same */
         /* The group's rays into columns (lanes without a candidate: origin 0, direction
          * 1, tmax infinite). With AVX2 or AVX-512, masked gathers: lane by lane, each
          * insert went through memory and the vector read back after them waited for
@@ -552,7 +562,8 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
             const __mmask16 km = (__mmask16)byte;
             for (int a = 0; a < 3; a++) {
                 o[a] = (pk_fv)_mm512_mask_i32gather_ps((__m512)zero, km, idx, base + a, 4);
-                d[a] = (pk_fv)_mm512_mask_i32gather_ps((__m512)one, km, idx, base + 3 + a, 4);
+                d[a] = same ? sd[a]
+                            : (pk_fv)_mm512_mask_i32gather_ps((__m512)one, km, idx, base + 3 + a, 4);
             }
             if (tmax)
                 tm = (pk_fv)_mm512_mask_loadu_ps((__m512)inf, km, tmax + PK_W * gi);
@@ -564,7 +575,8 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
             const __m256 km = (__m256)pk_lanes(byte);
             for (int a = 0; a < 3; a++) {
                 o[a] = (pk_fv)_mm256_mask_i32gather_ps((__m256)zero, base + a, idx, km, 4);
-                d[a] = (pk_fv)_mm256_mask_i32gather_ps((__m256)one, base + 3 + a, idx, km, 4);
+                d[a] = same ? sd[a]
+                            : (pk_fv)_mm256_mask_i32gather_ps((__m256)one, base + 3 + a, idx, km, 4);
             }
             if (tmax) /* masked lanes read as 0, then infinite */
                 tm = pk_blend((pk_iv)km,
@@ -572,13 +584,14 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
         }
 #else
         for (int a = 0; a < 3; a++)
-            o[a] = zero, d[a] = one;
+            o[a] = zero, d[a] = sd[a];
         for (int l = 0; l < PK_W; l++) {
             if (!(byte >> l & 1))
                 continue;
             const Ray *r = &rays[PK_W * gi + l];
             o[0][l] = r->origin.x, o[1][l] = r->origin.y, o[2][l] = r->origin.z;
-            d[0][l] = r->dir.x, d[1][l] = r->dir.y, d[2][l] = r->dir.z;
+            if (!same)
+                d[0][l] = r->dir.x, d[1][l] = r->dir.y, d[2][l] = r->dir.z;
             if (tmax)
                 tm[l] = tmax[PK_W * gi + l];
         }
@@ -630,15 +643,16 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
         /* Far origins: the exact check, ray by ray (rare). */
         for (unsigned slow = pk_bits(ok) & byte & ~fits; slow; slow &= slow - 1) {
             int l = __builtin_ctz(slow);
-            if (!grid_ray_too_far(g, &rays[PK_W * gi + l], pk->march_tmin))
+            const Ray r = packet_ray(pk, PK_W * gi + l);
+            if (!grid_ray_too_far(g, &r, pk->march_tmin))
                 fits |= 1u << l;
         }
         single |= (uint64_t)(byte & ~fits) << (PK_W * gi);
 
-        pk_fv t_enter = ninf, t_exit = inf;
+        pk_fv t_enter = ninf, t_exit = inf, invs[3];
         pk_iv any_axis = pk_spliti(0), inside = ~any_axis;
         for (int a = 0; a < 3; a++) {
-            pk_fv inv = one / d[a];
+            pk_fv inv = invs[a] = same ? sinv[a] : one / d[a];
             pk_iv par = (d[a] == zero) | ~pk_finite(inv);
             float plo = v3_comp(g->box.min, a) - g->pad[a], phi = v3_comp(g->box.max, a) + g->pad[a];
             inside &= ~par | ((o[a] >= pk_splat(plo)) & (o[a] <= pk_splat(phi)));
@@ -661,7 +675,7 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
             PKF(pk->o[a], gi) = pk_blend(wm, o[a], zero);
             PKF(pk->d[a], gi) = pk_blend(wm, d[a], one);
         }
-        PKF(pk->inv_k, gi) = pk_blend(wm, one / dk, one);
+        PKF(pk->inv_k, gi) = pk_blend(wm, invs[K], one); /* one / dk, made above */
         PKF(pk->t0, gi) = pk_blend(wm, t0, zero);
         PKF(pk->t1, gi) = pk_blend(wm, t1, zero);
         pk_iv ks = pk_cells(pk_blend(wm, o[K] + t0 * dk, zero), lo_k, inv_sk, g->n[K]);

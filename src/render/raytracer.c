@@ -522,6 +522,7 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     pp.brk = 0;
     const PhongParams *lp[ACCEL_PACKET_MAX];
     uint64_t live = 0, phong = 0, entering = 0, bounce = 0;
+    Ray srays[ACCEL_PACKET_MAX]; /* shadow rays: origins of non-Phong lanes set below */
     const Material *last = NULL;
     const PhongParams *last_p = NULL;
     bool last_bounce = false;
@@ -553,6 +554,9 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
             continue;
         }
         hits[i].point = ray_at(&rays[i], hits[i].t);
+        /* The shadow rays' origin stored now, long before the accelerator's set-up
+         * reads it with wide loads (which would wait for fresh stores to drain). */
+        srays[i].origin = hits[i].point;
         if (last_kind == PACKET_BLEND) { /* (only set when inline_ok) */
             blend |= bit;
             continue;
@@ -591,10 +595,9 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         live |= shaded;
     }
     /* The shadow rays (and the light directions of the lanes shaded through the ops)
-     * start at the hit points, the same lanes for every light: origins set once. A
-     * Phong lane's hit point is made only here, for its shadow rays and secondary
-     * rays. */
-    Ray srays[ACCEL_PACKET_MAX];
+     * start at the hit points, the same lanes for every light: origins set once (the
+     * other lanes' with their hit points above). A Phong lane's hit point is made only
+     * here, for its shadow rays and secondary rays. */
     uint64_t rays_needed = rt->shadows ? live : live & ~phong;
     for (uint64_t m = rt->shadows ? phong : bounce; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
@@ -602,11 +605,6 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         hits[i].point = p;
         srays[i].origin = p;
     }
-    if (scene->num_lights > 0)
-        for (uint64_t m = rays_needed & ~phong; m; m &= m - 1) {
-            int i = __builtin_ctzll(m);
-            srays[i].origin = hits[i].point;
-        }
     uint64_t lit[BRACKET_LIGHTS]; /* Phong lanes not in the shadow of light li */
     Vec3 ldir[BRACKET_LIGHTS], lcolor[BRACKET_LIGHTS];
     for (int li = 0; li < scene->num_lights && live; li++) {
@@ -618,12 +616,9 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         float dist0 = 0.0f;
         if (directional) /* the same for every point: asked once */
             light_illuminate(light, v3(0, 0, 0), &l0, &lc0, &dist0);
-        if (directional) { /* Phong lanes take lc0 themselves: no lcol */
-            for (uint64_t m = rays_needed; m; m &= m - 1) {
-                int i = __builtin_ctzll(m);
-                srays[i].dir = l0;
-                dist[i] = dist0;
-            }
+        if (directional) { /* Phong and blend lanes take lc0 themselves: no lcol */
+            /* One direction and distance for all: the shadow rays take them as such
+             * (accel_occluded_packet_dir), shade_light takes l0. */
             for (uint64_t m = live & ~phong & ~blend; m; m &= m - 1)
                 lcol[__builtin_ctzll(m)] = lc0;
         } else {
@@ -635,7 +630,10 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         uint64_t blocked = 0;
         if (rt->shadows) {
             ctx->stats.shadow_rays += (uint64_t)__builtin_popcountll(live);
-            blocked = accel_occluded_packet(rt->accel, srays, live, RT_EPSILON, dist, ctx);
+            blocked = directional ? accel_occluded_packet_dir(rt->accel, srays, live,
+                                                              RT_EPSILON, dist0, l0, ctx)
+                                  : accel_occluded_packet(rt->accel, srays, live, RT_EPSILON,
+                                                          dist, ctx);
         }
         if (phong & ~blocked) /* phong lanes only exist when every light is directional */
             phong_packet_light(&pp, lanes, phong & ~blocked, l0, lc0);
@@ -646,7 +644,7 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         }
         for (uint64_t m = live & ~phong & ~blend & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
-            shade_light(rt, &st[i], &rays[i], srays[i].dir, lcol[i]);
+            shade_light(rt, &st[i], &rays[i], directional ? l0 : srays[i].dir, lcol[i]);
         }
         /* Blend lanes exist only when every light is directional, as phong lanes. */
         if (blend & bl.quick & ~blocked)

@@ -418,6 +418,67 @@ static void check_packet(const RScene *r, const Grid *g, RenderCtx *ctx, const R
     }
 }
 
+/* Shadow rays towards a directional light through grid_occluded_packet_dir: every answer
+ * and every counter as grid_occluded_packet gives with the direction and tmax written
+ * into each ray (the packet's axis and walk must be the ones its summed directions
+ * choose). The rays' own directions are NaN for the _dir call: it must not read them. */
+static void check_packet_dir(const Grid *g, RenderCtx *ctx, Ray *rays, int n, Vec3 dir,
+                             float tmax1)
+{
+    float tmax[GRID_PACKET_MAX];
+    uint64_t mask = 0;
+    for (int i = 0; i < n; i++) {
+        rays[i].dir = dir;
+        tmax[i] = tmax1;
+        if (irand(6))
+            mask |= (uint64_t)1 << i;
+    }
+    RtStats s0 = ctx->stats;
+    uint64_t a = grid_occluded_packet(g, rays, mask, 1e-3f, tmax, ctx);
+    RtStats s1 = ctx->stats;
+    for (int i = 0; i < n; i++)
+        rays[i].dir = v3(NAN, NAN, NAN);
+    uint64_t b = grid_occluded_packet_dir(g, rays, mask, 1e-3f, tmax1, dir, ctx);
+    RtStats s2 = ctx->stats;
+    CHECK_MSG(a == b, "directional packet d=(%.9g,%.9g,%.9g) n=%d tmax=%g: occluded %llx, by "
+              "rays %llx", (double)dir.x, (double)dir.y, (double)dir.z, n, (double)tmax1,
+              (unsigned long long)b, (unsigned long long)a);
+    CHECK_MSG(s2.intersections - s1.intersections == s1.intersections - s0.intersections &&
+                  s2.cells_traversed - s1.cells_traversed ==
+                      s1.cells_traversed - s0.cells_traversed &&
+                  s2.mailbox_skips - s1.mailbox_skips == s1.mailbox_skips - s0.mailbox_skips &&
+                  s2.repeat_tests - s1.repeat_tests == s1.repeat_tests - s0.repeat_tests,
+              "directional packet d=(%.9g,%.9g,%.9g) n=%d: tests %llu, by rays %llu; cells "
+              "%llu, by rays %llu", (double)dir.x, (double)dir.y, (double)dir.z, n,
+              (unsigned long long)(s2.intersections - s1.intersections),
+              (unsigned long long)(s1.intersections - s0.intersections),
+              (unsigned long long)(s2.cells_traversed - s1.cells_traversed),
+              (unsigned long long)(s1.cells_traversed - s0.cells_traversed));
+}
+
+/* A direction whose two largest components are equal in magnitude or a few units in
+ * the last place apart (where rounding in the sums could decide the packet's axis),
+ * else a random one. */
+static Vec3 tie_dir(void)
+{
+    if (irand(3) == 0)
+        return unit_rand();
+    float c[3];
+    float big = frand(0.3f, 0.7f);
+    int a = irand(3), b = (a + 1 + irand(2)) % 3;
+    c[a] = big;
+    c[b] = nextafterf(big, irand(2) ? 1.0f : 0.0f);
+    for (int k = irand(4); k > 0; k--)
+        c[b] = nextafterf(c[b], irand(2) ? 1.0f : 0.0f);
+    if (irand(3) == 0)
+        c[b] = big * (1.0f + 1e-4f * (float)(irand(5) - 2));
+    c[3 - a - b] = frand(-0.9f, 0.9f) * big;
+    for (int k = 0; k < 3; k++)
+        if (irand(2))
+            c[k] = -c[k];
+    return v3(c[0], c[1], c[2]);
+}
+
 /* Camera-like packets (one origin, directions through a window of random width, so
  * some are split and some not), random incoherent ones, and shadow-like ones from their
  * hit points towards a directional or a point light. */
@@ -476,6 +537,8 @@ static void check_packets(const RScene *r, const Grid *g, RenderCtx *ctx, int co
         }
         if (m)
             check_packet(r, g, ctx, srays, m, 1e-3f, tmax, tot);
+        if (m >= 2) /* the same points towards a directional light */
+            check_packet_dir(g, ctx, srays, m, tie_dir(), irand(2) ? INFINITY : frand(0.0f, 8.0f));
     }
 }
 
