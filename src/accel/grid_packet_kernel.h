@@ -563,7 +563,8 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
             for (int a = 0; a < 3; a++) {
                 o[a] = (pk_fv)_mm512_mask_i32gather_ps((__m512)zero, km, idx, base + a, 4);
                 d[a] = same ? sd[a]
-                            : (pk_fv)_mm512_mask_i32gather_ps((__m512)one, km, idx, base + 3 + a, 4);
+                            : (pk_fv)_mm512_mask_i32gather_ps((__m512)one, km, idx,
+                                                              base + 3 + a, 4);
             }
             if (tmax)
                 tm = (pk_fv)_mm512_mask_loadu_ps((__m512)inf, km, tmax + PK_W * gi);
@@ -576,7 +577,8 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
             for (int a = 0; a < 3; a++) {
                 o[a] = (pk_fv)_mm256_mask_i32gather_ps((__m256)zero, base + a, idx, km, 4);
                 d[a] = same ? sd[a]
-                            : (pk_fv)_mm256_mask_i32gather_ps((__m256)one, base + 3 + a, idx, km, 4);
+                            : (pk_fv)_mm256_mask_i32gather_ps((__m256)one, base + 3 + a,
+                                                              idx, km, 4);
             }
             if (tmax) /* masked lanes read as 0, then infinite */
                 tm = pk_blend((pk_iv)km,

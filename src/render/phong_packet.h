@@ -88,6 +88,11 @@ _Static_assert(ACCEL_PACKET_MAX % PHONG_PACKET_GROUP == 0, "a packet is whole gr
 const char *phong_packet_kernel(void);
 bool phong_packet_use_kernel(const char *name);
 
+/* The copy of the quick blend lanes' light loop in use (raytracer.c: "avx512", "avx2"
+ * or "base", the widest this CPU runs); raytracer_blend_use_kernel picks one by name
+ * (false if this CPU cannot run it). For tests; not while rendering. */
+bool raytracer_blend_use_kernel(const char *name);
+
 /* The kernels (phong_packet_kernel.h), for phong_packet.c's choice. */
 uint64_t phong_packet_begin_base(PhongPacket *pp, int n, uint64_t cand,
                                  const PhongParams *const *lp, bool shade_back, Vec3 ambient,

@@ -3,10 +3,12 @@
 #include "rt/raytracer.h"
 #include "phong_packet.h"
 
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "rt/bigmem.h"
+#include "rt/cpu.h"
 
 bool raytracer_cast(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, Hit *hit)
 {
@@ -319,22 +321,28 @@ static inline Vec3 blend_normal(const BlendLanes *bl, int i)
     return v3(bl->nx[i], bl->ny[i], bl->nz[i]);
 }
 
-/* Four lanes of floats, for the quick blend lanes (plain GCC/clang vectors: SSE on
- * x86-64, whatever the target has elsewhere). Each lane's operations are
- * phong_term's and v3_lerp's single IEEE operations in their order (no FMA: the
- * baseline has none, and the file is built with -ffp-contract=off). */
-typedef float BlendV __attribute__((vector_size(16)));
-typedef int32_t BlendM __attribute__((vector_size(16)));
+/* Sixteen lanes of floats, for the quick blend lanes (plain GCC/clang vectors: one
+ * AVX-512 register, two AVX2 or four SSE ones, as blend_lights_group's copy chosen at
+ * run time is built). Each lane's operations are phong_term's and v3_lerp's single
+ * IEEE operations in their order (no FMA: the file is built with -ffp-contract=off),
+ * so every copy gives the same bits. */
+#define BLEND_W 16
+typedef float BlendV __attribute__((vector_size(4 * BLEND_W)));
+typedef int32_t BlendM __attribute__((vector_size(4 * BLEND_W)));
+#define BLEND_INLINE static inline __attribute__((always_inline))
 
-static inline BlendV bv_load(const float *p)
+BLEND_INLINE BlendV bv_load(const float *p)
 {
     BlendV v;
     memcpy(&v, p, sizeof v);
     return v;
 }
-static inline void bv_store(float *p, BlendV v) { memcpy(p, &v, sizeof v); }
-static inline BlendV bv_set(float a) { return (BlendV){a, a, a, a}; }
-static inline BlendV bv_sel(BlendM m, BlendV a, BlendV b)
+BLEND_INLINE void bv_store(float *p, BlendV v) { memcpy(p, &v, sizeof v); }
+BLEND_INLINE BlendV bv_set(float a)
+{
+    return (BlendV){a, a, a, a, a, a, a, a, a, a, a, a, a, a, a, a};
+}
+BLEND_INLINE BlendV bv_sel(BlendM m, BlendV a, BlendV b)
 {
     return (BlendV)(((BlendM)a & m) | ((BlendM)b & ~m));
 }
@@ -344,22 +352,26 @@ static inline BlendV bv_sel(BlendM m, BlendV a, BlendV b)
  * k, with nl = n . l, diffuse = nl > 0 ? nl : 0, term_j = lc_k (d_j diffuse + s_j 0)
  * (phong_term without powf, whose specular factor is then 0), and the blend
  * blend_of(term_1, term_2, t) added to the colour. */
-static void blend_lights_group(BlendLanes *bl, uint64_t mask, const PhongParams *p1,
-                               const PhongParams *p2, Vec3 l, Vec3 lc)
+BLEND_INLINE void blend_lights_group_lanes(BlendLanes *bl, uint64_t mask,
+                                           const PhongParams *p1, const PhongParams *p2,
+                                           Vec3 l, Vec3 lc)
 {
     BlendV lx = bv_set(l.x), ly = bv_set(l.y), lz = bv_set(l.z), zero = bv_set(0.0f),
            one = bv_set(1.0f);
+    const BlendM bit = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192,
+                        16384, 32768};
     const float lck[3] = {lc.x, lc.y, lc.z};
     const float d1[3] = {p1->diffuse.x, p1->diffuse.y, p1->diffuse.z};
     const float s1[3] = {p1->specular.x, p1->specular.y, p1->specular.z};
     const float d2[3] = {p2->diffuse.x, p2->diffuse.y, p2->diffuse.z};
     const float s2[3] = {p2->specular.x, p2->specular.y, p2->specular.z};
-    for (int g = __builtin_ctzll(mask) & ~3; g < ACCEL_PACKET_MAX && mask >> g; g += 4) {
-        unsigned m = (unsigned)(mask >> g) & 15u;
+    _Static_assert(ACCEL_PACKET_MAX % BLEND_W == 0, "whole vectors of lanes");
+    for (int g = __builtin_ctzll(mask) & -BLEND_W; g < ACCEL_PACKET_MAX && mask >> g;
+         g += BLEND_W) {
+        int32_t m = (int32_t)((mask >> g) & ((1u << BLEND_W) - 1));
         if (!m)
             continue;
-        BlendM on = {-(int32_t)(m & 1), -(int32_t)(m >> 1 & 1), -(int32_t)(m >> 2 & 1),
-                     -(int32_t)(m >> 3 & 1)};
+        BlendM on = ((BlendM){m, m, m, m, m, m, m, m, m, m, m, m, m, m, m, m} & bit) != 0;
         BlendV nl = bv_load(bl->nx + g) * lx + bv_load(bl->ny + g) * ly + bv_load(bl->nz + g) * lz;
         BlendV diffuse = bv_sel(nl > zero, nl, zero);
         BlendV t = bv_load(bl->t + g), u = one - t;
@@ -375,8 +387,58 @@ static void blend_lights_group(BlendLanes *bl, uint64_t mask, const PhongParams 
     }
 }
 
+typedef void (*BlendGroupFn)(BlendLanes *, uint64_t, const PhongParams *,
+                             const PhongParams *, Vec3, Vec3);
+#define BLEND_LIGHTS_GROUP(name, attr)                                                      \
+    attr static void name(BlendLanes *bl, uint64_t mask, const PhongParams *p1,            \
+                          const PhongParams *p2, Vec3 l, Vec3 lc)                          \
+    {                                                                                       \
+        blend_lights_group_lanes(bl, mask, p1, p2, l, lc);                                  \
+    }
+BLEND_LIGHTS_GROUP(blend_lights_group_base, )
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+BLEND_LIGHTS_GROUP(blend_lights_group_avx2, __attribute__((target("avx2"))))
+BLEND_LIGHTS_GROUP(blend_lights_group_avx512, __attribute__((target("avx512f"))))
+#endif
+
+static BlendGroupFn blend_lights_group = blend_lights_group_base;
+static pthread_once_t blend_once = PTHREAD_ONCE_INIT;
+
+static bool blend_set(const char *name)
+{
+    if (!strcmp(name, "base")) {
+        blend_lights_group = blend_lights_group_base;
+        return true;
+    }
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    if (!strcmp(name, "avx512") && cpu_has_avx512()) {
+        blend_lights_group = blend_lights_group_avx512;
+        return true;
+    }
+    if (!strcmp(name, "avx2") && cpu_has_avx2()) {
+        blend_lights_group = blend_lights_group_avx2;
+        return true;
+    }
+#endif
+    return false;
+}
+
+/* The widest copy this CPU runs (asked once; then only read). */
+static void blend_choose(void)
+{
+    if (!blend_set("avx512"))
+        blend_set("avx2");
+}
+
+bool raytracer_blend_use_kernel(const char *name)
+{
+    pthread_once(&blend_once, blend_choose);
+    return blend_set(name);
+}
+
 static void blend_lights_flat(BlendLanes *bl, uint64_t mask, Vec3 l, Vec3 lc)
 {
+    pthread_once(&blend_once, blend_choose);
     for (int j = 0; j < bl->groups; j++)
         if (bl->group_lanes[j] & mask)
             blend_lights_group(bl, bl->group_lanes[j] & mask, bl->g1[j], bl->g2[j], l, lc);

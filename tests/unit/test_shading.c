@@ -468,10 +468,14 @@ static void test_packet_procedural_same_bits(void)
     int differ = 0, kernels_run = 0, lanes = 0;
     const char *default_kernel = perlin_lanes_kernel();
     const char *kernels[] = {"scalar", "avx2", "avx512", "avx512vbmi"};
+    /* ... and with each the quick blend lanes' copy of that width (raytracer.c). */
+    const char *blends[] = {"base", "avx2", "avx512", "avx512"};
+    int blends_run = 0;
     for (int kn = 0; kn < 4; kn++) {
         if (!perlin_use_lanes_kernel(kernels[kn]))
             continue;
         kernels_run++;
+        blends_run += raytracer_blend_use_kernel(blends[kn]);
         for (int variant = 0; variant < 6; variant++) {
             RayTracer rt;
             memset(&rt, 0, sizeof rt);
@@ -514,6 +518,9 @@ static void test_packet_procedural_same_bits(void)
     }
     m.lights[1].kind = LIGHT_DIRECTIONAL;
     CHECK(perlin_use_lanes_kernel(default_kernel));
+    CHECK(blends_run >= 1);
+    CHECK(raytracer_blend_use_kernel("avx512") || raytracer_blend_use_kernel("avx2") ||
+          raytracer_blend_use_kernel("base"));
     CHECK_MSG(differ == 0, "%d of %d lanes differ from the single rays' bits", differ, lanes);
     CHECK(kernels_run >= 1);
     accel_free(&grid);
