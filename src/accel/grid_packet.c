@@ -298,7 +298,15 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
     uint64_t single = packet_trace(g, &pk, n, cand, NULL, ctx);
     found |= pk.hit;
     /* The packet's answers into the Hits: every ray's plane hit (the single-ray march
-     * below goes on from it) and the walked rays' triangle hits. */
+     * below goes on from it) and the walked rays' triangle hits. The planes' unit
+     * normals and materials asked once. */
+    Vec3 plane_n[PK_MAX_PLANES];
+    const Material *plane_m[PK_MAX_PLANES];
+    for (int u = 0; u < pk.num_planes; u++) {
+        const Object3D *o = g->unbounded[u].obj;
+        plane_n[u] = plane_unit_normal(o);
+        plane_m[u] = o->material;
+    }
     for (uint64_t m = cand; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         int p = pk.best_prim[i / PK_LANES][i % PK_LANES];
@@ -310,9 +318,8 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
             hits[i].normal = g->tri_hit[p].normal;
             hits[i].material = g->tri_hit[p].material;
         } else {
-            const Object3D *o = g->unbounded[-2 - p].obj;
-            hits[i].normal = plane_unit_normal(o);
-            hits[i].material = o->material;
+            hits[i].normal = plane_n[-2 - p];
+            hits[i].material = plane_m[-2 - p];
         }
         found |= (uint64_t)1 << i;
     }

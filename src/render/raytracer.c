@@ -321,84 +321,41 @@ static inline Vec3 blend_normal(const BlendLanes *bl, int i)
     return v3(bl->nx[i], bl->ny[i], bl->nz[i]);
 }
 
-/* Sixteen lanes of floats, for the quick blend lanes (plain GCC/clang vectors: one
- * AVX-512 register, two AVX2 or four SSE ones, as blend_lights_group's copy chosen at
- * run time is built). Each lane's operations are phong_term's and v3_lerp's single
- * IEEE operations in their order (no FMA: the file is built with -ffp-contract=off),
- * so every copy gives the same bits. */
-#define BLEND_W 16
-typedef float BlendV __attribute__((vector_size(4 * BLEND_W)));
-typedef int32_t BlendM __attribute__((vector_size(4 * BLEND_W)));
-#define BLEND_INLINE static inline __attribute__((always_inline))
-
-BLEND_INLINE BlendV bv_load(const float *p)
-{
-    BlendV v;
-    memcpy(&v, p, sizeof v);
-    return v;
-}
-BLEND_INLINE void bv_store(float *p, BlendV v) { memcpy(p, &v, sizeof v); }
-BLEND_INLINE BlendV bv_set(float a)
-{
-    return (BlendV){a, a, a, a, a, a, a, a, a, a, a, a, a, a, a, a};
-}
-BLEND_INLINE BlendV bv_sel(BlendM m, BlendV a, BlendV b)
-{
-    return (BlendV)(((BlendM)a & m) | ((BlendM)b & ~m));
-}
-
-/* One directional light (l, lc) on the quick lanes of mask, all of one material of
- * children p1, p2: per lane and channel
- * k, with nl = n . l, diffuse = nl > 0 ? nl : 0, term_j = lc_k (d_j diffuse + s_j 0)
- * (phong_term without powf, whose specular factor is then 0), and the blend
- * blend_of(term_1, term_2, t) added to the colour. */
-BLEND_INLINE void blend_lights_group_lanes(BlendLanes *bl, uint64_t mask,
-                                           const PhongParams *p1, const PhongParams *p2,
-                                           Vec3 l, Vec3 lc)
-{
-    BlendV lx = bv_set(l.x), ly = bv_set(l.y), lz = bv_set(l.z), zero = bv_set(0.0f),
-           one = bv_set(1.0f);
-    const BlendM bit = {1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192,
-                        16384, 32768};
-    const float lck[3] = {lc.x, lc.y, lc.z};
-    const float d1[3] = {p1->diffuse.x, p1->diffuse.y, p1->diffuse.z};
-    const float s1[3] = {p1->specular.x, p1->specular.y, p1->specular.z};
-    const float d2[3] = {p2->diffuse.x, p2->diffuse.y, p2->diffuse.z};
-    const float s2[3] = {p2->specular.x, p2->specular.y, p2->specular.z};
-    _Static_assert(ACCEL_PACKET_MAX % BLEND_W == 0, "whole vectors of lanes");
-    for (int g = __builtin_ctzll(mask) & -BLEND_W; g < ACCEL_PACKET_MAX && mask >> g;
-         g += BLEND_W) {
-        int32_t m = (int32_t)((mask >> g) & ((1u << BLEND_W) - 1));
-        if (!m)
-            continue;
-        BlendM on = ((BlendM){m, m, m, m, m, m, m, m, m, m, m, m, m, m, m, m} & bit) != 0;
-        BlendV nl = bv_load(bl->nx + g) * lx + bv_load(bl->ny + g) * ly + bv_load(bl->nz + g) * lz;
-        BlendV diffuse = bv_sel(nl > zero, nl, zero);
-        BlendV t = bv_load(bl->t + g), u = one - t;
-        BlendM hi = t >= one, lo = t <= zero;
-        for (int k = 0; k < 3; k++) {
-            BlendV c = bv_set(lck[k]);
-            BlendV a = c * (bv_set(d1[k]) * diffuse + bv_set(s1[k]) * zero);
-            BlendV b = c * (bv_set(d2[k]) * diffuse + bv_set(s2[k]) * zero);
-            BlendV term = bv_sel(hi, a, bv_sel(lo, b, a * t + b * u));
-            BlendV old = bv_load(bl->c[k] + g);
-            bv_store(bl->c[k] + g, bv_sel(on, old + term, old));
-        }
-    }
-}
-
+/* The quick blend lanes' light loop (blend_lanes_kernel.h) at the width of each
+ * instruction set: four lanes in the baseline's vectors (SSE on x86-64), eight in AVX2,
+ * sixteen in AVX-512; the widest this CPU runs is chosen once. */
 typedef void (*BlendGroupFn)(BlendLanes *, uint64_t, const PhongParams *,
                              const PhongParams *, Vec3, Vec3);
-#define BLEND_LIGHTS_GROUP(name, attr)                                                      \
-    attr static void name(BlendLanes *bl, uint64_t mask, const PhongParams *p1,            \
-                          const PhongParams *p2, Vec3 l, Vec3 lc)                          \
-    {                                                                                       \
-        blend_lights_group_lanes(bl, mask, p1, p2, l, lc);                                  \
-    }
-BLEND_LIGHTS_GROUP(blend_lights_group_base, )
+#define BL_NAME blend_lights_group_base
+#define BL_W 4
+#include "blend_lanes_kernel.h"
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-BLEND_LIGHTS_GROUP(blend_lights_group_avx2, __attribute__((target("avx2"))))
-BLEND_LIGHTS_GROUP(blend_lights_group_avx512, __attribute__((target("avx512f"))))
+#define BLEND_WIDE 1
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+#define BL_NAME blend_lights_group_avx2
+#define BL_W 8
+#include "blend_lanes_kernel.h"
+#if defined(__clang__)
+#pragma clang attribute pop
+#pragma clang attribute push(__attribute__((target("avx512f"))), apply_to = function)
+#else
+#pragma GCC pop_options
+#pragma GCC push_options
+#pragma GCC target("avx512f")
+#endif
+#define BL_NAME blend_lights_group_avx512
+#define BL_W 16
+#include "blend_lanes_kernel.h"
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
 #endif
 
 static BlendGroupFn blend_lights_group = blend_lights_group_base;
@@ -410,7 +367,7 @@ static bool blend_set(const char *name)
         blend_lights_group = blend_lights_group_base;
         return true;
     }
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#if defined(BLEND_WIDE)
     if (!strcmp(name, "avx512") && cpu_has_avx512()) {
         blend_lights_group = blend_lights_group_avx512;
         return true;
