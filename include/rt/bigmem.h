@@ -42,6 +42,12 @@ void bigmem_free(void *p);   /* NULL allowed */
  * mappings, and the exit tears the whole address space down at once anyway. */
 void bigmem_leave_to_exit(void);
 
+/* Faults in the pages of bytes [off, off + len) of block p (clipped to the block's size)
+ * without changing them: for a thread with nothing else to do, so that the ones that
+ * later write the block do not stop for its page faults (each page is read and written
+ * back). The caller must be the only one using those bytes meanwhile. */
+void bigmem_prefault(void *p, size_t off, size_t len);
+
 /* True when p's memory is a mapping of its own; bigmem_maps_large: whether allocations
  * of BIGMEM_MIN_BYTES and more get one in this build (false under AddressSanitizer). */
 bool bigmem_is_mapped(const void *p);

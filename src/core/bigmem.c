@@ -8,10 +8,11 @@
 #include <string.h>
 #include <sys/mman.h>
 
-/* The header in front of the data: one cache line, so the data stays 64-aligned. */
+/* The header in front of the data of a malloc'd or pooled block (and of a mapping when
+ * the table of mappings is full): one cache line, so the data stays 64-aligned. */
 typedef struct BigmemHeader {
-    size_t map_len;   /* length of the mapping that starts at the header; 0: malloc'd or
-                         pooled */
+    size_t map_len;   /* length of the mapping that starts at the header (a mapping not in
+                         the table, map_aligned); 0: malloc'd or pooled */
     size_t size;      /* bytes the caller asked for */
     size_t pooled;    /* 1: carved from the pool (never freed, never reused) */
     unsigned char pad[64 - 3 * sizeof(size_t)];
@@ -57,17 +58,88 @@ bool bigmem_maps_large(void)
 
 static bool want_mapping(size_t size) { return bigmem_maps_large() && size >= BIGMEM_MIN_BYTES; }
 
-/* A zeroed mapping of at least HEADER + size bytes starting on a 2 MB boundary, so the
- * kernel can back all of it with huge pages. */
+/* The mappings whose data starts on their first byte, header-less: their lengths and
+ * sizes are kept here instead. Why: a header written in front of the data faulted the
+ * mapping's first 2 MB page in (zeroing it: 0.1-0.2 ms on the virtual machines
+ * measured) on the allocating thread, at once; a 1080p render's set-up makes about ten
+ * such blocks on its main thread, most of them filled later by several threads
+ * (grid_pack's arrays, the frame buffer and its file), which now fault their pages in
+ * where they write them, in parallel. (A header in a 4 KB page of its own below the
+ * data was tried: that page's fault, the first of its page table, cost 0.1 ms too.)
+ * A slot is taken under a spin lock; when all are taken, a block carries its header in
+ * front of its data as before (map_aligned). */
+enum { MAP_SLOTS = 256 };
+static struct {
+    void *data;       /* NULL: free slot */
+    size_t map_len;   /* the mapping's length, starting at data */
+    size_t size;      /* bytes the caller asked for */
+} g_maps[MAP_SLOTS];
+static atomic_flag g_maps_lock = ATOMIC_FLAG_INIT;
+
+static void maps_lock(void)
+{
+    while (atomic_flag_test_and_set_explicit(&g_maps_lock, memory_order_acquire))
+        ;
+}
+
+static void maps_unlock(void) { atomic_flag_clear_explicit(&g_maps_lock, memory_order_release); }
+
+/* p's slot, or -1 (under the lock). Only 2 MB-aligned pointers can be in the table. */
+static int map_slot(const void *p)
+{
+    if ((uintptr_t)p & (uintptr_t)(HUGE_PAGE - 1))
+        return -1;
+    for (int i = 0; i < MAP_SLOTS; i++)
+        if (g_maps[i].data == p)
+            return i;
+    return -1;
+}
+
+/* p's mapping length and size when it is in the table (false otherwise). */
+static bool map_lookup(const void *p, size_t *map_len, size_t *size)
+{
+    if ((uintptr_t)p & (uintptr_t)(HUGE_PAGE - 1))
+        return false;
+    maps_lock();
+    int i = map_slot(p);
+    if (i >= 0) {
+        *map_len = g_maps[i].map_len;
+        *size = g_maps[i].size;
+    }
+    maps_unlock();
+    return i >= 0;
+}
+
+/* A zeroed mapping for size bytes starting on a 2 MB boundary, so the kernel can back
+ * all of it with huge pages: its data starts at that boundary and its length and size
+ * go into the table; when the table is full, the header goes in front of the data (the
+ * mapping's first 64 bytes) as it did before the table. */
 static void *map_aligned(size_t size)
 {
-    size_t len = (HEADER + size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1);
-    if (len < HEADER + size || len > SIZE_MAX - HUGE_PAGE)
+    size_t data_len = (size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1);
+    size_t head_len = (HEADER + size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1);
+    if (data_len < size || head_len < size || head_len > SIZE_MAX - HUGE_PAGE)
         return NULL;
+    /* A slot first: its length decides the mapping's. */
+    maps_lock();
+    int slot = -1;
+    for (int i = 0; i < MAP_SLOTS && slot < 0; i++)
+        if (!g_maps[i].data) {
+            slot = i;
+            g_maps[i].data = (void *)(uintptr_t)1; /* taken, filled below */
+        }
+    maps_unlock();
+    size_t len = slot >= 0 ? data_len : head_len;
     char *raw = mmap(NULL, len + HUGE_PAGE, PROT_READ | PROT_WRITE,
                      MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (raw == MAP_FAILED)
+    if (raw == MAP_FAILED) {
+        if (slot >= 0) {
+            maps_lock();
+            g_maps[slot].data = NULL;
+            maps_unlock();
+        }
         return NULL;
+    }
     char *base = (char *)(((uintptr_t)raw + HUGE_PAGE - 1) & ~(uintptr_t)(HUGE_PAGE - 1));
     if (base > raw)
         munmap(raw, (size_t)(base - raw));
@@ -76,6 +148,14 @@ static void *map_aligned(size_t size)
 #ifdef MADV_HUGEPAGE
     (void)madvise(base, len, MADV_HUGEPAGE);   /* a hint: without it, 4 KB pages */
 #endif
+    if (slot >= 0) {
+        maps_lock();
+        g_maps[slot].data = base;
+        g_maps[slot].map_len = len;
+        g_maps[slot].size = size;
+        maps_unlock();
+        return base;
+    }
     BigmemHeader *h = (BigmemHeader *)(void *)base;
     h->map_len = len;
     h->size = size;
@@ -159,6 +239,28 @@ void *bigmem_resize(void *p, size_t size)
         return bigmem_alloc(size);
     if (size > SIZE_MAX / 2)
         return NULL;
+    size_t map_len, old_size;
+    if (map_lookup(p, &map_len, &old_size)) {
+        /* Growing inside the mapping's slack (up to the next 2 MB) costs nothing. */
+        if (size <= map_len) {
+            size_t keep = (size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1);
+            maps_lock();
+            int i = map_slot(p);
+            if (keep < map_len) {   /* shrinking: give whole 2 MB steps back */
+                munmap((char *)p + keep, map_len - keep);
+                g_maps[i].map_len = keep;
+            }
+            g_maps[i].size = size;
+            maps_unlock();
+            return p;
+        }
+        void *q = bigmem_alloc(size);
+        if (!q)
+            return NULL;
+        memcpy(q, p, old_size < size ? old_size : size);
+        bigmem_free(p);
+        return q;
+    }
     BigmemHeader *h = header_of(p);
     if (h->map_len) {
         /* Growing inside the mapping's slack (up to the next 2 MB) costs nothing. */
@@ -193,6 +295,19 @@ void bigmem_free(void *p)
 {
     if (!p)
         return;
+    if (!((uintptr_t)p & (uintptr_t)(HUGE_PAGE - 1))) {
+        maps_lock();
+        int i = map_slot(p);
+        size_t len = i >= 0 ? g_maps[i].map_len : 0;
+        if (i >= 0)
+            g_maps[i].data = NULL;
+        maps_unlock();
+        if (i >= 0) {
+            if (!atomic_load_explicit(&g_leave_to_exit, memory_order_relaxed))
+                munmap(p, len);
+            return;
+        }
+    }
     BigmemHeader *h = header_of(p);
     if (h->map_len) {
         if (!atomic_load_explicit(&g_leave_to_exit, memory_order_relaxed))
@@ -204,11 +319,36 @@ void bigmem_free(void *p)
 
 size_t bigmem_capacity(const void *p)
 {
+    size_t map_len, size;
+    if (map_lookup(p, &map_len, &size))
+        return map_len;
     const BigmemHeader *h = header_of(p);
     return h->map_len ? h->map_len - HEADER : h->size;
 }
 
 bool bigmem_is_mapped(const void *p)
 {
-    return p && header_of(p)->map_len != 0;
+    size_t map_len, size;
+    return p && (map_lookup(p, &map_len, &size) || header_of(p)->map_len != 0);
+}
+
+void bigmem_prefault(void *p, size_t off, size_t len)
+{
+    if (!p)
+        return;
+    size_t map_len, size;
+    if (!map_lookup(p, &map_len, &size))
+        size = header_of(p)->size;
+    if (off >= size)
+        return;
+    if (len > size - off)
+        len = size - off;
+    /* A write per 4 KB (at most the page size: every page is reached), not
+     * MADV_POPULATE_WRITE: that holds the address space's lock for the whole range,
+     * and another thread's mmap or munmap meanwhile waited for it (2 ms when this
+     * thread lost its CPU under load), while a fault locks only its own mapping. */
+    volatile char *a = (char *)p + off;
+    for (size_t i = 0; i < len; i += 4096)
+        a[i] = a[i];
+    a[len - 1] = a[len - 1];
 }

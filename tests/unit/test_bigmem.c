@@ -50,8 +50,8 @@ static void test_alloc_sizes(void)
         CHECK_MSG(all_zero(p, n), "size %zu not zeroed", n);
         bool big = n >= BIGMEM_MIN_BYTES && bigmem_maps_large();
         CHECK_MSG(bigmem_is_mapped(p) == big, "size %zu mapped %d", n, bigmem_is_mapped(p));
-        if (big) /* the header line sits at the start of a 2 MB boundary */
-            CHECK_MSG((uintptr_t)(p - 64) % (2u << 20) == 0, "size %zu not on 2 MB", n);
+        if (big) /* the data starts on a 2 MB boundary (no header in front of it) */
+            CHECK_MSG((uintptr_t)p % (2u << 20) == 0, "size %zu not on 2 MB", n);
         fill(p, n, 7);
         CHECK(filled(p, n, 7));
         bigmem_free(p);
@@ -164,7 +164,7 @@ static void test_huge_page_advice(void)
         return;
     char line[512];
     bool in_ours = false, found = false, advised = false;
-    uintptr_t start = (uintptr_t)(p - 64);
+    uintptr_t start = (uintptr_t)p;
     while (fgets(line, sizeof line, f)) {
         unsigned long lo, hi;
         if (sscanf(line, "%lx-%lx ", &lo, &hi) == 2 && strchr(line, '-') < strchr(line, ' ')) {
@@ -175,7 +175,7 @@ static void test_huge_page_advice(void)
         }
     }
     fclose(f);
-    CHECK_MSG(found, "no mapping starts at the block's header");
+    CHECK_MSG(found, "no mapping starts at the block's data");
     CHECK_MSG(advised, "the mapping lacks the huge-page advice (hg)");
     bigmem_free(p);
 }
@@ -214,7 +214,100 @@ static void test_leave_to_exit(void)
     bigmem_free(c);
 }
 
+/* Whether the page at p is in memory (mincore's residency bit; false when unmapped). */
+static bool page_resident(const void *p)
+{
+    long ps = sysconf(_SC_PAGESIZE);
+    uintptr_t a = (uintptr_t)p & ~(uintptr_t)(ps - 1);
+    unsigned char v = 0;
+    return mincore((void *)a, (size_t)ps, &v) == 0 && (v & 1);
+}
+
+/* A fresh mapped block has none of its data in memory: it carries no header, so
+ * allocating it faults in no 2 MB page (the threads that fill it do, where they write,
+ * or bigmem_prefault, its range only). Freed, its mapping goes; a shrink gives its tail
+ * back and keeps the rest. */
+static void test_fresh_block_untouched(void)
+{
+    if (!bigmem_maps_large())
+        return; /* AddressSanitizer builds: every block is malloc'd */
+    size_t big = 6u << 20;
+    unsigned char *p = bigmem_alloc(big);
+    CHECK(p != NULL && bigmem_is_mapped(p));
+    if (!p)
+        return;
+    long ps = sysconf(_SC_PAGESIZE);
+    size_t resident = 0;
+    for (size_t off = 0; off < big; off += (size_t)ps)
+        resident += page_resident(p + off);
+    CHECK_MSG(resident == 0, "%zu pages of a fresh block are in memory", resident);
+    /* bigmem_prefault brings in just its range, bytes unchanged (clipped at the end). */
+    p[(3u << 20) + 5] = 42;
+    bigmem_prefault(p, 3u << 20, 1u << 20);
+    bigmem_prefault(p, big - 100, 1u << 20);
+    size_t missing = 0, extra = 0; /* huge pages may bring in the rest of their 2 MB */
+    for (size_t off = 3u << 20; off < 4u << 20; off += (size_t)ps)
+        missing += !page_resident(p + off);
+    for (size_t off = 0; off < 2u << 20; off += (size_t)ps)
+        extra += page_resident(p + off);
+    CHECK_MSG(missing == 0 && extra == 0, "prefaulted range: %zu pages missing; %zu pages "
+              "of an untouched 2 MB in memory", missing, extra);
+    CHECK(page_resident(p + big - 1));
+    CHECK(p[(3u << 20) + 5] == 42 && all_zero(p + (3u << 20) + 6, 100));
+    p[(3u << 20) + 5] = 0;
+    p[0] = 1;
+    CHECK(page_resident(p));
+    CHECK(bigmem_capacity(p) >= big && bigmem_capacity(p) < big + (2u << 20));
+    unsigned char *q = bigmem_resize(p, 3u << 20); /* shrinks in place to 4 MB */
+    CHECK(q == p && q[0] == 1);
+    CHECK(bigmem_capacity(q) == 4u << 20);
+    CHECK(!page_mapped(q + (4u << 20)));
+    CHECK(page_mapped(q + (4u << 20) - 1));
+    bigmem_free(q);
+    CHECK(!page_mapped(q));
+}
+
+/* More mapped blocks than the table of mappings holds: the rest carry their header in
+ * front of their data (64 bytes past the 2 MB boundary), and every block works the same
+ * way (zeroed, mapped, resized in place, freed), whichever kind it is. */
+static void test_many_mappings(void)
+{
+    if (!bigmem_maps_large())
+        return;
+    enum { N = 300 };
+    static unsigned char *p[N];
+    int headed = 0;
+    for (int i = 0; i < N; i++) {
+        p[i] = bigmem_alloc(BIGMEM_MIN_BYTES + (size_t)i);
+        CHECK(p[i] != NULL);
+        if (!p[i])
+            return;
+        uintptr_t off = (uintptr_t)p[i] % (2u << 20);
+        CHECK_MSG(off == 0 || off == 64, "block %d at %lu past 2 MB", i, (unsigned long)off);
+        headed += off == 64;
+        CHECK(bigmem_is_mapped(p[i]));
+        CHECK(bigmem_capacity(p[i]) >= BIGMEM_MIN_BYTES + (size_t)i);
+        if (off == 64 || i % 50 == 0) { /* a touch brings in 2 MB: a few of each kind */
+            CHECK(all_zero(p[i], 4096));
+            fill(p[i], 4096, (unsigned)i);
+        }
+    }
+    CHECK_MSG(headed > 0 && headed < N, "%d of %d blocks with a header", headed, N);
+    for (int i = 0; i < N; i++) {
+        bool written = (uintptr_t)p[i] % (2u << 20) == 64 || i % 50 == 0;
+        unsigned char *q = bigmem_resize(p[i], 1000000); /* grows in place */
+        CHECK(q == p[i] && (!written || filled(q, 4096, (unsigned)i)));
+        bigmem_free(q);
+    }
+    unsigned char *again = bigmem_alloc(BIGMEM_MIN_BYTES); /* slots are free again */
+    CHECK(again && (uintptr_t)again % (2u << 20) == 0);
+    bigmem_free(again);
+}
+
 static const TestCase tests[] = {
+    {"bigmem: a fresh big block faults nothing in; freed, all of it goes",
+     test_fresh_block_untouched},
+    {"bigmem: more mappings than the table holds work alike", test_many_mappings},
     {"bigmem: left to the exit, mappings stay; before, they go", test_leave_to_exit},
     {"bigmem: sizes on both paths, zeroed and aligned", test_alloc_sizes},
     {"bigmem: resize keeps the contents across the paths", test_resize_keeps_contents},
