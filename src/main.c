@@ -80,6 +80,7 @@ typedef struct App {
     SetupCache *cache;  /* -cache FILE, NULL without */
     double t_parse, t_grid;
     bool last_render;   /* render_and_write's images are the run's last work */
+    struct Prepared *prepared; /* the output's image and file made ahead, or NULL */
 } App;
 
 static void print_version(void)
@@ -229,6 +230,109 @@ static bool antialiasing_requested(const Options *o)
     return o->sampler || o->adaptive || o->filter || o->samples_file || o->filter_file;
 }
 
+/* The colour image and its file's layout (ImageEncoding), made before the render by
+ * the set-up's helper in its idle moments (par_background), their pages faulted in:
+ * with several threads the set-up's serial stretches (the scene's and the grid's
+ * table walks, the CSR fill) leave the helper waiting, while the main thread did this
+ * work between the grid and the render (two 6 MB blocks at 1080p: their mappings, the
+ * file's header and 0.6-0.9 ms of page faults, most of them in the render's first
+ * bands). The temporary file is still made by render_and_write on the main thread
+ * (the signal handler's registry, image_encoding_stream). Only for the plain renderer
+ * writing a whole image in one process, which render_and_write would make the same
+ * way. */
+typedef struct Prepared {
+    int width, height;
+    const char *path, *format;
+    Image color;
+    ImageEncoding enc;
+    bool have_image, have_enc; /* what piece 0 made (else render_and_write makes it) */
+    atomic_bool skip;          /* the run ends without a render: pieces do nothing */
+} Prepared;
+
+/* 2 MB steps of the prefault pieces: one huge page each. */
+enum { PREPARE_STEP = 2 << 20 };
+
+static size_t prepare_steps(size_t bytes) { return (bytes + PREPARE_STEP - 1) / PREPARE_STEP; }
+
+/* Piece 0 allocates; pieces 1.. fault in one step each of the image, then of the file. */
+static void prepare_piece(void *ctx, int i)
+{
+    Prepared *p = ctx;
+    if (atomic_load_explicit(&p->skip, memory_order_relaxed))
+        return;
+    if (i == 0) {
+        p->have_image = image_init_bytes(&p->color, p->width, p->height);
+        p->have_enc = p->have_image &&
+                      image_encoding_begin(&p->enc, &p->color, p->path, p->format);
+        return;
+    }
+    size_t k = (size_t)i - 1;
+    size_t img_len = (size_t)p->width * (size_t)p->height * 3;
+    size_t img_steps = prepare_steps(img_len);
+    if (k < img_steps) {
+        if (p->have_image)
+            bigmem_prefault(p->color.bytes, k * PREPARE_STEP, PREPARE_STEP);
+    } else if (p->have_enc) {
+        bigmem_prefault(p->enc.data, (k - img_steps) * PREPARE_STEP, PREPARE_STEP);
+    }
+}
+
+/* Posts the preparation when the run qualifies and a helper can do it (at one thread
+ * everything stays in render_and_write, as before). */
+static void prepare_output(App *app)
+{
+    const Options *o = &app->opt;
+    if (!o->output || o->region || dist_size() != 1 || antialiasing_requested(o) ||
+        o->gui || o->gui_snapshot || strcmp(o->output, IMAGE_STDOUT) == 0 ||
+        par_threads() < 2)
+        return;
+    Prepared *p = calloc(1, sizeof *p);
+    if (!p)
+        return;
+    p->width = o->width;
+    p->height = o->height;
+    p->path = o->output;
+    p->format = stdout_format(o, o->output);
+    /* The file: the image's bytes and a header and footer well under a step. */
+    size_t img_len = (size_t)o->width * (size_t)o->height * 3;
+    size_t pieces = 1 + prepare_steps(img_len) + prepare_steps(img_len + 4096);
+    if (pieces > 4096 || !par_background((int)pieces, prepare_piece, p)) {
+        free(p);
+        return;
+    }
+    app->prepared = p;
+}
+
+/* The prepared output, once every piece has run (NULL when there is none, or when it
+ * cannot be used); the caller owns what it holds then. */
+static Prepared *prepared_take(App *app)
+{
+    Prepared *p = app->prepared;
+    app->prepared = NULL;
+    if (!p)
+        return NULL;
+    if (!par_background_finish()) { /* a forked child: pieces maybe half run */
+        free(p);
+        return NULL;
+    }
+    return p;
+}
+
+/* Frees what an unused preparation made (a run that ends before its render). */
+static void prepared_free(App *app)
+{
+    if (app->prepared)
+        atomic_store_explicit(&app->prepared->skip, true, memory_order_relaxed);
+    Prepared *p = prepared_take(app);
+    if (!p)
+        return;
+    if (p->have_enc)
+        image_encoding_free(&p->enc);
+    if (p->have_image)
+        image_free(&p->color);
+    free(p);
+}
+
 /* The film's sampler(s) and filter from the options (already validated by
  * options_parse, so the inits cannot fail here). */
 static void film_setup(const Options *o, Sampler *sampler, Sampler *refine, Filter *filter,
@@ -375,9 +479,25 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
      * and a -tile part of 16 rows 92 KB instead of 368. */
     bool bytes = dist_size() == 1;
     const Scene *s = app->scene;
+    /* The colour image and its file's layout made ahead (prepare_output), if any. */
+    ImageEncoding pre_enc;
+    memset(&pre_enc, 0, sizeof pre_enc);
+    pre_enc.fd = pre_enc.slot = -1;
+    bool pre_image = false;
+    Prepared *prep = prepared_take(app);
+    if (prep) {
+        if (prep->have_image) {
+            color = prep->color;
+            target.color = &color;
+            pre_image = true;
+        }
+        if (prep->have_enc)
+            pre_enc = prep->enc;
+        free(prep);
+    }
     bool allocated =
-        alloc_image(&target.color, &color, o->output, o, bytes, s, IMAGE_KIND_COLOR,
-                    &app->diag) &&
+        (pre_image || alloc_image(&target.color, &color, o->output, o, bytes, s,
+                                  IMAGE_KIND_COLOR, &app->diag)) &&
         alloc_image(&target.depth, &depth, o->depth_file, o, bytes, s, IMAGE_KIND_DEPTH,
                     &app->diag) &&
         alloc_image(&target.normals, &normals, o->normals_file, o, bytes, s,
@@ -473,7 +593,15 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         if (!film && bytes) {
             const char *paths[3] = {o->output, o->depth_file, o->normals_file};
             const Image *imgs[3] = {target.color, target.depth, target.normals};
-            for (int i = 0; i < 3; i++)
+            for (int i = 0; i < 3; i++) {
+                if (i == 0 && pre_enc.data) { /* made ahead for this image */
+                    rj.enc[0] = pre_enc;
+                    memset(&pre_enc, 0, sizeof pre_enc);
+                    pre_enc.fd = pre_enc.slot = -1;
+                    rj.img[0] = imgs[0];
+                    image_encoding_stream(&rj.enc[0], paths[0]);
+                    continue;
+                }
                 if (imgs[i] && paths[i] && imgs[i]->bytes &&
                     image_encoding_begin(&rj.enc[i], imgs[i], paths[i],
                                          stdout_format(o, paths[i]))) {
@@ -482,6 +610,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
                      * render (best effort: else it is written after the render). */
                     image_encoding_stream(&rj.enc[i], paths[i]);
                 }
+            }
         }
         DistJob job;
         memset(&job, 0, sizeof job);
@@ -615,6 +744,7 @@ done:
      * exit (rt/bigmem.h). */
     if (app->last_render)
         bigmem_leave_to_exit();
+    image_encoding_free(&pre_enc); /* made ahead and not used (a run stopped before) */
     for (int i = 0; i < 3; i++)
         image_encoding_free(&encoded[i]);
     if (target.color && (target.color->pixels || target.color->bytes))
@@ -664,6 +794,9 @@ static int run(App *app)
     app->t_parse = clock_now() - t0;
     if (!app->scene)
         return EXIT_INPUT;
+    /* The output's image and file are made now on the helper, between the grid's
+     * parallel steps (prepare_output). */
+    prepare_output(app);
     Scene *s = app->scene;
     SrcLoc file = {s->path, 0, 0};
     if (!s->has_camera) {
@@ -850,6 +983,7 @@ int main(int argc, char **argv)
     options_warn(&app.opt, render_default_threads(), stderr);
 
     int status = run(&app);
+    prepared_free(&app); /* when the run ended before its render */
     /* Anything else printed on stdout must have arrived too. */
     if (status == 0 && !stdout_ok(&app.diag, "the output"))
         status = EXIT_INPUT;

@@ -26,6 +26,24 @@ typedef void (*ParChunkFn)(void *ctx, int i, int worker);
  * running (another thread, or from inside a chunk) runs all its chunks on the caller. */
 void par_for(int n, ParChunkFn fn, void *ctx);
 
+/* A piece of par_background's task. */
+typedef void (*ParPieceFn)(void *ctx, int i);
+
+/* Work for the helpers' idle moments, such as preparing what a later step will need
+ * while the set-up's serial stretches leave the held helpers (par_hold) waiting:
+ * fn(ctx, i) for i = 0..n-1, in this order and one after another (a piece may use the
+ * ones before it), each run by a helper that finds no par_for chunk waiting (chunks come
+ * first; a job that opens meanwhile waits at most for the piece under way). Returns
+ * false, with nothing posted or run, when no helper is wanted or a task is already
+ * posted: the caller then does the work itself. */
+bool par_background(int n, ParPieceFn fn, void *ctx);
+/* Runs on the calling thread the pieces of the posted task that no helper took, waits
+ * for the one under way, and returns true when every piece has run (then the task is
+ * over and another may be posted); also true when no task is posted. False only in a
+ * forked child whose parent had posted one: pieces may have been half run there, and
+ * none is run again (the caller must not use their work). */
+bool par_background_finish(void);
+
 /* par_for for chunks that are whole threads' work (the render's workers, each pulling
  * jobs from a shared counter until none is left, so a chunk the caller runs after its
  * own finds nothing to do): runs it and returns true when the helpers may take part,

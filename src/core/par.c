@@ -42,6 +42,14 @@ static int64_t g_deadline;            /* idle helpers exit after it (CLOCK_MONOT
 static bool g_hold;                   /* par_hold: idle helpers stay until par_release */
 static int g_want = -1;               /* par_set_helpers; < 0: automatic */
 static bool g_running;                /* a par_for is in progress */
+/* par_background's task: pieces next.. wait for a helper; busy: one is running (they
+ * run one at a time, in order); lost: a forked child's copy, whose helper is gone. */
+static struct {
+    ParPieceFn fn;
+    void *ctx;
+    int n, next, done;
+    bool posted, busy, lost;
+} g_bg;
 static pthread_once_t g_once = PTHREAD_ONCE_INIT;
 
 /* Sleeping helpers wait on g_wake under g_sleep_lock; g_sleepers (under g_sleep_lock)
@@ -102,6 +110,8 @@ static void reset_in_child(void)
     g_job.open = false;
     g_running = false;
     g_hold = false; /* the child has no helper to keep; its own start anew */
+    g_bg.busy = false;
+    g_bg.lost = g_bg.posted; /* a piece may have been half run: none is run again */
     pthread_mutex_init(&g_sleep_lock, NULL);
     g_sleepers = 0;
     g_caller_waits = false;
@@ -121,6 +131,26 @@ static void init_once(void)
 /* Whether a chunk is waiting for a helper (under g_lock). */
 static bool chunk_waiting(void) { return g_job.open && g_job.next < g_job.n; }
 
+/* Whether a piece of the background task may be taken now (under g_lock). */
+static bool piece_waiting(void)
+{
+    return g_bg.posted && !g_bg.lost && !g_bg.busy && g_bg.next < g_bg.n;
+}
+
+/* Runs the next piece (under g_lock, which it releases and takes again). */
+static void run_piece(void)
+{
+    int i = g_bg.next++;
+    g_bg.busy = true;
+    ParPieceFn fn = g_bg.fn;
+    void *ctx = g_bg.ctx;
+    unlock();
+    fn(ctx, i);
+    lock(); /* the release of the next unlock publishes the piece's writes */
+    g_bg.done++;
+    g_bg.busy = false;
+}
+
 /* An idle helper's sleep: until a job opens or the deadline passes (a little past it:
  * the caller rechecks). Without a usable condition variable it just yields. */
 static void helper_sleep(void)
@@ -132,7 +162,7 @@ static void helper_sleep(void)
     pthread_mutex_lock(&g_sleep_lock);
     g_sleepers++;
     lock();
-    bool wait = !chunk_waiting();
+    bool wait = !chunk_waiting() && !piece_waiting();
     int64_t until = g_deadline;
     bool held = g_hold;
     unlock();
@@ -208,6 +238,14 @@ static void *helper_main(void *arg)
             unlock();
             if (last && g_wake_ok)
                 helper_done();
+            idle_since = -1;
+            continue;
+        }
+        /* Idle: a piece of the background task, if one waits (par_for's chunks come
+         * first: a job that opens meanwhile waits at most for the piece). */
+        if (piece_waiting()) {
+            run_piece();
+            unlock();
             idle_since = -1;
             continue;
         }
@@ -414,5 +452,54 @@ static bool run_job(int n, ParChunkFn fn, void *ctx, bool shared_only)
 }
 
 void par_for(int n, ParChunkFn fn, void *ctx) { (void)run_job(n, fn, ctx, false); }
+
+bool par_background(int n, ParPieceFn fn, void *ctx)
+{
+    if (n <= 0 || helpers_wanted() == 0 || !g_wake_ok)
+        return false;
+    lock();
+    bool free_slot = !g_bg.posted;
+    if (free_slot) {
+        g_bg.fn = fn;
+        g_bg.ctx = ctx;
+        g_bg.n = n;
+        g_bg.next = g_bg.done = 0;
+        g_bg.posted = true;
+        g_bg.busy = g_bg.lost = false;
+    }
+    unlock();
+    if (free_slot)
+        wake_helpers();
+    return free_slot;
+}
+
+bool par_background_finish(void)
+{
+    int64_t spin_end = -1;
+    for (;;) {
+        lock();
+        if (!g_bg.posted || g_bg.lost || g_bg.done == g_bg.n) {
+            bool ok = !g_bg.lost;
+            g_bg.posted = g_bg.lost = false;
+            unlock();
+            return ok;
+        }
+        if (piece_waiting()) {
+            run_piece();
+            unlock();
+            continue;
+        }
+        unlock();
+        /* A helper runs a piece (short): spin a while, then give the CPU up, which it
+         * may need (it may have lost its CPU to another process). */
+        int64_t t = now_ns();
+        if (spin_end < 0)
+            spin_end = t + PAR_SPIN_NS;
+        if (t < spin_end)
+            cpu_relax();
+        else
+            sched_yield();
+    }
+}
 
 bool par_try_for(int n, ParChunkFn fn, void *ctx) { return run_job(n, fn, ctx, true); }

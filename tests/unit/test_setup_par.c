@@ -1,7 +1,8 @@
 /* The set-up's parallel loop (rt/par.h): every chunk runs exactly once, on a worker
  * index in range, with any number of helpers; nested and concurrent calls run inline;
  * a helper does join in; the helpers come back after par_release; par_hold keeps one
- * helper across jobs until par_release; par_try_for runs or declines whole. */
+ * helper across jobs until par_release; par_try_for runs or declines whole; the
+ * background task's pieces run once each, in order, on a held helper or on the caller. */
 #include <pthread.h>
 #include <stdatomic.h>
 #include <sys/wait.h>
@@ -348,6 +349,130 @@ static void test_fork_child(void)
     par_set_helpers(-1);
 }
 
+/* par_background: each piece once, in order (a piece finds all before it done), one at a
+ * time; a held helper takes them while the caller waits for none (seen: a piece run on
+ * a thread other than the caller's); par_background_finish then returns with all run;
+ * a second task may follow; a task is refused while one is posted. */
+enum { N_PIECES = 40 };
+
+typedef struct Pieces {
+    atomic_int ran[N_PIECES];
+    atomic_int started;     /* pieces begun */
+    atomic_int out_of_order;
+    atomic_int overlapped;  /* a piece began while another ran */
+    atomic_int running;
+    atomic_int on_helper;
+    pthread_t caller;
+    atomic_int hold;        /* piece 0 waits while set */
+} Pieces;
+
+static void piece(void *ctx, int i)
+{
+    Pieces *p = ctx;
+    if (atomic_fetch_add(&p->running, 1) != 0)
+        atomic_fetch_add(&p->overlapped, 1);
+    if (!pthread_equal(pthread_self(), p->caller))
+        atomic_fetch_add(&p->on_helper, 1); /* before started: the tests wait for that */
+    if (atomic_fetch_add(&p->started, 1) != i)
+        atomic_fetch_add(&p->out_of_order, 1);
+    for (int k = 0; k < 60000 && i == 0 && atomic_load(&p->hold); k++) {
+        struct timespec ms = {0, 1000000L};
+        nanosleep(&ms, NULL);
+    }
+    struct timespec busy = {0, 100000L}; /* long enough for finish to come meanwhile */
+    nanosleep(&busy, NULL);
+    atomic_fetch_add(&p->ran[i], 1);
+    atomic_fetch_sub(&p->running, 1);
+}
+
+static void check_pieces(Pieces *p, int n)
+{
+    for (int i = 0; i < n; i++)
+        CHECK_MSG(atomic_load(&p->ran[i]) == 1, "piece %d ran %d times", i,
+                  atomic_load(&p->ran[i]));
+    CHECK_INT(atomic_load(&p->out_of_order), 0);
+    CHECK_INT(atomic_load(&p->overlapped), 0);
+}
+
+static void test_background(void)
+{
+    par_set_helpers(1);
+    par_hold();
+    for (int round = 0; round < 2; round++) {
+        static Pieces p;
+        memset(&p, 0, sizeof p);
+        p.caller = pthread_self();
+        CHECK(par_background(N_PIECES, piece, &p));
+        CHECK(!par_background(N_PIECES, piece, &p)); /* one task at a time */
+        /* The helper takes pieces without the caller (a minute's bound against a hang). */
+        for (int k = 0; k < 60000 && atomic_load(&p.on_helper) == 0; k++) {
+            struct timespec ms = {0, 1000000L};
+            nanosleep(&ms, NULL);
+        }
+        CHECK_MSG(atomic_load(&p.on_helper) > 0, "round %d: no piece ran on the helper",
+                  round);
+        /* A par_for meanwhile runs every chunk as ever. */
+        static Count c;
+        memset(&c, 0, sizeof c);
+        par_for(64, count_chunk, &c);
+        for (int i = 0; i < 64; i++)
+            CHECK_INT(atomic_load(&c.hits[i]), 1);
+        CHECK(par_background_finish());
+        check_pieces(&p, N_PIECES);
+        CHECK(par_background_finish()); /* nothing posted: nothing to do */
+    }
+    par_release();
+    CHECK_MSG(wait_helpers_gone(), "the held helper did not exit after par_release");
+    /* Helpers wanted but none running: the caller runs every piece in finish. */
+    static Pieces q;
+    memset(&q, 0, sizeof q);
+    q.caller = pthread_self();
+    CHECK(par_background(N_PIECES, piece, &q));
+    CHECK(par_background_finish());
+    check_pieces(&q, N_PIECES);
+    /* No helper wanted (-threads 1): refused, nothing run. */
+    par_set_helpers(0);
+    CHECK(!par_background(N_PIECES, piece, &q));
+    CHECK_INT(atomic_load(&q.started), N_PIECES);
+    par_set_helpers(-1);
+}
+
+/* A child forked while a task's piece runs on the parent's helper does not run it
+ * again: its finish says the work is lost; the parent's completes. */
+static void test_background_fork(void)
+{
+    par_set_helpers(1);
+    par_hold();
+    static Pieces p;
+    memset(&p, 0, sizeof p);
+    p.caller = pthread_self();
+    atomic_store(&p.hold, 1);
+    CHECK(par_background(3, piece, &p));
+    for (int k = 0; k < 60000 && atomic_load(&p.started) == 0; k++) {
+        struct timespec ms = {0, 1000000L};
+        nanosleep(&ms, NULL);
+    }
+    CHECK_INT(atomic_load(&p.on_helper), 1); /* piece 0, held on the helper */
+    pid_t pid = fork();
+    if (pid == 0) {
+        alarm(60); /* a finish waiting for the parent's piece would hang: fail instead */
+        int bad = par_background_finish() ? 1 : 0; /* lost: false, nothing run */
+        bad |= atomic_load(&p.ran[1]) != 0;
+        bad |= !par_background_finish(); /* and then nothing is posted */
+        _exit(bad);
+    }
+    CHECK(pid > 0);
+    int st = 0;
+    if (pid > 0)
+        CHECK(waitpid(pid, &st, 0) == pid && WIFEXITED(st) && WEXITSTATUS(st) == 0);
+    atomic_store(&p.hold, 0);
+    CHECK(par_background_finish());
+    check_pieces(&p, 3);
+    par_release();
+    CHECK_MSG(wait_helpers_gone(), "the held helper did not exit after par_release");
+    par_set_helpers(-1);
+}
+
 static const TestCase tests[] = {
     {"par: every chunk runs exactly once, workers in range", test_every_chunk_once},
     {"par: a nested par_for runs inline on its thread", test_nested_runs_inline},
@@ -358,6 +483,9 @@ static const TestCase tests[] = {
     {"par: no helper wanted: par_hold starts none, par_try_for declines", test_no_helper_wanted},
     {"par: par_try_for runs each chunk once or declines", test_try_for},
     {"par: a forked child holds no helper and its par_for works", test_fork_child},
+    {"par: background pieces once each, in order, on the helper or in finish",
+     test_background},
+    {"par: a forked child does not run a background task again", test_background_fork},
 };
 
 RT_TEST_MAIN(tests)
