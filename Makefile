@@ -118,9 +118,10 @@ $(BUILD)/src/accel/grid_packet_avx512.o $(BUILD)/src/accel/grid_packet_avx512x8.
 $(BUILD)/src/render/phong_packet_avx2.o $(BUILD)/src/render/phong_packet_avx512.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 # The Gaussian's vector exp (filter.c) likewise: static 32-byte vectors, no fusing.
 $(BUILD)/src/render/filter.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
-# The noise's AVX2 corners (perlin.c) and the film's AVX2 filter sums (film.c) likewise.
-$(BUILD)/src/shade/perlin.o $(BUILD)/src/render/film.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
-# The blend lanes' four-float vectors (raytracer.c) likewise.
+# The noise's AVX2 corners (perlin.c), marble's vector sine (marble.c) and the film's AVX2
+# filter sums (film.c) likewise.
+$(BUILD)/src/shade/perlin.o $(BUILD)/src/shade/marble.o $(BUILD)/src/render/film.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
+# The blend lanes' vectors (raytracer.c) likewise.
 $(BUILD)/src/render/raytracer.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 # The camera's AVX-512 sample rays (camera.c): no fusing.
 $(BUILD)/src/shade/camera.o: ALL_CFLAGS += -ffp-contract=off

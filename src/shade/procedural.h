@@ -140,4 +140,12 @@ float procedural_weight(const ProceduralBlend *b, Vec3 p, ProceduralWeightFn wei
         NAME##_transparent_at, NAME##_ior_at, procedural_preview,                          \
     }
 
+/* Marble's weights t[i] = (sin(a[i]) + 1) / 2 rounded to float for n <=
+ * PROCEDURAL_WEIGHTS_MAX arguments, bit for bit what libm's sin gives (marble.c): a
+ * vector sine of its own where the float cannot differ, else libm's.
+ * marble_sine_use_kernel picks its width by name ("base", "avx2", "avx512"; false if
+ * this CPU cannot run it): for tests, not while rendering. */
+void marble_sine_weights(const double *a, int n, float *t);
+bool marble_sine_use_kernel(const char *name);
+
 #endif

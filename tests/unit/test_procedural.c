@@ -9,6 +9,7 @@
 #include "rt/material.h"
 #include "rt/matrix.h"
 #include "rt/perlin.h"
+#include "../../src/shade/procedural.h"
 
 /* A stub child: constant properties, and a shade result that depends on the light
  * colour and direction passed in, so the test sees that they are forwarded. */
@@ -270,6 +271,79 @@ static void test_marble_weight(void)
     arena_free(&a);
 }
 
+/* marble_sine_weights (the batched marble weights' sine without libm's branches) gives
+ * libm's floats bit for bit at every vector width this CPU runs: random arguments up to
+ * and past its range, ones next to multiples of pi/2, and ones whose (sin + 1) / 2 lies
+ * within a few units of the double of a halfway point between two floats (where only
+ * the fallback can be right), in batches of every length and lane position. */
+static uint64_t sine_rng = 0x9e3779b97f4a7c15u;
+static double sine_unit(void) /* [0, 1) */
+{
+    sine_rng ^= sine_rng << 13;
+    sine_rng ^= sine_rng >> 7;
+    sine_rng ^= sine_rng << 17;
+    return (double)(sine_rng >> 11) * 0x1p-53;
+}
+
+/* Arguments of kind i % 6 (see above). */
+static double sine_arg(int i)
+{
+    double r = sine_unit();
+    switch (i % 6) {
+    case 0: return (r - 0.5) * 2.2e5; /* past 1e5 too */
+    case 1: return (r - 0.5) * 200.0;
+    case 2: return (r - 0.5) * 1e-3;
+    case 3: return floor((r - 0.5) * 1e5) * (M_PI / 2) + (sine_unit() - 0.5) * 1e-9;
+    default: {
+        float f = (float)r;
+        if (i % 6 == 5)
+            f = ldexpf(f, -(int)(sine_unit() * 30)); /* small weights: fine spacings */
+        double t = ((double)f + (double)nextafterf(f, 2.0f)) * 0.5;
+        double a = asin(2.0 * t - 1.0);
+        if (sine_unit() < 0.5)
+            a = M_PI - a;
+        a += 2.0 * M_PI * floor((sine_unit() - 0.5) * 2e4);
+        for (int k = (int)(sine_unit() * 7) - 3; k != 0; k += k < 0 ? 1 : -1)
+            a = nextafter(a, k < 0 ? -(double)INFINITY : (double)INFINITY);
+        return a;
+    }
+    }
+}
+
+static void test_marble_sine_weight(void)
+{
+    const char *kernels[] = {"base", "avx2", "avx512"};
+    int differ = 0, n = 0, run = 0;
+    for (int kn = 0; kn < 3; kn++) {
+        if (!marble_sine_use_kernel(kernels[kn]))
+            continue;
+        run++;
+        double a[PROCEDURAL_WEIGHTS_MAX];
+        float t[PROCEDURAL_WEIGHTS_MAX];
+        for (int batch = 0; batch < 12000; batch++) {
+            int m = 1 + batch % PROCEDURAL_WEIGHTS_MAX;
+            for (int i = 0; i < m; i++)
+                a[i] = sine_arg(batch + i);
+            if (batch % 97 == 0) { /* the edges */
+                static const double edge[] = {0.0, -0.0, M_PI / 2, -M_PI / 2, 1e5, -1e5,
+                                              1e5 + 0.015625, (double)NAN, (double)INFINITY,
+                                              -(double)INFINITY};
+                for (int i = 0; i < m && i < 10; i++)
+                    a[i] = edge[i];
+            }
+            marble_sine_weights(a, m, t);
+            for (int i = 0; i < m; i++, n++) {
+                float want = (float)((sin(a[i]) + 1.0) * 0.5);
+                differ += memcmp(&want, &t[i], sizeof want) != 0;
+            }
+        }
+    }
+    CHECK(marble_sine_use_kernel("avx512") || marble_sine_use_kernel("avx2") ||
+          marble_sine_use_kernel("base"));
+    CHECK(run >= 1);
+    CHECK_MSG(differ == 0, "%d of %d marble weights differ from libm's", differ, n);
+}
+
 static void test_wood_weight(void)
 {
     Arena a;
@@ -518,6 +592,7 @@ static const TestCase tests[] = {
     {"noise: weights", test_noise_weight},
     {"noise: clamped weights", test_noise_clamps},
     {"marble: weights", test_marble_weight},
+    {"marble: the batched weights' sine rounds like libm's", test_marble_sine_weight},
     {"wood: weights", test_wood_weight},
     {"blend: every accessor interpolates", test_blend_accessors},
     {"procedural: nesting", test_nesting},
