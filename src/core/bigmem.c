@@ -243,7 +243,9 @@ void *bigmem_resize(void *p, size_t size)
     if (map_lookup(p, &map_len, &old_size)) {
         /* Growing inside the mapping's slack (up to the next 2 MB) costs nothing. */
         if (size <= map_len) {
-            size_t keep = (size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1);
+            /* At least one step: a size of 0 must not unmap the whole block while its
+             * slot still names it (a later mapping could be placed there). */
+            size_t keep = size ? (size + HUGE_PAGE - 1) & ~(size_t)(HUGE_PAGE - 1) : HUGE_PAGE;
             maps_lock();
             int i = map_slot(p);
             if (keep < map_len) {   /* shrinking: give whole 2 MB steps back */

@@ -263,8 +263,17 @@ static void test_fresh_block_untouched(void)
     CHECK(bigmem_capacity(q) == 4u << 20);
     CHECK(!page_mapped(q + (4u << 20)));
     CHECK(page_mapped(q + (4u << 20) - 1));
-    bigmem_free(q);
-    CHECK(!page_mapped(q));
+    /* A shrink to 0 keeps one 2 MB step: the pointer stays a live block (its slot
+     * must not name a mapping that is gone, which a later mapping could take). */
+    q = bigmem_resize(q, 0);
+    CHECK(q == p && page_mapped(q));
+    CHECK(bigmem_capacity(q) == 2u << 20);
+    unsigned char *r = bigmem_resize(q, 4096); /* within the capacity: in place */
+    CHECK(r == q && page_mapped(r));
+    if (r)
+        r[4095] = 7;
+    bigmem_free(r);
+    CHECK(!page_mapped(r));
 }
 
 /* More mapped blocks than the table of mappings holds: the rest carry their header in
