@@ -98,6 +98,40 @@ static void test_sampler_determinism(void)
     CHECK_NEAR(sum / 100000, 0.5, 0.01);
 }
 
+/* Whole jittered pixels (sampler_pixel: with AVX-512, jittered_pixel_avx512's draws and
+ * placement in one pass; else the scalar draws and the plain lanes) against the rule one
+ * coordinate at a time on sampler_random's draws, for k = 1..32 (every tail of the 32
+ * coordinates a step, and counts up to SAMPLER_MAX_COUNT), both streams, a few seeds
+ * and pixels. Fails when a lane's hash counters (index, dimension, stream) or its
+ * stratum are off on either path. */
+static void test_jittered_pixels(void)
+{
+    static float xy[2 * SAMPLER_MAX_COUNT];
+    for (int wide = 0; wide < 2; wide++)
+        for (int k = 1; k * k <= SAMPLER_MAX_COUNT; k++) {
+            Sampler s;
+            make_sampler(&s, "jittered", k * k, 77u + (uint64_t)k);
+            if (wide && !s.wide)
+                continue; /* no AVX-512 on this CPU: the plain path only */
+            s.wide = wide != 0;
+            int bad = 0;
+            for (uint32_t stream = 0; stream < 2; stream++) {
+                s.stream = stream;
+                for (int px = 0; px < 3; px++) {
+                    int x = px * 517 - 3, y = px * 91 + 2;
+                    sampler_pixel(&s, x, y, xy);
+                    for (int j = 0; j < 2 * k * k; j++) {
+                        int i = j / 2, a = j % 2 ? i / k : i % k;
+                        float u = sampler_random(s.seed, stream, x, y, (uint32_t)i,
+                                                 (uint32_t)(j % 2));
+                        bad += xy[j] != jitter_rule(a, u, k);
+                    }
+                }
+            }
+            CHECK_MSG(bad == 0, "k %d wide %d: %d coordinates off the rule", k, wide, bad);
+        }
+}
+
 /* The jittered placement's lanes (sampler_jittered_place: the code of jittered_pixel's
  * placement, AVX-512 where the CPU has it, and the plain vectors) against the rule one
  * coordinate at a time, with draws chosen to hit its edges: 0, the smallest draw, and
@@ -856,6 +890,8 @@ static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
     {"samplers: jittered placement's lanes == the rule at stratum edges", test_jittered_place},
+    {"samplers: jittered pixels, each path, == the rule on sampler_random's draws",
+     test_jittered_pixels},
     {"samplers: poisson (best candidate) keeps samples apart", test_poisson_sampler},
     {"filters: symmetric weights, support radii, bad radii", test_filter_symmetry_and_support},
     {"filters: the Gaussian's exp against libm; batch == single", test_gaussian_fast_exp},
