@@ -100,11 +100,6 @@ bool grid_packet_use_kernel(const char *name)
     return false;
 }
 
-/* Chooses the packet's main axis for the rays of `cand` (the largest component of
- * their summed directions) and runs the kernel's set-up (PK_PREP in
- * grid_packet_kernel.h): returns the rays the packet walks; *single_out gets those it
- * leaves to the single-ray march. Rays that miss the box are in neither: their march
- * would not start either. */
 /* packet_prepare's axis and sign for candidates that all have direction d, without
  * their sums, where the sums' rounding cannot change them. The sums of n copies of a
  * component (four partial sums, then two adds: each step monotone, and rounding is
@@ -132,6 +127,11 @@ static bool same_dir_axis(const float d[3], int *axis, int *sign)
     return true;
 }
 
+/* Chooses the packet's main axis for the rays of `cand` (the largest component of
+ * their summed directions, or same_dir_axis's) and runs the kernel's set-up (PK_PREP in
+ * grid_packet_kernel.h): returns the rays the packet walks; *single_out gets those it
+ * leaves to the single-ray march. Rays that miss the box are in neither: their march
+ * would not start either. */
 static uint64_t packet_prepare(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                                uint64_t *single_out)
 {
