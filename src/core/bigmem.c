@@ -341,7 +341,7 @@ void bigmem_prefault(void *p, size_t off, size_t len)
     size_t map_len, size;
     if (!map_lookup(p, &map_len, &size))
         size = header_of(p)->size;
-    if (off >= size)
+    if (off >= size || len == 0) /* nothing to do (and no a[len - 1] below) */
         return;
     if (len > size - off)
         len = size - off;
