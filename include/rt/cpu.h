@@ -12,6 +12,7 @@
 #define RT_CPU_H
 
 #include <stdbool.h>
+#include <string.h>
 
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
 #define RT_CPU_X86 1
@@ -48,6 +49,21 @@ static inline bool cpu_has_avx512vbmi(void)
 #else
     return false;
 #endif
+}
+
+/* Whether this CPU runs the copy of a kernel built for the instruction set named isa:
+ * "base" (the build's baseline: always), "avx2" or "avx512" (cpu_has_avx2,
+ * cpu_has_avx512); false for any other name. For the modules that keep one copy of a
+ * kernel per instruction set and choose among them by name (tests force each). */
+static inline bool cpu_runs(const char *isa)
+{
+    if (!strcmp(isa, "base"))
+        return true;
+    if (!strcmp(isa, "avx2"))
+        return cpu_has_avx2();
+    if (!strcmp(isa, "avx512"))
+        return cpu_has_avx512();
+    return false;
 }
 
 #endif

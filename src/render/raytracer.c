@@ -361,22 +361,24 @@ typedef void (*BlendGroupFn)(BlendLanes *, uint64_t, const PhongParams *,
 static BlendGroupFn blend_lights_group = blend_lights_group_base;
 static pthread_once_t blend_once = PTHREAD_ONCE_INIT;
 
+static const struct {
+    const char *isa;
+    BlendGroupFn fn;
+} blend_kernels[] = {
+    {"base", blend_lights_group_base},
+#if defined(BLEND_WIDE)
+    {"avx2", blend_lights_group_avx2},
+    {"avx512", blend_lights_group_avx512},
+#endif
+};
+
 static bool blend_set(const char *name)
 {
-    if (!strcmp(name, "base")) {
-        blend_lights_group = blend_lights_group_base;
-        return true;
-    }
-#if defined(BLEND_WIDE)
-    if (!strcmp(name, "avx512") && cpu_has_avx512()) {
-        blend_lights_group = blend_lights_group_avx512;
-        return true;
-    }
-    if (!strcmp(name, "avx2") && cpu_has_avx2()) {
-        blend_lights_group = blend_lights_group_avx2;
-        return true;
-    }
-#endif
+    for (size_t i = 0; i < sizeof blend_kernels / sizeof blend_kernels[0]; i++)
+        if (!strcmp(name, blend_kernels[i].isa) && cpu_runs(name)) {
+            blend_lights_group = blend_kernels[i].fn;
+            return true;
+        }
     return false;
 }
 

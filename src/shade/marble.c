@@ -66,22 +66,24 @@ typedef void (*MarbleSineFn)(const double *, int, double *);
 static MarbleSineFn marble_sines = marble_sines_base;
 static pthread_once_t marble_once = PTHREAD_ONCE_INIT;
 
+static const struct {
+    const char *isa;
+    MarbleSineFn fn;
+} marble_kernels[] = {
+    {"base", marble_sines_base},
+#if defined(MARBLE_WIDE)
+    {"avx2", marble_sines_avx2},
+    {"avx512", marble_sines_avx512},
+#endif
+};
+
 static bool marble_set(const char *name)
 {
-    if (!strcmp(name, "base")) {
-        marble_sines = marble_sines_base;
-        return true;
-    }
-#if defined(MARBLE_WIDE)
-    if (!strcmp(name, "avx512") && cpu_has_avx512()) {
-        marble_sines = marble_sines_avx512;
-        return true;
-    }
-    if (!strcmp(name, "avx2") && cpu_has_avx2()) {
-        marble_sines = marble_sines_avx2;
-        return true;
-    }
-#endif
+    for (size_t i = 0; i < sizeof marble_kernels / sizeof marble_kernels[0]; i++)
+        if (!strcmp(name, marble_kernels[i].isa) && cpu_runs(name)) {
+            marble_sines = marble_kernels[i].fn;
+            return true;
+        }
     return false;
 }
 
