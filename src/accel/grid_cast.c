@@ -3,6 +3,7 @@
  * spanning many cells is intersected at most once per ray. Reads the grid only; per-ray
  * state is in ctx. */
 #include "grid_internal.h"
+#include "twolevel_internal.h"
 
 #include <float.h>
 #include <math.h>
@@ -240,32 +241,32 @@ static bool brute_occluded(const Grid *g, const Ray *ray, float tmin, float tmax
     return false;
 }
 
-/* The cast's own march: march_init and march_next for this grid, step for step (same
+/* The cast's own march: march_init and march_next for one grid, step for step (same
  * float expressions in the same order, so the same cells, t's and counts), with the
- * grid's constants from grid_setup_geometry instead of six divisions per ray, and
- * without what only the ray tree reads (the entered face's normal, started_inside).
- * Used when no ray tree is being recorded; with one, march_init/march_next record it. */
-static inline __attribute__((always_inline)) bool cast_march_init(const Grid *g,
-                                                                   const Ray *ray,
-                                                                   float tmin,
-                                                                   RenderCtx *ctx,
-                                                                   MarchingInfo *mi)
+ * grid's constants (lo = the box's min corner, the padded slab's sides, n / extent and
+ * the cell size, each computed once by march_init's own expression) instead of six
+ * divisions per ray, and without what only the ray tree reads (the entered face's
+ * normal, started_inside). inv: 1 / the direction per axis, as march_init divides it.
+ * Used when no ray tree is being recorded; with one, march_init/march_next record it.
+ * Counts nothing (the callers count the first cell). */
+static inline __attribute__((always_inline)) bool lean_march_init(
+    const float lo[3], const float slab_lo[3], const float slab_hi[3],
+    const float inv_size[3], const float size[3], const int n[3], const Ray *ray,
+    const float inv[3], float tmin, MarchingInfo *mi)
 {
     const float o[3] = {ray->origin.x, ray->origin.y, ray->origin.z};
     const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
-    float inv[3];
     bool parallel[3];
     float t_enter = -INFINITY, t_exit = INFINITY;
     int enter_axis = -1;
     for (int a = 0; a < 3; a++) {
-        inv[a] = 1.0f / d[a];
         parallel[a] = d[a] == 0.0f || !isfinite(inv[a]);
         if (parallel[a]) {
-            if (!(o[a] >= g->slab_lo[a] && o[a] <= g->slab_hi[a]))
+            if (!(o[a] >= slab_lo[a] && o[a] <= slab_hi[a]))
                 return false;
             continue;
         }
-        float t0 = (g->slab_lo[a] - o[a]) * inv[a], t1 = (g->slab_hi[a] - o[a]) * inv[a];
+        float t0 = (slab_lo[a] - o[a]) * inv[a], t1 = (slab_hi[a] - o[a]) * inv[a];
         if (inv[a] < 0.0f) {
             float tmp = t0;
             t0 = t1;
@@ -284,25 +285,48 @@ static inline __attribute__((always_inline)) bool cast_march_init(const Grid *g,
         return false;
     bool inside = t_enter < tmin;
     mi->t = inside ? tmin : t_enter;
-    const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
     for (int a = 0; a < 3; a++) {
-        mi->n[a] = g->n[a];
+        mi->n[a] = n[a];
         mi->step[a] = (!parallel[a] && d[a] < 0.0f) ? -1 : 1;
         if (!inside && a == enter_axis)
-            mi->cell[a] = mi->step[a] > 0 ? 0 : g->n[a] - 1;
+            mi->cell[a] = mi->step[a] > 0 ? 0 : n[a] - 1;
         else
-            mi->cell[a] = march_cell_of(o[a] + mi->t * d[a], lo[a], g->inv_size[a], g->n[a]);
+            mi->cell[a] = march_cell_of(o[a] + mi->t * d[a], lo[a], inv_size[a], n[a]);
         if (parallel[a]) {
             mi->base[a] = 0.0f;
             mi->dt[a] = 0.0f;
             mi->t_next[a] = INFINITY;
         } else {
             mi->base[a] = (lo[a] - o[a]) * inv[a];
-            mi->dt[a] = g->size[a] * inv[a];
+            mi->dt[a] = size[a] * inv[a];
             int k = mi->step[a] > 0 ? mi->cell[a] + 1 : mi->cell[a];
             mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
         }
     }
+    return true;
+}
+
+/* march_init's reciprocals of the direction. */
+static inline __attribute__((always_inline)) void ray_inv_dir(const Ray *ray, float inv[3])
+{
+    inv[0] = 1.0f / ray->dir.x;
+    inv[1] = 1.0f / ray->dir.y;
+    inv[2] = 1.0f / ray->dir.z;
+}
+
+/* lean_march_init over grid g, counting its first cell. */
+static inline __attribute__((always_inline)) bool cast_march_init(const Grid *g,
+                                                                   const Ray *ray,
+                                                                   float tmin,
+                                                                   RenderCtx *ctx,
+                                                                   MarchingInfo *mi)
+{
+    const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
+    float inv[3];
+    ray_inv_dir(ray, inv);
+    if (!lean_march_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, ray, inv,
+                         tmin, mi))
+        return false;
     ctx->stats.cells_traversed++;
     return true;
 }
@@ -324,9 +348,9 @@ typedef struct LeanMarch {
     uint64_t cells;             /* cells entered, for cells_traversed */
 } LeanMarch;
 
-static inline __attribute__((always_inline)) void lean_start(const Grid *g,
-                                                              const MarchingInfo *mi,
-                                                              LeanMarch *m)
+static inline __attribute__((always_inline)) void lean_start_n(const int n[3], uint32_t base,
+                                                                const MarchingInfo *mi,
+                                                                LeanMarch *m)
 {
     m->t = mi->t;
     m->tn0 = mi->t_next[0];
@@ -338,21 +362,30 @@ static inline __attribute__((always_inline)) void lean_start(const Grid *g,
     m->dt0 = mi->dt[0];
     m->dt1 = mi->dt[1];
     m->dt2 = mi->dt[2];
-    /* k of t_next, as cast_march_init set it */
+    /* k of t_next, as lean_march_init set it */
     m->k0 = (float)(mi->cell[0] + (mi->step[0] > 0));
     m->k1 = (float)(mi->cell[1] + (mi->step[1] > 0));
     m->k2 = (float)(mi->cell[2] + (mi->step[2] > 0));
     m->s0 = (float)mi->step[0];
     m->s1 = (float)mi->step[1];
     m->s2 = (float)mi->step[2];
-    m->left0 = mi->step[0] > 0 ? g->n[0] - 1 - mi->cell[0] : mi->cell[0];
-    m->left1 = mi->step[1] > 0 ? g->n[1] - 1 - mi->cell[1] : mi->cell[1];
-    m->left2 = mi->step[2] > 0 ? g->n[2] - 1 - mi->cell[2] : mi->cell[2];
+    m->left0 = mi->step[0] > 0 ? n[0] - 1 - mi->cell[0] : mi->cell[0];
+    m->left1 = mi->step[1] > 0 ? n[1] - 1 - mi->cell[1] : mi->cell[1];
+    m->left2 = mi->step[2] > 0 ? n[2] - 1 - mi->cell[2] : mi->cell[2];
     m->d0 = mi->step[0];
-    m->d1 = mi->step[1] * g->n[0];
-    m->d2 = mi->step[2] * g->n[0] * g->n[1];
-    m->c = grid_cell_index(g, mi->cell[0], mi->cell[1], mi->cell[2]);
+    m->d1 = mi->step[1] * n[0];
+    m->d2 = mi->step[2] * n[0] * n[1];
+    m->c = base + ((uint32_t)mi->cell[2] * (uint32_t)n[1] + (uint32_t)mi->cell[1]) *
+                      (uint32_t)n[0] + (uint32_t)mi->cell[0];
     m->cells = 0;
+}
+
+/* lean_start_n over grid g's cells. */
+static inline __attribute__((always_inline)) void lean_start(const Grid *g,
+                                                              const MarchingInfo *mi,
+                                                              LeanMarch *m)
+{
+    lean_start_n(g->n, 0, mi, m);
 }
 
 /* march_exit_t of the current cell. */
@@ -627,3 +660,228 @@ bool grid_items_occluded(const Grid *g, const uint32_t *items, uint32_t n, const
 }
 
 float grid_march_error(const Grid *g, const Ray *ray) { return march_error(g, ray); }
+
+/* ---- the two-level grid's walk (twolevel.c builds it; twolevel_internal.h) ---- */
+
+/* Why the leaf march may stop the whole walk when the best hit lies within the current
+ * leaf cell: every point of the ray before it lies in a top cell already walked, or in
+ * this top cell, where the only primitives to hit (this cell's entries) lie in the
+ * leaf grid's box and so in a leaf cell already walked (cells padded against rounding,
+ * as the course grid's), or among its large entries, all tested on entering the cell. A top cell whose leaf grid
+ * the ray misses holds nothing it can hit there. Rays too far out to march the leaf grid exactly test the cell's whole
+ * list instead. */
+/* The walk without a ray tree: the top grid's march and each leaf grid's, as
+ * lean_march_init and LeanMarch (the same cells and t's as march_init and march_next),
+ * with the cell loop inlined and the ray's reciprocals, SIMD broadcast and counters
+ * made once per ray. Counts as tl_tree_*: the top cells entered, every leaf cell
+ * entered (the one that stops the leaf march included), and test_items' tests. any:
+ * the shadow query (hit = (tmax, id 0), true at the first occluder, no early stop at a
+ * hit). */
+static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
+                                                           const Ray *ray, Hit *hit,
+                                                           float tmin, float tmarch,
+                                                           RenderCtx *ctx, bool any)
+{
+    const Grid *g = t->top;
+    float inv[3];
+    ray_inv_dir(ray, inv);
+    const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
+    MarchingInfo mi;
+    if (!lean_march_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, ray, inv,
+                         tmarch, &mi))
+        return false;
+    uint32_t stamp = grid_begin_ray(g, ctx);
+    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    float err = march_error(g, ray);
+    MARCH_RAY_SIMD(rsimd, ray, tmin);
+    LeanMarch m;
+    lean_start(g, &mi, &m);
+    uint64_t cells = 1; /* the first top cell; the rest are m.cells */
+    bool found = false;
+    do {
+        if (m.t > hit->t)
+            break;
+        uint32_t c = m.c, s = t->sub_of[c];
+        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
+            if (cell_occupied(g, c) &&
+                test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, any)) {
+                found = true;
+                if (any)
+                    break;
+            }
+        } else {
+            const SubGrid *sg = &t->subs[s];
+            if (test_items(g, t->items + sg->big_start, sg->big_count, ray, hit, tmin, ctx, mb,
+                           stamp, rsimd, any)) {
+                found = true;
+                if (any)
+                    break;
+            }
+            const float slo[3] = {sg->box.min.x, sg->box.min.y, sg->box.min.z};
+            MarchingInfo sm;
+            if (lean_march_init(slo, sg->slab_lo, sg->slab_hi, sg->inv_size, sg->size, sg->n,
+                                ray, inv, tmarch, &sm)) {
+                LeanMarch l;
+                lean_start_n(sg->n, sg->base, &sm, &l);
+                bool stop = false;
+                do {
+                    cells++;
+                    if (l.t > hit->t)
+                        break;
+                    uint32_t s0 = t->start[l.c];
+                    if (test_items(g, t->items + s0, t->start[l.c + 1] - s0, ray, hit, tmin,
+                                   ctx, mb, stamp, rsimd, any)) {
+                        found = true;
+                        if (any) {
+                            stop = true;
+                            break;
+                        }
+                    }
+                    if (!any && hit->t <= lean_exit_t(&l)) {
+                        stop = true;
+                        break;
+                    }
+                } while (lean_next(&l));
+                if (stop)
+                    break;
+            }
+        }
+        if (!any && hit->t <= lean_exit_t(&m))
+            break;
+    } while (lean_next(&m));
+    ctx->stats.cells_traversed += cells + m.cells;
+    return found;
+}
+
+/* With a ray tree: the same walk by march_init and march_next, which record the top
+ * cells in it. */
+static inline uint32_t leaf_cell(const SubGrid *sg, const MarchingInfo *sm)
+{
+    return sg->base + ((uint32_t)sm->cell[2] * (uint32_t)sg->n[1] + (uint32_t)sm->cell[1]) *
+                          (uint32_t)sg->n[0] + (uint32_t)sm->cell[0];
+}
+
+static bool tl_tree_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float tmin,
+                              float tmarch, RenderCtx *ctx)
+{
+    const Grid *g = t->top;
+    bool found = false;
+    MarchingInfo mi;
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
+        return found;
+    uint32_t stamp = grid_begin_ray(g, ctx);
+    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    float err = grid_march_error(g, ray);
+    do {
+        if (mi.t > hit->t)
+            break;
+        uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
+        uint32_t s = t->sub_of[c];
+        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
+            found |= grid_items_intersect(g, g->cell_items + g->cell_start[c],
+                                          g->cell_start[c + 1] - g->cell_start[c], ray, hit,
+                                          tmin, mb, stamp, ctx);
+        } else {
+            const SubGrid *sg = &t->subs[s];
+            found |= grid_items_intersect(g, t->items + sg->big_start, sg->big_count, ray, hit,
+                                          tmin, mb, stamp, ctx);
+            MarchingInfo sm;
+            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmarch, NULL)) {
+                do {
+                    ctx->stats.cells_traversed++;
+                    if (sm.t > hit->t)
+                        break;
+                    uint32_t lc = leaf_cell(sg, &sm);
+                    found |= grid_items_intersect(g, t->items + t->start[lc],
+                                                  t->start[lc + 1] - t->start[lc], ray, hit,
+                                                  tmin, mb, stamp, ctx);
+                    if (hit->t <= march_exit_t(&sm))
+                        return found;
+                } while (march_next(&sm, NULL));
+            }
+        }
+        if (hit->t <= march_exit_t(&mi))
+            break;
+    } while (march_next(&mi, ctx));
+    return found;
+}
+
+static bool tl_tree_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float tmax,
+                             float tmarch, RenderCtx *ctx)
+{
+    const Grid *g = t->top;
+    Hit h = hit_none();
+    h.t = tmax;
+    h.id = 0;
+    MarchingInfo mi;
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
+        return false;
+    uint32_t stamp = grid_begin_ray(g, ctx);
+    uint32_t *mb = stamp ? ctx->mailbox : NULL;
+    float err = grid_march_error(g, ray);
+    do {
+        if (mi.t > tmax)
+            break;
+        uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
+        uint32_t s = t->sub_of[c];
+        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
+            if (grid_items_occluded(g, g->cell_items + g->cell_start[c],
+                                    g->cell_start[c + 1] - g->cell_start[c], ray, &h, tmin, mb,
+                                    stamp, ctx))
+                return true;
+        } else {
+            const SubGrid *sg = &t->subs[s];
+            if (grid_items_occluded(g, t->items + sg->big_start, sg->big_count, ray, &h, tmin,
+                                    mb, stamp, ctx))
+                return true;
+            MarchingInfo sm;
+            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmarch, NULL)) {
+                do {
+                    ctx->stats.cells_traversed++;
+                    if (sm.t > tmax)
+                        break;
+                    uint32_t lc = leaf_cell(sg, &sm);
+                    if (grid_items_occluded(g, t->items + t->start[lc],
+                                            t->start[lc + 1] - t->start[lc], ray, &h, tmin, mb,
+                                            stamp, ctx))
+                        return true;
+                } while (march_next(&sm, NULL));
+            }
+        }
+    } while (march_next(&mi, ctx));
+    return false;
+}
+
+bool twolevel_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float tmin,
+                        RenderCtx *ctx)
+{
+    const Grid *g = t->top;
+    bool found = false;
+    for (uint32_t u = 0; u < g->num_unbounded; u++)
+        found |= grid_test_prim(&g->unbounded[u], ray, hit, tmin, ctx);
+    float tmarch = grid_march_tmin(g, tmin);
+    if (grid_ray_too_far(g, ray, tmarch))
+        return grid_march_intersect(g, ray, hit, tmin, ctx) || found;
+    if (ctx->tree)
+        return tl_tree_intersect(t, ray, hit, tmin, tmarch, ctx) || found;
+    return tl_walk(t, ray, hit, tmin, tmarch, ctx, false) || found;
+}
+
+bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float tmax,
+                       RenderCtx *ctx)
+{
+    const Grid *g = t->top;
+    for (uint32_t u = 0; u < g->num_unbounded; u++)
+        if (grid_occluded_prim(&g->unbounded[u], ray, tmin, tmax, ctx))
+            return true;
+    float tmarch = grid_march_tmin(g, tmin);
+    if (grid_ray_too_far(g, ray, tmarch))
+        return grid_march_occluded(g, ray, tmin, tmax, ctx);
+    if (ctx->tree)
+        return tl_tree_occluded(t, ray, tmin, tmax, tmarch, ctx);
+    /* hit_accepts with t = tmax and id 0 takes exactly the hits with t < tmax. */
+    Hit h = hit_none();
+    h.t = tmax;
+    h.id = 0;
+    return tl_walk(t, ray, &h, tmin, tmarch, ctx, true);
+}

@@ -3,7 +3,7 @@
  * primitives occupy inside it. The leaf grids hold the top grid's own entries (packed
  * triangles tagged as in cell_items), so the cell loop, the mailbox and the hit rule are
  * the top grid's: the answers are the brute-force loop's to the bit. */
-#include "grid_internal.h"
+#include "twolevel_internal.h"
 #include "grid_build.h"
 
 #include <float.h>
@@ -43,31 +43,6 @@
  * dense mesh in a room 100x its size has 360 times it, its clusters 28 (measured,
  * docs/twolevel.md). */
 #define AUTO_CROWDING 8.0
-
-#define NO_SUB UINT32_MAX
-
-/* One top cell's leaf grid: it tiles box (the cell's primitives clipped to the cell,
- * thin axes widened) with n cells; its cells are base.. in TwoLevelGrid.start. */
-typedef struct SubGrid {
-    BBox box;
-    int n[3];
-    float pad[3];   /* rounding margin per axis, as the course Grid's (grid.c) */
-    float min_pad;
-    uint32_t base;
-    uint32_t big_start, big_count; /* the cell's large entries, in items: tested for
-                                      every ray entering the cell, kept out of the leaf
-                                      grid so it fits the small ones tightly */
-} SubGrid;
-
-struct TwoLevelGrid {
-    Grid *top;
-    uint32_t *sub_of;      /* per top cell: index into subs, or NO_SUB (its own list) */
-    SubGrid *subs;
-    uint32_t num_subs, cap_subs;
-    uint32_t *start;       /* leaf cells + 1 offsets into items (CSR) */
-    uint32_t *items;       /* entries, in the top grid's cell_items format */
-    size_t num_cells, cap_cells, num_items, cap_items;
-};
 
 /* ---- world boxes of the table's bounded primitives (for the top resolution) ---- */
 
@@ -321,14 +296,14 @@ static void scratch_free(LeafScratch *ls)
 }
 
 /* Builds the leaf grid of top cell c (grid coordinates ci); false when out of memory.
- * Leaves sub_of[c] = NO_SUB when a leaf grid would not pay or the budget is spent. */
+ * Leaves sub_of[c] = TWOLEVEL_NO_SUB when a leaf grid would not pay or the budget is spent. */
 static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch *ls,
                        const float (*pbox)[6], double *budget)
 {
     const Grid *g = t->top;
     const uint32_t *items = g->cell_items + g->cell_start[c];
     uint32_t m = g->cell_start[c + 1] - g->cell_start[c];
-    t->sub_of[c] = NO_SUB;
+    t->sub_of[c] = TWOLEVEL_NO_SUB;
     if (m <= LEAF_MIN)
         return true;
     /* The cell's box as the march tiles it, and the primitives' boxes clipped to it:
@@ -409,6 +384,11 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
          * 1% of a cell plus a few ulps of the scene's coordinates (grid.c). */
         size[a] = (hi[a] - lo[a]) / (float)n[a];
         sg.pad[a] = 1e-2f * size[a] + 1e-5f * g->box_mag;
+        /* march_init's own expressions (marching_info.c), for the walk's march */
+        sg.size[a] = size[a];
+        sg.inv_size[a] = (float)n[a] / (hi[a] - lo[a]);
+        sg.slab_lo[a] = lo[a] - sg.pad[a];
+        sg.slab_hi[a] = hi[a] + sg.pad[a];
     }
     sg.min_pad = fminf(sg.pad[0], fminf(sg.pad[1], sg.pad[2]));
 
@@ -599,123 +579,7 @@ void twolevel_counts(const TwoLevelGrid *t, uint32_t *subgrids, uint64_t *leaf_c
         *leaf_cells = t->num_cells;
 }
 
-/* ---- traversal ---- */
-
-static inline uint32_t leaf_cell(const SubGrid *sg, const MarchingInfo *sm)
-{
-    return sg->base + ((uint32_t)sm->cell[2] * (uint32_t)sg->n[1] + (uint32_t)sm->cell[1]) *
-                          (uint32_t)sg->n[0] + (uint32_t)sm->cell[0];
-}
-
-/* Why the leaf march may stop the whole walk when the best hit lies within the current
- * leaf cell: every point of the ray before it lies in a top cell already walked, or in
- * this top cell, where the only primitives to hit (this cell's entries) lie in the
- * leaf grid's box and so in a leaf cell already walked (cells padded against rounding,
- * as the course grid's), or among its large entries, all tested on entering the cell. A top cell whose leaf grid the ray misses holds nothing it
- * can hit there. Rays too far out to march the leaf grid exactly test the cell's whole
- * list instead. */
-bool twolevel_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float tmin,
-                        RenderCtx *ctx)
-{
-    const Grid *g = t->top;
-    bool found = false;
-    for (uint32_t u = 0; u < g->num_unbounded; u++)
-        found |= grid_test_prim(&g->unbounded[u], ray, hit, tmin, ctx);
-    float tmarch = grid_march_tmin(g, tmin);
-    if (grid_ray_too_far(g, ray, tmarch))
-        return grid_march_intersect(g, ray, hit, tmin, ctx) || found;
-    MarchingInfo mi;
-    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
-        return found;
-    uint32_t stamp = grid_begin_ray(g, ctx);
-    uint32_t *mb = stamp ? ctx->mailbox : NULL;
-    float err = grid_march_error(g, ray);
-    do {
-        if (mi.t > hit->t)
-            break;
-        uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
-        uint32_t s = t->sub_of[c];
-        if (s == NO_SUB || !(err < t->subs[s].min_pad)) {
-            found |= grid_items_intersect(g, g->cell_items + g->cell_start[c],
-                                          g->cell_start[c + 1] - g->cell_start[c], ray, hit,
-                                          tmin, mb, stamp, ctx);
-        } else {
-            const SubGrid *sg = &t->subs[s];
-            found |= grid_items_intersect(g, t->items + sg->big_start, sg->big_count, ray, hit,
-                                          tmin, mb, stamp, ctx);
-            MarchingInfo sm;
-            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmarch, NULL)) {
-                do {
-                    ctx->stats.cells_traversed++;
-                    if (sm.t > hit->t)
-                        break;
-                    uint32_t lc = leaf_cell(sg, &sm);
-                    found |= grid_items_intersect(g, t->items + t->start[lc],
-                                                  t->start[lc + 1] - t->start[lc], ray, hit,
-                                                  tmin, mb, stamp, ctx);
-                    if (hit->t <= march_exit_t(&sm))
-                        return found;
-                } while (march_next(&sm, NULL));
-            }
-        }
-        if (hit->t <= march_exit_t(&mi))
-            break;
-    } while (march_next(&mi, ctx));
-    return found;
-}
-
-bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float tmax,
-                       RenderCtx *ctx)
-{
-    const Grid *g = t->top;
-    /* hit_accepts with t = tmax and id 0 takes exactly the hits with t < tmax. */
-    Hit h = hit_none();
-    h.t = tmax;
-    h.id = 0;
-    for (uint32_t u = 0; u < g->num_unbounded; u++)
-        if (grid_occluded_prim(&g->unbounded[u], ray, tmin, tmax, ctx))
-            return true;
-    float tmarch = grid_march_tmin(g, tmin);
-    if (grid_ray_too_far(g, ray, tmarch))
-        return grid_march_occluded(g, ray, tmin, tmax, ctx);
-    MarchingInfo mi;
-    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
-        return false;
-    uint32_t stamp = grid_begin_ray(g, ctx);
-    uint32_t *mb = stamp ? ctx->mailbox : NULL;
-    float err = grid_march_error(g, ray);
-    do {
-        if (mi.t > tmax)
-            break;
-        uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
-        uint32_t s = t->sub_of[c];
-        if (s == NO_SUB || !(err < t->subs[s].min_pad)) {
-            if (grid_items_occluded(g, g->cell_items + g->cell_start[c],
-                                    g->cell_start[c + 1] - g->cell_start[c], ray, &h, tmin, mb,
-                                    stamp, ctx))
-                return true;
-        } else {
-            const SubGrid *sg = &t->subs[s];
-            if (grid_items_occluded(g, t->items + sg->big_start, sg->big_count, ray, &h, tmin,
-                                    mb, stamp, ctx))
-                return true;
-            MarchingInfo sm;
-            if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmarch, NULL)) {
-                do {
-                    ctx->stats.cells_traversed++;
-                    if (sm.t > tmax)
-                        break;
-                    uint32_t lc = leaf_cell(sg, &sm);
-                    if (grid_items_occluded(g, t->items + t->start[lc],
-                                            t->start[lc + 1] - t->start[lc], ray, &h, tmin, mb,
-                                            stamp, ctx))
-                        return true;
-                } while (march_next(&sm, NULL));
-            }
-        }
-    } while (march_next(&mi, ctx));
-    return false;
-}
+/* ---- traversal: twolevel_intersect and twolevel_occluded are in grid_cast.c ---- */
 
 /* ---- the accelerator "twolevel" (rt/accel.h) ---- */
 

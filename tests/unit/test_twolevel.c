@@ -15,6 +15,7 @@
 #include "rt/grid.h"
 #include "rt/material.h"
 #include "rt/prim.h"
+#include "rt/ray_tree.h"
 #include "rt/scene.h"
 #include "rt/twolevel.h"
 
@@ -122,6 +123,57 @@ typedef struct Totals {
     long rays, hits, occl, tests, brute_tests;
 } Totals;
 
+/* The walk without a ray tree (lean marches with the cell loop inlined, grid_cast.c)
+ * against the walk with one (march_init and march_next, which record it): every query
+ * must give the same answer and add the same counts (-stats prints them). Set by
+ * run_uneven; NULL elsewhere. */
+static RenderCtx *walk_lean, *walk_tree;
+static long walks_compared, walk_cells;
+
+static bool same_counts(const RtStats *a0, const RtStats *a1, const RtStats *b0,
+                        const RtStats *b1)
+{
+    return a1->intersections - a0->intersections == b1->intersections - b0->intersections &&
+           a1->cells_traversed - a0->cells_traversed ==
+               b1->cells_traversed - b0->cells_traversed &&
+           a1->mailbox_skips - a0->mailbox_skips == b1->mailbox_skips - b0->mailbox_skips &&
+           a1->repeat_tests - a0->repeat_tests == b1->repeat_tests - b0->repeat_tests;
+}
+
+static bool same_hit(const Hit *a, const Hit *b);
+
+static void check_walks(const TwoLevelGrid *t, const Ray *ray, float tmin, float t0, float tmax)
+{
+    if (!walk_lean || !walk_tree)
+        return;
+    RtStats a0 = walk_lean->stats, b0 = walk_tree->stats;
+    Hit ha = hit_none(), hb = hit_none();
+    bool fa = twolevel_intersect(t, ray, &ha, tmin, walk_lean);
+    ray_tree_clear(walk_tree->tree);
+    bool fb = twolevel_intersect(t, ray, &hb, tmin, walk_tree);
+    RtStats a1 = walk_lean->stats, b1 = walk_tree->stats;
+    CHECK_MSG(fa == fb && (!fa || same_hit(&ha, &hb)) && same_counts(&a0, &a1, &b0, &b1),
+              "intersect: lean %d t=%.9g id=%u cells %llu tests %llu, tree %d t=%.9g id=%u "
+              "cells %llu tests %llu",
+              fa, (double)ha.t, ha.id,
+              (unsigned long long)(a1.cells_traversed - a0.cells_traversed),
+              (unsigned long long)(a1.intersections - a0.intersections), fb, (double)hb.t, hb.id,
+              (unsigned long long)(b1.cells_traversed - b0.cells_traversed),
+              (unsigned long long)(b1.intersections - b0.intersections));
+    walk_cells += (long)(a1.cells_traversed - a0.cells_traversed);
+    bool oa = twolevel_occluded(t, ray, t0, tmax, walk_lean);
+    ray_tree_clear(walk_tree->tree);
+    bool ob = twolevel_occluded(t, ray, t0, tmax, walk_tree);
+    RtStats a2 = walk_lean->stats, b2 = walk_tree->stats;
+    CHECK_MSG(oa == ob && same_counts(&a1, &a2, &b1, &b2),
+              "occluded to %.9g: lean %d cells %llu tests %llu, tree %d cells %llu tests %llu",
+              (double)tmax, oa, (unsigned long long)(a2.cells_traversed - a1.cells_traversed),
+              (unsigned long long)(a2.intersections - a1.intersections), ob,
+              (unsigned long long)(b2.cells_traversed - b1.cells_traversed),
+              (unsigned long long)(b2.intersections - b1.intersections));
+    walks_compared += 2;
+}
+
 static void check_one(const UScene *u, const TwoLevelGrid *t, RenderCtx *ctx, const Ray *ray,
                       float tmin, Totals *tot, Hit *out)
 {
@@ -154,6 +206,7 @@ static void check_one(const UScene *u, const TwoLevelGrid *t, RenderCtx *ctx, co
     bool og = twolevel_occluded(t, ray, t0, tmax, ctx);
     CHECK_MSG(ob == og, "occlusion to %.9g: twolevel %d, brute %d", (double)tmax, og, ob);
     tot->occl += ob;
+    check_walks(t, ray, tmin, t0, tmax);
 }
 
 static void run_uneven(int seed, int clusters, float spread, int huge, int planes, int rays,
@@ -182,6 +235,12 @@ static void run_uneven(int seed, int clusters, float spread, int huge, int plane
     ctx.num_mailbox = grid_mailbox_size(g);
     ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
     ctx.ray_stamp = UINT32_MAX - 3; /* wraps around during the run */
+    RenderCtx lean = ctx, tree = ctx;
+    lean.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+    tree.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+    tree.tree = malloc(sizeof *tree.tree);
+    walk_lean = lean.mailbox && tree.mailbox && tree.tree ? &lean : NULL;
+    walk_tree = &tree;
     BBox b = grid_bounds(g);
     for (int i = 0; i < rays; i++) {
         Ray ray;
@@ -228,6 +287,10 @@ static void run_uneven(int seed, int clusters, float spread, int huge, int plane
             check_one(&u, t, &ctx, &s, 1e-3f, tot, &h2);
         }
     }
+    walk_lean = walk_tree = NULL;
+    free(lean.mailbox);
+    free(tree.mailbox);
+    free(tree.tree);
     free(ctx.mailbox);
     twolevel_free(t);
     prim_table_free(&table);
@@ -243,6 +306,10 @@ static void test_uneven_scenes(void)
                    &subs);
     printf("    %ld rays, %ld hits, %ld occluded, %u leaf grids; tests %ld vs brute %ld\n",
            tot.rays, tot.hits, tot.occl, subs, tot.tests, tot.brute_tests);
+    printf("    walks with and without a ray tree: %ld queries compared, %ld cells\n",
+           walks_compared, walk_cells);
+    CHECK(walks_compared > 20000);
+    CHECK(walk_cells > walks_compared); /* more than two cells per nearest-hit query */
     CHECK(tot.rays > 10000);
     CHECK(tot.hits > tot.rays / 5);
     CHECK(subs > 16);                      /* leaf grids were built and walked */
