@@ -51,10 +51,15 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
 /* The rays of n sample points of pixel (x, y) of a W x H image, the points at offsets
  * xy[2k], xy[2k+1] in [0,1)^2 (A7 samplers): rays[k] is camera_generate_ray of
  * camera_sample_to_screen to the bit, sixteen samples at a time where the CPU running
- * it has AVX-512 (asked on every call), then four at a time in SSE lanes where the
- * target has them (the film's primary rays: 16 per pixel). */
+ * it has AVX-512 (asked on every call), eight at a time where it has AVX2, then four
+ * at a time in SSE lanes where the target has them (the film's primary rays: 16 per
+ * pixel). */
 void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
                         int height, Ray *rays);
+/* Tests: camera_sample_rays' widest lanes from now on are those of the instruction set
+ * isa ("base": SSE where the target has it, "avx2", "avx512"); false, nothing changed,
+ * when this build or CPU cannot run them. */
+bool camera_sample_rays_use_kernel(const char *isa);
 /* -inf (a very large negative number) for orthographic cameras, 0 for perspective. */
 float camera_tmin(const Camera *c);
 

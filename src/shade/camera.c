@@ -303,14 +303,108 @@ __attribute__((target("avx512f"))) static int sample_rays_avx512(const Camera *c
 #define HAVE_SAMPLE_RAYS_AVX512 1
 #endif
 
+#if defined(__x86_64__) && defined(__GNUC__)
+/* sample_rays_avx512 eight samples at a time, for CPUs with AVX2 (the SSE lanes'
+ * divisions and square root, latency-bound in four-lane steps, in half as many
+ * steps): the same IEEE single operations in the same order in every lane (no FMA:
+ * -ffp-contract=off and intrinsics only). Returns the samples done (a multiple of 8). */
+__attribute__((target("avx2"))) static int sample_rays_avx2(const Camera *c, int x, int y,
+                                                            const float *xy, int n, int width,
+                                                            int height, Ray *rays)
+{
+    float s = (float)(width > height ? width : height);
+    __m256 S = _mm256_set1_ps(s);
+    __m256 ox = _mm256_set1_ps((float)x), oy = _mm256_set1_ps((float)y);
+    __m256 cx = _mm256_set1_ps((s - (float)width) * 0.5f);
+    __m256 cy = _mm256_set1_ps((s - (float)height) * 0.5f);
+    Vec3 ll = c->lower_left, xa = c->x_axis, ya = c->y_axis, e = c->center;
+    __m256 ez = _mm256_set1_ps(e.z);
+    _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
+    int k = 0;
+    for (; k + 8 <= n; k += 8) {
+        __m256 a = _mm256_loadu_ps(xy + 2 * k), b = _mm256_loadu_ps(xy + 2 * k + 8);
+        /* Even floats (x) and odd ones (y) of the eight pairs: in the order of samples
+         * 0 1 4 5 | 2 3 6 7 per 128-bit half, put back in order by the 64-bit permute. */
+        __m256 px = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0));
+        __m256 py = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1));
+        px = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(px), 0xd8));
+        py = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(py), 0xd8));
+        __m256 u = _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(ox, px), cx), S);
+        __m256 v = _mm256_div_ps(_mm256_add_ps(_mm256_add_ps(oy, py), cy), S);
+#define RT_AXIS(L, X, Y, E)                                                                \
+    _mm256_sub_ps(_mm256_add_ps(_mm256_add_ps(_mm256_set1_ps(L),                           \
+                                              _mm256_mul_ps(_mm256_set1_ps(X), u)),        \
+                                _mm256_mul_ps(_mm256_set1_ps(Y), v)),                      \
+                  _mm256_set1_ps(E))
+        __m256 dx = RT_AXIS(ll.x, xa.x, ya.x, e.x);
+        __m256 dy = RT_AXIS(ll.y, xa.y, ya.y, e.y);
+        __m256 dz = RT_AXIS(ll.z, xa.z, ya.z, e.z);
+#undef RT_AXIS
+        __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+        /* l > 0: d / l; otherwise d itself (as unit_by_division). */
+        __m256 pos = _mm256_cmp_ps(l, _mm256_setzero_ps(), _CMP_GT_OQ);
+        __m256 qx = _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos);
+        __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos);
+        __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos);
+        /* Ray i's floats 2..5 are (eye.z, dir): the columns of the 4 x 8 rows eye.z,
+         * qx, qy, qz, a 4 x 4 transpose per 128-bit half (rays i and i + 4); floats
+         * 0..1 are eye.x, eye.y. */
+        __m256 t0 = _mm256_unpacklo_ps(ez, qy), t1 = _mm256_unpacklo_ps(qx, qz);
+        __m256 t2 = _mm256_unpackhi_ps(ez, qy), t3 = _mm256_unpackhi_ps(qx, qz);
+        __m256 col[4] = {_mm256_unpacklo_ps(t0, t1), _mm256_unpackhi_ps(t0, t1),
+                         _mm256_unpacklo_ps(t2, t3), _mm256_unpackhi_ps(t2, t3)};
+        for (int i = 0; i < 4; i++) {
+            float *r0 = (float *)&rays[k + i], *r1 = (float *)&rays[k + i + 4];
+            memcpy(r0, &e.x, 2 * sizeof(float));
+            memcpy(r1, &e.x, 2 * sizeof(float));
+            _mm_storeu_ps(r0 + 2, _mm256_castps256_ps128(col[i]));
+            _mm_storeu_ps(r1 + 2, _mm256_extractf128_ps(col[i], 1));
+        }
+    }
+    return k;
+}
+#define HAVE_SAMPLE_RAYS_AVX2 1
+#endif
+
+/* Which copy of camera_sample_rays' lanes runs: -1 the widest this CPU has, else the
+ * one camera_sample_rays_use_kernel chose (0 SSE, 1 AVX2, 2 AVX-512). Written only
+ * there (tests, before any render thread), read on every call. */
+static int sample_isa = -1;
+
+bool camera_sample_rays_use_kernel(const char *isa)
+{
+    static const char *const names[] = {"base", "avx2", "avx512"};
+    for (int i = 0; i < 3; i++)
+        if (!strcmp(isa, names[i]) && cpu_runs(isa)) {
+#ifndef HAVE_SAMPLE_RAYS_AVX2
+            if (i == 1)
+                return false;
+#endif
+#ifndef HAVE_SAMPLE_RAYS_AVX512
+            if (i == 2)
+                return false;
+#endif
+            sample_isa = i;
+            return true;
+        }
+    return false;
+}
+
 void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
                         int height, Ray *rays)
 {
     int k = 0;
-#ifdef HAVE_SAMPLE_RAYS_AVX512
     /* Asked on every call (a load), as camera_pixel_rays does. */
-    if (c->kind == CAMERA_PERSPECTIVE && n >= 16 && cpu_has_avx512())
+    int isa = sample_isa >= 0 ? sample_isa : cpu_has_avx512() ? 2 : cpu_has_avx2() ? 1 : 0;
+#ifdef HAVE_SAMPLE_RAYS_AVX512
+    if (c->kind == CAMERA_PERSPECTIVE && n >= 16 && isa == 2)
         k = sample_rays_avx512(c, x, y, xy, n, width, height, rays);
+#endif
+#ifdef HAVE_SAMPLE_RAYS_AVX2
+    /* After AVX-512's groups of 16, a group of 8 of them may remain. */
+    if (c->kind == CAMERA_PERSPECTIVE && n - k >= 8 && isa >= 1)
+        k += sample_rays_avx2(c, x, y, xy + 2 * k, n - k, width, height, rays + k);
 #endif
 #if defined(__SSE2__)
     if (c->kind == CAMERA_PERSPECTIVE) {

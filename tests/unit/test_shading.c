@@ -89,8 +89,9 @@ static void test_pixel_rays_block(void)
 
 /* camera_sample_rays gives each sample camera_generate_ray(camera_sample_to_screen) to
  * the bit, for sample counts 1 to 37: with and without a partial group of four, and with
- * one or two groups of sixteen (the AVX-512 lanes) before them. */
-static void test_sample_rays(void)
+ * one or two groups of sixteen (the AVX-512 lanes) or of eight (AVX2) before them; with
+ * each copy of the lanes this CPU runs. */
+static void test_sample_rays_with(const char *isa)
 {
     Camera cams[3];
     CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
@@ -122,8 +123,26 @@ static void test_sample_rays(void)
                         differ++;
                 }
             }
+    if (differ)
+        fprintf(stderr, "  camera_sample_rays, %s lanes: %d of %d rays differ\n", isa, differ,
+                checked);
     CHECK_INT(differ, 0);
     CHECK(checked > 500);
+}
+
+static void test_sample_rays(void)
+{
+    const char *isas[] = {"base", "avx2", "avx512"};
+    int ran = 0;
+    for (int i = 0; i < 3; i++)
+        if (camera_sample_rays_use_kernel(isas[i])) {
+            test_sample_rays_with(isas[i]);
+            ran++;
+        }
+    CHECK(ran >= 1);
+    /* Back to the widest. */
+    if (!camera_sample_rays_use_kernel("avx512"))
+        camera_sample_rays_use_kernel("avx2");
 }
 
 static void test_lights(void)
