@@ -572,17 +572,48 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
 #elif PK_W == 8 && defined(__AVX2__)
         {
             const float *base = (const float *)(const void *)(rays + PK_W * gi);
-            const __m256i idx = _mm256_setr_epi32(0, 6, 12, 18, 24, 30, 36, 42);
             const __m256 km = (__m256)pk_lanes(byte);
-            for (int a = 0; a < 3; a++) {
-                o[a] = (pk_fv)_mm256_mask_i32gather_ps((__m256)zero, base + a, idx, km, 4);
-                d[a] = same ? sd[a]
-                            : (pk_fv)_mm256_mask_i32gather_ps((__m256)one, base + 3 + a,
-                                                              idx, km, 4);
+            if (byte == PK_WMASK) {
+                /* A whole group (every ray of it is the caller's, so all 48 floats may
+                 * be read): plain loads and a transpose. A gather costs about eight
+                 * loads' time on Zen 3, and six of them were most of this function
+                 * there. Ray i + 4's floats beside ray i's in each row: a 4 x 4
+                 * transpose per 128-bit half gives lanes 0-3 and 4-7 in order. */
+                __m256 r[4], q[4];
+                for (int i = 0; i < 4; i++) {
+                    r[i] = _mm256_loadu2_m128(base + 6 * (i + 4), base + 6 * i);
+                    q[i] = _mm256_loadu2_m128(base + 6 * (i + 4) + 2, base + 6 * i + 2);
+                }
+                /* r: o.x o.y o.z d.x; q: o.z d.x d.y d.z */
+                __m256 t0 = _mm256_unpacklo_ps(r[0], r[1]), t1 = _mm256_unpacklo_ps(r[2], r[3]);
+                o[0] = (pk_fv)_mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(1, 0, 1, 0));
+                o[1] = (pk_fv)_mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 2));
+                __m256 u0 = _mm256_unpacklo_ps(q[0], q[1]), u1 = _mm256_unpacklo_ps(q[2], q[3]);
+                o[2] = (pk_fv)_mm256_shuffle_ps(u0, u1, _MM_SHUFFLE(1, 0, 1, 0));
+                if (same) {
+                    for (int a = 0; a < 3; a++)
+                        d[a] = sd[a];
+                } else {
+                    __m256 u2 = _mm256_unpackhi_ps(q[0], q[1]);
+                    __m256 u3 = _mm256_unpackhi_ps(q[2], q[3]);
+                    d[0] = (pk_fv)_mm256_shuffle_ps(u0, u1, _MM_SHUFFLE(3, 2, 3, 2));
+                    d[1] = (pk_fv)_mm256_shuffle_ps(u2, u3, _MM_SHUFFLE(1, 0, 1, 0));
+                    d[2] = (pk_fv)_mm256_shuffle_ps(u2, u3, _MM_SHUFFLE(3, 2, 3, 2));
+                }
+                if (tmax)
+                    tm = (pk_fv)_mm256_loadu_ps(tmax + PK_W * gi);
+            } else {
+                const __m256i idx = _mm256_setr_epi32(0, 6, 12, 18, 24, 30, 36, 42);
+                for (int a = 0; a < 3; a++) {
+                    o[a] = (pk_fv)_mm256_mask_i32gather_ps((__m256)zero, base + a, idx, km, 4);
+                    d[a] = same ? sd[a]
+                                : (pk_fv)_mm256_mask_i32gather_ps((__m256)one, base + 3 + a,
+                                                                  idx, km, 4);
+                }
+                if (tmax) /* masked lanes read as 0, then infinite */
+                    tm = pk_blend((pk_iv)km,
+                                  (pk_fv)_mm256_maskload_ps(tmax + PK_W * gi, (__m256i)km), inf);
             }
-            if (tmax) /* masked lanes read as 0, then infinite */
-                tm = pk_blend((pk_iv)km,
-                              (pk_fv)_mm256_maskload_ps(tmax + PK_W * gi, (__m256i)km), inf);
         }
 #else
         for (int a = 0; a < 3; a++)
