@@ -22,9 +22,14 @@
  * neighbouring pixels: on course line 17a at 400 x 400 with 16 samples, 87% of the
  * vectors at the coarsest of its 5 octaves, 47% at the finest) takes noise_cell: the
  * eight corner hashes are the same in every lane, so they are looked up once, in
- * scalar code, and each corner's gradient is two whole vectors added, picked by the
- * hash (CELL_PICK) from the distances and their negations: the values grad selects
- * and sign-flips lane by lane, so the same bits again. */
+ * scalar code (cell_picks, or taken from the previous vector's when it lay in the
+ * same cell at that octave), and each corner's gradient is two whole vectors added,
+ * picked by the hash (CELL_PICK) from the distances and their negations: the values
+ * grad selects and sign-flips lane by lane, so the same bits again. */
+
+#ifndef PL_MEMO_OCTAVES
+#define PL_MEMO_OCTAVES 8 /* octaves whose last cell PL_FN remembers (the course's: 1-5) */
+#endif
 
 PL_TARGET static inline PL_D PL_(fade)(PL_D t)
 {
@@ -76,42 +81,60 @@ PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy
 }
 #endif
 
-/* noise where every lane's floors are fx0, fy0, fz0 (each below 1e9 in magnitude, so
- * no lane answers 0): the cell's hashes as noise3_scalar computes them, the
- * distances, fades and lerps as noise. d holds the six distances and their
- * negations at the indices CELL_PICK gives (axis * 4 + corner bit * 2 + negated). */
-PL_TARGET static inline PL_D PL_(noise_cell)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy, PL_D fz,
-                                             double fx0, double fy0, double fz0)
+/* The picks of the cell with floors fx0, fy0, fz0 (each below 1e9 in magnitude): the
+ * cell's corner hashes as noise3_scalar computes them, each as its CELL_PICK entry
+ * (the two d indices, see noise_cell) for its corner. */
+PL_TARGET static inline void PL_(cell_picks)(double fx0, double fy0, double fz0,
+                                             unsigned char pick[8])
 {
     int X = (int)fx0 & 255, Y = (int)fy0 & 255, Z = (int)fz0 & 255;
+    int A = perm(X) + Y, AA = perm(A) + Z, AB = perm(A + 1) + Z;
+    int B = perm(X + 1) + Y, BA = perm(B) + Z, BB = perm(B + 1) + Z;
+    /* Corner c = i + 2j + 4k: its hash picks its u and v (low and high nibble). */
+    pick[0] = CELL_PICK[perm(AA) & 15][0];
+    pick[1] = CELL_PICK[perm(BA) & 15][1];
+    pick[2] = CELL_PICK[perm(AB) & 15][2];
+    pick[3] = CELL_PICK[perm(BB) & 15][3];
+    pick[4] = CELL_PICK[perm(AA + 1) & 15][4];
+    pick[5] = CELL_PICK[perm(BA + 1) & 15][5];
+    pick[6] = CELL_PICK[perm(AB + 1) & 15][6];
+    pick[7] = CELL_PICK[perm(BB + 1) & 15][7];
+}
+
+/* noise where every lane lies in the cell of floors fx, fy, fz whose picks are pick
+ * (cell_picks; no lane answers 0): the distances, fades and lerps as noise. d holds
+ * the six distances and their negations at the indices CELL_PICK gives (axis * 4 +
+ * corner bit * 2 + negated). */
+PL_TARGET static inline PL_D PL_(noise_cell)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy, PL_D fz,
+                                             const unsigned char pick[8])
+{
     PL_D one = PL_(d_set)(1.0);
     PL_D x0 = PL_(d_sub)(x, fx), y0 = PL_(d_sub)(y, fy), z0 = PL_(d_sub)(z, fz);
     PL_D u = PL_(fade)(x0), v = PL_(fade)(y0), w = PL_(fade)(z0);
     PL_D x1 = PL_(d_sub)(x0, one), y1 = PL_(d_sub)(y0, one), z1 = PL_(d_sub)(z0, one);
     PL_D d[12] = {x0, PL_(d_neg)(x0), x1, PL_(d_neg)(x1), y0, PL_(d_neg)(y0),
                   y1, PL_(d_neg)(y1), z0, PL_(d_neg)(z0), z1, PL_(d_neg)(z1)};
-    int A = perm(X) + Y, AA = perm(A) + Z, AB = perm(A + 1) + Z;
-    int B = perm(X + 1) + Y, BA = perm(B) + Z, BB = perm(B + 1) + Z;
-    /* Corner c = i + 2j + 4k: its hash picks its u and v (low and high nibble). */
-    int p000 = CELL_PICK[perm(AA) & 15][0], p100 = CELL_PICK[perm(BA) & 15][1],
-        p010 = CELL_PICK[perm(AB) & 15][2], p110 = CELL_PICK[perm(BB) & 15][3],
-        p001 = CELL_PICK[perm(AA + 1) & 15][4], p101 = CELL_PICK[perm(BA + 1) & 15][5],
-        p011 = CELL_PICK[perm(AB + 1) & 15][6], p111 = CELL_PICK[perm(BB + 1) & 15][7];
-    PL_D g000 = PL_(d_add)(d[p000 & 15], d[p000 >> 4]);
-    PL_D g100 = PL_(d_add)(d[p100 & 15], d[p100 >> 4]);
-    PL_D g010 = PL_(d_add)(d[p010 & 15], d[p010 >> 4]);
-    PL_D g110 = PL_(d_add)(d[p110 & 15], d[p110 >> 4]);
-    PL_D g001 = PL_(d_add)(d[p001 & 15], d[p001 >> 4]);
-    PL_D g101 = PL_(d_add)(d[p101 & 15], d[p101 >> 4]);
-    PL_D g011 = PL_(d_add)(d[p011 & 15], d[p011 >> 4]);
-    PL_D g111 = PL_(d_add)(d[p111 & 15], d[p111 >> 4]);
-    return PL_(lerp)(w, PL_(lerp)(v, PL_(lerp)(u, g000, g100), PL_(lerp)(u, g010, g110)),
-                     PL_(lerp)(v, PL_(lerp)(u, g001, g101), PL_(lerp)(u, g011, g111)));
+    PL_D g[8];
+    for (int c = 0; c < 8; c++)
+        g[c] = PL_(d_add)(d[pick[c] & 15], d[pick[c] >> 4]);
+    return PL_(lerp)(w, PL_(lerp)(v, PL_(lerp)(u, g[0], g[1]), PL_(lerp)(u, g[2], g[3])),
+                     PL_(lerp)(v, PL_(lerp)(u, g[4], g[5]), PL_(lerp)(u, g[6], g[7])));
 }
 
 PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, int n,
                             int octaves, double *out)
 {
+    /* The last one-cell vector's cell and picks at each octave (the first
+     * PL_MEMO_OCTAVES): the next vector is often in the same cell (a pixel's
+     * samples, or neighbouring pixels), and its picks, a function of the cell alone,
+     * are then taken from here instead of the hash chain's fourteen dependent table
+     * lookups. A NaN floor matches nothing. */
+    struct {
+        double fx, fy, fz;
+        unsigned char pick[8];
+    } memo[PL_MEMO_OCTAVES];
+    for (int o = 0; o < PL_MEMO_OCTAVES; o++)
+        memo[o].fx = memo[o].fy = memo[o].fz = NAN;
     for (int i = 0; i < n; i += PL_W) {
         double bx[PL_W], by[PL_W], bz[PL_W], bo[PL_W];
         int k = n - i < PL_W ? n - i : PL_W;
@@ -148,8 +171,25 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
              * floor equals nothing, so it never passes d_one_cell). */
             cell = cell && fabs(fx0) < 1e9 && fabs(fy0) < 1e9 && fabs(fz0) < 1e9 &&
                    PL_(d_one_cell)(fx, fy, fz);
-            PL_D nv = cell ? PL_(noise_cell)(xs, ys, zs, fx, fy, fz, fx0, fy0, fz0)
-                           : PL_(noise)(xs, ys, zs, fx, fy, fz);
+            PL_D nv;
+            if (cell) {
+                unsigned char own[8];
+                const unsigned char *pick = own;
+                if (o < PL_MEMO_OCTAVES) {
+                    if (!(memo[o].fx == fx0 && memo[o].fy == fy0 && memo[o].fz == fz0)) {
+                        PL_(cell_picks)(fx0, fy0, fz0, memo[o].pick);
+                        memo[o].fx = fx0;
+                        memo[o].fy = fy0;
+                        memo[o].fz = fz0;
+                    }
+                    pick = memo[o].pick;
+                } else {
+                    PL_(cell_picks)(fx0, fy0, fz0, own);
+                }
+                nv = PL_(noise_cell)(xs, ys, zs, fx, fy, fz, pick);
+            } else {
+                nv = PL_(noise)(xs, ys, zs, fx, fy, fz);
+            }
             sum = PL_(d_add)(sum, PL_(d_mul)(nv, r));
             scale *= 2.0;
         }

@@ -314,7 +314,8 @@ static void test_lanes_bits(void)
  * 256), on lattice planes (zero distances, -0, the cell's own corner), far out
  * (1e9 and beyond: the lanes answer 0) and with one NaN or infinite lane; vectors
  * that share a cell up to some octave and then straddle two (the test stops at the
- * first miss); and every count 1 .. 19 (the partial last vector's padding). Groups
+ * first miss); 1 to 10 octaves (the kernels remember the last cell of the first 8);
+ * and every count 1 .. 19 (the partial last vector's padding). Groups
  * of 8 points: one vector of the AVX-512 kernels, two of AVX2. */
 static void test_lanes_cells(void)
 {
@@ -357,10 +358,52 @@ static void test_lanes_cells(void)
                 y[i] = c[1];
                 z[i] = c[2];
             }
-            int octaves = 1 + round % 8;
+            int octaves = 1 + round % 10; /* beyond the 8 whose last cell PL_FN keeps */
             differ += lanes_differ(x, y, z, n, octaves, out);
             points += n;
         }
+    }
+    CHECK(perlin_use_lanes_kernel(def));
+    CHECK_MSG(differ == 0, "%ld of %ld points differ from perlin_octaves' bits", differ, points);
+}
+
+/* The lane kernels keep the cell (and its hashes) of the last one-cell vector at each
+ * octave for the next: vectors of 8 points, each in one cell at every octave, whose
+ * cells follow a Gray code (each differs from the one before in exactly one of x, y
+ * and z: a kernel that compared only some of them would take the wrong hashes), at
+ * cells of either sign and at the 255/0 wrap; then the same cell again (the hashes
+ * taken from memory). Against perlin_octaves, bit for bit, with every kernel. */
+static void test_lanes_memo(void)
+{
+    enum { G = 16, N = 8 * G };
+    static double x[N], y[N], z[N], out[N];
+    static const double bases[] = {0.0, -3.0, 254.0, -257.0, 40.0};
+    static const int gray[8] = {0, 1, 3, 2, 6, 7, 5, 4};
+    const char *def = perlin_lanes_kernel();
+    const char *names[] = {"scalar", "avx2", "avx512", "avx512vbmi"};
+    long differ = 0, points = 0;
+    uint64_t s = 0x9E3779B97F4A7C15ULL;
+    for (int kn = 0; kn < 4; kn++) {
+        if (!perlin_use_lanes_kernel(names[kn]))
+            continue;
+        for (size_t b = 0; b < sizeof bases / sizeof bases[0]; b++)
+            for (int octaves = 1; octaves <= 9; octaves++) {
+                for (int i = 0; i < N; i++) {
+                    int g = i / 8, code = gray[(g < 8 ? g : g - 1) % 8];
+                    double c[3];
+                    for (int k = 0; k < 3; k++) {
+                        s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+                        double r = (double)(s >> 11) / 9007199254740992.0; /* [0, 1) */
+                        /* Within 2^-10 of the cell's corner: one cell at all 9 octaves. */
+                        c[k] = bases[b] + (double)(code >> k & 1) + r / 1024.0;
+                    }
+                    x[i] = c[0];
+                    y[i] = c[1];
+                    z[i] = c[2];
+                }
+                differ += lanes_differ(x, y, z, N, octaves, out);
+                points += N;
+            }
     }
     CHECK(perlin_use_lanes_kernel(def));
     CHECK_MSG(differ == 0, "%ld of %ld points differ from perlin_octaves' bits", differ, points);
@@ -380,5 +423,6 @@ static const TestCase tests[] = {
     {"perlin: octave cut-off weights (-noise_cutoff)", test_octave_cutoff},
     {"perlin: the lane kernels give perlin_octaves' bits", test_lanes_bits},
     {"perlin: the lane kernels' shared-cell path gives the same bits", test_lanes_cells},
+    {"perlin: the lane kernels' remembered cells give the same bits", test_lanes_memo},
 };
 RT_TEST_MAIN(tests)
