@@ -122,7 +122,7 @@ Grid *grid_alloc(void)
     return g;
 }
 
-static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
+static Grid *build(const PrimTable *t, int nx, int ny, int nz, bool fitted, Diag *diag)
 {
     if (nx < 1 || ny < 1 || nz < 1) {
         diag_error(diag, NULL, "grid resolution must be positive, got %dx%dx%d", nx, ny, nz);
@@ -142,7 +142,7 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
     /* Time and memory within a multiple of the primitive count (grid_budget.c). */
     int n[3] = {nx, ny, nz};
     uint64_t cap = grid_ref_cap(t->num_bounded);
-    if (grid_fit_refs(t, n, cap, NULL)) {
+    if (!fitted && grid_fit_refs(t, n, cap, NULL)) {
         int req[3] = {nx, ny, nz};
         grid_warn_refit(diag, req, n, cap);
         nx = n[0];
@@ -206,7 +206,7 @@ oom:
     return NULL;
 }
 
-Grid *grid_build_table(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
+static Grid *build_table(const PrimTable *t, int nx, int ny, int nz, bool fitted, Diag *diag)
 {
     if (!t || t->num_bounded == 0 || bbox_is_empty(&t->scene_bounds))
         return NULL;
@@ -215,7 +215,17 @@ Grid *grid_build_table(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
         par_prepare();
     /* The helpers are not let go after the grid: idle, they sleep, and the render's
      * workers run on them (rt/par.h). */
-    return build(t, nx, ny, nz, diag);
+    return build(t, nx, ny, nz, fitted, diag);
+}
+
+Grid *grid_build_table(const PrimTable *t, int nx, int ny, int nz, Diag *diag)
+{
+    return build_table(t, nx, ny, nz, false, diag);
+}
+
+Grid *grid_build_table_fitted(const PrimTable *t, const int n[3], Diag *diag)
+{
+    return build_table(t, n[0], n[1], n[2], true, diag);
 }
 
 Grid *grid_build(const Scene *scene, int nx, int ny, int nz, Diag *diag)

@@ -29,9 +29,12 @@ static void *grid_create(const PrimTable *t, const AccelConfig *cfg, Diag *diag)
         g = grid_cache_load(t, cfg->cache, key, diag);
     }
     if (!g) {
-        if (cfg->grid_auto)
-            grid_choose_auto(t, n);
-        g = grid_build_table(t, n[0], n[1], n[2], diag);
+        if (cfg->grid_auto) {
+            grid_choose_auto(t, n); /* fitted to grid_ref_cap_auto */
+            g = grid_build_table_fitted(t, n, diag);
+        } else {
+            g = grid_build_table(t, n[0], n[1], n[2], diag);
+        }
         if (g && cacheable)
             grid_cache_store(g, t, cfg->cache, key, n);
     }

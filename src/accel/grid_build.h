@@ -122,5 +122,10 @@ bool grid_tight_insert(BinPart *bp, const GridBuildRec *rec, uint32_t *ncells);
 bool grid_tri_box_overlap(double v[3][3], const double h[3]);
 /* What the build uses: the same answer by a shortcut when a vertex is well inside. */
 bool grid_tri_cell_overlap(double v[3][3], const double h[3]);
+/* grid_tri_cell_overlap with its vertex flags given: in[k] must be (|v[k][a]| <=
+ * h[a] * GRID_INSIDE_SHRINK on every axis a), as it computes them (the leaf builds of
+ * twolevel.c compute them per axis, once per row of cells). */
+#define GRID_INSIDE_SHRINK (1.0 - 0x1p-30)
+bool grid_tri_cell_overlap_in(double v[3][3], const double h[3], const bool in[3]);
 
 #endif

@@ -94,7 +94,7 @@ static bool push_pair(BinPart *bp, uint32_t cell)
  * the border stretch: lo, hi, their centre, half size, and the half size shrunk by a
  * relative 2^-30 (the "vertex well inside" bound of tri_cell_overlap). */
 enum { CA_LO, CA_HI, CA_MID, CA_H, CA_HIN, CELL_AXIS_STRIDE };
-#define INSIDE_SHRINK (1.0 - 0x1p-30)
+#define INSIDE_SHRINK GRID_INSIDE_SHRINK
 
 bool grid_setup_cell_axis(GridBuild *b)
 {
@@ -183,6 +183,11 @@ bool grid_tri_cell_overlap(double v[3][3], const double h[3])
         for (int a = 0; a < 3; a++)
             in[k] = in[k] && fabs(v[k][a]) <= h[a] * INSIDE_SHRINK;
     }
+    return tri_cell_overlap(v, h, in);
+}
+
+bool grid_tri_cell_overlap_in(double v[3][3], const double h[3], const bool in[3])
+{
     return tri_cell_overlap(v, h, in);
 }
 

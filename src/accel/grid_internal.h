@@ -130,6 +130,12 @@ void grid_cache_store(const Grid *g, const PrimTable *t, SetupCache *c, SetupKey
 void grid_warn_refit(Diag *diag, const int req[3], const int n[3], uint64_t cap);
 /* grid.c: the march's tmin factor over the table's Transform chains (Grid.march_tmin_scale). */
 float grid_table_tmin_scale(const PrimTable *t);
+/* grid.c: grid_build_table for a resolution that grid_fit_refs has already fitted to
+ * grid_ref_cap_auto (grid_choose_auto, the two-level grid's top): the build's own fit
+ * to the larger grid_ref_cap would keep it (the estimate is at most the smaller cap,
+ * or the resolution is 1 x 1 x 1), so its pass over the primitives (two estimates per
+ * build) is skipped. */
+Grid *grid_build_table_fitted(const PrimTable *t, const int n[3], Diag *diag);
 /* grid.c: a zeroed Grid with its lock, or NULL. */
 Grid *grid_alloc(void);
 

@@ -261,21 +261,6 @@ static bool grow(void **p, size_t *cap, size_t need, size_t elem)
     return true;
 }
 
-/* Whether the triangle v (world space) may cross the padded leaf cell [lo, hi] grown by
- * tol (its hit tolerance, tri_tolerance): the grid build's exact triangle/box test. */
-static bool tri_in_cell(const double v[3][3], const double lo[3], const double hi[3],
-                        double tol)
-{
-    double rel[3][3], h[3];
-    for (int a = 0; a < 3; a++) {
-        double mid = 0.5 * (lo[a] + hi[a]);
-        h[a] = 0.5 * (hi[a] - lo[a]) + tol;
-        for (int k = 0; k < 3; k++)
-            rel[k][a] = v[k][a] - mid;
-    }
-    return grid_tri_cell_overlap(rel, h);
-}
-
 /* Scratch of the leaf builds, reused from cell to cell. */
 typedef struct LeafScratch {
     float (*box)[6];       /* per entry of the cell: its box */
@@ -413,6 +398,13 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         bool test = !gp->xf && obj_kind(gp->obj) == OBJ_TRIANGLE &&
                     (r[0] != r[3] || r[1] != r[4] || r[2] != r[5]);
         double v[3][3], tol = 0.0;
+        /* Per axis and cell of the range, what tri_in_cell computes for that axis alone
+         * (the padded cell side, border cells stretched to the box; the centre, the half
+         * size grown by tol, the vertices relative to the centre and whether each lies
+         * well inside): the same doubles by the same operations, made once per row
+         * instead of once per cell. Bit k of vin: vertex k is inside on that axis. */
+        double ah[3][LEAF_MAX_AXIS], arel[3][LEAF_MAX_AXIS][3];
+        unsigned char vin[3][LEAF_MAX_AXIS];
         if (test) {
             Vec3 tv[3];
             triangle_vertices(gp->obj, tv);
@@ -421,25 +413,45 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
                     v[q2][a] = (double)v3_comp(tv[q2], a);
             BBox tb = {v3_min(v3_min(tv[0], tv[1]), tv[2]), v3_max(v3_max(tv[0], tv[1]), tv[2])};
             tol = (double)tri_tolerance(tb);
+            for (int a = 0; a < 3; a++) {
+                double mn = (double)lo[a], sz = (double)size[a], pd = (double)sg.pad[a];
+                for (int ca = r[a]; ca <= r[3 + a]; ca++) {
+                    double clo2 = mn + ca * sz - pd, chi2 = mn + (ca + 1) * sz + pd;
+                    if (ca == 0 && (double)b[a] < clo2)
+                        clo2 = (double)b[a];
+                    if (ca == n[a] - 1 && (double)b[3 + a] > chi2)
+                        chi2 = (double)b[3 + a];
+                    int x = ca - r[a];
+                    double mid = 0.5 * (clo2 + chi2);
+                    ah[a][x] = 0.5 * (chi2 - clo2) + tol;
+                    unsigned char bits = 0;
+                    for (int k = 0; k < 3; k++) {
+                        arel[a][x][k] = v[k][a] - mid;
+                        bits |= (unsigned char)((fabs(arel[a][x][k]) <=
+                                                 ah[a][x] * GRID_INSIDE_SHRINK) << k);
+                    }
+                    vin[a][x] = bits;
+                }
+            }
         }
         for (int k = r[2]; k <= r[5]; k++)
             for (int j = r[1]; j <= r[4]; j++)
                 for (int i = r[0]; i <= r[3]; i++) {
                     if (test) {
-                        int cc[3] = {i, j, k};
-                        double clo2[3], chi2[3];
-                        for (int a = 0; a < 3; a++) {
-                            double mn = (double)lo[a], sz = (double)size[a],
-                                   pd = (double)sg.pad[a];
-                            clo2[a] = mn + cc[a] * sz - pd;
-                            chi2[a] = mn + (cc[a] + 1) * sz + pd;
-                            if (cc[a] == 0 && (double)b[a] < clo2[a])
-                                clo2[a] = (double)b[a];
-                            if (cc[a] == n[a] - 1 && (double)b[3 + a] > chi2[a])
-                                chi2[a] = (double)b[3 + a];
+                        /* tri_in_cell(v, the cell, tol), from the rows' values */
+                        int x = i - r[0], y = j - r[1], z = k - r[2];
+                        unsigned in = vin[0][x] & vin[1][y] & vin[2][z];
+                        if (!(in & 1u)) { /* vertex 0 inside: overlap, without a test */
+                            double rel[3][3], h[3] = {ah[0][x], ah[1][y], ah[2][z]};
+                            bool inv[3] = {false, (in & 2u) != 0, (in & 4u) != 0};
+                            for (int q2 = 0; q2 < 3; q2++) {
+                                rel[q2][0] = arel[0][x][q2];
+                                rel[q2][1] = arel[1][y][q2];
+                                rel[q2][2] = arel[2][z][q2];
+                            }
+                            if (!grid_tri_cell_overlap_in(rel, h, inv))
+                                continue;
                         }
-                        if (!tri_in_cell((const double (*)[3])v, clo2, chi2, tol))
-                            continue;
                     }
                     if (!grow((void **)&ls->cells, &ls->cap_cells, npairs + 1,
                               sizeof *ls->cells))
@@ -534,7 +546,7 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
     TwoLevelGrid *t = calloc(1, sizeof *t);
     if (!t)
         goto oom;
-    t->top = grid_build_table(table, n[0], n[1], n[2], diag);
+    t->top = grid_build_table_fitted(table, n, diag);
     if (!t->top) {
         twolevel_free(t);
         return NULL; /* reported by grid_build_table, or nothing bounded */
