@@ -14,6 +14,7 @@
 
 #include "rt/accel.h"
 #include "rt/geom.h"
+#include "rt/par.h"
 #include "rt/prim.h"
 #include "rt/twolevel.h"
 
@@ -261,14 +262,13 @@ static bool grow(void **p, size_t *cap, size_t need, size_t elem)
     return true;
 }
 
-/* Scratch of the leaf builds, reused from cell to cell. */
+/* Scratch of the leaf builds, reused from cell to cell (one per set-up thread). */
 typedef struct LeafScratch {
     float (*box)[6];       /* per entry of the cell: its box */
     uint32_t *npairs;      /* per entry: how many leaf cells it went into */
     uint32_t *cells;       /* those cells, entry after entry */
     uint32_t *count;       /* per leaf cell: entries, then the fill cursor */
-    uint32_t *small;       /* the cell's entries (indices into its list) in the leaf grid */
-    size_t cap_box, cap_npairs, cap_cells, cap_count, cap_small;
+    size_t cap_box, cap_npairs, cap_cells, cap_count;
 } LeafScratch;
 
 static void scratch_free(LeafScratch *ls)
@@ -277,18 +277,37 @@ static void scratch_free(LeafScratch *ls)
     free(ls->npairs);
     free(ls->cells);
     free(ls->count);
-    free(ls->small);
 }
 
-/* Builds the leaf grid of top cell c (grid coordinates ci); false when out of memory.
- * Leaves sub_of[c] = TWOLEVEL_NO_SUB when a leaf grid would not pay or the budget is spent. */
-static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch *ls,
-                       const float (*pbox)[6], double *budget)
+/* A leaf grid as planned by plan_leaf (in top-cell order: the budget is spent in that
+ * order) and filled by fill_leaf (on any set-up thread, into arrays of its own, which
+ * twolevel_build then appends in plan order). */
+typedef struct LeafPlan {
+    uint32_t c;            /* its top cell */
+    SubGrid sg;            /* base and big_start are set when it is appended */
+    uint32_t small0, ns;   /* its entries: small[small0 .. small0 + ns), indices into the
+                              top cell's list, in list order */
+    uint32_t nbig;
+    uint32_t cells;
+    uint32_t *start;       /* filled: cells + 1 offsets into items, from 0 */
+    uint32_t *items;       /* filled: the entries of its cells, cell after cell */
+    bool ok;               /* filled without running out of memory */
+} LeafPlan;
+
+typedef struct LeafPlans {
+    LeafPlan *p;
+    size_t n, cap;
+    uint32_t *small;
+    size_t nsmall, cap_small;
+} LeafPlans;
+
+/* Plans the leaf grid of top cell c (grid coordinates ci): appends it to P when it
+ * pays and fits the budget (spending it); false when out of memory. */
+static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *ls,
+                      const float (*pbox)[6], double *budget, LeafPlans *P)
 {
-    const Grid *g = t->top;
     const uint32_t *items = g->cell_items + g->cell_start[c];
     uint32_t m = g->cell_start[c + 1] - g->cell_start[c];
-    t->sub_of[c] = TWOLEVEL_NO_SUB;
     if (m <= LEAF_MIN)
         return true;
     /* The cell's box as the march tiles it, and the primitives' boxes clipped to it:
@@ -303,9 +322,9 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         hi[a] = -INFINITY;
     }
     if (!grow((void **)&ls->box, &ls->cap_box, m, sizeof *ls->box) ||
-        !grow((void **)&ls->npairs, &ls->cap_npairs, m, sizeof *ls->npairs) ||
-        !grow((void **)&ls->small, &ls->cap_small, m, sizeof *ls->small))
+        !grow((void **)&P->small, &P->cap_small, P->nsmall + m, sizeof *P->small))
         return false;
+    uint32_t *small = P->small + P->nsmall;
     /* Large entries (inside the cell, more than half its side on two axes: a floor, a
      * wall) would stretch the leaf grid over the whole cell; when there are few of
      * them they are kept aside and tested for every ray entering the cell. */
@@ -318,16 +337,16 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         if (wide >= 2)
             nbig++;
         else
-            ls->small[ns++] = e;
+            small[ns++] = e;
     }
     if (nbig > BIG_MAX || ns <= LEAF_MIN) {
         ns = m;
         for (uint32_t e = 0; e < m; e++)
-            ls->small[e] = e;
+            small[e] = e;
         nbig = 0;
     }
     for (uint32_t q = 0; q < ns; q++) {
-        const float *b = pbox[GRID_ITEM_INDEX(items[ls->small[q]])];
+        const float *b = pbox[GRID_ITEM_INDEX(items[small[q]])];
         memcpy(ls->box[q], b, sizeof ls->box[q]);
         for (int a = 0; a < 3; a++) {
             lo[a] = fminf(lo[a], fmaxf(b[a], clo[a]));
@@ -358,38 +377,60 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         return true;
     *budget -= est + (double)cells;
 
-    SubGrid sg;
-    memset(&sg, 0, sizeof sg);
-    sg.box.min = v3(lo[0], lo[1], lo[2]);
-    sg.box.max = v3(hi[0], hi[1], hi[2]);
-    float size[3];
+    if (!grow((void **)&P->p, &P->cap, P->n + 1, sizeof *P->p))
+        return false;
+    LeafPlan *pl = &P->p[P->n++];
+    memset(pl, 0, sizeof *pl);
+    pl->c = c;
+    pl->small0 = (uint32_t)P->nsmall;
+    pl->ns = ns;
+    pl->nbig = nbig;
+    pl->cells = (uint32_t)cells; /* at most LEAF_MAX_AXIS^3 */
+    P->nsmall += ns;
+    SubGrid *sg = &pl->sg;
+    sg->box.min = v3(lo[0], lo[1], lo[2]);
+    sg->box.max = v3(hi[0], hi[1], hi[2]);
     for (int a = 0; a < 3; a++) {
-        sg.n[a] = n[a];
+        sg->n[a] = n[a];
         /* The march's cell size ((max - min) / n, in float) and the course grid's pad:
          * 1% of a cell plus a few ulps of the scene's coordinates (grid.c). */
-        size[a] = (hi[a] - lo[a]) / (float)n[a];
-        sg.pad[a] = 1e-2f * size[a] + 1e-5f * g->box_mag;
+        sg->size[a] = (hi[a] - lo[a]) / (float)n[a];
+        sg->pad[a] = 1e-2f * sg->size[a] + 1e-5f * g->box_mag;
         /* march_init's own expressions (marching_info.c), for the walk's march */
-        sg.size[a] = size[a];
-        sg.inv_size[a] = (float)n[a] / (hi[a] - lo[a]);
-        sg.slab_lo[a] = lo[a] - sg.pad[a];
-        sg.slab_hi[a] = hi[a] + sg.pad[a];
+        sg->inv_size[a] = (float)n[a] / (hi[a] - lo[a]);
+        sg->slab_lo[a] = lo[a] - sg->pad[a];
+        sg->slab_hi[a] = hi[a] + sg->pad[a];
     }
-    sg.min_pad = fminf(sg.pad[0], fminf(sg.pad[1], sg.pad[2]));
+    sg->min_pad = fminf(sg->pad[0], fminf(sg->pad[1], sg->pad[2]));
+    sg->big_count = nbig;
+    return true;
+}
+
+/* Fills planned leaf grid pl: its cells' entries, in the top list's order within each
+ * cell (pl->start, pl->items; pl->ok false when out of memory). */
+static void fill_leaf(const Grid *g, LeafPlan *pl, const uint32_t *small, LeafScratch *ls,
+                      const float (*pbox)[6])
+{
+    const uint32_t *items = g->cell_items + g->cell_start[pl->c];
+    const SubGrid *sg = &pl->sg;
+    const float lo[3] = {sg->box.min.x, sg->box.min.y, sg->box.min.z};
+    const int *n = sg->n;
+    uint32_t ns = pl->ns, cells = pl->cells;
+    if (!grow((void **)&ls->npairs, &ls->cap_npairs, ns, sizeof *ls->npairs) ||
+        !grow((void **)&ls->count, &ls->cap_count, cells, sizeof *ls->count))
+        return;
+    memset(ls->count, 0, cells * sizeof *ls->count);
 
     /* Each entry's leaf cells: the padded cells its box meets (border cells stretched
      * to its box, as the course grid's), triangles by the exact overlap test. */
-    if (!grow((void **)&ls->count, &ls->cap_count, cells, sizeof *ls->count))
-        return false;
-    memset(ls->count, 0, cells * sizeof *ls->count);
     size_t npairs = 0;
     for (uint32_t q = 0; q < ns; q++) {
-        const float *b = ls->box[q];
-        uint32_t e = ls->small[q];
+        uint32_t e = small[q];
+        const float *b = pbox[GRID_ITEM_INDEX(items[e])];
         int r[6];
         for (int a = 0; a < 3; a++)
-            axis_range((double)b[a], (double)b[3 + a], (double)lo[a], (double)size[a],
-                       (double)sg.pad[a], n[a], &r[a], &r[3 + a]);
+            axis_range((double)b[a], (double)b[3 + a], (double)lo[a], (double)sg->size[a],
+                       (double)sg->pad[a], n[a], &r[a], &r[3 + a]);
         uint32_t p = GRID_ITEM_INDEX(items[e]);
         size_t before = npairs;
         /* Triangles are tested exactly unless their range is one cell; the others
@@ -414,7 +455,7 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
             BBox tb = {v3_min(v3_min(tv[0], tv[1]), tv[2]), v3_max(v3_max(tv[0], tv[1]), tv[2])};
             tol = (double)tri_tolerance(tb);
             for (int a = 0; a < 3; a++) {
-                double mn = (double)lo[a], sz = (double)size[a], pd = (double)sg.pad[a];
+                double mn = (double)lo[a], sz = (double)sg->size[a], pd = (double)sg->pad[a];
                 for (int ca = r[a]; ca <= r[3 + a]; ca++) {
                     double clo2 = mn + ca * sz - pd, chi2 = mn + (ca + 1) * sz + pd;
                     if (ca == 0 && (double)b[a] < clo2)
@@ -455,7 +496,7 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
                     }
                     if (!grow((void **)&ls->cells, &ls->cap_cells, npairs + 1,
                               sizeof *ls->cells))
-                        return false;
+                        return;
                     uint32_t cell = ((uint32_t)k * (uint32_t)n[1] + (uint32_t)j) *
                                         (uint32_t)n[0] + (uint32_t)i;
                     ls->cells[npairs++] = cell;
@@ -464,7 +505,36 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         ls->npairs[q] = (uint32_t)(npairs - before);
     }
 
-    /* Append it: offsets, then the entries, in top-list order within each cell. */
+    /* Its arrays: offsets, then the entries, in top-list order within each cell. */
+    pl->start = malloc(((size_t)cells + 1) * sizeof *pl->start);
+    pl->items = malloc((npairs + 1) * sizeof *pl->items);
+    if (!pl->start || !pl->items)
+        return;
+    uint32_t run = 0;
+    for (uint32_t k = 0; k < cells; k++) {
+        pl->start[k] = run;
+        run += ls->count[k];
+        ls->count[k] = pl->start[k];
+    }
+    pl->start[cells] = run;
+    const uint32_t *cell = ls->cells;
+    for (uint32_t q = 0; q < ns; q++)
+        for (uint32_t j = ls->npairs[q]; j > 0; j--)
+            pl->items[ls->count[*cell++]++] = items[small[q]];
+    pl->ok = true;
+}
+
+/* Appends filled leaf grid pl to t: its cells' offsets (shifted to t's items), its
+ * entries, then its large entries in list order. The offset after its last cell is
+ * written here and overwritten by the next leaf grid's first (the position after this
+ * one's large entries), as when they were appended one by one: the last cell of every
+ * leaf grid but the last lists the large entries too (the counts depend on it). */
+static bool append_leaf(TwoLevelGrid *t, LeafPlan *pl, const uint32_t *small)
+{
+    const Grid *g = t->top;
+    const uint32_t *items = g->cell_items + g->cell_start[pl->c];
+    uint32_t m = g->cell_start[pl->c + 1] - g->cell_start[pl->c];
+    uint32_t cells = pl->cells, npairs = pl->start[cells], nbig = pl->nbig, ns = pl->ns;
     if (t->num_subs == t->cap_subs) {
         uint32_t cap = t->cap_subs ? 2 * t->cap_subs : 64;
         SubGrid *sp = realloc(t->subs, cap * sizeof *sp);
@@ -477,34 +547,57 @@ static bool build_leaf(TwoLevelGrid *t, uint32_t c, const int ci[3], LeafScratch
         !grow((void **)&t->items, &t->cap_items, t->num_items + npairs + nbig,
               sizeof *t->items))
         return false;
+    SubGrid sg = pl->sg;
     sg.base = (uint32_t)t->num_cells;
     uint32_t *st = t->start + t->num_cells;
     uint32_t run = (uint32_t)t->num_items;
-    for (uint64_t k = 0; k < cells; k++) {
-        st[k] = run;
-        run += ls->count[k];
-        ls->count[k] = st[k];
-    }
-    st[cells] = run;
-    const uint32_t *cell = ls->cells;
-    for (uint32_t q = 0; q < ns; q++)
-        for (uint32_t j = ls->npairs[q]; j > 0; j--)
-            t->items[ls->count[*cell++]++] = items[ls->small[q]];
+    for (uint32_t k = 0; k <= cells; k++)
+        st[k] = run + pl->start[k];
+    memcpy(t->items + t->num_items, pl->items, (size_t)npairs * sizeof *t->items);
     t->num_cells += cells;
     t->num_items += npairs;
     /* The large entries after them, in list order. */
     sg.big_start = (uint32_t)t->num_items;
-    sg.big_count = nbig;
     for (uint32_t e = 0, q = 0; e < m && nbig; e++) {
-        if (q < ns && ls->small[q] == e) {
+        if (q < ns && small[q] == e) {
             q++;
             continue;
         }
         t->items[t->num_items++] = items[e];
     }
-    t->sub_of[c] = t->num_subs;
+    t->sub_of[pl->c] = t->num_subs;
     t->subs[t->num_subs++] = sg;
     return true;
+}
+
+/* The fill phase on the set-up threads: chunk i fills the plan order[i] (largest
+ * first, so the last chunks are short), with that worker's scratch. */
+typedef struct FillJob {
+    const Grid *g;
+    LeafPlans *plans;
+    const uint32_t *order;
+    const float (*pbox)[6];
+    LeafScratch scratch[PAR_MAX_WORKERS];
+} FillJob;
+
+static void fill_chunk(void *ctx, int i, int worker)
+{
+    FillJob *job = ctx;
+    LeafPlan *pl = &job->plans->p[job->order[i]];
+    fill_leaf(job->g, pl, job->plans->small + pl->small0, &job->scratch[worker], job->pbox);
+}
+
+/* Plans by size, largest first (ties in plan order): (ns, index) pairs for qsort. */
+typedef struct PlanKey {
+    uint32_t ns, index;
+} PlanKey;
+
+static int plan_key_desc(const void *a, const void *b)
+{
+    const PlanKey *x = a, *y = b;
+    if (x->ns != y->ns)
+        return x->ns > y->ns ? -1 : 1;
+    return x->index < y->index ? -1 : x->index > y->index;
 }
 
 void twolevel_free(TwoLevelGrid *t)
@@ -554,23 +647,59 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
     Grid *g = t->top;
     t->sub_of = malloc((size_t)g->num_cells * sizeof *t->sub_of);
     float (*pbox)[6] = malloc(((size_t)g->num_prims + 1) * sizeof *pbox);
-    LeafScratch ls;
-    memset(&ls, 0, sizeof ls);
-    bool ok = t->sub_of && pbox && grow((void **)&t->start, &t->cap_cells, 1, sizeof *t->start);
+    FillJob *job = calloc(1, sizeof *job);
+    LeafPlans plans;
+    memset(&plans, 0, sizeof plans);
+    bool ok = job && t->sub_of && pbox &&
+              grow((void **)&t->start, &t->cap_cells, 1, sizeof *t->start);
     if (ok) {
         t->start[0] = 0;
         for (uint32_t p = 0; p < g->num_prims; p++)
             prim_box(g, p, pbox[p]);
+        for (uint32_t c = 0; c < g->num_cells; c++)
+            t->sub_of[c] = TWOLEVEL_NO_SUB;
     }
+    /* The leaf grids in three steps: which top cells get one and their resolutions (in
+     * cell order, as the budget is spent), their entries (on the set-up threads, each
+     * into arrays of its own), then appended in cell order: the same arrays as when
+     * each was built and appended in turn. */
     double budget = LEAF_BUDGET_DUP * (double)g->num_prims + BUDGET_SLACK;
     for (int k = 0; ok && k < g->n[2]; k++)
         for (int j = 0; ok && j < g->n[1]; j++)
             for (int i = 0; ok && i < g->n[0]; i++) {
                 int ci[3] = {i, j, k};
-                ok = build_leaf(t, grid_cell_index(g, i, j, k), ci, &ls,
-                                (const float (*)[6])pbox, &budget);
+                ok = plan_leaf(g, grid_cell_index(g, i, j, k), ci, &job->scratch[0],
+                               (const float (*)[6])pbox, &budget, &plans);
             }
-    scratch_free(&ls);
+    PlanKey *keys = ok && plans.n ? malloc(plans.n * sizeof *keys) : NULL;
+    uint32_t *order = ok && plans.n ? malloc(plans.n * sizeof *order) : NULL;
+    ok = ok && (plans.n == 0 || (keys && order));
+    if (ok && plans.n) {
+        for (size_t i = 0; i < plans.n; i++)
+            keys[i] = (PlanKey){plans.p[i].ns, (uint32_t)i};
+        qsort(keys, plans.n, sizeof *keys, plan_key_desc);
+        for (size_t i = 0; i < plans.n; i++)
+            order[i] = keys[i].index;
+        job->g = g;
+        job->plans = &plans;
+        job->order = order;
+        job->pbox = (const float (*)[6])pbox;
+        par_for((int)plans.n, fill_chunk, job);
+    }
+    for (size_t i = 0; ok && i < plans.n; i++)
+        ok = plans.p[i].ok && append_leaf(t, &plans.p[i], plans.small + plans.p[i].small0);
+    for (size_t i = 0; i < plans.n; i++) {
+        free(plans.p[i].start);
+        free(plans.p[i].items);
+    }
+    free(plans.p);
+    free(plans.small);
+    free(keys);
+    free(order);
+    if (job)
+        for (int w = 0; w < PAR_MAX_WORKERS; w++)
+            scratch_free(&job->scratch[w]);
+    free(job);
     free(pbox);
     if (!ok)
         goto oom;
