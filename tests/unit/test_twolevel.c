@@ -20,6 +20,8 @@
 #include "rt/twolevel.h"
 
 #include "test_rng.h"
+#include "../../src/accel/grid_build.h"
+#include "../../src/accel/twolevel_internal.h"
 
 typedef struct UScene {
     Scene s;
@@ -297,6 +299,110 @@ static void run_uneven(int seed, int clusters, float spread, int huge, int plane
     arena_free(&u.s.arena);
 }
 
+/* Every leaf cell lists exactly the cell's small untransformed triangles that the
+ * reference separating-axis test (grid_tri_box_overlap, without the build's shortcuts
+ * and per-row tables) finds within their hit tolerance of the padded leaf cell (border
+ * cells stretched to the triangle's box, as the course grid's), in top-list order;
+ * the last cell of a leaf grid may list the grid's large entries after them. Returns
+ * the triangle-cell pairs checked. */
+static long check_leaf_cells(const TwoLevelGrid *t)
+{
+    const Grid *g = t->top;
+    long pairs = 0;
+    for (uint32_t c = 0; c < g->num_cells; c++) {
+        uint32_t s = t->sub_of[c];
+        if (s == TWOLEVEL_NO_SUB)
+            continue;
+        const SubGrid *sg = &t->subs[s];
+        const uint32_t *list = g->cell_items + g->cell_start[c];
+        uint32_t m = g->cell_start[c + 1] - g->cell_start[c];
+        const uint32_t *big = t->items + sg->big_start;
+        uint32_t ncells = (uint32_t)(sg->n[0] * sg->n[1] * sg->n[2]);
+        for (uint32_t lc = 0; lc < ncells; lc++) {
+            int cc[3] = {(int)(lc % (uint32_t)sg->n[0]),
+                         (int)(lc / (uint32_t)sg->n[0] % (uint32_t)sg->n[1]),
+                         (int)(lc / ((uint32_t)sg->n[0] * (uint32_t)sg->n[1]))};
+            const uint32_t *got = t->items + t->start[sg->base + lc];
+            uint32_t ngot = t->start[sg->base + lc + 1] - t->start[sg->base + lc];
+            uint32_t k = 0, nb = 0; /* next position in got; large entries passed */
+            bool same = true;
+            for (uint32_t e = 0; e < m && same; e++) {
+                if (nb < sg->big_count && list[e] == big[nb]) {
+                    nb++;
+                    continue;
+                }
+                const GridPrim *gp = &g->prims[GRID_ITEM_INDEX(list[e])];
+                bool listed = k < ngot && got[k] == list[e];
+                if (gp->xf || obj_kind(gp->obj) != OBJ_TRIANGLE) {
+                    k += listed; /* spheres, transformed: their box range, not checked */
+                    continue;
+                }
+                Vec3 tv[3];
+                triangle_vertices(gp->obj, tv);
+                Vec3 bmin = v3_min(v3_min(tv[0], tv[1]), tv[2]);
+                Vec3 bmax = v3_max(v3_max(tv[0], tv[1]), tv[2]);
+                Vec3 ext = v3_sub(bmax, bmin);
+                float w = 2.0f * (RT_TRI_EDGE_TOL + RT_TRI_FAR_TOL) * (ext.x + ext.y + ext.z);
+                double v[3][3], h[3];
+                for (int a = 0; a < 3; a++) {
+                    double mn = (double)v3_comp(sg->box.min, a), sz = (double)sg->size[a];
+                    double pd = (double)sg->pad[a];
+                    double lo = mn + cc[a] * sz - pd, hi = mn + (cc[a] + 1) * sz + pd;
+                    double blo = (double)(v3_comp(bmin, a) - w);
+                    double bhi = (double)(v3_comp(bmax, a) + w);
+                    if (cc[a] == 0 && blo < lo)
+                        lo = blo;
+                    if (cc[a] == sg->n[a] - 1 && bhi > hi)
+                        hi = bhi;
+                    double mid = 0.5 * (lo + hi);
+                    h[a] = 0.5 * (hi - lo) + (double)w;
+                    for (int q = 0; q < 3; q++)
+                        v[q][a] = (double)v3_comp(tv[q], a) - mid;
+                }
+                bool want = grid_tri_box_overlap(v, h);
+                same = want == listed;
+                k += listed;
+                pairs++;
+            }
+            bool tail = k == ngot ||
+                        (lc == ncells - 1 && ngot - k == sg->big_count &&
+                         (sg->big_count == 0 || memcmp(got + k, big, sg->big_count * sizeof *big) == 0));
+            CHECK_MSG(same && tail, "top cell %u, leaf cell %u (%d %d %d): listed %u, checked "
+                      "up to %u", c, lc, cc[0], cc[1], cc[2], ngot, k);
+            if (!(same && tail))
+                return pairs;
+        }
+    }
+    return pairs;
+}
+
+static void test_leaf_cells(void)
+{
+    long pairs = 0;
+    uint32_t subs = 0;
+    for (int seed = 1; seed <= 12; seed++) {
+        rng_state = (uint64_t)seed * 7919u + 11u;
+        UScene u;
+        uscene_make(&u, 2 + seed % 5, seed % 2 ? 30.0f : 6.0f, seed % 3, 0);
+        Diag d;
+        diag_init(&d, stderr);
+        PrimTable table;
+        CHECK(prim_table_build(&table, &u.s));
+        TwoLevelGrid *t = twolevel_build(&table, &d);
+        CHECK(t != NULL);
+        if (t) {
+            subs += t->num_subs;
+            pairs += check_leaf_cells(t);
+            twolevel_free(t);
+        }
+        prim_table_free(&table);
+        arena_free(&u.s.arena);
+    }
+    printf("    %u leaf grids, %ld triangle-cell pairs checked\n", subs, pairs);
+    CHECK(subs > 12);
+    CHECK(pairs > 100000);
+}
+
 static void test_uneven_scenes(void)
 {
     Totals tot = {0};
@@ -524,6 +630,7 @@ static void test_shrinking_transform_tmin(void)
 
 static const TestCase tests[] = {
     {"twolevel_uneven_scenes_match_brute_force", test_uneven_scenes},
+    {"twolevel_leaf_cells_exact", test_leaf_cells},
     {"twolevel_degenerate_scenes_bounded", test_degenerate},
     {"twolevel_planes_only_no_grid", test_planes_only},
     {"twolevel_triangle_edge_tolerance", test_edge_tolerance},
