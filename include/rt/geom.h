@@ -57,16 +57,26 @@ Object3D *triangle_mesh_new_in(Arena *a, void *block, const Vec3 *verts,
  * NaN, which every one of those comparisons rejects. */
 #define RT_MOLLER_TRUMBORE(T, one, ox, oy, oz, dx, dy, dz, v0x, v0y, v0z, e1x, e1y, e1z, \
                            e2x, e2y, e2z, det, u, v, t)                                 \
-    T mt_px_ = (dy) * (e2z) - (dz) * (e2y), mt_py_ = (dz) * (e2x) - (dx) * (e2z);       \
-    T mt_pz_ = (dx) * (e2y) - (dy) * (e2x);                                             \
-    T det = (e1x) * mt_px_ + (e1y) * mt_py_ + (e1z) * mt_pz_;                           \
-    T mt_inv_ = (one) / det;                                                            \
-    T mt_sx_ = (ox) - (v0x), mt_sy_ = (oy) - (v0y), mt_sz_ = (oz) - (v0z);              \
-    T u = (mt_sx_ * mt_px_ + mt_sy_ * mt_py_ + mt_sz_ * mt_pz_) * mt_inv_;              \
-    T mt_qx_ = mt_sy_ * (e1z) - mt_sz_ * (e1y), mt_qy_ = mt_sz_ * (e1x) - mt_sx_ * (e1z); \
-    T mt_qz_ = mt_sx_ * (e1y) - mt_sy_ * (e1x);                                         \
-    T v = ((dx) * mt_qx_ + (dy) * mt_qy_ + (dz) * mt_qz_) * mt_inv_;                    \
-    T t = ((e2x) * mt_qx_ + (e2y) * mt_qy_ + (e2z) * mt_qz_) * mt_inv_
+    RT_MT_DIR(T, one, dx, dy, dz, e1x, e1y, e1z, e2x, e2y, e2z, mt_px_, mt_py_, mt_pz_,   \
+              det, mt_inv_);                                                            \
+    RT_MT_ORIGIN(T, ox, oy, oz, dx, dy, dz, v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, \
+                 mt_px_, mt_py_, mt_pz_, mt_inv_, u, v, t)
+/* Its two halves: what depends on the direction alone (p = d x e2, det and its
+ * reciprocal: the same for every ray of a packet that shares one direction, so the
+ * packet walk makes them once per triangle for those), then the rest. */
+#define RT_MT_DIR(T, one, dx, dy, dz, e1x, e1y, e1z, e2x, e2y, e2z, px, py, pz, det, inv) \
+    T px = (dy) * (e2z) - (dz) * (e2y), py = (dz) * (e2x) - (dx) * (e2z);                 \
+    T pz = (dx) * (e2y) - (dy) * (e2x);                                                   \
+    T det = (e1x) * px + (e1y) * py + (e1z) * pz;                                         \
+    T inv = (one) / det
+#define RT_MT_ORIGIN(T, ox, oy, oz, dx, dy, dz, v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, \
+                     px, py, pz, inv, u, v, t)                                              \
+    T mt_sx_ = (ox) - (v0x), mt_sy_ = (oy) - (v0y), mt_sz_ = (oz) - (v0z);                  \
+    T u = (mt_sx_ * (px) + mt_sy_ * (py) + mt_sz_ * (pz)) * (inv);                          \
+    T mt_qx_ = mt_sy_ * (e1z) - mt_sz_ * (e1y), mt_qy_ = mt_sz_ * (e1x) - mt_sx_ * (e1z);     \
+    T mt_qz_ = mt_sx_ * (e1y) - mt_sy_ * (e1x);                                             \
+    T v = ((dx) * mt_qx_ + (dy) * mt_qy_ + (dz) * mt_qz_) * (inv);                          \
+    T t = ((e2x) * mt_qx_ + (e2y) * mt_qy_ + (e2z) * mt_qz_) * (inv)
 
 /* The scalar width: the t of the ray's crossing of the closed triangle, false when it
  * misses or is parallel. The one formula of Triangle::intersect and of the grid's

@@ -224,6 +224,31 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
     const pk_fv zero = pk_splat(0.0f), one = pk_splat(1.0f), tmin = pk_splat(pk->tmin);
     const pk_fv lo = pk_splat(-RT_TRI_EDGE_TOL), hi = pk_splat(1.0f + RT_TRI_FAR_TOL);
     const uint32_t id = pt->id;
+    if (pk->same_dir && pk->shadow) {
+        /* Every ray has direction pk->dir (shadow rays towards a directional light,
+         * whose walked lanes hold it in pk->d): the direction's half of the formula
+         * (d x e2, det and its reciprocal) once for the triangle, the same lanes the
+         * groups would each make. */
+        const pk_fv dx = pk_splat(pk->dir[0]), dy = pk_splat(pk->dir[1]),
+                    dz = pk_splat(pk->dir[2]);
+        RT_MT_DIR(pk_fv, one, dx, dy, dz, e1x, e1y, e1z, e2x, e2y, e2z, px, py, pz, det, inv);
+        const pk_iv det_ok = det != zero;
+        for (int gi = 0; gi < PK_NG; gi++) {
+            unsigned bits = (unsigned)(want >> (PK_W * gi)) & PK_WMASK;
+            if (!bits)
+                continue;
+            RT_MT_ORIGIN(pk_fv, PKF(pk->o[0], gi), PKF(pk->o[1], gi), PKF(pk->o[2], gi), dx, dy,
+                         dz, v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, px, py, pz, inv, u, v,
+                         t);
+            /* hit_accepts against (tmax, id 0): exactly t < tmax (as below) */
+            pk_iv ok = det_ok & (u >= lo) & (v >= lo) & (u + v <= hi) & (t > tmin) &
+                       pk_lanes(bits) & (t < PKF(pk->best_t, gi));
+            unsigned hitb = pk_bits(ok);
+            if (hitb)
+                pk->hit |= (uint64_t)hitb << (PK_W * gi);
+        }
+        return;
+    }
     for (int gi = 0; gi < PK_NG; gi++) {
         unsigned bits = (unsigned)(want >> (PK_W * gi)) & PK_WMASK;
         if (!bits)
