@@ -134,7 +134,7 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
         unsigned char pick[8];
     } memo[PL_MEMO_OCTAVES];
     for (int o = 0; o < PL_MEMO_OCTAVES; o++)
-        memo[o].fx = memo[o].fy = memo[o].fz = NAN;
+        memo[o].fx = memo[o].fy = memo[o].fz = (double)NAN;
     for (int i = 0; i < n; i += PL_W) {
         double bx[PL_W], by[PL_W], bz[PL_W], bo[PL_W];
         int k = n - i < PL_W ? n - i : PL_W;
