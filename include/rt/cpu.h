@@ -28,6 +28,17 @@ static inline bool cpu_has_avx2(void)
 #endif
 }
 
+/* AVX2 and FMA3 (fused multiply-add on those vectors): every AVX2 CPU of Intel and AMD
+ * has both, but they are separate CPUID bits, so a kernel built for both asks for both. */
+static inline bool cpu_has_avx2_fma(void)
+{
+#ifdef RT_CPU_X86
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+    return false;
+#endif
+}
+
 /* The AVX-512 subsets the 16-lane kernels use: F, VL, BW and DQ (every AVX-512 CPU
  * since Skylake-SP has all four). */
 static inline bool cpu_has_avx512(void)

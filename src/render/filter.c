@@ -263,12 +263,6 @@ __attribute__((always_inline, FILTER_AVX512)) static inline __m256 gaussian8(__m
     return _mm512_cvtpd_ps(e);
 }
 
-__attribute__((target("avx2"))) static void gaussian_batch_avx2(const Filter *f,
-                                                                const float *x, float *w,
-                                                                int n)
-{
-    gaussian_batch(f, x, w, n);
-}
 
 /* The batch eight weights at a time; a last partial group through masked loads and
  * stores (its padding lanes compute exp(0)). */
@@ -284,12 +278,6 @@ __attribute__((FILTER_AVX512)) static void gaussian_batch_avx512(const Filter *f
     }
 }
 
-__attribute__((target("avx2"))) static void gaussian_offsets_avx2(const Filter *f,
-                                                                  const float *pos, int n,
-                                                                  int R, float *w, size_t plane)
-{
-    gaussian_offsets(f, pos, n, R, w, plane);
-}
 
 /* gaussian_offsets' loop in AVX-512, sixteen positions per step. For R <=
  * FILTER_FLOAT_ARG_R the argument towards pixel k - R is p + (k - R - 0.5) in one float
@@ -370,6 +358,235 @@ __attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter 
     else
         gaussian_offsets16(f, pos, n, R, w, plane, false);
 }
+
+/* The AVX2 + FMA Gaussian (Zen 3 and other CPUs without AVX-512): the cheaper exp F of
+ * gaussian_f8 and its boundary test, four doubles a vector, eight weights a step.
+ * AVX2 has neither vscalefpd nor a permute of eight doubles, so two steps differ in
+ * how, not in what (gaussian_w8 says how): 2^(j/8) comes from the same eight doubles
+ * held as their 32-bit halves (one vpermd each), and 2^floor(k/8) is added into the
+ * exponent field of the table's high dword. kbits = S + k with S = bits(1.5 * 2^52) =
+ * 0x4338 << 48, whose low 48 bits are zero: the low dword of kbits is k modulo 2^32,
+ * and k << 17 modulo 2^32 holds j = k mod 8 in bits 17..19 and floor(k/8) modulo 2^12
+ * in bits 20..31, the high dword's exponent field; stored less j << 17, the table's
+ * high dword plus k << 17 is the high dword of 2^(j/8) 2^floor(k/8) (for t >= -80:
+ * k >= -924, floor(k/8) >= -116, a normal double). F = p times that: the same double
+ * as gaussian_f8's (p 2^(j/8)) 2^floor(k/8) in every lane (a normal product scaled by
+ * a power of two, exactly). The other steps (k, r, the degree-5 series in the same
+ * fused order) are gaussian_f8's operations, so the bound above holds as it stands.
+ * Re-derived for this copy: |r| <= ln2/16 + tiny = 0.0433217; the series' truncation
+ * is r^6/720 e^xi (xi between r and 0), relative to e^r at most |r|^6/720 e^|r| =
+ * 6.61e-9 / 720 * 1.0443 = 9.59e-12 (at r = -ln2/16 exactly 9.53e-12); c = ln2/8 in
+ * one double is off by < 3e-18, times |k| <= 924: r, and so F relatively, off by <
+ * 2.8e-15; the table's entries (within 6.9e-17 relative of 2^(j/8), checked), the fused
+ * steps of the series and the product a few 1e-16; E's own error < 1e-15. In all <
+ * 9.7e-12 relative: under 9.7e-12 * 2^53 = 87,400 < 2^17 units in the last place of E's
+ * binade, under 2^18 in F's (at most one binade lower). So lanes whose F's low 29 bits
+ * lie 2^18 or more from 2^28 round to E's float, and the others, with those whose t may
+ * be below -80 (d2 above `far`) or NaN, take E: exp_nonpos4's operations (its copy
+ * exp_nonpos4_avx2, no FMA in it: -ffp-contract=off) in an out-of-line call, once in
+ * about 125 groups of eight. The arguments and t are the other paths' operations (no
+ * fused step before F). Tests: test_gaussian_rounding_boundaries (fails with the
+ * fallback removed and with a margin of 2^16), test_weights_offsets_boundaries (fails
+ * with the fallback removed), test_gaussian_paths (fails without the range test).
+ * Offsets of a 402-wide row, sigma 0.4, in L1 on this Zen 3 (shared, min of 400):
+ * 2.56 ns a weight with exp_nonpos4 (the AVX2 build of the plain loop), 1.55 with F
+ * four lanes a step with per-half tests, 1.16 with the table, scaling and test on
+ * eight lanes' dwords, 1.01-1.13 with sixteen positions a step. */
+#define FILTER_AVX2_FMA target("avx2,fma")
+
+/* E in the AVX2 functions' own copy (a 32-byte vector passed to a function built
+ * without AVX would change the calling convention): exp_nonpos4's operations (no
+ * FMA: -ffp-contract=off), so its bits. */
+FILTER_EXP_NONPOS(exp_nonpos4_avx2, V4d, V4u, V4i, , FILTER_AVX2_FMA)
+
+/* t = k ln2/8 + r (k = round(t 8/ln2) in the low bits of kbits, as gaussian_f8's) and
+ * exp(r) by the same fused degree-5 series, four lanes. */
+__attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256d gaussian_series4(__m256d t,
+                                                                                     __m256i *kbits)
+{
+    const __m256d shift = _mm256_set1_pd(0x1.8p52);
+    __m256d kd = _mm256_fmadd_pd(t, _mm256_set1_pd(0x1.71547652b82fep3), shift); /* 8/ln2 */
+    *kbits = _mm256_castpd_si256(kd);
+    kd = _mm256_sub_pd(kd, shift);
+    __m256d r = _mm256_fnmadd_pd(kd, _mm256_set1_pd(0x1.62e42fefa39efp-4), t);
+    __m256d p = _mm256_fmadd_pd(_mm256_set1_pd(1.0 / 120.0), r, _mm256_set1_pd(1.0 / 24.0));
+    p = _mm256_fmadd_pd(p, r, _mm256_set1_pd(1.0 / 6.0));
+    p = _mm256_fmadd_pd(p, r, _mm256_set1_pd(0.5));
+    p = _mm256_fmadd_pd(p, r, _mm256_set1_pd(1.0));
+    return _mm256_fmadd_pd(p, r, _mm256_set1_pd(1.0));
+}
+
+/* The lanes of F (four) that must take E: F's low 29 bits within 2^18 of 2^28 (bits
+ * 19..28 of bits - (2^28 - 2^18) all zero), t < -80 or NaN. */
+__attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256d gaussian_bad4(__m256d e,
+                                                                                  __m256d t)
+{
+    const long long half = 1LL << 28, margin = 1LL << 18;
+    __m256i low = _mm256_and_si256(
+        _mm256_sub_epi64(_mm256_castpd_si256(e), _mm256_set1_epi64x(half - margin)),
+        _mm256_set1_epi64x(((1LL << 29) - 1) & ~(2 * margin - 1)));
+    __m256d near = _mm256_castsi256_pd(_mm256_cmpeq_epi64(low, _mm256_setzero_si256()));
+    return _mm256_or_pd(near, _mm256_cmp_pd(t, _mm256_set1_pd(-80.0), _CMP_NGE_UQ));
+}
+
+/* E in the lanes of F (e0, e1 of t0, t1) that must take it: out of line, once in
+ * about 125 groups, so that its constants do not crowd the loop's registers. */
+__attribute__((noinline, FILTER_AVX2_FMA)) static void gaussian_fix8(__m256d *e0, __m256d *e1,
+                                                                    __m256d t0, __m256d t1)
+{
+    __m256d b0 = gaussian_bad4(*e0, t0), b1 = gaussian_bad4(*e1, t1);
+    if (_mm256_movemask_pd(b0))
+        *e0 = _mm256_blendv_pd(*e0, (__m256d)exp_nonpos4_avx2((V4d)t0), b0);
+    if (_mm256_movemask_pd(b1))
+        *e1 = _mm256_blendv_pd(*e1, (__m256d)exp_nonpos4_avx2((V4d)t1), b1);
+}
+
+/* The weights of eight arguments x: the squares in float (as GAUSS), t in double per
+ * half, F, and E in the lanes that need it. The table lookup, the scaling and the
+ * boundary test run on the eight lanes' 32-bit halves at once:
+ * - idx: the low dwords of both halves' kbits (k mod 2^32; vpermd reads k mod 8), in
+ *   the in-lane order of vshufps (a0 a1 b0 b1 | a2 a3 b2 b3);
+ * - the table's low and high dwords by one vpermd each; 2^floor(k/8) added to the
+ *   high dword's exponent field (bits 20..31): idx << 17 holds k mod 8 in bits 17..19
+ *   and floor(k/8) mod 2^12 in 20..31, so the high dwords are stored less (j << 17)
+ *   and the sum is the high dword of 2^(j/8) 2^floor(k/8) exactly (modulo 2^32; a
+ *   normal double for t >= -80);
+ * - vpunpckldq / vpunpckhdq interleave low and high dwords back into the doubles of
+ *   half a (lanes 0..3) and half b (4..7);
+ * - F = p times that power of two: the same double as gaussian_f8's (p * 2^(j/8)) *
+ *   2^floor(k/8), the scaling of a normal product being exact;
+ * - the boundary test on F's low dwords (bits 19..28 are in the low dword, and the
+ *   low 32 bits of a 64-bit subtraction are the 32-bit subtraction's), and d2 above
+ *   `far` (t might be below -80: gaussian_offsets16's bound) or NaN; either sends the
+ *   group to the exact test per half (gaussian_bad4) and E in its lanes. */
+__attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256 gaussian_w8(__m256 x,
+                                                                               __m256d neg_inv,
+                                                                               __m256 far)
+{
+    __m256 d2 = _mm256_mul_ps(x, x);
+    __m256d t0 = _mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(d2)), neg_inv);
+    __m256d t1 = _mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(d2, 1)), neg_inv);
+    __m256i k0, k1;
+    __m256d p0 = gaussian_series4(t0, &k0), p1 = gaussian_series4(t1, &k1);
+    /* gaussian_f8's table of 2^(j/8): the low dwords, and the high dwords less j << 17 */
+    const __m256i tab_lo = _mm256_setr_epi32(0x0, 0x3c7d517b, 0x0a31b715, (int)0xd5362a27,
+                                             0x667f3bcd, 0x422aa0db, (int)0x995ad3ad,
+                                             (int)0xdcfba487);
+    const __m256i tab_hi = _mm256_setr_epi32(
+        0x3ff00000, 0x3ff172b8 - (1 << 17), 0x3ff306fe - (2 << 17), 0x3ff4bfda - (3 << 17),
+        0x3ff6a09e - (4 << 17), 0x3ff8ace5 - (5 << 17), 0x3ffae89f - (6 << 17),
+        0x3ffd5818 - (7 << 17));
+    __m256i idx = _mm256_castps_si256(_mm256_shuffle_ps(
+        _mm256_castsi256_ps(k0), _mm256_castsi256_ps(k1), _MM_SHUFFLE(2, 0, 2, 0)));
+    __m256i lo = _mm256_permutevar8x32_epi32(tab_lo, idx);
+    __m256i hi = _mm256_add_epi32(_mm256_permutevar8x32_epi32(tab_hi, idx),
+                                  _mm256_slli_epi32(idx, 17));
+    __m256d e0 = _mm256_mul_pd(p0, _mm256_castsi256_pd(_mm256_unpacklo_epi32(lo, hi)));
+    __m256d e1 = _mm256_mul_pd(p1, _mm256_castsi256_pd(_mm256_unpackhi_epi32(lo, hi)));
+    const int half = 1 << 28, margin = 1 << 18;
+    __m256i low = _mm256_castps_si256(_mm256_shuffle_ps(
+        _mm256_castpd_ps(e0), _mm256_castpd_ps(e1), _MM_SHUFFLE(2, 0, 2, 0)));
+    low = _mm256_and_si256(_mm256_sub_epi32(low, _mm256_set1_epi32(half - margin)),
+                           _mm256_set1_epi32(((1 << 29) - 1) & ~(2 * margin - 1)));
+    __m256 bad = _mm256_or_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(low, _mm256_setzero_si256())),
+                              _mm256_cmp_ps(d2, far, _CMP_NLE_UQ));
+    if (_mm256_movemask_ps(bad))
+        gaussian_fix8(&e0, &e1, t0, t1);
+    return _mm256_set_m128(_mm256_cvtpd_ps(e1), _mm256_cvtpd_ps(e0));
+}
+
+/* `far` of gaussian_w8: below 80 / (-neg_inv) by more than d2 * neg_inv's rounding,
+ * so d2 <= far gives t >= -80. */
+__attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256 gaussian_far8(double neg_inv)
+{
+    return _mm256_set1_ps((float)(80.0 / -neg_inv * (1.0 - 0x1p-20)));
+}
+
+/* gaussian_offsets' loop: arguments as gaussian_offsets16's (R <= FILTER_FLOAT_ARG_R:
+ * one float add, sixteen positions a step, four exp chains of four; else the double
+ * steps, rounded to float by vcvtpd2ps as the vector extension's conversion), weights
+ * by gaussian_w8; then eight positions a step, the last group through masked loads
+ * and stores (padding lanes: the weights of position 0). */
+__attribute__((always_inline, FILTER_AVX2_FMA)) static inline void
+gaussian_offsets8(const Filter *f, const float *pos, int n, int R, float *w, size_t plane,
+                  bool float_arg)
+{
+    double s = (double)f->r, ni = -1.0 / (2.0 * s * s);
+    __m256d neg_inv = _mm256_set1_pd(ni);
+    __m256 far = gaussian_far8(ni);
+    const __m256 one = _mm256_set1_ps(1.0f);
+    const __m256d half = _mm256_set1_pd(0.5), dr = _mm256_set1_pd((double)R);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    int i = 0;
+    if (float_arg)
+        for (; i + 16 <= n; i += 16) {
+            __m256 pa = _mm256_loadu_ps(pos + i), pb = _mm256_loadu_ps(pos + i + 8);
+            __m256 c = _mm256_set1_ps(-(float)R - 0.5f);
+            for (int k = 0; k <= 2 * R; k++, c = _mm256_add_ps(c, one)) {
+                float *dst = w + (size_t)k * plane + (size_t)i;
+                __m256 ga = gaussian_w8(_mm256_add_ps(pa, c), neg_inv, far);
+                __m256 gb = gaussian_w8(_mm256_add_ps(pb, c), neg_inv, far);
+                _mm256_storeu_ps(dst, ga);
+                _mm256_storeu_ps(dst + 8, gb);
+            }
+        }
+    for (; i < n; i += 8) {
+        __m256i m = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - i), lane);
+        __m256 p = _mm256_maskload_ps(pos + i, m);
+        __m256 c = _mm256_set1_ps(-(float)R - 0.5f); /* k - R - 0.5, exact */
+        __m256d b0 = _mm256_setzero_pd(), b1 = b0;
+        if (!float_arg) {
+            b0 = _mm256_sub_pd(_mm256_sub_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(p)), half), dr);
+            b1 = _mm256_sub_pd(_mm256_sub_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(p, 1)), half),
+                               dr);
+        }
+        for (int k = 0; k <= 2 * R; k++, c = _mm256_add_ps(c, one)) {
+            __m256 x;
+            if (float_arg) {
+                x = _mm256_add_ps(p, c);
+            } else {
+                __m256d kv = _mm256_set1_pd((double)k);
+                x = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_add_pd(b1, kv)),
+                                    _mm256_cvtpd_ps(_mm256_add_pd(b0, kv)));
+            }
+            float *dst = w + (size_t)k * plane + (size_t)i;
+            if (n - i >= 8)
+                _mm256_storeu_ps(dst, gaussian_w8(x, neg_inv, far));
+            else
+                _mm256_maskstore_ps(dst, m, gaussian_w8(x, neg_inv, far));
+        }
+    }
+}
+
+/* The batch (filter_weights_1d: adaptive pixels' weights, single weights) by
+ * gaussian_w8, eight at a time; a last partial group through masked loads and stores
+ * (its padding lanes compute exp(0)). */
+__attribute__((FILTER_AVX2_FMA)) static void gaussian_batch_avx2(const Filter *f,
+                                                                 const float *x, float *w,
+                                                                 int n)
+{
+    double s = (double)f->r, ni = -1.0 / (2.0 * s * s);
+    __m256d neg_inv = _mm256_set1_pd(ni);
+    __m256 far = gaussian_far8(ni);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    int i = 0;
+    for (; i + 8 <= n; i += 8)
+        _mm256_storeu_ps(w + i, gaussian_w8(_mm256_loadu_ps(x + i), neg_inv, far));
+    if (i < n) {
+        __m256i m = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - i), lane);
+        _mm256_maskstore_ps(w + i, m, gaussian_w8(_mm256_maskload_ps(x + i, m), neg_inv, far));
+    }
+}
+
+__attribute__((FILTER_AVX2_FMA)) static void gaussian_offsets_avx2(const Filter *f,
+                                                                   const float *pos, int n,
+                                                                   int R, float *w, size_t plane)
+{
+    if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets8(f, pos, n, R, w, plane, true);
+    else
+        gaussian_offsets8(f, pos, n, R, w, plane, false);
+}
 #define HAVE_AVX2_BATCH 1
 #endif
 
@@ -389,7 +606,7 @@ static void gaussian_weights_1d(const Filter *f, const float *x, float *w, int n
         gaussian_batch_avx512(f, x, w, n);
         return;
     }
-    if (gaussian_path_cap >= 1 && cpu_has_avx2()) {
+    if (gaussian_path_cap >= 1 && cpu_has_avx2_fma()) {
         gaussian_batch_avx2(f, x, w, n);
         return;
     }
@@ -405,7 +622,7 @@ static void gaussian_weights_1d_offsets(const Filter *f, const float *pos, int n
         gaussian_offsets_avx512(f, pos, n, R, w, plane);
         return;
     }
-    if (gaussian_path_cap >= 1 && cpu_has_avx2()) {
+    if (gaussian_path_cap >= 1 && cpu_has_avx2_fma()) {
         gaussian_offsets_avx2(f, pos, n, R, w, plane);
         return;
     }

@@ -320,9 +320,10 @@ static void test_gaussian_fast_exp(void)
     }
 }
 
-/* Every vector path of the separable Gaussian (plain, AVX2, AVX-512, as far as this
- * CPU has them) gives the plain build's bits: the images may not depend on the CPU.
- * Arguments across each support and beyond (through the exp's clamp), every batch
+/* Every vector path of the separable Gaussian (plain, AVX2 + FMA, AVX-512, as far as
+ * this CPU has them) gives the plain build's bits: the images may not depend on the
+ * CPU. Arguments across each support and beyond (through the exp's clamp; huge ones,
+ * infinities and NaN: fails when the cheaper exps' range test is dropped), every batch
  * length up to 40 (the partial groups) and a long batch at odd offsets. */
 static void test_gaussian_paths(void)
 {
@@ -336,6 +337,13 @@ static void test_gaussian_paths(void)
         float span = (float)(f.support + 1) * 3.0f;
         for (int i = 0; i < N; i++)
             x[i] = ((float)i / (float)(N - 1) * 2.0f - 1.0f) * span + (float)(i % 7) * 1e-4f;
+        /* far beyond the support, where the cheaper exps' scaling would leave the
+         * exponent range (their t < -80 lanes must take the plain exp), and not numbers */
+        static const float far[] = {40.0f, 1e3f, 3e5f, 1e19f, 3e38f, INFINITY, NAN};
+        for (int j = 0; j < 7; j++) {
+            x[40 + 3 * j] = far[j];
+            x[41 + 3 * j] = -far[j] * (1.0f + 0x1p-20f);
+        }
         filter_gaussian_path_set(0);
         filter_weights_1d(&f, x, w0, N);
         for (int cap = 1; cap <= 2; cap++) {
@@ -360,8 +368,8 @@ static void test_gaussian_paths(void)
 
 /* Adds to x (n of cap) the floats of the 10 binades below the argument of t = -80
  * whose exp lies within 24576 double units of a float rounding boundary and whose t,
- * reduced as the AVX-512 Gaussian reduces it (t - k ln2/8), lies in the outer 3% of
- * its interval: there the cheaper exp's degree-5 series is furthest off (up to about
+ * reduced as the AVX-512 and AVX2 Gaussians reduce it (t - k ln2/8), lies in the outer
+ * 3% of its interval: there the cheaper exp's degree-5 series is furthest off (up to about
  * 82,000 units), so these are the arguments a margin too small for that error gets
  * wrong (2^16: 6-9 of them per sigma; the grid's arguments above miss it). */
 static int gaussian_worst_arguments(double neg_inv, float *x, int n, int cap)
@@ -387,8 +395,8 @@ static int gaussian_worst_arguments(double neg_inv, float *x, int n, int cap)
     return n;
 }
 
-/* The AVX-512 Gaussian decides most floats with a cheaper exp and falls back to the
- * plain one near a float rounding boundary: arguments searched out whose exp lies
+/* The AVX-512 and AVX2 + FMA Gaussians decide most floats with a cheaper exp and fall
+ * back to the plain one near a float rounding boundary: arguments searched out whose exp lies
  * within 2^12 double units of a boundary (halfway between two floats), where the
  * cheaper exp's own float is often the other one, and those where the cheaper exp is
  * furthest off (gaussian_worst_arguments), give the plain build's bits on every path,
