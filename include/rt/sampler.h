@@ -32,8 +32,9 @@ struct Sampler {
     uint64_t seed;           /* -seed; every random draw hashes it in */
     uint32_t stream;         /* a second, independent stream for the same seed (the
                                 adaptive sampler's refinement pass uses stream 1) */
-    bool wide;               /* the CPU has AVX-512 F/DQ/VL (sampler_init): the jittered
-                                sampler hashes eight draws per instruction */
+    int vec;                 /* the jittered sampler's vector code (sampler_init, from
+                                the CPU): 2 AVX-512 F/DQ/VL, eight draws hashed per
+                                instruction; 1 AVX2, four; 0 the plain loops */
 };
 
 /* The sampler whose option is -<name>_samples, or "center"; NULL when unknown. */
@@ -57,7 +58,7 @@ float sampler_random(uint64_t seed, uint32_t stream, int x, int y, uint32_t inde
 
 /* For tests: places the 2 * count draws u (interleaved like xy: u[2i + d] is sample i's
  * draw in dimension d, in [0,1)) into the strata of the jittered sampler s as its
- * pixels do, in the same lanes (AVX-512 where s->wide), into xy. */
+ * pixels do, in the same lanes (s->vec's), into xy. */
 void sampler_jittered_place(const Sampler *s, const float *u, float *xy);
 
 #endif

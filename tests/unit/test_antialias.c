@@ -98,22 +98,22 @@ static void test_sampler_determinism(void)
     CHECK_NEAR(sum / 100000, 0.5, 0.01);
 }
 
-/* Whole jittered pixels (sampler_pixel: with AVX-512, jittered_pixel_avx512's draws and
- * placement in one pass; else the scalar draws and the plain lanes) against the rule one
- * coordinate at a time on sampler_random's draws, for k = 1..32 (every tail of the 32
- * coordinates a step, and counts up to SAMPLER_MAX_COUNT), both streams, a few seeds
- * and pixels. Fails when a lane's hash counters (index, dimension, stream) or its
- * stratum are off on either path. */
+/* Whole jittered pixels (sampler_pixel on each path the CPU has: jittered_pixel_avx512's
+ * or jittered_pixel_avx2's draws and placement in one pass, the scalar draws and the
+ * plain lanes) against the rule one coordinate at a time on sampler_random's draws, for
+ * k = 1..32 (every tail of the 32 or 16 coordinates a step, and counts up to
+ * SAMPLER_MAX_COUNT), both streams, a few seeds and pixels. Fails when a lane's hash counters (index, dimension, stream) or its
+ * stratum are off on any path. */
 static void test_jittered_pixels(void)
 {
     static float xy[2 * SAMPLER_MAX_COUNT];
-    for (int wide = 0; wide < 2; wide++)
+    for (int vec = 0; vec <= 2; vec++)
         for (int k = 1; k * k <= SAMPLER_MAX_COUNT; k++) {
             Sampler s;
             make_sampler(&s, "jittered", k * k, 77u + (uint64_t)k);
-            if (wide && !s.wide)
-                continue; /* no AVX-512 on this CPU: the plain path only */
-            s.wide = wide != 0;
+            if (vec > s.vec)
+                continue; /* this CPU lacks the instruction set */
+            s.vec = vec;
             int bad = 0;
             for (uint32_t stream = 0; stream < 2; stream++) {
                 s.stream = stream;
@@ -128,12 +128,13 @@ static void test_jittered_pixels(void)
                     }
                 }
             }
-            CHECK_MSG(bad == 0, "k %d wide %d: %d coordinates off the rule", k, wide, bad);
+            CHECK_MSG(bad == 0, "k %d vec %d: %d coordinates off the rule", k, vec, bad);
         }
 }
 
 /* The jittered placement's lanes (sampler_jittered_place: the code of jittered_pixel's
- * placement, AVX-512 where the CPU has it, and the plain vectors) against the rule one
+ * placement, AVX-512 and AVX2 where the CPU has them, and the plain vectors) against the
+ * rule one
  * coordinate at a time, with draws chosen to hit its edges: 0, the smallest draw, and
  * draws just below 1, where (a + xi) / k rounds up to the stratum's end (a >= 1) and
  * the rule takes the float below it. Counts 1..81 cover every tail of 16 lanes. Fails
@@ -145,13 +146,13 @@ static void test_jittered_place(void)
     float u[2 * 81], xy[2 * 81];
     int rounded_up = 0;
     uint64_t r = 12345;
-    for (int wide = 0; wide < 2; wide++)
+    for (int vec = 0; vec <= 2; vec++)
         for (int k = 1; k <= 9; k++) {
             Sampler s;
             make_sampler(&s, "jittered", k * k, 0);
-            if (wide && !s.wide)
-                continue; /* no AVX-512 on this CPU: the plain lanes only */
-            s.wide = wide != 0;
+            if (vec > s.vec)
+                continue; /* this CPU lacks the instruction set */
+            s.vec = vec;
             for (int round = 0; round < 20; round++) {
                 int n2 = 2 * k * k;
                 for (int j = 0; j < n2; j++) {
@@ -163,8 +164,8 @@ static void test_jittered_place(void)
                 for (int j = 0; j < n2; j++) {
                     int i = j / 2, a = j % 2 ? i / k : i % k;
                     float want = jitter_rule(a, u[j], k);
-                    CHECK_MSG(xy[j] == want, "k %d wide %d coordinate %d: %a, rule %a", k,
-                              wide, j, (double)xy[j], (double)want);
+                    CHECK_MSG(xy[j] == want, "k %d vec %d coordinate %d: %a, rule %a", k,
+                              vec, j, (double)xy[j], (double)want);
                     rounded_up += want < ((float)a + u[j]) / (float)k;
                 }
             }
