@@ -64,6 +64,11 @@ typedef struct FilmConfig {
 bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
                  int threads, RtStats *stats_out, volatile int *cancel);
 
+/* For tests: the widest vector code film_render may use, 0 the plain loops, 1 AVX2,
+ * 2 AVX-512 (the default; each as far as the CPU has it). Set before a render starts,
+ * never during one. */
+void film_path_set(int cap);
+
 /* Pixels film_render traces for cfg's rectangle: the rectangle widened by the filter's
  * support R on each side, cropped at the image border (the progress line's total). */
 uint64_t film_traced_pixels(const FilmConfig *cfg);

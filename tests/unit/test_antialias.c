@@ -823,7 +823,8 @@ static void test_film_progress(void)
 /* The colour-only filter sums four output pixels per vector (film_filter_quad) where
  * it can, the scalar loop elsewhere (border columns, a rectangle's last pixels); with a
  * depth image every pixel goes through the general loop. The colour must be the same
- * bytes either way, and a rectangle at any column offset (which regroups the pixels of
+ * bytes either way, on every vector path of the film (film_path_set: the plain loops,
+ * AVX2, AVX-512, as far as the CPU has them), and a rectangle at any column offset (which regroups the pixels of
  * a vector) the crop of the full render. Fixed weights (uniform: the table) and
  * separable ones (Gaussian: R = 1 and 2); R = 0: the table (uniform) in the scalar
  * loop, random positions with the box four pixels at a time (film_filter_own; box 0.3
@@ -856,6 +857,16 @@ static void test_film_vector_filter(void)
         render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, 0, 0, W, H, 0, 1, &with_d, &depth);
         CHECK_MSG(same_pixels(&with_d, &plain, 0, 0),
                   "case %d: colour-only filtering differs from the general loop's", c);
+        for (int cap = 0; cap <= 1; cap++) { /* the plain loops, AVX2 (as the CPU has it) */
+            Image narrow;
+            film_path_set(cap);
+            render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, 0, 0, W, H, 0, 2, &narrow,
+                        NULL);
+            film_path_set(2);
+            CHECK_MSG(same_pixels(&narrow, &plain, 0, 0),
+                      "case %d: the film's path %d differs from its widest", c, cap);
+            image_free(&narrow);
+        }
         for (int x0 = 1; x0 <= 3; x0++) {
             Image part;
             render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, x0, 5, W - x0 - 2, 9, 0, 1,
