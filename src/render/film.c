@@ -776,10 +776,12 @@ __attribute__((target("avx2"))) static void film_span_sums_avx2(const Film *f, i
     const float *col[FILM_TERMS8], *wxp[FILM_TERMS8], *wyp[FILM_TERMS8];
     float tw[FILM_TERMS8];
     int total = side * rows * n;
+    /* term t: column ta, row b, sample s (t = (ta rows + b - b0) n + s), counted up
+     * (no divisions: their latency was a tenth of the sums' time at 64 columns) */
+    int ta = 0, b = b0, s = 0;
     for (int t0 = 0; t0 < total; t0 += FILM_TERMS8) {
         int nt = total - t0 < FILM_TERMS8 ? total - t0 : FILM_TERMS8;
-        for (int k = 0; k < nt; k++) { /* term t: column ta, row b, sample s */
-            int t = t0 + k, s = t % n, b = b0 + t / n % rows, ta = t / (n * rows);
+        for (int k = 0; k < nt; k++) {
             int a = p0 - R + ta;
             col[k] = film_sample(f, a, b, s) + 2 * cs;
             if (f->per) {
@@ -787,6 +789,13 @@ __attribute__((target("avx2"))) static void film_span_sums_avx2(const Film *f, i
                 wyp[k] = film_weights(f, a, b, s, side + b - j + R);
             } else {
                 tw[k] = f->table[(ta * side + (b - j + R)) * n + s];
+            }
+            if (++s == n) {
+                s = 0;
+                if (++b > b1) {
+                    b = b0;
+                    ta++;
+                }
             }
         }
         const float *const *wx = f->per ? wxp : NULL;
