@@ -701,10 +701,13 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
     do {
         if (m.t > hit->t)
             break;
-        uint32_t c = m.c, s = t->sub_of[c];
-        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
-            if (cell_occupied(g, c) &&
-                test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, any)) {
+        /* Empty top cells (most of what a ray crosses in a sparse scene) are passed on
+         * their occupancy bit alone: a cell with a leaf grid holds entries. */
+        uint32_t c = m.c, s;
+        if (!cell_occupied(g, c)) {
+            /* nothing to test */
+        } else if ((s = t->sub_of[c]) == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
+            if (test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, any)) {
                 found = true;
                 if (any)
                     break;
@@ -728,9 +731,9 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
                     cells++;
                     if (l.t > hit->t)
                         break;
-                    uint32_t s0 = t->start[l.c];
-                    if (test_items(g, t->items + s0, t->start[l.c + 1] - s0, ray, hit, tmin,
-                                   ctx, mb, stamp, rsimd, any)) {
+                    uint32_t s0 = t->start[l.c], nl = t->start[l.c + 1] - s0;
+                    if (nl && test_items(g, t->items + s0, nl, ray, hit, tmin, ctx, mb, stamp,
+                                         rsimd, any)) {
                         found = true;
                         if (any) {
                             stop = true;
