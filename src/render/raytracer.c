@@ -4,8 +4,12 @@
 #include "phong_packet.h"
 
 #include <pthread.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#endif
 
 #include "rt/bigmem.h"
 #include "rt/cpu.h"
@@ -340,6 +344,67 @@ typedef void (*BlendGroupFn)(BlendLanes *, uint64_t, const PhongParams *,
 #define BL_NAME blend_lights_group_avx2
 #define BL_W 8
 #include "blend_lanes_kernel.h"
+
+/* blend_begin's lane loop for eight consecutive lanes i0 .. i0+7 of one material (their
+ * weights at t8), in AVX2 vectors: the hits' normals and the rays' directions read
+ * with 128-bit loads and 4 x 4 transposes, then per lane shade_begin's n . d, the
+ * ambient term ambient * blend_of(d1, d2, t) (v3_lerp's t*a + (1-t)*b) and n . n, the
+ * same single IEEE operations in the same order as the scalar loop (no FMA: AVX2
+ * alone, and raytracer.o is built with -ffp-contract=off). Writes every lane's t,
+ * normal and colour into bl and returns the lanes it has finished: quick lanes (a
+ * front face, a flat material, n . n <= 1.125); the caller does the others (back
+ * faces, long normals, non-flat materials) with the scalar loop, which writes theirs
+ * again. */
+static unsigned blend_begin_run8_avx2(const Ray *rays, const Hit *hits, int i0,
+                                      const float *t8, Vec3 d1, Vec3 d2, Vec3 amb,
+                                      BlendLanes *bl)
+{
+    _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
+    _Static_assert(offsetof(Hit, t) == 0 && offsetof(Hit, normal) == sizeof(float),
+                   "a hit starts with t and its normal");
+    const float *h = (const float *)(const void *)&hits[i0];
+    const float *r = (const float *)(const void *)&rays[i0];
+    const size_t hs = sizeof(Hit) / sizeof(float);
+    __m256 a[4], b[4];
+    for (int l = 0; l < 4; l++) {
+        a[l] = _mm256_loadu2_m128(h + (size_t)(l + 4) * hs, h + (size_t)l * hs); /* t n */
+        b[l] = _mm256_loadu2_m128(r + 6 * (l + 4) + 2, r + 6 * l + 2);          /* o.z d */
+    }
+    __m256 a0 = _mm256_unpacklo_ps(a[0], a[1]), a1 = _mm256_unpacklo_ps(a[2], a[3]);
+    __m256 a2 = _mm256_unpackhi_ps(a[0], a[1]), a3 = _mm256_unpackhi_ps(a[2], a[3]);
+    __m256 nx = _mm256_shuffle_ps(a0, a1, _MM_SHUFFLE(3, 2, 3, 2));
+    __m256 ny = _mm256_shuffle_ps(a2, a3, _MM_SHUFFLE(1, 0, 1, 0));
+    __m256 nz = _mm256_shuffle_ps(a2, a3, _MM_SHUFFLE(3, 2, 3, 2));
+    __m256 b0 = _mm256_unpacklo_ps(b[0], b[1]), b1 = _mm256_unpacklo_ps(b[2], b[3]);
+    __m256 b2 = _mm256_unpackhi_ps(b[0], b[1]), b3 = _mm256_unpackhi_ps(b[2], b[3]);
+    __m256 dx = _mm256_shuffle_ps(b0, b1, _MM_SHUFFLE(3, 2, 3, 2));
+    __m256 dy = _mm256_shuffle_ps(b2, b3, _MM_SHUFFLE(1, 0, 1, 0));
+    __m256 dz = _mm256_shuffle_ps(b2, b3, _MM_SHUFFLE(3, 2, 3, 2));
+    __m256 nd = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, dx), _mm256_mul_ps(ny, dy)),
+                              _mm256_mul_ps(nz, dz));
+    __m256 nn = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, nx), _mm256_mul_ps(ny, ny)),
+                              _mm256_mul_ps(nz, nz));
+    /* Finished: not a back face (n . d > 0 false, also for NaN) and n . n <= 1.125. */
+    __m256 done = _mm256_andnot_ps(_mm256_cmp_ps(nd, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                   _mm256_cmp_ps(nn, _mm256_set1_ps(1.125f), _CMP_LE_OQ));
+    __m256 t = _mm256_loadu_ps(t8);
+    __m256 one_t = _mm256_sub_ps(_mm256_set1_ps(1.0f), t);
+    __m256 ge1 = _mm256_cmp_ps(t, _mm256_set1_ps(1.0f), _CMP_GE_OQ);
+    __m256 le0 = _mm256_cmp_ps(t, _mm256_setzero_ps(), _CMP_LE_OQ);
+    const float c1[3] = {d1.x, d1.y, d1.z}, c2[3] = {d2.x, d2.y, d2.z},
+                ca[3] = {amb.x, amb.y, amb.z};
+    for (int k = 0; k < 3; k++) {
+        __m256 p = _mm256_set1_ps(c1[k]), q = _mm256_set1_ps(c2[k]);
+        __m256 m = _mm256_add_ps(_mm256_mul_ps(p, t), _mm256_mul_ps(q, one_t));
+        m = _mm256_blendv_ps(_mm256_blendv_ps(m, q, le0), p, ge1); /* blend_of's order */
+        _mm256_storeu_ps(bl->c[k] + i0, _mm256_mul_ps(_mm256_set1_ps(ca[k]), m));
+    }
+    _mm256_storeu_ps(bl->t + i0, t);
+    _mm256_storeu_ps(bl->nx + i0, nx);
+    _mm256_storeu_ps(bl->ny + i0, ny);
+    _mm256_storeu_ps(bl->nz + i0, nz);
+    return (unsigned)_mm256_movemask_ps(done);
+}
 #if defined(__clang__)
 #pragma clang attribute pop
 #pragma clang attribute push(__attribute__((target("avx512f"))), apply_to = function)
@@ -358,17 +423,23 @@ typedef void (*BlendGroupFn)(BlendLanes *, uint64_t, const PhongParams *,
 #endif
 #endif
 
+/* blend_begin's eight-lane runs (NULL: lane by lane only). */
+typedef unsigned (*BlendRunFn)(const Ray *, const Hit *, int, const float *, Vec3, Vec3, Vec3,
+                               BlendLanes *);
+
 static BlendGroupFn blend_lights_group = blend_lights_group_base;
+static BlendRunFn blend_begin_run8 = NULL;
 static pthread_once_t blend_once = PTHREAD_ONCE_INIT;
 
 static const struct {
     const char *isa;
     BlendGroupFn fn;
+    BlendRunFn run8;
 } blend_kernels[] = {
-    {"base", blend_lights_group_base},
+    {"base", blend_lights_group_base, NULL},
 #if defined(BLEND_WIDE)
-    {"avx2", blend_lights_group_avx2},
-    {"avx512", blend_lights_group_avx512},
+    {"avx2", blend_lights_group_avx2, blend_begin_run8_avx2},
+    {"avx512", blend_lights_group_avx512, blend_begin_run8_avx2}, /* AVX-512 has AVX2 */
 #endif
 };
 
@@ -377,6 +448,7 @@ static bool blend_set(const char *name)
     for (size_t i = 0; i < sizeof blend_kernels / sizeof blend_kernels[0]; i++)
         if (!strcmp(name, blend_kernels[i].isa) && cpu_runs(name)) {
             blend_lights_group = blend_kernels[i].fn;
+            blend_begin_run8 = blend_kernels[i].run8;
             return true;
         }
     return false;
@@ -433,7 +505,23 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
         mat_blend_weights(m, pts, k, t);
         bool flat = phong_flat(p1) && phong_flat(p2);
         uint64_t group = 0;
+        /* Eight consecutive lanes at a time where the CPU has the vectors (flat
+         * materials: the common case); the lanes a run leaves go through the loop. */
+        BlendRunFn run8 = flat ? blend_begin_run8 : NULL;
+        uint64_t todo = ~(uint64_t)0; /* bit j: lane idx[j] still to do */
+        for (int j = 0; run8 && j + 8 <= k; j += 8) {
+            if (idx[j + 7] - idx[j] != 7)
+                continue; /* not consecutive (idx increases) */
+            unsigned fin = run8(rays, hits, idx[j], t + j, p1->diffuse, p2->diffuse,
+                                rt->scene->ambient, bl);
+            uint64_t lanes = (uint64_t)fin << idx[j];
+            shaded |= lanes;
+            group |= lanes;
+            todo &= ~((uint64_t)fin << j);
+        }
         for (int j = 0; j < k; j++) {
+            if (!(todo >> j & 1))
+                continue;
             int i = idx[j];
             Vec3 d = rays[i].dir, n = hits[i].normal;
             if (v3_dot(n, d) > 0.0f) { /* shade_begin's back face */
