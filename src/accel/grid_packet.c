@@ -240,8 +240,8 @@ static bool packet_planes(const Grid *g, Packet *pk)
 }
 
 /* The best-hit lanes start defined (the callers then set their rays' own); the ray
- * lanes are all written by the set-up, harmless values where no ray is walked, for
- * every group that holds a candidate, and the walk reads no other group. */
+ * lanes are written by the set-up, harmless values where no ray is walked, for every
+ * group where some ray is walked, and the walk reads no other group. */
 static void packet_clear(Packet *pk)
 {
     memset(pk->best_t, 0, sizeof pk->best_t);

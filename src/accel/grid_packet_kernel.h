@@ -725,6 +725,11 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
         pk_iv in_box = inside & any_axis & (t_enter <= t_exit) & ~(t_exit < tminv);
         unsigned w = fits & pk_bits(in_box);
         walk |= (uint64_t)w << (PK_W * gi);
+        /* No ray of the group walks (all miss the box, are blocked or go to the
+         * march): nothing reads its columns (the walk, the spread and the first
+         * slice read only the walked rays' groups). */
+        if (!w)
+            continue;
 
         pk_iv wm = pk_lanes(w);
         pk_fv t0 = pk_blend(t_enter < tminv, tminv, t_enter);
