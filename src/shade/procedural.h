@@ -66,6 +66,10 @@ Material *procedural_blend_new(Arena *a, const MaterialOps *ops, const Mat4 *tex
  * weights functions. */
 void procedural_octaves_at(const ProceduralBlend *b, const Vec3 *p, int n, bool grain,
                            double *x, double *y, double *z, double *noise);
+/* Tests: procedural_octaves_at's texture points from now on in the lanes of isa
+ * ("base": the loop alone; "avx2": eight points a step where the CPU has AVX2); false,
+ * nothing changed, when this build or CPU cannot run them. */
+bool procedural_points_use_kernel(const char *isa);
 
 /* The texture-space point of world point p: q = M p. */
 static inline Vec3 procedural_texture_point(const Procedural *pr, Vec3 p)

@@ -583,6 +583,62 @@ static void test_noise_cutoff(void)
     arena_free(&a);
 }
 
+/* procedural_octaves_at's texture points and their octaves on every path this CPU runs
+ * ("base": the loop; "avx2": eight points a step): each point's q = M p (with and
+ * without a matrix) as procedural_texture_point makes it, in double, 0.2 q.y for
+ * grain, and the octave sum of those, bit for bit, for every count 1 .. 64 (with and
+ * without a partial step of eight). */
+static void test_octaves_at_points(void)
+{
+    Arena a;
+    arena_init(&a);
+    init_children();
+    Mat4 sc = mat4_scale(v3(0.37f, 1.9f, -0.61f)), ro = mat4_rotate_y(23);
+    Mat4 tr = mat4_translate(v3(0.3f, -2.1f, 5.7f));
+    Mat4 sr = mat4_mul(&sc, &ro), xf = mat4_mul(&tr, &sr);
+    const Material *ms[2] = {marble_new(&a, &xf, &A.base, &B.base, 3, 2.0f, 1.0f),
+                             marble_new(&a, NULL, &A.base, &B.base, 2, 2.0f, 1.0f)};
+    const char *kernels[] = {"base", "avx2"};
+    int differ = 0, n_pts = 0, run = 0;
+    uint32_t st = 99u;
+    for (int kn = 0; kn < 2; kn++) {
+        if (!procedural_points_use_kernel(kernels[kn]))
+            continue;
+        run++;
+        for (int mi = 0; mi < 2; mi++) {
+            const ProceduralBlend *b = (const ProceduralBlend *)ms[mi];
+            for (int n = 1; n <= PROCEDURAL_WEIGHTS_MAX; n++) {
+                Vec3 p[PROCEDURAL_WEIGHTS_MAX];
+                for (int i = 0; i < n; i++) {
+                    float c[3];
+                    for (int k = 0; k < 3; k++) {
+                        st = st * 1664525u + 1013904223u;
+                        c[k] = ((float)(st >> 8) / 16777216.0f - 0.5f) * 40.0f;
+                    }
+                    p[i] = v3(c[0], c[1], c[2]);
+                }
+                bool grain = n % 2 == 0;
+                double x[PROCEDURAL_WEIGHTS_MAX], y[PROCEDURAL_WEIGHTS_MAX],
+                    z[PROCEDURAL_WEIGHTS_MAX], noise[PROCEDURAL_WEIGHTS_MAX];
+                procedural_octaves_at(b, p, n, grain, x, y, z, noise);
+                for (int i = 0; i < n; i++, n_pts++) {
+                    Vec3 q = procedural_texture_point(&b->proc, p[i]);
+                    double want[4] = {(double)q.x, (double)q.y, (double)q.z, 0.0};
+                    want[3] = perlin_octaves(want[0], grain ? 0.2 * want[1] : want[1],
+                                             want[2], b->octaves);
+                    double got[4] = {x[i], y[i], z[i], noise[i]};
+                    differ += memcmp(want, got, sizeof want) != 0;
+                }
+            }
+        }
+    }
+    CHECK(procedural_points_use_kernel("avx2") || procedural_points_use_kernel("base"));
+    CHECK(run >= 1);
+    CHECK_MSG(differ == 0, "%d of %d points differ from the scalar texture points", differ,
+              n_pts);
+    arena_free(&a);
+}
+
 static const TestCase tests[] = {
     {"checkerboard: parity incl. negative cells", test_checker_parity},
     {"checkerboard: exact cell borders (floor)", test_checker_borders},
@@ -593,6 +649,7 @@ static const TestCase tests[] = {
     {"noise: clamped weights", test_noise_clamps},
     {"marble: weights", test_marble_weight},
     {"marble: the batched weights' sine rounds like libm's", test_marble_sine_weight},
+    {"procedural: the batched texture points, on every path", test_octaves_at_points},
     {"wood: weights", test_wood_weight},
     {"blend: every accessor interpolates", test_blend_accessors},
     {"procedural: nesting", test_nesting},
