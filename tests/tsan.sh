@@ -50,6 +50,28 @@ check render_no_grid "$bin" -input scenes/tex_nested.txt -size 48 48 -output "$o
 # bands, shared by the render threads.
 check render_antialiased "$bin" -input scenes/showcase.txt -size 64 48 -output "$out/d.tga" \
     -jittered_samples 4 -gaussian_filter 0.4 -shadows -grid auto -threads 2
+# The blend lanes (Marble over two flat Phong materials, every light directional: the
+# packet shades them inline): a render thread's first blend packet reads the copy of
+# blend_begin's eight-lane run that blend_choose picks once. Read before the thread's
+# own pthread_once, it raced with another thread's pick (fixed 2026-11-27); the sphere
+# fills the image so that both threads' first packets are blend packets. Three runs:
+# one caught that race 5 times in 6 on the Zen 3 host.
+cat >"$out/blend.txt" <<'SCENE'
+PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }
+Lights { numLights 1 DirectionalLight { direction -0.5 -0.5 -1 color 0.9 0.9 0.9 } }
+Background { color 0.1 0.1 0.1 ambientLight 0.2 0.2 0.2 }
+Materials {
+    numMaterials 3
+    PhongMaterial { diffuseColor 0.9 0.9 0.9 }
+    PhongMaterial { diffuseColor 0.2 0.3 0.6 }
+    Marble { materialIndex 0 materialIndex 1 octaves 4 frequency 2 amplitude 3 }
+}
+Group { numObjects 1 MaterialIndex 2 Sphere { center 0 0 0 radius 3.5 } }
+SCENE
+for run in 1 2 3; do
+    check render_blend_$run "$bin" -input "$out/blend.txt" -size 48 48 -output "$out/f.tga" \
+        -jittered_samples 4 -shadows -grid auto -threads 2
+done
 check preview_snapshots env RT_BIN="$bin" "$tests/unit/test_preview"
 if command -v xvfb-run >/dev/null 2>&1; then
     check preview_window env RT_BIN="$bin" "$tests/e2e/test_gui_xvfb"

@@ -506,7 +506,12 @@ static uint64_t blend_begin(const RayTracer *rt, const Ray *rays, const Hit *hit
         bool flat = phong_flat(p1) && phong_flat(p2);
         uint64_t group = 0;
         /* Eight consecutive lanes at a time where the CPU has the vectors (flat
-         * materials: the common case); the lanes a run leaves go through the loop. */
+         * materials: the common case); the lanes a run leaves go through the loop.
+         * blend_begin_run8 is chosen once, by blend_choose, and may only be read after
+         * this thread's pthread_once: a render thread's first blend packet comes
+         * before its first blend_lights_flat, and reading the pointer there while
+         * another thread's blend_choose writes it was a data race (TSan, 2 threads). */
+        pthread_once(&blend_once, blend_choose);
         BlendRunFn run8 = flat ? blend_begin_run8 : NULL;
         uint64_t todo = ~(uint64_t)0; /* bit j: lane idx[j] still to do */
         for (int j = 0; run8 && j + 8 <= k; j += 8) {
