@@ -826,8 +826,10 @@ static void test_film_progress(void)
  * bytes either way, on every vector path of the film (film_path_set: the plain loops,
  * AVX2, AVX-512, as far as the CPU has them), and a rectangle at any column offset (which regroups the pixels of
  * a vector) the crop of the full render. Fixed weights (uniform: the table) and
- * separable ones (Gaussian: R = 1 and 2); R = 0: the table (uniform) in the scalar
- * loop, random positions with the box four pixels at a time (film_filter_own; box 0.3
+ * separable ones (Gaussian: R = 1 and 2); R = 0: the table (uniform; box 0.5, box 0.3
+ * and tent 0.5) and random positions with the box, eight pixels at a time with AVX2
+ * (film_filter_own8; 9 and 5 samples: 45 and 25 floats a pixel, not whole 8 x 8
+ * transposes), four without (film_filter_own), the scalar loop for the rest (box 0.3
  * also gives weights 0 and pixels with no weight at all). */
 static void test_film_vector_filter(void)
 {
@@ -841,15 +843,18 @@ static void test_film_vector_filter(void)
     make_sampler(&jit64, "jittered", 64, 3);
     make_sampler(&uni, "uniform", 9, 0);
     make_sampler(&rnd, "random", 5, 1);
-    Filter g4, g9, box, box3;
+    Filter g4, g9, box, box3, tent5;
     char why[160];
     CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
     CHECK(filter_init(&g9, filter_find("gaussian"), 0.9f, why, sizeof why));
     CHECK(filter_init(&box, filter_find("box"), 0.5f, why, sizeof why));
     CHECK(filter_init(&box3, filter_find("box"), 0.3f, why, sizeof why));
+    /* R = 0 with the table's weights all different (tent 0.5), or 0 and 1 (box 0.3): the
+     * table's sample order (film_filter_own8) */
+    CHECK(filter_init(&tent5, filter_find("tent"), 0.5f, why, sizeof why));
     struct { const Sampler *s; const Filter *f; } cases[] = {
         {&jit, &g4}, {&jit, &box}, {&uni, &box}, {&uni, &g4}, {&rnd, &g9}, {&rnd, &box3},
-        {&jit, &box3}, {&jit64, &g4}};
+        {&jit, &box3}, {&jit64, &g4}, {&uni, &tent5}, {&uni, &box3}};
     const int W = 37, H = 21;
     for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
         Image plain, with_d, depth;
@@ -883,7 +888,7 @@ static void test_film_vector_filter(void)
      * 1024 wide and R = 1 or 2: 1026 or 1028 floats, not the padded stride), read and
      * written at the padded stride everywhere. */
     for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
-        if (cases[c].f == &box || cases[c].f == &box3)
+        if (cases[c].f == &box || cases[c].f == &box3 || cases[c].f == &tent5)
             continue;
         const int WW = 1024, HH = 3;
         Image plain, with_d, depth, part;
