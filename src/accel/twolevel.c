@@ -125,8 +125,11 @@ static inline void axis_range(double bmin, double bmax, double mn, double s, dou
 }
 
 /* Entries a grid of n cells over [lo, hi] would get from boxes (their box ranges, an
- * estimate: reciprocal cell sizes); stops counting once above limit. */
-static double estimate_entries(const float (*b)[6], size_t count, const float lo[3],
+ * estimate: reciprocal cell sizes); stops counting once above limit. The boxes: b[i]
+ * for i < count, or (sel non-NULL) b[GRID_ITEM_INDEX(items[sel[i]])], a top cell's
+ * selected entries read in place instead of copied out first. */
+static double estimate_entries(const float (*b)[6], const uint32_t *items,
+                               const uint32_t *sel, size_t count, const float lo[3],
                                const float hi[3], const int n[3], double limit)
 {
     double inv[3], mn[3], total = 0.0;
@@ -135,10 +138,11 @@ static double estimate_entries(const float (*b)[6], size_t count, const float lo
         inv[a] = n[a] / ((double)hi[a] - (double)lo[a]);
     }
     for (size_t i = 0; i < count && total <= limit; i++) {
+        const float *bi = sel ? b[GRID_ITEM_INDEX(items[sel[i]])] : b[i];
         double cells = 1.0;
         for (int a = 0; a < 3; a++) {
-            int l = ceil_clamp(((double)b[i][a] - mn[a]) * inv[a] - 1.0, n[a]);
-            int h = floor_clamp(((double)b[i][3 + a] - mn[a]) * inv[a], n[a]);
+            int l = ceil_clamp(((double)bi[a] - mn[a]) * inv[a] - 1.0, n[a]);
+            int h = floor_clamp(((double)bi[3 + a] - mn[a]) * inv[a], n[a]);
             cells *= (double)(h - l + 1);
         }
         total += cells;
@@ -148,11 +152,12 @@ static double estimate_entries(const float (*b)[6], size_t count, const float lo
 
 /* Shrinks n (by 4/5 per axis, at least one cell less) until the estimate fits; returns
  * the estimate. */
-static double fit_dims(const float (*b)[6], size_t count, const float lo[3],
-                       const float hi[3], double limit, int n[3])
+static double fit_dims(const float (*b)[6], const uint32_t *items, const uint32_t *sel,
+                       size_t count, const float lo[3], const float hi[3], double limit,
+                       int n[3])
 {
     for (;;) {
-        double est = estimate_entries(b, count, lo, hi, n, limit);
+        double est = estimate_entries(b, items, sel, count, lo, hi, n, limit);
         if (est <= limit || (n[0] == 1 && n[1] == 1 && n[2] == 1))
             return est;
         for (int a = 0; a < 3; a++)
@@ -264,16 +269,14 @@ static bool grow(void **p, size_t *cap, size_t need, size_t elem)
 
 /* Scratch of the leaf builds, reused from cell to cell (one per set-up thread). */
 typedef struct LeafScratch {
-    float (*box)[6];       /* per entry of the cell: its box */
     uint32_t *npairs;      /* per entry: how many leaf cells it went into */
     uint32_t *cells;       /* those cells, entry after entry */
     uint32_t *count;       /* per leaf cell: entries, then the fill cursor */
-    size_t cap_box, cap_npairs, cap_cells, cap_count;
+    size_t cap_npairs, cap_cells, cap_count;
 } LeafScratch;
 
 static void scratch_free(LeafScratch *ls)
 {
-    free(ls->box);
     free(ls->npairs);
     free(ls->cells);
     free(ls->count);
@@ -289,7 +292,12 @@ typedef struct LeafPlan {
                               top cell's list, in list order */
     uint32_t nbig;
     uint32_t cells;
-    uint32_t *start;       /* filled: cells + 1 offsets into items, from 0 */
+    double est;            /* fit_dims' estimate of its entries: fill_leaf's first
+                              capacity for its pairs (a hint; they may exceed it) */
+    uint32_t base;         /* its first cell in TwoLevelGrid.start (the cells of the
+                              plans before it): fill_leaf writes its cells' offsets
+                              there, from 0, and append_leaf shifts them in place */
+    uint32_t npairs;       /* filled: its entries (the offset after its last cell) */
     uint32_t *items;       /* filled: the entries of its cells, cell after cell */
     bool ok;               /* filled without running out of memory */
 } LeafPlan;
@@ -301,10 +309,16 @@ typedef struct LeafPlans {
     size_t nsmall, cap_small;
 } LeafPlans;
 
+/* fminf and fmaxf as glibc's x86-64 code computes them (minss/maxss: x < y ? x : y,
+ * x > y ? x : y, so y for equal operands such as -0 and +0; the other operand when one
+ * is a NaN), inline: the library calls were 3% of the stadium's set-up. */
+static inline float min_f(float x, float y) { return x < y || y != y ? x : y; }
+static inline float max_f(float x, float y) { return x > y || y != y ? x : y; }
+
 /* Plans the leaf grid of top cell c (grid coordinates ci): appends it to P when it
  * pays and fits the budget (spending it); false when out of memory. */
-static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *ls,
-                      const float (*pbox)[6], double *budget, LeafPlans *P)
+static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], const float (*pbox)[6],
+                      double *budget, LeafPlans *P)
 {
     const uint32_t *items = g->cell_items + g->cell_start[c];
     uint32_t m = g->cell_start[c + 1] - g->cell_start[c];
@@ -321,8 +335,7 @@ static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *l
         lo[a] = INFINITY;
         hi[a] = -INFINITY;
     }
-    if (!grow((void **)&ls->box, &ls->cap_box, m, sizeof *ls->box) ||
-        !grow((void **)&P->small, &P->cap_small, P->nsmall + m, sizeof *P->small))
+    if (!grow((void **)&P->small, &P->cap_small, P->nsmall + m, sizeof *P->small))
         return false;
     uint32_t *small = P->small + P->nsmall;
     /* Large entries (inside the cell, more than half its side on two axes: a floor, a
@@ -333,7 +346,7 @@ static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *l
         const float *b = pbox[GRID_ITEM_INDEX(items[e])];
         int wide = 0;
         for (int a = 0; a < 3; a++)
-            wide += fminf(b[3 + a], chi[a]) - fmaxf(b[a], clo[a]) > 0.5f * (chi[a] - clo[a]);
+            wide += min_f(b[3 + a], chi[a]) - max_f(b[a], clo[a]) > 0.5f * (chi[a] - clo[a]);
         if (wide >= 2)
             nbig++;
         else
@@ -347,10 +360,9 @@ static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *l
     }
     for (uint32_t q = 0; q < ns; q++) {
         const float *b = pbox[GRID_ITEM_INDEX(items[small[q]])];
-        memcpy(ls->box[q], b, sizeof ls->box[q]);
         for (int a = 0; a < 3; a++) {
-            lo[a] = fminf(lo[a], fmaxf(b[a], clo[a]));
-            hi[a] = fmaxf(hi[a], fminf(b[3 + a], chi[a]));
+            lo[a] = min_f(lo[a], max_f(b[a], clo[a]));
+            hi[a] = max_f(hi[a], min_f(b[3 + a], chi[a]));
         }
     }
     for (int a = 0; a < 3; a++) {
@@ -367,9 +379,8 @@ static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *l
         }
     }
     int n[3];
-    const float (*boxes)[6] = (const float (*)[6])ls->box;
     choose_dims(lo, hi, LEAF_LAMBDA * ns, LEAF_MAX_AXIS, n);
-    double est = fit_dims(boxes, ns, lo, hi, LEAF_DUP * ns, n) + nbig;
+    double est = fit_dims(pbox, items, small, ns, lo, hi, LEAF_DUP * ns, n) + nbig;
     uint64_t cells = (uint64_t)n[0] * (uint64_t)n[1] * (uint64_t)n[2];
     if (cells <= 1)
         return true;
@@ -386,6 +397,7 @@ static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *l
     pl->ns = ns;
     pl->nbig = nbig;
     pl->cells = (uint32_t)cells; /* at most LEAF_MAX_AXIS^3 */
+    pl->est = est;
     P->nsmall += ns;
     SubGrid *sg = &pl->sg;
     sg->box.min = v3(lo[0], lo[1], lo[2]);
@@ -407,9 +419,10 @@ static bool plan_leaf(const Grid *g, uint32_t c, const int ci[3], LeafScratch *l
 }
 
 /* Fills planned leaf grid pl: its cells' entries, in the top list's order within each
- * cell (pl->start, pl->items; pl->ok false when out of memory). */
+ * cell (its offsets into start at pl->base, pl->items; pl->ok false when out of
+ * memory). */
 static void fill_leaf(const Grid *g, LeafPlan *pl, const uint32_t *small, LeafScratch *ls,
-                      const float (*pbox)[6])
+                      const float (*pbox)[6], uint32_t *start)
 {
     const uint32_t *items = g->cell_items + g->cell_start[pl->c];
     const SubGrid *sg = &pl->sg;
@@ -420,6 +433,12 @@ static void fill_leaf(const Grid *g, LeafPlan *pl, const uint32_t *small, LeafSc
         !grow((void **)&ls->count, &ls->cap_count, cells, sizeof *ls->count))
         return;
     memset(ls->count, 0, cells * sizeof *ls->count);
+    /* The pairs' array at about its final size at once: grown pair by pair from 1024,
+     * its copies faulted in fresh pages at every doubling (a leaf grid of the stadium
+     * has ~60k pairs). */
+    if (pl->est < 16e6 && !grow((void **)&ls->cells, &ls->cap_cells, (size_t)pl->est + 1,
+                                sizeof *ls->cells))
+        return;
 
     /* Each entry's leaf cells: the padded cells its box meets (border cells stretched
      * to its box, as the course grid's), triangles by the exact overlap test. */
@@ -505,18 +524,20 @@ static void fill_leaf(const Grid *g, LeafPlan *pl, const uint32_t *small, LeafSc
         ls->npairs[q] = (uint32_t)(npairs - before);
     }
 
-    /* Its arrays: offsets, then the entries, in top-list order within each cell. */
-    pl->start = malloc(((size_t)cells + 1) * sizeof *pl->start);
+    /* Its arrays: offsets (its cells' part of t->start; the one after its last cell is
+     * the next plan's first, so it is left to append_leaf), then the entries, in
+     * top-list order within each cell. */
     pl->items = malloc((npairs + 1) * sizeof *pl->items);
-    if (!pl->start || !pl->items)
+    if (!pl->items)
         return;
+    uint32_t *st = start + pl->base;
     uint32_t run = 0;
     for (uint32_t k = 0; k < cells; k++) {
-        pl->start[k] = run;
+        st[k] = run;
         run += ls->count[k];
-        ls->count[k] = pl->start[k];
+        ls->count[k] = st[k];
     }
-    pl->start[cells] = run;
+    pl->npairs = run;
     const uint32_t *cell = ls->cells;
     for (uint32_t q = 0; q < ns; q++)
         for (uint32_t j = ls->npairs[q]; j > 0; j--)
@@ -534,7 +555,7 @@ static bool append_leaf(TwoLevelGrid *t, LeafPlan *pl, const uint32_t *small)
     const Grid *g = t->top;
     const uint32_t *items = g->cell_items + g->cell_start[pl->c];
     uint32_t m = g->cell_start[pl->c + 1] - g->cell_start[pl->c];
-    uint32_t cells = pl->cells, npairs = pl->start[cells], nbig = pl->nbig, ns = pl->ns;
+    uint32_t cells = pl->cells, npairs = pl->npairs, nbig = pl->nbig, ns = pl->ns;
     if (t->num_subs == t->cap_subs) {
         uint32_t cap = t->cap_subs ? 2 * t->cap_subs : 64;
         SubGrid *sp = realloc(t->subs, cap * sizeof *sp);
@@ -548,11 +569,13 @@ static bool append_leaf(TwoLevelGrid *t, LeafPlan *pl, const uint32_t *small)
               sizeof *t->items))
         return false;
     SubGrid sg = pl->sg;
-    sg.base = (uint32_t)t->num_cells;
+    sg.base = (uint32_t)t->num_cells; /* = pl->base, where fill_leaf put its offsets */
     uint32_t *st = t->start + t->num_cells;
     uint32_t run = (uint32_t)t->num_items;
-    for (uint32_t k = 0; k <= cells; k++)
-        st[k] = run + pl->start[k];
+    st[0] = run; /* its offset from 0; the slot held the previous plan's last one */
+    for (uint32_t k = 1; k < cells; k++)
+        st[k] += run;
+    st[cells] = run + npairs;
     memcpy(t->items + t->num_items, pl->items, (size_t)npairs * sizeof *t->items);
     t->num_cells += cells;
     t->num_items += npairs;
@@ -577,6 +600,7 @@ typedef struct FillJob {
     LeafPlans *plans;
     const uint32_t *order;
     const float (*pbox)[6];
+    uint32_t *start;       /* TwoLevelGrid.start, at its final size */
     LeafScratch scratch[PAR_MAX_WORKERS];
 } FillJob;
 
@@ -584,7 +608,8 @@ static void fill_chunk(void *ctx, int i, int worker)
 {
     FillJob *job = ctx;
     LeafPlan *pl = &job->plans->p[job->order[i]];
-    fill_leaf(job->g, pl, job->plans->small + pl->small0, &job->scratch[worker], job->pbox);
+    fill_leaf(job->g, pl, job->plans->small + pl->small0, &job->scratch[worker], job->pbox,
+              job->start);
 }
 
 /* Plans by size, largest first (ties in plan order): (ns, index) pairs for qsort. */
@@ -630,23 +655,33 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
     int n[3];
     double prims = (double)nb;
     choose_dims(lo, hi, TOP_LAMBDA * prims, TOP_MAX_AXIS, n);
-    fit_dims((const float (*)[6])boxes, nb, lo, hi, TOP_DUP * prims + BUDGET_SLACK, n);
-    free(boxes);
+    fit_dims((const float (*)[6])boxes, NULL, NULL, nb, lo, hi, TOP_DUP * prims + BUDGET_SLACK,
+             n);
     /* The uniform grid's own cap counts the course's cells too (grid_budget.c): fit it
      * here, quietly, so the top level never gets the warning meant for a request. */
     grid_fit_refs(table, n, grid_ref_cap_auto(table->num_bounded), NULL);
 
     TwoLevelGrid *t = calloc(1, sizeof *t);
-    if (!t)
+    if (!t) {
+        free(boxes);
         goto oom;
+    }
     t->top = grid_build_table_fitted(table, n, diag);
     if (!t->top) {
+        free(boxes);
         twolevel_free(t);
         return NULL; /* reported by grid_build_table, or nothing bounded */
     }
     Grid *g = t->top;
     t->sub_of = malloc((size_t)g->num_cells * sizeof *t->sub_of);
-    float (*pbox)[6] = malloc(((size_t)g->num_prims + 1) * sizeof *pbox);
+    /* The primitives' boxes for the leaf grids go into the top level's box array
+     * (one per bounded primitive of the table, as many as the top grid's): a fresh
+     * array of that size (~1 MB for 40k triangles) cost its page faults again. */
+    float (*pbox)[6] = g->num_prims <= nb ? boxes : NULL;
+    if (!pbox) {
+        free(boxes);
+        pbox = malloc(((size_t)g->num_prims + 1) * sizeof *pbox);
+    }
     FillJob *job = calloc(1, sizeof *job);
     LeafPlans plans;
     memset(&plans, 0, sizeof plans);
@@ -664,13 +699,25 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
      * into arrays of its own), then appended in cell order: the same arrays as when
      * each was built and appended in turn. */
     double budget = LEAF_BUDGET_DUP * (double)g->num_prims + BUDGET_SLACK;
+    /* The plans' entry lists at their largest size at once (at most every top entry),
+     * instead of doubling with a copy into fresh pages each time. */
+    ok = ok && grow((void **)&plans.small, &plans.cap_small, g->cell_start[g->num_cells] + 1,
+                    sizeof *plans.small);
     for (int k = 0; ok && k < g->n[2]; k++)
         for (int j = 0; ok && j < g->n[1]; j++)
             for (int i = 0; ok && i < g->n[0]; i++) {
                 int ci[3] = {i, j, k};
-                ok = plan_leaf(g, grid_cell_index(g, i, j, k), ci, &job->scratch[0],
-                               (const float (*)[6])pbox, &budget, &plans);
+                ok = plan_leaf(g, grid_cell_index(g, i, j, k), ci, (const float (*)[6])pbox,
+                               &budget, &plans);
             }
+    /* t->start at its final size before the fill, which writes each plan's offsets
+     * into it (a copy per plan, appended later, faulted in its pages twice). */
+    size_t all_cells = t->num_cells + 1;
+    for (size_t i = 0; ok && i < plans.n; i++) {
+        plans.p[i].base = (uint32_t)(all_cells - 1);
+        all_cells += plans.p[i].cells;
+    }
+    ok = ok && grow((void **)&t->start, &t->cap_cells, all_cells, sizeof *t->start);
     PlanKey *keys = ok && plans.n ? malloc(plans.n * sizeof *keys) : NULL;
     uint32_t *order = ok && plans.n ? malloc(plans.n * sizeof *order) : NULL;
     ok = ok && (plans.n == 0 || (keys && order));
@@ -684,14 +731,23 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
         job->plans = &plans;
         job->order = order;
         job->pbox = (const float (*)[6])pbox;
+        job->start = t->start;
         par_for((int)plans.n, fill_chunk, job);
     }
+    /* t->items at its final size at once (append_leaf's grow then never moves it):
+     * doubled from 1024, it was copied into fresh pages each time. */
+    size_t all_items = t->num_items;
+    for (size_t i = 0; ok && i < plans.n; i++) {
+        ok = plans.p[i].ok;
+        if (ok)
+            all_items += (size_t)plans.p[i].npairs + plans.p[i].nbig;
+    }
+    ok = ok && (all_items == 0 ||
+                grow((void **)&t->items, &t->cap_items, all_items, sizeof *t->items));
     for (size_t i = 0; ok && i < plans.n; i++)
         ok = plans.p[i].ok && append_leaf(t, &plans.p[i], plans.small + plans.p[i].small0);
-    for (size_t i = 0; i < plans.n; i++) {
-        free(plans.p[i].start);
+    for (size_t i = 0; i < plans.n; i++)
         free(plans.p[i].items);
-    }
     free(plans.p);
     free(plans.small);
     free(keys);

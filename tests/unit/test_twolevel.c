@@ -14,6 +14,7 @@
 #include "rt/geom.h"
 #include "rt/grid.h"
 #include "rt/material.h"
+#include "rt/par.h"
 #include "rt/prim.h"
 #include "rt/ray_tree.h"
 #include "rt/scene.h"
@@ -628,6 +629,130 @@ static void test_shrinking_transform_tmin(void)
     arena_free(&s.arena);
 }
 
+/* The build's whole structure (top resolution, every leaf grid's box, resolution,
+ * padding and large entries, every leaf cell's offset and entry, which top cell has
+ * which leaf grid), hashed (FNV-1a over the bytes, floats by their bits) on 6 small
+ * stadiums (stadium_make: made the same by any compiler), with 1 and 2 set-up
+ * threads. Pinned to the value of main at 605775a (before the build wrote its offsets
+ * in place and read the estimate's boxes in place): the -stats counts of -grid auto
+ * depend on every part of it, so a change of the build's code must leave it as is. */
+static uint64_t fnv(uint64_t h, const void *p, size_t n)
+{
+    const unsigned char *b = p;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ b[i]) * 1099511628211u;
+    return h;
+}
+
+static uint64_t structure_hash(const TwoLevelGrid *t, uint64_t h)
+{
+    const Grid *g = t->top;
+    h = fnv(h, g->n, sizeof g->n);
+    h = fnv(h, t->sub_of, (size_t)g->num_cells * sizeof *t->sub_of);
+    h = fnv(h, &t->num_subs, sizeof t->num_subs);
+    for (uint32_t s = 0; s < t->num_subs; s++) {
+        const SubGrid *sg = &t->subs[s];
+        float f[6] = {sg->box.min.x, sg->box.min.y, sg->box.min.z,
+                      sg->box.max.x, sg->box.max.y, sg->box.max.z};
+        h = fnv(h, f, sizeof f);
+        h = fnv(h, sg->n, sizeof sg->n);
+        h = fnv(h, sg->pad, sizeof sg->pad);
+        h = fnv(h, sg->size, sizeof sg->size);
+        h = fnv(h, sg->inv_size, sizeof sg->inv_size);
+        h = fnv(h, sg->slab_lo, sizeof sg->slab_lo);
+        h = fnv(h, sg->slab_hi, sizeof sg->slab_hi);
+        h = fnv(h, &sg->min_pad, sizeof sg->min_pad);
+        uint32_t u[3] = {sg->base, sg->big_start, sg->big_count};
+        h = fnv(h, u, sizeof u);
+    }
+    uint64_t nc = t->num_cells, ni = t->num_items;
+    h = fnv(h, &nc, sizeof nc);
+    h = fnv(h, &ni, sizeof ni);
+    if (t->num_subs) {
+        h = fnv(h, t->start, (t->num_cells + 1) * sizeof *t->start);
+        h = fnv(h, t->items, t->num_items * sizeof *t->items);
+    }
+    return h;
+}
+
+/* A small stadium: 16 floor triangles first in the scene (so these large entries head
+ * the top cell's list), a far corner stretching the box, and a flat cluster of small
+ * triangles above the floor, with long slivers across it when slivers > 0. The leaf
+ * grid's fit must estimate its entries from the small entries' boxes only: the floor's
+ * would put a whole layer of leaf cells per large entry into the estimate and shrink
+ * the grid. */
+static void stadium_make(UScene *u, int slivers)
+{
+    memset(u, 0, sizeof *u);
+    arena_init(&u->s.arena);
+    PhongParams pp = phong_defaults();
+    u->mats[0] = u->mats[1] = u->mats[2] = phong_new(&u->s.arena, &pp);
+    Arena *a = &u->s.arena;
+    const Material *m = u->mats[0];
+    Object3D *root = group_new(a, 17 + 300 + slivers);
+    int k = 0;
+    for (int i = 0; i < 16; i++) {
+        float y = 0.001f * (float)i, e = 40.0f - 0.5f * (float)i;
+        group_set_child(root, k++, triangle_new(a, v3(-e, y, -e), v3(e, y, -e), v3(e, y, e), m));
+    }
+    group_set_child(root, k++, triangle_new(a, v3(39, 20, 39), v3(40, 20, 39), v3(40, 20, 40), m));
+    /* One draw per statement: the order of a call's arguments is the compiler's, and
+     * the hash below is pinned, so the scene must not depend on it. */
+    float r[6];
+    for (int i = 0; i < 300 + slivers; i++) {
+        for (int j = 0; j < 6; j++)
+            r[j] = frand(-1, 1);
+        Vec3 p = v3(0.3f + r[0], 0.3f + 0.01f * (r[1] + 1), 0.2f + r[2]);
+        Vec3 q1, q2;
+        if (i < 300) { /* small */
+            q1 = v3(p.x + 0.025f * (r[3] + 1), p.y, p.z);
+            q2 = v3(p.x, p.y + 0.01f, p.z + 0.025f * (r[4] + 1));
+        } else { /* a sliver across the cluster */
+            q1 = v3(0.3f + r[3], 0.3f + 0.01f * (r[4] + 1), 0.2f + r[5]);
+            q2 = v3(q1.x, q1.y + 0.01f, q1.z + 0.01f);
+        }
+        group_set_child(root, k++, triangle_new(a, p, q1, q2, m));
+    }
+    group_finish(root);
+    u->s.root = root;
+    u->s.num_primitives = group_assign_ids(root);
+    u->s.bounds = root->bounded ? root->bbox : bbox_empty();
+}
+
+static void test_structure_pinned(void)
+{
+    const uint64_t want = UINT64_C(0xe8b12f3ec2b0ae3c);
+    for (int helpers = 0; helpers <= 1; helpers++) {
+        par_set_helpers(helpers);
+        uint64_t h = 14695981039346656037u;
+        uint32_t subs = 0;
+        for (int seed = 0; seed < 6; seed++) {
+            rng_state = (uint64_t)seed * 7919u + 11u;
+            UScene u;
+            stadium_make(&u, 20 * seed);
+            Diag d;
+            diag_init(&d, stderr);
+            PrimTable table;
+            CHECK(prim_table_build(&table, &u.s));
+            TwoLevelGrid *t = twolevel_build(&table, &d);
+            CHECK(t != NULL);
+            if (t) {
+                subs += t->num_subs;
+                h = structure_hash(t, h);
+                twolevel_free(t);
+            }
+            prim_table_free(&table);
+            arena_free(&u.s.arena);
+        }
+        printf("    %d set-up thread(s): %u leaf grids, structure hash %016llx\n", 1 + helpers,
+               subs, (unsigned long long)h);
+        CHECK(subs >= 6);
+        CHECK_MSG(h == want, "structure hash %016llx, pinned %016llx", (unsigned long long)h,
+                  (unsigned long long)want);
+    }
+    par_set_helpers(-1);
+}
+
 static const TestCase tests[] = {
     {"twolevel_uneven_scenes_match_brute_force", test_uneven_scenes},
     {"twolevel_leaf_cells_exact", test_leaf_cells},
@@ -635,6 +760,7 @@ static const TestCase tests[] = {
     {"twolevel_planes_only_no_grid", test_planes_only},
     {"twolevel_triangle_edge_tolerance", test_edge_tolerance},
     {"twolevel_shrinking_transform_tmin", test_shrinking_transform_tmin},
+    {"twolevel_structure_pinned", test_structure_pinned},
 };
 
 RT_TEST_MAIN(tests)
