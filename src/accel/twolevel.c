@@ -735,12 +735,22 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
         par_for((int)plans.n, fill_chunk, job);
     }
     /* t->items at its final size at once (append_leaf's grow then never moves it):
-     * doubled from 1024, it was copied into fresh pages each time. */
+     * doubled from 1024, it was copied into fresh pages each time. The fills are done
+     * with the boxes, so it takes their array's memory, already faulted in (~1 MB for
+     * 40k triangles; t->items is about half that). */
     size_t all_items = t->num_items;
     for (size_t i = 0; ok && i < plans.n; i++) {
         ok = plans.p[i].ok;
         if (ok)
             all_items += (size_t)plans.p[i].npairs + plans.p[i].nbig;
+    }
+    if (ok && all_items && !t->items) {
+        uint32_t *it = realloc(pbox, all_items * sizeof *t->items);
+        if (it) {
+            pbox = NULL;
+            t->items = it;
+            t->cap_items = all_items;
+        }
     }
     ok = ok && (all_items == 0 ||
                 grow((void **)&t->items, &t->cap_items, all_items, sizeof *t->items));
