@@ -9,6 +9,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "rt/cpu.h"
 #include "rt/geom.h"
 #include "rt/options.h" /* RT_GRID_MAX_CELLS */
 
@@ -71,11 +72,14 @@ static inline RaySimd ray_simd(const Ray *ray, float tmin)
     return r;
 }
 
-/* Tests batch->p[0..3]; returns the lane mask of hits with t > tmin and t[] per lane. */
-static inline int batch_test(const Grid *g, const TriBatch *b, const RaySimd *r, float t[4])
+/* Tests packed triangles p0..p3; returns the lane mask of hits with t > tmin and their
+ * t's in *tout. */
+static inline __attribute__((always_inline)) int tri4_test(const Grid *g, uint32_t p0,
+                                                          uint32_t p1, uint32_t p2,
+                            uint32_t p3, const RaySimd *r, __m128 *tout)
 {
-    const float *t0 = (const float *)&g->tri[b->p[0]], *t1 = (const float *)&g->tri[b->p[1]];
-    const float *t2 = (const float *)&g->tri[b->p[2]], *t3 = (const float *)&g->tri[b->p[3]];
+    const float *t0 = (const float *)&g->tri[p0], *t1 = (const float *)&g->tri[p1];
+    const float *t2 = (const float *)&g->tri[p2], *t3 = (const float *)&g->tri[p3];
     __m128 a0 = _mm_load_ps(t0), a1 = _mm_load_ps(t1), a2 = _mm_load_ps(t2), a3 = _mm_load_ps(t3);
     _MM_TRANSPOSE4_PS(a0, a1, a2, a3); /* v0x v0y v0z e1x */
     __m128 b0 = _mm_load_ps(t0 + 4), b1 = _mm_load_ps(t1 + 4), b2 = _mm_load_ps(t2 + 4),
@@ -96,8 +100,17 @@ static inline int batch_test(const Grid *g, const TriBatch *b, const RaySimd *r,
     ok = _mm_and_ps(ok, _mm_cmpge_ps(v, lo));
     ok = _mm_and_ps(ok, _mm_cmple_ps(_mm_add_ps(u, v), hi));
     ok = _mm_and_ps(ok, _mm_cmpgt_ps(tt, r->tmin));
-    _mm_storeu_ps(t, tt);
+    *tout = tt;
     return _mm_movemask_ps(ok);
+}
+
+/* Tests batch->p[0..3]; returns the lane mask of hits with t > tmin and t[] per lane. */
+static inline int batch_test(const Grid *g, const TriBatch *b, const RaySimd *r, float t[4])
+{
+    __m128 tt;
+    int mask = tri4_test(g, b->p[0], b->p[1], b->p[2], b->p[3], r, &tt);
+    _mm_storeu_ps(t, tt);
+    return mask;
 }
 
 /* Offers the batch's hits to hit (nearest-hit query). */
@@ -460,6 +473,102 @@ static inline __attribute__((always_inline)) MarchStart march_start(const Grid *
     return MARCH_CELLS;
 }
 
+#if RT_GRID_SIMD
+/* test_items when every entry is a packed triangle (g->all_tri): the entries four at a
+ * time as they stand in the list, each group's lanes masked by the mailbox instead of
+ * being gathered into a batch one entry at a time, and the last one to three entries
+ * of a list tested as a masked group instead of one by one. The same tests in the same
+ * order as test_items' batches and scalar tail (the tested entries in list order), so
+ * the same hits and the same intersection counts: a nearest-hit query offers every
+ * hit lane to hit_accepts (whose choice does not depend on the order of the offers);
+ * a shadow query counts the tested lanes up to and including its first occluder, as
+ * batch_occluded and the scalar tail do. What differs is the mailbox's bookkeeping:
+ * a group's lanes are stamped and its skips counted before its test, so a shadow query
+ * that stops in a group has also counted the skipped lanes after its occluder
+ * (mailbox_skips only; the -stats block does not show it). Lanes past the list's end
+ * repeat its first entry of the group and are masked off. */
+/* Set bits of a 4-bit lane mask (the build has no popcnt instruction: the builtin is a
+ * library call). */
+static inline int lanes_count(int m)
+{
+    return (int)((0x4332322132212110ull >> (4 * (m & 15))) & 15);
+}
+
+static inline __attribute__((always_inline)) bool test_groups(const Grid *g,
+                                                               const uint32_t *items,
+                                                               uint32_t n, Hit *hit,
+                                                               RenderCtx *ctx, uint32_t *mb,
+                                                               uint32_t stamp,
+                                                               const RaySimd *rs, bool any)
+{
+    bool found = false;
+    uint64_t tests = 0, seen_total = 0;
+    for (uint32_t e = 0; e < n; e += 4) {
+        uint32_t left = n - e;
+        uint32_t p0 = GRID_ITEM_INDEX(items[e]);
+        uint32_t p1 = left > 1 ? GRID_ITEM_INDEX(items[e + 1]) : p0;
+        uint32_t p2 = left > 2 ? GRID_ITEM_INDEX(items[e + 2]) : p0;
+        uint32_t p3 = left > 3 ? GRID_ITEM_INDEX(items[e + 3]) : p0;
+        int lanes = left >= 4 ? 15 : (1 << left) - 1;
+        int valid = lanes;
+        if (mb) {
+            /* A list names a primitive at most once, so the four lookups are
+             * independent: all read before any stamp is written. */
+            int seen = (mb[p0] == stamp) | (mb[p1] == stamp) << 1 | (mb[p2] == stamp) << 2 |
+                       (mb[p3] == stamp) << 3;
+            seen &= lanes;
+            mb[p0] = stamp;
+            mb[p1] = stamp;
+            mb[p2] = stamp;
+            mb[p3] = stamp;
+            seen_total += (uint64_t)lanes_count(seen);
+            if (g->marking)
+                valid &= ~seen;
+        }
+        if (!valid)
+            continue;
+        __m128 tt;
+        int mask = tri4_test(g, p0, p1, p2, p3, rs, &tt) & valid;
+        if (any) {
+            /* hit_accepts against (tmax, id 0): exactly t < tmax */
+            int occ = mask & _mm_movemask_ps(_mm_cmplt_ps(tt, _mm_set1_ps(hit->t)));
+            if (occ) {
+                int below = (2 << __builtin_ctz((unsigned)occ)) - 1;
+                tests += (uint64_t)lanes_count(valid & below);
+                found = true;
+                break;
+            }
+            tests += (uint64_t)lanes_count(valid);
+            continue;
+        }
+        tests += (uint64_t)lanes_count(valid);
+        if (!mask)
+            continue;
+        float t[4];
+        _mm_storeu_ps(t, tt);
+        const uint32_t p[4] = {p0, p1, p2, p3};
+        do {
+            int i = __builtin_ctz((unsigned)mask);
+            mask &= mask - 1;
+            uint32_t id = g->tri[p[i]].id;
+            if (!hit_accepts(hit, t[i], id))
+                continue;
+            hit->t = t[i];
+            hit->normal = g->tri_hit[p[i]].normal;
+            hit->material = g->tri_hit[p[i]].material;
+            hit->id = id;
+            found = true;
+        } while (mask);
+    }
+    ctx->stats.intersections += tests;
+    if (g->marking)
+        ctx->stats.mailbox_skips += seen_total;
+    else
+        ctx->stats.repeat_tests += seen_total;
+    return found;
+}
+#endif
+
 /* The one cell loop of both queries: tests the entries (cell_items format) not yet
  * tested for this ray, packed triangles four at a time. any (a constant at each call, so each
  * query gets its own copy of the loop): return at the first hit, the shadow query's
@@ -475,6 +584,8 @@ static inline __attribute__((always_inline)) bool test_items(const Grid *g,
     bool found = false;
 #if RT_GRID_SIMD
     const RaySimd *rs = rsimd;
+    if (g->all_tri)
+        return test_groups(g, items, n, hit, ctx, mb, stamp, rs, any);
     TriBatch batch;
     batch.n = 0;
 #else
@@ -565,18 +676,55 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
     return found;
 }
 
+/* The march and cell loop compiled a second time for AVX2 CPUs (this file's baseline is
+ * SSE2). The code is the same C: the same 4-lane SSE operations and scalar float
+ * operations in the same order, without FMA (no fma target, so nothing is contracted),
+ * hence the same bits; the AVX encoding's three-operand forms drop most of the
+ * register copies the two-operand SSE forms need (line 07 with -stats: see
+ * bench/REPORT.txt, line22). grid_cast_path_set(0) (tests) keeps the baseline copy. */
+static int cast_path_cap = 1;
+
+void grid_cast_path_set(int cap) { cast_path_cap = cap; }
+
+#if defined(RT_CPU_X86) && RT_GRID_SIMD
+#define RT_CAST_AVX2 1
+__attribute__((target("avx2"))) static bool march_intersect_avx2(const Grid *g,
+                                                                 const Ray *ray, Hit *hit,
+                                                                 float tmin, RenderCtx *ctx)
+{
+    return march_intersect(g, ray, hit, tmin, ctx);
+}
+#else
+#define RT_CAST_AVX2 0
+#endif
+
+static inline bool cast_avx2(void) { return RT_CAST_AVX2 && cast_path_cap >= 1 && cpu_has_avx2(); }
+
+/* march_intersect in the copy for this CPU. */
+static inline __attribute__((always_inline)) bool march_intersect_isa(const Grid *g,
+                                                                      const Ray *ray,
+                                                                      Hit *hit, float tmin,
+                                                                      RenderCtx *ctx)
+{
+#if RT_CAST_AVX2
+    if (cast_avx2())
+        return march_intersect_avx2(g, ray, hit, tmin, ctx);
+#endif
+    return march_intersect(g, ray, hit, tmin, ctx);
+}
+
 bool grid_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx)
 {
     bool found = false;
     /* 1. Infinite primitives first: their hit bounds the march (early rejection). */
     for (uint32_t u = 0; u < g->num_unbounded; u++)
         found |= grid_test_prim(&g->unbounded[u], ray, hit, tmin, ctx);
-    return march_intersect(g, ray, hit, tmin, ctx) || found;
+    return march_intersect_isa(g, ray, hit, tmin, ctx) || found;
 }
 
 bool grid_march_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx)
 {
-    return march_intersect(g, ray, hit, tmin, ctx);
+    return march_intersect_isa(g, ray, hit, tmin, ctx);
 }
 
 /* The shadow query: the same march and cell loop, stopping at the first occluder
@@ -619,6 +767,29 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
     return false;
 }
 
+#if RT_CAST_AVX2
+__attribute__((target("avx2"))) static bool march_occluded_avx2(const Grid *g,
+                                                                const Ray *ray, Hit *hp,
+                                                                float tmin, float tmax,
+                                                                RenderCtx *ctx)
+{
+    return march_occluded(g, ray, hp, tmin, tmax, ctx);
+}
+#endif
+
+/* march_occluded in the copy for this CPU. */
+static inline __attribute__((always_inline)) bool march_occluded_isa(const Grid *g,
+                                                                     const Ray *ray, Hit *hp,
+                                                                     float tmin, float tmax,
+                                                                     RenderCtx *ctx)
+{
+#if RT_CAST_AVX2
+    if (cast_avx2())
+        return march_occluded_avx2(g, ray, hp, tmin, tmax, ctx);
+#endif
+    return march_occluded(g, ray, hp, tmin, tmax, ctx);
+}
+
 bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx)
 {
     /* hit_accepts with t = tmax and id 0 takes exactly the hits with t < tmax. */
@@ -628,7 +799,7 @@ bool grid_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, Render
     for (uint32_t u = 0; u < g->num_unbounded; u++)
         if (grid_occluded_prim(&g->unbounded[u], ray, tmin, tmax, ctx))
             return true;
-    return march_occluded(g, ray, &h, tmin, tmax, ctx);
+    return march_occluded_isa(g, ray, &h, tmin, tmax, ctx);
 }
 
 bool grid_march_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx)
@@ -636,7 +807,7 @@ bool grid_march_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, 
     Hit h = hit_none();
     h.t = tmax;
     h.id = 0;
-    return march_occluded(g, ray, &h, tmin, tmax, ctx);
+    return march_occluded_isa(g, ray, &h, tmin, tmax, ctx);
 }
 
 /* ---- entries of a list, for accelerators built on the grid's entries (twolevel.c) ---- */

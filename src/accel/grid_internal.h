@@ -99,6 +99,10 @@ struct Grid {
     PackedTri *tri;
     TriHit *tri_hit;        /* per packed triangle */
     bool packing_off;       /* grid_set_packing(g, false): every entry via its ops */
+    /* Every entry of cell_items (and of a two-level grid's lists over this grid) is
+     * tagged GRID_ITEM_TRI: the single-ray cell loop then tests entries in groups of
+     * four as they stand (grid_cast.c, test_groups). Set by grid_all_tri_update. */
+    bool all_tri;
 
     /* Non-NULL: cell_start, cell_items and tri are read-only memory of this set-up
      * cache (grid_cache.c), held until grid_free (tri_hit, which holds this process's
@@ -118,6 +122,9 @@ const uint32_t *grid_course_counts(const Grid *g);
 /* Tag bit on cell_items entries: the primitive is a packed triangle. */
 #define GRID_ITEM_TRI 0x80000000u
 #define GRID_ITEM_INDEX(e) ((e) & ~GRID_ITEM_TRI)
+
+/* grid_pack.c: g->all_tri from cell_items (after they are tagged or retagged). */
+void grid_all_tri_update(Grid *g);
 
 /* grid_cache.c (-cache): the grid of key from c over t, NULL when c has none (or a
  * section that does not fit t); and the built grid g added to c under key. req is the
@@ -189,6 +196,9 @@ static inline bool grid_occluded_prim(const GridPrim *p, const Ray *ray, float t
 /* grid_cast.c, for the packet traversal (grid_packet.c): */
 /* grid_intersect / grid_occluded without the unbounded primitives (the caller tests
  * those first), for one ray. */
+/* Tests: 0 keeps the single-ray queries' baseline (SSE2) copy, 1 (the default) lets
+ * them take the AVX2 copy where the CPU has AVX2 (grid_cast.c). Set before a render. */
+void grid_cast_path_set(int cap);
 bool grid_march_intersect(const Grid *g, const Ray *ray, Hit *hit, float tmin, RenderCtx *ctx);
 bool grid_march_occluded(const Grid *g, const Ray *ray, float tmin, float tmax, RenderCtx *ctx);
 /* True when the ray starts so far out that the march's rounding could exceed the

@@ -219,6 +219,17 @@ void grid_set_packing(Grid *g, bool on)
         g->cell_items[e] = (on && packable) ? (p | GRID_ITEM_TRI) : p;
     }
     g->packing_off = !on;
+    grid_all_tri_update(g);
+}
+
+void grid_all_tri_update(Grid *g)
+{
+    bool all = g->tri != NULL && !g->packing_off;
+    size_t n = g->cell_start ? g->cell_start[g->num_cells] : 0;
+    uint32_t and_all = GRID_ITEM_TRI;
+    for (size_t e = 0; all && e < n; e++)
+        and_all &= g->cell_items[e];
+    g->all_tri = all && and_all != 0;
 }
 
 bool grid_packing(const Grid *g) { return g->tri && !g->packing_off; }
@@ -236,6 +247,7 @@ void grid_occupancy_make(Grid *g)
             occ[c >> 6] |= (uint64_t)(start[c + 1] != start[c]) << (c & 63);
     }
     g->occupied = occ;
+    grid_all_tri_update(g);
     /* Prefetching pays where the packed triangles outgrow the caches (blob's
      * measurements in bench/REPORT.txt); below, it is only instructions. */
     g->prefetch_tri = g->tri && (size_t)g->num_prims * sizeof *g->tri > GRID_PREFETCH_BYTES;

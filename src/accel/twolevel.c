@@ -769,6 +769,11 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
     free(pbox);
     if (!ok)
         goto oom;
+    /* The leaf lists are copies of the top grid's entries; the group loop also needs
+     * them all tagged (grid_internal.h, all_tri). */
+    for (size_t e = 0; g->all_tri && e < t->num_items; e++)
+        if (!(t->items[e] & GRID_ITEM_TRI))
+            g->all_tri = false;
     return t;
 oom:
     twolevel_free(t);

@@ -848,6 +848,149 @@ static void test_lattice_ties(void)
     arena_free(&s.arena);
 }
 
+/* The group loop (test_groups: every entry a packed triangle, g->all_tri) against the
+ * batch loop it replaces (all_tri cleared) and the brute-force walk, on all-triangle
+ * scenes (separate triangles, meshes with shared edges and vertices, triangles on cell
+ * border planes, a cluster of many small ones so cells hold 1 to 20 entries): every
+ * nearest hit (bits) and occlusion, and the -stats counts (intersections, cells
+ * traversed) of each query, in both copies of the single-ray queries (baseline and, on
+ * an AVX2 CPU, AVX2), with marking on and off and without a mailbox. */
+static Object3D *tri_leaf(RScene *r)
+{
+    Arena *a = &r->s.arena;
+    const Material *m = r->mats[irand(4)];
+    int choice = irand(6);
+    if (choice == 0)
+        return random_mesh(r, true);
+    if (choice == 1) {
+        float y = (float)irand(5) * 0.5f - 1.0f;
+        Vec3 c = vrand(-2, 2);
+        return triangle_new(a, v3(c.x, y, c.z), v3(c.x + 1, y, c.z), v3(c.x, y, c.z + 1), m);
+    }
+    Vec3 c = choice == 2 ? vrand(-0.5f, 0.5f) : vrand(-2, 2);
+    float sz = choice == 2 ? frand(0.02f, 0.2f) : frand(0.1f, 1.5f);
+    return triangle_new(a, v3_add(c, vrand(-sz, sz)), v3_add(c, vrand(-sz, sz)),
+                        v3_add(c, vrand(-sz, sz)), m);
+}
+
+static void tri_scene(RScene *r, int num_objects)
+{
+    memset(r, 0, sizeof *r);
+    arena_init(&r->s.arena);
+    for (int i = 0; i < 4; i++) {
+        PhongParams p = phong_defaults();
+        p.diffuse = vrand(0, 1);
+        r->mats[i] = phong_new(&r->s.arena, &p);
+    }
+    Object3D *root = group_new(&r->s.arena, num_objects);
+    for (int i = 0; i < num_objects; i++)
+        group_set_child(root, i, tri_leaf(r));
+    group_finish(root);
+    r->s.root = root;
+    r->s.num_primitives = group_assign_ids(root);
+    r->s.bounds = root->bounded ? root->bbox : bbox_empty();
+}
+
+/* One query with the group loop or the batch loop, in cast path copy `path`. */
+static bool groups_query(Grid *g, RenderCtx *ctx, bool groups, int path, const TestRay *tr,
+                         float tmax, bool occl, Hit *h, RtStats *delta)
+{
+    bool saved = g->all_tri;
+    g->all_tri = groups && saved;
+    grid_cast_path_set(path);
+    RtStats before = ctx->stats;
+    *h = hit_none();
+    bool f = occl ? grid_occluded(g, &tr->ray, tr->tmin, tmax, ctx)
+                  : grid_intersect(g, &tr->ray, h, tr->tmin, ctx);
+    delta->intersections = ctx->stats.intersections - before.intersections;
+    delta->cells_traversed = ctx->stats.cells_traversed - before.cells_traversed;
+    grid_cast_path_set(1);
+    g->all_tri = saved;
+    return f;
+}
+
+static void test_group_loop(void)
+{
+    long queries = 0, groups_used = 0, hits = 0, occluded = 0;
+    for (int seed = 1; seed <= 10; seed++) {
+        rng_state = (uint64_t)seed * 104729u + 5u;
+        RScene r;
+        tri_scene(&r, 30 + 25 * seed);
+        static const int res[][3] = {{1, 1, 1}, {4, 7, 3}, {12, 12, 12}, {31, 17, 26}};
+        for (size_t ri = 0; ri < sizeof res / sizeof res[0]; ri++) {
+            Diag d;
+            diag_init(&d, stderr);
+            Grid *g = grid_build(&r.s, res[ri][0], res[ri][1], res[ri][2], &d);
+            CHECK(g != NULL);
+            if (!g)
+                continue;
+            CHECK_MSG(g->all_tri, "an all-triangle scene's grid must take the group loop");
+            groups_used += g->all_tri;
+            for (int mode = 0; mode < 3; mode++) { /* marking, no marking, no mailbox */
+                grid_set_marking(g, mode != 1);
+                RenderCtx ctx;
+                grid_test_ctx(&ctx, g, false);
+                if (mode == 2) {
+                    free(ctx.mailbox);
+                    ctx.mailbox = NULL;
+                }
+                for (int i = 0; i < 300; i++) {
+                    TestRay tr = random_ray(&r, g);
+                    for (int occl = 0; occl < 2; occl++) {
+                        float tmax = frand(0.0f, 12.0f);
+                        if (occl && !isfinite(tr.tmin))
+                            tr.tmin = 0.0f;
+                        Hit hb = hit_none();
+                        hb.t = occl ? tmax : INFINITY;
+                        hb.id = 0;
+                        RenderCtx bctx;
+                        memset(&bctx, 0, sizeof bctx);
+                        bool fb = obj_intersect(r.s.root, &tr.ray, &hb, tr.tmin, &bctx);
+                        Hit href;
+                        RtStats sref;
+                        bool fref = groups_query(g, &ctx, false, 0, &tr, tmax, occl, &href,
+                                                 &sref);
+                        CHECK(fref == fb && (occl || !fb || same_hit(&href, &hb)));
+                        for (int path = 0; path < 2; path++) {
+                            Hit hq;
+                            RtStats sq;
+                            bool fq = groups_query(g, &ctx, true, path, &tr, tmax, occl, &hq,
+                                                   &sq);
+                            CHECK_MSG(fq == fref && (occl || !fq || same_hit(&hq, &href)),
+                                      "groups (path %d) %s: %d t=%.9g id=%u, batches %d "
+                                      "t=%.9g id=%u",
+                                      path, occl ? "occluded" : "hit", fq, (double)hq.t, hq.id,
+                                      fref, (double)href.t, href.id);
+                            CHECK_MSG(sq.intersections == sref.intersections &&
+                                          sq.cells_traversed == sref.cells_traversed,
+                                      "groups (path %d, mode %d) %s: %llu tests %llu cells, "
+                                      "batches %llu tests %llu cells",
+                                      path, mode, occl ? "occluded" : "hit",
+                                      (unsigned long long)sq.intersections,
+                                      (unsigned long long)sq.cells_traversed,
+                                      (unsigned long long)sref.intersections,
+                                      (unsigned long long)sref.cells_traversed);
+                        }
+                        queries++;
+                        if (fb && occl)
+                            occluded++;
+                        else if (fb)
+                            hits++;
+                    }
+                }
+                grid_test_ctx_free(&ctx);
+                ctx.mailbox = NULL;
+            }
+            grid_free(g);
+        }
+        arena_free(&r.s.arena);
+    }
+    printf("    %ld queries (%ld hits, %ld occluded) on %ld all-triangle grids\n", queries,
+           hits, occluded, groups_used);
+    CHECK(queries == 10L * 4 * 3 * 300 * 2);
+    CHECK(hits > queries / 20 && occluded > queries / 20);
+}
+
 static const TestCase tests[] = {
     {"tile_order", test_tile_order},
     {"random_scenes_marking_on", test_random_scenes_marking_on},
@@ -855,6 +998,7 @@ static const TestCase tests[] = {
     {"no_mailbox", test_no_mailbox},
     {"shrinking_transform_tmin", test_shrinking_transform_tmin},
     {"lattice_ties", test_lattice_ties},
+    {"group_loop", test_group_loop},
 };
 
 RT_TEST_MAIN(tests)
