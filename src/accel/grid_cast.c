@@ -502,46 +502,62 @@ static inline __attribute__((always_inline)) bool test_groups(const Grid *g,
                                                                const RaySimd *rs, bool any)
 {
     bool found = false;
-    uint64_t tests = 0, seen_total = 0;
-    for (uint32_t e = 0; e < n; e += 4) {
+    /* Lanes before the current group and their mailbox hits: the tests made are the
+     * lanes so far less the skipped ones (with marking). */
+    uint32_t e = 0;
+    uint64_t seen_total = 0, seen_cur = 0, tests_here = 0;
+    __m128i stamps = _mm_set1_epi32((int)stamp);
+    for (; e < n; e += 4) {
         uint32_t left = n - e;
-        uint32_t p0 = GRID_ITEM_INDEX(items[e]);
-        uint32_t p1 = left > 1 ? GRID_ITEM_INDEX(items[e + 1]) : p0;
-        uint32_t p2 = left > 2 ? GRID_ITEM_INDEX(items[e + 2]) : p0;
-        uint32_t p3 = left > 3 ? GRID_ITEM_INDEX(items[e + 3]) : p0;
-        int lanes = left >= 4 ? 15 : (1 << left) - 1;
+        uint32_t p0 = GRID_ITEM_INDEX(items[e]), p1, p2, p3;
+        int lanes;
+        if (left >= 4) {
+            p1 = GRID_ITEM_INDEX(items[e + 1]);
+            p2 = GRID_ITEM_INDEX(items[e + 2]);
+            p3 = GRID_ITEM_INDEX(items[e + 3]);
+            lanes = 15;
+        } else {
+            p1 = left > 1 ? GRID_ITEM_INDEX(items[e + 1]) : p0;
+            p2 = left > 2 ? GRID_ITEM_INDEX(items[e + 2]) : p0;
+            p3 = p0;
+            lanes = (1 << left) - 1;
+        }
         int valid = lanes;
         if (mb) {
             /* A list names a primitive at most once, so the four lookups are
              * independent: all read before any stamp is written. */
-            int seen = (mb[p0] == stamp) | (mb[p1] == stamp) << 1 | (mb[p2] == stamp) << 2 |
-                       (mb[p3] == stamp) << 3;
-            seen &= lanes;
+            __m128i st = _mm_set_epi32((int)mb[p3], (int)mb[p2], (int)mb[p1], (int)mb[p0]);
+            int seen = _mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(st, stamps))) & lanes;
             mb[p0] = stamp;
             mb[p1] = stamp;
             mb[p2] = stamp;
             mb[p3] = stamp;
-            seen_total += (uint64_t)lanes_count(seen);
-            if (g->marking)
-                valid &= ~seen;
+            seen_cur = 0;
+            if (seen) {
+                seen_cur = (uint64_t)lanes_count(seen);
+                seen_total += seen_cur;
+                if (g->marking) {
+                    valid &= ~seen;
+                    if (!valid)
+                        continue;
+                }
+            }
         }
-        if (!valid)
-            continue;
         __m128 tt;
         int mask = tri4_test(g, p0, p1, p2, p3, rs, &tt) & valid;
         if (any) {
             /* hit_accepts against (tmax, id 0): exactly t < tmax */
             int occ = mask & _mm_movemask_ps(_mm_cmplt_ps(tt, _mm_set1_ps(hit->t)));
             if (occ) {
+                /* This group's tests up to and including the occluder; its skips were
+                 * counted above, its tested lanes are counted here. */
                 int below = (2 << __builtin_ctz((unsigned)occ)) - 1;
-                tests += (uint64_t)lanes_count(valid & below);
+                tests_here = (uint64_t)lanes_count(valid & below);
                 found = true;
                 break;
             }
-            tests += (uint64_t)lanes_count(valid);
             continue;
         }
-        tests += (uint64_t)lanes_count(valid);
         if (!mask)
             continue;
         float t[4];
@@ -560,7 +576,12 @@ static inline __attribute__((always_inline)) bool test_groups(const Grid *g,
             found = true;
         } while (mask);
     }
-    ctx->stats.intersections += tests;
+    /* The tests: every lane of the groups before e less (with marking) their skips;
+     * at a shadow query's stop, e is the stopping group's start, whose skips (seen_cur)
+     * are in seen_total and whose tests up to the occluder are tests_here. */
+    bool stopped = any && found;
+    uint64_t skipped = g->marking ? seen_total - (stopped ? seen_cur : 0) : 0;
+    ctx->stats.intersections += (stopped ? e : n) - skipped + tests_here;
     if (g->marking)
         ctx->stats.mailbox_skips += seen_total;
     else
