@@ -44,6 +44,7 @@
 #error "PK_W is 8 or 16"
 #endif
 #define PK_NG (GRID_PACKET_MAX / PK_W)   /* ray groups of a packet */
+#define PK_BATCH 32                      /* a cell's entries culled at a time */
 #define PK_WMASK ((1u << PK_W) - 1u)     /* a group's bits in a 64-bit ray mask */
 
 /* A group's lanes, and the same types for reading and writing the Packet's columns
@@ -214,6 +215,19 @@ PK_INLINE uint64_t pk_cull(const TriBox *b, int U, int V, pk_f8 gu0, pk_f8 gu1, 
     return pk_group_rays[pk8_bits(over)];
 }
 
+/* One bit per group of `rays` with a ray in it (a group's top bit): sum each group's
+ * low bits with all ones below the top, so a carry reaches the top bit exactly when
+ * one of them is set, and or in the top bits themselves. */
+#if PK_W == 8
+#define PK_GROUP_LOW 0x7f7f7f7f7f7f7f7full
+#else
+#define PK_GROUP_LOW 0x7fff7fff7fff7fffull
+#endif
+PK_INLINE uint64_t pk_groups_of(uint64_t rays)
+{
+    return (((rays & PK_GROUP_LOW) + PK_GROUP_LOW) | rays) & ~PK_GROUP_LOW;
+}
+
 /* Packed triangle p against the rays of `want` (a 64-bit ray mask). */
 PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
 {
@@ -232,27 +246,30 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
         const pk_fv dx = pk_splat(pk->dir[0]), dy = pk_splat(pk->dir[1]),
                     dz = pk_splat(pk->dir[2]);
         RT_MT_DIR(pk_fv, one, dx, dy, dz, e1x, e1y, e1z, e2x, e2y, e2z, px, py, pz, det, inv);
-        const pk_iv det_ok = det != zero;
-        for (int gi = 0; gi < PK_NG; gi++) {
-            unsigned bits = (unsigned)(want >> (PK_W * gi)) & PK_WMASK;
-            if (!bits)
-                continue;
+        /* det is the same in every lane: det == 0 fails every lane's test. */
+        if (det[0] == 0.0f)
+            return;
+        const pk_fv tmax = pk_splat(pk->same_tmax); /* every lane's best_t */
+        /* Only the groups with rays to test, by their bits; a lane outside `want` is
+         * dropped from the answer's bits after the test (its lanes are harmless
+         * numbers, grid_packet.c). */
+        for (uint64_t gm = pk_groups_of(want); gm; gm &= gm - 1) {
+            const int gi = __builtin_ctzll(gm) / PK_W;
+            const unsigned bits = (unsigned)(want >> (PK_W * gi)) & PK_WMASK;
             RT_MT_ORIGIN(pk_fv, PKF(pk->o[0], gi), PKF(pk->o[1], gi), PKF(pk->o[2], gi), dx, dy,
                          dz, v0x, v0y, v0z, e1x, e1y, e1z, e2x, e2y, e2z, px, py, pz, inv, u, v,
                          t);
             /* hit_accepts against (tmax, id 0): exactly t < tmax (as below) */
-            pk_iv ok = det_ok & (u >= lo) & (v >= lo) & (u + v <= hi) & (t > tmin) &
-                       pk_lanes(bits) & (t < PKF(pk->best_t, gi));
-            unsigned hitb = pk_bits(ok);
+            pk_iv ok = (u >= lo) & (v >= lo) & (u + v <= hi) & (t > tmin) & (t < tmax);
+            unsigned hitb = pk_bits(ok) & bits;
             if (hitb)
                 pk->hit |= (uint64_t)hitb << (PK_W * gi);
         }
         return;
     }
-    for (int gi = 0; gi < PK_NG; gi++) {
-        unsigned bits = (unsigned)(want >> (PK_W * gi)) & PK_WMASK;
-        if (!bits)
-            continue;
+    for (uint64_t gm = pk_groups_of(want); gm; gm &= gm - 1) {
+        const int gi = __builtin_ctzll(gm) / PK_W;
+        const unsigned bits = (unsigned)(want >> (PK_W * gi)) & PK_WMASK;
         pk_fv dx = PKF(pk->d[0], gi), dy = PKF(pk->d[1], gi), dz = PKF(pk->d[2], gi);
         /* triangle_ray_t's formula, PK_W lanes wide (rt/geom.h) */
         RT_MOLLER_TRUMBORE(pk_fv, one, PKF(pk->o[0], gi), PKF(pk->o[1], gi), PKF(pk->o[2], gi),
@@ -421,12 +438,6 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                     uint32_t e = start[cell], end = start[cell + 1];
                     if (e == end)
                         continue;
-                    /* The cell's packed triangles on their way into the cache
-                     * together, instead of one miss after the other (on grids
-                     * whose triangles outgrow the cache, grid_internal.h). */
-                    if (prefetch)
-                        for (uint32_t f = e; f < end; f++)
-                            __builtin_prefetch(&prefetch[GRID_ITEM_INDEX(items[f])]);
                     uint64_t crossing = in;
                     if (!one_cell) {
                         crossing = 0;
@@ -440,62 +451,96 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                             crossing |= (uint64_t)(pk_bits(m) & bits) << (PK_W * gi);
                         }
                     }
-                    for (; e < end; e++) {
-                        uint32_t item = items[e];
-                        uint32_t p = GRID_ITEM_INDEX(item);
-                        uint64_t want = pk->shadow ? crossing & ~pk->hit : crossing;
-                        if (!want)
-                            break;
-                        if (item & GRID_ITEM_TRI) {
-                            if (!have_rects) {
-                                for (int gi = 0; gi < PK_NG; gi++) {
-                                    if (!((in >> (PK_W * gi)) & PK_WMASK))
-                                        continue;
-                                    int j = gi * (PK_W / 8);
-                                    gu0[j] = pk8_hmin(pk_lo8(ru0[gi]));
-                                    gu1[j] = pk8_hmax(pk_lo8(ru1[gi]));
-                                    gv0[j] = pk8_hmin(pk_lo8(rv0[gi]));
-                                    gv1[j] = pk8_hmax(pk_lo8(rv1[gi]));
+                    /* No ray left here (none crosses the cell, or every one that does
+                     * is occluded): the entries are not read. */
+                    if (!(pk->shadow ? crossing & ~pk->hit : crossing))
+                        continue;
+                    /* The cell's packed triangles on their way into the cache
+                     * together, instead of one miss after the other (on grids
+                     * whose triangles outgrow the cache, grid_internal.h). */
+                    if (prefetch)
+                        for (uint32_t f = e; f < end; f++)
+                            __builtin_prefetch(&prefetch[GRID_ITEM_INDEX(items[f])]);
+                    if (!have_rects) {
+                        for (int gi = 0; gi < PK_NG; gi++) {
+                            if (!((in >> (PK_W * gi)) & PK_WMASK))
+                                continue;
+                            int j = gi * (PK_W / 8);
+                            gu0[j] = pk8_hmin(pk_lo8(ru0[gi]));
+                            gu1[j] = pk8_hmax(pk_lo8(ru1[gi]));
+                            gv0[j] = pk8_hmin(pk_lo8(rv0[gi]));
+                            gv1[j] = pk8_hmax(pk_lo8(rv1[gi]));
 #if PK_W == 16
-                                    gu0[j + 1] = pk8_hmin(pk_hi8(ru0[gi]));
-                                    gu1[j + 1] = pk8_hmax(pk_hi8(ru1[gi]));
-                                    gv0[j + 1] = pk8_hmin(pk_hi8(rv0[gi]));
-                                    gv1[j + 1] = pk8_hmax(pk_hi8(rv1[gi]));
+                            gu0[j + 1] = pk8_hmin(pk_hi8(ru0[gi]));
+                            gu1[j + 1] = pk8_hmax(pk_hi8(ru1[gi]));
+                            gv0[j + 1] = pk8_hmin(pk_hi8(rv0[gi]));
+                            gv1[j + 1] = pk8_hmax(pk_hi8(rv1[gi]));
 #endif
-                                }
-                                have_rects = true;
-                            }
+                        }
+                        have_rects = true;
+                    }
+                    bool cell_done = false;
+                    while (e < end && !cell_done) {
+                        /* The cull first, for a batch of the cell's entries, without a
+                         * branch on its outcome: the entries some group keeps, in
+                         * order, with the rays that may hit them. */
+                        uint32_t kept[PK_BATCH];
+                        uint64_t kept_rays[PK_BATCH];
+                        int nkept = 0;
+                        uint32_t stop = end - e > PK_BATCH ? e + PK_BATCH : end;
+                        for (; e < stop; e++) {
+                            uint32_t item = items[e];
                             /* The cull: a group whose rectangle misses the triangle's
                              * padded box skips it here (and stays unmarked). */
-                            want &= pk_cull(&g->tri[p].box, U, V, gu0, gu1, gv0, gv1);
-                            if (!want)
-                                continue;
+                            uint64_t w = item & GRID_ITEM_TRI
+                                             ? pk_cull(&g->tri[GRID_ITEM_INDEX(item)].box, U, V,
+                                                       gu0, gu1, gv0, gv1)
+                                             : ~(uint64_t)0;
+                            kept[nkept] = item;
+                            kept_rays[nkept] = w & crossing;
+                            nkept += kept_rays[nkept] != 0;
                         }
-                        if (marks) {
-                            /* Packet marking: a ray that has tested p skips it. */
-                            PacketMark *pm = &marks->slot[p & (PK_MARK_SLOTS - 1)];
-                            if (pm->gen == gen && pm->prim == p) {
-                                uint64_t seen = pm->rays & want;
-                                if (g->marking) {
-                                    ctx->stats.mailbox_skips += (uint64_t)__builtin_popcountll(seen);
-                                    want &= ~seen;
-                                    if (!want)
-                                        continue;
-                                } else {
-                                    ctx->stats.repeat_tests += (uint64_t)__builtin_popcountll(seen);
+                        for (int j = 0; j < nkept; j++) {
+                            uint32_t item = kept[j];
+                            uint32_t p = GRID_ITEM_INDEX(item);
+                            uint64_t want = kept_rays[j];
+                            if (pk->shadow) {
+                                if (!(crossing & ~pk->hit)) {
+                                    cell_done = true;
+                                    break;
                                 }
-                                pm->rays |= want;
-                            } else {
-                                pm->gen = gen;
-                                pm->prim = p;
-                                pm->rays = want;
+                                want &= ~pk->hit;
+                                if (!want)
+                                    continue;
                             }
-                        }
-                        if (item & GRID_ITEM_TRI) {
-                            ctx->stats.intersections += (uint64_t)__builtin_popcountll(want);
-                            pk_test_tri(g, pk, p, want);
-                        } else {
-                            pk_test_prim(g, pk, p, want, ctx);
+                            if (marks) {
+                                /* Packet marking: a ray that has tested p skips it. */
+                                PacketMark *pm = &marks->slot[p & (PK_MARK_SLOTS - 1)];
+                                if (pm->gen == gen && pm->prim == p) {
+                                    uint64_t seen = pm->rays & want;
+                                    if (g->marking) {
+                                        ctx->stats.mailbox_skips +=
+                                            (uint64_t)__builtin_popcountll(seen);
+                                        want &= ~seen;
+                                        if (!want)
+                                            continue;
+                                    } else {
+                                        ctx->stats.repeat_tests +=
+                                            (uint64_t)__builtin_popcountll(seen);
+                                    }
+                                    pm->rays |= want;
+                                } else {
+                                    pm->gen = gen;
+                                    pm->prim = p;
+                                    pm->rays = want;
+                                }
+                            }
+                            if (item & GRID_ITEM_TRI) {
+                                ctx->stats.intersections += (uint64_t)__builtin_popcountll(want);
+                                pk_test_tri(g, pk, p, want);
+                            } else {
+                                pk_test_prim(g, pk, p, want, ctx);
+                            }
                         }
                     }
                 }

@@ -991,6 +991,133 @@ static void test_group_loop(void)
     CHECK(hits > queries / 20 && occluded > queries / 20);
 }
 
+/* Cells crowded with more packed triangles than the packet walk culls in one batch
+ * (PK_BATCH in grid_packet_kernel.h: it culls a batch of a cell's entries, then tests
+ * the ones kept), and triangles lying along the light's direction (det 0 towards a
+ * directional light, whose packets make the direction's half of each test once per
+ * triangle). Every kernel's packets, nearest and shadow, by rays and towards the light,
+ * against the brute-force walk (check_packets), and towards +y and -y, which the
+ * vertical triangles lie along, ray by ray against brute force. */
+static void test_crowded_cells(void)
+{
+    rng_state = 9090;
+    RScene r;
+    memset(&r, 0, sizeof r);
+    arena_init(&r.s.arena);
+    PhongParams pp = phong_defaults();
+    for (int i = 0; i < 4; i++)
+        r.mats[i] = phong_new(&r.s.arena, &pp);
+    enum { NQ = 14, NV = 48, NH = 24 };
+    Object3D *root = group_new(&r.s.arena, 2 * NQ * NQ + NV + NH);
+    int k = 0;
+    /* A height field of 392 triangles in a square 1.4 wide ... */
+    for (int i = 0; i < NQ; i++)
+        for (int j = 0; j < NQ; j++) {
+            Vec3 p[4];
+            for (int c = 0; c < 4; c++) {
+                int di = c & 1, dj = c >> 1;
+                float h = (float)(((i + di) * 7 + (j + dj) * 3) % 5) * 0.04f;
+                p[c] = v3(-0.7f + 0.1f * (float)(i + di), h, -0.7f + 0.1f * (float)(j + dj));
+            }
+            group_set_child(root, k++, triangle_new(&r.s.arena, p[0], p[1], p[3], r.mats[0]));
+            group_set_child(root, k++, triangle_new(&r.s.arena, p[0], p[3], p[2], r.mats[1]));
+        }
+    /* ... and small vertical triangles in planes z = c standing on it: e2 along y. */
+    for (int v = 0; v < NV; v++) {
+        Vec3 b = v3(frand(-0.7f, 0.5f), frand(0.0f, 0.3f), frand(-0.7f, 0.7f));
+        group_set_child(root, k++,
+                        triangle_new(&r.s.arena, b, v3(b.x + 0.2f, b.y, b.z),
+                                     v3(b.x, b.y + 0.3f, b.z), r.mats[2]));
+    }
+    /* Horizontal ones above, so that some of the rays towards +y are blocked. */
+    for (int h = 0; h < NH; h++) {
+        Vec3 b = v3(frand(-0.7f, 0.4f), frand(0.4f, 0.8f), frand(-0.7f, 0.4f));
+        group_set_child(root, k++,
+                        triangle_new(&r.s.arena, b, v3(b.x + 0.3f, b.y, b.z),
+                                     v3(b.x, b.y, b.z + 0.3f), r.mats[3]));
+    }
+    group_finish(root);
+    r.s.root = root;
+    r.s.num_primitives = group_assign_ids(root);
+    r.s.bounds = root->bbox;
+
+    static const int res[][3] = {{1, 1, 1}, {2, 1, 2}, {3, 2, 3}};
+    static const char *const kernels[] = {"generic", "avx2", "avx512", "avx512x8"};
+    const char *default_kernel = grid_packet_kernel();
+    RunTotals tot = {0};
+    long vertical_tests = 0, occluded = 0;
+    for (size_t ri = 0; ri < sizeof res / sizeof res[0]; ri++) {
+        Diag d;
+        diag_init(&d, stderr);
+        Grid *g = grid_build(&r.s, res[ri][0], res[ri][1], res[ri][2], &d);
+        CHECK(g != NULL);
+        if (!g)
+            continue;
+        RenderCtx ctx;
+        grid_test_ctx(&ctx, g, true);
+        for (int kk = 0; kk < 4; kk++) {
+            if (!grid_packet_use_kernel(kernels[kk]))
+                continue;
+            check_packets(&r, g, &ctx, 60, &tot);
+            /* Points on the surface towards +y and -y. */
+            for (int rep = 0; rep < 40; rep++) {
+                Ray rays[GRID_PACKET_MAX];
+                int n = 2 + irand(GRID_PACKET_MAX - 1);
+                Vec3 c = v3(frand(-0.6f, 0.6f), 1.0f, frand(-0.6f, 0.6f));
+                float w = frand(0.05f, 0.6f);
+                for (int i = 0; i < n; i++) {
+                    rays[i].origin = v3(c.x + w * (float)(i % 8) / 8.0f, c.y,
+                                        c.z + w * (float)(i / 8) / 8.0f);
+                    rays[i].dir = v3(0.0f, -1.0f, 0.0f);
+                }
+                Hit hits[GRID_PACKET_MAX];
+                for (int i = 0; i < n; i++)
+                    hits[i] = hit_none();
+                uint64_t found = grid_intersect_packet(g, rays, n, hits, 1e-3f, &ctx);
+                Ray srays[GRID_PACKET_MAX];
+                uint64_t mask = 0;
+                for (int i = 0; i < n; i++) {
+                    srays[i].origin = (found >> i & 1) ? ray_at(&rays[i], hits[i].t)
+                                                       : rays[i].origin;
+                    if (irand(6))
+                        mask |= (uint64_t)1 << i;
+                }
+                Vec3 dir = v3(0.0f, irand(2) ? 1.0f : -1.0f, 0.0f);
+                float tmax1 = irand(2) ? INFINITY : frand(0.05f, 2.0f);
+                uint64_t b = grid_occluded_packet_dir(g, srays, mask, 1e-3f, tmax1, dir, &ctx);
+                for (int i = 0; i < n; i++) {
+                    if (!(mask >> i & 1)) {
+                        CHECK(!(b >> i & 1));
+                        continue;
+                    }
+                    Ray sr = {srays[i].origin, dir};
+                    RenderCtx bctx;
+                    memset(&bctx, 0, sizeof bctx);
+                    Hit ho = hit_none();
+                    ho.t = tmax1;
+                    ho.id = 0;
+                    bool ob = obj_intersect(r.s.root, &sr, &ho, 1e-3f, &bctx);
+                    CHECK_MSG(ob == (bool)(b >> i & 1),
+                              "%s kernel, grid %dx%dx%d: ray %d/%d from (%.9g,%.9g,%.9g) "
+                              "towards y %g: packet %d, brute %d", kernels[kk], res[ri][0],
+                              res[ri][1], res[ri][2], i, n, (double)sr.origin.x,
+                              (double)sr.origin.y, (double)sr.origin.z, (double)dir.y,
+                              (int)(b >> i & 1), ob);
+                    occluded += ob;
+                    vertical_tests++;
+                }
+            }
+        }
+        CHECK(grid_packet_use_kernel(default_kernel));
+        grid_test_ctx_free(&ctx);
+        grid_free(g);
+    }
+    printf("    %ld packet rays, %ld occluded; %ld rays along +-y, %ld occluded\n", tot.rays,
+           tot.occl, vertical_tests, occluded);
+    CHECK(occluded > 0 && occluded < vertical_tests);
+    arena_free(&r.s.arena);
+}
+
 static const TestCase tests[] = {
     {"tile_order", test_tile_order},
     {"random_scenes_marking_on", test_random_scenes_marking_on},
@@ -999,6 +1126,7 @@ static const TestCase tests[] = {
     {"shrinking_transform_tmin", test_shrinking_transform_tmin},
     {"lattice_ties", test_lattice_ties},
     {"group_loop", test_group_loop},
+    {"crowded_cells", test_crowded_cells},
 };
 
 RT_TEST_MAIN(tests)
