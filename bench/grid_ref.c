@@ -2,7 +2,8 @@
  * throughput figure: one primary ray per pixel through our camera, then one shadow ray
  * per light per front-facing hit (epsilon RT_EPSILON), nothing shaded, nothing written.
  * -mode packet: 8x8 pixel tiles as ray packets (grid_intersect_packet /
- * grid_occluded_packet, what the renderer does); -mode single: grid_intersect /
+ * grid_occluded_packet, or grid_occluded_packet_dir towards a directional light: what
+ * the renderer does); -mode single: grid_intersect /
  * grid_occluded ray by ray. Prints the same key=value line as embree_ref. Built by
  * `make bench` (mk/bench.mk); docs/benchmarks.md. */
 #define _POSIX_C_SOURCE 200809L
@@ -121,7 +122,16 @@ static void shadow_tile(Job *jb, RenderCtx *ctx, size_t tile, long long *count,
             light_illuminate(&sc->lights[l], p[k], &sr[k].dir, &col, &dist[k]);
         }
         *count += __builtin_popcountll(live);
-        if (jb->packets) {
+        if (jb->packets && sc->lights[l].kind == LIGHT_DIRECTIONAL) {
+            /* As the renderer casts them (raytracer.c): a directional light's rays share
+             * one direction and distance, asked once (grid_occluded_packet_dir; the same
+             * answers). The per-ray calls above stay, as on Embree's side. */
+            Vec3 l0, c0;
+            float d0;
+            light_illuminate(&sc->lights[l], v3(0.0f, 0.0f, 0.0f), &l0, &c0, &d0);
+            uint64_t b = grid_occluded_packet_dir(jb->grid, sr, live, RT_EPSILON, d0, l0, ctx);
+            *blocked += __builtin_popcountll(b);
+        } else if (jb->packets) {
             uint64_t b = grid_occluded_packet(jb->grid, sr, live, RT_EPSILON, dist, ctx);
             *blocked += __builtin_popcountll(b);
         } else {
