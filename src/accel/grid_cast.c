@@ -205,7 +205,7 @@ static inline bool should_test(const Grid *g, uint32_t *mb, uint32_t stamp, uint
  * origin is so far away that this error exceeds the margin (thousands of box sizes,
  * e.g. a secondary ray leaving a distant plane hit) may be walked through the wrong
  * cells. Such rays test every bounded primitive instead: rare, slow, exact. */
-static float march_error(const Grid *g, const Ray *ray)
+static inline float march_error(const Grid *g, const Ray *ray)
 {
     float m = fabsf(ray->origin.x);
     if (fabsf(ray->origin.y) > m)
@@ -449,6 +449,15 @@ static inline __attribute__((always_inline)) bool cell_occupied(const Grid *g, u
     return !g->occupied || (g->occupied[c >> 6] >> (c & 63) & 1);
 }
 
+/* cell_occupied with the grid's occupancy bits (or NULL) held by the caller: the lean
+ * loops read g->occupied once per ray instead of at every cell (the stores to the
+ * mailbox and counters in between keep the compiler from doing so). */
+static inline __attribute__((always_inline)) bool cell_occupied_in(const uint64_t *occ,
+                                                                   uint32_t c)
+{
+    return !occ || (occ[c >> 6] >> (c & 63) & 1);
+}
+
 /* How a query proceeds: the ray misses the grid's box, marches its cells, or starts
  * too far out for the march (grid_ray_too_far) and tests every bounded primitive. */
 typedef enum MarchStart { MARCH_NONE, MARCH_CELLS, MARCH_ALL } MarchStart;
@@ -463,7 +472,8 @@ static inline __attribute__((always_inline)) MarchStart march_start(const Grid *
                                                                     uint32_t **mb)
 {
     float tmarch = grid_march_tmin(g, tmin);
-    if (grid_ray_too_far(g, ray, tmarch))
+    /* grid_ray_too_far's first test inline: nearly every ray passes it. */
+    if (!(march_error(g, ray) < g->min_pad) && grid_ray_too_far(g, ray, tmarch))
         return MARCH_ALL;
     if (!(ctx->tree ? march_init(mi, &g->box, g->n, g->pad, ray, tmarch, ctx)
                     : cast_march_init(g, ray, tmarch, ctx, mi)))
@@ -671,10 +681,11 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
     if (!ctx->tree) { /* the loop below, in registers */
         LeanMarch m;
         lean_start(g, &mi, &m);
+        const uint64_t *occ = g->occupied;
         do {
             if (m.t > hit->t)
                 break;
-            if (cell_occupied(g, m.c))
+            if (cell_occupied_in(occ, m.c))
                 found |= test_cell(g, m.c, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
             if (hit->t <= lean_exit_t(&m))
                 break;
@@ -766,10 +777,11 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
         LeanMarch m;
         lean_start(g, &mi, &m);
         bool occluded = false;
+        const uint64_t *occ = g->occupied;
         do {
             if (m.t > tmax)
                 break;
-            if (cell_occupied(g, m.c) &&
+            if (cell_occupied_in(occ, m.c) &&
                 test_cell(g, m.c, ray, &h, tmin, ctx, mb, stamp, rsimd, true)) {
                 occluded = true; /* the first occluder settles it */
                 break;

@@ -103,7 +103,7 @@ static void pack_prim(const Grid *g, const GridPrim *gp, PackedTri *pt, TriHit *
  * tagging. A tagging chunk is a quick pass over memory (94k entries of the 40k bunny:
  * 0.1 ms on one thread), and in 4096-entry chunks it took twice as long on two threads
  * as on one (handing out the chunks, waking the helper): only bigger meshes split it. */
-enum { PACK_CHUNK = 4096, TAG_CHUNK = 256 << 10 };
+enum { PACK_CHUNK = 4096, TAG_CHUNK = 256 << 10, PACK_AHEAD = 16 };
 
 typedef struct PackJob {
     Grid *g;
@@ -120,8 +120,16 @@ static void pack_chunk(void *ctx, int k, int worker)
     Grid *g = job->g;
     uint32_t p0 = (uint32_t)k * PACK_CHUNK;
     uint32_t p1 = g->num_prims - p0 > PACK_CHUNK ? p0 + PACK_CHUNK : g->num_prims;
-    for (uint32_t p = p0; p < p1; p++)
+    for (uint32_t p = p0; p < p1; p++) {
+        /* The slots are scattered (cell order): their lines are fetched for writing
+         * ahead, which took about a fifth of the pack's samples off on the 40k bunny
+         * (perf, 8x8 renders, 2 x 20 runs each). */
+        if (p + PACK_AHEAD < p1) {
+            __builtin_prefetch(&g->tri[job->newix[p + PACK_AHEAD]], 1);
+            __builtin_prefetch(&g->tri_hit[job->newix[p + PACK_AHEAD]], 1);
+        }
         pack_prim(g, &g->prims[p], &g->tri[job->newix[p]], &g->tri_hit[job->newix[p]]);
+    }
     if (job->dst)
         for (uint32_t p = p0; p < p1; p++)
             job->dst[job->newix[p]] = g->prims[p];
