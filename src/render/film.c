@@ -922,6 +922,28 @@ static int film_pair_terms(const Film *f, int b0, int b1n)
     return (2 * f->R + 1) * (b1n - b0 + 1) * f->slots;
 }
 
+/* The terms of rows j and j + 1 in the order above, for both vector widths: col the
+ * sample's colour column, wxp its column weight, wya / wyb its row weight for row j /
+ * j + 1 (NULL where that row has no term). */
+static void film_pair_term_lists(const Film *f, int j, int b0, int b1, int b0n, int b1n,
+                                 int p0, const float **col, const float **wxp,
+                                 const float **wya, const float **wyb)
+{
+    int R = f->R, side = 2 * R + 1, n = f->slots;
+    size_t cs = f->cs;
+    int k = 0;
+    for (int ta = 0; ta < side; ta++) {
+        int a = p0 - R + ta;
+        for (int b = b0; b <= b1n; b++)
+            for (int s = 0; s < n; s++, k++) {
+                col[k] = film_sample(f, a, b, s) + 2 * cs;
+                wxp[k] = film_weights(f, a, b, s, ta);
+                wya[k] = b <= b1 ? film_weights(f, a, b, s, side + b - j + R) : NULL;
+                wyb[k] = b >= b0n ? film_weights(f, a, b, s, side + b - j - 1 + R) : NULL;
+            }
+    }
+}
+
 /* One term into one row's sums (P0 .. P7: r, g, b, weight; each as the block's two
  * vectors), weights w0, w1. Named vectors, not arrays: GCC kept arrays of vectors on
  * the stack (the filter phase was 25% slower than one row at a time). */
@@ -947,17 +969,7 @@ __attribute__((FILM_AVX512)) static void film_span_sums2_avx512(const Film *f, i
     int R = f->R, side = 2 * R + 1, n = f->slots, rows = b1n - b0 + 1;
     size_t cs = f->cs;
     const float *col[FILM_TERMS2], *wxp[FILM_TERMS2], *wya[FILM_TERMS2], *wyb[FILM_TERMS2];
-    int k = 0;
-    for (int ta = 0; ta < side; ta++) {
-        int a = p0 - R + ta;
-        for (int b = b0; b <= b1n; b++)
-            for (int s = 0; s < n; s++, k++) {
-                col[k] = film_sample(f, a, b, s) + 2 * cs;
-                wxp[k] = film_weights(f, a, b, s, ta);
-                wya[k] = b <= b1 ? film_weights(f, a, b, s, side + b - j + R) : NULL;
-                wyb[k] = b >= b0n ? film_weights(f, a, b, s, side + b - j - 1 + R) : NULL;
-            }
-    }
+    film_pair_term_lists(f, j, b0, b1, b0n, b1n, p0, col, wxp, wya, wyb);
     int only_a = (b0n - b0) * n, both = (b1 - b0n + 1) * n, per_ta = rows * n;
     for (int q = 0; q < m; q += FILM_BLOCK) {
         __mmask16 m0, m1;
@@ -1134,17 +1146,7 @@ __attribute__((target("avx2"))) static void film_span_sums2_avx2(const Film *f, 
     int R = f->R, side = 2 * R + 1, n = f->slots, rows = b1n - b0 + 1;
     size_t cs = f->cs;
     const float *col[FILM_TERMS2], *wxp[FILM_TERMS2], *wya[FILM_TERMS2], *wyb[FILM_TERMS2];
-    int k = 0;
-    for (int ta = 0; ta < side; ta++) {
-        int a = p0 - R + ta;
-        for (int b = b0; b <= b1n; b++)
-            for (int s = 0; s < n; s++, k++) {
-                col[k] = film_sample(f, a, b, s) + 2 * cs;
-                wxp[k] = film_weights(f, a, b, s, ta);
-                wya[k] = b <= b1 ? film_weights(f, a, b, s, side + b - j + R) : NULL;
-                wyb[k] = b >= b0n ? film_weights(f, a, b, s, side + b - j - 1 + R) : NULL;
-            }
-    }
+    film_pair_term_lists(f, j, b0, b1, b0n, b1n, p0, col, wxp, wya, wyb);
     int only_a = (b0n - b0) * n, both = (b1 - b0n + 1) * n, per_ta = rows * n;
     int q = 0;
     for (; q + 8 <= m; q += 8)
