@@ -9,7 +9,8 @@ static bool none_intersect(const void *self, const Ray *ray, Hit *hit, float tmi
                            RenderCtx *ctx)
 {
     const PrimTable *t = self;
-    const Prim *p = t->prims, *end = t->prims + t->num_prims;
+    /* An empty table has no array: null plus zero is undefined in C, so no end pointer. */
+    const Prim *p = t->prims, *end = t->num_prims ? t->prims + t->num_prims : p;
     bool found = false;
     while (p < end) {
         const PrimXform *xf = p->xf;
@@ -42,7 +43,8 @@ static bool none_occluded(const void *self, const Ray *ray, float tmin, float tm
                           RenderCtx *ctx)
 {
     const PrimTable *t = self;
-    const Prim *p = t->prims, *end = t->prims + t->num_prims;
+    /* An empty table has no array: null plus zero is undefined in C, so no end pointer. */
+    const Prim *p = t->prims, *end = t->num_prims ? t->prims + t->num_prims : p;
     Hit h = hit_none();
     h.t = tmax;
     h.id = 0;
