@@ -856,9 +856,13 @@ static int run(App *app)
     if (!accel_init(&app->accel, ops, &app->prims, &acfg, &app->diag)) {
         if (app->diag.errors > errors)
             return EXIT_INPUT;
-        diag_warning(&app->diag, &file, "nothing bounded to put in a %s (only planes%s): "
-                     "rendering without one", ops->name,
-                     app->prims.num_kept_out ? " and objects kept out of it" : "");
+        if (app->prims.num_prims == 0)
+            diag_warning(&app->diag, &file, "the scene has no objects: rendering without a %s",
+                         ops->name);
+        else
+            diag_warning(&app->diag, &file, "nothing bounded to put in a %s (only planes%s): "
+                         "rendering without one", ops->name,
+                         app->prims.num_kept_out ? " and objects kept out of it" : "");
         if (!accel_init(&app->accel, &accel_none_ops, &app->prims, &acfg, &app->diag))
             return EXIT_INPUT;
     } else if (o->timings && twolevel_of_accel(&app->accel) && dist_is_root()) {

@@ -448,6 +448,58 @@ static void test_huge_among_small(void)
     e2e_rmtree(dir);
 }
 
+/* A scene whose Group has no children (and one with only an empty Transform) renders
+ * its background with every accelerator choice and says why there is no grid: the
+ * primitive table is empty and has no array, which once reached pointer arithmetic that
+ * clang's UBSan flags (the scene fuzz target found it). */
+static void test_empty_scene(void)
+{
+    static const char *const texts[] = {
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Background { color 0.2 0.4 0.6 }\n"
+        "Group { numObjects 0 }\n",
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Background { color 0.2 0.4 0.6 }\n"
+        "Group { numObjects 1 Transform { Scale 2 2 2 Group { numObjects 0 } } }\n",
+    };
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX], ref[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "empty") != NULL);
+    e2e_join(scene, sizeof scene, dir, "empty.txt");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(ref, sizeof ref, dir, "ref.tga");
+    static const char *const grids[][8] = {{"-grid", "auto", NULL},
+                                           {"-grid", "3", "3", "3", NULL},
+                                           {"-grid", "3", "3", "3", "-no_packets", NULL},
+                                           {"-accel", "none", NULL}};
+    E2eRun r;
+    char why[512];
+    for (int k = 0; k < 2; k++) {
+        CHECK(e2e_write_file(scene, texts[k]));
+        CHECK_MSG(run_grid(scene, ref, NULL, &r) == 0, "scene %d, no grid: %s", k,
+                  e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+        size_t len = 0;
+        unsigned char *img = (unsigned char *)e2e_read_file(ref, &len);
+        /* An uncompressed 20x20 TGA of the background colour (BGR 153 102 51). */
+        CHECK_MSG(img && len >= 18 + 20 * 20 * 3, "scene %d: no image", k);
+        CHECK_MSG(img && len > 2 && img[2] == 2, "scene %d: not an uncompressed TGA", k);
+        if (img && len >= 18 + 20 * 20 * 3 && img[2] == 2)
+            for (size_t i = 18; i < 18 + 20 * 20 * 3; i += 3)
+                CHECK_MSG(img[i] == 153 && img[i + 1] == 102 && img[i + 2] == 51,
+                          "scene %d: pixel %zu is not the background", k, (i - 18) / 3);
+        free(img);
+        for (int g = 0; g < 4; g++) {
+            CHECK_MSG(run_grid(scene, out, grids[g], &r) == 0, "scene %d, choice %d: %s", k, g,
+                      e2e_describe(&r, why, sizeof why));
+            CHECK_MSG(same_file(out, ref), "scene %d, choice %d: the image differs", k, g);
+            if (g < 3)
+                CHECK_CONTAINS(r.err, "the scene has no objects: rendering without a");
+            e2e_run_free(&r);
+        }
+    }
+    e2e_rmtree(dir);
+}
+
 /* One grid-size limit, checked with the options: 2048 x 2048 x 16 (64 M cells) once
  * passed the option check and failed later with exit 1 and no location. */
 static void test_grid_limit_with_options(void)
@@ -469,6 +521,7 @@ static const TestCase tests[] = {
     {"repro_grid_scenes", test_repro_grid_scenes},
     {"huge_among_small", test_huge_among_small},
     {"grid_limit_with_options", test_grid_limit_with_options},
+    {"empty_scene", test_empty_scene},
     {"sigterm_during_write", test_sigterm_during_write},
     {"sighup_during_write", test_sighup_during_write},
     {"sigint_during_write", test_sigint_during_write},
