@@ -153,21 +153,11 @@ static const int *perm_words(void) { return (const int *)(const void *)PERLIN_PE
 /* The lane kernels' noise_cell (perlin_lanes.h): for hash h & 15 and corner c = i + 2j +
  * 4k of a cell, which of the twelve vectors d[axis * 4 + bit * 2 + negated] (the
  * distances x - i', y - j', z - k' for bits i', j', k' of 0 and 1, and their
- * negations) grad adds as u (low nibble) and as v (high nibble): u is x (h < 8) or y;
+ * negations) grad adds as u (CELL_U) and as v (CELL_V): u is x (h < 8) or y;
  * v is y (h < 4), x (h 12 and 14) or z; bit 0 of h negates u, bit 1 negates v. */
 #define CELL_U(h, i, j) (((h) < 8 ? 2 * (i) : 4 + 2 * (j)) + ((h) & 1))
 #define CELL_V(h, i, j, k)                                                                   \
     (((h) < 4 ? 4 + 2 * (j) : (h) == 12 || (h) == 14 ? 2 * (i) : 8 + 2 * (k)) + ((h) >> 1 & 1))
-#define CELL_UV(h, c)                                                                        \
-    (CELL_U(h, (c)&1, (c) >> 1 & 1) | CELL_V(h, (c)&1, (c) >> 1 & 1, (c) >> 2) << 4)
-#define CELL_ROW(h)                                                                          \
-    {CELL_UV(h, 0), CELL_UV(h, 1), CELL_UV(h, 2), CELL_UV(h, 3),                           \
-     CELL_UV(h, 4), CELL_UV(h, 5), CELL_UV(h, 6), CELL_UV(h, 7)}
-static const unsigned char CELL_PICK[16][8] = {
-    CELL_ROW(0),  CELL_ROW(1),  CELL_ROW(2),  CELL_ROW(3),  CELL_ROW(4),  CELL_ROW(5),
-    CELL_ROW(6),  CELL_ROW(7),  CELL_ROW(8),  CELL_ROW(9),  CELL_ROW(10), CELL_ROW(11),
-    CELL_ROW(12), CELL_ROW(13), CELL_ROW(14), CELL_ROW(15),
-};
 
 /* AVX-512 (F, VL, DQ): eight doubles a vector, the ints in a 256-bit vector. */
 #define PL_TARGET __attribute__((target("avx512f,avx512vl,avx512dq,avx512bw")))

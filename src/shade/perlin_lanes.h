@@ -24,7 +24,7 @@
  * eight corner hashes are the same in every lane, so they are looked up once, in
  * scalar code (cell_picks, or taken from the previous vector's when it lay in the
  * same cell at that octave), and each corner's gradient is two whole vectors added,
- * picked by the hash (CELL_PICK) from the distances and their negations: the values
+ * picked by the hash (cell_off, from CELL_U and CELL_V) from the distances and their negations: the values
  * grad selects and sign-flips lane by lane, so the same bits again. */
 
 #ifndef PL_MEMO_OCTAVES
@@ -81,32 +81,54 @@ PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy
 }
 #endif
 
+/* CELL_U and CELL_V (perlin.c) as byte offsets into noise_cell's d: for hash h and corner c, u's offset in
+ * the low 16 bits and v's in the high 16 (index times the vector's size). With them a
+ * corner's gradient is two loads at offsets read from one word: a table of the two
+ * indices as nibbles took a mask or shift and a scaling per index, in a loop
+ * that stored its eight sums to memory (at 16 samples per pixel most vectors take
+ * noise_cell, and that loop was a quarter of the kernel's instructions there). */
+#define PL_OFF(h, c)                                                                         \
+    ((uint32_t)(CELL_U(h, (c)&1, (c) >> 1 & 1) * sizeof(PL_D)) |                            \
+     (uint32_t)(CELL_V(h, (c)&1, (c) >> 1 & 1, (c) >> 2) * sizeof(PL_D)) << 16)
+#define PL_OFF_ROW(h)                                                                        \
+    {PL_OFF(h, 0), PL_OFF(h, 1), PL_OFF(h, 2), PL_OFF(h, 3),                                \
+     PL_OFF(h, 4), PL_OFF(h, 5), PL_OFF(h, 6), PL_OFF(h, 7)}
+static const uint32_t PL_(cell_off)[16][8] = {
+    PL_OFF_ROW(0),  PL_OFF_ROW(1),  PL_OFF_ROW(2),  PL_OFF_ROW(3),  PL_OFF_ROW(4),
+    PL_OFF_ROW(5),  PL_OFF_ROW(6),  PL_OFF_ROW(7),  PL_OFF_ROW(8),  PL_OFF_ROW(9),
+    PL_OFF_ROW(10), PL_OFF_ROW(11), PL_OFF_ROW(12), PL_OFF_ROW(13), PL_OFF_ROW(14),
+    PL_OFF_ROW(15),
+};
+#undef PL_OFF_ROW
+#undef PL_OFF
+
 /* The picks of the cell with floors fx0, fy0, fz0 (each below 1e9 in magnitude): the
- * cell's corner hashes as noise3_scalar computes them, each as its CELL_PICK entry
- * (the two d indices, see noise_cell) for its corner. */
+ * cell's corner hashes as noise3_scalar computes them, each as its cell_off entry
+ * (the two d offsets, see noise_cell) for its corner. */
 PL_TARGET static inline void PL_(cell_picks)(double fx0, double fy0, double fz0,
-                                             unsigned char pick[8])
+                                             uint32_t pick[8])
 {
     int X = (int)fx0 & 255, Y = (int)fy0 & 255, Z = (int)fz0 & 255;
     int A = perm(X) + Y, AA = perm(A) + Z, AB = perm(A + 1) + Z;
     int B = perm(X + 1) + Y, BA = perm(B) + Z, BB = perm(B + 1) + Z;
-    /* Corner c = i + 2j + 4k: its hash picks its u and v (low and high nibble). */
-    pick[0] = CELL_PICK[perm(AA) & 15][0];
-    pick[1] = CELL_PICK[perm(BA) & 15][1];
-    pick[2] = CELL_PICK[perm(AB) & 15][2];
-    pick[3] = CELL_PICK[perm(BB) & 15][3];
-    pick[4] = CELL_PICK[perm(AA + 1) & 15][4];
-    pick[5] = CELL_PICK[perm(BA + 1) & 15][5];
-    pick[6] = CELL_PICK[perm(AB + 1) & 15][6];
-    pick[7] = CELL_PICK[perm(BB + 1) & 15][7];
+    /* Corner c = i + 2j + 4k: its hash picks its u and v. */
+    pick[0] = PL_(cell_off)[perm(AA) & 15][0];
+    pick[1] = PL_(cell_off)[perm(BA) & 15][1];
+    pick[2] = PL_(cell_off)[perm(AB) & 15][2];
+    pick[3] = PL_(cell_off)[perm(BB) & 15][3];
+    pick[4] = PL_(cell_off)[perm(AA + 1) & 15][4];
+    pick[5] = PL_(cell_off)[perm(BA + 1) & 15][5];
+    pick[6] = PL_(cell_off)[perm(AB + 1) & 15][6];
+    pick[7] = PL_(cell_off)[perm(BB + 1) & 15][7];
 }
 
 /* noise where every lane lies in the cell of floors fx, fy, fz whose picks are pick
  * (cell_picks; no lane answers 0): the distances, fades and lerps as noise. d holds
- * the six distances and their negations at the indices CELL_PICK gives (axis * 4 +
- * corner bit * 2 + negated). */
+ * the six distances and their negations at the indices CELL_U and CELL_V give (axis * 4 +
+ * corner bit * 2 + negated); pick[c] holds corner c's two byte offsets into d (u's in
+ * the low half: the sum u + v in grad's order). */
 PL_TARGET static inline PL_D PL_(noise_cell)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy, PL_D fz,
-                                             const unsigned char pick[8])
+                                             const uint32_t pick[8])
 {
     PL_D one = PL_(d_set)(1.0);
     PL_D x0 = PL_(d_sub)(x, fx), y0 = PL_(d_sub)(y, fy), z0 = PL_(d_sub)(z, fz);
@@ -114,11 +136,15 @@ PL_TARGET static inline PL_D PL_(noise_cell)(PL_D x, PL_D y, PL_D z, PL_D fx, PL
     PL_D x1 = PL_(d_sub)(x0, one), y1 = PL_(d_sub)(y0, one), z1 = PL_(d_sub)(z0, one);
     PL_D d[12] = {x0, PL_(d_neg)(x0), x1, PL_(d_neg)(x1), y0, PL_(d_neg)(y0),
                   y1, PL_(d_neg)(y1), z0, PL_(d_neg)(z0), z1, PL_(d_neg)(z1)};
-    PL_D g[8];
-    for (int c = 0; c < 8; c++)
-        g[c] = PL_(d_add)(d[pick[c] & 15], d[pick[c] >> 4]);
-    return PL_(lerp)(w, PL_(lerp)(v, PL_(lerp)(u, g[0], g[1]), PL_(lerp)(u, g[2], g[3])),
-                     PL_(lerp)(v, PL_(lerp)(u, g[4], g[5]), PL_(lerp)(u, g[6], g[7])));
+    const char *base = (const char *)d;
+#define PL_G(c)                                                                              \
+    PL_(d_add)(*(const PL_D *)(const void *)(base + (pick[c] & 0xffff)),                    \
+               *(const PL_D *)(const void *)(base + (pick[c] >> 16)))
+    PL_D g0 = PL_G(0), g1 = PL_G(1), g2 = PL_G(2), g3 = PL_G(3);
+    PL_D g4 = PL_G(4), g5 = PL_G(5), g6 = PL_G(6), g7 = PL_G(7);
+#undef PL_G
+    return PL_(lerp)(w, PL_(lerp)(v, PL_(lerp)(u, g0, g1), PL_(lerp)(u, g2, g3)),
+                     PL_(lerp)(v, PL_(lerp)(u, g4, g5), PL_(lerp)(u, g6, g7)));
 }
 
 PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, int n,
@@ -131,7 +157,7 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
      * lookups. A NaN floor matches nothing. */
     struct {
         double fx, fy, fz;
-        unsigned char pick[8];
+        uint32_t pick[8];
     } memo[PL_MEMO_OCTAVES];
     for (int o = 0; o < PL_MEMO_OCTAVES; o++)
         memo[o].fx = memo[o].fy = memo[o].fz = (double)NAN;
@@ -173,8 +199,8 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
                    PL_(d_one_cell)(fx, fy, fz);
             PL_D nv;
             if (cell) {
-                unsigned char own[8];
-                const unsigned char *pick = own;
+                uint32_t own[8];
+                const uint32_t *pick = own;
                 if (o < PL_MEMO_OCTAVES) {
                     if (!(memo[o].fx == fx0 && memo[o].fy == fy0 && memo[o].fz == fz0)) {
                         PL_(cell_picks)(fx0, fy0, fz0, memo[o].pick);
