@@ -270,7 +270,9 @@ static void prepare_piece(void *ctx, int i)
     size_t img_len = (size_t)p->width * (size_t)p->height * 3;
     size_t img_steps = prepare_steps(img_len);
     if (k < img_steps) {
-        if (p->have_image)
+        /* With the file made, the render puts the colour bytes straight into it
+         * (color_direct): the image's own bytes stay untouched. */
+        if (p->have_image && !p->have_enc)
             bigmem_prefault(p->color.bytes, k * PREPARE_STEP, PREPARE_STEP);
     } else if (p->have_enc) {
         bigmem_prefault(p->enc.data, (k - img_steps) * PREPARE_STEP, PREPARE_STEP);
@@ -373,7 +375,17 @@ typedef struct RectJob {
     ImageEncoding enc[3];
     const Image *img[3];
     atomic_int rows;
+    bool color_in_file; /* render_rect put the colour bytes into enc[0] (color_direct) */
 } RectJob;
+
+/* Whether the whole rectangle's render puts the colour bytes straight into their file
+ * (RenderTarget.color_file): when that file is made during the render from a byte
+ * image (whose own bytes are then never touched: the file is what gets written). */
+static bool color_direct(const RectJob *rj)
+{
+    return rj->enc[0].data && rj->img[0] && rj->img[0]->bytes &&
+           rj->enc[0].width == rj->w && rj->enc[0].height == rj->h;
+}
 
 /* render_image's row callback (worker threads): row y of the full image is done. */
 static void encode_row(void *user, int y)
@@ -388,7 +400,8 @@ static void encode_row(void *user, int y)
     int lo = y - y % RENDER_TILE - rj->y0;
     for (int i = 0; i < 3; i++)
         if (rj->enc[i].data) {
-            image_encoding_row(&rj->enc[i], rj->img[i], r);
+            if (!(i == 0 && rj->color_in_file)) /* else the render put the row there */
+                image_encoding_row(&rj->enc[i], rj->img[i], r);
             if (last)
                 image_encoding_flush(&rj->enc[i], lo > 0 ? lo : 0, r);
         }
@@ -422,6 +435,11 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
          * rectangle (one process does). */
         bool whole = x0 == rj->x0 && y0 == rj->y0 && w == rj->w && h == rj->h;
         bool any = rj->enc[0].data || rj->enc[1].data || rj->enc[2].data;
+        if (whole && color_direct(rj) && color == rj->img[0]) {
+            t.color_file = rj->enc[0].data + rj->enc[0].top;
+            t.color_bgr = rj->enc[0].bgr;
+            ((RectJob *)user)->color_in_file = true; /* before the workers start */
+        }
         ok = render_image(&rj->app->rt, rj->camera, &t, o->threads, &st,
                           whole && any ? encode_row : NULL, (void *)rj, cancel);
     } else {
@@ -589,7 +607,8 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         atomic_init(&rj.rows, 0);
         /* The plain renderer in one process fills byte images: their TGA and PPM files
          * are encoded row by row on its threads (a 1080p TGA's 6 MB took ~4 ms after
-         * the render), and the write only writes them. */
+         * the render), and the write only writes them. The colour goes straight into
+         * its file's rows (color_direct): its image's 6 MB are not touched at all. */
         if (!film && bytes) {
             const char *paths[3] = {o->output, o->depth_file, o->normals_file};
             const Image *imgs[3] = {target.color, target.depth, target.normals};
@@ -630,12 +649,17 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         job.user = &rj;
         job.progress = preview ? PROGRESS_NEVER : o->progress;
         ok = dist_render(&job, &counts, cancel);
-        if (atomic_load(&rj.rows) == rj.h)
+        if (atomic_load(&rj.rows) == rj.h) {
             for (int i = 0; i < 3; i++)
                 encoded[i] = rj.enc[i];
-        else
+        } else {
+            /* Never after a whole render (each of its rows is reported); but with the
+             * colour put straight into its file, the image itself holds no pixel. */
+            if (ok && rj.color_in_file)
+                ok = false;
             for (int i = 0; i < 3; i++)
                 image_encoding_free(&rj.enc[i]);
+        }
     }
     double t_render = clock_now() - t0, cpu_render = clock_thread_cpu() - cpu0;
     /* The run's last render is over: the helpers exit now, during the write, rather

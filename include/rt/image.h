@@ -126,7 +126,8 @@ typedef struct ImageOutput {
 bool image_write_all(const ImageOutput *outs, int n, Diag *diag);
 
 /* An image file made row by row while its image is being made (the renderer calls
- * image_encoding_row for each finished row, on its worker threads), for the formats
+ * image_encoding_row for each finished row, on its worker threads, or renders the colour
+ * straight into data: RenderTarget.color_file), for the formats
  * that store uncompressed rows at fixed places (TGA, PPM): the write after the render
  * then only writes. The bytes are exactly the codec's encode's. */
 typedef struct ImageEncoding {

@@ -19,6 +19,14 @@ typedef struct RenderTarget {
      * whole render gives them. */
     int x0, y0, w, h;
     Progress *progress;        /* NULL, or gets each finished row and its rays */
+    /* NULL, or where color's bytes go instead of color, which the render then leaves
+     * untouched: the rectangle's rows as an uncompressed file stores them (rt/image.h,
+     * ImageEncoding), top row first, 3 * w bytes each, B G R per pixel when color_bgr,
+     * else R G B; row y (0 = bottom, as Image) at color_file + (h - 1 - y) * 3 * w.
+     * For a byte colour image whose file is made during the render: its 6 MB (1080p)
+     * are then neither faulted in nor copied row by row into the file. */
+    uint8_t *color_file;
+    bool color_bgr;
 } RenderTarget;
 
 /* Called from a worker thread after row y (0 = bottom, of the full image) is complete

@@ -61,13 +61,27 @@ Vec3 render_normal_color(const Hit *hit)
     return v3(fabsf(hit->normal.x), fabsf(hit->normal.y), fabsf(hit->normal.z));
 }
 
+/* Where pixel (x, y) of the target's rectangle (y = 0 at the bottom) goes in
+ * t->color_file (rt/render.h). */
+static uint8_t *file_pixel(const RenderTarget *t, int x, int y)
+{
+    return t->color_file + 3 * ((size_t)(t->h - 1 - y) * (size_t)t->w + (size_t)x);
+}
+
 /* (x, y) is a pixel of the full image; the images hold the target's rectangle. */
 static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
 {
     x -= t->x0;
     y -= t->y0;
-    if (t->color)
+    if (t->color_file) {
+        uint8_t *b = file_pixel(t, x, y);
+        int r = t->color_bgr ? 2 : 0;
+        b[r] = image_color_to_byte(c.x);
+        b[1] = image_color_to_byte(c.y);
+        b[2 - r] = image_color_to_byte(c.z);
+    } else if (t->color) {
         image_put(t->color, x, y, c);
+    }
     if (t->depth)
         image_put(t->depth, x, y, render_depth_color(hit, t->depth_min, t->depth_max));
     if (t->normals)
@@ -96,14 +110,16 @@ typedef struct ImageJob {
 static bool job_cancelled(const ImageJob *job) { return job->cancel && *job->cancel; }
 
 /* A whole tile's colours (colors[k] is lane k of the packet; pixel (dx, dy) of the
- * tile is lane slot[dy * TILE + dx]) into byte image img at the tile's corner (x0, y0):
+ * tile is lane slot[dy * TILE + dx]) into bytes whose row dy starts at
+ * corner + dy * stride (the tile's pixel (0, dy); stride is negative for a file's
+ * rows, stored top row first), in B G R order when bgr, else R G B:
  * every colour quantised as image_color_to_byte does, four components at a time
  * (c * 255, then max with 0, which also turns NaN into 0, min with 255 and truncation:
  * the same single-precision operations, so the same bytes), then the pixels of each
  * row left to right, four bytes at a time (a pixel's fourth byte is the next one's
  * first, written again right after) and three for the last, which stays inside the
- * tile. */
-static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
+ * tile; in B G R order byte by byte. */
+static void store_tile_bytes(uint8_t *corner, ptrdiff_t stride, bool bgr, const Vec3 *colors,
                              const uint8_t *slot)
 {
     enum { N = 3 * TILE * TILE };
@@ -128,8 +144,21 @@ static void store_tile_bytes(Image *img, int x0, int y0, const Vec3 *colors,
     for (int i = 0; i < N; i++)
         q[i] = image_color_to_byte(c[i]);
 #endif
+    if (bgr) {
+        for (int dy = 0; dy < TILE; dy++) {
+            uint8_t *b = corner + dy * stride;
+            const uint8_t *row = slot + dy * TILE;
+            for (int dx = 0; dx < TILE; dx++) {
+                const uint8_t *p = q + 3 * row[dx];
+                b[3 * dx] = p[2];
+                b[3 * dx + 1] = p[1];
+                b[3 * dx + 2] = p[0];
+            }
+        }
+        return;
+    }
     for (int dy = 0; dy < TILE; dy++) {
-        uint8_t *b = img->bytes + 3 * ((size_t)(y0 + dy) * (size_t)img->width + (size_t)x0);
+        uint8_t *b = corner + dy * stride;
         const uint8_t *row = slot + dy * TILE;
         for (int dx = 0; dx < TILE - 1; dx++)
             memcpy(b + 3 * dx, q + 3 * row[dx], 4); /* q has 4 bytes to spare */
@@ -162,11 +191,12 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
      * cut edges) skip the per-pixel bounds, and with only a byte colour image to fill
      * store their bytes a tile at a time. */
     bool full_rows = ylo == y0 && y1 - y0 == TILE;
-    bool bytes_only = t->color && t->color->bytes && !t->depth && !t->normals;
+    bool to_bytes = t->color && (t->color->bytes || t->color_file);
+    bool bytes_only = to_bytes && !t->depth && !t->normals;
     /* Colours that only become bytes may come from the power bracket (rt/raytracer.h):
      * the same bytes. Depth and normal images read the hits, never the colours. */
     void (*trace)(const RayTracer *, RenderCtx *, const Ray *, int, float, Vec3 *, Hit *) =
-        t->color && t->color->bytes ? raytracer_trace_packet_bytes : raytracer_trace_packet;
+        to_bytes ? raytracer_trace_packet_bytes : raytracer_trace_packet;
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
     /* Pixel dy * TILE + dx is lane slot[...] of a whole tile's packet. */
@@ -182,7 +212,14 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
                               rays);
             trace(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
-                store_tile_bytes(t->color, x0 - t->x0, y0 - t->y0, colors, slot);
+                int tx = x0 - t->x0, ty = y0 - t->y0;
+                if (t->color_file)
+                    store_tile_bytes(file_pixel(t, tx, ty), -3 * (ptrdiff_t)t->w,
+                                     t->color_bgr, colors, slot);
+                else
+                    store_tile_bytes(t->color->bytes +
+                                         3 * ((size_t)ty * (size_t)t->color->width + (size_t)tx),
+                                     3 * (ptrdiff_t)t->color->width, false, colors, slot);
             } else {
                 for (int k = 0; k < TILE * TILE; k++)
                     store_pixel(t, x0 + cell[k] % TILE, y0 + cell[k] / TILE, colors[k],

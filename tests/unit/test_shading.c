@@ -10,6 +10,7 @@
 
 #include <float.h>
 #include <stdatomic.h>
+#include <stdlib.h>
 #include <string.h>
 
 static void test_pixel_mapping(void)
@@ -969,7 +970,7 @@ static void test_depth_and_normals_images(void)
     Image depth, normals;
     CHECK(image_init(&depth, 8, 8));
     CHECK(image_init(&normals, 8, 8));
-    RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals, 0, 0, 0, 0, NULL};
+    RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals, 0, 0, 0, 0, NULL, NULL, false};
     CHECK(render_image(&rt, &m.s.camera, &target, 2, NULL, NULL, NULL, NULL));
     Vec3 n = v3_normalize(v3(0.5f, 0, 1)); /* the triangle's plane: z = -x/2 */
     for (int x = 0; x < 8; x++) {
@@ -1018,7 +1019,7 @@ static void test_render_cancel(void)
     Image color;
     CHECK(image_init(&color, 64, 32));
     image_fill(&color, v3(-1, -1, -1)); /* "never written" */
-    RenderTarget target = {64, 32, &color, NULL, 0, 1, NULL, 0, 0, 0, 0, NULL};
+    RenderTarget target = {64, 32, &color, NULL, 0, 1, NULL, 0, 0, 0, 0, NULL, NULL, false};
     g_rows_reported = 0;
     g_stop = 0;
     CHECK(!render_image(&rt, &m.s.camera, &target, 1, NULL, stop_after_first_row, NULL,
@@ -1087,7 +1088,7 @@ static void test_render_split_bands(void)
             rc.y0 = y0;
             rc.w = w;
             rc.h = h;
-            RenderTarget t = {70, 45, &img, NULL, 0, 1, NULL, x0, y0, w, h, NULL};
+            RenderTarget t = {70, 45, &img, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false};
             RtStats st;
             CHECK(render_image(&rt, &m.s.camera, &t, threads, &st, check_row, &rc, NULL));
             CHECK_INT(atomic_load(&rc.early), 0);
@@ -1111,8 +1112,76 @@ static void test_render_split_bands(void)
     arena_free(&m.s.arena);
 }
 
+/* RenderTarget.color_file (the colour bytes straight into a file's rows, as main.c
+ * does when the file is made during the render): the same bytes as the byte image, row y
+ * at file row h - 1 - y, R G B or B G R, for a whole image with a cut top band and for a
+ * rectangle off the tile grid (whole tiles and cut ones), with and without a depth image
+ * beside it (then every pixel goes through store_pixel), at 1 and 3 threads; the byte
+ * image itself stays untouched. */
+static void test_render_color_into_file(void)
+{
+    Mini m;
+    mini_init(&m);
+    CHECK(camera_init_orthographic(&m.s.camera, v3(0, 0, 10), v3(0, 0, -1), v3(0, 1, 0), 4));
+    PhongParams pp = phong_defaults();
+    pp.diffuse = v3(0.9f, 0.4f, 0.1f); /* three different bytes: a swap shows */
+    pp.specular = v3(0.3f, 0.5f, 0.7f);
+    pp.exponent = 12.0f;
+    Material *mat = phong_new(&m.s.arena, &pp);
+    mini_set_root(&m, sphere_new(&m.s.arena, v3(0.3f, -0.2f, 0), 1.5f, mat));
+    RayTracer rt = tracer(&m.s);
+    const int rects[2][4] = {{0, 0, 70, 45}, {5, 3, 50, 30}};
+    int compared = 0, differ = 0, touched = 0, lit = 0;
+    for (int c = 0; c < 2; c++) {
+        int x0 = rects[c][0], y0 = rects[c][1], w = rects[c][2], h = rects[c][3];
+        size_t len = (size_t)w * (size_t)h * 3;
+        Image ref, depth;
+        CHECK(image_init_bytes(&ref, w, h));
+        CHECK(image_init(&depth, w, h));
+        RenderTarget rt_ref = {70, 45, &ref, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false};
+        CHECK(render_image(&rt, &m.s.camera, &rt_ref, 1, NULL, NULL, NULL, NULL));
+        for (size_t i = 0; i < len; i += 3)
+            lit += ref.bytes[i] != ref.bytes[i + 2];
+        for (int v = 0; v < 8; v++) {
+            bool bgr = v & 1, with_depth = v & 2;
+            int threads = v & 4 ? 3 : 1;
+            Image img;
+            CHECK(image_init_bytes(&img, w, h));
+            memset(img.bytes, 0xab, len);
+            uint8_t *file = malloc(len);
+            CHECK(file != NULL);
+            memset(file, 0xcd, len);
+            RenderTarget t = {70, 45, &img, with_depth ? &depth : NULL, 0, 1, NULL,
+                              x0, y0, w, h, NULL, file, bgr};
+            CHECK(render_image(&rt, &m.s.camera, &t, threads, NULL, NULL, NULL, NULL));
+            for (int y = 0; y < h; y++)
+                for (int x = 0; x < w; x++) {
+                    const uint8_t *a = ref.bytes + 3 * ((size_t)y * (size_t)w + (size_t)x);
+                    const uint8_t *b = file + 3 * ((size_t)(h - 1 - y) * (size_t)w + (size_t)x);
+                    compared++;
+                    differ += bgr ? a[0] != b[2] || a[1] != b[1] || a[2] != b[0]
+                                  : memcmp(a, b, 3) != 0;
+                }
+            for (size_t i = 0; i < len; i++)
+                touched += img.bytes[i] != 0xab;
+            free(file);
+            image_free(&img);
+        }
+        image_free(&depth);
+        image_free(&ref);
+    }
+    CHECK(lit > 100); /* the sphere is there, in colour */
+    CHECK_INT(compared, 8 * (70 * 45 + 50 * 30));
+    CHECK_INT(differ, 0);
+    CHECK_INT(touched, 0);
+    accel_free(&tracer_accel);
+    prim_table_free(&tracer_prims);
+    arena_free(&m.s.arena);
+}
+
 static const TestCase tests[] = {
     {"render: the last bands in parts: same pixels, each row once, complete", test_render_split_bands},
+    {"render: colour bytes straight into a file's rows", test_render_color_into_file},
     {"render: stops at the cancel flag", test_render_cancel},
     {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
