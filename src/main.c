@@ -231,7 +231,8 @@ static bool antialiasing_requested(const Options *o)
 }
 
 /* The colour image and its file's layout (ImageEncoding), made before the render by
- * the set-up's helper in its idle moments (par_background), their pages faulted in:
+ * the set-up's helper in its idle moments (par_background) (their pages were faulted
+ * in too, before the render wrote neither of them: prepare_piece):
  * with several threads the set-up's serial stretches (the scene's and the grid's
  * table walks, the CSR fill) leave the helper waiting, while the main thread did this
  * work between the grid and the render (two 6 MB blocks at 1080p: their mappings, the
@@ -254,7 +255,8 @@ enum { PREPARE_STEP = 2 << 20 };
 
 static size_t prepare_steps(size_t bytes) { return (bytes + PREPARE_STEP - 1) / PREPARE_STEP; }
 
-/* Piece 0 allocates; pieces 1.. fault in one step each of the image, then of the file. */
+/* Piece 0 allocates; pieces 1.. fault in one step each of the image when its file could
+ * not be made (else nothing: see below). */
 static void prepare_piece(void *ctx, int i)
 {
     Prepared *p = ctx;
@@ -269,14 +271,14 @@ static void prepare_piece(void *ctx, int i)
     size_t k = (size_t)i - 1;
     size_t img_len = (size_t)p->width * (size_t)p->height * 3;
     size_t img_steps = prepare_steps(img_len);
-    if (k < img_steps) {
-        /* With the file made, the render puts the colour bytes straight into it
-         * (color_direct): the image's own bytes stay untouched. */
-        if (p->have_image && !p->have_enc)
-            bigmem_prefault(p->color.bytes, k * PREPARE_STEP, PREPARE_STEP);
-    } else if (p->have_enc) {
-        bigmem_prefault(p->enc.data, (k - img_steps) * PREPARE_STEP, PREPARE_STEP);
-    }
+    /* With the file made, the render puts the colour bytes straight into it
+     * (color_direct), the image's own bytes untouched; and as the file is written
+     * while it is made (a file, not a pipe or a device: image_encoding_stream), band
+     * by band from small buffers (RenderTarget.color_rows), its rows untouched too. */
+    if (p->have_enc)
+        return;
+    if (k < img_steps && p->have_image)
+        bigmem_prefault(p->color.bytes, k * PREPARE_STEP, PREPARE_STEP);
 }
 
 /* Posts the preparation when the run qualifies and a helper can do it (at one thread
@@ -376,6 +378,7 @@ typedef struct RectJob {
     const Image *img[3];
     atomic_int rows;
     bool color_in_file; /* render_rect put the colour bytes into enc[0] (color_direct) */
+    bool color_staged;  /* ... or band by band straight into its file (color_rows) */
 } RectJob;
 
 /* Whether the whole rectangle's render puts the colour bytes straight into their file
@@ -385,6 +388,14 @@ static bool color_direct(const RectJob *rj)
 {
     return rj->enc[0].data && rj->img[0] && rj->img[0]->bytes &&
            rj->enc[0].width == rj->w && rj->enc[0].height == rj->h;
+}
+
+/* RenderTarget.color_rows (worker threads): rows y_lo..y_hi of the full image, in the
+ * file's layout, into the streamed colour file. */
+static void color_rows_to_file(void *user, int y_lo, int y_hi, const uint8_t *rows)
+{
+    RectJob *rj = user;
+    image_encoding_flush_rows(&rj->enc[0], y_lo - rj->y0, y_hi - rj->y0, rows);
 }
 
 /* render_image's row callback (worker threads): row y of the full image is done. */
@@ -402,7 +413,7 @@ static void encode_row(void *user, int y)
         if (rj->enc[i].data) {
             if (!(i == 0 && rj->color_in_file)) /* else the render put the row there */
                 image_encoding_row(&rj->enc[i], rj->img[i], r);
-            if (last)
+            if (last && !(i == 0 && rj->color_staged)) /* else color_rows wrote it */
                 image_encoding_flush(&rj->enc[i], lo > 0 ? lo : 0, r);
         }
     atomic_fetch_add_explicit(&rj->rows, 1, memory_order_relaxed);
@@ -439,6 +450,13 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
             t.color_file = rj->enc[0].data + rj->enc[0].top;
             t.color_bgr = rj->enc[0].bgr;
             ((RectJob *)user)->color_in_file = true; /* before the workers start */
+            /* A streamed file takes the rows as they come: the render keeps them in
+             * band buffers, and the file's 6 MB (1080p) in memory hold only its
+             * header. */
+            if (rj->enc[0].fd >= 0) {
+                t.color_rows = color_rows_to_file;
+                ((RectJob *)user)->color_staged = true;
+            }
         }
         ok = render_image(&rj->app->rt, rj->camera, &t, o->threads, &st,
                           whole && any ? encode_row : NULL, (void *)rj, cancel);

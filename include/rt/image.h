@@ -162,6 +162,10 @@ bool image_encoding_stream(ImageEncoding *e, const char *path);
 /* Rows y_lo..y_hi of the image, already encoded, into the streamed file at their place
  * (nothing when not streamed). Threads may flush disjoint rows at once. */
 void image_encoding_flush(ImageEncoding *e, int y_lo, int y_hi);
+/* The same from rows given in the file's layout (row y_hi first, 3 * width bytes each)
+ * instead of from e->data, whose rows are then left as they are: for rows made
+ * elsewhere (RenderTarget.color_rows). */
+void image_encoding_flush_rows(ImageEncoding *e, int y_lo, int y_hi, const uint8_t *rows);
 /* Frees the bytes; a streamed file not handed to image_write_all is closed and removed
  * (a failed or stopped render leaves no file). */
 void image_encoding_free(ImageEncoding *e);

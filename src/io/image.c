@@ -490,8 +490,17 @@ void image_encoding_flush(ImageEncoding *e, int y_lo, int y_hi)
     if (!e->data || e->fd < 0 || y_lo < 0 || y_hi >= e->height || y_lo > y_hi)
         return;
     size_t row = (size_t)e->width * 3;
+    image_encoding_flush_rows(e, y_lo, y_hi,
+                              e->data + e->top + (size_t)(e->height - 1 - y_hi) * row);
+}
+
+void image_encoding_flush_rows(ImageEncoding *e, int y_lo, int y_hi, const uint8_t *rows)
+{
+    if (!e->data || e->fd < 0 || y_lo < 0 || y_hi >= e->height || y_lo > y_hi)
+        return;
+    size_t row = (size_t)e->width * 3;
     size_t off = e->top + (size_t)(e->height - 1 - y_hi) * row;
-    if (!pwrite_all(e->fd, e->data + off, (size_t)(y_hi - y_lo + 1) * row, (off_t)off)) {
+    if (!pwrite_all(e->fd, rows, (size_t)(y_hi - y_lo + 1) * row, (off_t)off)) {
         int expected = 0;
         atomic_compare_exchange_strong(&e->err, &expected, errno ? errno : EIO);
     }

@@ -61,20 +61,29 @@ Vec3 render_normal_color(const Hit *hit)
     return v3(fabsf(hit->normal.x), fabsf(hit->normal.y), fabsf(hit->normal.z));
 }
 
-/* Where pixel (x, y) of the target's rectangle (y = 0 at the bottom) goes in
- * t->color_file (rt/render.h). */
-static uint8_t *file_pixel(const RenderTarget *t, int x, int y)
+/* Rows of colour bytes in a file's layout (rt/render.h, color_file and color_rows):
+ * row y of the target's rectangle (y = 0 at the bottom), for y <= top, at
+ * rows + (top - y) * 3 * w: the whole file's rows (top = h - 1), or one band's. */
+typedef struct FileRows {
+    uint8_t *rows;
+    int top;
+} FileRows;
+
+/* Where pixel (x, y) of the target's rectangle goes in f. */
+static uint8_t *file_pixel(const FileRows *f, const RenderTarget *t, int x, int y)
 {
-    return t->color_file + 3 * ((size_t)(t->h - 1 - y) * (size_t)t->w + (size_t)x);
+    return f->rows + 3 * ((size_t)(f->top - y) * (size_t)t->w + (size_t)x);
 }
 
-/* (x, y) is a pixel of the full image; the images hold the target's rectangle. */
-static void store_pixel(RenderTarget *t, int x, int y, Vec3 c, const Hit *hit)
+/* (x, y) is a pixel of the full image; the images hold the target's rectangle, and the
+ * colour goes to f instead when f is not NULL. */
+static void store_pixel(RenderTarget *t, const FileRows *f, int x, int y, Vec3 c,
+                        const Hit *hit)
 {
     x -= t->x0;
     y -= t->y0;
-    if (t->color_file) {
-        uint8_t *b = file_pixel(t, x, y);
+    if (f) {
+        uint8_t *b = file_pixel(f, t, x, y);
         int r = t->color_bgr ? 2 : 0;
         b[r] = image_color_to_byte(c.x);
         b[1] = image_color_to_byte(c.y);
@@ -105,6 +114,13 @@ typedef struct ImageJob {
     int split_from;         /* bands from this one on come in `parts` parts (jobs) */
     int parts;              /* 1: no band is split */
     atomic_int *parts_left; /* per split band: its parts not yet rendered */
+    /* With target->color_rows: band buffers of stage_bytes each (TILE rows), the first
+     * `pool` taken by one whole band at a time (stage_busy), then one per split band
+     * (all of its parts write into it). */
+    uint8_t *stage;
+    size_t stage_bytes;
+    int pool;
+    atomic_bool *stage_busy;
 } ImageJob;
 
 static bool job_cancelled(const ImageJob *job) { return job->cancel && *job->cancel; }
@@ -148,12 +164,28 @@ static void store_tile_bytes(uint8_t *corner, ptrdiff_t stride, bool bgr, const 
         for (int dy = 0; dy < TILE; dy++) {
             uint8_t *b = corner + dy * stride;
             const uint8_t *row = slot + dy * TILE;
+#if defined(__GNUC__) && defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+            /* R G B x as one little-endian word, its bytes reversed (x B G R) and shifted
+             * down a byte: B G R 0, stored as four bytes like the R G B path. */
+            for (int dx = 0; dx < TILE - 1; dx++) {
+                uint32_t v;
+                memcpy(&v, q + 3 * row[dx], 4);
+                v = __builtin_bswap32(v) >> 8;
+                memcpy(b + 3 * dx, &v, 4);
+            }
+            const uint8_t *p = q + 3 * row[TILE - 1];
+            uint8_t *e = b + 3 * (TILE - 1);
+            e[0] = p[2];
+            e[1] = p[1];
+            e[2] = p[0];
+#else
             for (int dx = 0; dx < TILE; dx++) {
                 const uint8_t *p = q + 3 * row[dx];
                 b[3 * dx] = p[2];
                 b[3 * dx + 1] = p[1];
                 b[3 * dx + 2] = p[0];
             }
+#endif
         }
         return;
     }
@@ -170,7 +202,8 @@ static void store_tile_bytes(uint8_t *corner, ptrdiff_t stride, bool bgr, const 
  * (a part of the band; xa a multiple of TILE). Tiles stay on the full image's 8 x 8
  * grid, so a rectangle on that grid traces the very packets of the whole render;
  * pixels of a tile outside the rectangle are left out of its packet. */
-static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int xa, int xb)
+static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int xa, int xb,
+                        const FileRows *f)
 {
     RenderTarget *t = job->target;
     float tmin = camera_tmin(job->camera);
@@ -191,7 +224,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
      * cut edges) skip the per-pixel bounds, and with only a byte colour image to fill
      * store their bytes a tile at a time. */
     bool full_rows = ylo == y0 && y1 - y0 == TILE;
-    bool to_bytes = t->color && (t->color->bytes || t->color_file);
+    bool to_bytes = t->color && (t->color->bytes || f);
     bool bytes_only = to_bytes && !t->depth && !t->normals;
     /* Colours that only become bytes may come from the power bracket (rt/raytracer.h):
      * the same bytes. Depth and normal images read the hits, never the colours. */
@@ -213,8 +246,8 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
             trace(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
                 int tx = x0 - t->x0, ty = y0 - t->y0;
-                if (t->color_file)
-                    store_tile_bytes(file_pixel(t, tx, ty), -3 * (ptrdiff_t)t->w,
+                if (f)
+                    store_tile_bytes(file_pixel(f, t, tx, ty), -3 * (ptrdiff_t)t->w,
                                      t->color_bgr, colors, slot);
                 else
                     store_tile_bytes(t->color->bytes +
@@ -222,7 +255,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
                                      3 * (ptrdiff_t)t->color->width, false, colors, slot);
             } else {
                 for (int k = 0; k < TILE * TILE; k++)
-                    store_pixel(t, x0 + cell[k] % TILE, y0 + cell[k] / TILE, colors[k],
+                    store_pixel(t, f, x0 + cell[k] % TILE, y0 + cell[k] / TILE, colors[k],
                                 &hits[k]);
             }
             continue;
@@ -240,7 +273,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
         }
         trace(job->rt, ctx, rays, n, tmin, colors, hits);
         for (int i = 0; i < n; i++)
-            store_pixel(t, px[i], py[i], colors[i], &hits[i]);
+            store_pixel(t, f, px[i], py[i], colors[i], &hits[i]);
     }
 }
 
@@ -264,22 +297,50 @@ static void image_band(void *user, RenderCtx *ctx, int index)
         xb = xa + c1 * TILE;
         xa += c0 * TILE;
     }
+    int lo = y0 > t->y0 ? y0 : t->y0; /* the rows of this band inside the rectangle */
+    /* Where the colour bytes go: a band buffer (a free one of the pool for a whole
+     * band; a split band's own), or the whole file's rows. */
+    FileRows fr, *f = NULL;
+    int stage = -1;
+    if (job->stage) {
+        if (band >= job->split_from) {
+            stage = job->pool + band - job->split_from;
+        } else {
+            /* At most `pool` bands are rendered at once (one per thread): one is free. */
+            for (stage = 0;; stage = (stage + 1) % job->pool)
+                if (!atomic_exchange_explicit(&job->stage_busy[stage], true,
+                                              memory_order_acquire))
+                    break;
+        }
+        fr.rows = job->stage + (size_t)stage * job->stage_bytes;
+        fr.top = y1 - 1 - t->y0;
+        f = &fr;
+    } else if (t->color_file) {
+        fr.rows = t->color_file;
+        fr.top = t->h - 1;
+        f = &fr;
+    }
     const RtStats *st = &ctx->stats;
     uint64_t rays = st->nonshadow_rays + st->shadow_rays;
-    render_band(job, ctx, y0, y1, xa, xb);
-    if (job_cancelled(job))
-        return; /* rows cut short are not done */
+    render_band(job, ctx, y0, y1, xa, xb, f);
     uint64_t traced = st->nonshadow_rays + st->shadow_rays - rays;
     /* A split band's rows are done when its last part is: that part's thread reports
      * them (the release and acquire of the count make the other parts' pixels visible
      * to it). */
-    if (band >= job->split_from &&
-        atomic_fetch_sub_explicit(&job->parts_left[band - job->split_from], 1,
-                                  memory_order_acq_rel) != 1) {
+    bool done = !job_cancelled(job) && /* rows cut short are not done */
+                (band < job->split_from ||
+                 atomic_fetch_sub_explicit(&job->parts_left[band - job->split_from], 1,
+                                           memory_order_acq_rel) == 1);
+    if (done && job->stage)
+        t->color_rows(job->user, lo, y1 - 1, fr.rows);
+    if (stage >= 0 && stage < job->pool)
+        atomic_store_explicit(&job->stage_busy[stage], false, memory_order_release);
+    if (job_cancelled(job))
+        return;
+    if (!done) {
         progress_add(t->progress, 0, traced);
         return;
     }
-    int lo = y0 > t->y0 ? y0 : t->y0; /* the rows of this band inside the rectangle */
     progress_add(t->progress, (uint64_t)(y1 - lo), traced);
     if (job->row_done)
         for (int y = y0; y < y1; y++)
@@ -393,7 +454,7 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         target->h = target->height;
     }
     int bands = (target->y0 + target->h + TILE - 1) / TILE - target->y0 / TILE;
-    ImageJob job = {rt, camera, target, row_done, user, cancel, bands, 1, NULL};
+    ImageJob job = {rt, camera, target, row_done, user, cancel, bands, 1, NULL, NULL, 0, 0, NULL};
     /* With several threads, the last 2 bands per thread in parts (SPLIT_PARTS), when
      * the rectangle is that many tiles wide. */
     int nthreads = threads > 0 ? threads : render_default_threads();
@@ -410,7 +471,27 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         job.parts_left = left;
     }
     int jobs = job.split_from + (bands - job.split_from) * job.parts;
+    if (target->color && target->color_rows) {
+        /* One band buffer per thread and per split band: a few hundred KB at 1080p,
+         * used again band after band (in the cache, no fresh pages), instead of the
+         * whole image's rows. */
+        job.pool = nthreads < jobs ? nthreads : jobs;
+        int nsplit = bands - job.split_from;
+        job.stage_bytes = (size_t)TILE * 3 * (size_t)target->w;
+        job.stage = malloc((size_t)(job.pool + nsplit) * job.stage_bytes);
+        job.stage_busy = malloc((size_t)job.pool * sizeof *job.stage_busy);
+        if (!job.stage || !job.stage_busy || job.pool < 1) {
+            free(job.stage);
+            free(job.stage_busy);
+            free(left);
+            return false;
+        }
+        for (int i = 0; i < job.pool; i++)
+            atomic_init(&job.stage_busy[i], false);
+    }
     bool ok = render_parallel(rt, threads, jobs, image_band, &job, stats_out, cancel);
+    free(job.stage);
+    free(job.stage_busy);
     free(left);
     return ok;
 }

@@ -970,7 +970,8 @@ static void test_depth_and_normals_images(void)
     Image depth, normals;
     CHECK(image_init(&depth, 8, 8));
     CHECK(image_init(&normals, 8, 8));
-    RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals, 0, 0, 0, 0, NULL, NULL, false};
+    RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals, 0, 0, 0, 0, NULL,
+                           NULL, false, NULL};
     CHECK(render_image(&rt, &m.s.camera, &target, 2, NULL, NULL, NULL, NULL));
     Vec3 n = v3_normalize(v3(0.5f, 0, 1)); /* the triangle's plane: z = -x/2 */
     for (int x = 0; x < 8; x++) {
@@ -1019,7 +1020,8 @@ static void test_render_cancel(void)
     Image color;
     CHECK(image_init(&color, 64, 32));
     image_fill(&color, v3(-1, -1, -1)); /* "never written" */
-    RenderTarget target = {64, 32, &color, NULL, 0, 1, NULL, 0, 0, 0, 0, NULL, NULL, false};
+    RenderTarget target = {64, 32, &color, NULL, 0, 1, NULL, 0, 0, 0, 0, NULL, NULL, false,
+                           NULL};
     g_rows_reported = 0;
     g_stop = 0;
     CHECK(!render_image(&rt, &m.s.camera, &target, 1, NULL, stop_after_first_row, NULL,
@@ -1088,7 +1090,8 @@ static void test_render_split_bands(void)
             rc.y0 = y0;
             rc.w = w;
             rc.h = h;
-            RenderTarget t = {70, 45, &img, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false};
+            RenderTarget t = {70, 45, &img, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false,
+                              NULL};
             RtStats st;
             CHECK(render_image(&rt, &m.s.camera, &t, threads, &st, check_row, &rc, NULL));
             CHECK_INT(atomic_load(&rc.early), 0);
@@ -1112,12 +1115,46 @@ static void test_render_split_bands(void)
     arena_free(&m.s.arena);
 }
 
+/* The file of RenderTarget.color_rows: the rows as they come, each once, before
+ * row_done reports them. */
+typedef struct StagedFile {
+    uint8_t *file;
+    int y0, w, h;
+    atomic_int got[64];  /* deliveries per row of the rectangle */
+    atomic_int bad;      /* rows out of range, or reported before they were delivered */
+} StagedFile;
+
+static void staged_rows(void *user, int y_lo, int y_hi, const uint8_t *rows)
+{
+    StagedFile *sf = user;
+    int lo = y_lo - sf->y0, hi = y_hi - sf->y0;
+    if (lo < 0 || hi >= sf->h || lo > hi || hi - lo >= 8) {
+        atomic_fetch_add(&sf->bad, 1);
+        return;
+    }
+    size_t row = 3 * (size_t)sf->w;
+    memcpy(sf->file + (size_t)(sf->h - 1 - hi) * row, rows, (size_t)(hi - lo + 1) * row);
+    for (int r = lo; r <= hi; r++)
+        atomic_fetch_add(&sf->got[r], 1);
+}
+
+static void staged_row_done(void *user, int y)
+{
+    StagedFile *sf = user;
+    int r = y - sf->y0;
+    if (r >= 0 && r < sf->h && atomic_load(&sf->got[r]) != 1)
+        atomic_fetch_add(&sf->bad, 1);
+}
+
 /* RenderTarget.color_file (the colour bytes straight into a file's rows, as main.c
- * does when the file is made during the render): the same bytes as the byte image, row y
- * at file row h - 1 - y, R G B or B G R, for a whole image with a cut top band and for a
- * rectangle off the tile grid (whole tiles and cut ones), with and without a depth image
- * beside it (then every pixel goes through store_pixel), at 1 and 3 threads; the byte
- * image itself stays untouched. */
+ * does when the file is made during the render) and color_rows (band by band through
+ * small buffers, as main.c does when that file is written while it is made): the same
+ * bytes as the byte image, row y at file row h - 1 - y, R G B or B G R, for a whole
+ * image with a cut top band and for a rectangle off the tile grid (whole tiles and cut
+ * ones), with and without a depth image beside it (then every pixel goes through
+ * store_pixel), at 1 and 3 threads (split bands); the byte image itself stays
+ * untouched, and so does color_file with color_rows; each row comes once, before
+ * row_done. */
 static void test_render_color_into_file(void)
 {
     Mini m;
@@ -1138,22 +1175,39 @@ static void test_render_color_into_file(void)
         Image ref, depth;
         CHECK(image_init_bytes(&ref, w, h));
         CHECK(image_init(&depth, w, h));
-        RenderTarget rt_ref = {70, 45, &ref, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false};
+        RenderTarget rt_ref = {70, 45, &ref, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false,
+                               NULL};
         CHECK(render_image(&rt, &m.s.camera, &rt_ref, 1, NULL, NULL, NULL, NULL));
         for (size_t i = 0; i < len; i += 3)
             lit += ref.bytes[i] != ref.bytes[i + 2];
-        for (int v = 0; v < 8; v++) {
-            bool bgr = v & 1, with_depth = v & 2;
+        for (int v = 0; v < 16; v++) {
+            bool bgr = v & 1, with_depth = v & 2, staged = v & 8;
             int threads = v & 4 ? 3 : 1;
             Image img;
             CHECK(image_init_bytes(&img, w, h));
             memset(img.bytes, 0xab, len);
-            uint8_t *file = malloc(len);
-            CHECK(file != NULL);
+            uint8_t *file = malloc(len), *unused = malloc(len);
+            CHECK(file != NULL && unused != NULL);
             memset(file, 0xcd, len);
+            memset(unused, 0xcd, len);
+            static StagedFile sf;
+            memset(&sf, 0, sizeof sf);
+            sf.file = file;
+            sf.y0 = y0;
+            sf.w = w;
+            sf.h = h;
             RenderTarget t = {70, 45, &img, with_depth ? &depth : NULL, 0, 1, NULL,
-                              x0, y0, w, h, NULL, file, bgr};
-            CHECK(render_image(&rt, &m.s.camera, &t, threads, NULL, NULL, NULL, NULL));
+                              x0, y0, w, h, NULL, staged ? unused : file, bgr,
+                              staged ? staged_rows : NULL};
+            CHECK(render_image(&rt, &m.s.camera, &t, threads, NULL,
+                               staged ? staged_row_done : NULL, &sf, NULL));
+            if (staged) {
+                CHECK_INT(atomic_load(&sf.bad), 0);
+                for (int r = 0; r < h; r++)
+                    differ += atomic_load(&sf.got[r]) != 1;
+                for (size_t i = 0; i < len; i++)
+                    touched += unused[i] != 0xcd;
+            }
             for (int y = 0; y < h; y++)
                 for (int x = 0; x < w; x++) {
                     const uint8_t *a = ref.bytes + 3 * ((size_t)y * (size_t)w + (size_t)x);
@@ -1164,6 +1218,7 @@ static void test_render_color_into_file(void)
                 }
             for (size_t i = 0; i < len; i++)
                 touched += img.bytes[i] != 0xab;
+            free(unused);
             free(file);
             image_free(&img);
         }
@@ -1171,7 +1226,7 @@ static void test_render_color_into_file(void)
         image_free(&ref);
     }
     CHECK(lit > 100); /* the sphere is there, in colour */
-    CHECK_INT(compared, 8 * (70 * 45 + 50 * 30));
+    CHECK_INT(compared, 16 * (70 * 45 + 50 * 30));
     CHECK_INT(differ, 0);
     CHECK_INT(touched, 0);
     accel_free(&tracer_accel);
@@ -1181,7 +1236,8 @@ static void test_render_color_into_file(void)
 
 static const TestCase tests[] = {
     {"render: the last bands in parts: same pixels, each row once, complete", test_render_split_bands},
-    {"render: colour bytes straight into a file's rows", test_render_color_into_file},
+    {"render: colour bytes straight into a file's rows, or band by band",
+     test_render_color_into_file},
     {"render: stops at the cancel flag", test_render_cancel},
     {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
