@@ -1059,6 +1059,42 @@ static bool tl_tree_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, 
     return false;
 }
 
+/* The walk compiled a second time for AVX2 CPUs, as march_intersect_avx2 and
+ * march_occluded_avx2 are: the same C without an FMA target, so the same bits and
+ * counts; the VEX three-operand forms drop the SSE forms' register copies.
+ * grid_cast_path_set(0) (tests) keeps the baseline copy. */
+#if RT_CAST_AVX2
+__attribute__((target("avx2"))) static bool tl_walk_intersect_avx2(const TwoLevelGrid *t,
+                                                                   const Ray *ray, Hit *hit,
+                                                                   float tmin, float tmarch,
+                                                                   RenderCtx *ctx)
+{
+    return tl_walk(t, ray, hit, tmin, tmarch, ctx, false);
+}
+
+__attribute__((target("avx2"))) static bool tl_walk_occluded_avx2(const TwoLevelGrid *t,
+                                                                  const Ray *ray, Hit *hit,
+                                                                  float tmin, float tmarch,
+                                                                  RenderCtx *ctx)
+{
+    return tl_walk(t, ray, hit, tmin, tmarch, ctx, true);
+}
+#endif
+
+/* tl_walk in the copy for this CPU (any: a constant at each call). */
+static inline __attribute__((always_inline)) bool tl_walk_isa(const TwoLevelGrid *t,
+                                                               const Ray *ray, Hit *hit,
+                                                               float tmin, float tmarch,
+                                                               RenderCtx *ctx, bool any)
+{
+#if RT_CAST_AVX2
+    if (cast_avx2())
+        return any ? tl_walk_occluded_avx2(t, ray, hit, tmin, tmarch, ctx)
+                   : tl_walk_intersect_avx2(t, ray, hit, tmin, tmarch, ctx);
+#endif
+    return tl_walk(t, ray, hit, tmin, tmarch, ctx, any);
+}
+
 bool twolevel_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float tmin,
                         RenderCtx *ctx)
 {
@@ -1071,7 +1107,7 @@ bool twolevel_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float t
         return grid_march_intersect(g, ray, hit, tmin, ctx) || found;
     if (ctx->tree)
         return tl_tree_intersect(t, ray, hit, tmin, tmarch, ctx) || found;
-    return tl_walk(t, ray, hit, tmin, tmarch, ctx, false) || found;
+    return tl_walk_isa(t, ray, hit, tmin, tmarch, ctx, false) || found;
 }
 
 bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float tmax,
@@ -1090,5 +1126,5 @@ bool twolevel_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, float 
     Hit h = hit_none();
     h.t = tmax;
     h.id = 0;
-    return tl_walk(t, ray, &h, tmin, tmarch, ctx, true);
+    return tl_walk_isa(t, ray, &h, tmin, tmarch, ctx, true);
 }

@@ -132,6 +132,11 @@ typedef struct Totals {
  * run_uneven; NULL elsewhere. */
 static RenderCtx *walk_lean, *walk_tree;
 static long walks_compared, walk_cells;
+/* The lean walk again in grid_cast.c's baseline copy (grid_cast_path_set(0)), against
+ * walk_lean in the copy for this CPU (the AVX2 one where it has AVX2): same answers,
+ * same counts. Set with walk_lean; NULL elsewhere. */
+static RenderCtx *walk_base;
+static long copies_compared;
 
 static bool same_counts(const RtStats *a0, const RtStats *a1, const RtStats *b0,
                         const RtStats *b1)
@@ -175,6 +180,31 @@ static void check_walks(const TwoLevelGrid *t, const Ray *ray, float tmin, float
               (unsigned long long)(b2.cells_traversed - b1.cells_traversed),
               (unsigned long long)(b2.intersections - b1.intersections));
     walks_compared += 2;
+    if (!walk_base)
+        return;
+    grid_cast_path_set(0);
+    RtStats c0 = walk_base->stats;
+    Hit hc = hit_none();
+    bool fc = twolevel_intersect(t, ray, &hc, tmin, walk_base);
+    RtStats c1 = walk_base->stats;
+    bool oc = twolevel_occluded(t, ray, t0, tmax, walk_base);
+    RtStats c2 = walk_base->stats;
+    grid_cast_path_set(1);
+    CHECK_MSG(fc == fa && (!fa || same_hit(&hc, &ha)) && same_counts(&c0, &c1, &a0, &a1),
+              "intersect: baseline copy %d t=%.9g id=%u cells %llu tests %llu, this CPU's "
+              "copy %d t=%.9g id=%u cells %llu tests %llu",
+              fc, (double)hc.t, hc.id, (unsigned long long)(c1.cells_traversed - c0.cells_traversed),
+              (unsigned long long)(c1.intersections - c0.intersections), fa, (double)ha.t, ha.id,
+              (unsigned long long)(a1.cells_traversed - a0.cells_traversed),
+              (unsigned long long)(a1.intersections - a0.intersections));
+    CHECK_MSG(oc == oa && same_counts(&c1, &c2, &a1, &a2),
+              "occluded to %.9g: baseline copy %d cells %llu tests %llu, this CPU's copy %d "
+              "cells %llu tests %llu",
+              (double)tmax, oc, (unsigned long long)(c2.cells_traversed - c1.cells_traversed),
+              (unsigned long long)(c2.intersections - c1.intersections), oa,
+              (unsigned long long)(a2.cells_traversed - a1.cells_traversed),
+              (unsigned long long)(a2.intersections - a1.intersections));
+    copies_compared += 2;
 }
 
 static void check_one(const UScene *u, const TwoLevelGrid *t, RenderCtx *ctx, const Ray *ray,
@@ -238,12 +268,14 @@ static void run_uneven(int seed, int clusters, float spread, int huge, int plane
     ctx.num_mailbox = grid_mailbox_size(g);
     ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
     ctx.ray_stamp = UINT32_MAX - 3; /* wraps around during the run */
-    RenderCtx lean = ctx, tree = ctx;
+    RenderCtx lean = ctx, tree = ctx, base = ctx;
     lean.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
     tree.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+    base.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
     tree.tree = malloc(sizeof *tree.tree);
     walk_lean = lean.mailbox && tree.mailbox && tree.tree ? &lean : NULL;
     walk_tree = &tree;
+    walk_base = base.mailbox ? &base : NULL;
     BBox b = grid_bounds(g);
     for (int i = 0; i < rays; i++) {
         Ray ray;
@@ -290,7 +322,8 @@ static void run_uneven(int seed, int clusters, float spread, int huge, int plane
             check_one(&u, t, &ctx, &s, 1e-3f, tot, &h2);
         }
     }
-    walk_lean = walk_tree = NULL;
+    walk_lean = walk_tree = walk_base = NULL;
+    free(base.mailbox);
     free(lean.mailbox);
     free(tree.mailbox);
     free(tree.tree);
@@ -415,7 +448,10 @@ static void test_uneven_scenes(void)
            tot.rays, tot.hits, tot.occl, subs, tot.tests, tot.brute_tests);
     printf("    walks with and without a ray tree: %ld queries compared, %ld cells\n",
            walks_compared, walk_cells);
+    printf("    the walk's baseline copy against this CPU's: %ld queries compared\n",
+           copies_compared);
     CHECK(walks_compared > 20000);
+    CHECK(copies_compared == walks_compared);
     CHECK(walk_cells > walks_compared); /* more than two cells per nearest-hit query */
     CHECK(tot.rays > 10000);
     CHECK(tot.hits > tot.rays / 5);
@@ -753,6 +789,83 @@ static void test_structure_pinned(void)
     par_set_helpers(-1);
 }
 
+/* The walk's copies on all-triangle scenes (stadium_make), where the cell loop is the
+ * four-lane group loop (Grid.all_tri) rather than the mixed batch loop of
+ * run_uneven's scenes: rays from the room into the cluster, across the floor, and
+ * shadow rays from their hits, each against brute force (check_one) and through
+ * check_walks (with and without a ray tree; baseline copy against this CPU's). */
+static void test_walk_copies_all_triangles(void)
+{
+    Totals tot = {0};
+    long before = copies_compared, all_tri = 0;
+    for (int seed = 0; seed < 6; seed++) {
+        rng_state = (uint64_t)seed * 6151u + 7u;
+        UScene u;
+        stadium_make(&u, 20 * seed);
+        Diag d;
+        diag_init(&d, stderr);
+        PrimTable table;
+        CHECK(prim_table_build(&table, &u.s));
+        TwoLevelGrid *t = twolevel_build(&table, &d);
+        CHECK(t != NULL);
+        if (!t) {
+            prim_table_free(&table);
+            arena_free(&u.s.arena);
+            continue;
+        }
+        all_tri += twolevel_top(t)->all_tri;
+        RenderCtx ctx;
+        memset(&ctx, 0, sizeof ctx);
+        ctx.num_mailbox = grid_mailbox_size(twolevel_top(t));
+        ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        RenderCtx lean = ctx, tree = ctx, base = ctx;
+        lean.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        tree.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        base.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+        tree.tree = malloc(sizeof *tree.tree);
+        bool ok = ctx.mailbox && lean.mailbox && tree.mailbox && base.mailbox && tree.tree;
+        CHECK(ok);
+        walk_lean = ok ? &lean : NULL;
+        walk_tree = &tree;
+        walk_base = ok ? &base : NULL;
+        for (int i = 0; ok && i < 1500; i++) {
+            Ray ray;
+            float r[6];
+            for (int j = 0; j < 6; j++)
+                r[j] = frand(-1, 1);
+            ray.origin = v3(38.0f * r[0], 12.0f + 11.0f * r[1], 38.0f * r[2]);
+            Vec3 target = irand(3) ? v3(0.3f + r[3], 0.305f + 0.02f * r[4], 0.2f + r[5])
+                                   : v3(39.0f * r[3], 0.0f, 39.0f * r[5]);
+            ray.dir = v3_normalize(v3_sub(target, ray.origin));
+            Hit h;
+            check_one(&u, t, &ctx, &ray, irand(4) ? 0.0f : frand(0.0f, 5.0f), &tot, &h);
+            if (isfinite(h.t)) { /* a shadow ray from the hit toward a light */
+                Ray s;
+                s.origin = ray_at(&ray, h.t);
+                s.dir = v3_normalize(v3(0.4f * r[4], 1.0f, 0.3f * r[5]));
+                Hit h2;
+                check_one(&u, t, &ctx, &s, 1e-3f, &tot, &h2);
+            }
+        }
+        walk_lean = walk_tree = walk_base = NULL;
+        free(base.mailbox);
+        free(lean.mailbox);
+        free(tree.mailbox);
+        free(tree.tree);
+        free(ctx.mailbox);
+        twolevel_free(t);
+        prim_table_free(&table);
+        arena_free(&u.s.arena);
+    }
+    printf("    %ld rays, %ld hits, %ld occluded; copies compared on %ld queries\n", tot.rays,
+           tot.hits, tot.occl, copies_compared - before);
+    CHECK(all_tri == 6); /* the group loop is the one walked */
+    CHECK(tot.rays > 10000);
+    CHECK(tot.hits > tot.rays / 4);
+    CHECK(tot.occl > 100);
+    CHECK(copies_compared - before > 20000);
+}
+
 static const TestCase tests[] = {
     {"twolevel_uneven_scenes_match_brute_force", test_uneven_scenes},
     {"twolevel_leaf_cells_exact", test_leaf_cells},
@@ -761,6 +874,7 @@ static const TestCase tests[] = {
     {"twolevel_triangle_edge_tolerance", test_edge_tolerance},
     {"twolevel_shrinking_transform_tmin", test_shrinking_transform_tmin},
     {"twolevel_structure_pinned", test_structure_pinned},
+    {"twolevel_walk_copies_all_triangles", test_walk_copies_all_triangles},
 };
 
 RT_TEST_MAIN(tests)
