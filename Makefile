@@ -126,6 +126,14 @@ $(BUILD)/src/render/raytracer.o: ALL_CFLAGS += -Wno-psabi -ffp-contract=off
 # The camera's AVX-512 sample rays (camera.c): no fusing.
 $(BUILD)/src/shade/camera.o: ALL_CFLAGS += -ffp-contract=off
 
+# The two-level grid's build and walk, and the set-up's binning, packing and OBJ parse at
+# -O3 (bench/REPORT.txt, stad23): fewer instructions for the same IEEE operations in the
+# same order (C11 mode contracts nothing: -ffp-contract=off is the ISO default, and no
+# FMA target is set; no -ffast-math), so the same bits.
+O3_OBJS := $(addprefix $(BUILD)/src/,accel/twolevel.o accel/grid_cast.o accel/grid_bin.o \
+             accel/grid_cells.o accel/grid_pack.o geom/triangle.o scene/obj_loader.o)
+$(O3_OBJS): ALL_CFLAGS += -O3
+
 # Test sources include "harness.h" from tests/.
 $(BUILD)/tests/%.o: ALL_CFLAGS += -Itests
 
