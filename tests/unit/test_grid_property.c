@@ -419,13 +419,16 @@ static void check_packet(const RScene *r, const Grid *g, RenderCtx *ctx, const R
 }
 
 /* Shadow rays towards a directional light through grid_occluded_packet_dir: every answer
- * and every counter as grid_occluded_packet gives with the direction and tmax written
- * into each ray (the packet's axis and walk must be the ones its summed directions
- * choose). The rays' own directions are NaN for the _dir call: it must not read them. */
+ * as grid_occluded_packet gives with the direction and tmax written into each ray, and
+ * the same cells (the packet's axis and walk must be the ones its summed directions
+ * choose). The rays' own directions are NaN for the _dir call: it must not read them.
+ * Its triangle tests are those of the rays' packet less the ones its beam cull drops
+ * (pk_cull_beam: no more, and the answers the same); the marks it skips may be fewer. */
+static long dir_tests, dir_ray_tests; /* the triangle tests of the two, summed */
 static void check_packet_dir(const Grid *g, RenderCtx *ctx, Ray *rays, int n, Vec3 dir,
                              float tmax1)
 {
-    float tmax[GRID_PACKET_MAX];
+    float tmax[GRID_PACKET_MAX] = {0.0f};
     uint64_t mask = 0;
     for (int i = 0; i < n; i++) {
         rays[i].dir = dir;
@@ -440,14 +443,14 @@ static void check_packet_dir(const Grid *g, RenderCtx *ctx, Ray *rays, int n, Ve
         rays[i].dir = v3(NAN, NAN, NAN);
     uint64_t b = grid_occluded_packet_dir(g, rays, mask, 1e-3f, tmax1, dir, ctx);
     RtStats s2 = ctx->stats;
+    dir_tests += (long)(s2.intersections - s1.intersections);
+    dir_ray_tests += (long)(s1.intersections - s0.intersections);
     CHECK_MSG(a == b, "directional packet d=(%.9g,%.9g,%.9g) n=%d tmax=%g: occluded %llx, by "
               "rays %llx", (double)dir.x, (double)dir.y, (double)dir.z, n, (double)tmax1,
               (unsigned long long)b, (unsigned long long)a);
-    CHECK_MSG(s2.intersections - s1.intersections == s1.intersections - s0.intersections &&
+    CHECK_MSG(s2.intersections - s1.intersections <= s1.intersections - s0.intersections &&
                   s2.cells_traversed - s1.cells_traversed ==
-                      s1.cells_traversed - s0.cells_traversed &&
-                  s2.mailbox_skips - s1.mailbox_skips == s1.mailbox_skips - s0.mailbox_skips &&
-                  s2.repeat_tests - s1.repeat_tests == s1.repeat_tests - s0.repeat_tests,
+                      s1.cells_traversed - s0.cells_traversed,
               "directional packet d=(%.9g,%.9g,%.9g) n=%d: tests %llu, by rays %llu; cells "
               "%llu, by rays %llu", (double)dir.x, (double)dir.y, (double)dir.z, n,
               (unsigned long long)(s2.intersections - s1.intersections),
@@ -1118,6 +1121,140 @@ static void test_crowded_cells(void)
     arena_free(&r.s.arena);
 }
 
+
+/* The directional packets' beam cull (pk_cull_beam in grid_packet_kernel.h) at its
+ * edges: a fan of small triangles at every tilt, some almost along the light, in grids
+ * of 1 to 4x5x3 cells, and packets of rays towards the light aimed at the triangles'
+ * edges and corners (offsets from 1e-7 to 1e-2 of a triangle, inside and outside) from
+ * near and far along the light, or spread over the fan. Every kernel's answer ray by
+ * ray against brute force, and against the same rays' packet without the shared
+ * direction (check_packet_dir). It fails with the beam's shear or its sign wrong, a
+ * group's range made from the wrong lanes or the box's K sides swapped. */
+static void test_beam_edges(void)
+{
+    rng_state = 4242;
+    RScene r;
+    memset(&r, 0, sizeof r);
+    arena_init(&r.s.arena);
+    PhongParams pp = phong_defaults();
+    r.mats[0] = phong_new(&r.s.arena, &pp);
+    enum { NT = 160 };
+    Object3D *root = group_new(&r.s.arena, NT);
+    Vec3 tv[NT][3];
+    for (int i = 0; i < NT; i++) {
+        Vec3 c = vrand(-1, 1);
+        float size = irand(3) ? frand(0.01f, 0.08f) : frand(0.1f, 0.5f);
+        for (int j = 0; j < 3; j++)
+            tv[i][j] = v3_add(c, v3_scale(unit_rand(), size));
+        group_set_child(root, i, triangle_new(&r.s.arena, tv[i][0], tv[i][1], tv[i][2],
+                                              r.mats[0]));
+    }
+    group_finish(root);
+    r.s.root = root;
+    r.s.num_primitives = group_assign_ids(root);
+    r.s.bounds = root->bbox;
+
+    static const int res[][3] = {{1, 1, 1}, {4, 5, 3}, {9, 7, 11}};
+    static const char *const kernels[] = {"generic", "avx2", "avx512", "avx512x8"};
+    const char *default_kernel = grid_packet_kernel();
+    long rays_checked = 0, occluded = 0;
+    long tests0 = dir_tests, ray_tests0 = dir_ray_tests;
+    for (size_t ri = 0; ri < sizeof res / sizeof res[0]; ri++) {
+        Diag d;
+        diag_init(&d, stderr);
+        Grid *g = grid_build(&r.s, res[ri][0], res[ri][1], res[ri][2], &d);
+        CHECK(g != NULL);
+        if (!g)
+            continue;
+        RenderCtx ctx;
+        grid_test_ctx(&ctx, g, true);
+        for (int kk = 0; kk < 4; kk++) {
+            if (!grid_packet_use_kernel(kernels[kk]))
+                continue;
+            for (int rep = 0; rep < 150; rep++) {
+                /* The light: random, or close to an axis, or along a triangle's plane. */
+                Vec3 dir = unit_rand();
+                int kind = irand(4);
+                if (kind == 1) {
+                    int a = irand(3);
+                    float c[3] = {frand(-0.05f, 0.05f), frand(-0.05f, 0.05f),
+                                  frand(-0.05f, 0.05f)};
+                    c[a] = irand(2) ? 1.0f : -1.0f;
+                    dir = v3(c[0], c[1], c[2]);
+                } else if (kind == 2) {
+                    const Vec3 *t = tv[irand(NT)];
+                    Vec3 e1 = v3_sub(t[1], t[0]), e2 = v3_sub(t[2], t[0]);
+                    dir = v3_normalize(v3_add(v3_scale(e1, frand(-1, 1)),
+                                              v3_scale(e2, frand(-1, 1))));
+                }
+                int n = 2 + irand(GRID_PACKET_MAX - 1);
+                Ray rays[GRID_PACKET_MAX];
+                const Vec3 *t = tv[irand(NT)];
+                for (int i = 0; i < n; i++) {
+                    /* A point on an edge or at a corner of one triangle (mostly one
+                     * triangle per packet, as a beam's rays are neighbours), moved in
+                     * or out by a tiny to small amount, and the ray's origin some way
+                     * back towards the light's opposite side. */
+                    if (irand(4) == 0)
+                        t = tv[irand(NT)];
+                    int e = irand(3);
+                    float s = irand(3) ? frand(0, 1) : (float)irand(2);
+                    Vec3 p = v3_add(v3_scale(t[e], 1.0f - s), v3_scale(t[(e + 1) % 3], s));
+                    Vec3 cen = v3_scale(v3_add(v3_add(t[0], t[1]), t[2]), 1.0f / 3.0f);
+                    float off = powf(10.0f, frand(-7.0f, -2.0f)) * (irand(2) ? 1.0f : -1.0f);
+                    p = v3_add(p, v3_scale(v3_sub(p, cen), off));
+                    float back = irand(2) ? frand(0.0f, 0.3f) : frand(0.3f, 6.0f);
+                    rays[i].origin = v3_sub(p, v3_scale(dir, back));
+                    if (irand(8) == 0)
+                        rays[i].origin = vrand(-1.5f, 1.5f); /* a stray one */
+                    rays[i].dir = dir;
+                }
+                uint64_t mask = 0;
+                for (int i = 0; i < n; i++)
+                    if (irand(6))
+                        mask |= (uint64_t)1 << i;
+                float tmin = irand(2) ? 0.0f : 1e-3f;
+                float tmax1 = irand(3) ? INFINITY : frand(0.0f, 4.0f);
+                uint64_t b = grid_occluded_packet_dir(g, rays, mask, tmin, tmax1, dir, &ctx);
+                for (int i = 0; i < n; i++) {
+                    if (!(mask >> i & 1)) {
+                        CHECK(!(b >> i & 1));
+                        continue;
+                    }
+                    RenderCtx bctx;
+                    memset(&bctx, 0, sizeof bctx);
+                    Hit ho = hit_none();
+                    ho.t = tmax1;
+                    ho.id = 0;
+                    bool ob = obj_intersect(r.s.root, &rays[i], &ho, tmin, &bctx);
+                    CHECK_MSG(ob == (bool)(b >> i & 1),
+                              "%s kernel, grid %dx%dx%d: ray %d/%d o=(%.9g,%.9g,%.9g) "
+                              "d=(%.9g,%.9g,%.9g) tmin %g tmax %g: packet %d, brute %d",
+                              kernels[kk], res[ri][0], res[ri][1], res[ri][2], i, n,
+                              (double)rays[i].origin.x, (double)rays[i].origin.y,
+                              (double)rays[i].origin.z, (double)dir.x, (double)dir.y,
+                              (double)dir.z, (double)tmin, (double)tmax1, (int)(b >> i & 1),
+                              ob);
+                    occluded += ob;
+                    rays_checked++;
+                }
+                /* tmin 1e-3 there; the same rays with the direction in every ray. */
+                check_packet_dir(g, &ctx, rays, n, dir, tmax1);
+            }
+        }
+        CHECK(grid_packet_use_kernel(default_kernel));
+        grid_test_ctx_free(&ctx);
+        grid_free(g);
+    }
+    long tests = dir_tests - tests0, ray_tests = dir_ray_tests - ray_tests0;
+    printf("    %ld rays, %ld occluded; triangle tests towards the light %ld, by rays %ld\n",
+           rays_checked, occluded, tests, ray_tests);
+    CHECK(occluded > rays_checked / 10 && occluded < rays_checked);
+    /* The beam cull drops tests the slice rectangles keep. */
+    CHECK(tests < ray_tests);
+    arena_free(&r.s.arena);
+}
+
 static const TestCase tests[] = {
     {"tile_order", test_tile_order},
     {"random_scenes_marking_on", test_random_scenes_marking_on},
@@ -1127,6 +1264,7 @@ static const TestCase tests[] = {
     {"lattice_ties", test_lattice_ties},
     {"group_loop", test_group_loop},
     {"crowded_cells", test_crowded_cells},
+    {"beam_edges", test_beam_edges},
 };
 
 RT_TEST_MAIN(tests)
