@@ -645,10 +645,28 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     uint64_t valid = n >= 64 ? ~(uint64_t)0 : ((uint64_t)1 << n) - 1;
     for (uint64_t m = valid & ~found; m; m &= m - 1)
         colors[__builtin_ctzll(m)] = scene->background;
+    /* Every lane hit one PhongMaterial (a tile inside one mesh, the common case): its
+     * lanes into pp's columns in one straight loop, no lane mask to walk; what the loop
+     * below does for them, with the material asked once. */
+    uint64_t todo = valid & found;
+    if (inline_ok && todo == valid && n > 0) {
+        const Material *m0 = hits[0].material;
+        const PhongParams *p0 = phong_params_of(m0);
+        bool same = p0 != NULL;
+        for (int i = 1; i < n && same; i++)
+            same = hits[i].material == m0;
+        if (same) {
+            for (int i = 0; i < n; i++)
+                phong_lane_put(&pp, lp, &hits[i], &rays[i], i, p0);
+            phong = valid;
+            bounce = phong_lane_bounces(rt, p0) ? valid : 0;
+            todo = 0;
+        }
+    }
     /* Hit by hit: either the Phong lane's normal and direction into pp's columns
      * (phong_packet_begin does the rest for all of them) or shade_begin through the
      * ops. */
-    for (uint64_t m = valid & found; m; m &= m - 1) {
+    for (uint64_t m = todo; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         uint64_t bit = (uint64_t)1 << i;
         const PhongParams *p = NULL;
