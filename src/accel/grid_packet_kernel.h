@@ -574,18 +574,32 @@ void PK_WALK(const Grid *g, Packet *pk, RenderCtx *ctx)
                         uint64_t kept_rays[PK_BATCH];
                         int nkept = 0;
                         uint32_t stop = end - e > PK_BATCH ? e + PK_BATCH : end;
-                        for (; e < stop; e++) {
-                            uint32_t item = items[e];
-                            /* The cull: a group whose rectangle misses the triangle's
-                             * padded box skips it here (and stays unmarked). */
-                            const TriBox *tb = &g->tri[GRID_ITEM_INDEX(item)].box;
-                            uint64_t w = !(item & GRID_ITEM_TRI) ? ~(uint64_t)0
-                                         : beam ? pk_cull_beam(tb, K, U, V, gu0, gu1, gv0, gv1,
-                                                               ru, rv, bu0, bu1, bv0, bv1)
-                                                : pk_cull(tb, U, V, gu0, gu1, gv0, gv1);
-                            kept[nkept] = item;
-                            kept_rays[nkept] = w & crossing;
-                            nkept += kept_rays[nkept] != 0;
+                        /* The cull: a group whose rectangle (or a beam's range,
+                         * pk_cull_beam) misses the triangle's padded box skips it here
+                         * (and stays unmarked). One loop for each kind of packet. */
+                        if (beam) {
+                            for (; e < stop; e++) {
+                                uint32_t item = items[e];
+                                const TriBox *tb = &g->tri[GRID_ITEM_INDEX(item)].box;
+                                uint64_t w = item & GRID_ITEM_TRI
+                                                 ? pk_cull_beam(tb, K, U, V, gu0, gu1, gv0, gv1,
+                                                                ru, rv, bu0, bu1, bv0, bv1)
+                                                 : ~(uint64_t)0;
+                                kept[nkept] = item;
+                                kept_rays[nkept] = w & crossing;
+                                nkept += kept_rays[nkept] != 0;
+                            }
+                        } else {
+                            for (; e < stop; e++) {
+                                uint32_t item = items[e];
+                                uint64_t w = item & GRID_ITEM_TRI
+                                                 ? pk_cull(&g->tri[GRID_ITEM_INDEX(item)].box,
+                                                           U, V, gu0, gu1, gv0, gv1)
+                                                 : ~(uint64_t)0;
+                                kept[nkept] = item;
+                                kept_rays[nkept] = w & crossing;
+                                nkept += kept_rays[nkept] != 0;
+                            }
                         }
                         for (int j = 0; j < nkept; j++) {
                             uint32_t item = kept[j];
