@@ -305,7 +305,11 @@ static Dots count_dots(const Image *img, int zoom, int k)
                     int cx = x * k / zoom, cy = y * k / zoom;
                     if (k > 0 && k <= 36 && ++cells[cy * k + cx] > d.max_per_cell)
                         d.max_per_cell = cells[cy * k + cx];
-                    /* the uniform position of this cell, zoomed */
+                    /* the uniform position of this cell, zoomed; none for the random
+                     * lines (k = 0), where the division would give an infinity, and
+                     * converting that to int is undefined (clang's UBSan stops there) */
+                    if (k <= 0)
+                        continue;
                     int ux = (int)floorf((((float)cx + 0.5f) / (float)k) * (float)zoom);
                     int uy = (int)floorf((((float)cy + 0.5f) / (float)k) * (float)zoom);
                     if (x == ux && y == uy)
