@@ -129,10 +129,14 @@ $(BUILD)/src/shade/camera.o: ALL_CFLAGS += -ffp-contract=off
 # The two-level grid's build and walk, and the set-up's binning, packing and OBJ parse at
 # -O3 (bench/REPORT.txt, stad23): fewer instructions for the same IEEE operations in the
 # same order (C11 mode contracts nothing: -ffp-contract=off is the ISO default, and no
-# FMA target is set; no -ffast-math), so the same bits.
+# FMA target is set; no -ffast-math), so the same bits. Only in the default optimised
+# build: a build that sets OPT (the sanitizer and fuzz builds' -O1, a debugging -O0 -g)
+# keeps its own level, and gcc's ASan at -O3 took minutes on grid_cast.c alone.
+ifeq ($(OPT),-O2)
 O3_OBJS := $(addprefix $(BUILD)/src/,accel/twolevel.o accel/grid_cast.o accel/grid_bin.o \
              accel/grid_cells.o accel/grid_pack.o geom/triangle.o scene/obj_loader.o)
 $(O3_OBJS): ALL_CFLAGS += -O3
+endif
 
 # Test sources include "harness.h" from tests/.
 $(BUILD)/tests/%.o: ALL_CFLAGS += -Itests
