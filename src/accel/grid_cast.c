@@ -419,24 +419,27 @@ static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
     tm = z ? m->tn2 : tm;
     if (!(tm < INFINITY))
         return false;
-    bool x = !y && !z;
-    y = y && !z;
-    int l0 = m->left0 - x, l1 = m->left1 - y, l2 = m->left2 - z;
-    if ((l0 | l1 | l2) < 0)
-        return false; /* the step leaves the box */
-    m->left0 = l0;
-    m->left1 = l1;
-    m->left2 = l2;
-    m->c += (uint32_t)(x ? m->d0 : y ? m->d1 : m->d2);
-    if (x) {
-        m->k0 += m->s0;
-        m->tn0 = m->b0 + m->k0 * m->dt0;
+    if (z) {
+        if (m->left2 == 0)
+            return false; /* the step leaves the box */
+        m->left2--;
+        m->c += (uint32_t)m->d2;
+        m->k2 += m->s2;
+        m->tn2 = m->b2 + m->k2 * m->dt2;
     } else if (y) {
+        if (m->left1 == 0)
+            return false;
+        m->left1--;
+        m->c += (uint32_t)m->d1;
         m->k1 += m->s1;
         m->tn1 = m->b1 + m->k1 * m->dt1;
     } else {
-        m->k2 += m->s2;
-        m->tn2 = m->b2 + m->k2 * m->dt2;
+        if (m->left0 == 0)
+            return false;
+        m->left0--;
+        m->c += (uint32_t)m->d0;
+        m->k0 += m->s0;
+        m->tn0 = m->b0 + m->k0 * m->dt0;
     }
     m->t = tm;
     m->cells++;
