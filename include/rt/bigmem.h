@@ -10,8 +10,14 @@
  * below 512 KB a whole huge page is mostly waste, and blocks freed and allocated again
  * (the parts of -merge) are cheaper from malloc, which reuses its freed pages.
  * Middle sizes (BIGMEM_POOL_MIN_BYTES up to BIGMEM_MIN_BYTES) are carved from one shared
- * huge-page pool with a per-process budget (16 MB): a freed middle block is never reused,
- * and once the budget is spent these sizes come from malloc (bigmem.c says why).
+ * huge-page pool with a per-process budget (16 MB), used like a stack: the top block
+ * grows and shrinks in place and, freed, is handed out again (cleared); a middle block
+ * freed below the top is not reused, and once the budget is spent these sizes come from
+ * malloc (bigmem.c says why).
+ * A mapped block freed is kept as a spare, up to BIGMEM_SPARE_BYTES of them in all, and
+ * a later big allocation that fits one takes it (its written bytes cleared) instead of
+ * a fresh mapping whose huge pages the kernel must zero; beyond that budget a freed
+ * mapping is unmapped at once.
  *
  * Every pointer from bigmem_alloc/bigmem_resize must be released by bigmem_free (never
  * by free), and a malloc'd pointer never by bigmem_free. Data is 64-byte aligned. */
@@ -22,6 +28,7 @@
 #include <stddef.h>
 
 enum { BIGMEM_MIN_BYTES = 512 << 10, BIGMEM_POOL_MIN_BYTES = 16 << 10 };
+#define BIGMEM_SPARE_BYTES ((size_t)64 << 20)
 
 /* size zeroed bytes (size 0 is allowed and gives a valid, unique pointer); NULL when out
  * of memory or when size is absurd (above SIZE_MAX / 2). */

@@ -14,7 +14,7 @@ typedef struct BigmemHeader {
     size_t map_len;   /* length of the mapping that starts at the header (a mapping not in
                          the table, map_aligned); 0: malloc'd or pooled */
     size_t size;      /* bytes the caller asked for */
-    size_t pooled;    /* 1: carved from the pool (never freed, never reused) */
+    size_t pooled;    /* 1: carved from the pool (reused only from its top: pool_alloc) */
     unsigned char pad[64 - 3 * sizeof(size_t)];
 } BigmemHeader;
 
@@ -26,13 +26,32 @@ enum { HEADER = sizeof(BigmemHeader), HUGE_PAGE = 2 << 20 };
  * growing vertex and face arrays, per-cell counts and starts, binning scratch), each
  * malloc'd, zeroed by memset and so faulted in 4 KB at a time: ~550 faults, 6 ms of the
  * 30 ms set-up on this VM. From the pool they share a few huge pages and need no memset
- * (the mapping is zero and a block is never handed out twice). A freed block is not
- * reused: the pool is a one-way budget of POOL_BYTES per process, after which these
- * sizes come from malloc again as before. */
+ * where the pool was never handed out before. The pool is a budget of POOL_BYTES per
+ * process, after which these sizes come from malloc again as before. A block is reused
+ * only from the pool's top, like a stack: the top block grows and shrinks in place
+ * (bigmem_resize), and freeing it gives its bytes back to the next allocation, which
+ * clears what of them was handed out before (g_pool_dirty). Why: the OBJ reader's
+ * arrays grow by doubling, one at a time, and the binning's scratch is freed right
+ * after it is made; without reuse those steps took 1.5 MB of the 40k bunny's 3.2 MB of
+ * pool, so two huge pages were zeroed by the kernel where one now is. Blocks freed
+ * below the top stay taken. */
 enum { POOL_BYTES = 16 << 20 };
 
 static _Atomic(uintptr_t) g_pool_base;   /* 0: not made yet; 1: failed or in the making */
-static atomic_size_t g_pool_used;
+static atomic_size_t g_pool_used;        /* the bump: the top's offset */
+static atomic_size_t g_pool_dirty;       /* bytes from the base handed out at some time */
+
+/* Raises g_pool_dirty to end; the value before. */
+static size_t pool_dirty_raise(size_t end)
+{
+    size_t old = atomic_load(&g_pool_dirty);
+    while (old < end && !atomic_compare_exchange_weak(&g_pool_dirty, &old, end))
+        ;
+    return old;
+}
+
+/* A pooled block's length in the pool, header included. */
+static size_t pool_len(size_t size) { return (HEADER + size + 63) & ~(size_t)63; }
 
 #if defined(__SANITIZE_ADDRESS__)
 #define BIGMEM_SANITIZED 1
@@ -73,8 +92,27 @@ static struct {
     void *data;       /* NULL: free slot */
     size_t map_len;   /* the mapping's length, starting at data */
     size_t size;      /* bytes the caller asked for */
+    size_t dirty;     /* bytes from data on that may have been written (spares below) */
 } g_maps[MAP_SLOTS];
 static atomic_flag g_maps_lock = ATOMIC_FLAG_INIT;
+
+/* Spare mappings: table mappings freed during the run, kept (pages and all) for the
+ * next allocation they fit instead of unmapped. Why: a fresh 2 MB page is zeroed by the
+ * kernel on its first touch, and on this project's virtual machines that cost 5-48% of
+ * course line 07's run (perf: clear_page_erms; the host backs the page then too), while
+ * set-up frees mappings that a later step could use: the OBJ reader's face array
+ * (freed once the mesh is built) before the primitive table, the binning's pairs before
+ * the packed grid. A spare is handed out with only its written front (dirty) cleared,
+ * by memset, in memory the process has touched already. At most SPARE_SLOTS spares and
+ * SPARE_BYTES in all (a process keeps no more than that resident for reuse); a freed
+ * mapping beyond that is unmapped as before. Under maps_lock. */
+enum { SPARE_SLOTS = 8 };
+#define SPARE_BYTES BIGMEM_SPARE_BYTES
+static struct {
+    void *data;       /* NULL: free slot */
+    size_t map_len, dirty;
+} g_spare[SPARE_SLOTS];
+static size_t g_spare_bytes;   /* sum of the spares' map_len */
 
 static void maps_lock(void)
 {
@@ -128,6 +166,27 @@ static void *map_aligned(size_t size)
             slot = i;
             g_maps[i].data = (void *)(uintptr_t)1; /* taken, filled below */
         }
+    /* With a slot, the smallest spare that holds data_len, and not more than twice it
+     * (a big spare waits for a big block). */
+    int spare = -1;
+    for (int i = 0; i < SPARE_SLOTS && slot >= 0; i++)
+        if (g_spare[i].data && g_spare[i].map_len >= data_len &&
+            g_spare[i].map_len / 2 <= data_len &&
+            (spare < 0 || g_spare[i].map_len < g_spare[spare].map_len))
+            spare = i;
+    if (spare >= 0) {
+        char *data = g_spare[spare].data;
+        size_t dirty = g_spare[spare].dirty;
+        g_maps[slot].data = data;
+        g_maps[slot].map_len = g_spare[spare].map_len;
+        g_maps[slot].size = size;
+        g_maps[slot].dirty = dirty > size ? dirty : size;
+        g_spare_bytes -= g_spare[spare].map_len;
+        g_spare[spare].data = NULL;
+        maps_unlock();
+        memset(data, 0, dirty < size ? dirty : size);
+        return data;
+    }
     maps_unlock();
     size_t len = slot >= 0 ? data_len : head_len;
     char *raw = mmap(NULL, len + HUGE_PAGE, PROT_READ | PROT_WRITE,
@@ -153,6 +212,7 @@ static void *map_aligned(size_t size)
         g_maps[slot].data = base;
         g_maps[slot].map_len = len;
         g_maps[slot].size = size;
+        g_maps[slot].dirty = size;
         maps_unlock();
         return base;
     }
@@ -194,11 +254,18 @@ static void *pool_alloc(size_t size)
     char *base = pool_base();
     if (!base)
         return NULL;
-    size_t len = (HEADER + size + 63) & ~(size_t)63;
-    size_t at = atomic_fetch_add_explicit(&g_pool_used, len, memory_order_relaxed);
+    size_t len = pool_len(size);
+    size_t at = atomic_fetch_add(&g_pool_used, len);
     if (at > POOL_BYTES || len > POOL_BYTES - at)
-        return NULL;   /* the budget is spent; the counter only grows, so it stays so */
+        return NULL;   /* the budget is spent; the top is past it now, so it stays so */
+    /* Bytes below the old mark were another block's (freed from the top): cleared. The
+     * mark was raised by that block's allocation, before its free gave the bytes back
+     * (sequentially consistent atomics), so it is seen here. */
+    size_t dirty = pool_dirty_raise(at + len);
+    if (dirty > at)
+        memset(base + at, 0, (dirty < at + len ? dirty : at + len) - at);
     BigmemHeader *h = (BigmemHeader *)(void *)(base + at);
+    h->map_len = 0;
     h->size = size;
     h->pooled = 1;
     return (char *)h + HEADER;
@@ -251,8 +318,12 @@ void *bigmem_resize(void *p, size_t size)
             if (keep < map_len) {   /* shrinking: give whole 2 MB steps back */
                 munmap((char *)p + keep, map_len - keep);
                 g_maps[i].map_len = keep;
+                if (g_maps[i].dirty > keep)
+                    g_maps[i].dirty = keep;
             }
             g_maps[i].size = size;
+            if (g_maps[i].dirty < size)
+                g_maps[i].dirty = size;
             maps_unlock();
             return p;
         }
@@ -272,6 +343,18 @@ void *bigmem_resize(void *p, size_t size)
                 munmap((char *)h + keep, h->map_len - keep);
                 h->map_len = keep;
             }
+            h->size = size;
+            return p;
+        }
+    }
+    /* The pool's top block, staying a pool size: in place, when no block was carved
+     * after it meanwhile (bytes past the old size unspecified, as the contract says). */
+    if (h->pooled && !want_mapping(size)) {
+        char *base = (char *)atomic_load(&g_pool_base);
+        size_t off = (size_t)((char *)h - base), end = off + pool_len(h->size);
+        if (pool_len(size) <= POOL_BYTES - off &&
+            atomic_compare_exchange_strong(&g_pool_used, &end, off + pool_len(size))) {
+            pool_dirty_raise(off + pool_len(size));
             h->size = size;
             return p;
         }
@@ -298,14 +381,26 @@ void bigmem_free(void *p)
     if (!p)
         return;
     if (!((uintptr_t)p & (uintptr_t)(HUGE_PAGE - 1))) {
+        bool leave = atomic_load_explicit(&g_leave_to_exit, memory_order_relaxed);
         maps_lock();
         int i = map_slot(p);
         size_t len = i >= 0 ? g_maps[i].map_len : 0;
-        if (i >= 0)
+        bool kept = false;
+        if (i >= 0) {
+            /* A spare for the allocations to come (g_spare), when there is room. */
+            for (int k = 0; k < SPARE_SLOTS && !leave && !kept; k++)
+                if (!g_spare[k].data && len <= SPARE_BYTES - g_spare_bytes) {
+                    g_spare[k].data = p;
+                    g_spare[k].map_len = len;
+                    g_spare[k].dirty = g_maps[i].dirty;
+                    g_spare_bytes += len;
+                    kept = true;
+                }
             g_maps[i].data = NULL;
+        }
         maps_unlock();
         if (i >= 0) {
-            if (!atomic_load_explicit(&g_leave_to_exit, memory_order_relaxed))
+            if (!leave && !kept)
                 munmap(p, len);
             return;
         }
@@ -317,6 +412,13 @@ void bigmem_free(void *p)
     }
     else if (!h->pooled)
         free(h);
+    else {
+        /* The pool's top block gives its bytes back (a block carved after it, or the
+         * budget spent, makes the exchange fail: the bytes stay taken). */
+        char *base = (char *)atomic_load(&g_pool_base);
+        size_t off = (size_t)((char *)h - base), end = off + pool_len(h->size);
+        atomic_compare_exchange_strong(&g_pool_used, &end, off);
+    }
 }
 
 size_t bigmem_capacity(const void *p)

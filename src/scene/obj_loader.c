@@ -23,8 +23,10 @@
 
 void objfile_mesh_free(ObjMesh *m)
 {
-    bigmem_free(m->verts);
+    /* The faces first: allocated after the vertices, they may be the pool's top block,
+     * and then the vertices are too once the faces are gone (rt/bigmem.h). */
     bigmem_free(m->tris);
+    bigmem_free(m->verts);
     memset(m, 0, sizeof *m);
 }
 

@@ -36,6 +36,15 @@ static bool filled(const unsigned char *p, size_t n, unsigned seed)
     return true;
 }
 
+/* Whether the page at p is mapped (mincore fails with ENOMEM on unmapped memory). */
+static bool page_mapped(const void *p)
+{
+    long ps = sysconf(_SC_PAGESIZE);
+    uintptr_t a = (uintptr_t)p & ~(uintptr_t)(ps - 1);
+    unsigned char v;
+    return mincore((void *)a, (size_t)ps, &v) == 0 || errno != ENOMEM;
+}
+
 static void test_alloc_sizes(void)
 {
     const size_t sizes[] = {0, 1, 100, 4096, BIGMEM_MIN_BYTES - 1, BIGMEM_MIN_BYTES,
@@ -96,8 +105,9 @@ static void test_resize_keeps_contents(void)
 }
 
 /* Middle sizes come from the shared pool: zeroed even right after a block of the same
- * size was filled and freed (a pooled block is never handed out twice), 64-aligned,
- * never a mapping of their own, and resizable across the paths like the others. */
+ * size was filled and freed (the same bytes, handed out again from the pool's top:
+ * test_pool_stack), 64-aligned, never a mapping of their own, and resizable across the
+ * paths like the others. */
 static void test_middle_sizes(void)
 {
     const size_t sizes[] = {BIGMEM_POOL_MIN_BYTES - 1, BIGMEM_POOL_MIN_BYTES, 100000,
@@ -129,6 +139,88 @@ static void test_middle_sizes(void)
     unsigned char *d = c ? bigmem_resize(c, 100) : NULL;
     CHECK(d && filled(d, 100, 11));
     bigmem_free(d ? d : c ? c : b);
+}
+
+/* The pool is used like a stack: its top block grows and shrinks in place and, freed,
+ * is handed out again with all the bytes it ever had cleared; a block freed below the
+ * top stays taken. */
+static void test_pool_stack(void)
+{
+    if (!bigmem_maps_large())
+        return; /* AddressSanitizer builds: every block is malloc'd */
+    size_t n = 100000;
+    unsigned char *a = bigmem_alloc(n);
+    CHECK(a != NULL && !bigmem_is_mapped(a));
+    if (!a)
+        return;
+    fill(a, n, 1);
+    unsigned char *g = bigmem_resize(a, 3 * n); /* the top: grows in place */
+    CHECK(g == a && filled(g, n, 1));
+    fill(g, 3 * n, 2);
+    unsigned char *s = bigmem_resize(g, n / 2); /* and shrinks in place */
+    CHECK(s == a && filled(s, n / 2, 2));
+    bigmem_free(s);
+    unsigned char *b = bigmem_alloc(2 * n); /* the same bytes again, every one cleared */
+    CHECK(b == a && all_zero(b, 2 * n));
+    unsigned char *c = bigmem_alloc(3 * n); /* bytes a once had, cleared too */
+    CHECK(c == a + 2 * n + 64 && all_zero(c, 3 * n));
+    fill(b, 2 * n, 3);
+    fill(c, 3 * n, 4);
+    unsigned char *m = bigmem_resize(b, 2 * n + 4096); /* b is not the top: it moves */
+    CHECK(m && m != b && filled(m, 2 * n, 3));
+    bigmem_free(c); /* c was the top before m came: m is, so c stays taken */
+    unsigned char *d = bigmem_alloc(n);
+    CHECK(d && d != c && all_zero(d, n));
+    bigmem_free(d);
+    bigmem_free(m);
+}
+
+/* Mapped blocks freed are kept as spares: a later big allocation that fits one (up to
+ * twice its size) takes it, with every byte any earlier block wrote there cleared;
+ * beyond BIGMEM_SPARE_BYTES of spares, a freed mapping is unmapped. */
+static void test_spares(void)
+{
+    if (!bigmem_maps_large())
+        return; /* AddressSanitizer builds: every block is malloc'd */
+    size_t mb = 1u << 20;
+    unsigned char *a = bigmem_alloc(3 * mb - 100); /* a 4 MB mapping */
+    CHECK(a != NULL);
+    if (!a)
+        return;
+    fill(a, 3 * mb - 100, 1);
+    bigmem_free(a);
+    CHECK(page_mapped(a));
+    unsigned char *b = bigmem_alloc(mb); /* fits (4 MB is at most twice its 2 MB) */
+    CHECK(b == a && all_zero(b, mb) && bigmem_capacity(b) == 4 * mb);
+    CHECK(filled(b + 2 * mb, mb - 100, (unsigned)(2 * mb * 31u + 1))); /* not cleared */
+    unsigned char *c = bigmem_alloc(mb); /* no spare left: a fresh mapping */
+    CHECK(c && c != b && all_zero(c, mb));
+    bigmem_free(c);
+    bigmem_free(b);
+    /* The bytes past b's size that a wrote are cleared when a bigger block takes it. */
+    unsigned char *d = bigmem_alloc(4 * mb - 64);
+    CHECK(d == a && all_zero(d, 4 * mb - 64));
+    fill(d, 4 * mb - 64, 5);
+    /* The smallest spare that fits: c's 2 MB, not the 4 MB one. */
+    bigmem_free(d);
+    unsigned char *e = bigmem_alloc(BIGMEM_MIN_BYTES);
+    CHECK(e == c && all_zero(e, BIGMEM_MIN_BYTES));
+    bigmem_free(e);
+    /* The budget: 20 MB blocks, never touched; with the 4 and 2 MB spares above, two of
+     * them make 46 MB of spares, so the third to the fifth are unmapped at once. */
+    enum { N = 5 };
+    unsigned char *p[N];
+    for (int i = 0; i < N; i++) {
+        p[i] = bigmem_alloc(20 * mb);
+        CHECK(p[i] != NULL);
+        if (!p[i])
+            return;
+    }
+    for (int i = 0; i < N; i++)
+        bigmem_free(p[i]);
+    for (int i = 0; i < N; i++)
+        CHECK_MSG(page_mapped(p[i]) == (i < 2), "20 MB block %d mapped %d", i,
+                  page_mapped(p[i]));
 }
 
 static void test_absurd_sizes(void)
@@ -180,23 +272,15 @@ static void test_huge_page_advice(void)
     bigmem_free(p);
 }
 
-/* Whether the page at p is mapped (mincore fails with ENOMEM on unmapped memory). */
-static bool page_mapped(const void *p)
-{
-    long ps = sysconf(_SC_PAGESIZE);
-    uintptr_t a = (uintptr_t)p & ~(uintptr_t)(ps - 1);
-    unsigned char v;
-    return mincore((void *)a, (size_t)ps, &v) == 0 || errno != ENOMEM;
-}
-
-/* bigmem_leave_to_exit: a mapped block freed before it is unmapped; after it, its
- * mapping stays (with its bytes) for the exit to take; smaller blocks are freed and
- * handed out again as before. */
+/* bigmem_leave_to_exit: a mapped block freed before it is unmapped (one bigger than
+ * the spares' budget, which is never kept); after it, its mapping stays (with its bytes)
+ * for the exit to take, and is no spare; smaller blocks are freed and handed out again
+ * as before. */
 static void test_leave_to_exit(void)
 {
     if (!bigmem_maps_large())
         return; /* AddressSanitizer builds: every block is malloc'd */
-    size_t big = (size_t)BIGMEM_MIN_BYTES * 4;
+    size_t big = BIGMEM_SPARE_BYTES + 1;   /* never touched: no memory spent on it */
     unsigned char *a = bigmem_alloc(big);
     CHECK(a != NULL && bigmem_is_mapped(a));
     CHECK(page_mapped(a + big / 2));
@@ -209,6 +293,15 @@ static void test_leave_to_exit(void)
     bigmem_free(b);
     CHECK(page_mapped(b + big / 2));
     CHECK(filled(b, big, 7)); /* left as it was */
+    /* A small mapped block is not kept as a spare either: the next one is fresh. */
+    unsigned char *s = bigmem_alloc(BIGMEM_MIN_BYTES);
+    CHECK(s != NULL);
+    if (s)
+        s[0] = 1;
+    bigmem_free(s);
+    unsigned char *t = bigmem_alloc(BIGMEM_MIN_BYTES);
+    CHECK(t != NULL && t != s && t[0] == 0);
+    bigmem_free(t);
     unsigned char *c = bigmem_alloc(100); /* malloc'd: freed and usable as ever */
     CHECK(c != NULL && all_zero(c, 100));
     bigmem_free(c);
@@ -277,7 +370,7 @@ static void test_fresh_block_untouched(void)
     if (r)
         r[4095] = 7;
     bigmem_free(r);
-    CHECK(!page_mapped(r));
+    CHECK(page_mapped(r)); /* a spare now (test_spares) */
 }
 
 /* More mapped blocks than the table of mappings holds: the rest carry their header in
@@ -318,13 +411,15 @@ static void test_many_mappings(void)
 }
 
 static const TestCase tests[] = {
-    {"bigmem: a fresh big block faults nothing in; freed, all of it goes",
+    {"bigmem: a fresh big block faults nothing in; freed, it is a spare",
      test_fresh_block_untouched},
     {"bigmem: more mappings than the table holds work alike", test_many_mappings},
     {"bigmem: left to the exit, mappings stay; before, they go", test_leave_to_exit},
     {"bigmem: sizes on both paths, zeroed and aligned", test_alloc_sizes},
     {"bigmem: resize keeps the contents across the paths", test_resize_keeps_contents},
-    {"bigmem: middle sizes from the pool, zeroed, never handed out twice", test_middle_sizes},
+    {"bigmem: middle sizes from the pool, zeroed", test_middle_sizes},
+    {"bigmem: the pool's top block grows, shrinks and is reused, cleared", test_pool_stack},
+    {"bigmem: freed mappings kept as spares, reused cleared, within a budget", test_spares},
     {"bigmem: absurd sizes refused, the block kept", test_absurd_sizes},
     {"bigmem: big blocks carry the huge-page advice", test_huge_page_advice},
 };
