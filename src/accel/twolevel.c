@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "rt/accel.h"
+#include "rt/bigmem.h"
 #include "rt/geom.h"
 #include "rt/par.h"
 #include "rt/prim.h"
@@ -50,7 +51,7 @@
 /* Their boxes as 6 floats each (min xyz, max xyz); NULL when out of memory. */
 static float (*table_boxes(const PrimTable *t, size_t *count))[6]
 {
-    float (*b)[6] = malloc(((size_t)t->num_bounded + 1) * sizeof *b);
+    float (*b)[6] = bigmem_alloc(((size_t)t->num_bounded + 1) * sizeof *b);
     size_t n = 0;
     for (uint32_t i = 0; b && i < t->num_prims; i++) {
         const Prim *p = &t->prims[i];
@@ -259,11 +260,27 @@ static bool grow(void **p, size_t *cap, size_t need, size_t elem)
     size_t cap2 = *cap ? *cap : 1024;
     while (cap2 < need)
         cap2 *= 2;
-    void *q = realloc(*p, cap2 * elem);
+    void *q = bigmem_resize(*p, cap2 * elem);
     if (!q)
         return false;
     *p = q;
     *cap = cap2;
+    return true;
+}
+
+/* grow to exactly need elements (when it grows at all): for arrays sized once to what
+ * they will hold, so that one of 16 KB to 512 KB comes from bigmem's shared huge-page
+ * pool instead of a 2 MB mapping of its own, which the doubling's rounding could
+ * reach. */
+static bool grow_exact(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap)
+        return true;
+    void *q = bigmem_resize(*p, need * elem);
+    if (!q)
+        return false;
+    *p = q;
+    *cap = need;
     return true;
 }
 
@@ -277,9 +294,9 @@ typedef struct LeafScratch {
 
 static void scratch_free(LeafScratch *ls)
 {
-    free(ls->npairs);
-    free(ls->cells);
-    free(ls->count);
+    bigmem_free(ls->npairs);
+    bigmem_free(ls->cells);
+    bigmem_free(ls->count);
 }
 
 /* A leaf grid as planned by plan_leaf (in top-cell order: the budget is spent in that
@@ -429,14 +446,14 @@ static void fill_leaf(const Grid *g, LeafPlan *pl, const uint32_t *small, LeafSc
     const float lo[3] = {sg->box.min.x, sg->box.min.y, sg->box.min.z};
     const int *n = sg->n;
     uint32_t ns = pl->ns, cells = pl->cells;
-    if (!grow((void **)&ls->npairs, &ls->cap_npairs, ns, sizeof *ls->npairs) ||
-        !grow((void **)&ls->count, &ls->cap_count, cells, sizeof *ls->count))
+    if (!grow_exact((void **)&ls->npairs, &ls->cap_npairs, ns, sizeof *ls->npairs) ||
+        !grow_exact((void **)&ls->count, &ls->cap_count, cells, sizeof *ls->count))
         return;
     memset(ls->count, 0, cells * sizeof *ls->count);
     /* The pairs' array at about its final size at once: grown pair by pair from 1024,
      * its copies faulted in fresh pages at every doubling (a leaf grid of the stadium
      * has ~60k pairs). */
-    if (pl->est < 16e6 && !grow((void **)&ls->cells, &ls->cap_cells, (size_t)pl->est + 1,
+    if (pl->est < 16e6 && !grow_exact((void **)&ls->cells, &ls->cap_cells, (size_t)pl->est + 1,
                                 sizeof *ls->cells))
         return;
 
@@ -527,7 +544,7 @@ static void fill_leaf(const Grid *g, LeafPlan *pl, const uint32_t *small, LeafSc
     /* Its arrays: offsets (its cells' part of t->start; the one after its last cell is
      * the next plan's first, so it is left to append_leaf), then the entries, in
      * top-list order within each cell. */
-    pl->items = malloc((npairs + 1) * sizeof *pl->items);
+    pl->items = bigmem_alloc((npairs + 1) * sizeof *pl->items);
     if (!pl->items)
         return;
     uint32_t *st = start + pl->base;
@@ -632,8 +649,8 @@ void twolevel_free(TwoLevelGrid *t)
     grid_free(t->top);
     free(t->sub_of);
     free(t->subs);
-    free(t->start);
-    free(t->items);
+    bigmem_free(t->start);
+    bigmem_free(t->items);
     free(t);
 }
 
@@ -663,12 +680,12 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
 
     TwoLevelGrid *t = calloc(1, sizeof *t);
     if (!t) {
-        free(boxes);
+        bigmem_free(boxes);
         goto oom;
     }
     t->top = grid_build_table_fitted(table, n, diag);
     if (!t->top) {
-        free(boxes);
+        bigmem_free(boxes);
         twolevel_free(t);
         return NULL; /* reported by grid_build_table, or nothing bounded */
     }
@@ -679,8 +696,8 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
      * array of that size (~1 MB for 40k triangles) cost its page faults again. */
     float (*pbox)[6] = g->num_prims <= nb ? boxes : NULL;
     if (!pbox) {
-        free(boxes);
-        pbox = malloc(((size_t)g->num_prims + 1) * sizeof *pbox);
+        bigmem_free(boxes);
+        pbox = bigmem_alloc(((size_t)g->num_prims + 1) * sizeof *pbox);
     }
     FillJob *job = calloc(1, sizeof *job);
     LeafPlans plans;
@@ -701,8 +718,8 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
     double budget = LEAF_BUDGET_DUP * (double)g->num_prims + BUDGET_SLACK;
     /* The plans' entry lists at their largest size at once (at most every top entry),
      * instead of doubling with a copy into fresh pages each time. */
-    ok = ok && grow((void **)&plans.small, &plans.cap_small, g->cell_start[g->num_cells] + 1,
-                    sizeof *plans.small);
+    ok = ok && grow_exact((void **)&plans.small, &plans.cap_small,
+                          g->cell_start[g->num_cells] + 1, sizeof *plans.small);
     for (int k = 0; ok && k < g->n[2]; k++)
         for (int j = 0; ok && j < g->n[1]; j++)
             for (int i = 0; ok && i < g->n[0]; i++) {
@@ -717,7 +734,7 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
         plans.p[i].base = (uint32_t)(all_cells - 1);
         all_cells += plans.p[i].cells;
     }
-    ok = ok && grow((void **)&t->start, &t->cap_cells, all_cells, sizeof *t->start);
+    ok = ok && grow_exact((void **)&t->start, &t->cap_cells, all_cells, sizeof *t->start);
     PlanKey *keys = ok && plans.n ? malloc(plans.n * sizeof *keys) : NULL;
     uint32_t *order = ok && plans.n ? malloc(plans.n * sizeof *order) : NULL;
     ok = ok && (plans.n == 0 || (keys && order));
@@ -745,7 +762,7 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
             all_items += (size_t)plans.p[i].npairs + plans.p[i].nbig;
     }
     if (ok && all_items && !t->items) {
-        uint32_t *it = realloc(pbox, all_items * sizeof *t->items);
+        uint32_t *it = bigmem_resize(pbox, all_items * sizeof *t->items);
         if (it) {
             pbox = NULL;
             t->items = it;
@@ -757,16 +774,16 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
     for (size_t i = 0; ok && i < plans.n; i++)
         ok = plans.p[i].ok && append_leaf(t, &plans.p[i], plans.small + plans.p[i].small0);
     for (size_t i = 0; i < plans.n; i++)
-        free(plans.p[i].items);
-    free(plans.p);
-    free(plans.small);
+        bigmem_free(plans.p[i].items);
+    bigmem_free(plans.p);
+    bigmem_free(plans.small);
     free(keys);
     free(order);
     if (job)
         for (int w = 0; w < PAR_MAX_WORKERS; w++)
             scratch_free(&job->scratch[w]);
     free(job);
-    free(pbox);
+    bigmem_free(pbox);
     if (!ok)
         goto oom;
     /* The leaf lists are copies of the top grid's entries; the group loop also needs
