@@ -446,6 +446,112 @@ static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
     return true;
 }
 
+/* What lean_march_init takes from the ray alone (its origin, direction, reciprocals
+ * and which axes it runs parallel to), made once per ray for the two-level walk's
+ * marches: the top grid's and each leaf grid's the ray enters. */
+typedef struct LeanRay {
+    float o[3], d[3], inv[3];
+    bool par[3]; /* lean_march_init's parallel axes: d == 0 or 1/d not finite */
+} LeanRay;
+
+static inline __attribute__((always_inline)) void lean_ray(const Ray *ray, const float inv[3],
+                                                            LeanRay *r)
+{
+    r->o[0] = ray->origin.x;
+    r->o[1] = ray->origin.y;
+    r->o[2] = ray->origin.z;
+    r->d[0] = ray->dir.x;
+    r->d[1] = ray->dir.y;
+    r->d[2] = ray->dir.z;
+    for (int a = 0; a < 3; a++) {
+        r->inv[a] = inv[a];
+        r->par[a] = r->d[a] == 0.0f || !isfinite(inv[a]);
+    }
+}
+
+/* lean_march_init followed by lean_start_n, in one: the same float expressions in the
+ * same order (so the same t, cells, t_next's and counters), written straight into the
+ * march instead of through a MarchingInfo, with the ray's part from r. */
+static inline __attribute__((always_inline)) bool lean_init(
+    const float lo[3], const float slab_lo[3], const float slab_hi[3],
+    const float inv_size[3], const float size[3], const int n[3], uint32_t base,
+    const LeanRay *r, float tmin, LeanMarch *m)
+{
+    float t_enter = -INFINITY, t_exit = INFINITY;
+    int enter_axis = -1;
+    bool outside = false; /* parallel to an axis outside the slab: no cell */
+    for (int a = 0; a < 3; a++) {
+        if (r->par[a]) {
+            outside |= !(r->o[a] >= slab_lo[a] && r->o[a] <= slab_hi[a]);
+            continue;
+        }
+        float t0 = (slab_lo[a] - r->o[a]) * r->inv[a], t1 = (slab_hi[a] - r->o[a]) * r->inv[a];
+        if (r->inv[a] < 0.0f) {
+            float tmp = t0;
+            t0 = t1;
+            t1 = tmp;
+        }
+        if (t0 > t_enter) {
+            t_enter = t0;
+            enter_axis = a;
+        }
+        if (t1 < t_exit)
+            t_exit = t1;
+    }
+    if (outside || enter_axis < 0)
+        return false;
+    if (!(t_enter <= t_exit) || t_exit < tmin)
+        return false;
+    bool inside = t_enter < tmin;
+    float t = inside ? tmin : t_enter;
+    int cell[3], step[3];
+    float tn[3], b[3], dt[3], k[3];
+    for (int a = 0; a < 3; a++) {
+        bool up = r->par[a] || !(r->d[a] < 0.0f); /* step +1 */
+        step[a] = up ? 1 : -1;
+        if (!inside && a == enter_axis)
+            cell[a] = up ? 0 : n[a] - 1;
+        else
+            cell[a] = march_cell_of(r->o[a] + t * r->d[a], lo[a], inv_size[a], n[a]);
+        k[a] = (float)(cell[a] + up);
+        if (r->par[a]) {
+            b[a] = 0.0f;
+            dt[a] = 0.0f;
+            tn[a] = INFINITY;
+        } else {
+            b[a] = (lo[a] - r->o[a]) * r->inv[a];
+            dt[a] = size[a] * r->inv[a];
+            tn[a] = b[a] + k[a] * dt[a];
+        }
+    }
+    m->t = t;
+    m->tn0 = tn[0];
+    m->tn1 = tn[1];
+    m->tn2 = tn[2];
+    m->b0 = b[0];
+    m->b1 = b[1];
+    m->b2 = b[2];
+    m->dt0 = dt[0];
+    m->dt1 = dt[1];
+    m->dt2 = dt[2];
+    m->k0 = k[0];
+    m->k1 = k[1];
+    m->k2 = k[2];
+    m->s0 = (float)step[0];
+    m->s1 = (float)step[1];
+    m->s2 = (float)step[2];
+    m->left0 = step[0] > 0 ? n[0] - 1 - cell[0] : cell[0];
+    m->left1 = step[1] > 0 ? n[1] - 1 - cell[1] : cell[1];
+    m->left2 = step[2] > 0 ? n[2] - 1 - cell[2] : cell[2];
+    m->d0 = step[0];
+    m->d1 = step[1] * n[0];
+    m->d2 = step[2] * n[0] * n[1];
+    m->c = base + ((uint32_t)cell[2] * (uint32_t)n[1] + (uint32_t)cell[1]) * (uint32_t)n[0] +
+           (uint32_t)cell[0];
+    m->cells = 0;
+    return true;
+}
+
 /* Whether cell c has entries: the occupancy bits when the grid has them. */
 static inline __attribute__((always_inline)) bool cell_occupied(const Grid *g, uint32_t c)
 {
@@ -893,16 +999,15 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
     float inv[3];
     ray_inv_dir(ray, inv);
     const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
-    MarchingInfo mi;
-    if (!lean_march_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, ray, inv,
-                         tmarch, &mi))
+    LeanRay lr;
+    lean_ray(ray, inv, &lr);
+    LeanMarch m;
+    if (!lean_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, 0, &lr, tmarch, &m))
         return false;
     uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
     float err = march_error(g, ray);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
-    LeanMarch m;
-    lean_start(g, &mi, &m);
     uint64_t cells = 1; /* the first top cell; the rest are m.cells */
     bool found = false;
     do {
@@ -928,11 +1033,9 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
                     break;
             }
             const float slo[3] = {sg->box.min.x, sg->box.min.y, sg->box.min.z};
-            MarchingInfo sm;
-            if (lean_march_init(slo, sg->slab_lo, sg->slab_hi, sg->inv_size, sg->size, sg->n,
-                                ray, inv, tmarch, &sm)) {
-                LeanMarch l;
-                lean_start_n(sg->n, sg->base, &sm, &l);
+            LeanMarch l;
+            if (lean_init(slo, sg->slab_lo, sg->slab_hi, sg->inv_size, sg->size, sg->n, sg->base,
+                          &lr, tmarch, &l)) {
                 bool stop = false;
                 do {
                     cells++;
