@@ -72,6 +72,14 @@ void filter_weights_1d(const Filter *f, const float *x, float *w, int n);
 void filter_weights_1d_offsets(const Filter *f, const float *pos, int n, int R, float *w,
                                size_t plane);
 
+/* filter_weights_1d_offsets for nblk groups of eight positions whose weights lie in
+ * separate blocks: position 8v + i (i < 8) has weight k at w[v * bstride + k * plane + i],
+ * the same bits as filter_weights_1d_offsets gives it (the film's tile rows: a sample
+ * slot's positions of eight pixels at a time, each group's 2R+1 weights towards its own
+ * planes). */
+void filter_weights_1d_blocks(const Filter *f, const float *pos, int nblk, int R, float *w,
+                              size_t plane, size_t bstride);
+
 /* exp(t) for -700 <= t <= 0 without libm, the separable Gaussian's (below -700, and
  * NaN, it returns exp(-700), whose float is 0 like exp(t)'s): relative error below
  * 1e-15 (a few double ulps), so rounded to float it equals the rounded libm exp except

@@ -399,21 +399,33 @@ __attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter 
  * FMA: -ffp-contract=off), so its bits. */
 FILTER_EXP_NONPOS(exp_nonpos4_avx2, V4d, V4u, V4i, , FILTER_AVX2_FMA)
 
-/* t = k ln2/8 + r (k = round(t 8/ln2) in the low bits of kbits, as gaussian_f8's) and
- * exp(r) by the same fused degree-5 series, four lanes. */
-__attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256d gaussian_series4(__m256d t,
-                                                                                     __m256i *kbits)
+/* t = k ln2/8 + r and exp(r) by the degree-5 series, four lanes: F as gaussian_f8's up
+ * to the roundings of its steps, which only its error bound sees. Two changes shorten
+ * the chain from the square to F (this loop is latency-bound: perf puts its samples on
+ * the ends of the chains), each from gaussian_f8's: (1) k = round(d2 k8) with k8 =
+ * neg_inv 8/ln2 (one double), made from the square d2 beside t = d2 neg_inv instead of
+ * after it: d2 k8 lies within 3 double roundings of t 8/ln2 (relative 3.4e-16, |t 8/ln2|
+ * < 924: 3.1e-13 absolute), so k differs from round(t 8/ln2) only by a tie's choice and
+ * |r| <= ln2/16 + 3e-14, which moves the truncation bound below by under 1e-23; (2)
+ * the series in Estrin's form, (1 + r) + r^2 ((1/2 + r/6) + r^2 (1/24 + r/120)): three
+ * dependent steps after r instead of Horner's five (its roundings: under 2 units of
+ * 2^-53 against Horner's, both within the few 1e-16 counted above). Weights of a 400 x
+ * 400 x 16 film's tile rows (the film's planes, sigma 0.4, min of 8 x 15 frames on the
+ * loaded Zen 3 host): 1.196 -> 1.092 ns each; each alone 1.174 and 1.205 (bench/
+ * REPORT.txt, gauss24; film21 measured Estrin alone slower in L1: 1.09 against 1.0). */
+__attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256d
+gaussian_series4(__m256d t, __m256d d2, __m256d k8, __m256i *kbits)
 {
     const __m256d shift = _mm256_set1_pd(0x1.8p52);
-    __m256d kd = _mm256_fmadd_pd(t, _mm256_set1_pd(0x1.71547652b82fep3), shift); /* 8/ln2 */
+    __m256d kd = _mm256_fmadd_pd(d2, k8, shift);
     *kbits = _mm256_castpd_si256(kd);
     kd = _mm256_sub_pd(kd, shift);
     __m256d r = _mm256_fnmadd_pd(kd, _mm256_set1_pd(0x1.62e42fefa39efp-4), t);
-    __m256d p = _mm256_fmadd_pd(_mm256_set1_pd(1.0 / 120.0), r, _mm256_set1_pd(1.0 / 24.0));
-    p = _mm256_fmadd_pd(p, r, _mm256_set1_pd(1.0 / 6.0));
-    p = _mm256_fmadd_pd(p, r, _mm256_set1_pd(0.5));
-    p = _mm256_fmadd_pd(p, r, _mm256_set1_pd(1.0));
-    return _mm256_fmadd_pd(p, r, _mm256_set1_pd(1.0));
+    __m256d r2 = _mm256_mul_pd(r, r);
+    __m256d a = _mm256_add_pd(r, _mm256_set1_pd(1.0));
+    __m256d b = _mm256_fmadd_pd(r, _mm256_set1_pd(1.0 / 6.0), _mm256_set1_pd(0.5));
+    __m256d c = _mm256_fmadd_pd(r, _mm256_set1_pd(1.0 / 120.0), _mm256_set1_pd(1.0 / 24.0));
+    return _mm256_fmadd_pd(r2, _mm256_fmadd_pd(r2, c, b), a);
 }
 
 /* The lanes of F (four) that must take E: F's low 29 bits within 2^18 of 2^28 (bits
@@ -461,13 +473,16 @@ __attribute__((noinline, FILTER_AVX2_FMA)) static void gaussian_fix8(__m256d *e0
  *   group to the exact test per half (gaussian_bad4) and E in its lanes. */
 __attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256 gaussian_w8(__m256 x,
                                                                                __m256d neg_inv,
+                                                                               __m256d k8,
                                                                                __m256 far)
 {
     __m256 d2 = _mm256_mul_ps(x, x);
-    __m256d t0 = _mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(d2)), neg_inv);
-    __m256d t1 = _mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(d2, 1)), neg_inv);
+    __m256d q0 = _mm256_cvtps_pd(_mm256_castps256_ps128(d2));
+    __m256d q1 = _mm256_cvtps_pd(_mm256_extractf128_ps(d2, 1));
+    __m256d t0 = _mm256_mul_pd(q0, neg_inv);
+    __m256d t1 = _mm256_mul_pd(q1, neg_inv);
     __m256i k0, k1;
-    __m256d p0 = gaussian_series4(t0, &k0), p1 = gaussian_series4(t1, &k1);
+    __m256d p0 = gaussian_series4(t0, q0, k8, &k0), p1 = gaussian_series4(t1, q1, k8, &k1);
     /* gaussian_f8's table of 2^(j/8): the low dwords, and the high dwords less j << 17 */
     const __m256i tab_lo = _mm256_setr_epi32(0x0, 0x3c7d517b, 0x0a31b715, (int)0xd5362a27,
                                              0x667f3bcd, 0x422aa0db, (int)0x995ad3ad,
@@ -502,18 +517,27 @@ __attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256 gaussian_fa
     return _mm256_set1_ps((float)(80.0 / -neg_inv * (1.0 - 0x1p-20)));
 }
 
+/* k8 of gaussian_series4: neg_inv 8/ln2 rounded to double, once per call. */
+__attribute__((always_inline, FILTER_AVX2_FMA)) static inline __m256d gaussian_k8(double neg_inv)
+{
+    return _mm256_set1_pd(neg_inv * 0x1.71547652b82fep3);
+}
+
 /* gaussian_offsets' loop: arguments as gaussian_offsets16's (R <= FILTER_FLOAT_ARG_R:
  * one float add, sixteen positions a step, four exp chains of four; else the double
  * steps, rounded to float by vcvtpd2ps as the vector extension's conversion), weights
  * by gaussian_w8; then eight positions a step, the last group through masked loads
- * and stores (padding lanes: the weights of position 0). */
+ * and stores (padding lanes: the weights of position 0). The weights of positions
+ * 8v .. 8v+7 (group v) start at w + v bstride: bstride 8 for a row's contiguous planes
+ * (filter_weights_1d_offsets), more for filter_weights_1d_blocks' groups. */
 __attribute__((always_inline, FILTER_AVX2_FMA)) static inline void
 gaussian_offsets8(const Filter *f, const float *pos, int n, int R, float *w, size_t plane,
-                  bool float_arg)
+                  size_t bstride, bool float_arg)
 {
     double s = (double)f->r, ni = -1.0 / (2.0 * s * s);
     __m256d neg_inv = _mm256_set1_pd(ni);
     __m256 far = gaussian_far8(ni);
+    __m256d k8 = gaussian_k8(ni);
     const __m256 one = _mm256_set1_ps(1.0f);
     const __m256d half = _mm256_set1_pd(0.5), dr = _mm256_set1_pd((double)R);
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -523,11 +547,11 @@ gaussian_offsets8(const Filter *f, const float *pos, int n, int R, float *w, siz
             __m256 pa = _mm256_loadu_ps(pos + i), pb = _mm256_loadu_ps(pos + i + 8);
             __m256 c = _mm256_set1_ps(-(float)R - 0.5f);
             for (int k = 0; k <= 2 * R; k++, c = _mm256_add_ps(c, one)) {
-                float *dst = w + (size_t)k * plane + (size_t)i;
-                __m256 ga = gaussian_w8(_mm256_add_ps(pa, c), neg_inv, far);
-                __m256 gb = gaussian_w8(_mm256_add_ps(pb, c), neg_inv, far);
+                float *dst = w + (size_t)k * plane + (size_t)(i / 8) * bstride;
+                __m256 ga = gaussian_w8(_mm256_add_ps(pa, c), neg_inv, k8, far);
+                __m256 gb = gaussian_w8(_mm256_add_ps(pb, c), neg_inv, k8, far);
                 _mm256_storeu_ps(dst, ga);
-                _mm256_storeu_ps(dst + 8, gb);
+                _mm256_storeu_ps(dst + bstride, gb);
             }
         }
     for (; i < n; i += 8) {
@@ -549,11 +573,11 @@ gaussian_offsets8(const Filter *f, const float *pos, int n, int R, float *w, siz
                 x = _mm256_set_m128(_mm256_cvtpd_ps(_mm256_add_pd(b1, kv)),
                                     _mm256_cvtpd_ps(_mm256_add_pd(b0, kv)));
             }
-            float *dst = w + (size_t)k * plane + (size_t)i;
+            float *dst = w + (size_t)k * plane + (size_t)(i / 8) * bstride;
             if (n - i >= 8)
-                _mm256_storeu_ps(dst, gaussian_w8(x, neg_inv, far));
+                _mm256_storeu_ps(dst, gaussian_w8(x, neg_inv, k8, far));
             else
-                _mm256_maskstore_ps(dst, m, gaussian_w8(x, neg_inv, far));
+                _mm256_maskstore_ps(dst, m, gaussian_w8(x, neg_inv, k8, far));
         }
     }
 }
@@ -568,13 +592,14 @@ __attribute__((FILTER_AVX2_FMA)) static void gaussian_batch_avx2(const Filter *f
     double s = (double)f->r, ni = -1.0 / (2.0 * s * s);
     __m256d neg_inv = _mm256_set1_pd(ni);
     __m256 far = gaussian_far8(ni);
+    __m256d k8 = gaussian_k8(ni);
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     int i = 0;
     for (; i + 8 <= n; i += 8)
-        _mm256_storeu_ps(w + i, gaussian_w8(_mm256_loadu_ps(x + i), neg_inv, far));
+        _mm256_storeu_ps(w + i, gaussian_w8(_mm256_loadu_ps(x + i), neg_inv, k8, far));
     if (i < n) {
         __m256i m = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - i), lane);
-        _mm256_maskstore_ps(w + i, m, gaussian_w8(_mm256_maskload_ps(x + i, m), neg_inv, far));
+        _mm256_maskstore_ps(w + i, m, gaussian_w8(_mm256_maskload_ps(x + i, m), neg_inv, k8, far));
     }
 }
 
@@ -583,9 +608,22 @@ __attribute__((FILTER_AVX2_FMA)) static void gaussian_offsets_avx2(const Filter 
                                                                    int R, float *w, size_t plane)
 {
     if (R <= FILTER_FLOAT_ARG_R)
-        gaussian_offsets8(f, pos, n, R, w, plane, true);
+        gaussian_offsets8(f, pos, n, R, w, plane, 8, true);
     else
-        gaussian_offsets8(f, pos, n, R, w, plane, false);
+        gaussian_offsets8(f, pos, n, R, w, plane, 8, false);
+}
+
+/* filter_weights_1d_blocks for the Gaussian with AVX2 + FMA: gaussian_offsets8 with the
+ * groups bstride floats apart. */
+__attribute__((FILTER_AVX2_FMA)) static void gaussian_blocks_avx2(const Filter *f,
+                                                                  const float *pos, int nblk,
+                                                                  int R, float *w, size_t plane,
+                                                                  size_t bstride)
+{
+    if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets8(f, pos, 8 * nblk, R, w, plane, bstride, true);
+    else
+        gaussian_offsets8(f, pos, 8 * nblk, R, w, plane, bstride, false);
 }
 #define HAVE_AVX2_BATCH 1
 #endif
@@ -705,6 +743,23 @@ void filter_weights_1d_offsets(const Filter *f, const float *pos, int n, int R, 
             filter_weights_1d(f, arg, w + (size_t)k * plane + (size_t)i0, m);
         }
     }
+}
+
+void filter_weights_1d_blocks(const Filter *f, const float *pos, int nblk, int R, float *w,
+                              size_t plane, size_t bstride)
+{
+#ifdef HAVE_AVX2_BATCH
+    /* The AVX2 host's case in one call (the film's tile rows: 2 x 16 groups of eight
+     * positions a call); with AVX-512, or without AVX2, a group at a time through
+     * filter_weights_1d_offsets, whose kernels those are. */
+    if (f->ops == &gaussian_ops && !(gaussian_path_cap >= 2 && cpu_has_avx512()) &&
+        gaussian_path_cap >= 1 && cpu_has_avx2_fma()) {
+        gaussian_blocks_avx2(f, pos, nblk, R, w, plane, bstride);
+        return;
+    }
+#endif
+    for (int v = 0; v < nblk; v++)
+        filter_weights_1d_offsets(f, pos + 8 * v, 8, R, w + (size_t)v * bstride, plane);
 }
 
 bool filter_is_box(const Filter *f) { return f->ops == &box_ops; }

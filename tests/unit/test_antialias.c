@@ -568,6 +568,56 @@ static void test_weights_offsets_boundaries(void)
     }
 }
 
+/* filter_weights_1d_blocks (the film's tile rows: groups of eight positions, each
+ * group's weights in planes of its own) == filter_weights_1d_offsets on each group, bit
+ * for bit, on every vector path of the Gaussian against the plain build's offsets: the
+ * float-argument radii (R = 1, 2), the double steps (R = 3, 5), other separable filters
+ * (a group at a time), 1..5 groups and 32 (the film's 16 samples), strides that are not
+ * multiples of anything. Fails with the AVX2 loop's second vector or its k-th plane
+ * put at the wrong stride. */
+static void test_weights_blocks(void)
+{
+    char why[160];
+    static const struct { const char *name; float r; } filters[] = {
+        {"gaussian", 0.26f}, {"gaussian", 0.4f}, {"gaussian", 0.9f}, {"gaussian", 1.2f},
+        {"gaussian", 2.3f}, {"box", 1.3f}, {"mitchell", 2.0f}};
+    enum { GROUPS = 32, N = 8 * GROUPS, SIDE_MAX = 11, PLANE = 13, BSTRIDE = SIDE_MAX * PLANE + 5 };
+    static float pos[N], w[GROUPS * BSTRIDE], ref[SIDE_MAX * 8];
+    uint64_t h = 0x243f6a8885a308d3u;
+    for (int i = 0; i < N; i++) {
+        h ^= h << 13, h ^= h >> 7, h ^= h << 17;
+        pos[i] = (float)(h >> 40) * 0x1p-24f;
+    }
+    pos[3] = 0.0f;
+    pos[12] = nextafterf(1.0f, 0.0f);
+    pos[20] = 0x1p-26f;
+    for (size_t k = 0; k < sizeof filters / sizeof filters[0]; k++) {
+        Filter f;
+        CHECK(filter_init(&f, filter_find(filters[k].name), filters[k].r, why, sizeof why));
+        int R = f.support, side = 2 * R + 1;
+        CHECK(side <= SIDE_MAX);
+        static const int groups[] = {1, 2, 3, 4, 5, GROUPS};
+        for (int cap = 0; cap <= 2; cap++)
+            for (size_t g = 0; g < sizeof groups / sizeof groups[0]; g++) {
+                int nb = groups[g];
+                filter_gaussian_path_set(cap);
+                memset(w, 0xff, sizeof w);
+                filter_weights_1d_blocks(&f, pos, nb, R, w, PLANE, BSTRIDE);
+                filter_gaussian_path_set(0);
+                int bad = 0;
+                for (int v = 0; v < nb; v++) {
+                    filter_weights_1d_offsets(&f, pos + 8 * v, 8, R, ref, 8);
+                    for (int t = 0; t < side; t++)
+                        bad += memcmp(w + (size_t)v * BSTRIDE + (size_t)t * PLANE, ref + 8 * t,
+                                      8 * sizeof ref[0]) != 0;
+                }
+                CHECK_MSG(bad == 0, "%s %g path %d, %d groups: %d planes differ",
+                          filters[k].name, (double)f.r, cap, nb, bad);
+            }
+        filter_gaussian_path_set(2);
+    }
+}
+
 /* ---- the film on a course scene --------------------------------------------------- */
 
 typedef struct Fixture {
@@ -927,6 +977,8 @@ static const TestCase tests[] = {
      test_weights_offsets},
     {"filters: a row's weights on every path at rounding boundaries, tiny positions",
      test_weights_offsets_boundaries},
+    {"filters: groups of eight positions, weights in planes of their own == offsets",
+     test_weights_blocks},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
     {"film: colour-only vector filter == general loop; any column offset",
