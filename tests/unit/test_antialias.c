@@ -961,6 +961,56 @@ static void test_film_vector_filter(void)
     fixture_close(&fx);
 }
 
+/* The samples picture of a film whose separable weights come from the tile's scratch
+ * (the Gaussian: the positions then reach the planes only for this picture) is the
+ * picture of the same samples under the box 0.5 (no planes): same sampler, same
+ * positions and colours, on every path of the film, 1 and 2 threads, a width that cuts
+ * the last tile (the per-pixel weights). Fails when the scratch path drops the
+ * positions though the picture is asked for. */
+static void test_film_samples_with_weights(void)
+{
+    Fixture fx;
+    if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
+        return;
+    Sampler jit;
+    make_sampler(&jit, "jittered", 9, 4);
+    Filter g4, box;
+    char why[160];
+    CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
+    filter_init_default(&box);
+    const int W = 21, H = 11, Z = 5;
+    Image ref;
+    CHECK(image_init(&ref, W * Z, H * Z));
+    for (int c = 0; c < 2 * 3; c++) {
+        const Filter *flt = c == 0 ? &box : &g4;
+        int cap = c < 3 ? c : c - 3, threads = c < 3 ? 1 : 2;
+        Image color, pic;
+        CHECK(image_init(&color, W, H) && image_init(&pic, W * Z, H * Z));
+        FilmConfig fc;
+        memset(&fc, 0, sizeof fc);
+        fc.sampler = &jit;
+        fc.filter = flt;
+        fc.full_width = W;
+        fc.full_height = H;
+        fc.width = W;
+        fc.height = H;
+        fc.color = &color;
+        fc.samples = c == 0 ? &ref : &pic;
+        fc.samples_zoom = Z;
+        film_path_set(cap);
+        CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, threads, NULL, NULL));
+        film_path_set(2);
+        if (c > 0)
+            CHECK_MSG(same_pixels(&pic, &ref, 0, 0),
+                      "Gaussian, film path %d, %d threads: the samples picture differs from "
+                      "the box's", cap, threads);
+        image_free(&color);
+        image_free(&pic);
+    }
+    image_free(&ref);
+    fixture_close(&fx);
+}
+
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
@@ -986,6 +1036,8 @@ static const TestCase tests[] = {
     {"film: one worker, R = 0: a strip per band == one strip", test_film_band_strips},
     {"film: one centred sample + box 0.5 == the image loop", test_film_default_is_image_loop},
     {"film: progress counts every traced pixel once", test_film_progress},
+    {"film: samples picture with weights from the scratch == the box's",
+     test_film_samples_with_weights},
 };
 
 RT_TEST_MAIN(tests)
