@@ -24,20 +24,6 @@ bool file_read_all(const char *path, char **out, size_t *len);
  * objfile_build_group can reuse for the triangles. */
 bool file_read_reusable(const char *path, char **out, size_t *len);
 
-/* A regular file of min_bytes or more (up to RT_FILE_MAX_BYTES) mapped read-only
- * instead of read: its pages are the page cache's, so no fresh buffer is zeroed and no
- * copy made (the 40k bunny's 1.3 MB: a 2 MB huge page zeroed, then 1.3 MB copied). The
- * text is followed by at least one page of zero bytes, so it is NUL-terminated as
- * file_read_all's is, and a scan that runs past *len stops there. Release with
- * file_unmap(*out, *len). False (errno unspecified) for anything else: not openable,
- * not a regular file, too small or too big, no mapping; read the file then.
- * Caution: the bytes are the file's while mapped; a file truncated meanwhile makes a
- * read of its lost pages raise SIGBUS, so use it only for input read once, right away. */
-bool file_map(const char *path, size_t min_bytes, char **out, size_t *len);
-void file_unmap(char *buf, size_t len);
-/* For tests: how many files file_map has mapped so far in this process. */
-unsigned long file_maps_made(void);
-
 /* What the file system says of a regular file: device, inode, size, and the times of
  * the last change of its bytes (mtime) and of its inode (ctime), to the nanosecond.
  * Rule: two equal identities name the same bytes when the identity was settled (below)

@@ -9,7 +9,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
@@ -284,61 +283,4 @@ bool file_same(const char *a, const char *b)
     struct stat sa, sb;
     return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev &&
            sa.st_ino == sb.st_ino;
-}
-
-static atomic_ulong g_maps_made; /* file_maps_made */
-
-unsigned long file_maps_made(void) { return atomic_load(&g_maps_made); }
-
-/* The span of a mapping for a text of len bytes: the file's pages and one page more. */
-static size_t map_span(size_t len, size_t page) { return (len / page + 1) * page + page; }
-
-bool file_map(const char *path, size_t min_bytes, char **out, size_t *len)
-{
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0)
-        return false;
-    struct stat st;
-    long pg = sysconf(_SC_PAGESIZE);
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size <= 0 || pg <= 0 ||
-        (uintmax_t)st.st_size < min_bytes || (uintmax_t)st.st_size > RT_FILE_MAX_BYTES) {
-        close(fd);
-        return false;
-    }
-    size_t n = (size_t)st.st_size, page = (size_t)pg;
-    /* Anonymous zero pages first, for the whole span (they are never written, so they
-     * all read the kernel's one zero page), then the file over the front of it: past
-     * the file's last byte there are zeros, in its last page (the kernel fills the rest
-     * of that page with zeros) and in the page after it in any case. */
-    char *base = mmap(NULL, map_span(n, page), PROT_READ, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (base == MAP_FAILED) {
-        close(fd);
-        return false;
-    }
-    /* A big file is parsed in parallel next: wake the helpers now, as read_all does. */
-    if (n >= RT_FILE_PAR_MIN_BYTES)
-        par_prepare();
-    /* MAP_POPULATE: the page table is filled here in one pass, not by a fault per 16
-     * pages while the text is parsed (page faults of a whole run: the 1.3M-triangle
-     * blob's 47 MB file, ~500 instead of ~1,100; the 40k bunny's, 131 instead of 151). */
-    bool ok = mmap(base, n, PROT_READ, MAP_PRIVATE | MAP_FIXED | MAP_POPULATE, fd, 0) !=
-              MAP_FAILED;
-    close(fd);
-    /* A file that grew since fstat has bytes after n in its last page: refused, so the
-     * text ends in a NUL as promised. */
-    if (!ok || base[n] != '\0') {
-        munmap(base, map_span(n, page));
-        return false;
-    }
-    atomic_fetch_add(&g_maps_made, 1);
-    *out = base;
-    *len = n;
-    return true;
-}
-
-void file_unmap(char *buf, size_t len)
-{
-    long pg = sysconf(_SC_PAGESIZE);
-    if (buf && pg > 0)
-        munmap(buf, map_span(len, (size_t)pg));
 }

@@ -11,7 +11,6 @@
 
 #include "lexer.h"
 #include "obj_loader.h"
-#include "rt/bigmem.h"
 #include "rt/file.h"
 #include "rt/geom.h"
 #include "rt/suggest.h"
@@ -721,16 +720,9 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     SetupKey key = {0, 0};
     FileIdentity id;
     ObjMesh mesh = {0};
-    /* A big file read straight from the disk for this parse alone (no -cache, no
-     * identity to hash, not raytracer-mpi's broadcast set) is mapped, not read
-     * (file_map): parsed once, right away, and unmapped after the build. Smaller files
-     * are read as before: their buffers come from malloc or the shared pool. */
-    bool may_map = !p->s->cache && !p->s->identify && !p->s->files, mapped = false;
     for (int i = 0; i < ntried && used < 0; i++) {
         if (by_identity && mesh_by_identity(p->s->cache, tried[i], &key, &mesh))
             used = i, known = true;
-        else if (may_map && file_map(tried[i], BIGMEM_MIN_BYTES, &buf, &len))
-            used = i, mapped = true;
         else if (by_identity ? file_read_reusable_identified(tried[i], &buf, &len, &id, &stable)
                              : scene_files_read(p->s->files, tried[i], true, &buf, &len))
             used = i;
@@ -776,11 +768,9 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
             ok = false;
         }
         if (ok) {
-            /* The text is parsed: its pages become the triangles' (arena.h), unless
-             * they are the file's own. */
-            *out = objfile_build_group(&p->s->arena, &mesh, p->current, mapped ? NULL : buf);
-            if (!mapped)
-                buf = NULL;
+            /* The text is parsed: its pages become the triangles' (arena.h). */
+            *out = objfile_build_group(&p->s->arena, &mesh, p->current, buf);
+            buf = NULL;
             if (cached)
                 memset(&mesh, 0, sizeof mesh); /* the cache's memory: not ours to free */
             if (!*out)
@@ -790,10 +780,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
         }
     }
     objfile_mesh_free(&mesh);
-    if (mapped)
-        file_unmap(buf, len);
-    else
-        arena_buffer_free(buf);
+    arena_buffer_free(buf);
     free(tried[0]);
     free(tried[1]);
     if (ok)

@@ -1,12 +1,8 @@
 /* OBJ reader tests: record forms, fans, negative indices, CRLF, located errors, the float
  * fast path against strtof, and the official meshes against a course-style reader. */
 #define _POSIX_C_SOURCE 200809L
-#include <fcntl.h>
 #include <stdint.h>
-#include <stdio.h>
 #include <stdlib.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include "../harness.h"
 #include "../../src/scene/obj_loader.h"
@@ -265,105 +261,6 @@ static void test_official_meshes(void)
     }
 }
 
-/* A generated OBJ text of at least min bytes: a strip of triangles, its lines padded
- * with a comment so that the text ends exactly at the given length. */
-static char *strip_text(size_t want)
-{
-    char *t = malloc(want + 1);
-    if (!t)
-        return NULL;
-    size_t n = 0;
-    int nv = 0;
-    while (want - n > 200) {
-        n += (size_t)snprintf(t + n, want + 1 - n, "v %d.25 %d.5 0.125\n", nv, nv % 7);
-        nv++;
-        if (nv >= 3)
-            n += (size_t)snprintf(t + n, want + 1 - n, "f %d %d %d\n", nv - 2, nv - 1, nv);
-    }
-    t[n++] = '#';
-    while (n < want - 1)
-        t[n++] = 'x';
-    t[n++] = '\n';
-    t[n] = '\0';
-    return t;
-}
-
-static bool write_text(const char *path, const char *t, size_t n)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        return false;
-    bool ok = fwrite(t, 1, n, f) == n;
-    return fclose(f) == 0 && ok;
-}
-
-/* file_map: a regular file from min_bytes on is mapped with its bytes, NUL-terminated and
- * followed by a page of zeros (whether its size is a whole number of pages or not),
- * and parses to the same mesh as the text read; anything else is refused. */
-static void test_file_map(void)
-{
-    char dir[] = "/tmp/rt_objmap_XXXXXX";
-    CHECK(mkdtemp(dir) != NULL);
-    char path[128];
-    snprintf(path, sizeof path, "%s/m.obj", dir);
-    long ps = sysconf(_SC_PAGESIZE);
-    const size_t sizes[] = {(size_t)ps * 160, (size_t)ps * 160 + 1, 600001};
-    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
-        char *t = strip_text(sizes[k]);
-        CHECK(t && write_text(path, t, sizes[k]));
-        char *buf = NULL;
-        size_t len = 0;
-        unsigned long before = file_maps_made();
-        CHECK_MSG(file_map(path, BIGMEM_MIN_BYTES, &buf, &len), "size %zu not mapped", sizes[k]);
-        CHECK_INT(file_maps_made() - before, 1);
-        if (!buf || !t) {
-            free(t);
-            continue;
-        }
-        CHECK_INT(len, sizes[k]);
-        CHECK(memcmp(buf, t, len) == 0);
-        size_t zeros = 0;
-        while (len + zeros < len + (size_t)ps && buf[len + zeros] == '\0')
-            zeros++;
-        CHECK_MSG(zeros == (size_t)ps, "size %zu: %zu zero bytes after the text", len, zeros);
-        ObjMesh a, b;
-        diag_init(&g_diag, NULL);
-        CHECK(objfile_parse(buf, len, "m.obj", &a, &g_diag));
-        CHECK(parse(t, &b));
-        CHECK(a.ntris > 1000 && a.ntris == b.ntris && a.nverts == b.nverts);
-        CHECK(a.ntris == b.ntris && memcmp(a.tris, b.tris, sizeof *a.tris * (size_t)a.ntris) == 0);
-        CHECK(a.nverts == b.nverts && memcmp(a.verts, b.verts, sizeof *a.verts * (size_t)a.nverts) == 0);
-        objfile_mesh_free(&a);
-        objfile_mesh_free(&b);
-        file_unmap(buf, len);
-        /* Below min_bytes: refused. */
-        CHECK(!file_map(path, sizes[k] + 1, &buf, &len));
-        free(t);
-    }
-    char *buf;
-    size_t len;
-    char fifo[160];
-    snprintf(fifo, sizeof fifo, "%s/fifo", dir);
-    CHECK(mkfifo(fifo, 0600) == 0);
-    int keep = open(fifo, O_RDWR | O_NONBLOCK); /* so opening it for reading does not wait */
-    CHECK(!file_map(fifo, 0, &buf, &len));
-    if (keep >= 0)
-        close(keep);
-    CHECK(!file_map(dir, 0, &buf, &len));
-    snprintf(path, sizeof path, "%s/none.obj", dir);
-    CHECK(!file_map(path, 0, &buf, &len));
-    snprintf(path, sizeof path, "%s/empty.obj", dir);
-    CHECK(write_text(path, "", 0));
-    CHECK(!file_map(path, 0, &buf, &len));
-    unsigned long maps = file_maps_made();
-    CHECK_INT(maps, 3);
-    unlink(path);
-    snprintf(path, sizeof path, "%s/m.obj", dir);
-    unlink(path);
-    unlink(fifo);
-    rmdir(dir);
-}
-
 static const TestCase tests[] = {
     {"basic", test_basic},
     {"slash_forms", test_slash_forms},
@@ -373,7 +270,6 @@ static const TestCase tests[] = {
     {"errors", test_errors},
     {"float_matches_strtof", test_float_matches_strtof},
     {"official_meshes", test_official_meshes},
-    {"file_map", test_file_map},
 };
 
 RT_TEST_MAIN(tests)

@@ -9,8 +9,6 @@
 #include <unistd.h>
 
 #include "../harness.h"
-#include "rt/bigmem.h"
-#include "rt/file.h"
 #include "rt/geom.h"
 #include "rt/scene.h"
 
@@ -598,55 +596,6 @@ static void write_file(const char *path, const char *text)
     }
 }
 
-/* A big OBJ file (from BIGMEM_MIN_BYTES on) is mapped (file_map), not read, and gives
- * the same triangles as a small one read the ordinary way; small files are read. */
-static void test_big_obj_mapped(void)
-{
-    make_tmp();
-    char obj[600], small[600];
-    snprintf(obj, sizeof obj, "%s/big.obj", g_tmp);
-    snprintf(small, sizeof small, "%s/small.obj", g_tmp);
-    FILE *f = fopen(obj, "wb");
-    CHECK(f != NULL);
-    if (!f)
-        return;
-    /* One triangle, then a comment long enough to pass BIGMEM_MIN_BYTES. */
-    fputs("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n#", f);
-    for (int i = 0; i < BIGMEM_MIN_BYTES; i++)
-        fputc('x', f);
-    fputs("\nv 0 0 1\nf 1 2 4\n", f);
-    fclose(f);
-    write_file(small, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 0 0 1\nf 1 2 4\n");
-    const char *names[2] = {"big.obj", "small.obj"};
-    Scene *s[2];
-    for (int k = 0; k < 2; k++) {
-        char text[256];
-        snprintf(text, sizeof text, "Materials { numMaterials 1 PhongMaterial { } }\n"
-                 "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file %s } }", names[k]);
-        Diag d;
-        diag_init(&d, NULL);
-        unsigned long before = file_maps_made();
-        s[k] = scene_load_string(text, "t.txt", g_tmp, &d);
-        CHECK_MSG(s[k] != NULL, "%s", d.last);
-        CHECK_MSG(file_maps_made() - before == (k == 0), "%s: %lu files mapped", names[k],
-                  file_maps_made() - before);
-    }
-    if (s[0] && s[1]) {
-        const Object3D *m0 = group_child(s[0]->root, 0), *m1 = group_child(s[1]->root, 0);
-        CHECK_INT(group_count(m0), 2);
-        CHECK_INT(group_count(m1), 2);
-        for (int i = 0; i < 2 && group_count(m0) == 2 && group_count(m1) == 2; i++) {
-            BBox a = group_child(m0, i)->bbox, b = group_child(m1, i)->bbox;
-            CHECK(memcmp(&a, &b, sizeof a) == 0);
-        }
-    }
-    scene_free(s[0]);
-    scene_free(s[1]);
-    unlink(obj);
-    unlink(small);
-    rmdir(g_tmp);
-}
-
 static void test_obj_file_resolution(void)
 {
     make_tmp();
@@ -1019,7 +968,6 @@ static void test_mutations_never_crash(void)
 
 static const TestCase tests[] = {
     {"official_scenes_parse", test_official_scenes_parse},
-    {"big_obj_mapped", test_big_obj_mapped},
     {"official_values", test_official_values},
     {"defaults_and_zero_lights", test_defaults_and_zero_lights},
     {"number_forms", test_number_forms},
