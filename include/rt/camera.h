@@ -48,6 +48,16 @@ Ray camera_generate_ray(const Camera *c, float u, float v);
 enum { CAMERA_BLOCK_MAX = 16 };
 void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
                        int height, const uint8_t *slot, Ray *rays);
+/* camera_pixel_rays of the 8 x 8 block at (x0, y0), in lane order: rays[k] is the ray
+ * of pixel (x0 + i, y0 + j) where lane[k] = 8 j + i (lane a permutation of 0..63: the
+ * renderer's tile order), to the bit. With AVX2 (asked on every call) and a perspective
+ * camera the rays are made in that order, eight at a time; else through
+ * camera_pixel_rays with the inverse table. */
+void camera_block8_rays(const Camera *c, int x0, int y0, int width, int height,
+                        const uint8_t *lane, Ray *rays);
+/* Tests: camera_block8_rays takes its plain path (camera_pixel_rays) from now on when on
+ * is true; the CPU's choice again when false. */
+void camera_block8_rays_plain(bool on);
 /* The rays of n sample points of pixel (x, y) of a W x H image, the points at offsets
  * xy[2k], xy[2k+1] in [0,1)^2 (A7 samplers): rays[k] is camera_generate_ray of
  * camera_sample_to_screen to the bit, sixteen samples at a time where the CPU running

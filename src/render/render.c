@@ -44,6 +44,7 @@ int render_default_threads(void)
 #define TILE RENDER_TILE
 _Static_assert(TILE * TILE <= ACCEL_PACKET_MAX, "a tile must fit in one ray packet");
 _Static_assert(TILE <= CAMERA_BLOCK_MAX, "a tile is one block of camera_pixel_rays");
+_Static_assert(TILE == 8, "a whole tile is camera_block8_rays' block");
 
 Vec3 render_depth_color(const Hit *hit, float depth_min, float depth_max)
 {
@@ -242,8 +243,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
     for (int x0 = xa; x0 < xend && !job_cancelled(job); x0 += TILE) {
         int n = 0;
         if (full_rows && x0 >= xlo && x0 + TILE <= xhi) {
-            camera_pixel_rays(job->camera, x0, y0, TILE, TILE, t->width, t->height, slot,
-                              rays);
+            camera_block8_rays(job->camera, x0, y0, t->width, t->height, cell, rays);
             trace(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
                 int tx = x0 - t->x0, ty = y0 - t->y0;

@@ -175,15 +175,66 @@ __attribute__((target("avx2"))) static int rows_avx2(Vec3 e, const float *cx, co
     return i;
 }
 #define HAVE_ROWS_AVX2 1
+
+/* camera_block8_rays' perspective rays in lane order: for lanes k..k+7, the column i and
+ * row j of each lane's pixel (lane[k] = 8 j + i) pick their terms out of the eight
+ * columns' and rows' (one permute each), then rows_avx2's operations in its order
+ * ((col + row) - eye, its length, each component divided where positive), so the same
+ * bits; the rays go to rays[k..k+7] in order, without rows_avx2's placing of each ray
+ * through a slot table. */
+__attribute__((target("avx2"))) static void lanes_avx2(Vec3 e, const Vec3 *col,
+                                                       const Vec3 *row, const uint8_t *lane,
+                                                       Ray *rays)
+{
+    float t[6][8];
+    for (int i = 0; i < 8; i++) {
+        t[0][i] = col[i].x;
+        t[1][i] = col[i].y;
+        t[2][i] = col[i].z;
+        t[3][i] = row[i].x;
+        t[4][i] = row[i].y;
+        t[5][i] = row[i].z;
+    }
+    __m256 cx = _mm256_loadu_ps(t[0]), cy = _mm256_loadu_ps(t[1]), cz = _mm256_loadu_ps(t[2]);
+    __m256 rx = _mm256_loadu_ps(t[3]), ry = _mm256_loadu_ps(t[4]), rz = _mm256_loadu_ps(t[5]);
+    __m256 ex = _mm256_set1_ps(e.x), ey = _mm256_set1_ps(e.y), ez = _mm256_set1_ps(e.z);
+    __m256 zero = _mm256_setzero_ps();
+    __m256i seven = _mm256_set1_epi32(7);
+    __m128 eye = _mm_setr_ps(e.x, e.y, e.z, 0.0f);
+    for (int k = 0; k < 64; k += 8) {
+        __m256i p = _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)(lane + k)));
+        __m256i pi = _mm256_and_si256(p, seven), pj = _mm256_srli_epi32(p, 3);
+        __m256 dx = _mm256_sub_ps(_mm256_add_ps(_mm256_permutevar8x32_ps(cx, pi),
+                                                _mm256_permutevar8x32_ps(rx, pj)), ex);
+        __m256 dy = _mm256_sub_ps(_mm256_add_ps(_mm256_permutevar8x32_ps(cy, pi),
+                                                _mm256_permutevar8x32_ps(ry, pj)), ey);
+        __m256 dz = _mm256_sub_ps(_mm256_add_ps(_mm256_permutevar8x32_ps(cz, pi),
+                                                _mm256_permutevar8x32_ps(rz, pj)), ez);
+        __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+        __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ);
+        float ox[8], oyz[16];
+        __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos);
+        __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos);
+        _mm256_storeu_ps(ox, _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos));
+        __m256 lo = _mm256_unpacklo_ps(qy, qz), hi = _mm256_unpackhi_ps(qy, qz);
+        _mm256_storeu_ps(oyz, _mm256_permute2f128_ps(lo, hi, 0x20));
+        _mm256_storeu_ps(oyz + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
+        float *r = (float *)(rays + k);
+        for (int q = 0; q < 8; q++, r += 6) {
+            _mm_storeu_ps(r, _mm_insert_ps(eye, _mm_set_ss(ox[q]), 0x30));
+            memcpy(r + 4, oyz + 2 * q, 2 * sizeof(float));
+        }
+    }
+}
 #endif
 
-void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
-                       int height, const uint8_t *slot, Ray *rays)
+/* The terms of one column (u) and of one row (v) of a block, in the order
+ * camera_generate_ray adds them: perspective (lower_left + x_axis u) + y_axis v,
+ * orthographic center + (horizontal (u - 0.5) size + up (v - 0.5) size). */
+static void block_terms(const Camera *c, int x0, int y0, int nx, int ny, int width,
+                        int height, Vec3 *col, Vec3 *row)
 {
-    /* The terms of one column (u) and of one row (v), in the order camera_generate_ray
-     * adds them: perspective (lower_left + x_axis u) + y_axis v, orthographic
-     * center + (horizontal (u - 0.5) size + up (v - 0.5) size). */
-    Vec3 col[CAMERA_BLOCK_MAX], row[CAMERA_BLOCK_MAX];
     bool ortho = c->kind == CAMERA_ORTHOGRAPHIC;
     /* u and v of camera_pixel_to_screen, each alone: the same expressions. */
     float side = (float)(width > height ? width : height);
@@ -196,6 +247,14 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
         float v = ((float)(y0 + j) + 0.5f + (side - (float)height) * 0.5f) / side;
         row[j] = ortho ? v3_scale(c->up, (v - 0.5f) * c->size) : v3_scale(c->y_axis, v);
     }
+}
+
+void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int width,
+                       int height, const uint8_t *slot, Ray *rays)
+{
+    Vec3 col[CAMERA_BLOCK_MAX], row[CAMERA_BLOCK_MAX];
+    bool ortho = c->kind == CAMERA_ORTHOGRAPHIC;
+    block_terms(c, x0, y0, nx, ny, width, height, col, row);
     if (ortho) {
         for (int j = 0; j < ny; j++)
             for (int i = 0; i < nx; i++) {
@@ -232,6 +291,29 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
             float l = sqrtf(d.x * d.x + d.y * d.y + d.z * d.z);
             r->dir = l > 0.0f ? v3(d.x / l, d.y / l, d.z / l) : d;
         }
+}
+
+static bool g_block8_plain; /* camera_block8_rays_plain */
+
+void camera_block8_rays_plain(bool on) { g_block8_plain = on; }
+
+void camera_block8_rays(const Camera *c, int x0, int y0, int width, int height,
+                        const uint8_t *lane, Ray *rays)
+{
+#ifdef HAVE_ROWS_AVX2
+    /* Asked on every call (a load), as camera_pixel_rays does. */
+    if (c->kind != CAMERA_ORTHOGRAPHIC && !g_block8_plain && cpu_has_avx2()) {
+        Vec3 col[8], row[8];
+        block_terms(c, x0, y0, 8, 8, width, height, col, row);
+        lanes_avx2(c->center, col, row, lane, rays);
+        return;
+    }
+#endif
+    /* camera_pixel_rays placing pixel p at slot[p], the lane showing it. */
+    uint8_t slot[64];
+    for (int k = 0; k < 64; k++)
+        slot[lane[k]] = (uint8_t)k;
+    camera_pixel_rays(c, x0, y0, 8, 8, width, height, slot, rays);
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)

@@ -88,6 +88,59 @@ static void test_pixel_rays_block(void)
     CHECK(checked > 500);
 }
 
+/* camera_block8_rays gives lane k the ray of pixel lane[k] (8 j + i) of its 8 x 8 block,
+ * camera_generate_ray(camera_pixel_to_screen) to the bit: the renderer's tile order and
+ * shuffled orders (every lane group mixing columns and rows), perspective and
+ * orthographic, blocks at odd places of square and cropped images; the lane-order AVX2
+ * path where this CPU has it and the plain one (camera_pixel_rays through the inverse
+ * table) each. */
+static void test_block8_rays(void)
+{
+    Camera cams[3];
+    CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
+                                  v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
+                                  26.0f * 3.14159265f / 180.0f));
+    CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
+    CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
+    const int sizes[][2] = {{200, 200}, {1920, 1080}, {333, 517}};
+    uint32_t st = 2024;
+    int differ = 0, checked = 0;
+    for (int plain = 0; plain < 2; plain++) {
+        camera_block8_rays_plain(plain != 0);
+        for (int c = 0; c < 3; c++)
+            for (int s = 0; s < 3; s++)
+                for (int b = 0; b < 4; b++) {
+                    int W = sizes[s][0], H = sizes[s][1];
+                    int x0 = (b * 37 + c * 11) % (W - 7), y0 = (b * 53 + s * 7) % (H - 7);
+                    uint8_t lane[64];
+                    for (int k = 0; k < 64; k++) {
+                        int dx, dy;
+                        render_tile_order(k, &dx, &dy);
+                        lane[k] = (uint8_t)(dy * 8 + dx);
+                    }
+                    for (int k = 63; b > 0 && k > 0; k--) { /* a shuffle (Fisher-Yates) */
+                        st = st * 1664525u + 1013904223u;
+                        int r = (int)((st >> 8) % (uint32_t)(k + 1));
+                        uint8_t tmp = lane[k];
+                        lane[k] = lane[r];
+                        lane[r] = tmp;
+                    }
+                    Ray rays[64];
+                    camera_block8_rays(&cams[c], x0, y0, W, H, lane, rays);
+                    for (int k = 0; k < 64; k++) {
+                        float u, v;
+                        camera_pixel_to_screen(x0 + lane[k] % 8, y0 + lane[k] / 8, W, H, &u, &v);
+                        Ray r = camera_generate_ray(&cams[c], u, v);
+                        checked++;
+                        differ += memcmp(&r, &rays[k], sizeof r) != 0;
+                    }
+                }
+    }
+    camera_block8_rays_plain(false);
+    CHECK_INT(differ, 0);
+    CHECK_INT(checked, 2 * 3 * 3 * 4 * 64);
+}
+
 /* camera_sample_rays gives each sample camera_generate_ray(camera_sample_to_screen) to
  * the bit, for sample counts 1 to 37: with and without a partial group of four, and with
  * one or two groups of sixteen (the AVX-512 lanes) or of eight (AVX2) before them; with
@@ -1243,6 +1296,7 @@ static const TestCase tests[] = {
     {"shading: pixel centres and cropping", test_pixel_mapping},
     {"shading: camera bases and rays", test_cameras},
     {"shading: a block of pixel rays, to the bit", test_pixel_rays_block},
+    {"shading: an 8 x 8 block of pixel rays in lane order, to the bit", test_block8_rays},
     {"shading: a pixel's sample rays, to the bit", test_sample_rays},
     {"shading: lights and attenuation", test_lights},
     {"shading: Phong with the n.L step", test_phong},
