@@ -27,6 +27,31 @@ typedef struct MarchingInfo {
     float base[3], dt[3];
 } MarchingInfo;
 
+/* One axis of a march's slab test (Kay & Kajiya) for a ray not parallel to that axis:
+ * the t's where the ray crosses the slab's two planes lo and hi (inv = 1 / the ray's
+ * direction on the axis, o its origin), the later of the entries kept in *t_enter with
+ * its axis in *enter_axis, the earlier of the exits in *t_exit. Every march start (the
+ * course's march_init and the grid cast's lean ones) uses it, so all of them compute
+ * the same t's bit for bit. */
+static inline __attribute__((always_inline)) void march_slab_axis(float lo, float hi, float o,
+                                                                  float inv, int axis,
+                                                                  float *t_enter, float *t_exit,
+                                                                  int *enter_axis)
+{
+    float t0 = (lo - o) * inv, t1 = (hi - o) * inv;
+    if (inv < 0.0f) {
+        float tmp = t0;
+        t0 = t1;
+        t1 = tmp;
+    }
+    if (t0 > *t_enter) {
+        *t_enter = t0;
+        *enter_axis = axis;
+    }
+    if (t1 < *t_exit)
+        *t_exit = t1;
+}
+
 /* Starts a march of ray over the grid whose cells tile box (n[a] cells per axis; every
  * axis of box must have max > min). pad (>= 0, per axis, world units) widens only the
  * slab test that decides whether and where the ray meets the grid, so rays meeting the

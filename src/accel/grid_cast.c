@@ -279,18 +279,7 @@ static inline __attribute__((always_inline)) bool lean_march_init(
                 return false;
             continue;
         }
-        float t0 = (slab_lo[a] - o[a]) * inv[a], t1 = (slab_hi[a] - o[a]) * inv[a];
-        if (inv[a] < 0.0f) {
-            float tmp = t0;
-            t0 = t1;
-            t1 = tmp;
-        }
-        if (t0 > t_enter) {
-            t_enter = t0;
-            enter_axis = a;
-        }
-        if (t1 < t_exit)
-            t_exit = t1;
+        march_slab_axis(slab_lo[a], slab_hi[a], o[a], inv[a], a, &t_enter, &t_exit, &enter_axis);
     }
     if (enter_axis < 0)
         return false;
@@ -485,18 +474,7 @@ static inline __attribute__((always_inline)) bool lean_init(
             outside |= !(r->o[a] >= slab_lo[a] && r->o[a] <= slab_hi[a]);
             continue;
         }
-        float t0 = (slab_lo[a] - r->o[a]) * r->inv[a], t1 = (slab_hi[a] - r->o[a]) * r->inv[a];
-        if (r->inv[a] < 0.0f) {
-            float tmp = t0;
-            t0 = t1;
-            t1 = tmp;
-        }
-        if (t0 > t_enter) {
-            t_enter = t0;
-            enter_axis = a;
-        }
-        if (t1 < t_exit)
-            t_exit = t1;
+        march_slab_axis(slab_lo[a], slab_hi[a], r->o[a], r->inv[a], a, &t_enter, &t_exit, &enter_axis);
     }
     if (outside || enter_axis < 0)
         return false;

@@ -24,18 +24,7 @@ bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float p
                 return false;
             continue;
         }
-        float t0 = (plo - o[a]) * inv[a], t1 = (phi - o[a]) * inv[a];
-        if (inv[a] < 0.0f) {
-            float tmp = t0;
-            t0 = t1;
-            t1 = tmp;
-        }
-        if (t0 > t_enter) {
-            t_enter = t0;
-            enter_axis = a;
-        }
-        if (t1 < t_exit)
-            t_exit = t1;
+        march_slab_axis(plo, phi, o[a], inv[a], a, &t_enter, &t_exit, &enter_axis);
     }
     if (enter_axis < 0)
         return false; /* zero direction: the ray goes nowhere */

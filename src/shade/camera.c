@@ -138,6 +138,26 @@ static int rows_sse2(Vec3 e, const float *cx, const float *cy, const float *cz,
 #endif
 
 #if defined(__x86_64__) && defined(__GNUC__)
+/* Eight rays' unit directions from their unnormalised components: each divided by the
+ * length where the length is positive (as the scalar camera does), x into ox[0..7] and
+ * the (y, z) pairs in ray order into oyz[0..15], so that each ray goes out in two
+ * stores: (eye, dir.x) and (dir.y, dir.z). rows_avx2 and lanes_avx2 share it so that
+ * both make the same bits. */
+__attribute__((target("avx2"))) static inline void unit8_avx2(__m256 dx, __m256 dy, __m256 dz,
+                                                              float ox[8], float oyz[16])
+{
+    __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
+        _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+    __m256 pos = _mm256_cmp_ps(l, _mm256_setzero_ps(), _CMP_GT_OQ);
+    __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos);
+    __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos);
+    _mm256_storeu_ps(ox, _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos));
+    /* y0 z0 y1 z1 | y4 z4 y5 z5 and y2 z2 y3 z3 | y6 z6 y7 z7 (per 128-bit half) */
+    __m256 lo = _mm256_unpacklo_ps(qy, qz), hi = _mm256_unpackhi_ps(qy, qz);
+    _mm256_storeu_ps(oyz, _mm256_permute2f128_ps(lo, hi, 0x20));
+    _mm256_storeu_ps(oyz + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
+}
+
 /* rows_sse2 eight columns at a time, for CPUs with AVX2 (no FMA: nothing can fuse). */
 __attribute__((target("avx2"))) static int rows_avx2(Vec3 e, const float *cx, const float *cy,
                                                      const float *cz, const Vec3 *row, int i0,
@@ -145,25 +165,14 @@ __attribute__((target("avx2"))) static int rows_avx2(Vec3 e, const float *cx, co
                                                      const uint8_t *slot, Ray *rays)
 {
     __m256 ex = _mm256_set1_ps(e.x), ey = _mm256_set1_ps(e.y), ez = _mm256_set1_ps(e.z);
-    __m256 zero = _mm256_setzero_ps();
     int i = i0;
     for (; i + 8 <= i1; i += 8)
         for (int j = 0; j < ny; j++) {
             __m256 dx = _mm256_sub_ps(_mm256_add_ps(_mm256_loadu_ps(cx + i), _mm256_set1_ps(row[j].x)), ex);
             __m256 dy = _mm256_sub_ps(_mm256_add_ps(_mm256_loadu_ps(cy + i), _mm256_set1_ps(row[j].y)), ey);
             __m256 dz = _mm256_sub_ps(_mm256_add_ps(_mm256_loadu_ps(cz + i), _mm256_set1_ps(row[j].z)), ez);
-            __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
-                _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
-            __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ);
-            /* Each ray in two stores: (eye, dir.x) and (dir.y, dir.z). */
             float ox[8], oyz[16];
-            __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos);
-            __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos);
-            _mm256_storeu_ps(ox, _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos));
-            /* y0 z0 y1 z1 | y4 z4 y5 z5 and y2 z2 y3 z3 | y6 z6 y7 z7 (per 128-bit half) */
-            __m256 lo = _mm256_unpacklo_ps(qy, qz), hi = _mm256_unpackhi_ps(qy, qz);
-            _mm256_storeu_ps(oyz, _mm256_permute2f128_ps(lo, hi, 0x20));
-            _mm256_storeu_ps(oyz + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
+            unit8_avx2(dx, dy, dz, ox, oyz);
             __m128 eye = _mm_setr_ps(e.x, e.y, e.z, 0.0f);
             _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
             for (int k = 0; k < 8; k++) {
@@ -198,7 +207,6 @@ __attribute__((target("avx2"))) static void lanes_avx2(Vec3 e, const Vec3 *col,
     __m256 cx = _mm256_loadu_ps(t[0]), cy = _mm256_loadu_ps(t[1]), cz = _mm256_loadu_ps(t[2]);
     __m256 rx = _mm256_loadu_ps(t[3]), ry = _mm256_loadu_ps(t[4]), rz = _mm256_loadu_ps(t[5]);
     __m256 ex = _mm256_set1_ps(e.x), ey = _mm256_set1_ps(e.y), ez = _mm256_set1_ps(e.z);
-    __m256 zero = _mm256_setzero_ps();
     __m256i seven = _mm256_set1_epi32(7);
     __m128 eye = _mm_setr_ps(e.x, e.y, e.z, 0.0f);
     for (int k = 0; k < 64; k += 8) {
@@ -210,16 +218,8 @@ __attribute__((target("avx2"))) static void lanes_avx2(Vec3 e, const Vec3 *col,
                                                 _mm256_permutevar8x32_ps(ry, pj)), ey);
         __m256 dz = _mm256_sub_ps(_mm256_add_ps(_mm256_permutevar8x32_ps(cz, pi),
                                                 _mm256_permutevar8x32_ps(rz, pj)), ez);
-        __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
-        __m256 pos = _mm256_cmp_ps(l, zero, _CMP_GT_OQ);
         float ox[8], oyz[16];
-        __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos);
-        __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos);
-        _mm256_storeu_ps(ox, _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos));
-        __m256 lo = _mm256_unpacklo_ps(qy, qz), hi = _mm256_unpackhi_ps(qy, qz);
-        _mm256_storeu_ps(oyz, _mm256_permute2f128_ps(lo, hi, 0x20));
-        _mm256_storeu_ps(oyz + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
+        unit8_avx2(dx, dy, dz, ox, oyz);
         float *r = (float *)(rays + k);
         for (int q = 0; q < 8; q++, r += 6) {
             _mm_storeu_ps(r, _mm_insert_ps(eye, _mm_set_ss(ox[q]), 0x30));
