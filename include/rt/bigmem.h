@@ -14,10 +14,11 @@
  * grows and shrinks in place and, freed, is handed out again (cleared); a middle block
  * freed below the top is not reused, and once the budget is spent these sizes come from
  * malloc (bigmem.c says why).
- * A mapped block freed is kept as a spare, up to BIGMEM_SPARE_BYTES of them in all, and
- * a later big allocation that fits one takes it (its written bytes cleared) instead of
- * a fresh mapping whose huge pages the kernel must zero; beyond that budget a freed
- * mapping is unmapped at once.
+ * A mapped block of at most BIGMEM_SPARE_MAX_BYTES freed is kept as a spare, up to
+ * BIGMEM_SPARE_BYTES of them in all, and a later big allocation that fits one takes it
+ * (its written bytes cleared) instead of a fresh mapping whose huge pages the kernel
+ * must zero; a bigger block, or one beyond that budget, is unmapped at once (so a big
+ * scene's set-up, whose large freed blocks nothing later fits, peaks no higher).
  *
  * Every pointer from bigmem_alloc/bigmem_resize must be released by bigmem_free (never
  * by free), and a malloc'd pointer never by bigmem_free. Data is 64-byte aligned. */
@@ -29,6 +30,7 @@
 
 enum { BIGMEM_MIN_BYTES = 512 << 10, BIGMEM_POOL_MIN_BYTES = 16 << 10 };
 #define BIGMEM_SPARE_BYTES ((size_t)64 << 20)
+#define BIGMEM_SPARE_MAX_BYTES ((size_t)8 << 20)
 
 /* size zeroed bytes (size 0 is allowed and gives a valid, unique pointer); NULL when out
  * of memory or when size is absurd (above SIZE_MAX / 2). */

@@ -104,8 +104,11 @@ static atomic_flag g_maps_lock = ATOMIC_FLAG_INIT;
  * (freed once the mesh is built) before the primitive table, the binning's pairs before
  * the packed grid. A spare is handed out with only its written front (dirty) cleared,
  * by memset, in memory the process has touched already. At most SPARE_SLOTS spares and
- * SPARE_BYTES in all (a process keeps no more than that resident for reuse); a freed
- * mapping beyond that is unmapped as before. Under maps_lock. */
+ * SPARE_BYTES in all (a process keeps no more than that resident for reuse), each of
+ * at most BIGMEM_SPARE_MAX_BYTES: a bigger freed mapping (the 1.3M-triangle blob's read
+ * text and face arrays, which nothing later fits) or one beyond the budget is unmapped
+ * as before; kept, those raised the blob's peak memory by 15-29 MB for no reuse.
+ * Under maps_lock. */
 enum { SPARE_SLOTS = 8 };
 #define SPARE_BYTES BIGMEM_SPARE_BYTES
 static struct {
@@ -389,7 +392,8 @@ void bigmem_free(void *p)
         if (i >= 0) {
             /* A spare for the allocations to come (g_spare), when there is room. */
             for (int k = 0; k < SPARE_SLOTS && !leave && !kept; k++)
-                if (!g_spare[k].data && len <= SPARE_BYTES - g_spare_bytes) {
+                if (!g_spare[k].data && len <= BIGMEM_SPARE_MAX_BYTES &&
+                    len <= SPARE_BYTES - g_spare_bytes) {
                     g_spare[k].data = p;
                     g_spare[k].map_len = len;
                     g_spare[k].dirty = g_maps[i].dirty;

@@ -206,12 +206,21 @@ static void test_spares(void)
     unsigned char *e = bigmem_alloc(BIGMEM_MIN_BYTES);
     CHECK(e == c && all_zero(e, BIGMEM_MIN_BYTES));
     bigmem_free(e);
-    /* The budget: 20 MB blocks, never touched; with the 4 and 2 MB spares above, two of
-     * them make 46 MB of spares, so the third to the fifth are unmapped at once. */
-    enum { N = 5 };
+    /* A block bigger than BIGMEM_SPARE_MAX_BYTES is never kept: unmapped at once. */
+    unsigned char *big = bigmem_alloc(BIGMEM_SPARE_MAX_BYTES + 1);
+    CHECK(big != NULL);
+    if (!big)
+        return;
+    bigmem_free(big);
+    CHECK(!page_mapped(big));
+    /* The budget: blocks of the largest size kept, never touched; with the 4 and 2 MB
+     * spares above, the spares' slots (8) and bytes (BIGMEM_SPARE_BYTES) allow
+     * (64 - 6) / 8 = 7 of them by bytes but 6 by slots: the seventh and eighth are
+     * unmapped at once. */
+    enum { N = 8 };
     unsigned char *p[N];
     for (int i = 0; i < N; i++) {
-        p[i] = bigmem_alloc(20 * mb);
+        p[i] = bigmem_alloc(BIGMEM_SPARE_MAX_BYTES);
         CHECK(p[i] != NULL);
         if (!p[i])
             return;
@@ -219,7 +228,7 @@ static void test_spares(void)
     for (int i = 0; i < N; i++)
         bigmem_free(p[i]);
     for (int i = 0; i < N; i++)
-        CHECK_MSG(page_mapped(p[i]) == (i < 2), "20 MB block %d mapped %d", i,
+        CHECK_MSG(page_mapped(p[i]) == (i < 6), "8 MB block %d mapped %d", i,
                   page_mapped(p[i]));
 }
 
