@@ -397,9 +397,11 @@ static inline __attribute__((always_inline)) float lean_exit_t(const LeanMarch *
     return a < m->tn2 ? a : m->tn2;
 }
 
-/* The next cell: the axis (ties to x, then y) and the step, by selects (as branches,
- * which axis comes next mispredicted often); false when the ray leaves the box or
- * runs parallel to every axis left. */
+/* The next cell: the axis (ties to x, then y) by selects, then one branch per axis that
+ * checks and counts down that axis' steps left, moves the index and updates its t_next
+ * (only the stepped axis' counter can reach zero; fewer instructions than selects for all
+ * three counters and the index, 214bc03); false when the ray leaves the box or runs
+ * parallel to every axis left. */
 static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
 {
     bool y = m->tn1 < m->tn0;
