@@ -1453,32 +1453,10 @@ __attribute__((target("avx2"))) static int film_filter_own8(const Film *f, int j
         const float *src = film_sample(f, i, j, 0); /* pixel i + p at src + p xs */
         int k = 0;
         for (; k + 8 <= floats; k += 8) {
-            const float *p = src + k;
-            __m256 r0 = _mm256_loadu_ps(p), r1 = _mm256_loadu_ps(p + xs);
-            __m256 r2 = _mm256_loadu_ps(p + 2 * xs), r3 = _mm256_loadu_ps(p + 3 * xs);
-            __m256 r4 = _mm256_loadu_ps(p + 4 * xs), r5 = _mm256_loadu_ps(p + 5 * xs);
-            __m256 r6 = _mm256_loadu_ps(p + 6 * xs), r7 = _mm256_loadu_ps(p + 7 * xs);
-            __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1);
-            __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
-            __m256 t4 = _mm256_unpacklo_ps(r4, r5), t5 = _mm256_unpackhi_ps(r4, r5);
-            __m256 t6 = _mm256_unpacklo_ps(r6, r7), t7 = _mm256_unpackhi_ps(r6, r7);
-            /* u0: float k of pixels 0-3 (low half) and float k + 4 (high half) ... */
-            __m256 u0 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(1, 0, 1, 0));
-            __m256 u1 = _mm256_shuffle_ps(t0, t2, _MM_SHUFFLE(3, 2, 3, 2));
-            __m256 u2 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(1, 0, 1, 0));
-            __m256 u3 = _mm256_shuffle_ps(t1, t3, _MM_SHUFFLE(3, 2, 3, 2));
-            __m256 u4 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(1, 0, 1, 0));
-            __m256 u5 = _mm256_shuffle_ps(t4, t6, _MM_SHUFFLE(3, 2, 3, 2));
-            __m256 u6 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(1, 0, 1, 0));
-            __m256 u7 = _mm256_shuffle_ps(t5, t7, _MM_SHUFFLE(3, 2, 3, 2));
-            _mm256_store_ps(v[k], _mm256_permute2f128_ps(u0, u4, 0x20));
-            _mm256_store_ps(v[k + 1], _mm256_permute2f128_ps(u1, u5, 0x20));
-            _mm256_store_ps(v[k + 2], _mm256_permute2f128_ps(u2, u6, 0x20));
-            _mm256_store_ps(v[k + 3], _mm256_permute2f128_ps(u3, u7, 0x20));
-            _mm256_store_ps(v[k + 4], _mm256_permute2f128_ps(u0, u4, 0x31));
-            _mm256_store_ps(v[k + 5], _mm256_permute2f128_ps(u1, u5, 0x31));
-            _mm256_store_ps(v[k + 6], _mm256_permute2f128_ps(u2, u6, 0x31));
-            _mm256_store_ps(v[k + 7], _mm256_permute2f128_ps(u3, u7, 0x31));
+            __m256 w[8];
+            film_transpose8(src + k, xs, w); /* float k + m of pixels 0..7 in w[m] */
+            for (int m = 0; m < 8; m++)
+                _mm256_store_ps(v[k + m], w[m]);
         }
         for (; k < floats; k++)
             for (int p = 0; p < 8; p++)
