@@ -47,18 +47,28 @@ static void test_cameras(void)
     CHECK(!camera_init_orthographic(&c, v3(0, 0, 0), v3(0, 0, 1), v3(0, 1, 0), 0));
 }
 
+/* The cameras and image sizes the ray-generation tests compare over: course line 07's
+ * perspective view, an oblique perspective with a tilted up vector, and an orthographic
+ * camera looking slightly sideways; a square, a wide and an odd-sized cropped image. */
+static const int ray_test_sizes[3][2] = {{200, 200}, {1920, 1080}, {333, 517}};
+
+static void ray_test_cameras(Camera cams[3])
+{
+    CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
+                                  v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
+                                  26.0f * 3.14159265f / 180.0f));
+    CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
+    CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
+}
+
 /* camera_pixel_rays gives each pixel camera_generate_ray(camera_pixel_to_screen) to
  * the bit: perspective and orthographic, square and cropped images, blocks at odd
  * places and of every size up to the maximum. */
 static void test_pixel_rays_block(void)
 {
     Camera cams[3];
-    CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
-                                  v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
-                                  26.0f * 3.14159265f / 180.0f));
-    CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
-    CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
-    const int sizes[][2] = {{200, 200}, {1920, 1080}, {333, 517}};
+    ray_test_cameras(cams);
+    const int (*sizes)[2] = ray_test_sizes;
     int differ = 0, checked = 0;
     for (int c = 0; c < 3; c++)
         for (int s = 0; s < 3; s++)
@@ -97,12 +107,8 @@ static void test_pixel_rays_block(void)
 static void test_block8_rays(void)
 {
     Camera cams[3];
-    CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
-                                  v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
-                                  26.0f * 3.14159265f / 180.0f));
-    CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
-    CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
-    const int sizes[][2] = {{200, 200}, {1920, 1080}, {333, 517}};
+    ray_test_cameras(cams);
+    const int (*sizes)[2] = ray_test_sizes;
     uint32_t st = 2024;
     int differ = 0, checked = 0;
     for (int plain = 0; plain < 2; plain++) {
@@ -148,12 +154,8 @@ static void test_block8_rays(void)
 static void test_sample_rays_with(const char *isa)
 {
     Camera cams[3];
-    CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
-                                  v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
-                                  26.0f * 3.14159265f / 180.0f));
-    CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
-    CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
-    const int sizes[][2] = {{200, 200}, {1920, 1080}, {333, 517}};
+    ray_test_cameras(cams);
+    const int (*sizes)[2] = ray_test_sizes;
     uint32_t st = 12345;
     int differ = 0, checked = 0;
     for (int c = 0; c < 3; c++)
