@@ -81,54 +81,66 @@ PL_TARGET static inline PL_D PL_(noise)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy
 }
 #endif
 
-/* CELL_U and CELL_V (perlin.c) as byte offsets into noise_cell's d: for hash h and corner c, u's offset in
- * the low 16 bits and v's in the high 16 (index times the vector's size). With them a
- * corner's gradient is two loads at offsets read from one word: a table of the two
- * indices as nibbles took a mask or shift and a scaling per index, in a loop
- * that stored its eight sums to memory (at 16 samples per pixel most vectors take
- * noise_cell, and that loop was a quarter of the kernel's instructions there). */
-#define PL_OFF(h, c)                                                                         \
-    ((uint32_t)(CELL_U(h, (c)&1, (c) >> 1 & 1) * sizeof(PL_D)) |                            \
-     (uint32_t)(CELL_V(h, (c)&1, (c) >> 1 & 1, (c) >> 2) * sizeof(PL_D)) << 16)
+/* CELL_U and CELL_V (perlin.c) as byte offsets into noise_cell's d (index times the
+ * vector's size): for hash h and corner c, u's offset at [h][c] and v's at [h][8 + c].
+ * With them a corner's gradient is two loads at offsets read straight from the picks:
+ * both offsets packed in one word (u's in the low 16 bits) took a shift and a
+ * zero-extension each, about a fifth of noise_cell's instructions (callgrind, course
+ * line 17a with 16 jittered samples: 127 per vector and octave then); before that, a
+ * table of the two indices as nibbles took a mask or shift and a scaling per index, in
+ * a loop that stored its eight sums to memory. */
+#define PL_OFF_U(h, c) (uint32_t)(CELL_U(h, (c)&1, (c) >> 1 & 1) * sizeof(PL_D))
+#define PL_OFF_V(h, c) (uint32_t)(CELL_V(h, (c)&1, (c) >> 1 & 1, (c) >> 2) * sizeof(PL_D))
 #define PL_OFF_ROW(h)                                                                        \
-    {PL_OFF(h, 0), PL_OFF(h, 1), PL_OFF(h, 2), PL_OFF(h, 3),                                \
-     PL_OFF(h, 4), PL_OFF(h, 5), PL_OFF(h, 6), PL_OFF(h, 7)}
-static const uint32_t PL_(cell_off)[16][8] = {
+    {PL_OFF_U(h, 0), PL_OFF_U(h, 1), PL_OFF_U(h, 2), PL_OFF_U(h, 3),                        \
+     PL_OFF_U(h, 4), PL_OFF_U(h, 5), PL_OFF_U(h, 6), PL_OFF_U(h, 7),                        \
+     PL_OFF_V(h, 0), PL_OFF_V(h, 1), PL_OFF_V(h, 2), PL_OFF_V(h, 3),                        \
+     PL_OFF_V(h, 4), PL_OFF_V(h, 5), PL_OFF_V(h, 6), PL_OFF_V(h, 7)}
+static const uint32_t PL_(cell_off)[16][16] = {
     PL_OFF_ROW(0),  PL_OFF_ROW(1),  PL_OFF_ROW(2),  PL_OFF_ROW(3),  PL_OFF_ROW(4),
     PL_OFF_ROW(5),  PL_OFF_ROW(6),  PL_OFF_ROW(7),  PL_OFF_ROW(8),  PL_OFF_ROW(9),
     PL_OFF_ROW(10), PL_OFF_ROW(11), PL_OFF_ROW(12), PL_OFF_ROW(13), PL_OFF_ROW(14),
     PL_OFF_ROW(15),
 };
 #undef PL_OFF_ROW
-#undef PL_OFF
+#undef PL_OFF_V
+#undef PL_OFF_U
 
 /* The picks of the cell with floors fx0, fy0, fz0 (each below 1e9 in magnitude): the
- * cell's corner hashes as noise3_scalar computes them, each as its cell_off entry
- * (the two d offsets, see noise_cell) for its corner. */
+ * cell's corner hashes as noise3_scalar computes them, each as its cell_off entries
+ * (the two d offsets, see noise_cell) for its corner: u's in pick[c], v's in
+ * pick[8 + c]. */
 PL_TARGET static inline void PL_(cell_picks)(double fx0, double fy0, double fz0,
-                                             uint32_t pick[8])
+                                             uint32_t pick[16])
 {
     int X = (int)fx0 & 255, Y = (int)fy0 & 255, Z = (int)fz0 & 255;
     int A = perm(X) + Y, AA = perm(A) + Z, AB = perm(A + 1) + Z;
     int B = perm(X + 1) + Y, BA = perm(B) + Z, BB = perm(B + 1) + Z;
     /* Corner c = i + 2j + 4k: its hash picks its u and v. */
-    pick[0] = PL_(cell_off)[perm(AA) & 15][0];
-    pick[1] = PL_(cell_off)[perm(BA) & 15][1];
-    pick[2] = PL_(cell_off)[perm(AB) & 15][2];
-    pick[3] = PL_(cell_off)[perm(BB) & 15][3];
-    pick[4] = PL_(cell_off)[perm(AA + 1) & 15][4];
-    pick[5] = PL_(cell_off)[perm(BA + 1) & 15][5];
-    pick[6] = PL_(cell_off)[perm(AB + 1) & 15][6];
-    pick[7] = PL_(cell_off)[perm(BB + 1) & 15][7];
+#define PL_PICK(c, hash)                                                                     \
+    do {                                                                                     \
+        const uint32_t *row = PL_(cell_off)[(hash)&15];                                      \
+        pick[c] = row[c];                                                                    \
+        pick[8 + (c)] = row[8 + (c)];                                                        \
+    } while (0)
+    PL_PICK(0, perm(AA));
+    PL_PICK(1, perm(BA));
+    PL_PICK(2, perm(AB));
+    PL_PICK(3, perm(BB));
+    PL_PICK(4, perm(AA + 1));
+    PL_PICK(5, perm(BA + 1));
+    PL_PICK(6, perm(AB + 1));
+    PL_PICK(7, perm(BB + 1));
+#undef PL_PICK
 }
 
 /* noise where every lane lies in the cell of floors fx, fy, fz whose picks are pick
  * (cell_picks; no lane answers 0): the distances, fades and lerps as noise. d holds
  * the six distances and their negations at the indices CELL_U and CELL_V give (axis * 4 +
- * corner bit * 2 + negated); pick[c] holds corner c's two byte offsets into d (u's in
- * the low half: the sum u + v in grad's order). */
+ * corner bit * 2 + negated); pick[c] and pick[8 + c] hold corner c's byte offsets into
+ * d of u and of v (the sum u + v in grad's order). */
 PL_TARGET static inline PL_D PL_(noise_cell)(PL_D x, PL_D y, PL_D z, PL_D fx, PL_D fy, PL_D fz,
-                                             const uint32_t pick[8])
+                                             const uint32_t pick[16])
 {
     PL_D one = PL_(d_set)(1.0);
     PL_D x0 = PL_(d_sub)(x, fx), y0 = PL_(d_sub)(y, fy), z0 = PL_(d_sub)(z, fz);
@@ -138,8 +150,8 @@ PL_TARGET static inline PL_D PL_(noise_cell)(PL_D x, PL_D y, PL_D z, PL_D fx, PL
                   y1, PL_(d_neg)(y1), z0, PL_(d_neg)(z0), z1, PL_(d_neg)(z1)};
     const char *base = (const char *)d;
 #define PL_G(c)                                                                              \
-    PL_(d_add)(*(const PL_D *)(const void *)(base + (pick[c] & 0xffff)),                    \
-               *(const PL_D *)(const void *)(base + (pick[c] >> 16)))
+    PL_(d_add)(*(const PL_D *)(const void *)(base + pick[c]),                               \
+               *(const PL_D *)(const void *)(base + pick[8 + c]))
     PL_D g0 = PL_G(0), g1 = PL_G(1), g2 = PL_G(2), g3 = PL_G(3);
     PL_D g4 = PL_G(4), g5 = PL_G(5), g6 = PL_G(6), g7 = PL_G(7);
 #undef PL_G
@@ -157,10 +169,22 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
      * lookups. A NaN floor matches nothing. */
     struct {
         double fx, fy, fz;
-        uint32_t pick[8];
+        uint32_t pick[16];
     } memo[PL_MEMO_OCTAVES];
     for (int o = 0; o < PL_MEMO_OCTAVES; o++)
         memo[o].fx = memo[o].fy = memo[o].fz = (double)NAN;
+    /* Each octave's scale and its reciprocal, once per call rather than once per
+     * vector and octave (a scalar division each time); octaves beyond the table
+     * compute theirs as they come. */
+    enum { PL_SCALES = 64 };
+    double scales[PL_SCALES], inv_scales[PL_SCALES];
+    {
+        double sc = 1.0;
+        for (int o = 0; o < octaves && o < PL_SCALES; o++, sc *= 2.0) {
+            scales[o] = sc;
+            inv_scales[o] = 1.0 / sc;
+        }
+    }
     for (int i = 0; i < n; i += PL_W) {
         double bx[PL_W], by[PL_W], bz[PL_W], bo[PL_W];
         int k = n - i < PL_W ? n - i : PL_W;
@@ -185,21 +209,41 @@ PL_TARGET static void PL_FN(const double *x, const double *y, const double *z, i
          * scaling by 2 is exact), so the cell test stops at the first miss. Only the
          * speed depends on this: either path gives the same bits. */
         bool cell = true;
+        /* Whether lane 0's floors are below 1e9 in magnitude at the finest octave, and
+         * so at every octave: x 2^o is exact (or overflows to infinity, which fails
+         * here), and |floor(x 2^o)| does not decrease as o grows (floor is monotone and
+         * keeps the sign of x 2^o, or gives 0 or -1). Then the per-octave test below
+         * is d_one_cell alone (three scalar tests and branches fewer per vector and
+         * octave); otherwise, or beyond the table of scales, it is made at each octave
+         * as before. */
+        bool small = false;
+        if (octaves > 0 && octaves <= PL_SCALES) {
+            double top = scales[octaves - 1];
+            small = fabs(floor(px[0] * top)) < 1e9 && fabs(floor(py[0] * top)) < 1e9 &&
+                    fabs(floor(pz[0] * top)) < 1e9;
+        }
         for (int o = 0; o < octaves; o++) {
             /* noise / scale as noise * (1 / scale): scale is a power of two (at most
              * 2^63), so 1 / scale is exact, and both are the correctly rounded value
              * of the same real number (also below the normal range): the same bits. */
-            PL_D s = PL_(d_set)(scale), r = PL_(d_set)(1.0 / scale);
+            PL_D s, r;
+            if (o < PL_SCALES) {
+                s = PL_(d_set)(scales[o]);
+                r = PL_(d_set)(inv_scales[o]);
+            } else {
+                s = PL_(d_set)(scale);
+                r = PL_(d_set)(1.0 / scale);
+            }
             PL_D xs = PL_(d_mul)(vx, s), ys = PL_(d_mul)(vy, s), zs = PL_(d_mul)(vz, s);
             PL_D fx = PL_(d_floor)(xs), fy = PL_(d_floor)(ys), fz = PL_(d_floor)(zs);
             double fx0 = PL_(d_lane0)(fx), fy0 = PL_(d_lane0)(fy), fz0 = PL_(d_lane0)(fz);
             /* Not finite or 1e9 and beyond: noise's lanes that answer 0 (and a NaN
              * floor equals nothing, so it never passes d_one_cell). */
-            cell = cell && fabs(fx0) < 1e9 && fabs(fy0) < 1e9 && fabs(fz0) < 1e9 &&
+            cell = cell && (small || (fabs(fx0) < 1e9 && fabs(fy0) < 1e9 && fabs(fz0) < 1e9)) &&
                    PL_(d_one_cell)(fx, fy, fz);
             PL_D nv;
             if (cell) {
-                uint32_t own[8];
+                uint32_t own[16];
                 const uint32_t *pick = own;
                 if (o < PL_MEMO_OCTAVES) {
                     if (!(memo[o].fx == fx0 && memo[o].fy == fy0 && memo[o].fz == fz0)) {

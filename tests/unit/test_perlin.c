@@ -409,6 +409,52 @@ static void test_lanes_memo(void)
     CHECK_MSG(differ == 0, "%ld of %ld points differ from perlin_octaves' bits", differ, points);
 }
 
+/* The lane kernels' per-call octave constants and their one test per vector of lane
+ * 0's magnitude at the finest octave (below 1e9 there means below it at every
+ * octave): counts of octaves past the kernels' table of 64 scales (tiny coordinates,
+ * so that 2^69 x still lies in ordinary cells; one-cell vectors and straddling ones),
+ * and one-cell vectors whose floors pass 1e9 only at the last octave or the one
+ * before (the coarser octaves must still give noise, the finer ones 0). Against
+ * perlin_octaves, bit for bit, with every kernel. */
+static void test_lanes_octave_table(void)
+{
+    enum { N = 64 };
+    static double x[N], y[N], z[N], out[N];
+    const char *def = perlin_lanes_kernel();
+    const char *names[] = {"scalar", "avx2", "avx512", "avx512vbmi"};
+    long differ = 0, points = 0;
+    for (int kn = 0; kn < 4; kn++) {
+        if (!perlin_use_lanes_kernel(names[kn]))
+            continue;
+        uint64_t s = 0xA4093822299F31D0ULL;
+        for (int round = 0; round < 48; round++) {
+            /* rounds 0..23: 63 .. 70 octaves; 24..47: 1e9 reached at octave o - 1 or o */
+            bool deep = round < 24;
+            int octaves = deep ? 63 + round % 8 : 2 + round % 12;
+            for (int i = 0; i < N; i++) {
+                double c[3];
+                for (int k = 0; k < 3; k++) {
+                    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+                    double r = (double)(s >> 11) / 9007199254740992.0; /* [0, 1) */
+                    if (deep) /* 2^-60 .. 2^-58 times a spread: cells 2^-69 wide at the end */
+                        c[k] = ldexp(1.0 + (double)((i / 8 + k) % 3), -60) *
+                               (1.0 + r * (round % 2 ? 1e-3 : 1e-9));
+                    else /* lane 0's floor crosses 1e9 at octave octaves - 1 (or - 2) */
+                        c[k] = ldexp(1.0e9, -(octaves - 1 - round % 2)) * (1.0 + 1e-12 * r) *
+                               (k == 1 ? -1.0 : 1.0);
+                }
+                x[i] = c[0];
+                y[i] = c[1];
+                z[i] = c[2];
+            }
+            differ += lanes_differ(x, y, z, N, octaves, out);
+            points += N;
+        }
+    }
+    CHECK(perlin_use_lanes_kernel(def));
+    CHECK_MSG(differ == 0, "%ld of %ld points differ from perlin_octaves' bits", differ, points);
+}
+
 static const TestCase tests[] = {
     {"perlin: published reference value", test_published_value},
     {"perlin: independent values", test_independent_values},
@@ -424,5 +470,7 @@ static const TestCase tests[] = {
     {"perlin: the lane kernels give perlin_octaves' bits", test_lanes_bits},
     {"perlin: the lane kernels' shared-cell path gives the same bits", test_lanes_cells},
     {"perlin: the lane kernels' remembered cells give the same bits", test_lanes_memo},
+    {"perlin: the lane kernels' octave table and far-out test give the same bits",
+     test_lanes_octave_table},
 };
 RT_TEST_MAIN(tests)
