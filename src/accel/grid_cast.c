@@ -254,60 +254,6 @@ static bool brute_occluded(const Grid *g, const Ray *ray, float tmin, float tmax
     return false;
 }
 
-/* The cast's own march: march_init and march_next for one grid, step for step (same
- * float expressions in the same order, so the same cells, t's and counts), with the
- * grid's constants (lo = the box's min corner, the padded slab's sides, n / extent and
- * the cell size, each computed once by march_init's own expression) instead of six
- * divisions per ray, and without what only the ray tree reads (the entered face's
- * normal, started_inside). inv: 1 / the direction per axis, as march_init divides it.
- * Used when no ray tree is being recorded; with one, march_init/march_next record it.
- * Counts nothing (the callers count the first cell). */
-static inline __attribute__((always_inline)) bool lean_march_init(
-    const float lo[3], const float slab_lo[3], const float slab_hi[3],
-    const float inv_size[3], const float size[3], const int n[3], const Ray *ray,
-    const float inv[3], float tmin, MarchingInfo *mi)
-{
-    const float o[3] = {ray->origin.x, ray->origin.y, ray->origin.z};
-    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
-    bool parallel[3];
-    float t_enter = -INFINITY, t_exit = INFINITY;
-    int enter_axis = -1;
-    for (int a = 0; a < 3; a++) {
-        parallel[a] = d[a] == 0.0f || !isfinite(inv[a]);
-        if (parallel[a]) {
-            if (!(o[a] >= slab_lo[a] && o[a] <= slab_hi[a]))
-                return false;
-            continue;
-        }
-        march_slab_axis(slab_lo[a], slab_hi[a], o[a], inv[a], a, &t_enter, &t_exit, &enter_axis);
-    }
-    if (enter_axis < 0)
-        return false;
-    if (!(t_enter <= t_exit) || t_exit < tmin)
-        return false;
-    bool inside = t_enter < tmin;
-    mi->t = inside ? tmin : t_enter;
-    for (int a = 0; a < 3; a++) {
-        mi->n[a] = n[a];
-        mi->step[a] = (!parallel[a] && d[a] < 0.0f) ? -1 : 1;
-        if (!inside && a == enter_axis)
-            mi->cell[a] = mi->step[a] > 0 ? 0 : n[a] - 1;
-        else
-            mi->cell[a] = march_cell_of(o[a] + mi->t * d[a], lo[a], inv_size[a], n[a]);
-        if (parallel[a]) {
-            mi->base[a] = 0.0f;
-            mi->dt[a] = 0.0f;
-            mi->t_next[a] = INFINITY;
-        } else {
-            mi->base[a] = (lo[a] - o[a]) * inv[a];
-            mi->dt[a] = size[a] * inv[a];
-            int k = mi->step[a] > 0 ? mi->cell[a] + 1 : mi->cell[a];
-            mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
-        }
-    }
-    return true;
-}
-
 /* march_init's reciprocals of the direction. */
 static inline __attribute__((always_inline)) void ray_inv_dir(const Ray *ray, float inv[3])
 {
@@ -316,24 +262,7 @@ static inline __attribute__((always_inline)) void ray_inv_dir(const Ray *ray, fl
     inv[2] = 1.0f / ray->dir.z;
 }
 
-/* lean_march_init over grid g, counting its first cell. */
-static inline __attribute__((always_inline)) bool cast_march_init(const Grid *g,
-                                                                   const Ray *ray,
-                                                                   float tmin,
-                                                                   RenderCtx *ctx,
-                                                                   MarchingInfo *mi)
-{
-    const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
-    float inv[3];
-    ray_inv_dir(ray, inv);
-    if (!lean_march_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, ray, inv,
-                         tmin, mi))
-        return false;
-    ctx->stats.cells_traversed++;
-    return true;
-}
-
-/* The cast's march after cast_march_init, for the queries without a ray tree, in
+/* The cast's march (lean_init starts it), for the queries without a ray tree, in
  * registers: march_next step for step (the axis with the smallest t_next, ties to x,
  * then y; the same t's: the stepped axis' next boundary is base + (float)k * dt, with
  * k kept as a float, exact because no axis has 2^24 cells), with the cell's index kept
@@ -349,46 +278,6 @@ typedef struct LeanMarch {
     uint32_t c;                 /* the current cell's index (grid_cell_index) */
     uint64_t cells;             /* cells entered, for cells_traversed */
 } LeanMarch;
-
-static inline __attribute__((always_inline)) void lean_start_n(const int n[3], uint32_t base,
-                                                                const MarchingInfo *mi,
-                                                                LeanMarch *m)
-{
-    m->t = mi->t;
-    m->tn0 = mi->t_next[0];
-    m->tn1 = mi->t_next[1];
-    m->tn2 = mi->t_next[2];
-    m->b0 = mi->base[0];
-    m->b1 = mi->base[1];
-    m->b2 = mi->base[2];
-    m->dt0 = mi->dt[0];
-    m->dt1 = mi->dt[1];
-    m->dt2 = mi->dt[2];
-    /* k of t_next, as lean_march_init set it */
-    m->k0 = (float)(mi->cell[0] + (mi->step[0] > 0));
-    m->k1 = (float)(mi->cell[1] + (mi->step[1] > 0));
-    m->k2 = (float)(mi->cell[2] + (mi->step[2] > 0));
-    m->s0 = (float)mi->step[0];
-    m->s1 = (float)mi->step[1];
-    m->s2 = (float)mi->step[2];
-    m->left0 = mi->step[0] > 0 ? n[0] - 1 - mi->cell[0] : mi->cell[0];
-    m->left1 = mi->step[1] > 0 ? n[1] - 1 - mi->cell[1] : mi->cell[1];
-    m->left2 = mi->step[2] > 0 ? n[2] - 1 - mi->cell[2] : mi->cell[2];
-    m->d0 = mi->step[0];
-    m->d1 = mi->step[1] * n[0];
-    m->d2 = mi->step[2] * n[0] * n[1];
-    m->c = base + ((uint32_t)mi->cell[2] * (uint32_t)n[1] + (uint32_t)mi->cell[1]) *
-                      (uint32_t)n[0] + (uint32_t)mi->cell[0];
-    m->cells = 0;
-}
-
-/* lean_start_n over grid g's cells. */
-static inline __attribute__((always_inline)) void lean_start(const Grid *g,
-                                                              const MarchingInfo *mi,
-                                                              LeanMarch *m)
-{
-    lean_start_n(g->n, 0, mi, m);
-}
 
 /* march_exit_t of the current cell. */
 static inline __attribute__((always_inline)) float lean_exit_t(const LeanMarch *m)
@@ -437,12 +326,12 @@ static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
     return true;
 }
 
-/* What lean_march_init takes from the ray alone (its origin, direction, reciprocals
- * and which axes it runs parallel to), made once per ray for the two-level walk's
- * marches: the top grid's and each leaf grid's the ray enters. */
+/* What lean_init takes from the ray alone (its origin, direction, reciprocals and which
+ * axes it runs parallel to), made once per ray for the two-level walk's marches: the
+ * top grid's and each leaf grid's the ray enters. */
 typedef struct LeanRay {
     float o[3], d[3], inv[3];
-    bool par[3]; /* lean_march_init's parallel axes: d == 0 or 1/d not finite */
+    bool par[3]; /* march_init's parallel axes: d == 0 or 1/d not finite */
 } LeanRay;
 
 static inline __attribute__((always_inline)) void lean_ray(const Ray *ray, const float inv[3],
@@ -460,9 +349,15 @@ static inline __attribute__((always_inline)) void lean_ray(const Ray *ray, const
     }
 }
 
-/* lean_march_init followed by lean_start_n, in one: the same float expressions in the
- * same order (so the same t, cells, t_next's and counters), written straight into the
- * march instead of through a MarchingInfo, with the ray's part from r. */
+/* The cast's own march start: march_init for one grid (n cells per axis, whose indices
+ * start at base), the same float expressions in the same order, so the same t, cells and
+ * t_next's, with the grid's constants (lo = the box's min corner, the padded slab's
+ * sides, n / extent and the cell size, each computed once by march_init's own
+ * expression) instead of six divisions per ray, the ray's part from r, and without what
+ * only the ray tree reads (the entered face's normal, started_inside), written straight
+ * into the lean march (k, the steps left, the index strides, the cell's index). Used
+ * when no ray tree is being recorded; with one, march_init/march_next record it.
+ * Counts nothing (the callers count the first cell). */
 static inline __attribute__((always_inline)) bool lean_init(
     const float lo[3], const float slab_lo[3], const float slab_hi[3],
     const float inv_size[3], const float size[3], const int n[3], uint32_t base,
@@ -547,29 +442,43 @@ static inline __attribute__((always_inline)) bool cell_occupied_in(const uint64_
     return !occ || (occ[c >> 6] >> (c & 63) & 1);
 }
 
-/* How a query proceeds: the ray misses the grid's box, marches its cells, or starts
- * too far out for the march (grid_ray_too_far) and tests every bounded primitive. */
-typedef enum MarchStart { MARCH_NONE, MARCH_CELLS, MARCH_ALL } MarchStart;
-
-/* The set-up both queries share: the march's first cell and the ray's mailbox stamp
- * (mb NULL: no marking). */
-static inline __attribute__((always_inline)) MarchStart march_start(const Grid *g,
-                                                                    const Ray *ray, float tmin,
-                                                                    RenderCtx *ctx,
-                                                                    MarchingInfo *mi,
-                                                                    uint32_t *stamp,
-                                                                    uint32_t **mb)
+/* lean_init over grid g's cells (the march of the queries without a ray tree),
+ * counting its first cell. */
+static inline __attribute__((always_inline)) bool cast_lean_init(const Grid *g,
+                                                                  const Ray *ray,
+                                                                  float tmin,
+                                                                  RenderCtx *ctx,
+                                                                  LeanMarch *m)
 {
-    float tmarch = grid_march_tmin(g, tmin);
+    const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
+    float inv[3];
+    ray_inv_dir(ray, inv);
+    LeanRay lr;
+    lean_ray(ray, inv, &lr);
+    if (!lean_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, 0, &lr, tmin, m))
+        return false;
+    ctx->stats.cells_traversed++;
+    return true;
+}
+
+/* Where both queries' march starts (grid_march_tmin); false when the ray starts too far
+ * out for the march (grid_ray_too_far) and must test every bounded primitive. */
+static inline __attribute__((always_inline)) bool march_start(const Grid *g, const Ray *ray,
+                                                              float tmin, float *tmarch)
+{
+    *tmarch = grid_march_tmin(g, tmin);
     /* grid_ray_too_far's first test inline: nearly every ray passes it. */
-    if (!(march_error(g, ray) < g->min_pad) && grid_ray_too_far(g, ray, tmarch))
-        return MARCH_ALL;
-    if (!(ctx->tree ? march_init(mi, &g->box, g->n, g->pad, ray, tmarch, ctx)
-                    : cast_march_init(g, ray, tmarch, ctx, mi)))
-        return MARCH_NONE;
-    *stamp = grid_begin_ray(g, ctx);
-    *mb = *stamp ? ctx->mailbox : NULL;
-    return MARCH_CELLS;
+    return march_error(g, ray) < g->min_pad || !grid_ray_too_far(g, ray, *tmarch);
+}
+
+/* The ray's mailbox stamp; *mb NULL: no marking. */
+static inline __attribute__((always_inline)) uint32_t march_stamp(const Grid *g,
+                                                                  RenderCtx *ctx,
+                                                                  uint32_t **mb)
+{
+    uint32_t stamp = grid_begin_ray(g, ctx);
+    *mb = stamp ? ctx->mailbox : NULL;
+    return stamp;
 }
 
 #if RT_GRID_SIMD
@@ -761,15 +670,16 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
                                                                   float tmin, RenderCtx *ctx)
 {
     bool found = false;
-    MarchingInfo mi;
+    float tmarch;
+    if (!march_start(g, ray, tmin, &tmarch))
+        return brute_intersect(g, ray, hit, tmin, ctx);
     uint32_t stamp, *mb;
-    MarchStart start = march_start(g, ray, tmin, ctx, &mi, &stamp, &mb);
-    if (start != MARCH_CELLS)
-        return start == MARCH_ALL && brute_intersect(g, ray, hit, tmin, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
     if (!ctx->tree) { /* the loop below, in registers */
         LeanMarch m;
-        lean_start(g, &mi, &m);
+        if (!cast_lean_init(g, ray, tmarch, ctx, &m))
+            return false;
+        stamp = march_stamp(g, ctx, &mb);
         const uint64_t *occ = g->occupied;
         do {
             if (m.t > hit->t)
@@ -782,6 +692,10 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
         ctx->stats.cells_traversed += m.cells;
         return found;
     }
+    MarchingInfo mi;
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
+        return false;
+    stamp = march_stamp(g, ctx, &mb);
     do {
         /* 4. The cell starts beyond the best hit: nothing in it or later is nearer. */
         if (mi.t > hit->t)
@@ -856,15 +770,16 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
                                                                   RenderCtx *ctx)
 {
     Hit h = *hp;
-    MarchingInfo mi;
+    float tmarch;
+    if (!march_start(g, ray, tmin, &tmarch))
+        return brute_occluded(g, ray, tmin, tmax, ctx);
     uint32_t stamp, *mb;
-    MarchStart start = march_start(g, ray, tmin, ctx, &mi, &stamp, &mb);
-    if (start != MARCH_CELLS)
-        return start == MARCH_ALL && brute_occluded(g, ray, tmin, tmax, ctx);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
     if (!ctx->tree) { /* the loop below, in registers */
         LeanMarch m;
-        lean_start(g, &mi, &m);
+        if (!cast_lean_init(g, ray, tmarch, ctx, &m))
+            return false;
+        stamp = march_stamp(g, ctx, &mb);
         bool occluded = false;
         const uint64_t *occ = g->occupied;
         do {
@@ -879,6 +794,10 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
         ctx->stats.cells_traversed += m.cells;
         return occluded;
     }
+    MarchingInfo mi;
+    if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
+        return false;
+    stamp = march_stamp(g, ctx, &mb);
     do {
         if (mi.t > tmax)
             break;
@@ -964,7 +883,7 @@ float grid_march_error(const Grid *g, const Ray *ray) { return march_error(g, ra
  * the ray misses holds nothing it can hit there. Rays too far out to march the leaf grid exactly test the cell's whole
  * list instead. */
 /* The walk without a ray tree: the top grid's march and each leaf grid's, as
- * lean_march_init and LeanMarch (the same cells and t's as march_init and march_next),
+ * lean_init and LeanMarch (the same cells and t's as march_init and march_next),
  * with the cell loop inlined and the ray's reciprocals, SIMD broadcast and counters
  * made once per ray. Counts as tl_tree_*: the top cells entered, every leaf cell
  * entered (the one that stops the leaf march included), and test_items' tests. any:
