@@ -240,10 +240,52 @@ static void test_cap_formula(void)
     unload(&l);
 }
 
+/* Small triangles of a mesh-like cloud: each about a cell or two of the grids below. */
+static const char *small_triangle(int i, char *buf, size_t len)
+{
+    (void)i;
+    float c[3] = {2.0f * sym(), 2.0f * sym(), 2.0f * sym()}, v[9];
+    for (int k = 0; k < 9; k++)
+        v[k] = c[k % 3] + 0.15f * sym();
+    snprintf(buf, len, "Triangle { vertex0 %g %g %g vertex1 %g %g %g vertex2 %g %g %g }",
+             (double)v[0], (double)v[1], (double)v[2], (double)v[3], (double)v[4],
+             (double)v[5], (double)v[6], (double)v[7], (double)v[8]);
+    return buf;
+}
+
+/* The fit keeps a resolution exactly when its estimate is within the cap: with the cap
+ * at the estimate, and one below it. The quick bound on triangles (grid_budget.c,
+ * tri_refs_bound) decides whether the exact sum is taken at all, so a bound below some
+ * triangle's exact references lets the second fit keep a resolution over its cap. */
+static void test_fit_at_cap_edge(void)
+{
+    static const char *(*const kinds[])(int, char *, size_t) = {small_triangle,
+                                                                 large_triangle};
+    static const int res[][3] = {{7, 5, 3}, {20, 20, 20}, {33, 9, 17}, {64, 64, 64}};
+    for (size_t k = 0; k < sizeof kinds / sizeof kinds[0]; k++) {
+        Loaded l;
+        CHECK(load(&l, 400, kinds[k]));
+        if (harness_failures)
+            return;
+        for (size_t r = 0; r < sizeof res / sizeof res[0]; r++) {
+            int n[3] = {res[r][0], res[r][1], res[r][2]};
+            uint64_t est = grid_ref_estimate(&l.t, n);
+            CHECK_MSG(!grid_fit_refs(&l.t, n, est, NULL), "kind %zu, %dx%dx%d: cap %llu",
+                      k, res[r][0], res[r][1], res[r][2], (unsigned long long)est);
+            CHECK(memcmp(n, res[r], sizeof n) == 0);
+            CHECK_MSG(grid_fit_refs(&l.t, n, est - 1, NULL),
+                      "kind %zu, %dx%dx%d kept with the cap one below its estimate %llu", k,
+                      res[r][0], res[r][1], res[r][2], (unsigned long long)est);
+        }
+        unload(&l);
+    }
+}
+
 static const TestCase tests[] = {
     {"colocated_spheres_capped", test_colocated_spheres_capped},
     {"large_triangles_capped", test_large_triangles_capped},
     {"under_cap_unchanged", test_under_cap_unchanged},
     {"cap_formula", test_cap_formula},
+    {"fit_at_cap_edge", test_fit_at_cap_edge},
 };
 RT_TEST_MAIN(tests)
