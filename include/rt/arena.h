@@ -31,9 +31,8 @@ void arena_buffer_free(void *buf);            /* NULL allowed */
 /* Makes buf (from arena_buffer_new) size bytes of a's memory, freed with the arena from
  * now on, when its pages hold that many; else size fresh bytes of the arena are returned
  * (a move would copy bytes the caller overwrites anyway, into pages that are new all the
- * same), and buf goes with the arena too, unused: freeing it now would be an munmap in
- * the middle of the set-up (0.1-0.3 ms on the virtual machines measured, its TLB flush
- * sent to the set-up helpers' CPUs), while the arena's end is usually the process's.
+ * same) and buf is freed (rt/bigmem.h keeps a freed mapping of its size as a spare for
+ * the next big array, so this is no munmap in the middle of the set-up).
  * *zeroed says which: true for fresh (zero) memory; false for buf's pages, whose old
  * contents the caller overwrites. NULL when out of memory (buf is then freed). */
 void *arena_adopt_buffer(Arena *a, void *buf, size_t size, bool *zeroed);

@@ -87,6 +87,9 @@ struct Grid {
      * set-up threads, then the two swap (the old order is kept until grid_free: an
      * munmap during the set-up would cost about what the serial move it spares did). */
     GridPrim *prims_spare;
+    /* Non-NULL: prims and prims_spare are the two halves of this one block (grid.c's
+     * build makes them so), freed as one. */
+    GridPrim *prims_block;
     GridPrim *unbounded;    /* planes: tested for every ray */
     uint32_t num_unbounded;
     bool marking;           /* mailboxing on (default; grid_set_marking) */
@@ -98,6 +101,9 @@ struct Grid {
      * untransformed triangles whose edges are copied, packed, into tri[prim]. */
     PackedTri *tri;
     TriHit *tri_hit;        /* per packed triangle */
+    /* tri_hit lies in tri's block, right behind its num_prims entries (grid_pack.c,
+     * pack_arrays), and goes with it: one mapping for the two. */
+    bool hit_in_tri;
     bool packing_off;       /* grid_set_packing(g, false): every entry via its ops */
     /* Every entry of cell_items (and of a two-level grid's lists over this grid) is
      * tagged GRID_ITEM_TRI: the single-ray cell loop then tests entries in groups of
@@ -157,8 +163,10 @@ bool grid_pack(Grid *g);
  * instead, they took longer: two threads mapping and faulting at once contend for the
  * address space, and the trimming munmaps interrupt the other CPU.) */
 void grid_pack_prepare(Grid *g, uint32_t n);
-/* Whether grid_pack packs g (it has primitives, and not too many for the tag bit). */
+/* Whether grid_pack packs g (it has primitives, and not too many for the tag bit); the
+ * same for a grid of n primitives. */
 bool grid_pack_wanted(const Grid *g);
+bool grid_pack_wanted_for(uint32_t n);
 /* Makes g->occupied from cell_start (left NULL when out of memory: the walk then reads
  * cell_start for every cell, with the same answers) and sets g->prefetch_tri. */
 void grid_occupancy_make(Grid *g);

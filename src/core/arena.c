@@ -135,16 +135,11 @@ void *arena_adopt_buffer(Arena *a, void *buf, size_t size, bool *zeroed)
     if (buf && size <= SIZE_MAX / 2 && header_size() + size > bigmem_capacity(buffer_block(buf))) {
         *zeroed = true;
         void *fresh = arena_alloc(a, size);
-        if (!fresh) {
-            arena_buffer_free(buf);
-            return NULL;
-        }
-        /* buf behind the head, full (never handed out), freed with the arena. */
-        ArenaBlock *old = buffer_block(buf);
-        old->size = 0;
-        old->used = 0;
-        old->next = a->head->next;
-        a->head->next = old;
+        /* buf is freed now: bigmem keeps its mapping as a spare (no munmap), and the
+         * next array of its size takes it instead of a fresh mapping whose huge page
+         * the kernel must zero (line 07: the grid's primitive list, 2 MB pages 10 -> 9
+         * at one thread). Kept with the arena, its page sat unused to the end. */
+        arena_buffer_free(buf);
         return fresh;
     }
     char *data = arena_buffer_resize(buf, size);

@@ -392,7 +392,35 @@ static void test_mesh_children_in_block(void)
     free(faces);
 }
 
+/* A mapped text buffer too small to adopt is freed by arena_adopt_buffer, not kept with
+ * the arena: rt/bigmem.h then keeps its mapping as a spare, and the next big array of
+ * its size takes it instead of a fresh mapping (whose 2 MB page the kernel would zero). */
+static void test_adopt_frees_small_buffer(void)
+{
+    if (!bigmem_maps_large())
+        return; /* AddressSanitizer builds: every block is malloc'd */
+    Arena a;
+    arena_init(&a);
+    size_t text = 1200u << 10; /* a 2 MB mapping, like the 40k bunny's 1.3 MB text */
+    char *buf = arena_buffer_new(text);
+    CHECK(buf != NULL);
+    if (!buf)
+        return;
+    memset(buf, 0x5a, text);
+    bool zeroed = false;
+    char *mem = arena_adopt_buffer(&a, buf, 3u << 20, &zeroed);
+    CHECK(mem != NULL && zeroed);
+    /* The buffer's mapping (its data starts a header behind it) is handed out again. */
+    char *next = bigmem_alloc(640u << 10);
+    CHECK_MSG(next && next < buf && buf - next < 4096, "buffer at %p, next block at %p",
+              (void *)buf, (void *)next);
+    CHECK(next && next[0] == 0 && next[(640u << 10) - 1] == 0);
+    bigmem_free(next);
+    arena_free(&a);
+}
+
 static const TestCase tests[] = {
+    {"geom: arena: a mapped buffer too small to adopt is freed, its mapping reused", test_adopt_frees_small_buffer},
     {"geom: arena: a block filled by one request goes behind the head", test_arena_big_block_behind_head},
     {"geom: mesh in a fresh, an adopted and a plain block: same triangles", test_mesh_children_in_block},
     {"geom: sphere hit, miss, inside, tangent", test_sphere},

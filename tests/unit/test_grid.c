@@ -10,6 +10,8 @@
 #include "rt/grid.h"
 #include "rt/material.h"
 #include "rt/scene.h"
+#include "rt/par.h"
+#include "../../src/accel/grid_internal.h"
 
 /* A scene assembled by hand from the geometry constructors. */
 typedef struct TestScene {
@@ -434,10 +436,55 @@ static void test_auto_resolution(void)
     ts_free(&f);
 }
 
+/* The packed triangles and their hit records share one block, as do the primitive list
+ * and its renumbered copy (grid_pack.c, grid.c): each pair used to be two mappings, the
+ * second with a fresh 2 MB page of its own. The blocks' layout, and the grid's contents
+ * in them: the hit records of the packed triangles, the sphere unpacked. */
+static void test_pack_blocks(void)
+{
+    TestScene t;
+    ts_init(&t);
+    for (int i = 0; i < 15; i++) {
+        float x = 0.25f * (float)i;
+        ts_add(&t, triangle_new(&t.s.arena, v3(x, 0, 0), v3(x + 0.5f, 0, 1), v3(x, 1, 0.5f),
+                                t.mat));
+    }
+    ts_add(&t, sphere_new(&t.s.arena, v3(2, 2, 2), 0.5f, t.mat));
+    ts_finish(&t);
+    /* With a set-up helper the second primitive array is always made (on one thread,
+     * only where the first one's mapping has room: not for 16 primitives). */
+    par_set_helpers(1);
+    Grid *g = build(&t, 4, 3, 2);
+    par_set_helpers(-1);
+    if (!g)
+        return;
+    uint32_t n = g->num_prims;
+    CHECK_INT(n, 16);
+    CHECK(g->hit_in_tri && (char *)g->tri_hit == (char *)(g->tri + n));
+    CHECK(g->prims_block != NULL &&
+          ((g->prims == g->prims_block && g->prims_spare == g->prims_block + n) ||
+           (g->prims_spare == g->prims_block && g->prims == g->prims_block + n)));
+    int packed = 0;
+    for (uint32_t p = 0; p < n; p++) {
+        bool tri = obj_kind(g->prims[p].obj) == OBJ_TRIANGLE;
+        CHECK(tri == (g->tri[p].id != RT_NO_ID));
+        if (tri) {
+            Vec3 nrm = triangle_normal(g->prims[p].obj);
+            CHECK(memcmp(&g->tri_hit[p].normal, &nrm, sizeof nrm) == 0);
+            CHECK(g->tri_hit[p].material == t.mat);
+            packed++;
+        }
+    }
+    CHECK_INT(packed, 15);
+    grid_free(g);
+    ts_free(&t);
+}
+
 static const TestCase tests[] = {
     {"sphere_distance_rule", test_sphere_distance_rule},
     {"touching_boxes", test_touching_boxes},
     {"transformed_triangle", test_transformed_triangle},
+    {"pack_blocks", test_pack_blocks},
     {"transformed_sphere", test_transformed_sphere},
     {"identity_transform_sphere_uses_box_rule", test_identity_transform_sphere_uses_box_rule},
     {"planes_are_not_in_cells", test_planes_are_not_in_cells},
