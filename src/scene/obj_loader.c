@@ -173,6 +173,65 @@ static bool grow(void **arr, int *cap, int need, size_t elem)
     return true;
 }
 
+/* A number of the common vertex form: an optional '-', digits, an optional '.' and
+ * digits, at most 9 digits in all (no '+', no exponent, not hex, inf or nan): its
+ * float into *out and the end into *pp, or false with *pp untouched. The same float as
+ * objfile_parse_float: the same mantissa (leading zeros add nothing to it) and power
+ * of ten (minus the fraction's digits), taken by the same Clinger step, which is its
+ * fast path for such numbers. */
+static inline bool simple_float(const char **pp, float *out)
+{
+    const char *p = *pp;
+    bool neg = *p == '-';
+    p += neg;
+    const char *d0 = p;
+    uint32_t mant = 0;
+    while (is_digit(*p))
+        mant = mant * 10 + (uint32_t)(*p++ - '0');
+    size_t nint = (size_t)(p - d0), frac = 0;
+    if (nint == 0)
+        return false;
+    if (*p == '.') {
+        const char *f0 = ++p;
+        while (is_digit(*p))
+            mant = mant * 10 + (uint32_t)(*p++ - '0');
+        frac = (size_t)(p - f0);
+    }
+    /* Up to 9 digits the uint32_t cannot wrap (more: the general reader); 2^24 is the
+     * bound of objfile_parse_float's fast path. */
+    if (nint + frac > 9 || mant > (1u << 24))
+        return false;
+    float v = (float)mant;
+    v = frac ? v / k_pow10f[frac] : v;
+    *out = neg ? -v : v;
+    *pp = p;
+    return true;
+}
+
+/* The common vertex record "v x y z": single spaces, numbers of simple_float's form,
+ * each followed by a separator (a blank or the line's end: what follows the third is
+ * skipped by parse_lines, as after read_vertex), and room in the array. Read without
+ * read_vertex's machinery (its locations for messages, blank runs, the general number
+ * reader): the same vertex. Anything else returns false with r untouched, and
+ * read_vertex takes the line from the start, so messages do not change. */
+static bool read_vertex_simple(ObjReader *r)
+{
+    if (r->m->nverts >= r->cap_v)
+        return false;
+    const char *p = r->p;
+    float c[3];
+    for (int k = 0; k < 3; k++) {
+        if (*p != ' ')
+            return false;
+        p++;
+        if (!simple_float(&p, &c[k]) || !(is_blank(*p) || *p == '\n' || *p == '\0'))
+            return false;
+    }
+    r->m->verts[r->m->nverts++] = v3(c[0], c[1], c[2]);
+    r->p = p;
+    return true;
+}
+
 static bool read_vertex(ObjReader *r)
 {
     float c[3];
@@ -348,7 +407,7 @@ static bool parse_lines(ObjReader *r)
         size_t kl = (size_t)(r->p - kw);
         bool ok = true;
         if (kl == 1 && kw[0] == 'v')
-            ok = read_vertex(r);
+            ok = read_vertex_simple(r) || read_vertex(r);
         else if (kl == 1 && kw[0] == 'f')
             ok = read_face_simple(r) || read_face(r, kw);
         /* Anything else (#, vn, vt, g, o, s, usemtl, mtllib, l, ...) is skipped. */

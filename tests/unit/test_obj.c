@@ -185,6 +185,79 @@ static void test_float_matches_strtof(void)
     }
 }
 
+/* Vertex records, read by the quick reader (read_vertex_simple) or, for anything it
+ * does not take, by the general one: every coordinate exactly strtof's, whichever reads
+ * it. Random numbers of the quick form and around its limits (9 and 10 digits, 2^24,
+ * leading zeros, '+', exponents, '.5', '5.'), with single and other separators, CR LF,
+ * a fourth coordinate and a trailing comment. */
+static void test_vertex_lines_match_strtof(void)
+{
+    enum { LINES = 20000 };
+    static const char *odd[] = {"16777216", "16777217", "16777216.0", "1677721.7",
+                                "0.000000001", "0000000001", "00000000001", "123456789",
+                                "1234567890", "+1.5", "1e2", "-1.5E-2", ".5", "5.", "-0",
+                                "-0.0", "999999999", "0.99999999", "4294967297",
+                                "4294967.297", "-42949.67297"};
+    static const char *seps[] = {" ", " ", " ", " ", "\t", "  "};
+    static const char *ends[] = {"\n", "\n", "\n", "\r\n", " 1\n", " # c\n", "\t\n"};
+    size_t cap = (size_t)LINES * 96, len = 0;
+    char *text = malloc(cap);
+    float(*want)[3] = malloc(LINES * sizeof *want);
+    CHECK(text && want);
+    if (!text || !want) {
+        free(text);
+        free(want);
+        return;
+    }
+    uint32_t rng = 77u;
+    for (int i = 0; i < LINES; i++) {
+        len += (size_t)snprintf(text + len, cap - len, "v");
+        for (int c = 0; c < 3; c++) {
+            rng = rng * 1664525u + 1013904223u;
+            char num[40];
+            if (rng % 7 == 0) {
+                snprintf(num, sizeof num, "%s", odd[(rng >> 8) % (sizeof odd / sizeof *odd)]);
+            } else { /* -d.ddddddd: 1-4 integer digits, 0-8 in the fraction */
+                int intd = 1 + (int)((rng >> 4) % 4), fracd = (int)((rng >> 6) % 9);
+                size_t o = 0;
+                if (rng & 0x400)
+                    num[o++] = '-';
+                for (int k = 0; k < intd; k++) {
+                    rng = rng * 1664525u + 1013904223u;
+                    num[o++] = (char)('0' + (rng >> 20) % 10);
+                }
+                if (fracd)
+                    num[o++] = '.';
+                for (int k = 0; k < fracd; k++) {
+                    rng = rng * 1664525u + 1013904223u;
+                    num[o++] = (char)('0' + (rng >> 20) % 10);
+                }
+                num[o] = '\0';
+            }
+            want[i][c] = strtof(num, NULL);
+            len += (size_t)snprintf(text + len, cap - len, "%s%s",
+                                    seps[(rng >> 12) % (sizeof seps / sizeof *seps)], num);
+        }
+        len += (size_t)snprintf(text + len, cap - len, "%s",
+                                ends[(rng >> 16) % (sizeof ends / sizeof *ends)]);
+    }
+    ObjMesh m;
+    CHECK_MSG(parse(text, &m), "%s", g_diag.last);
+    CHECK_INT(m.nverts, LINES);
+    int bad = 0;
+    for (int i = 0; i < m.nverts && i < LINES; i++) {
+        float got[3] = {m.verts[i].x, m.verts[i].y, m.verts[i].z};
+        if (memcmp(got, want[i], sizeof got) != 0 && bad++ < 5)
+            CHECK_MSG(false, "line %d: %.9g %.9g %.9g, strtof %.9g %.9g %.9g", i + 1,
+                      (double)got[0], (double)got[1], (double)got[2], (double)want[i][0],
+                      (double)want[i][1], (double)want[i][2]);
+    }
+    CHECK_INT(bad, 0);
+    objfile_mesh_free(&m);
+    free(text);
+    free(want);
+}
+
 /* The course reader: one character at a time, 'v' -> %f %f %f,
  * 'f' -> %d %d %d. Right for the official files, which contain only v and f lines. */
 static bool course_read(const char *path, ObjMesh *m)
@@ -269,6 +342,7 @@ static const TestCase tests[] = {
     {"crlf_comments_ignored_records", test_crlf_comments_ignored_records},
     {"errors", test_errors},
     {"float_matches_strtof", test_float_matches_strtof},
+    {"vertex_lines_match_strtof", test_vertex_lines_match_strtof},
     {"official_meshes", test_official_meshes},
 };
 
