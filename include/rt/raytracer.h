@@ -51,6 +51,14 @@ void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays
  * (src/render/phong_packet.h states the rule and why it is exact). */
 void raytracer_trace_packet_bytes(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
                                   int n, float tmin, Vec3 *colors, Hit *hits);
+/* raytracer_trace_packet_bytes for a whole packet (n = ACCEL_PACKET_MAX), whose colours
+ * may come back as three planes instead: true when every lane is a front face of one
+ * PhongMaterial shaded inline without secondary rays (a tile inside one mesh): its
+ * colours are then planes[c * ACCEL_PACKET_MAX + k] (channel c of lane k: the Phong
+ * kernel's columns, copied) and colors is not written; false: in colors, as
+ * raytracer_trace_packet_bytes. The hits are filled either way. */
+bool raytracer_trace_tile_bytes(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
+                                float tmin, Vec3 *colors, float *planes, Hit *hits);
 /* Nearest hit (through rt->accel). */
 bool raytracer_cast(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float tmin, Hit *hit);
 /* True when something lies on the ray with tmin < t < dist. Counts one shadow ray. */

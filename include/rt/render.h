@@ -84,4 +84,10 @@ static inline void render_tile_order(int k, int *dx, int *dy)
 /* Number of online cores (at least 1). */
 int render_default_threads(void);
 
+/* Whether render_image may take a whole tile's colours as planes (raytracer_trace_tile_bytes)
+ * and store them with AVX2 (the default where this CPU runs it); false: every tile's
+ * colours as Vec3s (store_tile_bytes). Returns whether the plane store is on after the
+ * call (false on a CPU without AVX2). For tests and measurements; not while rendering. */
+bool render_use_tile_planes(bool on);
+
 #endif

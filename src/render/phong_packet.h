@@ -26,6 +26,10 @@ typedef struct PhongPacket {
      * it, narrowed there. ebits is the OR of those lanes' integer exponents. */
     uint64_t brk;
     unsigned ebits;
+    /* Set by the caller before phong_packet_begin: NULL, or the one PhongMaterial every
+     * lane of cand hit (a tile inside one mesh), when lp is not read at all (its lanes
+     * need not be filled) and no group is checked for mixed materials. */
+    const PhongParams *same;
 } PhongPacket;
 
 /* The power bracket, for colours that go straight to bytes (raytracer_trace_packet_bytes).
@@ -48,8 +52,8 @@ typedef struct PhongPacket {
 
 /* The lanes of cand (below n) hold a hit on a PhongMaterial: the
  * caller has put the hit's normal (as intersected) into nx, ny, nz, the ray direction
- * into vx, vy, vz, and lp[i] = its parameters; every other lane below n holds zeros
- * there and lp[i] = NULL. As shade_begin for those lanes: the side (n . d), the facing
+ * into vx, vy, vz, and lp[i] = its parameters (or set pp->same); every other lane below
+ * n holds zeros there and lp[i] = NULL. As shade_begin for those lanes: the side (n . d), the facing
  * normal, -normalize(d) into vx, vy, vz, the material's colours and the ambient term
  * a * diffuse. Returns the lanes to shade: cand without its back faces unless
  * shade_back (those are black); *entering gets the returned lanes with n . d < 0.

@@ -48,9 +48,13 @@ static inline V v_clamp_trunc(V c)
     return _mm512_cvtepi32_ps(_mm512_cvttps_epi32(c));
 }
 /* lo, hi = the power bracket of base^e (phong_packet.h) in the lanes whose integer
- * exponent (e converted by truncation) has only bits of ebits; garbage elsewhere. */
-static inline void v_pow_bracket(V base, V e, unsigned ebits, V *lo, V *hi)
+ * exponent (e converted by truncation) has only bits of ebits; garbage elsewhere. With
+ * same, every lane that is read has the exponent ebits itself: the AVX2 copy then
+ * multiplies without per-lane selects (the same products: a lane's r is multiplied
+ * where its exponent has the bit, and kept where not); the others ignore it. */
+static inline void v_pow_bracket(V base, V e, unsigned ebits, bool same, V *lo, V *hi)
 {
+    (void)same;
     __m512i ei = _mm512_cvttps_epi32(e);
     __m512d x0 = _mm512_cvtps_pd(_mm512_castps512_ps256(base));
     __m512d x1 = _mm512_cvtps_pd(_mm512_extractf32x8_ps(base, 1));
@@ -99,13 +103,23 @@ static inline V v_clamp_trunc(V c)
     c = _mm256_min_ps(_mm256_max_ps(c, _mm256_setzero_ps()), _mm256_set1_ps(255.0f));
     return _mm256_cvtepi32_ps(_mm256_cvttps_epi32(c));
 }
-static inline void v_pow_bracket(V base, V e, unsigned ebits, V *lo, V *hi)
+static inline void v_pow_bracket(V base, V e, unsigned ebits, bool same, V *lo, V *hi)
 {
     __m256i ei = _mm256_cvttps_epi32(e);
     __m256d x0 = _mm256_cvtps_pd(_mm256_castps256_ps128(base));
     __m256d x1 = _mm256_cvtps_pd(_mm256_extractf128_ps(base, 1));
     __m256d r0 = _mm256_set1_pd(1.0), r1 = r0;
-    for (unsigned bit = 1;; bit <<= 1) {
+    for (unsigned bit = 1; same; bit <<= 1) {
+        if (ebits & bit) {
+            r0 = _mm256_mul_pd(r0, x0);
+            r1 = _mm256_mul_pd(r1, x1);
+        }
+        if (bit * 2 > ebits)
+            break;
+        x0 = _mm256_mul_pd(x0, x0);
+        x1 = _mm256_mul_pd(x1, x1);
+    }
+    for (unsigned bit = 1; !same; bit <<= 1) {
         __m256i bv = _mm256_set1_epi32((int)bit);
         __m256i on = _mm256_cmpeq_epi32(_mm256_and_si256(ei, bv), bv);
         __m256d on0 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm256_castsi256_si128(on)));
@@ -151,8 +165,9 @@ static inline V v_clamp_trunc(V c)
     c = _mm_min_ps(_mm_max_ps(c, _mm_setzero_ps()), _mm_set1_ps(255.0f));
     return _mm_cvtepi32_ps(_mm_cvttps_epi32(c));
 }
-static inline void v_pow_bracket(V base, V e, unsigned ebits, V *lo, V *hi)
+static inline void v_pow_bracket(V base, V e, unsigned ebits, bool same, V *lo, V *hi)
 {
+    (void)same;
     __m128i ei = _mm_cvttps_epi32(e);
     __m128d x0 = _mm_cvtps_pd(base), x1 = _mm_cvtps_pd(_mm_movehl_ps(base, base));
     __m128d r0 = _mm_set1_pd(1.0), r1 = r0;
@@ -214,8 +229,9 @@ static inline V v_clamp_trunc(V c)
     }
     return r;
 }
-static inline void v_pow_bracket(V base, V e, unsigned ebits, V *lo, V *hi)
+static inline void v_pow_bracket(V base, V e, unsigned ebits, bool same, V *lo, V *hi)
 {
+    (void)same;
     for (int k = 0; k < PP_W; k++) {
         unsigned ei = e.v[k] >= 0.0f && e.v[k] <= (float)PHONG_BRACKET_EXP_MAX ? (unsigned)e.v[k] : 0u;
         double x = base.v[k], r = 1.0;
@@ -302,6 +318,7 @@ uint64_t PP_BEGIN(PhongPacket *pp, int n, uint64_t cand, const PhongParams *cons
     V zero = v_set(0.0f), one = v_set(1.0f), nn_max = v_set(1.125f);
     V ax = v_set(ambient.x), ay = v_set(ambient.y), az = v_set(ambient.z);
     uint64_t phong = 0, in_bits = 0, may = pp->brk;
+    const PhongParams *same = pp->same; /* every lane of cand on it: lp is not read */
     const PhongParams *last = NULL;
     unsigned last_ok = 0, last_brk = 0;
     pp->no_pow = 0;
@@ -334,9 +351,9 @@ uint64_t PP_BEGIN(PhongPacket *pp, int n, uint64_t cand, const PhongParams *cons
         if (!m)
             continue;
         /* The material's colours: broadcast when the lanes share one. */
-        const PhongParams *p = lp[i + __builtin_ctz(m)];
+        const PhongParams *p = same ? same : lp[i + __builtin_ctz(m)];
         unsigned ok, brk;
-        bool uniform = params_uniform(lp, i, p);
+        bool uniform = same || params_uniform(lp, i, p);
         if (uniform) {
             v_store(pp->dr + i, v_set(p->diffuse.x));
             v_store(pp->dg + i, v_set(p->diffuse.y));
@@ -428,7 +445,7 @@ void PP_LIGHT(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
             unsigned slow = need & ~br;
             if (br) {
                 V lo, hi;
-                v_pow_bracket(x, v_load(pp->e + i), pp->ebits, &lo, &hi);
+                v_pow_bracket(x, v_load(pp->e + i), pp->ebits, pp->same != NULL, &lo, &hi);
                 M on = m_of(br);
                 spec_lo = v_and(on, lo);
                 spec_hi = v_and(on, hi);
@@ -500,7 +517,7 @@ void PP_BRACKET(const float *x, const float *e, int n, float *lo, float *hi)
         ebits |= (unsigned)(int)e[k];
     for (int i = 0; i < n; i += PP_W) {
         V a, b;
-        v_pow_bracket(v_load(x + i), v_load(e + i), ebits, &a, &b);
+        v_pow_bracket(v_load(x + i), v_load(e + i), ebits, false, &a, &b);
         v_store(lo + i, a);
         v_store(hi + i, b);
     }

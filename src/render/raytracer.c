@@ -345,9 +345,61 @@ typedef void (*BlendGroupFn)(BlendLanes *, uint64_t, const PhongParams *,
 #define BL_W 8
 #include "blend_lanes_kernel.h"
 
+/* Eight consecutive lanes' hit normals (nx, ny, nz) and ray directions (dx, dy, dz) as
+ * AVX2 columns: read with 128-bit loads (t and the normal; the origin's z and the
+ * direction) and 4 x 4 transposes. Moves only: the same bits as the structs hold. */
+static inline void lanes8_normals_dirs(const Ray *rays, const Hit *hits, int i0, __m256 *nx,
+                                       __m256 *ny, __m256 *nz, __m256 *dx, __m256 *dy,
+                                       __m256 *dz)
+{
+    _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
+    _Static_assert(offsetof(Hit, t) == 0 && offsetof(Hit, normal) == sizeof(float),
+                   "a hit starts with t and its normal");
+    const float *h = (const float *)(const void *)&hits[i0];
+    const float *r = (const float *)(const void *)&rays[i0];
+    const size_t hs = sizeof(Hit) / sizeof(float);
+    /* Written out, not as a loop over arrays: gcc 12 kept such arrays on the stack. */
+#define LANE_PAIR(p, stride, l) _mm256_loadu2_m128((p) + (size_t)((l) + 4) * (stride), \
+                                                   (p) + (size_t)(l) * (stride))
+    const __m256 a[4] = {LANE_PAIR(h, hs, 0), LANE_PAIR(h, hs, 1), LANE_PAIR(h, hs, 2),
+                         LANE_PAIR(h, hs, 3)}; /* t n */
+    const __m256 b[4] = {LANE_PAIR(r + 2, 6, 0), LANE_PAIR(r + 2, 6, 1), LANE_PAIR(r + 2, 6, 2),
+                         LANE_PAIR(r + 2, 6, 3)}; /* o.z d */
+#undef LANE_PAIR
+    __m256 a0 = _mm256_unpacklo_ps(a[0], a[1]), a1 = _mm256_unpacklo_ps(a[2], a[3]);
+    __m256 a2 = _mm256_unpackhi_ps(a[0], a[1]), a3 = _mm256_unpackhi_ps(a[2], a[3]);
+    *nx = _mm256_shuffle_ps(a0, a1, _MM_SHUFFLE(3, 2, 3, 2));
+    *ny = _mm256_shuffle_ps(a2, a3, _MM_SHUFFLE(1, 0, 1, 0));
+    *nz = _mm256_shuffle_ps(a2, a3, _MM_SHUFFLE(3, 2, 3, 2));
+    __m256 b0 = _mm256_unpacklo_ps(b[0], b[1]), b1 = _mm256_unpacklo_ps(b[2], b[3]);
+    __m256 b2 = _mm256_unpackhi_ps(b[0], b[1]), b3 = _mm256_unpackhi_ps(b[2], b[3]);
+    *dx = _mm256_shuffle_ps(b0, b1, _MM_SHUFFLE(3, 2, 3, 2));
+    *dy = _mm256_shuffle_ps(b2, b3, _MM_SHUFFLE(1, 0, 1, 0));
+    *dz = _mm256_shuffle_ps(b2, b3, _MM_SHUFFLE(3, 2, 3, 2));
+}
+
+/* phong_lane_put's columns for lanes 0 .. n-1 eight at a time, lp not filled (the
+ * caller sets pp->same); returns the lanes put (n rounded down to eight): about a third
+ * of the instructions of scalar puts. */
+static int phong_put_run8_avx2(const Ray *rays, const Hit *hits, int n, PhongPacket *pp)
+{
+    int i0 = 0;
+    for (; i0 + 8 <= n; i0 += 8) {
+        __m256 nx, ny, nz, dx, dy, dz;
+        lanes8_normals_dirs(rays, hits, i0, &nx, &ny, &nz, &dx, &dy, &dz);
+        _mm256_storeu_ps(pp->nx + i0, nx);
+        _mm256_storeu_ps(pp->ny + i0, ny);
+        _mm256_storeu_ps(pp->nz + i0, nz);
+        _mm256_storeu_ps(pp->vx + i0, dx);
+        _mm256_storeu_ps(pp->vy + i0, dy);
+        _mm256_storeu_ps(pp->vz + i0, dz);
+    }
+    return i0;
+}
+
 /* blend_begin's lane loop for eight consecutive lanes i0 .. i0+7 of one material (their
- * weights at t8), in AVX2 vectors: the hits' normals and the rays' directions read
- * with 128-bit loads and 4 x 4 transposes, then per lane shade_begin's n . d, the
+ * weights at t8), in AVX2 vectors: the hits' normals and the rays' directions as
+ * columns (lanes8_normals_dirs), then per lane shade_begin's n . d, the
  * ambient term ambient * blend_of(d1, d2, t) (v3_lerp's t*a + (1-t)*b) and n . n, the
  * same single IEEE operations in the same order as the scalar loop (no FMA: AVX2
  * alone, and raytracer.o is built with -ffp-contract=off). Writes every lane's t,
@@ -359,27 +411,8 @@ static unsigned blend_begin_run8_avx2(const Ray *rays, const Hit *hits, int i0,
                                       const float *t8, Vec3 d1, Vec3 d2, Vec3 amb,
                                       BlendLanes *bl)
 {
-    _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
-    _Static_assert(offsetof(Hit, t) == 0 && offsetof(Hit, normal) == sizeof(float),
-                   "a hit starts with t and its normal");
-    const float *h = (const float *)(const void *)&hits[i0];
-    const float *r = (const float *)(const void *)&rays[i0];
-    const size_t hs = sizeof(Hit) / sizeof(float);
-    __m256 a[4], b[4];
-    for (int l = 0; l < 4; l++) {
-        a[l] = _mm256_loadu2_m128(h + (size_t)(l + 4) * hs, h + (size_t)l * hs); /* t n */
-        b[l] = _mm256_loadu2_m128(r + 6 * (l + 4) + 2, r + 6 * l + 2);          /* o.z d */
-    }
-    __m256 a0 = _mm256_unpacklo_ps(a[0], a[1]), a1 = _mm256_unpacklo_ps(a[2], a[3]);
-    __m256 a2 = _mm256_unpackhi_ps(a[0], a[1]), a3 = _mm256_unpackhi_ps(a[2], a[3]);
-    __m256 nx = _mm256_shuffle_ps(a0, a1, _MM_SHUFFLE(3, 2, 3, 2));
-    __m256 ny = _mm256_shuffle_ps(a2, a3, _MM_SHUFFLE(1, 0, 1, 0));
-    __m256 nz = _mm256_shuffle_ps(a2, a3, _MM_SHUFFLE(3, 2, 3, 2));
-    __m256 b0 = _mm256_unpacklo_ps(b[0], b[1]), b1 = _mm256_unpacklo_ps(b[2], b[3]);
-    __m256 b2 = _mm256_unpackhi_ps(b[0], b[1]), b3 = _mm256_unpackhi_ps(b[2], b[3]);
-    __m256 dx = _mm256_shuffle_ps(b0, b1, _MM_SHUFFLE(3, 2, 3, 2));
-    __m256 dy = _mm256_shuffle_ps(b2, b3, _MM_SHUFFLE(1, 0, 1, 0));
-    __m256 dz = _mm256_shuffle_ps(b2, b3, _MM_SHUFFLE(3, 2, 3, 2));
+    __m256 nx, ny, nz, dx, dy, dz;
+    lanes8_normals_dirs(rays, hits, i0, &nx, &ny, &nz, &dx, &dy, &dz);
     __m256 nd = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, dx), _mm256_mul_ps(ny, dy)),
                               _mm256_mul_ps(nz, dz));
     __m256 nn = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, nx), _mm256_mul_ps(ny, ny)),
@@ -426,20 +459,25 @@ static unsigned blend_begin_run8_avx2(const Ray *rays, const Hit *hits, int i0,
 /* blend_begin's eight-lane runs (NULL: lane by lane only). */
 typedef unsigned (*BlendRunFn)(const Ray *, const Hit *, int, const float *, Vec3, Vec3, Vec3,
                                BlendLanes *);
+/* trace_packet's Phong put eight lanes at a time (NULL: lane by lane only). */
+typedef int (*PhongPutFn)(const Ray *, const Hit *, int, PhongPacket *);
 
 static BlendGroupFn blend_lights_group = blend_lights_group_base;
 static BlendRunFn blend_begin_run8 = NULL;
+static PhongPutFn phong_put_run8 = NULL;
 static pthread_once_t blend_once = PTHREAD_ONCE_INIT;
 
 static const struct {
     const char *isa;
     BlendGroupFn fn;
     BlendRunFn run8;
+    PhongPutFn put8;
 } blend_kernels[] = {
-    {"base", blend_lights_group_base, NULL},
+    {"base", blend_lights_group_base, NULL, NULL},
 #if defined(BLEND_WIDE)
-    {"avx2", blend_lights_group_avx2, blend_begin_run8_avx2},
-    {"avx512", blend_lights_group_avx512, blend_begin_run8_avx2}, /* AVX-512 has AVX2 */
+    {"avx2", blend_lights_group_avx2, blend_begin_run8_avx2, phong_put_run8_avx2},
+    /* AVX-512 has AVX2 */
+    {"avx512", blend_lights_group_avx512, blend_begin_run8_avx2, phong_put_run8_avx2},
 #endif
 };
 
@@ -449,6 +487,7 @@ static bool blend_set(const char *name)
         if (!strcmp(name, blend_kernels[i].isa) && cpu_runs(name)) {
             blend_lights_group = blend_kernels[i].fn;
             blend_begin_run8 = blend_kernels[i].run8;
+            phong_put_run8 = blend_kernels[i].put8;
             return true;
         }
     return false;
@@ -603,16 +642,18 @@ __attribute__((noinline)) static bool checker_lane(const RayTracer *rt, PhongPac
 enum { BRACKET_LIGHTS = 16 };
 
 /* raytracer_trace_packet, and with to_bytes raytracer_trace_packet_bytes: the Phong
- * lanes without bounces may then take the power bracket (phong_packet.h). */
-static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
-                         float tmin, Vec3 *colors, Hit *hits, bool to_bytes)
+ * lanes without bounces may then take the power bracket (phong_packet.h). With planes
+ * (to_bytes and n = ACCEL_PACKET_MAX), raytracer_trace_tile_bytes: true when the
+ * colours went there. */
+static bool trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
+                         float tmin, Vec3 *colors, Hit *hits, bool to_bytes, float *planes)
 {
     if (!accel_has_packets(rt->accel) || ctx->tree || !ctx->packet_rays ||
         n > ACCEL_PACKET_MAX) {
         for (int i = 0; i < n; i++)
             colors[i] = trace(rt, ctx, &rays[i], tmin, 0, 1.0f, 1.0f, rt->pixel_width, &hits[i],
                               RAYSEG_MAIN);
-        return;
+        return false;
     }
     const Scene *scene = rt->scene;
     ctx->stats.nonshadow_rays += (uint64_t)n;
@@ -634,6 +675,7 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     ShadeState st[ACCEL_PACKET_MAX];
     PhongPacket pp;
     pp.brk = 0;
+    pp.same = NULL;
     const PhongParams *lp[ACCEL_PACKET_MAX];
     uint64_t live = 0, phong = 0, entering = 0, bounce = 0;
     Ray srays[ACCEL_PACKET_MAX]; /* shadow rays: origins of non-Phong lanes set below */
@@ -646,28 +688,32 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     for (uint64_t m = valid & ~found; m; m &= m - 1)
         colors[__builtin_ctzll(m)] = scene->background;
     /* Every lane hit one PhongMaterial (a tile inside one mesh, the common case): its
-     * lanes into pp's columns in one straight loop, no lane mask to walk; what the loop
-     * below does for them, with the material asked once. */
+     * lanes into pp's columns without a lane mask to walk, eight at a time where the
+     * CPU has AVX2 (phong_put_run8), and pp.same instead of lp (not filled then); what
+     * the loop below does for them, with the material asked once. The materials are
+     * compared first: a tile of several (an edge) goes to the loop below with nothing
+     * put. */
     uint64_t todo = valid & found;
     if (inline_ok && todo == valid && n > 0) {
         const Material *m0 = hits[0].material;
         const PhongParams *p0 = phong_params_of(m0);
-        if (p0) {
-            /* The lanes are put while their materials are compared, in one pass (a
-             * separate comparing loop cost about half as much again as the putting).
-             * When one differs, the loop below puts every Phong lane again and the
-             * other lanes' columns are zeroed after it (phong is not 0 then: lane 0 is
-             * Phong), so pp ends as if this loop had not run. */
-            bool same = true;
-            for (int i = 0; i < n; i++) {
-                same &= hits[i].material == m0;
+        /* One OR of differences, no branch per lane: a tile of several materials is
+         * rare, and a loop that stopped at the first difference cost three times as
+         * many instructions on the others. */
+        uintptr_t diff = 0;
+        for (int i = 1; i < n; i++)
+            diff |= (uintptr_t)hits[i].material ^ (uintptr_t)m0;
+        bool same = p0 != NULL && diff == 0;
+        if (same) {
+            /* Read only after this thread's pthread_once (blend_begin says why). */
+            pthread_once(&blend_once, blend_choose);
+            int i = phong_put_run8 ? phong_put_run8(rays, hits, n, &pp) : 0;
+            for (; i < n; i++)
                 phong_lane_put(&pp, lp, &hits[i], &rays[i], i, p0);
-            }
-            if (same) {
-                phong = valid;
-                bounce = phong_lane_bounces(rt, p0) ? valid : 0;
-                todo = 0;
-            }
+            pp.same = p0;
+            phong = valid;
+            bounce = phong_lane_bounces(rt, p0) ? valid : 0;
+            todo = 0;
         }
     }
     /* Hit by hit: either the Phong lane's normal and direction into pp's columns
@@ -813,6 +859,14 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
             if (lit[li] & redo)
                 phong_packet_light(&pp, lanes, lit[li] & redo, ldir[li], lcolor[li]);
     }
+    /* Every lane's colour is its Phong column: handed over as they are, 32 wide copies
+     * instead of 64 Vec3s made from them (and taken apart again into bytes). */
+    if (planes && (phong & ~bounce) == valid && n == ACCEL_PACKET_MAX) {
+        memcpy(planes, pp.cr, sizeof pp.cr);
+        memcpy(planes + ACCEL_PACKET_MAX, pp.cg, sizeof pp.cg);
+        memcpy(planes + 2 * ACCEL_PACKET_MAX, pp.cb, sizeof pp.cb);
+        return true;
+    }
     phong_packet_colors(&pp, phong & ~bounce, colors);
     for (uint64_t m = blend; m; m &= m - 1) { /* no shade_finish (packet_kind) */
         int i = __builtin_ctzll(m);
@@ -828,18 +882,25 @@ static void trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
             colors[i] = st[i].color;
         }
     }
+    return false;
 }
 
 void raytracer_trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, int n,
                             float tmin, Vec3 *colors, Hit *hits)
 {
-    trace_packet(rt, ctx, rays, n, tmin, colors, hits, false);
+    (void)trace_packet(rt, ctx, rays, n, tmin, colors, hits, false, NULL);
 }
 
 void raytracer_trace_packet_bytes(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
                                   int n, float tmin, Vec3 *colors, Hit *hits)
 {
-    trace_packet(rt, ctx, rays, n, tmin, colors, hits, true);
+    (void)trace_packet(rt, ctx, rays, n, tmin, colors, hits, true, NULL);
+}
+
+bool raytracer_trace_tile_bytes(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
+                                float tmin, Vec3 *colors, float *planes, Hit *hits)
+{
+    return trace_packet(rt, ctx, rays, ACCEL_PACKET_MAX, tmin, colors, hits, true, planes);
 }
 
 bool raytracer_ctx_init(RenderCtx *ctx, const RayTracer *rt)

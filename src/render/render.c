@@ -3,6 +3,7 @@
  * size, so images and counters are identical for any thread count. */
 #include "rt/render.h"
 #include "rt/bigmem.h"
+#include "rt/cpu.h"
 #include "rt/par.h"
 
 #include <pthread.h>
@@ -13,6 +14,10 @@
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
+#endif
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define RENDER_PLANES_AVX2 1
 #endif
 
 /* A parallel run: jobs 0..n-1 handed out through an atomic counter. */
@@ -200,6 +205,91 @@ static void store_tile_bytes(uint8_t *corner, ptrdiff_t stride, bool bgr, const 
     }
 }
 
+#if defined(RENDER_PLANES_AVX2)
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+/* Eight floats of one plane, a row of a tile: lanes slot[0], slot[0] + 1, slot[2],
+ * slot[2] + 1, ... (in the tile's Z order each even column's lane is followed by its
+ * odd neighbour's), each times 255 then quantised as store_tile_bytes does (max with 0,
+ * which also turns NaN into 0, min with 255, truncation: the same single-precision
+ * operations, so the same bytes), as eight 32-bit integers. */
+static inline __m256i plane_row_bytes(const float *plane, const uint8_t *slot)
+{
+    __m128 lo = _mm_loadh_pi(_mm_loadl_pi(_mm_setzero_ps(), (const __m64 *)(plane + slot[0])),
+                             (const __m64 *)(plane + slot[2]));
+    __m128 hi = _mm_loadh_pi(_mm_loadl_pi(_mm_setzero_ps(), (const __m64 *)(plane + slot[4])),
+                             (const __m64 *)(plane + slot[6]));
+    __m256 v = _mm256_mul_ps(_mm256_set_m128(hi, lo), _mm256_set1_ps(255.0f));
+    v = _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(255.0f));
+    return _mm256_cvttps_epi32(v);
+}
+
+/* store_tile_bytes for colours in three planes (raytracer_trace_tile_bytes: channel c of
+ * lane k at planes[c * 64 + k]): each row's eight pixels quantised together per channel,
+ * then packed and shuffled into the row's 24 bytes (B G R or R G B), stored as 16 + 8:
+ * nothing written outside the tile's rows. */
+static void store_tile_planes(uint8_t *corner, ptrdiff_t stride, bool bgr, const float *planes,
+                              const uint8_t *slot)
+{
+    enum { P = TILE * TILE };
+    _Static_assert(P == ACCEL_PACKET_MAX, "a plane is a packet's lanes");
+    /* From rg = r0..r7 g0..g7 and b = b0..b7 (0x80: zero), bytes 0-15 and 16-23 of a
+     * row: pixel x's bytes at 3x .. 3x+2, in the file's order. */
+    const int8_t Z = (int8_t)0x80;
+    const __m128i rg_bgr0 = _mm_setr_epi8(Z, 8, 0, Z, 9, 1, Z, 10, 2, Z, 11, 3, Z, 12, 4, Z),
+                  b_bgr0 = _mm_setr_epi8(0, Z, Z, 1, Z, Z, 2, Z, Z, 3, Z, Z, 4, Z, Z, 5),
+                  rg_bgr1 = _mm_setr_epi8(13, 5, Z, 14, 6, Z, 15, 7, Z, Z, Z, Z, Z, Z, Z, Z),
+                  b_bgr1 = _mm_setr_epi8(Z, Z, 6, Z, Z, 7, Z, Z, Z, Z, Z, Z, Z, Z, Z, Z),
+                  rg_rgb0 = _mm_setr_epi8(0, 8, Z, 1, 9, Z, 2, 10, Z, 3, 11, Z, 4, 12, Z, 5),
+                  b_rgb0 = _mm_setr_epi8(Z, Z, 0, Z, Z, 1, Z, Z, 2, Z, Z, 3, Z, Z, 4, Z),
+                  rg_rgb1 = _mm_setr_epi8(13, Z, 6, 14, Z, 7, 15, Z, Z, Z, Z, Z, Z, Z, Z, Z),
+                  b_rgb1 = _mm_setr_epi8(Z, 5, Z, Z, 6, Z, Z, 7, Z, Z, Z, Z, Z, Z, Z, Z);
+    const __m128i m_rg0 = bgr ? rg_bgr0 : rg_rgb0, m_b0 = bgr ? b_bgr0 : b_rgb0,
+                  m_rg1 = bgr ? rg_bgr1 : rg_rgb1, m_b1 = bgr ? b_bgr1 : b_rgb1;
+    for (int dy = 0; dy < TILE; dy++) {
+        const uint8_t *row = slot + dy * TILE;
+        __m256i r = plane_row_bytes(planes, row), g = plane_row_bytes(planes + P, row),
+                b = plane_row_bytes(planes + 2 * P, row);
+        __m128i r16 = _mm_packs_epi32(_mm256_castsi256_si128(r), _mm256_extracti128_si256(r, 1));
+        __m128i g16 = _mm_packs_epi32(_mm256_castsi256_si128(g), _mm256_extracti128_si256(g, 1));
+        __m128i b16 = _mm_packs_epi32(_mm256_castsi256_si128(b), _mm256_extracti128_si256(b, 1));
+        __m128i rg = _mm_packus_epi16(r16, g16), bb = _mm_packus_epi16(b16, b16);
+        uint8_t *out = corner + dy * stride;
+        _mm_storeu_si128((__m128i *)out, _mm_or_si128(_mm_shuffle_epi8(rg, m_rg0),
+                                                      _mm_shuffle_epi8(bb, m_b0)));
+        _mm_storel_epi64((__m128i *)(out + 16), _mm_or_si128(_mm_shuffle_epi8(rg, m_rg1),
+                                                             _mm_shuffle_epi8(bb, m_b1)));
+    }
+}
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+#endif
+
+/* render_use_tile_planes' switch: on by default where the CPU runs the AVX2 store. */
+static bool g_planes_off;
+
+static bool tile_planes_on(void)
+{
+#if defined(RENDER_PLANES_AVX2)
+    return !g_planes_off && cpu_has_avx2();
+#else
+    return false;
+#endif
+}
+
+bool render_use_tile_planes(bool on)
+{
+    g_planes_off = !on;
+    return tile_planes_on();
+}
+
 /* Rows y0..y1-1 of the rectangle, in the tiles whose left column is in [xa, xb)
  * (a part of the band; xa a multiple of TILE). Tiles stay on the full image's 8 x 8
  * grid, so a rectangle on that grid traces the very packets of the whole render;
@@ -232,6 +322,12 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
      * the same bytes. Depth and normal images read the hits, never the colours. */
     void (*trace)(const RayTracer *, RenderCtx *, const Ray *, int, float, Vec3 *, Hit *) =
         to_bytes ? raytracer_trace_packet_bytes : raytracer_trace_packet;
+#if defined(RENDER_PLANES_AVX2)
+    /* Whole tiles of one Phong material come back as planes (raytracer_trace_tile_bytes)
+     * where the CPU has the AVX2 store for them. */
+    bool planes_on = bytes_only && tile_planes_on();
+    float planes[3 * TILE * TILE];
+#endif
     /* A band of a wide image with deep bounces takes long: a stop (the preview's q, a
      * signal) is noticed at the next tile, within a few milliseconds. */
     /* Pixel dy * TILE + dx is lane slot[...] of a whole tile's packet. */
@@ -244,17 +340,25 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
         int n = 0;
         if (full_rows && x0 >= xlo && x0 + TILE <= xhi) {
             camera_block8_rays(job->camera, x0, y0, t->width, t->height, cell, rays);
-            trace(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
             if (bytes_only) {
                 int tx = x0 - t->x0, ty = y0 - t->y0;
-                if (f)
-                    store_tile_bytes(file_pixel(f, t, tx, ty), -3 * (ptrdiff_t)t->w,
-                                     t->color_bgr, colors, slot);
-                else
-                    store_tile_bytes(t->color->bytes +
-                                         3 * ((size_t)ty * (size_t)t->color->width + (size_t)tx),
-                                     3 * (ptrdiff_t)t->color->width, false, colors, slot);
+                uint8_t *corner = f ? file_pixel(f, t, tx, ty)
+                                    : t->color->bytes + 3 * ((size_t)ty * (size_t)t->color->width +
+                                                             (size_t)tx);
+                ptrdiff_t stride = f ? -3 * (ptrdiff_t)t->w : 3 * (ptrdiff_t)t->color->width;
+                bool bgr = f && t->color_bgr;
+#if defined(RENDER_PLANES_AVX2)
+                if (planes_on && raytracer_trace_tile_bytes(job->rt, ctx, rays, tmin, colors,
+                                                            planes, hits)) {
+                    store_tile_planes(corner, stride, bgr, planes, slot);
+                    continue;
+                }
+                if (!planes_on)
+#endif
+                    trace(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
+                store_tile_bytes(corner, stride, bgr, colors, slot);
             } else {
+                trace(job->rt, ctx, rays, TILE * TILE, tmin, colors, hits);
                 for (int k = 0; k < TILE * TILE; k++)
                     store_pixel(t, f, x0 + cell[k] % TILE, y0 + cell[k] / TILE, colors[k],
                                 &hits[k]);

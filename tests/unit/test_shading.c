@@ -2,6 +2,7 @@
  * (back faces, shadows, reflection, refraction, TIR, cutoff, counters). */
 #include "harness.h"
 #include "rt/arena.h"
+#include "rt/cpu.h"
 #include "rt/geom.h"
 #include "rt/raytracer.h"
 #include "rt/perlin.h"
@@ -651,15 +652,26 @@ static void test_packet_shading_same_bits(void)
     diag_init(&d, NULL);
     CHECK(accel_init(&grid, accel_find("grid"), &prims, &cfg, &d));
     CHECK(accel_has_packets(&grid));
-    int differ = 0, packets = 0, kernels_run = 0;
-    /* Every Phong kernel this CPU runs (phong_packet.c's choice), the default last. */
+    int differ = 0, packets = 0, kernels_run = 0, puts_run = 0;
+    /* Every Phong kernel this CPU runs (phong_packet.c's choice), the default last; each
+     * with the lane-by-lane put of a tile of one material and with the widest eight-lane
+     * put this CPU has (raytracer.c's phong_put_run8, chosen with the blend kernels). */
     const char *default_kernel = phong_packet_kernel();
     const char *kernels[] = {"generic", "sse2", "avx2", "avx512"};
-    for (int kn = 0; kn <= 4; kn++) {
+    for (int kp = 0; kp <= 9; kp++) {
+        int kn = kp / 2;
         if (kn < 4 && (!strcmp(kernels[kn], default_kernel) || !phong_packet_use_kernel(kernels[kn])))
             continue;
         if (kn == 4)
             CHECK(phong_packet_use_kernel(default_kernel));
+        if (kp % 2 == 0) {
+            CHECK(raytracer_blend_use_kernel("base"));
+        } else {
+            bool wide = raytracer_blend_use_kernel("avx512") || raytracer_blend_use_kernel("avx2");
+            puts_run += wide;
+            if (!wide)
+                continue; /* no eight-lane put here: the base put ran already */
+        }
         kernels_run++;
         for (int variant = 0; variant < 6; variant++) {
             RayTracer rt;
@@ -734,6 +746,8 @@ static void test_packet_shading_same_bits(void)
     CHECK_INT(differ, 0);
     CHECK(kernels_run >= 2); /* SSE2 or plain C at least, and the default again */
     CHECK_INT(packets, kernels_run * 6 * 36);
+    if (cpu_runs("avx2"))
+        CHECK(puts_run >= 2); /* the eight-lane put ran with two Phong kernels at least */
     accel_free(&grid);
     prim_table_free(&prims);
     arena_free(&m.s.arena);
@@ -869,6 +883,7 @@ static void test_packet_bracket_bytes(void)
                 if (i % 17 == 5)
                     lp[i] = &mats[round % 6]; /* groups of one material and mixed */
             }
+            ref.same = NULL; /* lp says each lane's material */
             br = ref;
             uint64_t ent;
             ref.brk = 0;
@@ -1201,6 +1216,82 @@ static void staged_row_done(void *user, int y)
         atomic_fetch_add(&sf->bad, 1);
 }
 
+/* render_image's whole tiles of one Phong material as planes (raytracer_trace_tile_bytes,
+ * stored by render.c's AVX2 store_tile_planes): the same bytes as with every tile's
+ * colours as Vec3s (render_use_tile_planes(false)), into a byte image (R G B) and into a
+ * file's rows (B G R and R G B), at 1 and 2 threads; a sphere in front of a plane, so
+ * tiles of one material (planes) and tiles of two or of the background (Vec3s). */
+static void test_render_tile_planes(void)
+{
+    if (!render_use_tile_planes(true)) {
+        CHECK_MSG(!cpu_has_avx2(), "the plane store is off on a CPU with AVX2");
+        return; /* no AVX2: every tile takes the Vec3s (the other tests) */
+    }
+    Mini m;
+    mini_init(&m);
+    m.lights[0] = (Light){LIGHT_DIRECTIONAL, v3_normalize(v3(0.4f, -0.8f, -0.3f)), v3(0, 0, 0),
+                          v3(0.3f, 0.3f, 0.3f), {1, 0, 0}};
+    m.lights[1] = (Light){LIGHT_DIRECTIONAL, v3_normalize(v3(-0.3f, -1, -0.5f)), v3(0, 0, 0),
+                          v3(0.5f, 0.6f, 0.7f), {1, 0, 0}};
+    m.s.num_lights = 2;
+    PhongParams shiny = phong_defaults(), matte = phong_defaults();
+    shiny.diffuse = v3(0.79f, 0.66f, 0.44f); /* three different bytes: a swap shows */
+    shiny.specular = v3(0.4f, 0.5f, 0.6f);
+    shiny.exponent = 10;
+    matte.diffuse = v3(0.15f, 0.9f, 0.3f);
+    Object3D *g = group_new(&m.s.arena, 2);
+    group_set_child(g, 0, sphere_new(&m.s.arena, v3(0.2f, 0.1f, 0), 0.8f,
+                                     phong_new(&m.s.arena, &shiny)));
+    group_set_child(g, 1, plane_new(&m.s.arena, v3(0, 0, 1), -1, phong_new(&m.s.arena, &matte)));
+    group_finish(g);
+    mini_set_root(&m, g);
+    PrimTable prims;
+    CHECK(prim_table_build(&prims, &m.s));
+    Accel grid;
+    AccelConfig cfg = {.grid_n = {4, 4, 4}, .grid_auto = false, .no_marking = false, .visualize = false};
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(accel_init(&grid, accel_find("grid"), &prims, &cfg, &d));
+    RayTracer rt;
+    memset(&rt, 0, sizeof rt);
+    rt.scene = &m.s;
+    rt.accel = &grid;
+    rt.shadows = true;
+    enum { W = 70, H = 45 }; /* cut tiles at the right and the top */
+    size_t len = (size_t)W * H * 3;
+    int differ = 0, lit = 0;
+    for (int v = 0; v < 6; v++) {
+        int threads = v & 1 ? 2 : 1, out = v / 2; /* 0: image, 1: file B G R, 2: file R G B */
+        uint8_t *got[2];
+        for (int on = 0; on < 2; on++) {
+            CHECK(render_use_tile_planes(on) == (on == 1));
+            Image img;
+            CHECK(image_init_bytes(&img, W, H));
+            uint8_t *file = malloc(len);
+            CHECK(file != NULL);
+            memset(file, 0xcd, len);
+            RenderTarget t = {W, H, &img, NULL, 0, 1, NULL, 0, 0, W, H, NULL,
+                              out ? file : NULL, out == 1, NULL};
+            CHECK(render_image(&rt, &m.s.camera, &t, threads, NULL, NULL, NULL, NULL));
+            if (!out)
+                memcpy(file, img.bytes, len);
+            got[on] = file;
+            image_free(&img);
+        }
+        differ += memcmp(got[0], got[1], len) != 0;
+        for (size_t i = 0; i < len; i += 3)
+            lit += got[1][i] != got[1][i + 1] && got[1][i + 1] != got[1][i + 2];
+        free(got[0]);
+        free(got[1]);
+    }
+    CHECK(render_use_tile_planes(true));
+    CHECK(lit > 6 * 500); /* the sphere and the plane are there, in colour */
+    CHECK_INT(differ, 0);
+    accel_free(&grid);
+    prim_table_free(&prims);
+    arena_free(&m.s.arena);
+}
+
 /* RenderTarget.color_file (the colour bytes straight into a file's rows, as main.c
  * does when the file is made during the render) and color_rows (band by band through
  * small buffers, as main.c does when that file is written while it is made): the same
@@ -1293,6 +1384,8 @@ static const TestCase tests[] = {
     {"render: the last bands in parts: same pixels, each row once, complete", test_render_split_bands},
     {"render: colour bytes straight into a file's rows, or band by band",
      test_render_color_into_file},
+    {"render: whole tiles of one Phong material as planes, the same bytes",
+     test_render_tile_planes},
     {"render: stops at the cancel flag", test_render_cancel},
     {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
