@@ -68,6 +68,9 @@ void par_hold(void);
 void par_release(void);
 /* Helpers started and not yet exited (for tests). */
 int par_helpers_running(void);
+/* Whether a caller of par_for is asleep waiting for a helper's chunks (for tests: it
+ * yields, awake, for a while first, rt/par.c's PAR_YIELD_NS). */
+bool par_caller_asleep(void);
 
 /* Threads a par_for may use now: 1 + the helpers wanted (1: everything on the caller,
  * so splitting work only costs). */

@@ -5,6 +5,9 @@
  * background task's pieces run once each, in order, on a held helper or on the caller. */
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -258,6 +261,86 @@ static void test_hold_keeps_helper(void)
     par_set_helpers(-1);
 }
 
+/* A caller of par_for waiting for a helper's chunk does not go to sleep at once (it
+ * yields, awake, for PAR_YIELD_NS, 2 ms: a sleeping vCPU takes 0.07 ms and more to
+ * wake), and does sleep in the end. The caller's chunk notes when it ended; the
+ * helper's chunk, running on meanwhile, looks at the caller whenever that was 0.3 to
+ * 1 ms ago (past the 50 us spin; the caller's wait began after its chunk ended, so it
+ * has waited less), where it must be awake however loaded the machine, and then stays
+ * until the caller sleeps (a 10 s bound so a caller that never sleeps fails). */
+typedef struct Waiter {
+    _Atomic int64_t caller_end_ns; /* when the caller's chunk ended (0: not yet) */
+    atomic_int looked, asleep_early, slept, helper_chunks;
+} Waiter;
+
+static int64_t mono_ns(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (int64_t)t.tv_sec * 1000000000LL + t.tv_nsec;
+}
+
+static void waiter_chunk(void *ctx, int i, int worker)
+{
+    (void)i;
+    Waiter *w = ctx;
+    if (worker == 0) {
+        /* Until the helper has taken the other chunk (10 s at most), so that the caller
+         * does not run both. */
+        int64_t t0 = mono_ns();
+        while (atomic_load(&w->helper_chunks) == 0 && mono_ns() - t0 < 10000000000LL)
+            ;
+        atomic_store(&w->caller_end_ns, mono_ns());
+        return;
+    }
+    atomic_fetch_add(&w->helper_chunks, 1);
+    int64_t start = mono_ns();
+    for (;;) {
+        int64_t t = mono_ns(), end = atomic_load(&w->caller_end_ns);
+        if (end == 0) {
+            if (t - start > 10000000000LL)
+                return; /* the caller never ran its chunk: nothing to look at */
+            continue;
+        }
+        bool asleep = par_caller_asleep();
+        if (t - end >= 300000 && t - end < 1000000) {
+            atomic_fetch_add(&w->looked, 1);
+            atomic_fetch_add(&w->asleep_early, asleep);
+        } else if (t - end >= 1000000 && (asleep || t - end > 10000000000LL)) {
+            atomic_store(&w->slept, asleep);
+            return;
+        }
+    }
+}
+
+static void test_waiting_caller_yields_then_sleeps(void)
+{
+    par_set_helpers(1);
+    par_hold();
+    int rounds = 0, looked = 0, asleep_early = 0, slept = 0;
+    for (int round = 0; round < 10; round++) {
+        Waiter w;
+        memset(&w, 0, sizeof w);
+        par_for(2, waiter_chunk, &w);
+        if (atomic_load(&w.helper_chunks) != 1 || atomic_load(&w.caller_end_ns) == 0)
+            continue; /* one thread ran both chunks (the helper was late) */
+        rounds++;
+        looked += atomic_load(&w.looked);
+        asleep_early += atomic_load(&w.asleep_early);
+        slept += atomic_load(&w.slept);
+    }
+    CHECK_MSG(rounds > 0, "the helper never ran a chunk beside the caller");
+    CHECK_MSG(asleep_early == 0, "the waiting caller slept within 1 ms of its chunk: %d of %d looks",
+              asleep_early, looked);
+    CHECK_MSG(slept == rounds, "the waiting caller went to sleep in %d of %d rounds", slept,
+              rounds);
+    if (looked == 0)
+        printf("  (no look within 1 ms of the caller's chunk: a loaded machine)\n");
+    par_release();
+    CHECK_MSG(wait_helpers_gone(), "the held helper did not exit after par_release");
+    par_set_helpers(-1);
+}
+
 /* No helper wanted (-threads 1): par_hold starts none, par_try_for declines. */
 static void count_two(void *ctx, int i, int worker)
 {
@@ -480,6 +563,8 @@ static const TestCase tests[] = {
     {"par: a helper joins in, again after par_release", test_helper_joins_in},
     {"par: a helper sleeping between jobs joins the next", test_sleeping_helper_joins_in},
     {"par: a held helper serves every job until par_release ends it", test_hold_keeps_helper},
+    {"par: a caller waiting for a helper's chunk stays awake a while, then sleeps",
+     test_waiting_caller_yields_then_sleeps},
     {"par: no helper wanted: par_hold starts none, par_try_for declines", test_no_helper_wanted},
     {"par: par_try_for runs each chunk once or declines", test_try_for},
     {"par: a forked child holds no helper and its par_for works", test_fork_child},
