@@ -276,7 +276,7 @@ typedef struct LeanMarch {
     int left0, left1, left2;    /* steps left inside the box per axis */
     int32_t d0, d1, d2;         /* index stride of one step per axis (signed) */
     uint32_t c;                 /* the current cell's index (grid_cell_index) */
-    uint64_t cells;             /* cells entered, for cells_traversed */
+    int left_sum;               /* left0 + left1 + left2 at the start (lean_cells) */
 } LeanMarch;
 
 /* march_exit_t of the current cell. */
@@ -322,8 +322,15 @@ static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
         m->tn0 = m->b0 + m->k0 * m->dt0;
     }
     m->t = tm;
-    m->cells++;
     return true;
+}
+
+/* The cells entered after the first: every step counts one axis' steps left down by
+ * one, so their sum fell by one per step (a counter of its own cost a memory
+ * increment per step: the march's state does not fit the registers). */
+static inline __attribute__((always_inline)) uint64_t lean_cells(const LeanMarch *m)
+{
+    return (uint64_t)(m->left_sum - (m->left0 + m->left1 + m->left2));
 }
 
 /* What lean_init takes from the ray alone (its origin, direction, reciprocals and which
@@ -334,8 +341,7 @@ typedef struct LeanRay {
     bool par[3]; /* march_init's parallel axes: d == 0 or 1/d not finite */
 } LeanRay;
 
-static inline __attribute__((always_inline)) void lean_ray(const Ray *ray, const float inv[3],
-                                                            LeanRay *r)
+static inline __attribute__((always_inline)) void lean_ray(const Ray *ray, LeanRay *r)
 {
     r->o[0] = ray->origin.x;
     r->o[1] = ray->origin.y;
@@ -343,10 +349,11 @@ static inline __attribute__((always_inline)) void lean_ray(const Ray *ray, const
     r->d[0] = ray->dir.x;
     r->d[1] = ray->dir.y;
     r->d[2] = ray->dir.z;
-    for (int a = 0; a < 3; a++) {
-        r->inv[a] = inv[a];
-        r->par[a] = r->d[a] == 0.0f || !isfinite(inv[a]);
-    }
+    ray_inv_dir(ray, r->inv);
+    /* march_init's test is d == 0 || !isfinite(1 / d); a zero d (either sign) has an
+     * infinite reciprocal, so the second half alone gives the same answer. */
+    for (int a = 0; a < 3; a++)
+        r->par[a] = !isfinite(r->inv[a]);
 }
 
 /* The cast's own march start: march_init for one grid (n cells per axis, whose indices
@@ -423,7 +430,7 @@ static inline __attribute__((always_inline)) bool lean_init(
     m->d2 = step[2] * n[0] * n[1];
     m->c = base + ((uint32_t)cell[2] * (uint32_t)n[1] + (uint32_t)cell[1]) * (uint32_t)n[0] +
            (uint32_t)cell[0];
-    m->cells = 0;
+    m->left_sum = m->left0 + m->left1 + m->left2;
     return true;
 }
 
@@ -451,10 +458,8 @@ static inline __attribute__((always_inline)) bool cast_lean_init(const Grid *g,
                                                                   LeanMarch *m)
 {
     const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
-    float inv[3];
-    ray_inv_dir(ray, inv);
     LeanRay lr;
-    lean_ray(ray, inv, &lr);
+    lean_ray(ray, &lr);
     if (!lean_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, 0, &lr, tmin, m))
         return false;
     ctx->stats.cells_traversed++;
@@ -689,7 +694,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
             if (hit->t <= lean_exit_t(&m))
                 break;
         } while (lean_next(&m));
-        ctx->stats.cells_traversed += m.cells;
+        ctx->stats.cells_traversed += lean_cells(&m);
         return found;
     }
     MarchingInfo mi;
@@ -791,7 +796,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
                 break;
             }
         } while (lean_next(&m));
-        ctx->stats.cells_traversed += m.cells;
+        ctx->stats.cells_traversed += lean_cells(&m);
         return occluded;
     }
     MarchingInfo mi;
@@ -895,11 +900,9 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
                                                            RenderCtx *ctx, bool any)
 {
     const Grid *g = t->top;
-    float inv[3];
-    ray_inv_dir(ray, inv);
     const float lo[3] = {g->box.min.x, g->box.min.y, g->box.min.z};
     LeanRay lr;
-    lean_ray(ray, inv, &lr);
+    lean_ray(ray, &lr);
     LeanMarch m;
     if (!lean_init(lo, g->slab_lo, g->slab_hi, g->inv_size, g->size, g->n, 0, &lr, tmarch, &m))
         return false;
@@ -907,7 +910,7 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
     float err = march_error(g, ray);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
-    uint64_t cells = 1; /* the first top cell; the rest are m.cells */
+    uint64_t cells = 1; /* the first top cell; the rest are lean_cells(&m) */
     bool found = false;
     do {
         if (m.t > hit->t)
@@ -961,7 +964,7 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
         if (!any && hit->t <= lean_exit_t(&m))
             break;
     } while (lean_next(&m));
-    ctx->stats.cells_traversed += cells + m.cells;
+    ctx->stats.cells_traversed += cells + lean_cells(&m);
     return found;
 }
 

@@ -231,11 +231,20 @@ static TestRay random_ray(const RScene *r, const Grid *g)
     }
     Vec3 o = vrand(-6, 6);
     if (irand(8) == 0) {
-        /* Axis-parallel ray. */
+        /* Axis-parallel ray. Its other two components are +0, -0 or +-1e-39 (a
+         * subnormal whose reciprocal overflows to infinity): every march takes such an
+         * axis as parallel (march_init: d == 0 or 1 / d not finite; the lean marches:
+         * 1 / d not finite), and check_same_march holds them to each other. */
         int a = irand(3);
-        Vec3 d = v3(0, 0, 0);
-        float s = irand(2) ? 1.0f : -1.0f;
-        if (a == 0) d.x = s; else if (a == 1) d.y = s; else d.z = s;
+        const float tiny[3] = {0.0f, -0.0f, 1e-39f};
+        float o0 = tiny[irand(3)], o1 = tiny[irand(3)];
+        o0 = irand(2) ? o0 : -o0;
+        o1 = irand(2) ? o1 : -o1;
+        const float other[2] = {o0, o1};
+        float s = irand(2) ? 1.0f : -1.0f, c[3];
+        for (int k = 0, j = 0; k < 3; k++)
+            c[k] = k == a ? s : other[j++];
+        Vec3 d = v3(c[0], c[1], c[2]);
         tr.ray.origin = v3_sub(target, v3_scale(d, 6));
         tr.ray.dir = d;
         return tr;
