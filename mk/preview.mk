@@ -9,7 +9,9 @@
 PREVIEW ?=
 RT_PV_GLUT :=
 RT_PV_OSMESA :=
-ifneq ($(PREVIEW),0)
+ifeq ($(PREVIEW),0)
+  FEATURE_CFLAGS += -DRT_PREVIEW_LEFT_OUT
+else
   RT_PV_GLUT := $(shell pkg-config --exists gl glut x11 2>/dev/null && echo yes)
   RT_PV_OSMESA := $(shell pkg-config --exists osmesa 2>/dev/null && echo yes)
   ifeq ($(PREVIEW),1)

@@ -42,7 +42,10 @@ printf '  %-30s %8s   %s\n' "image" "time" "options"
 # Antialiased: 16 jittered samples per pixel and a Gaussian filter (README.txt, 9).
 render showcase showcase.txt -size 400 300 -shadows -shade_back -bounces 5 -weight 0.01 -grid auto -stats \
     -jittered_samples 16 -gaussian_filter 0.5
-[ -f "$OUT/showcase.log" ] && sed -n '/RAY TRACING STATISTICS/,/^\*/p' "$OUT/showcase.log"
+# The whole statistics block: from the line of asterisks before its title to the one
+# after it (the log may also hold warnings).
+[ -f "$OUT/showcase.log" ] && awk '/^\*+$/ { if (inside) { print; inside = 0; next } star = $0; next }
+    /RAY TRACING STATISTICS/ { print star; inside = 1 } inside { print }' "$OUT/showcase.log"
 
 render feat_ortho feat_ortho.txt -size 200 200 -shadows \
     -depth 8 12 "$OUT/feat_ortho_depth.$EXT" -normals "$OUT/feat_ortho_normals.$EXT"

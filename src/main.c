@@ -85,11 +85,15 @@ typedef struct App {
 
 static void print_version(void)
 {
+    char gui[160] = "yes", snap[160] = "yes";
+    if (!preview_window_built())
+        snprintf(gui, sizeof gui, "no (%s)", preview_remedy(true));
+    if (!preview_snapshot_built())
+        snprintf(snap, sizeof snap, "no (%s)", preview_remedy(false));
     printf("raytracer %s\n", RT_VERSION);
     printf("features: png %s, gui window %s, gui snapshot (osmesa) %s\n",
            image_format_supported("png") ? "yes" : "no (apt-get install libpng-dev; rebuild)",
-           preview_window_built() ? "yes" : "no (apt-get install libglut-dev; rebuild)",
-           preview_snapshot_built() ? "yes" : "no (apt-get install libosmesa6-dev; rebuild)");
+           gui, snap);
     printf("threads: %d by default (all cores)\n", render_default_threads());
     printf("mpi: %s\n", dist_describe());
 }

@@ -29,6 +29,10 @@ typedef struct PreviewConfig {
 
 bool preview_window_built(void);
 bool preview_snapshot_built(void);
+/* What a user does to get a preview this build lacks: the packages to install and
+ * rebuild, or, in a build made without the preview on purpose (PREVIEW=0, as
+ * raytracer-static is), the binary to use instead. One phrase, no full stop. */
+const char *preview_remedy(bool window);
 /* Opens the window; returns the exit status when the user quits. */
 int preview_run_window(const PreviewConfig *cfg, Diag *diag);
 /* Draws one frame (after the scripted keys) offscreen and writes snapshot_path. */

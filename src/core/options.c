@@ -17,7 +17,6 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <sys/stat.h>
 
 enum {
@@ -87,9 +86,9 @@ static const char usage_text[] =
         "                           more than t (0..1, any channel) get b = m*m instead\n"
         "                           (counts 1..1024)\n"
         "  -box_filter r            box filter of half-width r pixels (0 < r <= 16)\n"
-        "  -tent_filter r           tent (cone) filter of radius r\n"
+        "  -tent_filter r           tent (cone) filter of radius r (0 < r <= 16)\n"
         "  -gaussian_filter s       Gaussian filter, standard deviation s (0 < s <= 16)\n"
-        "  -mitchell_filter r       Mitchell-Netravali cubic (B = C = 1/3) of radius r\n"
+        "  -mitchell_filter r       Mitchell-Netravali cubic, B = C = 1/3, radius r (0 < r <= 16)\n"
         "  -render_samples file z   also write the sample positions, zoomed z times (1..100)\n"
         "  -render_filter file z    also write the filter weights, zoomed z times (1..100)\n"
         "  -seed n                  seed of the random samplers (default 0)\n"
@@ -555,8 +554,11 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (c.i + 1 < argc && !strcmp(argv[c.i + 1], "auto")) {
                 o->grid_auto = true;
                 c.i++;
-            } else if (c.i + 1 < argc && !strcasecmp(argv[c.i + 1], "auto")) {
-                c.hinted = true; /* words are case-sensitive, like the scene's keywords */
+            } else if (c.i + 1 < argc && isalpha((unsigned char)argv[c.i + 1][0]) &&
+                       suggest_distance(argv[c.i + 1], "auto") <= 2) {
+                /* "Auto", "atuo", "aut": words are case-sensitive, like the scene's
+                 * keywords, and a word near auto is no nx */
+                c.hinted = true;
                 return usage_error(&c, "option -grid: '%s' (did you mean auto?)",
                                    argv[c.i + 1]);
             } else {
@@ -715,6 +717,9 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         return usage_error(&c, "option -grid goes with -accel grid, not -accel %s", o->accel);
     if (o->accel && strcmp(o->accel, "grid") == 0 && !o->grid)
         o->grid = o->grid_auto = true;
+    if (o->visualize_grid && o->accel && strcmp(o->accel, "grid") != 0)
+        return usage_error(&c, "-visualize_grid draws the uniform grid's cells: not with "
+                           "-accel %s (use -grid nx ny nz or -grid auto instead)", o->accel);
     if (o->visualize_grid && !o->grid)
         return usage_error(&c, "-visualize_grid needs -grid nx ny nz (or -grid auto)");
     /* Two images into one file: the second would silently replace the first. */

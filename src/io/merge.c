@@ -50,8 +50,7 @@ static void part_describe(const Part *p, char *buf, size_t size)
 bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
 {
     if (n < 1) {
-        SrcLoc loc = {out, 0, 0};
-        diag_error(diag, &loc, "no parts to merge");
+        diag_error(diag, NULL, "-merge %s: no parts to merge", out);
         return false;
     }
     /* The output is checked first, as a render checks it before its work: a missing or
@@ -147,15 +146,15 @@ bool image_merge(const char *out, const char *const *paths, int n, Diag *diag)
     /* Inside the full image and pairwise disjoint: they cover it exactly when the areas
      * add up to its size. */
     if (ok && area != (long long)fw * fh) {
+        /* Not located at the output: it does not exist, and nothing is wrong with it. */
         int gx = 0, gy = 0;
-        SrcLoc loc = {out, 0, 0};
         if (find_gap(parts, n, fw, fh, &gx, &gy))
-            diag_error(diag, &loc, "the %d %s not cover the %dx%d image: no part has "
-                       "pixel (%d, %d) (x, y from the top-left); nothing written", n,
-                       n == 1 ? "part does" : "parts do", fw, fh, gx, gy);
+            diag_error(diag, NULL, "-merge %s: the %d %s not cover the %dx%d image: no "
+                       "part has pixel (%d, %d) (x, y from the top-left); nothing written",
+                       out, n, n == 1 ? "part does" : "parts do", fw, fh, gx, gy);
         else
-            diag_error(diag, &loc, "the %d %s not cover the %dx%d image; nothing "
-                       "written", n, n == 1 ? "part does" : "parts do", fw, fh);
+            diag_error(diag, NULL, "-merge %s: the %d %s not cover the %dx%d image; "
+                       "nothing written", out, n, n == 1 ? "part does" : "parts do", fw, fh);
         ok = false;
     }
     if (ok)

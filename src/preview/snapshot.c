@@ -108,6 +108,10 @@ int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
     KeyScript script;
     if (!preview_keys_parse(cfg->keys, &script, diag))
         return 2;
+    if (!preview_keys_check(&script, cfg->width, cfg->height, diag)) {
+        preview_keys_free(&script);
+        return 2;
+    }
     if (!preview_load_osmesa_libs(diag)) {
         preview_keys_free(&script);
         return 1;
@@ -153,8 +157,7 @@ int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
 {
     (void)cfg;
     diag_error(diag, NULL,
-               "-gui_snapshot is not built in: apt-get install libglut-dev libosmesa6-dev, "
-               "then rebuild (make)");
+               "-gui_snapshot is not built in: %s", preview_remedy(false));
     return 2;
 }
 

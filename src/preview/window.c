@@ -390,6 +390,10 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     /* A bad script is a usage error (2), reported before the display is looked at. */
     if (!preview_keys_parse(cfg->keys, &W.script, diag))
         return 2;
+    if (!preview_keys_check(&W.script, cfg->width, cfg->height, diag)) {
+        preview_keys_free(&W.script);
+        return 2;
+    }
     if (!preview_load_window_libs(diag)) {
         preview_keys_free(&W.script);
         return 1;
@@ -470,9 +474,20 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
 {
     (void)cfg;
     diag_error(diag, NULL,
-               "-gui is not built in: apt-get install libglut-dev libosmesa6-dev, then "
-               "rebuild (make)");
+               "-gui is not built in: %s", preview_remedy(true));
     return 2;
 }
 
 #endif
+
+const char *preview_remedy(bool window)
+{
+#ifdef RT_PREVIEW_LEFT_OUT
+    (void)window;
+    return "this build leaves it out on purpose, PREVIEW=0 as in raytracer-static: use "
+           "./raytracer from make";
+#else
+    return window ? "apt-get install libglut-dev, then rebuild (make)"
+                  : "apt-get install libosmesa6-dev, then rebuild (make)";
+#endif
+}

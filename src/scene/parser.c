@@ -487,9 +487,13 @@ static bool parse_group(Parser *p, const Token *kw, Object3D **out)
             int i;
             if (!read_int_tok(p, &i, &num))
                 return false;
+            /* Indices resolve as they are read, so a Materials block after the Group
+             * comes too late for it: say so when no block came before. */
             if (i < 0 || i >= p->s->num_materials)
-                return fail(p, &num.loc, "MaterialIndex %d out of range (%d material%s)", i,
-                            p->s->num_materials, p->s->num_materials == 1 ? "" : "s");
+                return fail(p, &num.loc, "MaterialIndex %d out of range (%d material%s%s)", i,
+                            p->s->num_materials, p->s->num_materials == 1 ? "" : "s",
+                            p->first_line[3] ? ""
+                                             : ": a Materials block must come before the Group");
             p->current = p->s->materials[i];
             continue;
         }
@@ -1178,8 +1182,9 @@ static bool parse_materials(Parser *p)
 /* ---- file ------------------------------------------------------------------------- */
 
 /* A second top-level block of a kind replaces the first (a Background only the fields
- * it sets), as in the course's parser; since that is rarely meant (two scenes pasted
- * together, a block copied to be edited), it gets a warning at the second block. */
+ * it sets; a Materials block only for the Groups read after it), as in the course's
+ * parser; since that is rarely meant (two scenes pasted together, a block copied to be
+ * edited), it gets a warning at the second block. */
 static void note_top_block(Parser *p, const Token *t)
 {
     static const char *const kinds[5][2] = {
@@ -1195,6 +1200,11 @@ static void note_top_block(Parser *p, const Token *t)
             } else if (k == 0) {
                 diag_warning(p->diag, &t->loc, "a second camera (%s): it overrides the %s "
                              "at line %d", kinds[k][j], p->first_name[k], p->first_line[k]);
+            } else if (k == 3 && p->first_line[4]) {
+                /* A Group's objects took their materials as it was read. */
+                diag_warning(p->diag, &t->loc, "a second Materials block: it overrides the "
+                             "one at line %d for Groups after it (the Group at line %d keeps "
+                             "its materials)", p->first_line[k], p->first_line[4]);
             } else {
                 diag_warning(p->diag, &t->loc, "a second %s block: it overrides the one at "
                              "line %d%s", kinds[k][j], p->first_line[k],

@@ -198,7 +198,7 @@ case("materialindex_out_of_range", HEAD + group(SPHERE, mat="    MaterialIndex @
 case("materialindex_negative", HEAD + group(SPHERE, mat="    MaterialIndex @@-1\n"),
      "MaterialIndex -1 out of range (2 materials)")
 case("materialindex_before_materials", CAM + LIGHTS + group(SPHERE, mat="    MaterialIndex @@0\n") + MATS,
-     "MaterialIndex 0 out of range (0 materials)")
+     "MaterialIndex 0 out of range (0 materials: a Materials block must come before the Group)")
 case("no_material_selected", HEAD + group("    @@Sphere {\n        center 0 0 0\n        radius 1\n    }\n", mat=""),
      "no material selected for Sphere (MaterialIndex missing)")
 case("procedural_index_out_of_range",

@@ -482,6 +482,15 @@ static void test_cache_static_binary(void)
     CHECK_MSG(r.status == 0, "merge: %s", e2e_describe(&r, why, sizeof why));
     e2e_run_free(&r);
     CHECK_MSG(same_file(ref, merged), "the merged parts differ from ./raytracer's render");
+    /* It has no preview on purpose: its answers say so and name the binary that has one,
+     * rather than packages to install (they may well be installed). */
+    const char *vargv[] = {"--version", NULL};
+    CHECK(e2e_run_bin(bin, vargv, &r));
+    CHECK_MSG(r.status == 0 && r.out && strstr(r.out, "gui window no (this build leaves it out "
+                                                       "on purpose") &&
+                  !strstr(r.out, "apt-get install libglut"),
+              "--version: %s", r.out ? r.out : "");
+    e2e_run_free(&r);
     e2e_rmtree(dir);
 }
 

@@ -8,8 +8,10 @@
 #include "e2e_util.h"
 
 /* The stand-in: prints the features line with PNG_ANSWER, writes "x" into every file
- * named by -output, -depth (third value) and -normals, and prints a warning for the
- * scene feat_nolights.txt (as the real one does). */
+ * named by -output, -depth (third value) and -normals, prints a warning for the
+ * scene feat_nolights.txt (as the real one does), and for -stats a warning and a
+ * statistics block framed by lines of asterisks. */
+#define STARS "********************************************"
 static const char k_stub[] =
     "#!/bin/sh\n"
     "if [ \"$1\" = --version ]; then echo 'features: png PNG_ANSWER, gui window no'; exit 0; fi\n"
@@ -18,6 +20,8 @@ static const char k_stub[] =
     "  -output|-normals) echo x > \"$2\"; shift 2 ;;\n"
     "  -depth) echo x > \"$4\"; shift 4 ;;\n"
     "  -input) case $2 in *feat_nolights.txt) echo 'warning: no lights' >&2 ;; esac; shift 2 ;;\n"
+    "  -stats) echo 'warning: before the block' >&2; echo '" STARS "'; echo 'RAY TRACING "
+    "STATISTICS'; echo '  num pixels 1'; echo '" STARS "'; shift ;;\n"
     "  *) shift ;;\n"
     "  esac\n"
     "done\n";
@@ -87,6 +91,10 @@ static void run_demo(const char *png_answer, const char *ext)
     }
     CHECK_MSG(rows >= 15, "only %d table rows in: %s", rows, table);
     CHECK_MSG(aligned, "the time column is not aligned:\n%s", table);
+    /* The showcase's statistics block, whole: both lines of asterisks, no warning. */
+    CHECK_MSG(strstr(table, "\n" STARS "\nRAY TRACING STATISTICS\n  num pixels 1\n" STARS
+                            "\n") != NULL && !strstr(table, "before the block"),
+              "the statistics block is not shown whole:\n%s", table);
     e2e_run_free(&r);
     e2e_rmtree(dir);
 }

@@ -90,7 +90,11 @@ static void test_usage_errors(void)
         {"-input s.txt -accel bvh", "unknown accelerator 'bvh' (known: none, grid, twolevel)"},
         {"-input s.txt -accel", "needs more arguments"},
         {"-input s.txt -accel none -grid 4 4 4", "-grid goes with -accel grid"},
-        {"-input s.txt -accel none -visualize_grid", "needs -grid"},
+        {"-input s.txt -accel none -visualize_grid", "not with -accel none (use -grid nx ny nz"},
+        {"-input s.txt -accel twolevel -visualize_grid -grid auto", "-grid goes with -accel grid"},
+        {"-input s.txt -accel twolevel -visualize_grid",
+         "-visualize_grid draws the uniform grid's cells: not with -accel twolevel (use -grid nx "
+         "ny nz or -grid auto instead)"},
         /* a range error names the value of a multi-value option that is wrong */
         {"-input s.txt -size 0 10", "option -size: w = 0 is out of range 1..32768"},
         {"-input s.txt -size 10 0", "option -size: h = 0 is out of range 1..32768"},
@@ -108,6 +112,9 @@ static void test_usage_errors(void)
         /* words are case-sensitive: the right spelling is offered */
         {"-input s.txt -output o.tga -grid Auto", "option -grid: 'Auto' (did you mean auto?)"},
         {"-input s.txt -output o.tga -grid AUTO", "did you mean auto?"},
+        {"-input s.txt -output o.tga -grid atuo", "option -grid: 'atuo' (did you mean auto?)"},
+        {"-input s.txt -output o.tga -grid aut 10 10", "option -grid: 'aut' (did you mean auto?)"},
+        {"-input s.txt -output o.tga -grid x 10 10", "option -grid: nx expects an integer, got 'x'"},
         /* -adaptive_samples t is a difference of channels in 0..1 */
         {"-input s.txt -output o.tga -adaptive_samples 4 16 1.5",
          "option -adaptive_samples: t = 1.5 is out of range 0..1"},

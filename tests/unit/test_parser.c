@@ -520,7 +520,8 @@ static void test_repeated_blocks_warn(void)
     CHECK_CONTAINS(out, "t.txt:8:1: warning: a second Lights block: it overrides the one at "
                         "line 3\n");
     CHECK_CONTAINS(out, "t.txt:9:1: warning: a second Materials block: it overrides the one "
-                        "at line 4\n");
+                        "at line 4 for Groups after it (the Group at line 5 keeps its "
+                        "materials)\n");
     CHECK_CONTAINS(out, "t.txt:10:1: warning: a second Group block: it overrides the one at "
                         "line 5\n");
     CHECK_CONTAINS(out, "t.txt:10:24: warning: a second Group block: it overrides the one at "
@@ -760,7 +761,8 @@ static void test_errors_located(void)
     EXPECT_ERROR("Materials { numMaterials 3 PhongMaterial { } PhongMaterial { } PhongMaterial { } }\n"
                  "Group { numObjects 1 MaterialIndex 5 }",
                  "t.txt:2:36: error: MaterialIndex 5 out of range (3 materials)");
-    EXPECT_ERROR("Group { numObjects 1 MaterialIndex 0 }", "MaterialIndex 0 out of range (0 materials)");
+    EXPECT_ERROR("Group { numObjects 1 MaterialIndex 0 }", "MaterialIndex 0 out of range (0 materials: "
+                 "a Materials block must come before the Group)");
     EXPECT_ERROR("Materials { numMaterials 1 PhongMaterial { } }\n"
                  "Group { numObjects 3 MaterialIndex 0\nSphere { center 0 0 0 radius 1 }\n"
                  "Sphere { center 0 0 0 radius 1 }\n}",

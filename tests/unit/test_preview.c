@@ -72,6 +72,29 @@ static void test_keys_parse_rejects_bad_words(void)
     }
 }
 
+/* t:I,J must name a pixel of the image: the last column and row are the bounds. */
+static void test_keys_check_pixel_in_image(void)
+{
+    static const struct {
+        const char *script;
+        bool ok;
+    } cases[] = {{"t:19,9", true}, {"t t:0,0 r", true}, {"t:20,9", false},
+                 {"r t:19,10", false}, {"t:500,500", false}, {"rot:500,500", true}};
+    for (int k = 0; k < TEST_LIST_COUNT(cases); k++) {
+        Diag d;
+        diag_init(&d, NULL);
+        KeyScript s;
+        CHECK(preview_keys_parse(cases[k].script, &s, &d));
+        bool ok = preview_keys_check(&s, 20, 10, &d);
+        CHECK_MSG(ok == cases[k].ok, "script \"%s\" on 20x10: %s", cases[k].script,
+                  ok ? "accepted" : "refused");
+        CHECK_INT(d.errors, cases[k].ok ? 0 : 1);
+        if (!cases[k].ok)
+            CHECK_CONTAINS(d.last, "is outside the 20x10 image");
+        preview_keys_free(&s);
+    }
+}
+
 /* ---- camera controls and the ray tree, on a parsed scene ---- */
 
 static const char *ORTHO_SPHERE =
@@ -546,6 +569,7 @@ static void test_grid_view_snapshot(void)
 static const TestCase tests[] = {
     {"keys_parse_all_commands", test_keys_parse_all_commands},
     {"keys_parse_rejects_bad_words", test_keys_parse_rejects_bad_words},
+    {"keys_check_pixel_in_image", test_keys_check_pixel_in_image},
     {"rotate_keeps_distance_and_aim", test_rotate_keeps_distance_and_aim},
     {"truck_and_dolly_units", test_truck_and_dolly_units},
     {"trace_records_main_and_shadow", test_trace_records_main_and_shadow},
