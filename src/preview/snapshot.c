@@ -108,7 +108,7 @@ int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
     KeyScript script;
     if (!preview_keys_parse(cfg->keys, &script, diag))
         return 2;
-    if (!preview_keys_check(&script, cfg->width, cfg->height, diag)) {
+    if (!preview_keys_check(&script, cfg->width, cfg->height, "image", diag)) {
         preview_keys_free(&script);
         return 2;
     }

@@ -289,13 +289,13 @@ bool preview_keys_parse(const char *text, KeyScript *out, Diag *diag)
     return true;
 }
 
-bool preview_keys_check(const KeyScript *s, int w, int h, Diag *diag)
+bool preview_keys_check(const KeyScript *s, int w, int h, const char *what, Diag *diag)
 {
     for (int k = 0; k < s->count; k++) {
         const KeyCmd *c = &s->cmds[k];
         if (c->kind == KEYCMD_TRACE && c->has_pixel && (c->i >= w || c->j >= h)) {
-            diag_error(diag, NULL, "-gui_keys: t:%d,%d is outside the %dx%d image (I from 0 "
-                       "to %d, J from 0 to %d)", c->i, c->j, w, h, w - 1, h - 1);
+            diag_error(diag, NULL, "-gui_keys: t:%d,%d is outside the %dx%d %s (I from 0 "
+                       "to %d, J from 0 to %d)", c->i, c->j, w, h, what, w - 1, h - 1);
             return false;
         }
     }

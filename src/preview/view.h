@@ -76,9 +76,11 @@ typedef struct KeyScript {
 /* Parses text (NULL = empty script). On error reports "-gui_keys: ..." to diag and
  * returns false with nothing allocated. */
 bool preview_keys_parse(const char *text, KeyScript *out, Diag *diag);
-/* Every t:I,J of the script names a pixel of the w x h image (-size): false, with
- * "-gui_keys: ..." reported, for the first that does not. */
-bool preview_keys_check(const KeyScript *s, int w, int h, Diag *diag);
+/* Every t:I,J of the script names a pixel of the w x h view (`what`: "image" for
+ * -gui_snapshot, whose view is -size; "window" for -gui, whose window is the course's
+ * 400 pixels on its long side): false, with "-gui_keys: ..." reported, for the first
+ * that does not. */
+bool preview_keys_check(const KeyScript *s, int w, int h, const char *what, Diag *diag);
 void preview_keys_free(KeyScript *s);
 
 /* Applies the backend-independent commands (t, g, c, rot, truck, dolly) for a w x h

@@ -390,7 +390,17 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     /* A bad script is a usage error (2), reported before the display is looked at. */
     if (!preview_keys_parse(cfg->keys, &W.script, diag))
         return 2;
-    if (!preview_keys_check(&W.script, cfg->width, cfg->height, diag)) {
+    /* The window's size (below) is known before the display is looked at. */
+    int long_side = cfg->width > cfg->height ? cfg->width : cfg->height;
+    if (long_side < 1)
+        long_side = 1;
+    W.w = (int)((long)cfg->width * WINDOW_LONG_SIDE / long_side);
+    W.h = (int)((long)cfg->height * WINDOW_LONG_SIDE / long_side);
+    if (W.w < 1)
+        W.w = 1;
+    if (W.h < 1)
+        W.h = 1;
+    if (!preview_keys_check(&W.script, W.w, W.h, "window", diag)) {
         preview_keys_free(&W.script);
         return 2;
     }
@@ -408,16 +418,6 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
         XCloseDisplay(probe);
         return 1;
     }
-    int long_side = cfg->width > cfg->height ? cfg->width : cfg->height;
-    if (long_side < 1)
-        long_side = 1;
-    W.w = (int)((long)cfg->width * WINDOW_LONG_SIDE / long_side);
-    W.h = (int)((long)cfg->height * WINDOW_LONG_SIDE / long_side);
-    if (W.w < 1)
-        W.w = 1;
-    if (W.h < 1)
-        W.h = 1;
-
     int argc = 1;
     char name[] = "raytracer";
     char *argv[] = {name, NULL};

@@ -176,6 +176,22 @@ static void test_window_without_display(void)
     }
     CHECK_INT(e2e_count_entries(dir), 1);
     e2e_run_free(&r);
+    if (preview_window_built()) {
+        /* t:I,J counts the window's pixels (-size 200 100: 400 x 200), checked before the
+         * display is looked at: the last pixel passes on to the display's error. */
+        const char *out_args[] = {"-input", scene, "-size", "200", "100", "-gui",
+                                  "-gui_keys", "t:0,200", NULL};
+        CHECK(e2e_run_bin(harness_bin(), out_args, &r));
+        CHECK_INT(r.status, 2);
+        CHECK_CONTAINS(r.err, "t:0,200 is outside the 400x200 window");
+        e2e_run_free(&r);
+        const char *in_args[] = {"-input", scene, "-size", "200", "100", "-gui",
+                                 "-gui_keys", "t:399,199", NULL};
+        CHECK(e2e_run_bin(harness_bin(), in_args, &r));
+        CHECK_INT(r.status, 1);
+        CHECK_CONTAINS(r.err, "X display");
+        e2e_run_free(&r);
+    }
     e2e_rmtree(dir);
 }
 

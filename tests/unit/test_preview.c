@@ -85,7 +85,7 @@ static void test_keys_check_pixel_in_image(void)
         diag_init(&d, NULL);
         KeyScript s;
         CHECK(preview_keys_parse(cases[k].script, &s, &d));
-        bool ok = preview_keys_check(&s, 20, 10, &d);
+        bool ok = preview_keys_check(&s, 20, 10, "image", &d);
         CHECK_MSG(ok == cases[k].ok, "script \"%s\" on 20x10: %s", cases[k].script,
                   ok ? "accepted" : "refused");
         CHECK_INT(d.errors, cases[k].ok ? 0 : 1);
