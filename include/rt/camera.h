@@ -3,6 +3,7 @@
 #define RT_CAMERA_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 #include "rt/ray.h"
 
@@ -66,6 +67,12 @@ void camera_block8_rays_plain(bool on);
  * pixel). */
 void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
                         int height, Ray *rays);
+/* camera_sample_rays, and each sample's position (xy[2k], xy[2k+1]) stored at
+ * pos + k * stride (two floats side by side) with that address in dest[k]: the film's
+ * scratch and its packet's destinations, in the same pass as the rays (eight at a time
+ * where the CPU has AVX2). */
+void camera_sample_rays_put(const Camera *c, int x, int y, const float *xy, int n, int width,
+                            int height, Ray *rays, float *pos, size_t stride, float **dest);
 /* Tests: camera_sample_rays' widest lanes from now on are those of the instruction set
  * isa ("base": SSE where the target has it, "avx2", "avx512"); false, nothing changed,
  * when this build or CPU cannot run them. */

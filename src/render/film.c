@@ -183,6 +183,32 @@ __attribute__((FILM_RUN_AVX512)) static bool film_run_colors(float *const *dest,
 #define FILM_HAVE_RUNS 1
 #endif
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+/* stream_flush's colour copy where the CPU has AVX2: lane i's three floats with one
+ * masked store at dest[i] + 2 (the float after them, the next sample's position in a
+ * tile's scratch, untouched), read as four floats from colors + i (the fourth is the
+ * next lane's, not stored). Returns the lanes done: all but the last, whose four-float
+ * read would pass the end of the caller's array. */
+__attribute__((target("avx2"))) static int film_put_colors_avx2(float *const *dest,
+                                                                const Vec3 *colors, int lanes)
+{
+    const __m128i three = _mm_setr_epi32(-1, -1, -1, 0);
+    const float *c = (const float *)colors;
+    int i = 0;
+    /* Four lanes a step, written out (gcc kept the loop's count per lane). */
+    for (; i + 4 < lanes; i += 4) {
+        _mm_maskstore_ps(dest[i] + 2, three, _mm_loadu_ps(c + 3 * i));
+        _mm_maskstore_ps(dest[i + 1] + 2, three, _mm_loadu_ps(c + 3 * i + 3));
+        _mm_maskstore_ps(dest[i + 2] + 2, three, _mm_loadu_ps(c + 3 * i + 6));
+        _mm_maskstore_ps(dest[i + 3] + 2, three, _mm_loadu_ps(c + 3 * i + 9));
+    }
+    for (; i + 1 < lanes; i++)
+        _mm_maskstore_ps(dest[i] + 2, three, _mm_loadu_ps(c + 3 * i));
+    return i;
+}
+#define FILM_HAVE_COLORS8 1
+#endif
+
 static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
 {
     if (st->n == 0)
@@ -202,6 +228,10 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
             for (; i + 16 <= lanes; i += 16)
                 if (!film_run_colors(st->dest + i, colors + i))
                     break;
+#endif
+#ifdef FILM_HAVE_COLORS8
+        if (f->avx2 && !f->avx512)
+            i = film_put_colors_avx2(st->dest, colors, lanes);
 #endif
         for (; i < lanes; i++) {
             float *d = st->dest[i];
@@ -343,6 +373,19 @@ static void film_queue_pixel(const Film *f, RenderCtx *ctx, Stream *st, const Sa
     for (int i0 = 0; i0 < s->count;) {
         int m = ACCEL_PACKET_MAX - st->n;
         m = m < s->count - i0 ? m : s->count - i0;
+        if (f->avx2 && !f->avx512 && cs == 1) {
+            /* The rays, the positions into the scratch and the destinations in one
+             * pass (eight samples a step with AVX2). */
+            camera_sample_rays_put(f->camera, x, y, xy + 2 * i0, m, c->full_width,
+                                   c->full_height, &st->rays[st->n], d, step,
+                                   st->dest + st->n);
+            st->n += m;
+            d += (size_t)m * step;
+            i0 += m;
+            if (st->n == ACCEL_PACKET_MAX)
+                stream_flush(f, ctx, st);
+            continue;
+        }
         camera_sample_rays(f->camera, x, y, xy + 2 * i0, m, c->full_width, c->full_height,
                            &st->rays[st->n]);
         int i = i0;

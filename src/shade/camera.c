@@ -390,9 +390,13 @@ __attribute__((target("avx512f"))) static int sample_rays_avx512(const Camera *c
  * divisions and square root, latency-bound in four-lane steps, in half as many
  * steps): the same IEEE single operations in the same order in every lane (no FMA:
  * -ffp-contract=off and intrinsics only). Returns the samples done (a multiple of 8). */
-__attribute__((target("avx2"))) static int sample_rays_avx2(const Camera *c, int x, int y,
-                                                            const float *xy, int n, int width,
-                                                            int height, Ray *rays)
+/* With pos (sample_rays_put_avx2), each sample's position pair also goes to
+ * pos + k * stride and that address to dest[k] (the film's scratch and its packet's
+ * destinations), from the pair vectors the rays are made from: the film's own pass
+ * over the samples, and this function's set-up per call, saved. */
+__attribute__((always_inline, target("avx2"))) static inline int
+sample_rays_avx2_body(const Camera *c, int x, int y, const float *xy, int n, int width,
+                      int height, Ray *rays, float *pos, size_t stride, float **dest)
 {
     float s = (float)(width > height ? width : height);
     __m256 S = _mm256_set1_ps(s);
@@ -405,6 +409,26 @@ __attribute__((target("avx2"))) static int sample_rays_avx2(const Camera *c, int
     int k = 0;
     for (; k + 8 <= n; k += 8) {
         __m256 a = _mm256_loadu_ps(xy + 2 * k), b = _mm256_loadu_ps(xy + 2 * k + 8);
+        if (pos) {
+            /* Pairs 0..3 are a's 64-bit quarters, 4..7 b's: one 8-byte store each; the
+             * eight addresses as two vectors of four. */
+            float *p = pos + (size_t)k * stride;
+            /* Written out: gcc kept a loop over the halves (and the halves in memory). */
+#define RT_PAIRS(H, Q)                                                                     \
+    _mm_storel_pi((__m64 *)(void *)(p + 2 * (H) * stride), (Q));                           \
+    _mm_storeh_pi((__m64 *)(void *)(p + (2 * (H) + 1) * stride), (Q))
+            RT_PAIRS(0, _mm256_castps256_ps128(a));
+            RT_PAIRS(1, _mm256_extractf128_ps(a, 1));
+            RT_PAIRS(2, _mm256_castps256_ps128(b));
+            RT_PAIRS(3, _mm256_extractf128_ps(b, 1));
+#undef RT_PAIRS
+            long long s4 = (long long)(stride * sizeof(float));
+            __m256i lo = _mm256_add_epi64(_mm256_set1_epi64x((long long)(uintptr_t)p),
+                                          _mm256_setr_epi64x(0, s4, 2 * s4, 3 * s4));
+            _mm256_storeu_si256((__m256i *)(void *)(dest + k), lo);
+            _mm256_storeu_si256((__m256i *)(void *)(dest + k + 4),
+                                _mm256_add_epi64(lo, _mm256_set1_epi64x(4 * s4)));
+        }
         /* Even floats (x) and odd ones (y) of the eight pairs: in the order of samples
          * 0 1 4 5 | 2 3 6 7 per 128-bit half, put back in order by the 64-bit permute. */
         __m256 px = _mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0));
@@ -425,26 +449,48 @@ __attribute__((target("avx2"))) static int sample_rays_avx2(const Camera *c, int
         __m256 l = _mm256_sqrt_ps(_mm256_add_ps(
             _mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
         /* l > 0: d / l; otherwise d itself (as unit_by_division). */
-        __m256 pos = _mm256_cmp_ps(l, _mm256_setzero_ps(), _CMP_GT_OQ);
-        __m256 qx = _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), pos);
-        __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), pos);
-        __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), pos);
+        __m256 gt = _mm256_cmp_ps(l, _mm256_setzero_ps(), _CMP_GT_OQ);
+        __m256 qx = _mm256_blendv_ps(dx, _mm256_div_ps(dx, l), gt);
+        __m256 qy = _mm256_blendv_ps(dy, _mm256_div_ps(dy, l), gt);
+        __m256 qz = _mm256_blendv_ps(dz, _mm256_div_ps(dz, l), gt);
         /* Ray i's floats 2..5 are (eye.z, dir): the columns of the 4 x 8 rows eye.z,
          * qx, qy, qz, a 4 x 4 transpose per 128-bit half (rays i and i + 4); floats
          * 0..1 are eye.x, eye.y. */
         __m256 t0 = _mm256_unpacklo_ps(ez, qy), t1 = _mm256_unpacklo_ps(qx, qz);
         __m256 t2 = _mm256_unpackhi_ps(ez, qy), t3 = _mm256_unpackhi_ps(qx, qz);
-        __m256 col[4] = {_mm256_unpacklo_ps(t0, t1), _mm256_unpackhi_ps(t0, t1),
-                         _mm256_unpacklo_ps(t2, t3), _mm256_unpackhi_ps(t2, t3)};
-        for (int i = 0; i < 4; i++) {
-            float *r0 = (float *)&rays[k + i], *r1 = (float *)&rays[k + i + 4];
-            memcpy(r0, &e.x, 2 * sizeof(float));
-            memcpy(r1, &e.x, 2 * sizeof(float));
-            _mm_storeu_ps(r0 + 2, _mm256_castps256_ps128(col[i]));
-            _mm_storeu_ps(r1 + 2, _mm256_extractf128_ps(col[i], 1));
-        }
+        /* Written out (as the pairs above): the four columns stay in registers. */
+#define RT_RAYS(I, COL)                                                                    \
+    do {                                                                                   \
+        __m256 col_ = (COL);                                                               \
+        float *r0 = (float *)&rays[k + (I)], *r1 = (float *)&rays[k + (I) + 4];            \
+        memcpy(r0, &e.x, 2 * sizeof(float));                                               \
+        memcpy(r1, &e.x, 2 * sizeof(float));                                               \
+        _mm_storeu_ps(r0 + 2, _mm256_castps256_ps128(col_));                               \
+        _mm_storeu_ps(r1 + 2, _mm256_extractf128_ps(col_, 1));                             \
+    } while (0)
+        RT_RAYS(0, _mm256_unpacklo_ps(t0, t1));
+        RT_RAYS(1, _mm256_unpackhi_ps(t0, t1));
+        RT_RAYS(2, _mm256_unpacklo_ps(t2, t3));
+        RT_RAYS(3, _mm256_unpackhi_ps(t2, t3));
+#undef RT_RAYS
     }
     return k;
+}
+
+__attribute__((target("avx2"))) static int sample_rays_avx2(const Camera *c, int x, int y,
+                                                            const float *xy, int n, int width,
+                                                            int height, Ray *rays)
+{
+    return sample_rays_avx2_body(c, x, y, xy, n, width, height, rays, NULL, 0, NULL);
+}
+
+__attribute__((target("avx2"))) static int sample_rays_put_avx2(const Camera *c, int x, int y,
+                                                                const float *xy, int n,
+                                                                int width, int height,
+                                                                Ray *rays, float *pos,
+                                                                size_t stride, float **dest)
+{
+    return sample_rays_avx2_body(c, x, y, xy, n, width, height, rays, pos, stride, dest);
 }
 #define HAVE_SAMPLE_RAYS_AVX2 1
 #endif
@@ -536,6 +582,28 @@ void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, i
         float u, v;
         camera_sample_to_screen(x, y, xy[2 * k], xy[2 * k + 1], width, height, &u, &v);
         rays[k] = camera_generate_ray(c, u, v);
+    }
+}
+
+void camera_sample_rays_put(const Camera *c, int x, int y, const float *xy, int n, int width,
+                            int height, Ray *rays, float *pos, size_t stride, float **dest)
+{
+    int k = 0;
+#ifdef HAVE_SAMPLE_RAYS_AVX2
+    /* The AVX2 lanes whenever the CPU has them (camera_sample_rays_use_kernel("base")
+     * for the other path): the caller asks for this only where it would otherwise
+     * take them through camera_sample_rays. */
+    int isa = sample_isa >= 0 ? sample_isa : cpu_has_avx2() ? 1 : 0;
+    if (c->kind == CAMERA_PERSPECTIVE && n >= 8 && isa >= 1)
+        k = sample_rays_put_avx2(c, x, y, xy, n, width, height, rays, pos, stride, dest);
+#endif
+    if (k < n)
+        camera_sample_rays(c, x, y, xy + 2 * k, n - k, width, height, rays + k);
+    for (; k < n; k++) {
+        float *p = pos + (size_t)k * stride;
+        p[0] = xy[2 * k];
+        p[1] = xy[2 * k + 1];
+        dest[k] = p;
     }
 }
 

@@ -187,6 +187,58 @@ static void test_sample_rays_with(const char *isa)
     CHECK(checked > 500);
 }
 
+/* camera_sample_rays_put: camera_sample_rays' rays to the bit, each position pair at
+ * pos + k * stride, its address in dest[k], and every other float of the scratch as it
+ * was (the film keeps a sample's colour there); counts 1 to 37 (groups of eight with and
+ * without a remainder), strides 5 (the film's) and 7, each copy of the lanes this CPU
+ * runs. */
+static void test_sample_rays_put_with(const char *isa)
+{
+    Camera cams[3];
+    ray_test_cameras(cams);
+    const int (*sizes)[2] = ray_test_sizes;
+    uint32_t st = 54321;
+    int differ = 0, checked = 0;
+    for (int c = 0; c < 3; c++)
+        for (int s = 0; s < 3; s++)
+            for (int n = 1; n <= 37; n += 4)
+                for (size_t stride = 5; stride <= 7; stride += 2) {
+                    int W = sizes[s][0], H = sizes[s][1];
+                    float xy[2 * 40], scratch[7 * 40 + 1];
+                    for (int k = 0; k < 2 * n; k++) {
+                        st = st * 1664525u + 1013904223u;
+                        xy[k] = (float)(st >> 8) / 16777216.0f;
+                    }
+                    for (size_t k = 0; k < sizeof scratch / sizeof scratch[0]; k++)
+                        scratch[k] = -7.0f - (float)k;
+                    int x = (n * 31 + c) % W, y = (n * 17 + s) % H;
+                    Ray rays[40], want[40];
+                    float *dest[40];
+                    camera_sample_rays(&cams[c], x, y, xy, n, W, H, want);
+                    camera_sample_rays_put(&cams[c], x, y, xy, n, W, H, rays, scratch, stride,
+                                           dest);
+                    for (int k = 0; k < n; k++) {
+                        float *p = scratch + (size_t)k * stride;
+                        checked++;
+                        if (memcmp(&want[k], &rays[k], sizeof rays[k]) != 0 || dest[k] != p ||
+                            memcmp(p, xy + 2 * k, 2 * sizeof(float)) != 0)
+                            differ++;
+                        for (size_t j = 2; j < stride; j++)
+                            if (p[j] != -7.0f - (float)((size_t)k * stride + j))
+                                differ++;
+                    }
+                    for (size_t j = (size_t)n * stride; j < sizeof scratch / sizeof scratch[0];
+                         j++)
+                        if (scratch[j] != -7.0f - (float)j)
+                            differ++;
+                }
+    if (differ)
+        fprintf(stderr, "  camera_sample_rays_put, %s lanes: %d differences in %d samples\n",
+                isa, differ, checked);
+    CHECK_INT(differ, 0);
+    CHECK(checked > 1000);
+}
+
 static void test_sample_rays(void)
 {
     const char *isas[] = {"base", "avx2", "avx512"};
@@ -194,6 +246,7 @@ static void test_sample_rays(void)
     for (int i = 0; i < 3; i++)
         if (camera_sample_rays_use_kernel(isas[i])) {
             test_sample_rays_with(isas[i]);
+            test_sample_rays_put_with(isas[i]);
             ran++;
         }
     CHECK(ran >= 1);
