@@ -1138,7 +1138,9 @@ static void test_crowded_cells(void)
  * near and far along the light, or spread over the fan. Every kernel's answer ray by
  * ray against brute force, and against the same rays' packet without the shared
  * direction (check_packet_dir). It fails with the beam's shear or its sign wrong, a
- * group's range made from the wrong lanes or the box's K sides swapped. */
+ * group's range made from the wrong lanes or the box's K sides swapped (each kernel's
+ * choice of the K side by the shear's sign, pk_beam_make: generic and AVX2 each broken
+ * once), or the AVX2 cull's lanes permuted wrong. */
 static void test_beam_edges(void)
 {
     rng_state = 4242;
@@ -1188,6 +1190,11 @@ static void test_beam_edges(void)
                     int a = irand(3);
                     float c[3] = {frand(-0.05f, 0.05f), frand(-0.05f, 0.05f),
                                   frand(-0.05f, 0.05f)};
+                    /* Sometimes exactly along the axis (the shear r_U, r_V +0 or -0:
+                     * the cull's choice of the box's K side by their sign). */
+                    if (irand(3) == 0)
+                        for (int q = 0; q < 3; q++)
+                            c[q] = irand(2) ? 0.0f : -0.0f;
                     c[a] = irand(2) ? 1.0f : -1.0f;
                     dir = v3(c[0], c[1], c[2]);
                 } else if (kind == 2) {
