@@ -20,6 +20,17 @@ enum { MAX_COUNT = 10000000 };
 /* Noise sums this many octaves per shading call: beyond it rendering would crawl. */
 enum { MAX_OCTAVES = 32 };
 
+/* The kinds of top-level block, for the warning on a second one of a kind (either
+ * camera counts as the camera). */
+typedef enum TopKind {
+    TOP_CAMERA,
+    TOP_BACKGROUND,
+    TOP_LIGHTS,
+    TOP_MATERIALS,
+    TOP_GROUP,
+    TOP_KINDS
+} TopKind;
+
 typedef struct Parser {
     Lexer lx;
     Scene *s;
@@ -32,10 +43,9 @@ typedef struct Parser {
     Object3D **stack;
     size_t stack_len, stack_cap;
     /* The first top-level block of each kind (line 0: none yet), for the warning on a
-     * second one: kind 0 the camera (either kind), then Background, Lights, Materials,
-     * Group, in the order of k_repeatable. */
-    int first_line[5];
-    const char *first_name[5];
+     * second one; indexed by TopKind. */
+    int first_line[TOP_KINDS];
+    const char *first_name[TOP_KINDS];
 } Parser;
 
 /* ---- error helpers ---------------------------------------------------------------- */
@@ -492,7 +502,7 @@ static bool parse_group(Parser *p, const Token *kw, Object3D **out)
             if (i < 0 || i >= p->s->num_materials)
                 return fail(p, &num.loc, "MaterialIndex %d out of range (%d material%s%s)", i,
                             p->s->num_materials, p->s->num_materials == 1 ? "" : "s",
-                            p->first_line[3] ? ""
+                            p->first_line[TOP_MATERIALS] ? ""
                                              : ": a Materials block must come before the Group");
             p->current = p->s->materials[i];
             continue;
@@ -1187,28 +1197,31 @@ static bool parse_materials(Parser *p)
  * edited), it gets a warning at the second block. */
 static void note_top_block(Parser *p, const Token *t)
 {
-    static const char *const kinds[5][2] = {
-        {"OrthographicCamera", "PerspectiveCamera"}, {"Background", NULL}, {"Lights", NULL},
-        {"Materials", NULL}, {"Group", NULL}};
-    for (int k = 0; k < 5; k++)
+    static const char *const kinds[TOP_KINDS][2] = {
+        [TOP_CAMERA] = {"OrthographicCamera", "PerspectiveCamera"},
+        [TOP_BACKGROUND] = {"Background", NULL},
+        [TOP_LIGHTS] = {"Lights", NULL},
+        [TOP_MATERIALS] = {"Materials", NULL},
+        [TOP_GROUP] = {"Group", NULL}};
+    for (int k = 0; k < TOP_KINDS; k++)
         for (int j = 0; j < 2 && kinds[k][j]; j++) {
             if (!lex_is(t, kinds[k][j]))
                 continue;
             if (p->first_line[k] == 0) {
                 p->first_line[k] = t->loc.line;
                 p->first_name[k] = kinds[k][j];
-            } else if (k == 0) {
+            } else if (k == TOP_CAMERA) {
                 diag_warning(p->diag, &t->loc, "a second camera (%s): it overrides the %s "
                              "at line %d", kinds[k][j], p->first_name[k], p->first_line[k]);
-            } else if (k == 3 && p->first_line[4]) {
+            } else if (k == TOP_MATERIALS && p->first_line[TOP_GROUP]) {
                 /* A Group's objects took their materials as it was read. */
                 diag_warning(p->diag, &t->loc, "a second Materials block: it overrides the "
                              "one at line %d for Groups after it (the Group at line %d keeps "
-                             "its materials)", p->first_line[k], p->first_line[4]);
+                             "its materials)", p->first_line[k], p->first_line[TOP_GROUP]);
             } else {
                 diag_warning(p->diag, &t->loc, "a second %s block: it overrides the one at "
                              "line %d%s", kinds[k][j], p->first_line[k],
-                             k == 1 ? " (the fields it sets)" : "");
+                             k == TOP_BACKGROUND ? " (the fields it sets)" : "");
             }
             return;
         }

@@ -53,6 +53,15 @@ static void test_cameras(void)
  * camera looking slightly sideways; a square, a wide and an odd-sized cropped image. */
 static const int ray_test_sizes[3][2] = {{200, 200}, {1920, 1080}, {333, 517}};
 
+/* n floats in [0, 1) from the LCG state *st (24-bit steps): sample positions. */
+static void ray_test_unit_floats(uint32_t *st, float *out, int n)
+{
+    for (int k = 0; k < n; k++) {
+        *st = *st * 1664525u + 1013904223u;
+        out[k] = (float)(*st >> 8) / 16777216.0f;
+    }
+}
+
 static void ray_test_cameras(Camera cams[3])
 {
     CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
@@ -164,10 +173,7 @@ static void test_sample_rays_with(const char *isa)
             for (int n = 1; n <= 37; n += 4) {
                 int W = sizes[s][0], H = sizes[s][1];
                 float xy[2 * 40];
-                for (int k = 0; k < 2 * n; k++) {
-                    st = st * 1664525u + 1013904223u;
-                    xy[k] = (float)(st >> 8) / 16777216.0f; /* [0, 1) */
-                }
+                ray_test_unit_floats(&st, xy, 2 * n);
                 int x = (n * 37 + c) % W, y = (n * 53 + s) % H;
                 Ray rays[40];
                 camera_sample_rays(&cams[c], x, y, xy, n, W, H, rays);
@@ -205,10 +211,7 @@ static void test_sample_rays_put_with(const char *isa)
                 for (size_t stride = 5; stride <= 7; stride += 2) {
                     int W = sizes[s][0], H = sizes[s][1];
                     float xy[2 * 40], scratch[7 * 40 + 1];
-                    for (int k = 0; k < 2 * n; k++) {
-                        st = st * 1664525u + 1013904223u;
-                        xy[k] = (float)(st >> 8) / 16777216.0f;
-                    }
+                    ray_test_unit_floats(&st, xy, 2 * n);
                     for (size_t k = 0; k < sizeof scratch / sizeof scratch[0]; k++)
                         scratch[k] = -7.0f - (float)k;
                     int x = (n * 31 + c) % W, y = (n * 17 + s) % H;
