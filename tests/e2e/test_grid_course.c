@@ -145,7 +145,8 @@ static bool is_bunny(const char *id)
     return !strncmp(id, "04", 2) || !strcmp(id, "05") || !strcmp(id, "06") || !strcmp(id, "07");
 }
 
-/* A -grid line: the image equals the one rendered without -grid, byte for byte, and
+/* A -grid line: the image equals the one rendered without -grid, byte for byte, as do
+ * the renders with -grid auto and -accel twolevel in place of the line's grid, and it
  * matches the official image. On the bunnies the grid cuts intersections >= 10x. */
 static void check_grid_line(const char *id)
 {
@@ -166,6 +167,20 @@ static void check_grid_line(const char *id)
     if (g.ok && b.ok) {
         CHECK_MSG(same_bytes(g.out, b.out), "%s: the image with -grid differs from the one "
                   "without", id);
+        /* The other accelerators in their default mode (packets: no -stats) give the same
+         * bytes: -grid auto on two threads, the two-level grid on one. */
+        static const char *const others[2][5] = {{"-grid", "auto", "-threads", "2", NULL},
+                                                 {"-accel", "twolevel", "-threads", "1", NULL}};
+        for (int k = 0; k < 2; k++) {
+            Opts o = {true, false, size, NULL, {NULL}, true};
+            memcpy(o.more, others[k], sizeof o.more);
+            Render a;
+            render(course, &l, dir, k ? "twolevel.tga" : "auto.tga", &o, &a);
+            if (a.ok)
+                CHECK_MSG(same_bytes(a.out, b.out), "%s: the image with %s %s differs from "
+                          "the one without a grid", id, others[k][0], others[k][1]);
+            e2e_run_free(&a.run);
+        }
         if (!size) {
             compare_official(course, &l, g.out, REF_THRESHOLD, REF_MIN_PERCENT);
         } else {
