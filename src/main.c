@@ -1025,13 +1025,19 @@ int main(int argc, char **argv)
     if (!parsed)
         return dist_finish(EXIT_USAGE);
     if (app.opt.help || app.opt.version) {
+        int status = 0;
         if (dist_is_root()) {
             if (app.opt.help)
                 options_usage(stdout);
             else
                 print_version();
+            /* A text that did not arrive (a full disk, stdout closed) is an output
+             * error like lost statistics, not a success a script would trust. */
+            diag_init(&app.diag, err);
+            if (!stdout_ok(&app.diag, app.opt.help ? "the help text" : "the version"))
+                status = EXIT_INPUT;
         }
-        return dist_finish(0);
+        return dist_finish(status);
     }
     diag_init(&app.diag, err);
     options_warn(&app.opt, render_default_threads(), stderr);

@@ -246,15 +246,14 @@ static void test_same_path_twice(void)
     e2e_rmtree(dir);
 }
 
-/* Runs with -stats and stdout on the given descriptor (-1: closed); returns the exit
- * status (128 + signal when killed) and the captured stderr in err. */
-static int run_stats_to(int out_fd, const char *scene, const char *out, char *err, size_t size)
+/* Runs the binary with args (args[0] is the binary) and stdout on the given descriptor
+ * (-1: closed); returns the exit status (128 + signal when killed) and the captured
+ * stderr in err. */
+static int run_argv_to(int out_fd, const char *const *args, char *err, size_t size)
 {
     int errp[2];
     if (pipe(errp) != 0)
         return -1;
-    const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-size", "8", "8",
-                          "-stats", NULL};
     fflush(stdout);
     fflush(stderr);
     pid_t pid = fork();
@@ -283,6 +282,39 @@ static int run_stats_to(int out_fd, const char *scene, const char *out, char *er
     while (waitpid(pid, &st, 0) < 0) {
     }
     return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+/* Runs with -stats and stdout on the given descriptor (-1: closed), as run_argv_to. */
+static int run_stats_to(int out_fd, const char *scene, const char *out, char *err, size_t size)
+{
+    const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-size", "8", "8",
+                          "-stats", NULL};
+    return run_argv_to(out_fd, args, err, size);
+}
+
+/* -h and --version whose text is lost (a full disk, stdout closed, a reader already
+ * gone): exit 1 with a message naming what was lost, never 0 and never SIGPIPE. */
+static void test_help_write_errors(void)
+{
+    static const char *const flags[][2] = {{"-h", "help text"}, {"--version", "version"}};
+    char err[4096];
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
+        const char *args[] = {harness_bin(), flags[i][0], NULL};
+        int full = open("/dev/full", O_WRONLY);
+        if (full >= 0) {
+            CHECK_INT(run_argv_to(full, args, err, sizeof err), 1);
+            CHECK_CONTAINS(err, flags[i][1]);
+            close(full);
+        }
+        CHECK_INT(run_argv_to(-1, args, err, sizeof err), 1);
+        CHECK_CONTAINS(err, flags[i][1]);
+        int p[2];
+        CHECK(pipe(p) == 0);
+        close(p[0]);
+        CHECK_INT(run_argv_to(p[1], args, err, sizeof err), 1);
+        CHECK_CONTAINS(err, flags[i][1]);
+        close(p[1]);
+    }
 }
 
 /* -stats whose output is lost: exit 1 with a message, never 0 and never SIGPIPE. */
@@ -532,5 +564,6 @@ static const TestCase tests[] = {
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"same_path_twice", test_same_path_twice},
     {"stats_write_errors", test_stats_write_errors},
+    {"help_write_errors", test_help_write_errors},
 };
 RT_TEST_MAIN(tests)
