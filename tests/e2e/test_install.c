@@ -214,6 +214,88 @@ static bool has_option(const char *text, const char *word)
     return false;
 }
 
+/* The length of a group heading's name: up to " (" (-h's "Antialiasing (one centred
+ * sample ...)" is the man page's "Antialiasing"). */
+static size_t heading_name_len(const char *h)
+{
+    const char *paren = strstr(h, " (");
+    const char *eol = strchr(h, '\n');
+    size_t len = eol ? (size_t)(eol - h) : strlen(h);
+    return paren && (size_t)(paren - h) < len ? (size_t)(paren - h) : len;
+}
+
+/* Where man's text (formatted at MANWIDTH 100) starts the entry of option name under
+ * OPTIONS: a line of 7 blanks, then the name, then a blank, a comma or the line's end;
+ * NULL when there is none. */
+static const char *man_entry(const char *options, const char *name)
+{
+    char pat[80];
+    snprintf(pat, sizeof pat, "\n       %s", name);
+    size_t n = strlen(pat);
+    for (const char *p = strstr(options, pat); p; p = strstr(p + 1, pat))
+        if (p[n] == ' ' || p[n] == ',' || p[n] == '\n')
+            return p;
+    return NULL;
+}
+
+/* Every option of raytracer -h is documented in the man page's subsection of the same
+ * name as its -h group (the man page once listed the preview's options under
+ * "Splitting a render", with no heading of their own). man is man -l's text. */
+static void check_man_groups(const char *man)
+{
+    const char *options = strstr(man, "\nOPTIONS\n");
+    CHECK_MSG(options != NULL, "the manual page has no OPTIONS section");
+    if (!options)
+        return;
+    const char *args[] = {"-h", NULL};
+    E2eRun r;
+    if (!e2e_run_bin(harness_bin(), args, &r) || r.status != 0) {
+        CHECK_MSG(false, "raytracer -h failed");
+        e2e_run_free(&r);
+        return;
+    }
+    const char *heading = NULL; /* the -h group of the lines that follow */
+    int checked = 0;
+    for (const char *line = r.out; *line;) {
+        const char *eol = strchr(line, '\n');
+        size_t len = eol ? (size_t)(eol - line) : strlen(line);
+        if (!strncmp(line, "Exit status", 11))
+            break; /* the last paragraph, at the margin too */
+        if (len > 0 && line[0] != ' ' && strncmp(line, "usage:", 6)) {
+            heading = line; /* a group heading: a line at the margin */
+        } else if (heading && !strncmp(line, "  -", 3) && len > 3) {
+            char name[64];
+            size_t nl = strcspn(line + 2, " ,\n");
+            snprintf(name, sizeof name, "%.*s", (int)nl, line + 2);
+            size_t hl = heading_name_len(heading);
+            char sub[128];
+            snprintf(sub, sizeof sub, "\n   %.*s", (int)hl, heading);
+            const char *at = strstr(options, sub);
+            const char *entry = man_entry(options, name);
+            CHECK_MSG(at != NULL, "the manual page has no subsection '%.*s' (-h's group of %s)",
+                      (int)hl, heading, name);
+            CHECK_MSG(entry != NULL, "the manual page has no entry for %s", name);
+            if (at && entry) {
+                /* the next subsection (3 blanks and a letter) or section (a letter) */
+                const char *next = NULL;
+                for (const char *q = strchr(at + 1, '\n'); q && !next; q = strchr(q + 1, '\n'))
+                    if ((q[1] != ' ' && q[1] != '\n') ||
+                        (!strncmp(q + 1, "   ", 3) && q[4] != ' ' && q[4] != '\n'))
+                        next = q;
+                CHECK_MSG(entry > at && (!next || entry < next),
+                          "the manual page documents %s outside its subsection '%.*s'", name,
+                          (int)hl, heading);
+                checked++;
+            }
+        }
+        if (!eol)
+            break;
+        line = eol + 1;
+    }
+    CHECK_MSG(checked > 40, "only %d options of -h were found in groups", checked);
+    e2e_run_free(&r);
+}
+
 static void test_man_page(void)
 {
     char man[PATH_MAX], groff[PATH_MAX];
@@ -254,6 +336,7 @@ static void test_man_page(void)
                   names[i]);
         free(names[i]);
     }
+    check_man_groups(r.out);
     /* and every exit status */
     for (const char *s = "0\0" "1\0" "2\0" "130\0"; *s; s += strlen(s) + 1) {
         char line[32];
