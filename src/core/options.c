@@ -71,6 +71,7 @@ static const char usage_text[] =
         "  -grid nx ny nz           uniform grid with nx*ny*nz cells; every ray marches it\n"
         "  -grid auto               grid resolution chosen from the scene\n"
         "  -visualize_grid          render the occupied grid cells instead of the scene\n"
+        "                           (needs -grid)\n"
         "  -visualize_grid_count    same as -visualize_grid (cells are coloured by count)\n"
         "  -no_marking              grid: test an object again in every cell (for analysis)\n"
         "  -no_packets              grid: march every ray on its own, no ray packets\n"
@@ -92,7 +93,7 @@ static const char usage_text[] =
         "  -render_samples file z   also write the sample positions, zoomed z times (1..100)\n"
         "  -render_filter file z    also write the filter weights, zoomed z times (1..100)\n"
         "  -seed n                  seed of the random samplers (default 0)\n"
-        "Splitting a render (README.txt: Splitting a render)\n"
+        "Splitting a render (README.txt, 8)\n"
         "  -region x y w h          render only the w x h rectangle at (x, y) (top-left)\n"
         "  -tile k n                render only band k (0 = top) of n horizontal bands;\n"
         "                           n as CxR: tile k of C columns x R rows (row by row)\n"
@@ -110,7 +111,7 @@ static const char usage_text[] =
         "  --version                version and optional features\n"
         "\n"
         "Exit status: 0 image(s) written, 1 input or output error, 2 usage error,\n"
-        "130 interrupted.\n";
+        "130 interrupted (Ctrl-C; 143 for SIGTERM, 129 for SIGHUP).\n";
 
 /* Writes usage_text from *pos to the end of the line holding marker, and moves *pos
  * there; false (nothing written) when marker is not in the rest of the text. */
