@@ -723,14 +723,20 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                            "-accel %s (use -grid nx ny nz or -grid auto instead)", o->accel);
     if (o->visualize_grid && !o->grid)
         return usage_error(&c, "-visualize_grid needs -grid nx ny nz (or -grid auto)");
-    /* Two images into one file: the second would silently replace the first. */
-    const char *names[5] = {"-output", "-depth", "-normals", "-render_samples",
-                            "-render_filter"};
-    const char *files[5] = {o->output, o->depth_file, o->normals_file, o->samples_file,
-                            o->filter_file};
-    for (int i = 0; i < 5; i++)
-        for (int j = i + 1; j < 5; j++)
-            if (files[i] && files[j] && same_file(files[i], files[j]))
+    /* Two images into one file: the second would silently replace the first. The
+     * snapshot is an image too; the cache is written during the set-up, so an image
+     * named like it would replace it (and it the scene, if it named -input). The first
+     * five are the render's images (to_stdout below). "-" is standard input or output
+     * for -input and the images, never the cache's file: no pair with those two. */
+    const char *names[8] = {"-output", "-depth", "-normals", "-render_samples",
+                            "-render_filter", "-gui_snapshot", "-cache", "-input"};
+    const char *files[8] = {o->output, o->depth_file, o->normals_file, o->samples_file,
+                            o->filter_file, o->gui_snapshot, o->cache_file, o->input};
+    for (int i = 0; i < 8; i++)
+        for (int j = i + 1; j < 8; j++)
+            if (files[i] && files[j] &&
+                !(j >= 6 && (!strcmp(files[i], "-") || !strcmp(files[j], "-"))) &&
+                same_file(files[i], files[j]))
                 return usage_error(&c, "%s and %s name the same file '%s'", names[i], names[j],
                                    files[j]);
     if (o->tile) {

@@ -58,6 +58,7 @@ struct SetupCache {
     const CacheSection *sections;
     uint32_t num_sections;
     char rejected[160];
+    bool replaceable;            /* the path is absent, empty or holds a cache of ours */
     bool missed;
     int hits;
     int tag_hits[4];             /* hits by tag (SETUP_TAG_*) */
@@ -150,12 +151,19 @@ static bool reject(SetupCache *c, const char *why)
 /* Checks the mapped file; false (with the reason) when any check fails. */
 static bool check(SetupCache *c, const unsigned char *m, size_t n)
 {
-    if (n < sizeof(CacheHeader))
-        return reject(c, "truncated (shorter than its header)");
+    /* Only a file that starts as a cache does may be replaced: any other (the scene
+     * named by mistake, an image, an OBJ file) is somebody's data. */
+    if (n < sizeof(CacheHeader)) {
+        size_t magic = sizeof CACHE_MAGIC - 1;
+        c->replaceable = n >= magic && memcmp(m, CACHE_MAGIC, magic) == 0;
+        return reject(c, c->replaceable ? "truncated (shorter than its header)"
+                                        : "not a set-up cache");
+    }
     CacheHeader h;
     memcpy(&h, m, sizeof h);
     if (memcmp(h.magic, CACHE_MAGIC, sizeof h.magic) != 0)
         return reject(c, "not a set-up cache");
+    c->replaceable = true;
     SetupKey hs = setup_hash(m, offsetof(CacheHeader, head_sum), (SetupKey){0, 0});
     if (!key_eq(hs, h.head_sum))
         return reject(c, "damaged header");
@@ -199,6 +207,7 @@ SetupCache *setup_cache_open(const char *path)
     if (fd < 0) {
         if (errno != ENOENT)
             snprintf(c->rejected, sizeof c->rejected, "cannot be read: %s", strerror(errno));
+        c->replaceable = errno == ENOENT;
         return c;
     }
     struct stat st;
@@ -233,6 +242,7 @@ SetupCache *setup_cache_open(const char *path)
             c->map_len = n;
         }
     } else {
+        c->replaceable = st.st_size == 0; /* an empty file holds nothing to lose */
         reject(c, "truncated (empty)");
     }
     close(fd);
@@ -355,6 +365,14 @@ bool setup_cache_write(SetupCache *c, char *why, size_t why_len)
 {
     if (!setup_cache_dirty(c))
         return true;
+    /* The rename below would replace whatever the path names: a scene or an image given
+     * as -cache by mistake, even a device node when run as root. */
+    if (!c->replaceable) {
+        bool plain = strcmp(c->rejected, "not a set-up cache") == 0;
+        snprintf(why, why_len, "'%s' is not a set-up cache%s%s%s: left as it is", c->path,
+                 plain ? "" : " (", plain ? "" : c->rejected, plain ? "" : ")");
+        return false;
+    }
     /* The sections this process used stay in the new file. */
     for (int u = 0; u < c->num_used; u++) {
         const CacheSection *s = &c->sections[c->used[u]];

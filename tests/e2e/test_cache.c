@@ -261,7 +261,7 @@ static void test_cache_damaged(void)
     if (!bad)
         return;
     /* Every kind of damage, each alone. */
-    for (int k = 0; k < 8 && !harness_failures; k++) {
+    for (int k = 0; k < 7 && !harness_failures; k++) {
         size_t n = len;
         memcpy(bad, good, len);
         const char *what;
@@ -272,8 +272,7 @@ static void test_cache_damaged(void)
         case 3: what = "a byte flipped in the header"; bad[20] ^= 0x01; break;
         case 4: what = "empty"; n = 0; break;
         case 5: what = "header only"; n = 128; break;
-        case 6: what = "a byte flipped in the section table"; bad[140] ^= 0x40; break;
-        default: what = "text"; n = 20; memcpy(bad, "not a cache at all\n\n", 20); break;
+        default: what = "a byte flipped in the section table"; bad[140] ^= 0x40; break;
         }
         CHECK(put_file(cache, bad, n));
         CHECK(cmd_run(&c, out, cache, &r));
@@ -289,6 +288,26 @@ static void test_cache_damaged(void)
         CHECK_MSG(r.status == 0 && strstr(r.err, ": used") != NULL, "%s, rewritten: %s", what,
                   r.err);
         CHECK_MSG(same_file(ref, out), "%s, rewritten: image differs", what);
+        e2e_run_free(&r);
+    }
+    /* A file that is no cache at all (the scene or an image named by mistake, short or
+     * as long as a cache) is not used and left as it is: a warning, the same image.
+     * It was replaced by the cache (a scene file given as -cache was lost). */
+    for (int k = 0; k < 2 && !harness_failures; k++) {
+        size_t n = k ? len : 20;
+        memset(bad, 'x', len);
+        memcpy(bad, "not a cache at all\n\n", 20);
+        CHECK(put_file(cache, bad, n));
+        CHECK(cmd_run(&c, out, cache, &r));
+        CHECK_MSG(r.status == 0, "foreign %zu bytes: %s", n, e2e_describe(&r, why, sizeof why));
+        CHECK_CONTAINS(r.err, "not used (not a set-up cache)");
+        CHECK_CONTAINS(r.err, "is not a set-up cache: left as it is");
+        CHECK_MSG(same_file(ref, out), "foreign %zu bytes: image differs", n);
+        size_t back_len = 0;
+        char *back = e2e_read_file(cache, &back_len);
+        CHECK_MSG(back && back_len == n && memcmp(back, bad, n) == 0,
+                  "foreign %zu bytes: the file was changed", n);
+        free(back);
         e2e_run_free(&r);
     }
     free(bad);

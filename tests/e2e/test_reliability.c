@@ -237,6 +237,12 @@ static void test_same_path_twice(void)
     CHECK_CONTAINS(r.err, "same file");
     e2e_run_free(&r);
     CHECK_INT(e2e_count_entries(dir), 0);
+    /* the set-up cache over the scene would destroy the scene: refused before it */
+    const char *a4[] = {"-input", scene, "-output", out, "-cache", scene, NULL};
+    CHECK_INT(run(a4, &r), 2);
+    CHECK_CONTAINS(r.err, "-cache and -input name the same file");
+    e2e_run_free(&r);
+    CHECK_INT(e2e_count_entries(dir), 0);
     /* /dev/null twice is fine: nothing is replaced */
     const char *a3[] = {"-input", scene, "-output", out, "-depth", "0", "1", "/dev/null",
                         "-normals", "/dev/null", NULL};

@@ -123,6 +123,13 @@ static void test_usage_errors(void)
          "-region and -tile both choose the rectangle"},
         {"-input s.txt -tile 1 2 -region 0 0 4 4 -output o.tga",
          "-region and -tile both choose the rectangle"},
+        /* the snapshot, the set-up cache and the scene are files too: the cache written
+         * over the scene destroyed it, an image over the cache made it useless */
+        {"-input s.txt -output o.tga -gui_snapshot ./o.tga",
+         "-output and -gui_snapshot name the same file './o.tga'"},
+        {"-input s.txt -output o.tga -cache o.tga", "-output and -cache name the same file"},
+        {"-input s.txt -output o.tga -cache s.txt", "-cache and -input name the same file"},
+        {"-input s.txt -depth 0 1 c -cache ./c", "-depth and -cache name the same file"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         Options o;
