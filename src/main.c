@@ -987,9 +987,16 @@ static int run(App *app)
         cfg.render_user = app;
         cfg.snapshot_path = o->gui_snapshot;
         cfg.keys = o->gui_keys;
-        if (o->gui_snapshot)
-            return preview_snapshot(&cfg, &app->diag);
-        return preview_run_window(&cfg, &app->diag);
+        cfg.stop = &g_cancel;
+        if (!o->gui_snapshot)
+            return preview_run_window(&cfg, &app->diag);
+        int status = preview_snapshot(&cfg, &app->diag);
+        if (status == 0 && g_cancel) {
+            /* The signal came while the snapshot was being renamed into place. */
+            fprintf(stderr, "raytracer: interrupted after the images were written\n");
+            status = interrupted_status();
+        }
+        return status;
     }
     app->last_render = true;
     return render_and_write(app, &s->camera, NULL);

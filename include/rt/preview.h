@@ -25,6 +25,10 @@ typedef struct PreviewConfig {
     void *render_user;
     const char *snapshot_path;  /* -gui_snapshot */
     const char *keys;           /* -gui_keys script, may be NULL */
+    /* The program's stop flag (the signal that asked it to stop: SIGINT, SIGTERM,
+     * SIGHUP), or NULL. Once set, the window closes and the snapshot writes nothing
+     * more; either prints why on stderr and returns 128 + the signal. */
+    volatile int *stop;
 } PreviewConfig;
 
 bool preview_window_built(void);

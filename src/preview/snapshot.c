@@ -4,6 +4,7 @@
 
 #ifdef RT_HAVE_OSMESA
 #include <GL/osmesa.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include "draw.h"
@@ -36,6 +37,17 @@ static void traced_free(Snapshot *s)
     }
 }
 
+/* The exit status of a snapshot stopped by a signal, after saying so; 0 while none
+ * came. Checked before each step: a step (drawing a finely tessellated scene, a
+ * render) is not cut short, but nothing is written after the signal. */
+static int snapshot_stopped(const Snapshot *s)
+{
+    int sig = s->cfg->stop ? *s->cfg->stop : 0;
+    if (sig)
+        fprintf(stderr, "raytracer: interrupted; no image written\n");
+    return sig ? 128 + sig : 0;
+}
+
 /* `r`: ray-trace the current view into the frame, then the requested files. */
 static int snapshot_render(Snapshot *s)
 {
@@ -57,7 +69,10 @@ static int snapshot_render(Snapshot *s)
     target.height = s->h;
     target.color = &s->traced.image;
     if (!render_image(s->cfg->tracer, &s->view.camera, &target, s->cfg->threads, NULL, NULL,
-                      NULL, NULL)) {
+                      NULL, s->cfg->stop)) {
+        int stopped = snapshot_stopped(s);
+        if (stopped)
+            return stopped;
         diag_error(s->diag, NULL, "could not start the render (out of memory?)");
         return 1;
     }
@@ -68,17 +83,25 @@ static int snapshot_render(Snapshot *s)
     return 0;
 }
 
-static bool snapshot_write(Snapshot *s, const char *path)
+/* Draws the frame and writes it to path: 0, 1 when it cannot be written, or the
+ * status of a signal that came while it was drawn (nothing written). */
+static int snapshot_write(Snapshot *s, const char *path)
 {
     preview_draw_frame(&s->gl, &s->view, s->w, s->h, s->have_traced ? &s->traced : NULL);
     preview_read_frame(&s->gl, s->w, s->h, &s->frame, s->scratch);
-    return image_write(&s->frame, path, s->diag);
+    int stopped = snapshot_stopped(s);
+    if (stopped)
+        return stopped;
+    return image_write(&s->frame, path, s->diag) ? 0 : 1;
 }
 
 static int snapshot_run(Snapshot *s, const KeyScript *script)
 {
     for (int k = 0; k < script->count; k++) {
         const KeyCmd *cmd = &script->cmds[k];
+        int stopped = snapshot_stopped(s);
+        if (stopped)
+            return stopped;
         bool ok;
         if (preview_view_apply(&s->view, cmd, s->w, s->h, &ok)) {
             if (!ok) {
@@ -92,15 +115,19 @@ static int snapshot_run(Snapshot *s, const KeyScript *script)
         if (cmd->kind == KEYCMD_QUIT)
             break;
         if (cmd->kind == KEYCMD_SHOT) {
-            if (!snapshot_write(s, cmd->path))
-                return 1;
+            int status = snapshot_write(s, cmd->path);
+            if (status)
+                return status;
             continue;
         }
         int status = snapshot_render(s);
         if (status)
             return status;
     }
-    return snapshot_write(s, s->cfg->snapshot_path) ? 0 : 1;
+    int stopped = snapshot_stopped(s);
+    if (stopped)
+        return stopped;
+    return snapshot_write(s, s->cfg->snapshot_path);
 }
 
 int preview_snapshot(const PreviewConfig *cfg, Diag *diag)

@@ -57,6 +57,7 @@ static struct PreviewWindow {
     Display *watch;
     Window xwin;
     volatile int destroyed;   /* the window is gone: X errors about it are expected */
+    int stopped;              /* the signal that closed the window (cfg->stop), or 0 */
 } W;
 
 static GlProc glut_proc(const char *name) { return (GlProc)glutGetProcAddress(name); }
@@ -245,6 +246,21 @@ static void watch_window(int value)
         return;
     }
     glutTimerFunc(WATCH_MS, watch_window, 0);
+}
+
+/* Ctrl-C in the terminal, kill and a closed terminal end the program as they end a
+ * render: the signal handler only sets cfg->stop, which this timer polls (GLUT's loop
+ * cannot be woken from a handler), then a running render stops and the window closes. */
+static void watch_stop(int value)
+{
+    (void)value;
+    if (W.cfg->stop && *W.cfg->stop) {
+        W.stopped = *W.cfg->stop;
+        W.cancel = 1;
+        quit();
+        return;
+    }
+    glutTimerFunc(WATCH_MS, watch_stop, 0);
 }
 
 static void keyboard(unsigned char key, int x, int y)
@@ -455,6 +471,7 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     glutPassiveMotionFunc(passive_motion);
     if (W.script.count)
         glutTimerFunc(SCRIPT_STEP_MS, script_step, 0);
+    glutTimerFunc(WATCH_MS, watch_stop, 0);
     glutMainLoop();   /* returns after glutLeaveMainLoop or a closed window */
 
     drop_traced();
@@ -463,6 +480,10 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     XSetErrorHandler(old_handler);
     preview_view_free(&W.view);
     preview_keys_free(&W.script);
+    if (W.stopped) {
+        fprintf(stderr, "raytracer: interrupted; the preview closed\n");
+        return 128 + W.stopped;
+    }
     return W.status;
 }
 

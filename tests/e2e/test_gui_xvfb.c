@@ -293,10 +293,55 @@ static void test_window_destroyed_from_outside(void)
     e2e_rmtree(dir);
 }
 
+/* Ctrl-C in the terminal (SIGINT) while the window is up: the window closes, the
+ * program says so and exits 130, as a render does. It ignored SIGINT, SIGTERM and
+ * SIGHUP (GLUT's loop never looked at the stop flag): only SIGKILL ended it. The
+ * signal is sent once the window is up and running its key script; a run still there
+ * 60 s later is killed (status 137: the test fails, nothing is left running). */
+static void test_window_stopped_by_signal(void)
+{
+    if (!preview_window_built())
+        harness_skip("built without freeglut (apt-get install libglut-dev, rebuild)");
+    char xvfb[PATH_MAX];
+    if (!find_xvfb_run(xvfb, sizeof xvfb))
+        harness_skip("xvfb-run not found (apt-get install xvfb xauth)");
+    char dir[PATH_MAX], scene[PATH_MAX], cmd[8 * PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "guisignal") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    CHECK(e2e_write_file(scene, SCENE));
+    snprintf(cmd, sizeof cmd,
+             "cd '%s' && { '%s' -input scene.txt -gui -gui_keys c > out.txt 2> err.txt & "
+             "pid=$!; i=0; while ! grep -q Camera out.txt && [ $i -lt 3000 ]; do "
+             "sleep 0.02; i=$((i+1)); done; kill -INT $pid; "
+             "(sleep 60; kill -KILL $pid) > /dev/null 2>&1 & k=$!; "
+             "wait $pid; echo \"raytracer $?\"; kill $k; cat err.txt; }",
+             dir, harness_bin());
+    char servernum[32];
+    snprintf(servernum, sizeof servernum, "%d", 100 + (int)((getpid() + 613) % 800));
+    char *argv[] = {xvfb, "-a", "-n", servernum, "-s", "-screen 0 640x480x24",
+                    "/bin/sh", "-c", cmd, NULL};
+    char asan[1024];
+    const char *prev = getenv("ASAN_OPTIONS");
+    snprintf(asan, sizeof asan, "%s%sdetect_leaks=0", prev ? prev : "",
+             prev && *prev ? ":" : "");
+    setenv("ASAN_OPTIONS", asan, 1);
+    setenv("RT_E2E_TIMEOUT", "120", 1); /* a hang fails in two minutes, not ten */
+    E2eRun r;
+    char why[512];
+    CHECK(e2e_run(argv, &r));
+    CHECK_MSG(r.status == 0 && !r.timed_out, "%s; stdout: %.500s",
+              e2e_describe(&r, why, sizeof why), r.out);
+    CHECK_CONTAINS(r.out, "raytracer 130");
+    CHECK_CONTAINS(r.out, "interrupted; the preview closed");
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"window_script_under_xvfb", test_window_script_under_xvfb},
     {"window_without_display", test_window_without_display},
     {"window_destroyed_from_outside", test_window_destroyed_from_outside},
+    {"window_stopped_by_signal", test_window_stopped_by_signal},
 };
 
 int main(int argc, char **argv)

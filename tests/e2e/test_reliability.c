@@ -12,6 +12,7 @@
 
 #include "../harness.h"
 #include "e2e_util.h"
+#include "rt/preview.h"
 
 /* Runs the binary with args (NULL-terminated, without the program name). */
 static int run(const char *const *args, E2eRun *r)
@@ -171,6 +172,55 @@ static void signal_while_streaming(int sig)
     CHECK_MSG(!e2e_exists(out), "an image was written");
     CHECK_MSG(!has_temp_file(dir), "a temporary image was left behind");
     CHECK_INT(e2e_count_entries(dir), 0);
+    e2e_rmtree(dir);
+}
+
+/* A signal before -gui_snapshot draws: the scene comes through a FIFO, so once the
+ * test's open for writing returns, the run is reading it (its handlers are in place);
+ * the signal comes before the scene does. Expected: exit 128 + signal, "interrupted",
+ * no snapshot. Before the fix nothing in the snapshot looked at the stop flag: it drew
+ * and wrote the picture and exited 0 (a window ignored Ctrl-C the same way,
+ * test_gui_xvfb's window_stopped_by_signal). */
+static void test_sigterm_before_snapshot(void)
+{
+    if (!preview_snapshot_built())
+        harness_skip("built without OSMesa (apt-get install libosmesa6-dev, rebuild)");
+    char dir[PATH_MAX], fifo[PATH_MAX], snap[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigsnap") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "scene.txt");
+    e2e_join(snap, sizeof snap, dir, "snap.tga");
+    repro(scene, sizeof scene, "planes_only.txt");
+    size_t len = 0;
+    char *text = e2e_read_file(scene, &len);
+    CHECK(text != NULL);
+    CHECK(mkfifo(fifo, 0600) == 0);
+    if (harness_failures)
+        return;
+    const char *args[] = {harness_bin(), "-input", fifo, "-gui_snapshot", snap, "-size", "8",
+                          "8", NULL};
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    alarm(120); /* a guard against a run that never ends, not a timing condition */
+    int fd = open(fifo, O_WRONLY);
+    CHECK(fd >= 0);
+    kill(pid, SIGTERM);
+    CHECK(fd >= 0 && write(fd, text, len) == (ssize_t)len);
+    if (fd >= 0)
+        close(fd);
+    int st = 0;
+    bool hung = !e2e_wait_or_kill(pid, 60, &st);
+    char err[4096] = "";
+    e2e_read_close(errfd, err, sizeof err);
+    CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
+              "%s %d, expected exit %d: %s", WIFEXITED(st) ? "exit" : "killed by",
+              WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + SIGTERM, err);
+    CHECK_CONTAINS(err, "interrupted; no image written");
+    CHECK_MSG(!e2e_exists(snap), "the snapshot was written");
+    CHECK_INT(e2e_count_entries(dir), 1); /* the FIFO */
+    free(text);
     e2e_rmtree(dir);
 }
 
@@ -567,6 +617,7 @@ static const TestCase tests[] = {
     {"sigterm_inside_pixel", test_sigterm_inside_pixel},
     {"sigterm_while_streaming", test_sigterm_while_streaming},
     {"sigint_while_streaming", test_sigint_while_streaming},
+    {"sigterm_before_snapshot", test_sigterm_before_snapshot},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"same_path_twice", test_same_path_twice},
     {"stats_write_errors", test_stats_write_errors},
