@@ -618,7 +618,15 @@ bool image_write(const Image *img, const char *path, Diag *diag)
 
 /* ---- reading ------------------------------------------------------------------- */
 
-/* Reads a whole regular file; sets errno-style text in err on failure. */
+/* The longest file image_read takes. A 32768 x 32768 image (the largest -size) is
+ * 3 GiB of pixels as TGA or PPM and a little more as PNG (a filter byte a row, the
+ * deflate blocks' headers); 64 MiB more covers those and the headers and part record.
+ * A longer input (/dev/zero, a pipe that never ends) is refused instead of filling
+ * the memory until the system kills the process. */
+#define IMAGE_READ_MAX_BYTES ((size_t)3 * 32768 * 32768 + ((size_t)64 << 20))
+
+/* Reads a whole file (or standard input); sets err (an errno value) on failure:
+ * EFBIG past IMAGE_READ_MAX_BYTES. */
 static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err)
 {
     /* "-": standard input, through a duplicate so that fclose leaves it open. */
@@ -630,6 +638,13 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
             close(in);
         return false;
     }
+    struct stat st;
+    if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode) &&
+        (uintmax_t)st.st_size > IMAGE_READ_MAX_BYTES) {
+        fclose(f);
+        *err = EFBIG;
+        return false;
+    }
     size_t cap = 1 << 16, len = 0;
     uint8_t *buf = malloc(cap);
     if (!buf) {
@@ -639,13 +654,16 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
     }
     for (;;) {
         if (len == cap) {
-            if (cap > (size_t)1 << 40) {
+            /* Never more than the limit and one byte: that byte read means too long. */
+            if (cap > IMAGE_READ_MAX_BYTES) {
                 free(buf);
                 fclose(f);
                 *err = EFBIG;
                 return false;
             }
-            uint8_t *nb = realloc(buf, cap * 2);
+            size_t next = cap * 2 > IMAGE_READ_MAX_BYTES + 1 ? IMAGE_READ_MAX_BYTES + 1
+                                                            : cap * 2;
+            uint8_t *nb = realloc(buf, next);
             if (!nb) {
                 free(buf);
                 fclose(f);
@@ -653,7 +671,7 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
                 return false;
             }
             buf = nb;
-            cap *= 2;
+            cap = next;
         }
         size_t n = fread(buf + len, 1, cap - len, f);
         len += n;
