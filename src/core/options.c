@@ -261,9 +261,15 @@ static bool take(Cursor *c, const char *flag, const char **out)
 {
     char synopsis[128];
     if (c->i + 1 >= c->argc) {
+        /* Name the value that is missing ("-size 200": h), as the range errors do. */
+        Cursor next = *c;
+        next.i++;
+        char name[32];
+        value_name(&next, flag, name, sizeof name);
         option_synopsis(flag, synopsis, sizeof synopsis);
-        return usage_error(c, "option %s needs more arguments%s%s%s", flag,
-                           synopsis[0] ? " (" : "", synopsis, synopsis[0] ? ")" : "");
+        return usage_error(c, "missing value for %s: the command line ends before %s%s%s%s",
+                           flag, name, synopsis[0] ? " (" : "", synopsis,
+                           synopsis[0] ? ")" : "");
     }
     /* "-output -size 10 10": the value was left out and the next option taken for it.
      * Only an exact option name is refused: "-" (standard input or output) and
@@ -399,10 +405,22 @@ static bool looks_like_scene(const char *s)
     return (n > 4 && !strcmp(s + n - 4, ".txt")) || (stat(s, &st) == 0 && S_ISREG(st.st_mode));
 }
 
+static bool is_option_name(const char *a);
+
 /* argv[c->opt] is no option: say what it probably is. */
 static bool unknown_argument(Cursor *c, const Options *o)
 {
     const char *a = c->argv[c->opt];
+    /* "input scene.txt", "-size 8 8 shadows": a word that is an option without its dash
+     * was meant as that option, more likely than as a stray or extra value. */
+    char dashed[64];
+    if (a[0] != '-' && strlen(a) < sizeof dashed - 1) {
+        snprintf(dashed, sizeof dashed, "-%s", a);
+        if (is_option_name(dashed)) {
+            c->hinted = true;
+            return usage_error(c, "unexpected argument '%s' (did you mean %s?)", a, dashed);
+        }
+    }
     if (a[0] == '-' && a[1] != '\0' && !looks_like_number(a)) {
         const char *names[MAX_OPTION_NAMES];
         int n = options_names(names, MAX_OPTION_NAMES);

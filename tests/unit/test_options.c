@@ -74,7 +74,7 @@ static void test_usage_errors(void)
 {
     static const char *bad[][2] = {
         {"-input s.txt -bogus", "unknown option '-bogus'"},
-        {"-input s.txt -size 10", "needs more arguments"},
+        {"-input s.txt -size 10", "missing value for -size: the command line ends before h (-size w h)"},
         {"-input s.txt -size 10 x", "expects an integer, got 'x'"},
         {"-input s.txt -size -5 10", "out of range"},
         {"-input s.txt -size 0 10", "out of range"},
@@ -83,12 +83,12 @@ static void test_usage_errors(void)
         {"-input s.txt -bounces 1.5", "expects an integer"},
         {"-input s.txt -depth 1 1 d.tga", "must differ"},
         {"-input s.txt -grid 0 1 1", "out of range"},
-        {"-input s.txt -grid 10 10", "needs more arguments"},
+        {"-input s.txt -grid 10 10", "missing value for -grid: the command line ends before nz"},
         {"-input s.txt -visualize_grid", "needs -grid"},
         {"-output o.tga", "-input scene.txt is required"},
         {"-input s.txt -threads 0", "out of range"},
         {"-input s.txt -accel bvh", "unknown accelerator 'bvh' (known: none, grid, twolevel)"},
-        {"-input s.txt -accel", "needs more arguments"},
+        {"-input s.txt -accel", "missing value for -accel: the command line ends before NAME"},
         {"-input s.txt -accel none -grid 4 4 4", "-grid goes with -accel grid"},
         {"-input s.txt -accel none -visualize_grid", "not with -accel none (use -grid nx ny nz"},
         {"-input s.txt -accel twolevel -visualize_grid -grid auto", "-grid goes with -accel grid"},
@@ -108,6 +108,9 @@ static void test_usage_errors(void)
         {"-input s.txt -output -size 10 10", "missing value for -output"},
         {"-input s.txt -size 10 -output o.tga", "missing value for -size"},
         {"-input -output o.tga", "missing value for -input"},
+        /* an option written without its dash, also where an extra value would be */
+        {"input s.txt -output o.tga", "unexpected argument 'input' (did you mean -input?)"},
+        {"-input s.txt -size 8 8 shadows", "unexpected argument 'shadows' (did you mean -shadows?)"},
         {"-input s.txt -output o.tga -normals -stats", "missing value for -normals"},
         /* words are case-sensitive: the right spelling is offered */
         {"-input s.txt -output o.tga -grid Auto", "option -grid: 'Auto' (did you mean auto?)"},
