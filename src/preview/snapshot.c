@@ -139,6 +139,10 @@ int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
         preview_keys_free(&script);
         return 2;
     }
+    if (!preview_keys_outputs_ok(&script, diag)) {
+        preview_keys_free(&script);
+        return 1;
+    }
     if (!preview_load_osmesa_libs(diag)) {
         preview_keys_free(&script);
         return 1;

@@ -9,6 +9,7 @@
 #include <string.h>
 #include "rt/matrix.h"
 #include "rt/grid.h"
+#include "rt/image.h"
 #include "rt/raytracer.h"
 #include "rt/scene.h"
 
@@ -299,6 +300,14 @@ bool preview_keys_check(const KeyScript *s, int w, int h, const char *what, Diag
             return false;
         }
     }
+    return true;
+}
+
+bool preview_keys_outputs_ok(const KeyScript *s, Diag *diag)
+{
+    for (int k = 0; k < s->count; k++)
+        if (s->cmds[k].kind == KEYCMD_SHOT && !image_check_output(s->cmds[k].path, NULL, diag))
+            return false;
     return true;
 }
 

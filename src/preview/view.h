@@ -81,6 +81,11 @@ bool preview_keys_parse(const char *text, KeyScript *out, Diag *diag);
  * 400 pixels on its long side): false, with "-gui_keys: ..." reported, for the first
  * that does not. */
 bool preview_keys_check(const KeyScript *s, int w, int h, const char *what, Diag *diag);
+/* Every shot:FILE of the script can be written (image_check_output: its format, its
+ * folder): false, with the reason reported, for the first that cannot. Checked before
+ * anything is drawn, so that a script failing on its last shot has not already written
+ * its r render's images (exit status 1 with some images written). */
+bool preview_keys_outputs_ok(const KeyScript *s, Diag *diag);
 void preview_keys_free(KeyScript *s);
 
 /* Applies the backend-independent commands (t, g, c, rot, truck, dolly) for a w x h

@@ -420,6 +420,10 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
         preview_keys_free(&W.script);
         return 2;
     }
+    if (!preview_keys_outputs_ok(&W.script, diag)) {
+        preview_keys_free(&W.script);
+        return 1;
+    }
     if (!preview_load_window_libs(diag)) {
         preview_keys_free(&W.script);
         return 1;

@@ -269,6 +269,29 @@ static void test_outputs_all_or_nothing(void)
     e2e_rmtree(dir);
 }
 
+/* -gui_snapshot with a key script whose last shot cannot be written: exit 1 with the
+ * reason and no image at all. The shot's folder was found missing only when the shot
+ * came, after the r key had written -output (exit 1, one image written). */
+static void test_snapshot_shot_checked_first(void)
+{
+    if (!preview_snapshot_built())
+        harness_skip("built without OSMesa (apt-get install libosmesa6-dev, rebuild)");
+    char dir[PATH_MAX], out[PATH_MAX], snap[PATH_MAX], scene[PATH_MAX], keys[2 * PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "snapshot") != NULL);
+    e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(snap, sizeof snap, dir, "snap.tga");
+    repro(scene, sizeof scene, "planes_only.txt");
+    snprintf(keys, sizeof keys, "r shot:%s/no/such/folder/x.tga", dir);
+    E2eRun r;
+    const char *a[] = {"-input", scene, "-size", "8", "8", "-output", out, "-gui_snapshot",
+                       snap, "-gui_keys", keys, NULL};
+    CHECK_INT(run(a, &r), 1);
+    CHECK_CONTAINS(r.err, "no/such/folder/x.tga: error: cannot write image: folder");
+    e2e_run_free(&r);
+    CHECK_INT(e2e_count_entries(dir), 0);
+    e2e_rmtree(dir);
+}
+
 /* Two outputs naming one file: a usage error (exit 2) before anything is rendered. */
 static void test_same_path_twice(void)
 {
@@ -620,6 +643,7 @@ static const TestCase tests[] = {
     {"sigterm_before_snapshot", test_sigterm_before_snapshot},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"same_path_twice", test_same_path_twice},
+    {"snapshot_shot_checked_first", test_snapshot_shot_checked_first},
     {"stats_write_errors", test_stats_write_errors},
     {"help_write_errors", test_help_write_errors},
 };
