@@ -146,15 +146,19 @@ static int make_temp(const char *target, int slot)
     size_t plen = strlen(target);
     const char *slash = strrchr(target, '/');
     size_t dirlen = slash ? (size_t)(slash - target) + 1 : 0;
-    if (plen + 9 > TMP_NAME_MAX) {
+    /* The temporary's own name is the target's and 8 bytes more: of a name near the
+     * longest a folder takes (NAME_MAX, 255), only the start is kept, or a valid
+     * -output name was refused after the whole render ("File name too long"). */
+    size_t keep = plen - dirlen;
+    if (keep > NAME_MAX - 8)
+        keep = NAME_MAX - 8;
+    if (dirlen + keep + 9 > TMP_NAME_MAX) {
         errno = ENAMETOOLONG;
         return -1;
     }
     char *tmp = g_tmp_name[slot];
-    memcpy(tmp, target, dirlen);
-    tmp[dirlen] = '.';
-    memcpy(tmp + dirlen + 1, target + dirlen, plen - dirlen);
-    memcpy(tmp + plen + 1, ".XXXXXX", 8);
+    snprintf(tmp, TMP_NAME_MAX, "%.*s.%.*s.XXXXXX", (int)dirlen, target, (int)keep,
+             target + dirlen);
 
     sigset_t old;
     block_stop_signals(&old);
@@ -349,8 +353,13 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
         }
     }
     /* A file (new or replaced) is made in its folder and renamed: the folder must exist
-     * and take new files. */
+     * and take new files, and its name fit in a folder (else the write failed only
+     * after the render). */
     const char *slash = strrchr(path, '/');
+    if (strlen(slash ? slash + 1 : path) > NAME_MAX) {
+        report(diag, path, "cannot write image: ", strerror(ENAMETOOLONG));
+        return false;
+    }
     char *dir = slash ? strndup(path, slash == path ? 1 : (size_t)(slash - path)) : strdup(".");
     if (!dir) {
         report(diag, path, "cannot write image: ", strerror(ENOMEM));

@@ -707,6 +707,37 @@ static void test_read_too_long(void)
     rmdir(dir);
 }
 
+/* A file name of 248-255 bytes is valid (NAME_MAX 255) but its temporary, ".NAME.XXXXXX",
+ * was 8 bytes too long: the write failed with "File name too long" (after the whole
+ * render). Written now, under its own name, with no temporary file left. */
+static void test_write_longest_name(void)
+{
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    char name[256], path[4096];
+    memset(name, 'a', 251);
+    memcpy(name + 251, ".tga", 5); /* 255 bytes */
+    snprintf(path, sizeof path, "%s/%s", dir, name);
+    Image img;
+    CHECK(image_init(&img, 3, 2));
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK_MSG(image_write(&img, path, &d), "%s", d.last);
+    struct stat st;
+    CHECK(stat(path, &st) == 0 && st.st_size > 18);
+    CHECK_INT(count_entries(dir), 1);
+    /* One byte more is refused by the check made before a render, not after it. */
+    char longer[4096];
+    snprintf(longer, sizeof longer, "%s/b%s", dir, name);
+    CHECK(!image_check_output(longer, NULL, &d));
+    CHECK_CONTAINS(d.last, "cannot write image: File name too long");
+    image_free(&img);
+    unlink(path);
+    rmdir(dir);
+}
+
 static void test_codec_table(void)
 {
     const char *names[] = {"tga", "ppm", "png"};
@@ -1084,6 +1115,7 @@ static const TestCase tests[] = {
     {"image: codec table: names, extensions, signatures", test_codec_table},
     {"image: PNG declaring a 1 GB chunk refused in little memory", test_png_huge_chunk},
     {"image: a file longer than any image refused unread", test_read_too_long},
+    {"image: a file name of 255 bytes is written", test_write_longest_name},
     {"image: image_color_to_byte truncates and clamps", test_color_to_byte},
     {"image: TGA bytes of a 3x2 image", test_tga_exact_bytes},
     {"image: TGA size fields little-endian", test_tga_size_fields_little_endian},
