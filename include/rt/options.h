@@ -54,6 +54,7 @@ typedef struct Options {
     const char *filter_file;     /* -render_filter file zoom */
     int filter_zoom;
     unsigned long long seed;     /* -seed n: the random samplers' seed (default 0) */
+    bool seed_given;             /* -seed was given (options_warn) */
     /* -region x y w h / -tile k n: render only this rectangle of the -size image, x y
      * its top-left pixel counted from the image's top-left corner. options_parse turns
      * -tile into the region (options_tile_rows) and checks it lies inside the image. */

@@ -680,6 +680,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return usage_error(&c, "option -seed expects an integer 0..%llu, got '%s'",
                                    (unsigned long long)ULLONG_MAX, v);
             o->seed = n;
+            o->seed_given = true;
         } else if (!strcmp(a, "-region")) {
             if (!take_int(&c, a, 0, MAX_IMAGE_SIDE - 1, &o->region_x) ||
                 !take_int(&c, a, 0, MAX_IMAGE_SIDE - 1, &o->region_y) ||
@@ -854,6 +855,23 @@ void options_warn(const Options *o, int cores, FILE *err)
                 fprintf(err, "raytracer: warning: %s has no effect without -gui or "
                         "-gui_snapshot\n", preview_only[i]);
     }
+    /* Options that change nothing in this run: said, as a typo or a wrong assumption
+     * (the seed of a uniform lattice, packets without a grid) would otherwise pass
+     * silently. Only the samplers that draw random numbers read the seed; only the grid
+     * traces rays in packets; marking belongs to the grids (-grid, -accel grid or
+     * twolevel). */
+    bool random = o->adaptive || (o->sampler && strcmp(o->sampler, "uniform") != 0);
+    if (o->seed_given && !random)
+        fprintf(err, "raytracer: warning: -seed has no effect without a random sampler "
+                "(-jittered_samples, -random_samples, -nrooks_samples, -poisson_samples, "
+                "-adaptive_samples)\n");
+    bool any_grid = o->grid || (o->accel && strcmp(o->accel, "none") != 0); /* grid, twolevel */
+    if (o->no_packets && !o->grid)
+        fprintf(err, "raytracer: warning: -no_packets has no effect without -grid (only the "
+                "grid traces rays in packets)\n");
+    if (o->no_marking && !any_grid)
+        fprintf(err, "raytracer: warning: -no_marking has no effect without a grid (-grid, "
+                "or -accel grid or twolevel)\n");
     /* A few threads more than cores can even out uneven rows; many more only cost. */
     if (o->threads > 4 * cores && o->threads > cores + 8)
         fprintf(err, "raytracer: warning: -threads %d on %d core%s: the extra threads only "

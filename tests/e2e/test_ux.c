@@ -255,6 +255,32 @@ static void test_warnings_and_hint(void)
     CHECK_CONTAINS(r.err, "warning: -threads 1000 on ");
     e2e_run_free(&r);
 
+    /* Options this run does not use: -seed without a random sampler, -no_packets and
+     * -no_marking without a grid; each once. With what they act on, none of them. */
+    const char *u1[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8",
+                        "-uniform_samples", "4", "-seed", "7", "-no_packets", "-no_marking",
+                        NULL};
+    CHECK(e2e_run_bin(harness_bin(), u1, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_CONTAINS(r.err, "warning: -seed has no effect without a random sampler");
+    CHECK_CONTAINS(r.err, "warning: -no_packets has no effect without -grid");
+    CHECK_CONTAINS(r.err, "warning: -no_marking has no effect without a grid");
+    e2e_run_free(&r);
+    const char *u2[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8",
+                        "-jittered_samples", "4", "-seed", "7", "-grid", "2", "2", "2",
+                        "-no_packets", "-no_marking", NULL};
+    CHECK(e2e_run_bin(harness_bin(), u2, &r));
+    CHECK_INT(r.status, 0);
+    CHECK(strstr(r.err, "warning") == NULL);
+    e2e_run_free(&r);
+    const char *u3[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8",
+                        "-adaptive_samples", "4", "16", "0.1", "-seed", "7", "-accel",
+                        "twolevel", "-no_marking", NULL};
+    CHECK(e2e_run_bin(harness_bin(), u3, &r));
+    CHECK_INT(r.status, 0);
+    CHECK(strstr(r.err, "warning") == NULL);
+    e2e_run_free(&r);
+
     /* A mesh of 1280 triangles without -grid: one hint; with -grid or -quiet none. */
     char scene[PATH_MAX], model[PATH_MAX], text[PATH_MAX + 512];
     e2e_join(model, sizeof model, harness_root(), "models/icosphere.obj");
