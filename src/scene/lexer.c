@@ -18,6 +18,11 @@ void lex_init(Lexer *lx, const char *buf, size_t len, const char *file, Diag *di
     lx->diag = diag;
     lx->line = 1;
     lx->col = 1;
+    /* A UTF-8 byte-order mark, which some editors put at the start of every text file
+     * they save, is not part of the first keyword: skipped, and columns count from
+     * the byte after it (where the editor shows column 1). */
+    if (len >= 3 && memcmp(buf, "\xEF\xBB\xBF", 3) == 0)
+        lx->pos = 3;
 }
 
 /* fscanf's %s stops at isspace() in the C locale; CR counts, so CRLF files read alike. */

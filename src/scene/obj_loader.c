@@ -582,6 +582,12 @@ bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, 
     /* The scanners stop at the terminating NUL instead of comparing with the end on
      * every byte; a NUL inside the text is refused below, so NUL means end of buffer. */
     assert(buf[len] == '\0');
+    /* A UTF-8 byte-order mark at the start (some editors write one) is no record:
+     * skipped, as the scene lexer does; columns then count from the byte after it. */
+    if (len >= 3 && memcmp(buf, "\xEF\xBB\xBF", 3) == 0) {
+        buf += 3;
+        len -= 3;
+    }
     if (memchr(buf, '\0', len)) {
         /* Binary data: say so instead of a confusing message about its first line. */
         const char *z = memchr(buf, '\0', len);

@@ -125,8 +125,17 @@ static void test_errors(void)
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999999\n",
                      "m.obj:4:7: error: vertex index");
     EXPECT_OBJ_ERROR("v 0 0 0\r\nf 1 1 1\r\nf 1 1 2\r\n", "m.obj:3:7: error: vertex index 2 out of range (1 vertices)");
+    /* A UTF-8 byte-order mark at the start is skipped; columns count after it. */
+    EXPECT_OBJ_ERROR("\xEF\xBB\xBF" "v 1 1 nan\n", "m.obj:1:7: error: number out of range: 'nan'");
     ObjMesh m;
     diag_init(&g_diag, NULL);
+    {
+        static const char bom[] = "\xEF\xBB\xBF" "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        CHECK_MSG(objfile_parse(bom, sizeof bom - 1, "m.obj", &m, &g_diag), "%s", g_diag.last);
+        CHECK_INT(m.ntris, 1);
+        CHECK_INT(m.nverts, 3);
+        objfile_mesh_free(&m);
+    }
     CHECK(!objfile_parse("v 0 0 0\nv 1\0 0 0\n", 17, "m.obj", &m, &g_diag));
     CHECK_CONTAINS(g_diag.last, "m.obj:2:4: error: NUL byte: not a text OBJ file");
 }

@@ -871,6 +871,16 @@ static void test_errors_limits(void)
     EXPECT_ERROR("\x01\x02\xff", "t.txt:1:1: error: control byte \\x01 in the scene");
     EXPECT_ERROR("Group\x7f {", "t.txt:1:6: error: control byte \\x7f in the scene");
     EXPECT_ERROR("\xfe\xff", "t.txt:1:1: error: unknown top-level block '\\xfe\\xff'");
+    /* A UTF-8 byte-order mark at the start is skipped (columns from the byte after
+     * it); anywhere else it is an unknown word like any other. */
+    EXPECT_ERROR("\xEF\xBB\xBF" "Foo {", "t.txt:1:1: error: unknown top-level block 'Foo'");
+    EXPECT_ERROR("\xEF\xBB\xBF" "Background { color 0 0 0 }\n\xEF\xBB\xBF",
+                 "t.txt:2:1: error: unknown top-level block '\\xef\\xbb\\xbf'");
+    s = load("\xEF\xBB\xBF" "Background { color 0.25 0.5 1 }");
+    CHECK_MSG(s != NULL, "%s", g_diag.last);
+    if (s)
+        CHECK(s->background.x == 0.25f && s->background.z == 1.0f);
+    scene_free(s);
     free(buf);
     CHECK_NO_LEAKS();
 }
