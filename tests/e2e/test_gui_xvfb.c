@@ -247,6 +247,25 @@ static int destroy_window(void)
     return 1;
 }
 
+/* Runs the shell command cmd under xvfb-run (its own display number, from the process
+ * id and salt, so parallel suites do not meet), without ASan's leak check (the X and
+ * GL libraries' own allocations) and with a two-minute limit: a hang fails in two
+ * minutes, not ten. */
+static bool xvfb_sh(char *xvfb, char *cmd, int salt, E2eRun *r)
+{
+    char servernum[32];
+    snprintf(servernum, sizeof servernum, "%d", 100 + (int)((getpid() + salt) % 800));
+    char *argv[] = {xvfb, "-a", "-n", servernum, "-s", "-screen 0 640x480x24",
+                    "/bin/sh", "-c", cmd, NULL};
+    char asan[1024];
+    const char *prev = getenv("ASAN_OPTIONS");
+    snprintf(asan, sizeof asan, "%s%sdetect_leaks=0", prev ? prev : "",
+             prev && *prev ? ":" : "");
+    setenv("ASAN_OPTIONS", asan, 1);
+    setenv("RT_E2E_TIMEOUT", "120", 1);
+    return e2e_run(argv, r);
+}
+
 /* The window destroyed from outside (not closed through the window manager): the
  * program notices, says so and exits 0 instead of running on without a window. The
  * destroyer starts once the window is up and running its key script (the c key has
@@ -271,19 +290,9 @@ static void test_window_destroyed_from_outside(void)
              "sleep 0.02; i=$((i+1)); done; '%s' --destroy-window; echo \"destroyer $?\"; "
              "wait $pid; echo \"raytracer $?\"; cat err.txt; }",
              dir, harness_bin(), self);
-    char servernum[32];
-    snprintf(servernum, sizeof servernum, "%d", 100 + (int)((getpid() + 401) % 800));
-    char *argv[] = {xvfb, "-a", "-n", servernum, "-s", "-screen 0 640x480x24",
-                    "/bin/sh", "-c", cmd, NULL};
-    char asan[1024];
-    const char *prev = getenv("ASAN_OPTIONS");
-    snprintf(asan, sizeof asan, "%s%sdetect_leaks=0", prev ? prev : "",
-             prev && *prev ? ":" : "");
-    setenv("ASAN_OPTIONS", asan, 1);
-    setenv("RT_E2E_TIMEOUT", "120", 1); /* a hang fails in two minutes, not ten */
     E2eRun r;
     char why[512];
-    CHECK(e2e_run(argv, &r));
+    CHECK(xvfb_sh(xvfb, cmd, 401, &r));
     CHECK_MSG(r.status == 0 && !r.timed_out, "%s; stdout: %.500s",
               e2e_describe(&r, why, sizeof why), r.out);
     CHECK_CONTAINS(r.out, "destroyer 0");
@@ -316,19 +325,9 @@ static void test_window_stopped_by_signal(void)
              "(sleep 60; kill -KILL $pid) > /dev/null 2>&1 & k=$!; "
              "wait $pid; echo \"raytracer $?\"; kill $k; cat err.txt; }",
              dir, harness_bin());
-    char servernum[32];
-    snprintf(servernum, sizeof servernum, "%d", 100 + (int)((getpid() + 613) % 800));
-    char *argv[] = {xvfb, "-a", "-n", servernum, "-s", "-screen 0 640x480x24",
-                    "/bin/sh", "-c", cmd, NULL};
-    char asan[1024];
-    const char *prev = getenv("ASAN_OPTIONS");
-    snprintf(asan, sizeof asan, "%s%sdetect_leaks=0", prev ? prev : "",
-             prev && *prev ? ":" : "");
-    setenv("ASAN_OPTIONS", asan, 1);
-    setenv("RT_E2E_TIMEOUT", "120", 1); /* a hang fails in two minutes, not ten */
     E2eRun r;
     char why[512];
-    CHECK(e2e_run(argv, &r));
+    CHECK(xvfb_sh(xvfb, cmd, 613, &r));
     CHECK_MSG(r.status == 0 && !r.timed_out, "%s; stdout: %.500s",
               e2e_describe(&r, why, sizeof why), r.out);
     CHECK_CONTAINS(r.out, "raytracer 130");
