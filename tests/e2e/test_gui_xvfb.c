@@ -74,13 +74,20 @@ static int count_green(const Image *img)
     return n;
 }
 
-static void test_window_script_under_xvfb(void)
+/* Skips the calling test unless the window is built in and xvfb-run is found (its
+ * path into xvfb). */
+static void need_window_and_xvfb(char *xvfb, size_t size)
 {
     if (!preview_window_built())
         harness_skip("built without freeglut (apt-get install libglut-dev, rebuild)");
-    char xvfb[PATH_MAX];
-    if (!find_xvfb_run(xvfb, sizeof xvfb))
+    if (!find_xvfb_run(xvfb, size))
         harness_skip("xvfb-run not found (apt-get install xvfb xauth)");
+}
+
+static void test_window_script_under_xvfb(void)
+{
+    char xvfb[PATH_MAX];
+    need_window_and_xvfb(xvfb, sizeof xvfb);
     char dir[PATH_MAX], scene[PATH_MAX], a[PATH_MAX], b[PATH_MAX], c[PATH_MAX],
         out[PATH_MAX], keys[4 * PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "gui") != NULL);
@@ -272,11 +279,8 @@ static bool xvfb_sh(char *xvfb, char *cmd, int salt, E2eRun *r)
  * printed the camera). */
 static void test_window_destroyed_from_outside(void)
 {
-    if (!preview_window_built())
-        harness_skip("built without freeglut (apt-get install libglut-dev, rebuild)");
     char xvfb[PATH_MAX];
-    if (!find_xvfb_run(xvfb, sizeof xvfb))
-        harness_skip("xvfb-run not found (apt-get install xvfb xauth)");
+    need_window_and_xvfb(xvfb, sizeof xvfb);
     char dir[PATH_MAX], scene[PATH_MAX], self[PATH_MAX], cmd[8 * PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "guidestroy") != NULL);
     e2e_join(scene, sizeof scene, dir, "scene.txt");
@@ -309,11 +313,8 @@ static void test_window_destroyed_from_outside(void)
  * 60 s later is killed (status 137: the test fails, nothing is left running). */
 static void test_window_stopped_by_signal(void)
 {
-    if (!preview_window_built())
-        harness_skip("built without freeglut (apt-get install libglut-dev, rebuild)");
     char xvfb[PATH_MAX];
-    if (!find_xvfb_run(xvfb, sizeof xvfb))
-        harness_skip("xvfb-run not found (apt-get install xvfb xauth)");
+    need_window_and_xvfb(xvfb, sizeof xvfb);
     char dir[PATH_MAX], scene[PATH_MAX], cmd[8 * PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "guisignal") != NULL);
     e2e_join(scene, sizeof scene, dir, "scene.txt");
