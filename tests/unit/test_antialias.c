@@ -1011,6 +1011,92 @@ static void test_film_samples_with_weights(void)
     fixture_close(&fx);
 }
 
+/* A scene given as text (no course folder needed), without a grid. */
+static bool fixture_open_text(Fixture *fx, const char *text)
+{
+    memset(fx, 0, sizeof *fx);
+    Diag d;
+    diag_init(&d, NULL);
+    fx->scene = scene_load_string(text, "<test>", NULL, &d);
+    CHECK_MSG(fx->scene != NULL, "%s", d.last);
+    if (!fx->scene)
+        return false;
+    fx->rt.scene = fx->scene;
+    fx->rt.weight = 0.01f;
+    AccelConfig cfg = {.grid_n = {1, 1, 1}};
+    CHECK(prim_table_build(&fx->prims, fx->scene));
+    CHECK(accel_init(&fx->accel, &accel_none_ops, &fx->prims, &cfg, &d));
+    fx->rt.accel = &fx->accel;
+    return true;
+}
+
+/* A sphere of 1 unit in a 5-unit orthographic view, on a bluish background; LIGHT and
+ * AMBIENT are the light's and the ambient colour, DIFFUSE the sphere's. */
+#define AA_SPHERE_SCENE(LIGHT, AMBIENT, DIFFUSE)                                          \
+    "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"             \
+    "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color " LIGHT " } }\n"       \
+    "Background { color 0.2 0.6 1 ambientLight " AMBIENT " }\n"                            \
+    "Materials { numMaterials 1 PhongMaterial { diffuseColor " DIFFUSE " } }\n"            \
+    "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n"
+
+/* Infinite and NaN sample colours through the filter. The first scene's sphere is
+ * infinitely red (1e30 light times 1e30 diffuse overflows the float); the second's
+ * is NaN red where its light falls (inf ambient plus -inf light). A filter reaching
+ * past its support's zero weights (tent 1.5, box 1, Mitchell 2: inf times 0 is NaN)
+ * must not turn the sphere or its surroundings into NaN, which the image writes as
+ * black: no output channel may be NaN, and the first sphere's centre stays
+ * saturated red (above 1), as its one-sample image has it. Every vector path of the
+ * film (film_path_set), one and two threads. Fails without film_finite_colors. */
+static void test_film_nonfinite_samples(void)
+{
+    static const char *const scenes[2] = {
+        AA_SPHERE_SCENE("1e30 1e30 1e30", "0 0 0", "1e30 0 0"),
+        AA_SPHERE_SCENE("-1e30 -1e30 -1e30", "1e30 1e30 1e30", "1e30 0 0")};
+    Sampler uni, jit;
+    make_sampler(&uni, "uniform", 4, 0);
+    make_sampler(&jit, "jittered", 4, 0);
+    Filter tent, box, mitchell, gauss;
+    char why[160];
+    CHECK(filter_init(&tent, filter_find("tent"), 1.5f, why, sizeof why));
+    CHECK(filter_init(&box, filter_find("box"), 1.0f, why, sizeof why));
+    CHECK(filter_init(&mitchell, filter_find("mitchell"), 2.0f, why, sizeof why));
+    CHECK(filter_init(&gauss, filter_find("gaussian"), 0.5f, why, sizeof why));
+    struct { const Sampler *s; const Filter *f; } cases[] = {
+        {&uni, &tent}, {&uni, &box}, {&jit, &mitchell}, {&jit, &tent}, {&uni, &gauss}};
+    const int W = 20, H = 20;
+    for (int sc = 0; sc < 2; sc++) {
+        Fixture fx;
+        if (!fixture_open_text(&fx, scenes[sc]))
+            return;
+        for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++)
+            for (int cap = 0; cap <= 2; cap++)
+                for (int depth = 0; depth < 2; depth++) {
+                    Image color, dimg;
+                    film_path_set(cap);
+                    render_rect(&fx, cases[c].s, cases[c].f, NULL, W, H, 0, 0, W, H, 0,
+                                1 + depth, &color, depth ? &dimg : NULL);
+                    film_path_set(2);
+                    int nan = 0;
+                    for (int y = 0; y < H; y++)
+                        for (int x = 0; x < W; x++) {
+                            Vec3 p = image_get(&color, x, y);
+                            nan += isnan(p.x) || isnan(p.y) || isnan(p.z);
+                        }
+                    CHECK_MSG(nan == 0, "scene %d, case %d, path %d, depth %d: %d NaN pixels",
+                              sc, c, cap, depth, nan);
+                    if (sc == 0)
+                        CHECK_MSG(image_get(&color, W / 2, H / 2).x > 1.0f,
+                                  "case %d, path %d, depth %d: the infinite sphere's centre "
+                                  "is %g red", c, cap, depth,
+                                  (double)image_get(&color, W / 2, H / 2).x);
+                    image_free(&color);
+                    if (depth)
+                        image_free(&dimg);
+                }
+        fixture_close(&fx);
+    }
+}
+
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
@@ -1038,6 +1124,7 @@ static const TestCase tests[] = {
     {"film: progress counts every traced pixel once", test_film_progress},
     {"film: samples picture with weights from the scratch == the box's",
      test_film_samples_with_weights},
+    {"film: infinite and NaN sample colours make no NaN pixels", test_film_nonfinite_samples},
 };
 
 RT_TEST_MAIN(tests)
