@@ -1337,16 +1337,76 @@ __attribute__((target("avx2"))) static void film_span_sums2_avx2(const Film *f, 
 #define FILM_HAVE_PAIRS 1
 #endif
 
+/* Pixel (i, j) of the rectangle when no sample of its support got a non-zero weight (a
+ * box, tent or Mitchell narrower than the gaps between the samples, or a Gaussian whose
+ * weights all underflow to 0: sigma 0.02 with uniform 4): the colour (and depth grey,
+ * |normal|) of the support's sample nearest the pixel's centre, the first of the
+ * nearest in the sums' order (columns, rows, samples), distances from the exact
+ * offsets (a - i) + position - 0.5 in double. That is the limit the weighted average
+ * tends to as the Gaussian narrows, and a box or tent too narrow to catch a sample
+ * asks for the colour at the centre. Before, such pixels were black: half the pixels
+ * of a 40 x 40 jittered 4 render with the box 0.2, the whole image of a uniform 4
+ * render with the box 0.1 or the Gaussian 0.02. The positions are asked of the
+ * sampler again (a pixel's are a function of pixel, index and seed; a refined pixel,
+ * with the refining sampler's larger count, of that sampler's): the planes of a
+ * separable filter do not keep them (film_tile). Pixels with weight keep their bytes. */
+static void film_put_unweighted(const Film *f, int i, int j)
+{
+    const FilmConfig *c = f->cfg;
+    int R = f->R;
+    int a0 = i - R > 0 ? i - R : 0, a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
+    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    size_t cs = f->cs;
+    const float *best = NULL;
+    double best_d2 = 0.0;
+    float xy[2 * SAMPLER_MAX_COUNT];
+    for (int a = a0; a <= a1; a++)
+        for (int b = b0; b <= b1; b++) {
+            int n = *film_count(f, a, b);
+            const Sampler *smp = c->refine && n == c->refine->count ? c->refine : c->sampler;
+            if (n != smp->count) /* (never: a pixel holds one sampler's samples) */
+                continue;
+            sampler_pixel(smp, a, b, xy);
+            for (int s = 0; s < n; s++) {
+                double dx = (double)(a - i) + (double)xy[2 * s] - 0.5;
+                double dy = (double)(b - j) + (double)xy[2 * s + 1] - 0.5;
+                double d2 = dx * dx + dy * dy;
+                if (!best || d2 < best_d2) {
+                    best = film_sample(f, a, b, s);
+                    best_d2 = d2;
+                }
+            }
+        }
+    int x = i - c->x0, y = j - c->y0;
+    if (!best) { /* (never: every pixel of the support holds its samples) */
+        if (c->color)
+            image_put(c->color, x, y, v3(0, 0, 0));
+        return;
+    }
+    if (c->color)
+        image_put(c->color, x, y, v3(best[2 * cs], best[3 * cs], best[4 * cs]));
+    /* depth and normals are stored only pixel by pixel (cs = 1: channels side by side) */
+    if (c->depth && f->off_depth >= 0) {
+        const float *e = best + f->off_depth;
+        image_put(c->depth, x, y, v3(e[0], e[1], e[2]));
+    }
+    if (c->normals && f->off_normal >= 0) {
+        const float *e = best + f->off_normal;
+        image_put(c->normals, x, y, v3(e[0], e[1], e[2]));
+    }
+}
+
 #ifdef FILM_HAVE_AVX2
 /* film_put_sums' quotients eight pixels at a time (vdivps: correctly rounded, as the
  * scalar divisions); returns the first pixel not done. (A 16-sample Gaussian render
  * puts every pixel through here; its 24 scalar divisions per eight pixels were 9.5M of
  * the filter's instructions at 400x400.) */
-__attribute__((target("avx2"))) static int film_put_sums8(const FilmConfig *c, int j, int p0,
+__attribute__((target("avx2"))) static int film_put_sums8(const Film *f, int j, int p0,
                                                          int m, const float *sr,
                                                          const float *sg, const float *sb,
                                                          const float *sw)
 {
+    const FilmConfig *c = f->cfg;
     int q = 0;
     for (; q + 8 <= m; q += 8) {
         __m256 w = _mm256_loadu_ps(sw + q);
@@ -1355,15 +1415,17 @@ __attribute__((target("avx2"))) static int film_put_sums8(const FilmConfig *c, i
         _mm256_storeu_ps(qg, _mm256_div_ps(_mm256_loadu_ps(sg + q), w));
         _mm256_storeu_ps(qb, _mm256_div_ps(_mm256_loadu_ps(sb + q), w));
         for (int k = 0; k < 8; k++)
-            image_put(c->color, p0 + q + k - c->x0, j - c->y0,
-                      sw[q + k] != 0.0f ? v3(qr[k], qg[k], qb[k]) : v3(0, 0, 0));
+            if (sw[q + k] != 0.0f)
+                image_put(c->color, p0 + q + k - c->x0, j - c->y0, v3(qr[k], qg[k], qb[k]));
+            else
+                film_put_unweighted(f, p0 + q + k, j);
     }
     return q;
 }
 #endif
 
-/* Output pixels p0 .. p0+m-1 of row j from their sums: colour over weight (black where
- * no weight reached the pixel). */
+/* Output pixels p0 .. p0+m-1 of row j from their sums: colour over weight (where no
+ * weight reached the pixel, film_put_unweighted). */
 static void film_put_sums(const Film *f, int j, int p0, int m, const float *sr,
                           const float *sg, const float *sb, const float *sw)
 {
@@ -1373,12 +1435,14 @@ static void film_put_sums(const Film *f, int j, int p0, int m, const float *sr,
     int q = 0;
 #ifdef FILM_HAVE_AVX2
     if (f->avx2)
-        q = film_put_sums8(c, j, p0, m, sr, sg, sb, sw);
+        q = film_put_sums8(f, j, p0, m, sr, sg, sb, sw);
 #endif
     for (; q < m; q++) {
         float w = sw[q];
-        image_put(c->color, p0 + q - c->x0, j - c->y0,
-                  w != 0.0f ? v3(sr[q] / w, sg[q] / w, sb[q] / w) : v3(0, 0, 0));
+        if (w != 0.0f)
+            image_put(c->color, p0 + q - c->x0, j - c->y0, v3(sr[q] / w, sg[q] / w, sb[q] / w));
+        else
+            film_put_unweighted(f, p0 + q, j);
     }
 }
 
@@ -1501,8 +1565,11 @@ static int film_filter_own(const Film *f, int j, int i0, int i1)
         if (c->color)
             for (int k = 0; k < FILM_OWN; k++) {
                 float w = sw[k];
-                image_put(c->color, i + k - c->x0, j - c->y0,
-                          w != 0.0f ? v3(sr[k] / w, sg[k] / w, sb[k] / w) : v3(0, 0, 0));
+                if (w != 0.0f)
+                    image_put(c->color, i + k - c->x0, j - c->y0,
+                              v3(sr[k] / w, sg[k] / w, sb[k] / w));
+                else
+                    film_put_unweighted(f, i + k, j);
             }
     }
     return i;
@@ -1582,16 +1649,18 @@ __attribute__((target("avx2"))) static int film_filter_own8(const Film *f, int j
             sw = _mm256_add_ps(sw, w);
         }
         if (c->color) {
-            /* colour over weight, correctly rounded as the scalar divisions; black
-             * where no weight reached the pixel */
+            /* colour over weight, correctly rounded as the scalar divisions;
+             * film_put_unweighted where no weight reached the pixel */
             float qr[8], qg[8], qb[8], ws[8];
             _mm256_storeu_ps(qr, _mm256_div_ps(sr, sw));
             _mm256_storeu_ps(qg, _mm256_div_ps(sg, sw));
             _mm256_storeu_ps(qb, _mm256_div_ps(sb, sw));
             _mm256_storeu_ps(ws, sw);
             for (int q = 0; q < 8; q++)
-                image_put(c->color, i + q - c->x0, j - c->y0,
-                          ws[q] != 0.0f ? v3(qr[q], qg[q], qb[q]) : v3(0, 0, 0));
+                if (ws[q] != 0.0f)
+                    image_put(c->color, i + q - c->x0, j - c->y0, v3(qr[q], qg[q], qb[q]));
+                else
+                    film_put_unweighted(f, i + q, j);
         }
     }
     return i;
@@ -1701,17 +1770,18 @@ static void film_filter_line(const Film *f, int j, bool span)
                 }
             }
         int x = i - c->x0, y = j - c->y0;
-        /* No weight at all (a filter whose support misses every sample): black. */
-        Vec3 zero = v3(0, 0, 0);
+        /* No weight at all (a filter whose support misses every sample): the nearest
+         * sample's values. */
+        if (wsum == 0.0f) {
+            film_put_unweighted(f, i, j);
+            continue;
+        }
         if (c->color)
-            image_put(c->color, x, y,
-                      wsum != 0.0f ? v3(sum.x / wsum, sum.y / wsum, sum.z / wsum) : zero);
+            image_put(c->color, x, y, v3(sum.x / wsum, sum.y / wsum, sum.z / wsum));
         if (c->depth)
-            image_put(c->depth, x, y,
-                      wsum != 0.0f ? v3(sum_d.x / wsum, sum_d.y / wsum, sum_d.z / wsum) : zero);
+            image_put(c->depth, x, y, v3(sum_d.x / wsum, sum_d.y / wsum, sum_d.z / wsum));
         if (c->normals)
-            image_put(c->normals, x, y,
-                      wsum != 0.0f ? v3(sum_n.x / wsum, sum_n.y / wsum, sum_n.z / wsum) : zero);
+            image_put(c->normals, x, y, v3(sum_n.x / wsum, sum_n.y / wsum, sum_n.z / wsum));
     }
 }
 

@@ -1097,6 +1097,82 @@ static void test_film_nonfinite_samples(void)
     }
 }
 
+/* Filters narrower than the gaps between the samples: no sample of a pixel's support
+ * has a non-zero weight (box 0.1 or Gaussian 0.02 with uniform 4: every pixel; box 0.2
+ * with jittered 4, Mitchell 0.4 with random 3: about half; the tent 0.6, R = 1, with
+ * random 2: the pixels whose samples and neighbours' all lie 0.6 or more from the
+ * centre; tent 0.1 with adaptive refinement). (A separable filter with R >= 1 always
+ * weighs its own pixel's samples: its reach is over 0.5.) Such a pixel takes its
+ * support's nearest sample, never black
+ * (the scene has no black: a lit red sphere on a light blue background); the same
+ * bytes on every path of the film, with one or two threads, with a depth image (the
+ * general loop) and in a rectangle. Fails with the old black pixels. */
+static void test_film_unweighted_pixels(void)
+{
+    Fixture fx;
+    if (!fixture_open_text(&fx, AA_SPHERE_SCENE("0.8 0.8 0.8", "0.2 0.2 0.2", "1 0 0")))
+        return;
+    Sampler uni4, uni16, jit4, rnd3, rnd2, ada;
+    make_sampler(&uni4, "uniform", 4, 0);
+    make_sampler(&uni16, "uniform", 16, 0);
+    make_sampler(&jit4, "jittered", 4, 1);
+    make_sampler(&rnd3, "random", 3, 2);
+    make_sampler(&rnd2, "random", 2, 3);
+    make_sampler(&ada, "jittered", 16, 1);
+    ada.stream = 1;
+    Filter box1, box2, g02, g03, m4, tent6, tent1;
+    char why[160];
+    CHECK(filter_init(&box1, filter_find("box"), 0.1f, why, sizeof why));
+    CHECK(filter_init(&box2, filter_find("box"), 0.2f, why, sizeof why));
+    CHECK(filter_init(&g02, filter_find("gaussian"), 0.02f, why, sizeof why));
+    CHECK(filter_init(&g03, filter_find("gaussian"), 0.03f, why, sizeof why));
+    CHECK(filter_init(&m4, filter_find("mitchell"), 0.4f, why, sizeof why));
+    CHECK(filter_init(&tent6, filter_find("tent"), 0.6f, why, sizeof why));
+    CHECK(filter_init(&tent1, filter_find("tent"), 0.1f, why, sizeof why));
+    CHECK(tent6.support == 1);
+    struct { const Sampler *s; const Filter *f; const Sampler *refine; } cases[] = {
+        {&uni4, &box1, NULL}, {&uni4, &g02, NULL}, {&jit4, &box2, NULL},
+        {&rnd3, &m4, NULL},   {&rnd2, &tent6, NULL},  {&jit4, &tent1, &ada},
+        {&uni16, &g03, NULL}, {&jit4, &g03, NULL}};
+    const int W = 23, H = 17;
+    for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
+        Image ref, with_d, depth;
+        render_rect(&fx, cases[c].s, cases[c].f, cases[c].refine, W, H, 0, 0, W, H, 0, 2,
+                    &ref, NULL);
+        int black = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                Vec3 p = image_get(&ref, x, y);
+                black += p.x == 0.0f && p.y == 0.0f && p.z == 0.0f;
+            }
+        CHECK_MSG(black == 0, "case %d: %d black pixels", c, black);
+        render_rect(&fx, cases[c].s, cases[c].f, cases[c].refine, W, H, 0, 0, W, H, 0, 1,
+                    &with_d, &depth);
+        CHECK_MSG(same_pixels(&with_d, &ref, 0, 0),
+                  "case %d: with a depth image (the general loop) the colour differs", c);
+        for (int cap = 0; cap <= 1; cap++) {
+            Image narrow;
+            film_path_set(cap);
+            render_rect(&fx, cases[c].s, cases[c].f, cases[c].refine, W, H, 0, 0, W, H, 0, 1,
+                        &narrow, NULL);
+            film_path_set(2);
+            CHECK_MSG(same_pixels(&narrow, &ref, 0, 0),
+                      "case %d: the film's path %d differs from its widest", c, cap);
+            image_free(&narrow);
+        }
+        Image part;
+        render_rect(&fx, cases[c].s, cases[c].f, cases[c].refine, W, H, 3, 2, 15, 11, 1, 1,
+                    &part, NULL);
+        CHECK_MSG(same_pixels(&part, &ref, 3, 2), "case %d: a rectangle differs from the crop",
+                  c);
+        image_free(&part);
+        image_free(&ref);
+        image_free(&with_d);
+        image_free(&depth);
+    }
+    fixture_close(&fx);
+}
+
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
@@ -1125,6 +1201,8 @@ static const TestCase tests[] = {
     {"film: samples picture with weights from the scratch == the box's",
      test_film_samples_with_weights},
     {"film: infinite and NaN sample colours make no NaN pixels", test_film_nonfinite_samples},
+    {"film: a pixel no weight reaches takes its nearest sample, on every path",
+     test_film_unweighted_pixels},
 };
 
 RT_TEST_MAIN(tests)
