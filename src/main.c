@@ -45,8 +45,10 @@ static void on_stop_signal(int sig)
 {
     g_cancel = sig;
     if (image_write_abort()) {
-        static const char msg[] = "raytracer: interrupted; no image written\n";
-        ssize_t w = write(STDERR_FILENO, msg, sizeof msg - 1);
+        static const char msg[] = ": interrupted; no image written\n";
+        const char *name = diag_program();
+        ssize_t w = write(STDERR_FILENO, name, strlen(name));
+        w = write(STDERR_FILENO, msg, sizeof msg - 1);
         (void)w;
         _exit(128 + sig);
     }
@@ -90,7 +92,7 @@ static void print_version(void)
         snprintf(gui, sizeof gui, "no (%s)", preview_remedy(true));
     if (!preview_snapshot_built())
         snprintf(snap, sizeof snap, "no (%s)", preview_remedy(false));
-    printf("raytracer %s\n", RT_VERSION);
+    printf("%s %s\n", diag_program(), RT_VERSION);
     printf("features: png %s, gui window %s, gui snapshot (osmesa) %s\n",
            image_format_supported("png") ? "yes" : "no (apt-get install libpng-dev; rebuild)",
            gui, snap);
@@ -694,7 +696,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         goto done; /* the preview stopped it (q, a moved camera): nothing to write */
     if (g_cancel) {
         if (dist_is_root())
-            fprintf(stderr, "raytracer: interrupted; no image written\n");
+            fprintf(stderr, "%s: interrupted; no image written\n", diag_program());
         status = interrupted_status();
         goto done;
     }
@@ -735,7 +737,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
     if (g_cancel) {
         /* The signal came while the images were being renamed into place: they are
          * complete, but the run was asked to stop. */
-        fprintf(stderr, "raytracer: interrupted after the images were written\n");
+        fprintf(stderr, "%s: interrupted after the images were written\n", diag_program());
         status = interrupted_status();
         goto done;
     }
@@ -962,8 +964,8 @@ static int run(App *app)
      * -grid, no grid); the user is told once. */
     if (!o->grid && !o->accel && !o->quiet && dist_is_root() &&
         s->num_primitives > HINT_PRIMITIVES)
-        fprintf(stderr, "raytracer: hint: %u primitives and no -grid: add -grid auto (same "
-                "image, much faster)\n", (unsigned)s->num_primitives);
+        fprintf(stderr, "%s: hint: %u primitives and no -grid: add -grid auto (same "
+                "image, much faster)\n", diag_program(), (unsigned)s->num_primitives);
     app->rt.accel = &app->accel;
 
     if ((o->gui || o->gui_snapshot || o->samples_file) && dist_size() > 1) {
@@ -993,7 +995,7 @@ static int run(App *app)
         int status = preview_snapshot(&cfg, &app->diag);
         if (status == 0 && g_cancel) {
             /* The signal came while the snapshot was being renamed into place. */
-            fprintf(stderr, "raytracer: interrupted after the images were written\n");
+            fprintf(stderr, "%s: interrupted after the images were written\n", diag_program());
             status = interrupted_status();
         }
         return status;
@@ -1004,6 +1006,7 @@ static int run(App *app)
 
 int main(int argc, char **argv)
 {
+    diag_set_program(dist_program_name);
     /* raytracer -merge out part...: its own small command (README.txt). */
     if (argc >= 2 && strcmp(argv[1], "-merge") == 0) {
         if (!options_check_merge(argc, argv, stderr))

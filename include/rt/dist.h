@@ -10,6 +10,10 @@
 #include "rt/render.h"
 #include "rt/scene.h"
 
+/* The binary's name for its messages, -h and --version ("raytracer" or
+ * "raytracer-mpi"; main passes it to diag_set_program). */
+extern const char dist_program_name[];
+
 /* Starts the job (MPI_Init); false when that failed (a message was printed). */
 bool dist_init(int *argc, char ***argv);
 /* Ends the job; every rank returns the root's status (its exit status). */

@@ -4,6 +4,11 @@
 #include <stdarg.h>
 #include <string.h>
 
+static const char *g_program = "raytracer";
+
+void diag_set_program(const char *name) { g_program = name; }
+const char *diag_program(void) { return g_program; }
+
 void diag_init(Diag *d, FILE *stream)
 {
     memset(d, 0, sizeof *d);
@@ -25,7 +30,7 @@ static void diag_emit(Diag *d, const SrcLoc *loc, const char *kind, const char *
     else if (loc && loc->file)
         snprintf(d->last, sizeof d->last, "%s: %s: %s", loc->file, kind, msg);
     else
-        snprintf(d->last, sizeof d->last, "raytracer: %s: %s", kind, msg);
+        snprintf(d->last, sizeof d->last, "%s: %s: %s", g_program, kind, msg);
     if (d->stream) {
         fprintf(d->stream, "%s\n", d->last);
         fflush(d->stream);

@@ -2,6 +2,7 @@
  * followed by its fixed number of arguments; the later of two occurrences wins, like the
  * course loop. Unlike the course (atoi/atof, assert), every value is validated. */
 #include "rt/options.h"
+#include "rt/diag.h"
 #include "rt/filter.h"
 #include "rt/sampler.h"
 #include "rt/accel.h"
@@ -131,6 +132,12 @@ void options_usage(FILE *out)
     /* The image formats are listed from the codec table under -format, the
      * accelerators from their registry under -accel (bash completion reads both). */
     const char *pos = usage_text;
+    /* The synopsis names the binary the user ran (raytracer-mpi takes the same options). */
+    static const char synopsis[] = "usage: raytracer ";
+    if (strncmp(pos, synopsis, sizeof synopsis - 1) == 0) {
+        fprintf(out, "usage: %s ", diag_program());
+        pos += sizeof synopsis - 1;
+    }
     if (usage_through(out, &pos, "the formats and their extensions:")) {
         const ImageCodec *c;
         for (int i = 0; (c = image_codec_at(i)) != NULL; i++) {
@@ -227,11 +234,14 @@ static bool usage_error(Cursor *c, const char *fmt, ...) __attribute__((format(p
 static bool usage_error(Cursor *c, const char *fmt, ...)
 {
     va_list ap;
-    fputs("raytracer: ", c->err);
+    fprintf(c->err, "%s: ", diag_program());
     va_start(ap, fmt);
     vfprintf(c->err, fmt, ap);
     va_end(ap);
-    fputs(c->hinted ? "\n" : " (raytracer -h for help)\n", c->err);
+    if (c->hinted)
+        fputs("\n", c->err);
+    else
+        fprintf(c->err, " (%s -h for help)\n", diag_program());
     return false;
 }
 
@@ -467,7 +477,7 @@ bool options_check_merge(int argc, char **argv, FILE *err)
             return usage_error(&c, "-merge takes only the output and the parts, not %s (give "
                                "the render options to the renders of the parts)", argv[i]);
     if (argc < 4)
-        return usage_error(&c, "usage: raytracer -merge out.tga part...");
+        return usage_error(&c, "usage: %s -merge out.tga part...", diag_program());
     const char *out = argv[2];
     for (int i = 3; i < argc; i++)
         if (!strcmp(argv[i], out) || file_same(argv[i], out)) {
@@ -702,7 +712,8 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             o->region = false;
             tile_given = true;
         } else if (!strcmp(a, "-merge")) {
-            return usage_error(&c, "-merge must come first: raytracer -merge out.tga part...");
+            return usage_error(&c, "-merge must come first: %s -merge out.tga part...",
+                               diag_program());
         } else if (!strcmp(a, "-h") || !strcmp(a, "--help") || !strcmp(a, "-help")) {
             o->help = true;
         } else if (!strcmp(a, "--version") || !strcmp(a, "-version")) {
@@ -852,8 +863,8 @@ void options_warn(const Options *o, int cores, FILE *err)
         bool given[3] = {o->gui_keys != NULL, o->tessellation_given, o->gouraud};
         for (int i = 0; i < 3; i++)
             if (given[i])
-                fprintf(err, "raytracer: warning: %s has no effect without -gui or "
-                        "-gui_snapshot\n", preview_only[i]);
+                fprintf(err, "%s: warning: %s has no effect without -gui or "
+                        "-gui_snapshot\n", diag_program(), preview_only[i]);
     }
     /* Options that change nothing in this run: said, as a typo or a wrong assumption
      * (the seed of a uniform lattice, packets without a grid) would otherwise pass
@@ -862,19 +873,19 @@ void options_warn(const Options *o, int cores, FILE *err)
      * twolevel). */
     bool random = o->adaptive || (o->sampler && strcmp(o->sampler, "uniform") != 0);
     if (o->seed_given && !random)
-        fprintf(err, "raytracer: warning: -seed has no effect without a random sampler "
+        fprintf(err, "%s: warning: -seed has no effect without a random sampler "
                 "(-jittered_samples, -random_samples, -nrooks_samples, -poisson_samples, "
-                "-adaptive_samples)\n");
+                "-adaptive_samples)\n", diag_program());
     bool any_grid = o->grid || (o->accel && strcmp(o->accel, "none") != 0); /* grid, twolevel */
     if (o->no_packets && !o->grid)
-        fprintf(err, "raytracer: warning: -no_packets has no effect without -grid (only the "
-                "grid traces rays in packets)\n");
+        fprintf(err, "%s: warning: -no_packets has no effect without -grid (only the "
+                "grid traces rays in packets)\n", diag_program());
     if (o->no_marking && !any_grid)
-        fprintf(err, "raytracer: warning: -no_marking has no effect without a grid (-grid, "
-                "or -accel grid or twolevel)\n");
+        fprintf(err, "%s: warning: -no_marking has no effect without a grid (-grid, "
+                "or -accel grid or twolevel)\n", diag_program());
     /* A few threads more than cores can even out uneven rows; many more only cost. */
     if (o->threads > 4 * cores && o->threads > cores + 8)
-        fprintf(err, "raytracer: warning: -threads %d on %d core%s: the extra threads only "
-                "wait their turn (the image is the same)\n", o->threads, cores,
+        fprintf(err, "%s: warning: -threads %d on %d core%s: the extra threads only "
+                "wait their turn (the image is the same)\n", diag_program(), o->threads, cores,
                 cores == 1 ? "" : "s");
 }

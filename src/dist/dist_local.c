@@ -3,6 +3,8 @@
 
 #include <string.h>
 
+const char dist_program_name[] = "raytracer";
+
 bool dist_init(int *argc, char ***argv)
 {
     (void)argc;

@@ -260,6 +260,8 @@ static bool root_bcast(void *p, uint64_t count, MPI_Datatype type, size_t elem, 
     return true;
 }
 
+const char dist_program_name[] = "raytracer-mpi";
+
 bool dist_init(int *argc, char ***argv)
 {
     int env_rank = env_count("OMPI_COMM_WORLD_RANK");

@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "rt/diag.h"
 #include "draw.h"
 #include "rt/render.h"
 #include "view.h"
@@ -44,7 +45,7 @@ static int snapshot_stopped(const Snapshot *s)
 {
     int sig = s->cfg->stop ? *s->cfg->stop : 0;
     if (sig)
-        fprintf(stderr, "raytracer: interrupted; no image written\n");
+        fprintf(stderr, "%s: interrupted; no image written\n", diag_program());
     return sig ? 128 + sig : 0;
 }
 

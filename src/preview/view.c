@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#include "rt/diag.h"
 #include "rt/matrix.h"
 #include "rt/grid.h"
 #include "rt/image.h"
@@ -338,9 +339,9 @@ bool preview_view_apply(PreviewView *v, const KeyCmd *cmd, int w, int h, bool *o
                 if (t->dropped > 0)
                     snprintf(more, sizeof more, "; %d more ray%s not drawn", t->dropped,
                              t->dropped == 1 ? " was" : "s were");
-                fprintf(stderr, "raytracer: warning: the ray tree of pixel (%d, %d) is cut at "
+                fprintf(stderr, "%s: warning: the ray tree of pixel (%d, %d) is cut at "
                         "%d segments (the most kept): its deeper reflected and refracted rays "
-                        "were not traced%s\n", i, j, t->num_segments, more);
+                        "were not traced%s\n", diag_program(), i, j, t->num_segments, more);
             }
         }
         return true;

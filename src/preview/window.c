@@ -12,6 +12,7 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
+#include "rt/diag.h"
 #include "draw.h"
 #include "rt/render.h"
 #include "view.h"
@@ -81,7 +82,7 @@ static void *render_thread(void *arg)
     if (!render_image(W.cfg->tracer, &W.render_camera, &target, W.cfg->threads, NULL,
                       render_row_done, NULL, &W.cancel)) {
         if (!W.cancel) {
-            fprintf(stderr, "raytracer: could not start the render (out of memory?)\n");
+            fprintf(stderr, "%s: could not start the render (out of memory?)\n", diag_program());
             status = 1;
         }
     } else if (W.cfg->render && !W.cancel) {
@@ -230,7 +231,7 @@ static int on_x_error(Display *dpy, XErrorEvent *e)
 {
     (void)dpy;
     if (!W.destroyed)
-        fprintf(stderr, "raytracer: X error %d (request %d)\n", e->error_code,
+        fprintf(stderr, "%s: X error %d (request %d)\n", diag_program(), e->error_code,
                 e->request_code);
     return 0;
 }
@@ -240,7 +241,7 @@ static void watch_window(int value)
     (void)value;
     XEvent ev;
     if (W.watch && XCheckTypedWindowEvent(W.watch, W.xwin, DestroyNotify, &ev)) {
-        fprintf(stderr, "raytracer: the preview window was destroyed; quitting\n");
+        fprintf(stderr, "%s: the preview window was destroyed; quitting\n", diag_program());
         W.destroyed = 1;
         quit();
         return;
@@ -298,7 +299,7 @@ static void keyboard(unsigned char key, int x, int y)
     bool ok;
     preview_view_apply(&W.view, &cmd, W.w, W.h, &ok);
     if (!ok)
-        fprintf(stderr, "raytracer: out of memory tracing the ray tree\n");
+        fprintf(stderr, "%s: out of memory tracing the ray tree\n", diag_program());
     glutPostRedisplay();
 }
 
@@ -352,7 +353,7 @@ static void script_step(int value)
         if (cmd->kind != KEYCMD_CAMERA)
             drop_traced();
         if (!ok) {
-            fprintf(stderr, "raytracer: out of memory tracing the ray tree\n");
+            fprintf(stderr, "%s: out of memory tracing the ray tree\n", diag_program());
             W.status = 1;
         }
         glutPostRedisplay();
@@ -485,7 +486,7 @@ int preview_run_window(const PreviewConfig *cfg, Diag *diag)
     preview_view_free(&W.view);
     preview_keys_free(&W.script);
     if (W.stopped) {
-        fprintf(stderr, "raytracer: interrupted; the preview closed\n");
+        fprintf(stderr, "%s: interrupted; the preview closed\n", diag_program());
         return 128 + W.stopped;
     }
     return W.status;

@@ -5,6 +5,7 @@
  * are skipped, unless RT_REQUIRE_MPI=1 (CI), which makes a missing build a failure. */
 #define _POSIX_C_SOURCE 200809L
 #include "../harness.h"
+#include <ctype.h>
 #include "e2e_util.h"
 
 static char g_mpirun[PATH_MAX];
@@ -236,7 +237,8 @@ static void test_mpi_scene_error(void)
         add(&c, out);
         st = run(&c, &r);
         CHECK_MSG(st == 1, "run %d at -np 4: exit %d, expected 1", i, st);
-        CHECK_MSG(count(r.err, "bad.txt:4:") == 1 && !strstr(r.err, "raytracer-mpi:"),
+        CHECK_MSG(count(r.err, "bad.txt:4:") == 1 &&
+                  !strstr(r.err, "raytracer-mpi: the job was aborted"),
                   "run %d at -np 4: stderr:\n%s", i, r.err);
         e2e_run_free(&r);
     }
@@ -520,6 +522,49 @@ static void test_mpi_env_mismatch(void)
     e2e_rmtree(dir);
 }
 
+/* raytracer-mpi names itself, not ./raytracer: --version's first line, -h's synopsis,
+ * a usage error and its hint, and -merge's usage (checked before MPI starts). The name
+ * is the binary's own (dist_program_name), so a path in argv[0] changes nothing. */
+static void test_mpi_names_itself(void)
+{
+    const char *mpi = mpi_or_skip();
+    Cmd c;
+    E2eRun r;
+    mpirun_prefix(&c, "1");
+    add(&c, mpi);
+    add(&c, "--version");
+    CHECK_INT(run(&c, &r), 0);
+    CHECK_MSG(strncmp(r.out, "raytracer-mpi ", 14) == 0 && isdigit((unsigned char)r.out[14]),
+              "--version:\n%s", r.out);
+    e2e_run_free(&r);
+    mpirun_prefix(&c, "1");
+    add(&c, mpi);
+    add(&c, "-h");
+    CHECK_INT(run(&c, &r), 0);
+    static const char synopsis[] = "usage: raytracer-mpi -input scene.txt [options]\n";
+    CHECK_MSG(strncmp(r.out, synopsis, sizeof synopsis - 1) == 0,
+              "-h:\n%.200s", r.out);
+    e2e_run_free(&r);
+    mpirun_prefix(&c, "2");
+    add(&c, mpi);
+    add(&c, "-bogus");
+    CHECK_INT(run(&c, &r), 2);
+    /* its first line (mpirun adds its own about the non-zero exit) */
+    static const char usage[] = "raytracer-mpi: unknown option '-bogus' (raytracer-mpi -h "
+                                "for help)\n";
+    CHECK_MSG(strncmp(r.err, usage, sizeof usage - 1) == 0, "usage error:\n%s", r.err);
+    e2e_run_free(&r);
+    c.n = 0;
+    add(&c, mpi);
+    add(&c, "-merge");
+    add(&c, "out.tga");
+    CHECK_INT(run(&c, &r), 2);
+    static const char merge[] = "raytracer-mpi: usage: raytracer-mpi -merge ";
+    CHECK_MSG(strncmp(r.err, merge, sizeof merge - 1) == 0,
+              "-merge usage:\n%s", r.err);
+    e2e_run_free(&r);
+}
+
 static const TestCase tests[] = {
     {"mpi_03d", test_mpi_03d},
     {"mpi_11b", test_mpi_11b},
@@ -533,5 +578,6 @@ static const TestCase tests[] = {
     {"mpi_singleton_early_signal", test_mpi_singleton_early_signal},
     {"mpi_sigint_to_mpirun", test_mpi_sigint_to_mpirun},
     {"mpi_env_mismatch", test_mpi_env_mismatch},
+    {"mpi_names_itself", test_mpi_names_itself},
 };
 RT_TEST_MAIN(tests)
