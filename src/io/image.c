@@ -318,6 +318,58 @@ static const ImageCodec *codec_for_writing(const char *path, const char *format,
     return codec;
 }
 
+static bool check_target(const char *path, const char *target, bool exists,
+                         const struct stat *st, const char *format, Diag *diag);
+
+/* Where a write to path must land so that a symbolic link stays a link: path itself
+ * when it is not a link (or does not exist); else the file the chain of links ends at,
+ * existing or not (a dangling link's target is created), as a malloc'd name. The
+ * temporary file is made beside that name and renamed onto it: renaming onto the link
+ * would replace the link with a regular file. NULL with *err set (ENOMEM, ELOOP, a
+ * readlink error). */
+static char *link_target(const char *path, int *err)
+{
+    char *cur = strdup(path);
+    /* Linux gives up after 40 links in one lookup (ELOOP): the same bound here. */
+    for (int hops = 0; cur; hops++) {
+        struct stat lst;
+        if (lstat(cur, &lst) != 0 || !S_ISLNK(lst.st_mode))
+            return cur;
+        if (hops == 40) {
+            free(cur);
+            *err = ELOOP;
+            return NULL;
+        }
+        /* An existing target by its canonical name (what the rename will replace). */
+        char *real = realpath(cur, NULL);
+        if (real) {
+            free(cur);
+            return real;
+        }
+        /* Dangling: follow the link one step. A relative link is read from the folder
+         * holding it: "<that folder>/<link text>", the kernel resolving the rest. */
+        char text[PATH_MAX];
+        ssize_t n = readlink(cur, text, sizeof text - 1);
+        if (n < 0) {
+            *err = errno;
+            free(cur);
+            return NULL;
+        }
+        text[n] = '\0';
+        const char *slash = strrchr(cur, '/');
+        size_t dirlen = text[0] == '/' || !slash ? 0 : (size_t)(slash - cur) + 1;
+        char *next = malloc(dirlen + (size_t)n + 1);
+        if (next) {
+            memcpy(next, cur, dirlen);
+            memcpy(next + dirlen, text, (size_t)n + 1);
+        }
+        free(cur);
+        cur = next;
+    }
+    *err = ENOMEM;
+    return NULL;
+}
+
 bool image_check_output(const char *path, const char *format, Diag *diag)
 {
     struct stat st;
@@ -336,7 +388,25 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
         return true;
     }
     bool exists = stat(path, &st) == 0;
-    if (exists && S_ISDIR(st.st_mode)) {
+    /* stat follows links; the folder checks below concern where the file will be made:
+     * beside a link's final target (link_target), not beside the link. */
+    int e = 0;
+    char *target = link_target(path, &e);
+    if (!target) {
+        report(diag, path, "cannot write image: ", strerror(e));
+        return false;
+    }
+    bool ok = check_target(path, target, exists, &st, format, diag);
+    free(target);
+    return ok;
+}
+
+/* image_check_output for a file: target is where it will be made (link_target); st
+ * path's stat when it exists. */
+static bool check_target(const char *path, const char *target, bool exists,
+                         const struct stat *st, const char *format, Diag *diag)
+{
+    if (exists && S_ISDIR(st->st_mode)) {
         report(diag, path, "cannot write image: ", "it is a folder");
         return false;
     }
@@ -344,7 +414,7 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
         return false;
     if (exists) {
         /* A pipe or a device is written in place: it must take writes itself. */
-        if (!S_ISREG(st.st_mode)) {
+        if (!S_ISREG(st->st_mode)) {
             if (access(path, W_OK) != 0) {
                 report(diag, path, "cannot write image: ", strerror(errno));
                 return false;
@@ -355,22 +425,24 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
     /* A file (new or replaced) is made in its folder and renamed: the folder must exist
      * and take new files, and its name fit in a folder (else the write failed only
      * after the render). */
-    const char *slash = strrchr(path, '/');
-    if (strlen(slash ? slash + 1 : path) > NAME_MAX) {
+    const char *slash = strrchr(target, '/');
+    if (strlen(slash ? slash + 1 : target) > NAME_MAX) {
         report(diag, path, "cannot write image: ", strerror(ENAMETOOLONG));
         return false;
     }
-    char *dir = slash ? strndup(path, slash == path ? 1 : (size_t)(slash - path)) : strdup(".");
+    char *dir = slash ? strndup(target, slash == target ? 1 : (size_t)(slash - target))
+                      : strdup(".");
     if (!dir) {
         report(diag, path, "cannot write image: ", strerror(ENOMEM));
         return false;
     }
     bool ok = true;
     char why[64 + PATH_MAX];
-    if (stat(dir, &st) != 0) {
+    struct stat dst;
+    if (stat(dir, &dst) != 0) {
         snprintf(why, sizeof why, "folder '%s': %s", dir, strerror(errno));
         ok = false;
-    } else if (!S_ISDIR(st.st_mode)) {
+    } else if (!S_ISDIR(dst.st_mode)) {
         snprintf(why, sizeof why, "'%s' is not a folder", dir);
         ok = false;
     } else if (access(dir, W_OK | X_OK) != 0) {
@@ -520,18 +592,16 @@ void image_encoding_flush_rows(ImageEncoding *e, int y_lo, int y_hi, const uint8
  * link stays a link. */
 static bool plan(Pending *p, Diag *diag)
 {
-    struct stat st, lst;
+    struct stat st;
     if (is_stdout(p->path) ||
         (stat(p->path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))) {
         p->direct = true;
         return true;
     }
-    if (lstat(p->path, &lst) == 0 && S_ISLNK(lst.st_mode))
-        p->target = realpath(p->path, NULL);
-    if (!p->target)
-        p->target = strdup(p->path);
+    int e = 0;
+    p->target = link_target(p->path, &e);
     if (!p->target) {
-        report(diag, p->path, "cannot write image: ", strerror(ENOMEM));
+        report(diag, p->path, "cannot write image: ", strerror(e));
         return false;
     }
     return true;

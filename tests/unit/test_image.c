@@ -581,6 +581,95 @@ static void test_write_devices_and_links(void)
     remove_tree(dir);
 }
 
+/* A dangling symbolic link (its target does not exist yet) is written through too: the
+ * target is created beside the link's text, the temporary file made in the target's
+ * folder, and the link stays a link (it was replaced by a regular file). Also along a
+ * chain of links, for a streamed output, and on the failure paths (a target folder that
+ * does not exist, a write that fails midway): nothing created, the link unchanged. */
+static void test_write_dangling_links(void)
+{
+    Image img;
+    make_small(&img);
+    Diag diag;
+    diag_init(&diag, NULL);
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    char a[128], b[128], link[192], chain[192], mid[192], streamed[192], lost[192];
+    char real[192], real2[192], real3[192];
+    snprintf(a, sizeof a, "%s/a", dir);
+    snprintf(b, sizeof b, "%s/b", dir);
+    CHECK(mkdir(a, 0755) == 0 && mkdir(b, 0755) == 0);
+    snprintf(link, sizeof link, "%s/link.tga", a);
+    snprintf(chain, sizeof chain, "%s/chain.tga", a);
+    snprintf(mid, sizeof mid, "%s/mid.tga", a);
+    snprintf(streamed, sizeof streamed, "%s/streamed.tga", a);
+    snprintf(lost, sizeof lost, "%s/lost.tga", a);
+    snprintf(real, sizeof real, "%s/real.tga", b);
+    snprintf(real2, sizeof real2, "%s/real2.tga", b);
+    snprintf(real3, sizeof real3, "%s/real3.tga", b);
+    CHECK(symlink("../b/real.tga", link) == 0);
+    CHECK(symlink("mid.tga", chain) == 0);
+    CHECK(symlink("../b/real2.tga", mid) == 0);
+    CHECK(symlink("../b/real3.tga", streamed) == 0);
+    CHECK(symlink("../missing/x.tga", lost) == 0);
+    struct stat st;
+
+    CHECK_MSG(image_check_output(link, NULL, &diag), "%s", diag.last);
+    CHECK_MSG(image_write(&img, link, &diag), "%s", diag.last);
+    CHECK(lstat(link, &st) == 0 && S_ISLNK(st.st_mode));
+    CHECK(stat(real, &st) == 0 && S_ISREG(st.st_mode) && st.st_size == 18 + 18);
+
+    CHECK_MSG(image_check_output(chain, NULL, &diag), "%s", diag.last);
+    CHECK_MSG(image_write(&img, chain, &diag), "%s", diag.last);
+    CHECK(lstat(chain, &st) == 0 && S_ISLNK(st.st_mode));
+    CHECK(lstat(mid, &st) == 0 && S_ISLNK(st.st_mode));
+    CHECK(stat(real2, &st) == 0 && S_ISREG(st.st_mode) && st.st_size == 18 + 18);
+
+    /* streamed: the temporary file sits in b, beside the target */
+    ImageEncoding e;
+    CHECK(image_encoding_begin(&e, &img, streamed, NULL));
+    CHECK(image_encoding_stream(&e, streamed));
+    CHECK_INT(count_entries(b), 3);
+    for (int y = 0; y < img.height; y++)
+        image_encoding_row(&e, &img, y);
+    image_encoding_flush(&e, 0, img.height - 1);
+    ImageOutput out = {&img, streamed, NULL, &e};
+    CHECK_MSG(image_write_all(&out, 1, &diag), "%s", diag.last);
+    image_encoding_free(&e);
+    CHECK(lstat(streamed, &st) == 0 && S_ISLNK(st.st_mode));
+    CHECK(stat(real3, &st) == 0 && S_ISREG(st.st_mode) && st.st_size == 18 + 18);
+    CHECK_INT(count_entries(a), 5);
+    CHECK_INT(count_entries(b), 3);
+
+    /* the target's folder is missing: refused before any work, and by the write */
+    CHECK(!image_check_output(lost, NULL, &diag));
+    CHECK_CONTAINS(diag.last, "missing");
+    CHECK(!image_write(&img, lost, &diag));
+    CHECK(lstat(lost, &st) == 0 && S_ISLNK(st.st_mode));
+
+    /* a write failing midway (a file size limit): no target, no temporary file */
+    unlink(real);
+    signal(SIGXFSZ, SIG_IGN);
+    struct rlimit old_lim, lim;
+    CHECK(getrlimit(RLIMIT_FSIZE, &old_lim) == 0);
+    lim = old_lim;
+    lim.rlim_cur = 20;
+    CHECK(setrlimit(RLIMIT_FSIZE, &lim) == 0);
+    CHECK(!image_write(&img, link, &diag));
+    setrlimit(RLIMIT_FSIZE, &old_lim);
+    CHECK_CONTAINS(diag.last, "File too large");
+    CHECK(lstat(link, &st) == 0 && S_ISLNK(st.st_mode));
+    CHECK_INT(count_entries(a), 5);
+    CHECK_INT(count_entries(b), 2);
+
+    image_free(&img);
+    remove_tree(a);
+    remove_tree(b);
+    remove_tree(dir);
+}
+
 static void test_image_init_bounds(void)
 {
     Image img;
@@ -1130,6 +1219,7 @@ static const TestCase tests[] = {
     {"image: failed write leaves nothing", test_write_failure_leaves_nothing},
     {"image: unwritable folder", test_write_unwritable_folder},
     {"image: devices written into, links followed", test_write_devices_and_links},
+    {"image: a dangling link is written through (target created)", test_write_dangling_links},
     {"image: init bounds, fill, free", test_image_init_bounds},
     {"image: a byte image writes the float image's files", test_byte_image_same_files},
     {"image_compare: figures on hand-made images", test_compare_figures},
