@@ -467,6 +467,23 @@ static bool is_option_name(const char *a)
     return false;
 }
 
+/* An image file's name must end in a format's extension (the file's format): a name
+ * that does not is refused here, as a usage error before any work, naming the
+ * extensions this build writes. "-" (standard output, -format's) passes, and so does a
+ * folder: image_check_output says "it is a folder", the better message. */
+static bool check_image_name(Cursor *c, const char *flag, const char *path)
+{
+    struct stat st;
+    if (!path || !strcmp(path, IMAGE_STDOUT) || image_codec_for_path(path) ||
+        (stat(path, &st) == 0 && S_ISDIR(st.st_mode)))
+        return true;
+    char list[128];
+    image_format_list(list, sizeof list);
+    c->hinted = true;
+    return usage_error(c, "option %s: unknown image format '%s': the file name must end in "
+                       "one of %s", flag, path, list);
+}
+
 bool options_check_merge(int argc, char **argv, FILE *err)
 {
     Cursor c = {argc, 1, argv, err, 1, 0, false};
@@ -479,6 +496,8 @@ bool options_check_merge(int argc, char **argv, FILE *err)
     if (argc < 4)
         return usage_error(&c, "usage: %s -merge out.tga part...", diag_program());
     const char *out = argv[2];
+    if (!check_image_name(&c, "-merge", out))
+        return false;
     for (int i = 3; i < argc; i++)
         if (!strcmp(argv[i], out) || file_same(argv[i], out)) {
             c.hinted = true;
@@ -790,6 +809,9 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
     if (to_stdout && o->gui)
         return usage_error(&c, "-gui prints on standard output (the c key): an image "
                            "cannot go there too (-output -)");
+    for (int i = 0; i < 6; i++)
+        if (!check_image_name(&c, names[i], files[i]))
+            return false;
     if (o->format && o->output && strcmp(o->output, IMAGE_STDOUT) != 0) {
         const ImageCodec *codec = image_codec_for_path(o->output);
         if (codec != image_codec_find(o->format))

@@ -315,7 +315,9 @@ static void test_warnings_and_hint(void)
 
 /* Output problems are found before the scene is opened: with a scene file that does
  * not exist, the only message is the output's (opening the scene first would report
- * the scene). */
+ * the scene). A name without an image extension is a usage error (2: it was 1, an
+ * input/output error, for a problem found in the command line alone), the others are
+ * output errors (1). */
 static void test_outputs_checked_first(void)
 {
     Paths p;
@@ -326,13 +328,16 @@ static void test_outputs_checked_first(void)
     e2e_join(jpg, sizeof jpg, p.dir, "a.jpg");
     struct {
         const char *flag, *path, *want;
+        int status;
     } cases[] = {
-        {"-output", jpg, "unknown image format"},
-        {"-output", in_missing_dir, "No such file or directory"},
-        {"-output", p.dir, "it is a folder"},
-        {"-depth", in_missing_dir, "No such file or directory"},
-        {"-normals", jpg, "unknown image format"},
-        {"-gui_snapshot", jpg, "unknown image format"},
+        {"-output", jpg, "unknown image format", 2},
+        {"-output", in_missing_dir, "No such file or directory", 1},
+        {"-output", p.dir, "it is a folder", 1},
+        {"-depth", in_missing_dir, "No such file or directory", 1},
+        {"-depth", jpg, "unknown image format", 2},
+        {"-normals", jpg, "unknown image format", 2},
+        {"-gui_snapshot", jpg, "unknown image format", 2},
+        {"-render_filter", jpg, "unknown image format", 2},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         const char *args[10];
@@ -345,10 +350,13 @@ static void test_outputs_checked_first(void)
             args[n++] = "2";
         }
         args[n++] = cases[i].path;
+        if (!strcmp(cases[i].flag, "-render_filter"))
+            args[n++] = "2";
         args[n] = NULL;
         E2eRun r;
         CHECK(e2e_run_bin(harness_bin(), args, &r));
-        CHECK_MSG(r.status == 1, "%s %s: exit %d", cases[i].flag, cases[i].path, r.status);
+        CHECK_MSG(r.status == cases[i].status, "%s %s: exit %d, expected %d", cases[i].flag,
+                  cases[i].path, r.status, cases[i].status);
         CHECK_CONTAINS(r.err, cases[i].want);
         CHECK_MSG(!strstr(r.err, "scene"), "%s %s: the scene was opened: %s", cases[i].flag,
                   cases[i].path, r.err);
@@ -358,8 +366,17 @@ static void test_outputs_checked_first(void)
     const char *args[] = {"-input", p.scene, "-output", p.out, "-normals", jpg, NULL};
     E2eRun r;
     CHECK(e2e_run_bin(harness_bin(), args, &r));
-    CHECK_INT(r.status, 1);
-    CHECK_CONTAINS(r.err, "a.jpg: error: unknown image format");
+    CHECK_INT(r.status, 2);
+    CHECK_CONTAINS(r.err, "raytracer: option -normals: unknown image format '");
+    CHECK_CONTAINS(r.err, "a.jpg': the file name must end in one of .tga, .ppm");
+    CHECK_MSG(strchr(r.err, '\n') == r.err + r.err_len - 1, "more than one line: %s", r.err);
+    e2e_run_free(&r);
+    CHECK_INT(e2e_count_entries(p.dir), 0);
+    /* -merge's output likewise (the parts are read by their contents, not named). */
+    const char *merge[] = {"-merge", jpg, p.scene, NULL};
+    CHECK(e2e_run_bin(harness_bin(), merge, &r));
+    CHECK_INT(r.status, 2);
+    CHECK_CONTAINS(r.err, "raytracer: option -merge: unknown image format '");
     CHECK_MSG(strchr(r.err, '\n') == r.err + r.err_len - 1, "more than one line: %s", r.err);
     e2e_run_free(&r);
     CHECK_INT(e2e_count_entries(p.dir), 0);
