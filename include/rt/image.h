@@ -101,6 +101,11 @@ bool image_write(const Image *img, const char *path, Diag *diag);
 /* The file name that means standard output (-output -). */
 #define IMAGE_STDOUT "-"
 
+/* True when path names the null device (/dev/null, or a link to it): an image written
+ * there is discarded (-output /dev/null times a render without keeping it). Its name
+ * needs no extension: TGA bytes are written into it, in place, like into any device. */
+bool image_is_null_device(const char *path);
+
 /* Before any work: whether image_write_all could write path in format (a codec's name;
  * NULL: by the extension, TGA for standard output), judged without writing: the format
  * is one this build writes, a file's extension names that format, and path is no

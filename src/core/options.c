@@ -51,7 +51,8 @@ static const char usage_text[] =
         "Input and output\n"
         "  -input file              the scene file (required; - reads standard input)\n"
         "  -output file             shaded image, in the format its extension names (see\n"
-        "                           -format); - writes standard output\n"
+        "                           -format); - writes standard output, /dev/null discards\n"
+        "                           it (timing a render)\n"
         "  -format name             the format of an image written to standard output\n"
         "                           (default tga); the formats and their extensions:\n"
         "  -size w h                image size in pixels (default 100 100)\n"
@@ -469,13 +470,14 @@ static bool is_option_name(const char *a)
 
 /* An image file's name must end in a format's extension (the file's format): a name
  * that does not is refused here, as a usage error before any work, naming the
- * extensions this build writes. "-" (standard output, -format's) passes, and so does a
- * folder: image_check_output says "it is a folder", the better message. */
+ * extensions this build writes. "-" (standard output, -format's) and the null device
+ * (-output /dev/null: render, keep nothing) pass, and so does a folder:
+ * image_check_output says "it is a folder", the better message. */
 static bool check_image_name(Cursor *c, const char *flag, const char *path)
 {
     struct stat st;
     if (!path || !strcmp(path, IMAGE_STDOUT) || image_codec_for_path(path) ||
-        (stat(path, &st) == 0 && S_ISDIR(st.st_mode)))
+        image_is_null_device(path) || (stat(path, &st) == 0 && S_ISDIR(st.st_mode)))
         return true;
     char list[128];
     image_format_list(list, sizeof list);

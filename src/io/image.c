@@ -276,13 +276,24 @@ static bool write_direct(const Pending *p, Diag *diag)
     return ok;
 }
 
+bool image_is_null_device(const char *path)
+{
+    struct stat st, null;
+    return !is_stdout(path) && stat(path, &st) == 0 && S_ISCHR(st.st_mode) &&
+           stat("/dev/null", &null) == 0 && S_ISCHR(null.st_mode) &&
+           st.st_rdev == null.st_rdev;
+}
+
 /* The codec that writes path in format (NULL: by its extension; TGA for standard
- * output), or NULL with the reason reported. */
+ * output and for the null device when its name has no extension), or NULL with the
+ * reason reported. */
 static const ImageCodec *codec_for_writing(const char *path, const char *format, Diag *diag)
 {
     const ImageCodec *codec = format ? image_codec_find(format)
                               : is_stdout(path) ? image_codec_find("tga")
                                                 : image_codec_for_path(path);
+    if (!codec && !format && image_is_null_device(path))
+        codec = image_codec_find("tga");
     if (!codec) {
         if (diag) {
             char list[128];

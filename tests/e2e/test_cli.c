@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 #include "../harness.h"
+#include <dirent.h>
 #include "e2e_util.h"
 
 #include <ctype.h>
@@ -509,6 +510,73 @@ static void test_imgdiff_tool(void)
     e2e_rmtree(dir);
 }
 
+/* No temporary file of ours (".null.XXXXXX") in /dev. */
+static int dev_temporaries(void)
+{
+    DIR *d = opendir("/dev");
+    int n = 0;
+    struct dirent *e;
+    while (d && (e = readdir(d)) != NULL)
+        n += strncmp(e->d_name, ".null.", 6) == 0;
+    if (d)
+        closedir(d);
+    return n;
+}
+
+/* -output /dev/null (and the other images, and a link to it, and -merge's output) is
+ * accepted though it has no extension: the render runs, TGA bytes go into the device in
+ * place (no temporary file in /dev), exit 0. It was "unknown image format". Another
+ * device without an extension stays a usage error. */
+static void test_null_device(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    E2eRun r;
+    int before = dev_temporaries();
+    const char *a1[] = {"-input", f.scene, "-output", "/dev/null", "-depth", "9", "11",
+                        "/dev/null", "-normals", "/dev/null", "-size", "16", "16", NULL};
+    CHECK_INT(run(a1, &r), 0);
+    CHECK_MSG(r.err_len == 0 && r.out_len == 0, "stdout '%s', stderr '%s'", r.out, r.err);
+    e2e_run_free(&r);
+    const char *a2[] = {"-input", f.scene, "-output", "/dev/null", "-size", "16", "16",
+                        "-jittered_samples", "4", "-gaussian_filter", "1", NULL};
+    CHECK_INT(run(a2, &r), 0);
+    CHECK_MSG(r.err_len == 0, "stderr '%s'", r.err);
+    e2e_run_free(&r);
+    char link[PATH_MAX];
+    e2e_join(link, sizeof link, f.dir, "discard");
+    CHECK(symlink("/dev/null", link) == 0);
+    const char *a3[] = {"-input", f.scene, "-output", link, "-size", "16", "16", NULL};
+    CHECK_INT(run(a3, &r), 0);
+    e2e_run_free(&r);
+    struct stat st;
+    CHECK(lstat(link, &st) == 0 && S_ISLNK(st.st_mode));
+    CHECK(stat("/dev/null", &st) == 0 && S_ISCHR(st.st_mode));
+    /* -merge into it: two halves rendered as parts */
+    char p1[PATH_MAX], p2[PATH_MAX];
+    e2e_join(p1, sizeof p1, f.dir, "p1.tga");
+    e2e_join(p2, sizeof p2, f.dir, "p2.tga");
+    const char *a4[] = {"-input", f.scene, "-size", "16", "16", "-tile", "0", "2", "-output",
+                        p1, NULL};
+    const char *a5[] = {"-input", f.scene, "-size", "16", "16", "-tile", "1", "2", "-output",
+                        p2, NULL};
+    CHECK_INT(run(a4, &r), 0);
+    e2e_run_free(&r);
+    CHECK_INT(run(a5, &r), 0);
+    e2e_run_free(&r);
+    const char *a6[] = {"-merge", "/dev/null", p1, p2, NULL};
+    CHECK_INT(run(a6, &r), 0);
+    CHECK_MSG(r.err_len == 0, "stderr '%s'", r.err);
+    e2e_run_free(&r);
+    CHECK_INT(e2e_count_entries(f.dir), 5); /* scene, bad scene, link, two parts */
+    CHECK_INT(dev_temporaries(), before);
+    const char *a7[] = {"-input", f.scene, "-output", "/dev/zero", NULL};
+    CHECK_INT(run(a7, &r), 2);
+    CHECK_CONTAINS(r.err, "unknown image format '/dev/zero'");
+    e2e_run_free(&r);
+    e2e_rmtree(f.dir);
+}
+
 static const TestCase tests[] = {
     {"cli: -timings prints phase times on stderr", test_timings},
     {"cli: Ctrl-C exits 130 and writes nothing", test_interrupt},
@@ -522,6 +590,7 @@ static const TestCase tests[] = {
     {"cli: unwritable output exits 1, no file", test_unwritable_output},
     {"cli: failed second image leaves no temp file", test_failed_second_image_leaves_no_first},
     {"cli: -stats block on stdout", test_stats_on_stdout},
+    {"cli: -output /dev/null renders and discards", test_null_device},
     {"imgdiff: figures, exit statuses, -o", test_imgdiff_tool},
 };
 
