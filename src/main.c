@@ -93,9 +93,14 @@ static void print_version(void)
     if (!preview_snapshot_built())
         snprintf(snap, sizeof snap, "no (%s)", preview_remedy(false));
     printf("%s %s\n", diag_program(), RT_VERSION);
-    printf("features: png %s, gui window %s, gui snapshot (osmesa) %s\n",
-           image_format_supported("png") ? "yes" : "no (apt-get install libpng-dev; rebuild)",
-           gui, snap);
+    /* PNG's remedy is its codec's: "install libpng-dev ..." or, in a PNG=0 build, that
+     * the build leaves it out on purpose. */
+    char png[160] = "yes";
+    const ImageCodec *png_codec = image_codec_find("png");
+    if (!image_format_supported("png"))
+        snprintf(png, sizeof png, "no (%s)", png_codec && png_codec->missing
+                                                 ? png_codec->missing : "not built in");
+    printf("features: png %s, gui window %s, gui snapshot (osmesa) %s\n", png, gui, snap);
     printf("threads: %d by default (all cores)\n", render_default_threads());
     printf("mpi: %s\n", dist_describe());
 }

@@ -246,6 +246,13 @@ static const char *const png_extensions[] = {".png", NULL};
 const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, NULL, png_decode,
                               NULL};
 #else
-const ImageCodec png_codec = {"png", png_extensions, png_sniff, NULL, NULL, NULL,
-                              "install libpng-dev and rebuild (make PNG=1)"};
+/* Why PNG is missing, for its messages and --version. A PNG=0 build (mk/png.mk defines
+ * RT_PNG_LEFT_OUT) left it out on purpose: telling its user to install libpng-dev, which
+ * may well be installed, would change nothing. Otherwise pkg-config found no libpng. */
+#ifdef RT_PNG_LEFT_OUT
+#define PNG_MISSING "this build leaves it out on purpose, PNG=0: rebuild without PNG=0 (make)"
+#else
+#define PNG_MISSING "install libpng-dev and rebuild (make PNG=1)"
+#endif
+const ImageCodec png_codec = {"png", png_extensions, png_sniff, NULL, NULL, NULL, PNG_MISSING};
 #endif

@@ -100,7 +100,7 @@ static void run_demo(const char *png_answer, const char *ext)
 }
 
 static void test_demo_png(void) { run_demo("yes", "png"); }
-static void test_demo_tga(void) { run_demo("no (apt-get install libpng-dev; rebuild)", "tga"); }
+static void test_demo_tga(void) { run_demo("no (install libpng-dev and rebuild (make PNG=1))", "tga"); }
 
 static const TestCase tests[] = {
     {"demo: PNG when built with libpng, logs, table", test_demo_png},
