@@ -209,6 +209,13 @@ typedef struct ImageCodec {
     /* A format whose library this build lacks has NULL encode and decode, and this
      * says how to get it ("install libpng-dev and rebuild (make PNG=1)"); else NULL. */
     const char *missing;
+    /* NULL, or a look at a file's first bytes (64 KiB, while more follow) before the
+     * rest is read: false with decode's reason when they cannot begin a file decode
+     * takes; else *max_len is the longest file they can begin (what the header declares
+     * and room for what decode ignores after it). image_read stops there, so an endless
+     * input (/dev/zero) is refused at its header instead of after gigabytes. */
+    bool (*header)(const uint8_t *data, size_t len, size_t *max_len, char *err,
+                   size_t errlen);
 } ImageCodec;
 
 /* The i-th codec of the table (0, 1, ...), built in or not; NULL past the last. */

@@ -715,9 +715,30 @@ bool image_write(const Image *img, const char *path, Diag *diag)
  * the memory until the system kills the process. */
 #define IMAGE_READ_MAX_BYTES ((size_t)3 * 32768 * 32768 + ((size_t)64 << 20))
 
-/* Reads a whole file (or standard input); sets err (an errno value) on failure:
- * EFBIG past IMAGE_READ_MAX_BYTES. */
-static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err)
+/* The file's first bytes, checked by their codec's header function when there is one:
+ * false with the reason in why when they cannot begin an image it decodes; else *limit
+ * is lowered to the longest file they can begin. */
+static bool header_ok(const uint8_t *data, size_t len, size_t *limit, char *why,
+                      size_t whylen)
+{
+    const ImageCodec *codec = image_codec_for_data(data, len);
+    size_t max = SIZE_MAX;
+    if (!codec->header || !codec->decode)
+        return true;
+    if (!codec->header(data, len, &max, why, whylen))
+        return false;
+    if (max < *limit)
+        *limit = max;
+    return true;
+}
+
+/* Reads a whole file (or standard input); on failure sets err (an errno value: EFBIG
+ * past IMAGE_READ_MAX_BYTES), or leaves it 0 with the reason in why: the first bytes
+ * are no header of a format it reads, or the file goes on past the length its header
+ * declares. Those are checked as soon as the first 64 KiB are in, so an endless input
+ * (-merge out.tga /dev/zero) is refused at once, not after 3 GiB. */
+static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err, char *why,
+                      size_t whylen)
 {
     /* "-": standard input, through a duplicate so that fclose leaves it open. */
     int in = is_stdout(path) ? dup(STDIN_FILENO) : -1;
@@ -729,13 +750,14 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
         return false;
     }
     struct stat st;
-    if (fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode) &&
-        (uintmax_t)st.st_size > IMAGE_READ_MAX_BYTES) {
+    bool regular = fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode);
+    if (regular && (uintmax_t)st.st_size > IMAGE_READ_MAX_BYTES) {
         fclose(f);
         *err = EFBIG;
         return false;
     }
-    size_t cap = 1 << 16, len = 0;
+    size_t cap = 1 << 16, len = 0, limit = IMAGE_READ_MAX_BYTES;
+    bool checked = false, too_long = false;
     uint8_t *buf = malloc(cap);
     if (!buf) {
         fclose(f);
@@ -745,14 +767,9 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
     for (;;) {
         if (len == cap) {
             /* Never more than the limit and one byte: that byte read means too long. */
-            if (cap > IMAGE_READ_MAX_BYTES) {
-                free(buf);
-                fclose(f);
-                *err = EFBIG;
-                return false;
-            }
-            size_t next = cap * 2 > IMAGE_READ_MAX_BYTES + 1 ? IMAGE_READ_MAX_BYTES + 1
-                                                            : cap * 2;
+            if ((too_long = cap > limit))
+                break;
+            size_t next = cap * 2 > limit + 1 ? limit + 1 : cap * 2;
             uint8_t *nb = realloc(buf, next);
             if (!nb) {
                 free(buf);
@@ -774,8 +791,36 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
             }
             break;
         }
+        /* The first 64 KiB are in and more may follow: the header decides how much
+         * more can belong to the image (a shorter file is read whole and decoded). */
+        if (!checked && len == cap) {
+            checked = true;
+            if (!header_ok(buf, len, &limit, why, whylen)) {
+                free(buf);
+                fclose(f);
+                *err = 0;
+                return false;
+            }
+            /* A regular file's length is known: no need to read it to the limit. */
+            if ((too_long = len > limit || (regular && (uintmax_t)st.st_size > limit)))
+                break;
+        }
     }
     fclose(f);
+    if (too_long) {
+        const ImageCodec *codec = image_codec_for_data(buf, len);
+        char name[16];
+        upper_name(codec, name, sizeof name);
+        free(buf);
+        if (limit == IMAGE_READ_MAX_BYTES) {
+            *err = EFBIG;
+        } else {
+            *err = 0;
+            snprintf(why, whylen, "the file goes on past the %zu bytes its %s header "
+                     "allows", limit, name);
+        }
+        return false;
+    }
     *out = buf;
     *out_len = len;
     return true;
@@ -790,8 +835,9 @@ bool image_read(Image *img, const char *path, Diag *diag)
     bool ok;
 
     memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
-    if (!read_file(path, &data, &len, &e)) {
-        report(diag, is_stdout(path) ? "<stdin>" : path, "cannot read image: ", strerror(e));
+    if (!read_file(path, &data, &len, &e, why, sizeof why)) {
+        report(diag, is_stdout(path) ? "<stdin>" : path, "cannot read image: ",
+               e ? strerror(e) : why);
         return false;
     }
     const ImageCodec *codec = image_codec_for_data(data, len);

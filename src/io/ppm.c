@@ -146,4 +146,4 @@ static bool ppm_sniff(const uint8_t *d, size_t len)
 static const char *const ppm_extensions[] = {".ppm", NULL};
 
 const ImageCodec ppm_codec = {"ppm", ppm_extensions, ppm_sniff, ppm_encode, ppm_layout, ppm_decode,
-                              NULL};
+                              NULL, NULL};

@@ -78,9 +78,11 @@ static bool tga_header_plausible(const uint8_t *d)
     return cmap_type <= 1 && type_ok && bpp_ok && (desc & 0xc0) == 0;
 }
 
-static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+/* The header's checks (what decode refuses before looking at pixels); *need: the
+ * bytes the header declares (header, ID field, pixels). */
+static bool tga_check_header(const uint8_t *d, size_t len, size_t *need, char *err,
+                             size_t errlen)
 {
-    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
     if (len < TGA_HEADER)
         return codec_fail(err, errlen, "not a TGA image (nor PPM or PNG): only %zu bytes", len);
     if (!tga_header_plausible(d))
@@ -88,7 +90,7 @@ static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size
                           "no image header");
     unsigned id_len = d[0], cmap_type = d[1], type = d[2];
     int w = d[12] | (d[13] << 8), h = d[14] | (d[15] << 8);
-    unsigned bpp = d[16], desc = d[17];
+    unsigned bpp = d[16];
 
     if (type == 10 || type == 11 || type == 9)
         return codec_fail(err, errlen, "RLE-compressed TGA (type %u) is not supported; "
@@ -103,9 +105,38 @@ static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size
         return codec_fail(err, errlen, "unsupported TGA depth of %u bits (only 24 or 32)", bpp);
     if (w == 0 || h == 0)
         return codec_fail(err, errlen, "TGA image has zero size (%dx%d)", w, h);
+    *need = TGA_HEADER + (size_t)id_len + (size_t)w * (size_t)h * (bpp / 8);
+    return true;
+}
+
+/* What may follow the pixels and decode ignores: TGA 2.0's developer and extension
+ * areas and its footer. The developer area has no size limit of its own; 64 MiB is
+ * the room image_read's own limit leaves above the largest image. */
+#define TGA_TRAILER_ROOM ((size_t)64 << 20)
+
+/* image_read's early look (ImageCodec.header): an all-zero header (/dev/zero) is type
+ * 0, "no image data", refused at once; a good one bounds the file's length. */
+static bool tga_header(const uint8_t *d, size_t len, size_t *max_len, char *err,
+                       size_t errlen)
+{
+    size_t need = 0;
+    if (!tga_check_header(d, len, &need, err, errlen))
+        return false;
+    *max_len = need + TGA_TRAILER_ROOM;
+    return true;
+}
+
+static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+{
+    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
+    size_t need = 0;
+    if (!tga_check_header(d, len, &need, err, errlen))
+        return false;
+    unsigned id_len = d[0];
+    int w = d[12] | (d[13] << 8), h = d[14] | (d[15] << 8);
+    unsigned bpp = d[16], desc = d[17];
 
     size_t bytes = bpp / 8;
-    size_t need = TGA_HEADER + (size_t)id_len + (size_t)w * (size_t)h * bytes;
     if (len < need)
         return codec_fail(err, errlen, "truncated TGA file: %dx%d needs %zu bytes, file has %zu",
                     w, h, need, len);
@@ -144,4 +175,4 @@ static const char *const tga_extensions[] = {".tga", NULL};
 
 /* No signature: TGA is what image_read assumes when no other format's matched. */
 const ImageCodec tga_codec = {"tga", tga_extensions, NULL, tga_encode, tga_layout, tga_decode,
-                              NULL};
+                              NULL, tga_header};

@@ -6,6 +6,7 @@
 
 #include <dirent.h>
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -808,6 +809,84 @@ static void test_read_too_long(void)
 /* A file name of 248-255 bytes is valid (NAME_MAX 255) but its temporary, ".NAME.XXXXXX",
  * was 8 bytes too long: the write failed with "File name too long" (after the whole
  * render). Written now, under its own name, with no temporary file left. */
+/* The writer of test_read_header_first: zeros into the FIFO until the reader goes
+ * (EPIPE) or 8 MiB are written; how many it wrote. */
+typedef struct ZeroWriter {
+    const char *fifo;
+    size_t written;
+} ZeroWriter;
+
+static void *zero_writer(void *arg)
+{
+    ZeroWriter *z = arg;
+    int fd = open(z->fifo, O_WRONLY);
+    static const uint8_t zeros[4096];
+    while (fd >= 0 && z->written < ((size_t)8 << 20)) {
+        ssize_t w = write(fd, zeros, sizeof zeros);
+        if (w <= 0)
+            break;
+        z->written += (size_t)w;
+    }
+    if (fd >= 0)
+        close(fd);
+    return NULL;
+}
+
+/* An input whose header no writer of ours makes is refused at its header, not after
+ * reading it to the end or to the 3 GiB limit (cli27: -merge out.tga /dev/zero read
+ * 3 GiB, 14 s, first). A FIFO fed zeros: the reader stops after its first 64 KiB, so
+ * the writer meets EPIPE long before its 8 MiB (without the check it wrote them all and
+ * the reader decoded them). And a regular file longer than its header allows (a 10x10
+ * TGA and 200 MiB after it, sparse) is refused without being read; one with a short
+ * trailer (TGA 2.0's footer) still reads. */
+static void test_read_header_first(void)
+{
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    if (!dir)
+        return;
+    char fifo[256], path[256];
+    snprintf(fifo, sizeof fifo, "%s/zeros", dir);
+    snprintf(path, sizeof path, "%s/long.tga", dir);
+    CHECK(mkfifo(fifo, 0600) == 0);
+    signal(SIGPIPE, SIG_IGN);
+    ZeroWriter z = {fifo, 0};
+    pthread_t t;
+    CHECK(pthread_create(&t, NULL, zero_writer, &z) == 0);
+    Image img;
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK(!image_read(&img, fifo, &d));
+    pthread_join(t, NULL);
+    CHECK_CONTAINS(d.last, "cannot read image: unsupported TGA image type 0");
+    CHECK_MSG(z.written < ((size_t)8 << 20), "the reader took all %zu bytes", z.written);
+    unlink(fifo);
+
+    Image small;
+    make_small(&small);
+    CHECK(image_write(&small, path, &d));
+    int fd = open(path, O_WRONLY);
+    CHECK(fd >= 0);
+    /* a 26-byte trailer: read as before */
+    static const uint8_t footer[26] = {0};
+    CHECK(fd >= 0 && lseek(fd, 0, SEEK_END) > 0 && write(fd, footer, sizeof footer) == 26);
+    CHECK_MSG(image_read(&img, path, &d), "%s", d.last);
+    image_free(&img);
+    bool sized = fd >= 0 && ftruncate(fd, (off_t)200 << 20) == 0;
+    if (fd >= 0)
+        close(fd);
+    CHECK(sized);
+    CHECK(!image_read(&img, path, &d));
+    CHECK_CONTAINS(d.last, "cannot read image: the file goes on past the ");
+    CHECK_CONTAINS(d.last, " bytes its TGA header allows");
+    struct rusage ru;
+    CHECK(getrusage(RUSAGE_SELF, &ru) == 0);
+    CHECK_MSG(ru.ru_maxrss < 128 * 1024, "peak memory %ld KB after reading it", ru.ru_maxrss);
+    image_free(&small);
+    unlink(path);
+    rmdir(dir);
+}
+
 static void test_write_longest_name(void)
 {
     char *dir = make_tmpdir();
@@ -1213,6 +1292,7 @@ static const TestCase tests[] = {
     {"image: codec table: names, extensions, signatures", test_codec_table},
     {"image: PNG declaring a 1 GB chunk refused in little memory", test_png_huge_chunk},
     {"image: a file longer than any image refused unread", test_read_too_long},
+    {"image: an input refused at its header, or past its declared length", test_read_header_first},
     {"image: a file name of 255 bytes is written", test_write_longest_name},
     {"image: image_color_to_byte truncates and clamps", test_color_to_byte},
     {"image: TGA bytes of a 3x2 image", test_tga_exact_bytes},
