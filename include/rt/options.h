@@ -55,6 +55,11 @@ typedef struct Options {
     int filter_zoom;
     unsigned long long seed;     /* -seed n: the random samplers' seed (default 0) */
     bool seed_given;             /* -seed was given (options_warn) */
+    /* The sampler and filter options as given, for options_warn: the one in use
+     * (-jittered_samples) and the last other one it replaced (NULL: none). The later of
+     * two wins, said in a warning: a typo'd second sampler would otherwise go unseen. */
+    const char *sampler_flag, *sampler_replaced;
+    const char *filter_flag, *filter_replaced;
     /* -region x y w h / -tile k n: render only this rectangle of the -size image, x y
      * its top-left pixel counted from the image's top-left corner. options_parse turns
      * -tile into the region (options_tile_rows) and checks it lies inside the image. */

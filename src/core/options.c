@@ -468,6 +468,15 @@ static bool is_option_name(const char *a)
     return false;
 }
 
+/* Option flag (a sampler or a filter) takes the place of *current; a different one
+ * already there is remembered in *replaced for options_warn. */
+static void replaced_by(const char **current, const char **replaced, const char *flag)
+{
+    if (*current && strcmp(*current, flag) != 0)
+        *replaced = *current;
+    *current = flag;
+}
+
 /* An image file's name must end in a format's extension (the file's format): a name
  * that does not is refused here, as a usage error before any work, naming the
  * extensions this build writes. "-" (standard output, -format's) and the null device
@@ -661,6 +670,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return usage_error(&c, "option %s: %s", a, why);
             o->sampler = name;
             o->adaptive = false;
+            replaced_by(&o->sampler_flag, &o->sampler_replaced, a);
         } else if (!strcmp(a, "-adaptive_samples")) {
             if (!take_int(&c, a, INT_MIN, INT_MAX, &o->adaptive_min) ||
                 !take_int(&c, a, INT_MIN, INT_MAX, &o->adaptive_max) ||
@@ -681,6 +691,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                                    "of colour channels)", a, (double)o->adaptive_threshold);
             o->adaptive = true;
             o->sampler = NULL;
+            replaced_by(&o->sampler_flag, &o->sampler_replaced, a);
         } else if (!strcmp(a, "-box_filter") || !strcmp(a, "-tent_filter") ||
                    !strcmp(a, "-gaussian_filter") || !strcmp(a, "-mitchell_filter")) {
             char name[16];
@@ -693,6 +704,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (!ops || !filter_init(&probe, ops, o->filter_param, why, sizeof why))
                 return usage_error(&c, "option %s: %s", a, why);
             o->filter = ops->name;
+            replaced_by(&o->filter_flag, &o->filter_replaced, a);
         } else if (!strcmp(a, "-render_samples")) {
             if (!take(&c, a, &o->samples_file) ||
                 !take_int(&c, a, 1, MAX_ZOOM, &o->samples_zoom))
@@ -907,6 +919,15 @@ void options_warn(const Options *o, int cores, FILE *err)
     if (o->no_marking && !any_grid)
         fprintf(err, "%s: warning: -no_marking has no effect without a grid (-grid, "
                 "or -accel grid or twolevel)\n", diag_program());
+    /* Two samplers (or filters): the later wins, as every repeated option does, but a
+     * render with another sampler than meant would pass unseen. */
+    if (o->sampler_replaced)
+        fprintf(err, "%s: warning: %s and %s both choose the sampler: the later, %s, is "
+                "used\n", diag_program(), o->sampler_replaced, o->sampler_flag,
+                o->sampler_flag);
+    if (o->filter_replaced)
+        fprintf(err, "%s: warning: %s and %s both choose the filter: the later, %s, is "
+                "used\n", diag_program(), o->filter_replaced, o->filter_flag, o->filter_flag);
     /* A few threads more than cores can even out uneven rows; many more only cost. */
     if (o->threads > 4 * cores && o->threads > cores + 8)
         fprintf(err, "%s: warning: -threads %d on %d core%s: the extra threads only "

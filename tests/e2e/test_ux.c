@@ -281,6 +281,44 @@ static void test_warnings_and_hint(void)
     CHECK(strstr(r.err, "warning") == NULL);
     e2e_run_free(&r);
 
+    /* Two samplers and two filters: the later of each wins (the same image as with it
+     * alone) and one warning each names both (they passed silently); the same option
+     * twice is the plain repeat rule, no warning. */
+    char alone[PATH_MAX];
+    e2e_join(alone, sizeof alone, p.dir, "alone.tga");
+    const char *t1[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8", "-grid", "auto",
+                        "-uniform_samples", "4", "-jittered_samples", "9", "-box_filter", "1",
+                        "-gaussian_filter", "0.5", NULL};
+    CHECK(e2e_run_bin(harness_bin(), t1, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(strcmp(r.err, "raytracer: warning: -uniform_samples and -jittered_samples both "
+                            "choose the sampler: the later, -jittered_samples, is used\n"
+                            "raytracer: warning: -box_filter and -gaussian_filter both "
+                            "choose the filter: the later, -gaussian_filter, is used\n") == 0,
+              "stderr:\n%s", r.err);
+    e2e_run_free(&r);
+    const char *t2[] = {"-input", p.scene, "-output", alone, "-size", "8", "8",
+                        "-jittered_samples", "9", "-gaussian_filter", "0.5", NULL};
+    CHECK(e2e_run_bin(harness_bin(), t2, &r));
+    CHECK_INT(r.status, 0);
+    e2e_run_free(&r);
+    size_t la = 0, lb = 0;
+    char *da = e2e_read_file(p.out, &la), *db = e2e_read_file(alone, &lb);
+    CHECK_MSG(da && db && la == lb && memcmp(da, db, la) == 0, "the later sampler and filter "
+              "are not the ones used");
+    free(da);
+    free(db);
+    const char *t3[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8", "-grid", "auto",
+                        "-adaptive_samples", "4", "16", "0.1", "-uniform_samples", "4",
+                        "-jittered_samples", "4", "-jittered_samples", "9", "-tent_filter",
+                        "1", "-tent_filter", "2", NULL};
+    CHECK(e2e_run_bin(harness_bin(), t3, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(strcmp(r.err, "raytracer: warning: -uniform_samples and -jittered_samples both "
+                            "choose the sampler: the later, -jittered_samples, is used\n") == 0,
+              "stderr:\n%s", r.err);
+    e2e_run_free(&r);
+
     /* A mesh of 1280 triangles without -grid: one hint; with -grid or -quiet none. */
     char scene[PATH_MAX], model[PATH_MAX], text[PATH_MAX + 512];
     e2e_join(model, sizeof model, harness_root(), "models/icosphere.obj");
