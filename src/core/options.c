@@ -12,6 +12,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <float.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
@@ -360,8 +361,13 @@ static bool take_float(Cursor *c, const char *flag, float *out)
     char *end;
     errno = 0;
     float v = strtof(s, &end);
-    if (end == s || *end != '\0' || errno == ERANGE || !isfinite(v))
+    if (end == s || *end != '\0' || !isfinite(v))
         return usage_error(c, "option %s: %s expects a finite number, got '%s'", flag, name, s);
+    /* ERANGE with a finite result is an underflow: '1e-40' is a finite number, and
+     * "expects a finite number" sent the user looking for a typo. */
+    if (errno == ERANGE)
+        return usage_error(c, "option %s: %s = %s is too close to 0 for a float (the smallest "
+                           "is about %g)", flag, name, s, (double)FLT_MIN);
     *out = v;
     return true;
 }

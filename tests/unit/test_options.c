@@ -103,6 +103,10 @@ static void test_usage_errors(void)
         {"-input s.txt -region 0 0 4 0", "option -region: h = 0 is out of range"},
         {"-input s.txt -tile 0 0", "option -tile: n = 0 is out of range"},
         {"-input s.txt -depth 0 x d.tga", "option -depth: dmax expects a finite number"},
+        /* an underflow is not "not a finite number" */
+        {"-input s.txt -gaussian_filter 1e-40",
+         "option -gaussian_filter: s = 1e-40 is too close to 0 for a float"},
+        {"-input s.txt -weight 1e-300", "option -weight: w = 1e-300 is too close to 0"},
         {"-input s.txt -bounces 2000", "option -bounces: n = 2000 is out of range 0..1000"},
         /* a value that is exactly an option name: the value was left out */
         {"-input s.txt -output -size 10 10", "missing value for -output"},
