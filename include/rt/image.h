@@ -233,7 +233,10 @@ void image_format_list(char *buf, size_t size);
 /* raytracer -merge: reads the n part images (each with a region record), checks that
  * they are parts of one full size, do not overlap and leave no gap, and writes the full
  * image to out (without a region record). Any problem is reported to diag naming the
- * file, and nothing is written. */
-bool image_merge(const char *out, const char *const *parts, int n, Diag *diag);
+ * file, and nothing is written. stop (NULL: none) is polled before each part and
+ * before the write: once it is non-zero the merge returns false, says nothing and
+ * writes nothing (the caller reports the signal that set it). */
+bool image_merge(const char *out, const char *const *parts, int n,
+                 const volatile int *stop, Diag *diag);
 
 #endif

@@ -85,7 +85,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     snprintf(out, sizeof out, "%s/merged.%s", g_dir, out_ext);
     Diag d;
     diag_init(&d, NULL);
-    bool ok = image_merge(out, parts, n, &d);
+    bool ok = image_merge(out, parts, n, NULL, &d);
     if (ok) {
         Image img;
         Diag rd;
