@@ -813,6 +813,20 @@ done:
     return status;
 }
 
+/* A stop signal that came during the set-up (parse, grid build), in one process: true
+ * after saying so. The set-up does not poll the flag itself; it is looked at between
+ * its phases, so a Ctrl-C is obeyed at the end of the phase it came in, not after the
+ * whole set-up and the -cache file's write (a 1M-triangle mesh: 1.7 s, with -cache
+ * 2.0 s after the signal). Under MPI the ranks meet in the scene's broadcast and the
+ * render's farm: a rank that left here alone would leave the others waiting there. */
+static bool stopped_in_setup(void)
+{
+    if (!g_cancel || dist_size() != 1)
+        return false;
+    fprintf(stderr, "raytracer: interrupted; no image written\n");
+    return true;
+}
+
 static int run(App *app)
 {
     const Options *o = &app->opt;
@@ -847,6 +861,8 @@ static int run(App *app)
     app->t_parse = clock_now() - t0;
     if (!app->scene)
         return EXIT_INPUT;
+    if (stopped_in_setup())
+        return interrupted_status();
     /* The output's image and file are made now on the helper, between the grid's
      * parallel steps (prepare_output). */
     prepare_output(app);
@@ -934,6 +950,10 @@ static int run(App *app)
         accel_report(&app->accel, &r);
         fprintf(stderr, "timings: grid auto chose %d x %d x %d cells\n", r.nx, r.ny, r.nz);
     }
+    /* Before the -cache file: a set-up the user stopped is not written for the next
+     * run (97 MB, 2 s here for 1M triangles). */
+    if (stopped_in_setup())
+        return interrupted_status();
     if (app->cache && dist_is_root()) {
         bool dirty = setup_cache_dirty(app->cache);
         char why[512] = "";
