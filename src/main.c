@@ -1087,7 +1087,9 @@ int main(int argc, char **argv)
         return dist_finish(status);
     }
     diag_init(&app.diag, err);
-    options_warn(&app.opt, render_default_threads(), stderr);
+    /* Only the root speaks: under mpirun every rank printed each warning. */
+    if (err)
+        options_warn(&app.opt, render_default_threads(), err);
 
     int status = run(&app);
     prepared_free(&app); /* when the run ended before its render */

@@ -565,6 +565,41 @@ static void test_mpi_names_itself(void)
     e2e_run_free(&r);
 }
 
+/* A warning (an option without effect, two samplers) comes once, from rank 0: every
+ * rank printed it (two ranks: twice). */
+static void test_mpi_warnings_once(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpiwarn") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    Cmd c;
+    mpirun_prefix(&c, "2");
+    add(&c, mpi);
+    add(&c, "-input");
+    add(&c, scene);
+    add(&c, "-size");
+    add(&c, "16");
+    add(&c, "16");
+    add(&c, "-seed");
+    add(&c, "3");
+    add(&c, "-jittered_samples");
+    add(&c, "4");
+    add(&c, "-uniform_samples");
+    add(&c, "4");
+    add(&c, "-output");
+    add(&c, out);
+    E2eRun r;
+    CHECK_INT(run(&c, &r), 0);
+    CHECK_INT(count(r.err, "raytracer-mpi: warning: -seed has no effect"), 1);
+    CHECK_INT(count(r.err, "raytracer-mpi: warning: -jittered_samples and -uniform_samples "
+                           "both choose the sampler"), 1);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"mpi_03d", test_mpi_03d},
     {"mpi_11b", test_mpi_11b},
@@ -579,5 +614,6 @@ static const TestCase tests[] = {
     {"mpi_sigint_to_mpirun", test_mpi_sigint_to_mpirun},
     {"mpi_env_mismatch", test_mpi_env_mismatch},
     {"mpi_names_itself", test_mpi_names_itself},
+    {"mpi_warnings_once", test_mpi_warnings_once},
 };
 RT_TEST_MAIN(tests)
