@@ -26,6 +26,10 @@
 
 /* Bytes of samples held at once by default (strips are sized to fit). */
 #define FILM_DEFAULT_BUDGET ((size_t)8 << 20)
+/* A strip is at least 2R + 1 rows of the rectangle's width, whatever the budget: many
+ * samples on a wide image with a wide filter (3840 wide, 256 samples, the Gaussian 1.0:
+ * 59 MB a row) held 294 MB. Beyond this the rectangle goes in column chunks. */
+#define FILM_STRIP_LIMIT ((size_t)32 << 20)
 
 typedef struct FilmConfig {
     const Sampler *sampler;    /* required */
@@ -50,12 +54,23 @@ typedef struct FilmConfig {
     Image *samples;
     int samples_zoom;
     size_t budget;                    /* 0: FILM_DEFAULT_BUDGET */
+    /* A rectangle whose thinnest strip (2R + 1 rows of its whole traced width) would hold
+     * more than this (0: FILM_STRIP_LIMIT) is rendered in column chunks whose strips fit
+     * it (at least 16 R columns), one after the other, each with its own margin of R
+     * columns. */
+    size_t strip_limit;
+    /* Where column x0 lands in the outputs (color, depth, normals, samples): column
+     * out_x; 0 but inside film_render's column chunks. */
+    int out_x;
     /* NULL, or gets every traced pixel (the rectangle and its filter margin, see
      * film_traced_pixels) and the rays it cast, as each band of rows is traced. */
     Progress *progress;
     /* Out: CPU seconds the calling thread spent tracing and filtering (with one
      * thread, the whole cost of each phase; for -timings and the benchmark). */
     double trace_cpu, filter_cpu;
+    /* Out: the largest sample storage (bytes) held at once (the tests' check of the
+     * budget). */
+    size_t held;
 } FilmConfig;
 
 /* Renders cfg's rectangle with camera on `threads` workers (<= 0: all cores); images
@@ -70,7 +85,8 @@ bool film_render(const RayTracer *rt, const Camera *camera, FilmConfig *cfg,
 void film_path_set(int cap);
 
 /* Pixels film_render traces for cfg's rectangle: the rectangle widened by the filter's
- * support R on each side, cropped at the image border (the progress line's total). */
+ * support R on each side, cropped at the image border, each column chunk's own (the
+ * progress line's total). */
 uint64_t film_traced_pixels(const FilmConfig *cfg);
 
 /* The filter picture (-render_filter file zoom) of a W x H image: out must be allocated

@@ -10,6 +10,7 @@
 #include "rt/scene.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -751,6 +752,95 @@ static void test_film_region_and_budget(void)
     fixture_close(&fx);
 }
 
+/* Column chunks: a rectangle whose thinnest strip (2R + 1 rows of its whole width)
+ * would hold more than strip_limit is rendered chunk after chunk. Without them the
+ * film held 2R + 1 rows of the whole width whatever the budget (3840 wide, 256
+ * samples, the Gaussian 1.0: 294 MB against a budget of 8). Here strip_limit 1 and
+ * budget 1 force chunks of 16 columns (16 R, R = 1: the Gaussian 0.4) against 2R + 1
+ * rows of the whole width: the bytes are those of the one-piece render
+ * (colour and depth; the whole image and a rectangle, whose chunks land at their
+ * column of the outputs), on 1 and 2 threads, adaptive too; the storage held is that
+ * of a chunk's strip (under half the one piece's here); the rays are more by the chunks'
+ * margins; the progress total (film_traced_pixels) is what was traced. */
+static void test_film_column_chunks(void)
+{
+    Fixture fx;
+    if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
+        return;
+    Sampler jit, ada;
+    make_sampler(&jit, "jittered", 9, 0);
+    make_sampler(&ada, "jittered", 16, 0);
+    ada.stream = 1;
+    Filter gauss;
+    char why[160];
+    CHECK(filter_init(&gauss, filter_find("gaussian"), 0.4f, why, sizeof why));
+    FILE *sink = fopen("/dev/null", "w");
+    const int W = 61, H = 47;
+    static const int rects[][4] = {{0, 0, 61, 47}, {13, 5, 40, 30}};
+    for (int r = 0; r < 2 && sink; r++)
+        for (int a = 0; a < 2; a++)
+            for (int threads = 1; threads <= 2; threads++) {
+                Image img[2][2];
+                RtStats st[2];
+                size_t held[2];
+                uint64_t traced[2];
+                for (int chunked = 0; chunked < 2; chunked++) {
+                    CHECK(image_init(&img[chunked][0], rects[r][2], rects[r][3]));
+                    CHECK(image_init(&img[chunked][1], rects[r][2], rects[r][3]));
+                    FilmConfig fc;
+                    memset(&fc, 0, sizeof fc);
+                    fc.sampler = &jit;
+                    fc.filter = &gauss;
+                    fc.refine = a ? &ada : NULL;
+                    fc.threshold = 0.05f;
+                    fc.full_width = W;
+                    fc.full_height = H;
+                    fc.x0 = rects[r][0];
+                    fc.y0 = rects[r][1];
+                    fc.width = rects[r][2];
+                    fc.height = rects[r][3];
+                    fc.color = &img[chunked][0];
+                    fc.depth = &img[chunked][1];
+                    fc.depth_min = 5;
+                    fc.depth_max = 15;
+                    /* the smallest strips both ways: 2R + 1 rows, of the whole width
+                     * (no limit) or of a chunk */
+                    fc.budget = 1;
+                    fc.strip_limit = chunked ? 1 : SIZE_MAX;
+                    traced[chunked] = film_traced_pixels(&fc);
+                    fc.progress = progress_start(PROGRESS_ALWAYS, sink, "rendering",
+                                                 traced[chunked]);
+                    CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, threads, &st[chunked],
+                                      NULL));
+                    CHECK_MSG(progress_done(fc.progress) == traced[chunked],
+                              "rect %d adaptive %d chunked %d: progress %llu of %llu", r, a,
+                              chunked, (unsigned long long)progress_done(fc.progress),
+                              (unsigned long long)traced[chunked]);
+                    progress_finish(fc.progress);
+                    held[chunked] = fc.held;
+                }
+                CHECK_MSG(same_pixels(&img[1][0], &img[0][0], 0, 0) &&
+                              same_pixels(&img[1][1], &img[0][1], 0, 0),
+                          "rect %d adaptive %d threads %d: the chunked render differs", r, a,
+                          threads);
+                CHECK_MSG(held[1] > 0 && held[1] * 2 < held[0],
+                          "rect %d adaptive %d threads %d: %zu bytes held in chunks, %zu in "
+                          "one piece", r, a, threads, held[1], held[0]);
+                CHECK_MSG(st[1].nonshadow_rays > st[0].nonshadow_rays &&
+                              traced[1] > traced[0],
+                          "rect %d adaptive %d: chunks traced no margin (%llu rays, %llu "
+                          "pixels)", r, a, (unsigned long long)st[1].nonshadow_rays,
+                          (unsigned long long)traced[1]);
+                for (int k = 0; k < 2; k++) {
+                    image_free(&img[k][0]);
+                    image_free(&img[k][1]);
+                }
+            }
+    if (sink)
+        fclose(sink);
+    fixture_close(&fx);
+}
+
 /* One worker and no shared rows (R = 0: the box 0.5 with any sampler): the film holds
  * one band of rows at a time, strip after strip; the bytes are those of the one strip
  * that two workers' default budget holds (the whole image here), with and without the
@@ -1193,6 +1283,7 @@ static const TestCase tests[] = {
      test_weights_blocks},
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
+    {"film: column chunks == one piece, holding a chunk's strips", test_film_column_chunks},
     {"film: colour-only vector filter == general loop; any column offset",
      test_film_vector_filter},
     {"film: one worker, R = 0: a strip per band == one strip", test_film_band_strips},
