@@ -300,29 +300,28 @@ static void signal_during_merge(int sig)
 static void test_sigterm_during_merge(void) { signal_during_merge(SIGTERM); }
 static void test_sigint_during_merge(void) { signal_during_merge(SIGINT); }
 
-/* A signal during the set-up, with -cache: the scene's OBJ file is a FIFO, so once the
- * test's open for writing returns, the run is parsing it; the signal comes before the
- * mesh does. Expected: exit 128 + signal, "interrupted; no image written", no image and
- * no cache file: the run stops after the phase the signal came in. Before the fix the
- * set-up went on to its end (grid build, the -cache file written: 2 s for a 1M-triangle
- * mesh) and only the render noticed the signal. */
+/* A signal during the set-up, with -cache: the scene file is a FIFO (its OBJ file a
+ * plain file next to it), so once the test's open for writing returns, the run is
+ * reading the scene; the signal comes before the scene's bytes do. Expected: exit 128 +
+ * signal, "interrupted; no image written", no image and no cache file: the run stops
+ * after the phase the signal came in. Before the fix the set-up went on to its end
+ * (grid build, the -cache file written: 2 s for a 1M-triangle mesh) and only the render
+ * noticed the signal. (Not the OBJ file as the FIFO: with -cache it is opened twice,
+ * its identity looked up first, and a test writing into the first open left the second
+ * waiting for ever.) */
 static void test_sigterm_during_setup(void)
 {
-    char dir[PATH_MAX], fifo[PATH_MAX], scene[PATH_MAX], out[PATH_MAX], cache[PATH_MAX];
+    char dir[PATH_MAX], fifo[PATH_MAX], mesh[PATH_MAX], out[PATH_MAX], cache[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "sigsetup") != NULL);
-    e2e_join(fifo, sizeof fifo, dir, "mesh.obj");
-    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(fifo, sizeof fifo, dir, "scene.txt");
+    e2e_join(mesh, sizeof mesh, dir, "mesh.obj");
     e2e_join(out, sizeof out, dir, "o.tga");
     e2e_join(cache, sizeof cache, dir, "set.cache");
-    CHECK(e2e_write_file(scene,
-                         "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
-                         "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
-                         "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
-                         "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mesh.obj } }\n"));
+    CHECK(e2e_write_file(mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
     CHECK(mkfifo(fifo, 0600) == 0);
     if (harness_failures)
         return;
-    const char *args[] = {harness_bin(), "-input", scene, "-size", "8", "8", "-grid", "auto",
+    const char *args[] = {harness_bin(), "-input", fifo, "-size", "8", "8", "-grid", "auto",
                           "-cache", cache, "-output", out, NULL};
     int errfd = -1;
     pid_t pid = e2e_spawn(args, &errfd);
@@ -333,13 +332,17 @@ static void test_sigterm_during_setup(void)
     int fd = open(fifo, O_WRONLY);
     CHECK(fd >= 0);
     kill(pid, SIGTERM);
-    static const char mesh[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    static const char scene[] =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
+        "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+        "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mesh.obj } }\n";
     if (fd >= 0) {
         struct sigaction ign, old;
         memset(&ign, 0, sizeof ign);
         ign.sa_handler = SIG_IGN;
         sigaction(SIGPIPE, &ign, &old);
-        ssize_t w = write(fd, mesh, sizeof mesh - 1);
+        ssize_t w = write(fd, scene, sizeof scene - 1);
         (void)w;
         close(fd);
         sigaction(SIGPIPE, &old, NULL);
@@ -355,7 +358,7 @@ static void test_sigterm_during_setup(void)
     CHECK_CONTAINS(err, "interrupted; no image written");
     CHECK_MSG(!e2e_exists(out), "an image was written");
     CHECK_MSG(!e2e_exists(cache), "the set-up cache was written after the signal");
-    CHECK_INT(e2e_count_entries(dir), 2); /* the scene and the FIFO */
+    CHECK_INT(e2e_count_entries(dir), 2); /* the FIFO and the OBJ file */
     e2e_rmtree(dir);
 }
 
