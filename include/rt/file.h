@@ -58,4 +58,12 @@ bool file_read_reusable_identified(const char *path, char **out, size_t *len, Fi
  * cannot be looked up (stat). */
 bool file_same(const char *a, const char *b);
 
+/* Where a file written to path by "temporary file, then rename" must be renamed to so
+ * that a symbolic link stays a link: path itself when it is not a link (or does not
+ * exist); else the file the chain of links ends at, existing or not (a dangling link's
+ * target is what gets created), as a malloc'd name. Renaming onto the link itself would
+ * replace it with a regular file. Used by the image outputs and the -cache file. NULL
+ * with *err set (ENOMEM, ELOOP past 40 links, a readlink error). */
+char *file_link_target(const char *path, int *err);
+
 #endif

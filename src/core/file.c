@@ -1,8 +1,10 @@
 /* Whole input files read into memory in one go (the scene file, OBJ files): malloc'd or
- * in an arena buffer, NUL-terminated, big regular files read by two CPUs. */
+ * in an arena buffer, NUL-terminated, big regular files read by two CPUs. Also the
+ * identity of a file and where a write through symbolic links lands. */
 #include "rt/file.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <fcntl.h>
 #include <stdatomic.h>
 #include <stdint.h>
@@ -283,4 +285,47 @@ bool file_same(const char *a, const char *b)
     struct stat sa, sb;
     return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev &&
            sa.st_ino == sb.st_ino;
+}
+
+char *file_link_target(const char *path, int *err)
+{
+    char *cur = strdup(path);
+    /* Linux gives up after 40 links in one lookup (ELOOP): the same bound here. */
+    for (int hops = 0; cur; hops++) {
+        struct stat lst;
+        if (lstat(cur, &lst) != 0 || !S_ISLNK(lst.st_mode))
+            return cur;
+        if (hops == 40) {
+            free(cur);
+            *err = ELOOP;
+            return NULL;
+        }
+        /* An existing target by its canonical name (what the rename will replace). */
+        char *real = realpath(cur, NULL);
+        if (real) {
+            free(cur);
+            return real;
+        }
+        /* Dangling: follow the link one step. A relative link is read from the folder
+         * holding it: "<that folder>/<link text>", the kernel resolving the rest. */
+        char text[PATH_MAX];
+        ssize_t n = readlink(cur, text, sizeof text - 1);
+        if (n < 0) {
+            *err = errno;
+            free(cur);
+            return NULL;
+        }
+        text[n] = '\0';
+        const char *slash = strrchr(cur, '/');
+        size_t dirlen = text[0] == '/' || !slash ? 0 : (size_t)(slash - cur) + 1;
+        char *next = malloc(dirlen + (size_t)n + 1);
+        if (next) {
+            memcpy(next, cur, dirlen);
+            memcpy(next + dirlen, text, (size_t)n + 1);
+        }
+        free(cur);
+        cur = next;
+    }
+    *err = ENOMEM;
+    return NULL;
 }

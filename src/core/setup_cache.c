@@ -8,6 +8,7 @@
  * up to head_sum. */
 #include "rt/setup_cache.h"
 #include "rt/bigmem.h"
+#include "rt/file.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -429,13 +430,22 @@ bool setup_cache_write(SetupCache *c, char *why, size_t why_len)
     memcpy(buf, &h, sizeof h);
 
     /* A private temporary name in the same folder, then rename: readers (and racing
-     * writers of the same content) see one whole file or the other. */
-    size_t tl = strlen(c->path) + 64;
+     * writers of the same content) see one whole file or the other. Through a symbolic
+     * link (existing target or dangling) both go to the link's target, as the image
+     * outputs do: a rename onto the link replaced it with a regular file. */
+    int lerr = 0;
+    char *target = file_link_target(c->path, &lerr);
+    if (!target) {
+        snprintf(why, why_len, "cannot follow the link '%s': %s", c->path, strerror(lerr));
+        bigmem_free(buf);
+        return false;
+    }
+    size_t tl = strlen(target) + 64;
     char *tmp = malloc(tl);
     bool ok = false;
     if (tmp) {
         static atomic_uint serial;
-        snprintf(tmp, tl, "%s.tmp.%ld.%u", c->path, (long)getpid(),
+        snprintf(tmp, tl, "%s.tmp.%ld.%u", target, (long)getpid(),
                  atomic_fetch_add(&serial, 1u));
         int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
         if (fd < 0) {
@@ -449,8 +459,8 @@ bool setup_cache_write(SetupCache *c, char *why, size_t why_len)
             }
             if (!wrote)
                 snprintf(why, why_len, "cannot write '%s': %s", tmp, strerror(err));
-            else if (rename(tmp, c->path) != 0)
-                snprintf(why, why_len, "cannot rename '%s' to '%s': %s", tmp, c->path,
+            else if (rename(tmp, target) != 0)
+                snprintf(why, why_len, "cannot rename '%s' to '%s': %s", tmp, target,
                          strerror(errno));
             else
                 ok = true;
@@ -461,6 +471,7 @@ bool setup_cache_write(SetupCache *c, char *why, size_t why_len)
     } else {
         snprintf(why, why_len, "out of memory");
     }
+    free(target);
     bigmem_free(buf);
     return ok;
 }

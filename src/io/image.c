@@ -4,6 +4,7 @@
 #define _GNU_SOURCE /* fallocate (Linux); otherwise POSIX 2008 */
 #include "rt/image.h"
 #include "rt/bigmem.h"
+#include "rt/file.h"
 #include "codec.h"
 
 #include <ctype.h>
@@ -332,55 +333,6 @@ static const ImageCodec *codec_for_writing(const char *path, const char *format,
 static bool check_target(const char *path, const char *target, bool exists,
                          const struct stat *st, const char *format, Diag *diag);
 
-/* Where a write to path must land so that a symbolic link stays a link: path itself
- * when it is not a link (or does not exist); else the file the chain of links ends at,
- * existing or not (a dangling link's target is created), as a malloc'd name. The
- * temporary file is made beside that name and renamed onto it: renaming onto the link
- * would replace the link with a regular file. NULL with *err set (ENOMEM, ELOOP, a
- * readlink error). */
-static char *link_target(const char *path, int *err)
-{
-    char *cur = strdup(path);
-    /* Linux gives up after 40 links in one lookup (ELOOP): the same bound here. */
-    for (int hops = 0; cur; hops++) {
-        struct stat lst;
-        if (lstat(cur, &lst) != 0 || !S_ISLNK(lst.st_mode))
-            return cur;
-        if (hops == 40) {
-            free(cur);
-            *err = ELOOP;
-            return NULL;
-        }
-        /* An existing target by its canonical name (what the rename will replace). */
-        char *real = realpath(cur, NULL);
-        if (real) {
-            free(cur);
-            return real;
-        }
-        /* Dangling: follow the link one step. A relative link is read from the folder
-         * holding it: "<that folder>/<link text>", the kernel resolving the rest. */
-        char text[PATH_MAX];
-        ssize_t n = readlink(cur, text, sizeof text - 1);
-        if (n < 0) {
-            *err = errno;
-            free(cur);
-            return NULL;
-        }
-        text[n] = '\0';
-        const char *slash = strrchr(cur, '/');
-        size_t dirlen = text[0] == '/' || !slash ? 0 : (size_t)(slash - cur) + 1;
-        char *next = malloc(dirlen + (size_t)n + 1);
-        if (next) {
-            memcpy(next, cur, dirlen);
-            memcpy(next + dirlen, text, (size_t)n + 1);
-        }
-        free(cur);
-        cur = next;
-    }
-    *err = ENOMEM;
-    return NULL;
-}
-
 bool image_check_output(const char *path, const char *format, Diag *diag)
 {
     struct stat st;
@@ -400,9 +352,9 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
     }
     bool exists = stat(path, &st) == 0;
     /* stat follows links; the folder checks below concern where the file will be made:
-     * beside a link's final target (link_target), not beside the link. */
+     * beside a link's final target (file_link_target), not beside the link. */
     int e = 0;
-    char *target = link_target(path, &e);
+    char *target = file_link_target(path, &e);
     if (!target) {
         report(diag, path, "cannot write image: ", strerror(e));
         return false;
@@ -412,7 +364,7 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
     return ok;
 }
 
-/* image_check_output for a file: target is where it will be made (link_target); st
+/* image_check_output for a file: target is where it will be made (file_link_target); st
  * path's stat when it exists. */
 static bool check_target(const char *path, const char *target, bool exists,
                          const struct stat *st, const char *format, Diag *diag)
@@ -610,7 +562,7 @@ static bool plan(Pending *p, Diag *diag)
         return true;
     }
     int e = 0;
-    p->target = link_target(p->path, &e);
+    p->target = file_link_target(p->path, &e);
     if (!p->target) {
         report(diag, p->path, "cannot write image: ", strerror(e));
         return false;

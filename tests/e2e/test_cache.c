@@ -387,6 +387,55 @@ static void test_cache_unwritable(void)
     e2e_rmtree(dir);
 }
 
+/* -cache through a symbolic link: the cache is written to the link's target and the
+ * link stays a link, as an image output does (930e55b). The link was replaced by a
+ * regular file, both when dangling (its target made nowhere) and when its target
+ * existed (the target left as it was). The next run through the link uses the cache. */
+static void test_cache_through_links(void)
+{
+    const char *course = e2e_course_or_skip();
+    Cmd c;
+    CHECK(cmd_line(&c, course, "05", NULL));
+    char dir[PATH_MAX], a[PATH_MAX], b[PATH_MAX], out[PATH_MAX];
+    char dangling[PATH_MAX], existing[PATH_MAX], target1[PATH_MAX], target2[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "cachelink"));
+    if (harness_failures)
+        return;
+    e2e_join(a, sizeof a, dir, "a");
+    e2e_join(b, sizeof b, dir, "b");
+    CHECK(mkdir(a, 0755) == 0 && mkdir(b, 0755) == 0);
+    e2e_join(out, sizeof out, dir, "out.tga");
+    e2e_join(dangling, sizeof dangling, a, "dangling.cache");
+    e2e_join(existing, sizeof existing, a, "existing.cache");
+    e2e_join(target1, sizeof target1, b, "one.cache");
+    e2e_join(target2, sizeof target2, b, "two.cache");
+    CHECK(symlink("../b/one.cache", dangling) == 0);
+    CHECK(put_file(target2, "", 0)); /* empty: nothing to lose, so it may be replaced */
+    CHECK(symlink("../b/two.cache", existing) == 0);
+    const char *links[2] = {dangling, existing}, *targets[2] = {target1, target2};
+    for (int i = 0; i < 2 && !harness_failures; i++) {
+        E2eRun r;
+        CHECK(cmd_run(&c, out, links[i], &r));
+        CHECK_MSG(r.status == 0, "%s: status %d: %s", links[i], r.status, r.err);
+        CHECK_CONTAINS(r.err, "built and written");
+        e2e_run_free(&r);
+        struct stat st;
+        CHECK_MSG(lstat(links[i], &st) == 0 && S_ISLNK(st.st_mode),
+                  "%s is no longer a symbolic link", links[i]);
+        CHECK_MSG(lstat(targets[i], &st) == 0 && S_ISREG(st.st_mode) && st.st_size > 0,
+                  "%s was not written", targets[i]);
+        CHECK(cmd_run(&c, out, links[i], &r));
+        CHECK_MSG(r.status == 0, "%s again: status %d: %s", links[i], r.status, r.err);
+        CHECK_CONTAINS(r.err, "set-up cache");
+        CHECK_CONTAINS(r.err, ": used");
+        e2e_run_free(&r);
+    }
+    /* no temporary file left beside either */
+    CHECK_INT(e2e_count_entries(a), 2);
+    CHECK_INT(e2e_count_entries(b), 2);
+    e2e_rmtree(dir);
+}
+
 /* Eight processes start together on a fresh cache path: every one renders the same
  * image; the file left is valid (the next run uses it) and no temporary file stays. */
 static void test_cache_racing_writers(void)
@@ -657,6 +706,7 @@ static const TestCase tests[] = {
     {"cache_damaged", test_cache_damaged},
     {"cache_stale", test_cache_stale},
     {"cache_unwritable", test_cache_unwritable},
+    {"cache_through_links", test_cache_through_links},
     {"cache_racing_writers", test_cache_racing_writers},
     {"cache_static_binary", test_cache_static_binary},
     {"cache_obj_identity", test_cache_obj_identity},
