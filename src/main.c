@@ -823,7 +823,7 @@ static bool stopped_in_setup(void)
 {
     if (!g_cancel || dist_size() != 1)
         return false;
-    fprintf(stderr, "raytracer: interrupted; no image written\n");
+    fprintf(stderr, "%s: interrupted; no image written\n", diag_program());
     return true;
 }
 
@@ -1047,8 +1047,8 @@ int main(int argc, char **argv)
         bool merged = image_merge(argv[2], (const char *const *)(argv + 3), argc - 3,
                                   &g_cancel, &d);
         if (g_cancel) {
-            fprintf(stderr, merged ? "raytracer: interrupted after the images were written\n"
-                                   : "raytracer: interrupted; no image written\n");
+            fprintf(stderr, merged ? "%s: interrupted after the images were written\n"
+                                   : "%s: interrupted; no image written\n", diag_program());
             return interrupted_status();
         }
         return merged ? 0 : EXIT_INPUT;

@@ -565,6 +565,85 @@ static void test_mpi_names_itself(void)
     e2e_run_free(&r);
 }
 
+/* Writes bytes into the FIFO fd (a reader that went away: EPIPE, not SIGPIPE) and
+ * closes it. */
+static void feed_fifo(int fd, const char *bytes)
+{
+    if (fd < 0)
+        return;
+    struct sigaction ign, old;
+    memset(&ign, 0, sizeof ign);
+    ign.sa_handler = SIG_IGN;
+    sigaction(SIGPIPE, &ign, &old);
+    ssize_t w = write(fd, bytes, strlen(bytes));
+    (void)w;
+    close(fd);
+    sigaction(SIGPIPE, &old, NULL);
+}
+
+/* Spawns argv (its stdin: none), waits until it opens fifo for reading, sends SIGTERM,
+ * feeds the FIFO bytes and waits; the exit status in *st (-1: hung, killed) and the
+ * stderr in err. */
+static void term_while_reading(const char *const *argv, const char *fifo, const char *bytes,
+                               int *st, char *err, size_t errlen)
+{
+    int errfd = -1;
+    *st = -1;
+    err[0] = '\0';
+    pid_t pid = e2e_spawn(argv, &errfd);
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    alarm(120); /* a guard against a run that never ends, not a timing condition */
+    int fd = open(fifo, O_WRONLY);
+    CHECK(fd >= 0);
+    kill(pid, SIGTERM);
+    feed_fifo(fd, bytes);
+    int status = 0;
+    bool hung = !e2e_wait_or_kill(pid, 60, &status);
+    alarm(0);
+    e2e_read_close(errfd, err, errlen);
+    if (!hung && WIFEXITED(status))
+        *st = WEXITSTATUS(status);
+}
+
+/* raytracer-mpi names itself when a stop signal ends -merge (it runs before MPI) or
+ * the set-up of a singleton run (no mpirun: one process, which stops after the parse):
+ * both said "raytracer: interrupted; no image written" from a fixed string. The input
+ * that is read when the signal comes is a FIFO: the part image, the scene's OBJ file. */
+static void test_mpi_interrupted_names_itself(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], fifo[PATH_MAX], out[PATH_MAX], scene[PATH_MAX], mesh[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpiname") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "part.tga");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(mesh, sizeof mesh, dir, "mesh.obj");
+    CHECK(mkfifo(fifo, 0600) == 0 && mkfifo(mesh, 0600) == 0);
+    CHECK(e2e_write_file(scene,
+                         "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+                         "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+                         "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mesh.obj } }\n"));
+    if (harness_failures)
+        return;
+    int st = 0;
+    char err[4096];
+    const char *merge[] = {mpi, "-merge", out, fifo, NULL};
+    term_while_reading(merge, fifo, "", &st, err, sizeof err);
+    CHECK_MSG(st == 128 + SIGTERM, "-merge: exit %d, expected %d: %s", st, 128 + SIGTERM, err);
+    CHECK_CONTAINS(err, "raytracer-mpi: interrupted; no image written\n");
+    CHECK_MSG(!strstr(err, "raytracer: "), "-merge: another name: %s", err);
+    const char *setup[] = {mpi, "-input", scene, "-size", "8", "8", "-output", out, NULL};
+    term_while_reading(setup, mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &st, err,
+                       sizeof err);
+    CHECK_MSG(st == 128 + SIGTERM, "set-up: exit %d, expected %d: %s", st, 128 + SIGTERM, err);
+    CHECK_CONTAINS(err, "raytracer-mpi: interrupted; no image written\n");
+    CHECK_MSG(!strstr(err, "raytracer: "), "set-up: another name: %s", err);
+    CHECK(!e2e_exists(out));
+    e2e_rmtree(dir);
+}
+
 /* A warning (an option without effect, two samplers) comes once, from rank 0: every
  * rank printed it (two ranks: twice). */
 static void test_mpi_warnings_once(void)
@@ -615,5 +694,6 @@ static const TestCase tests[] = {
     {"mpi_env_mismatch", test_mpi_env_mismatch},
     {"mpi_names_itself", test_mpi_names_itself},
     {"mpi_warnings_once", test_mpi_warnings_once},
+    {"mpi_interrupted_names_itself", test_mpi_interrupted_names_itself},
 };
 RT_TEST_MAIN(tests)
