@@ -178,8 +178,15 @@ static void test_window_without_display(void)
         CHECK_INT(r.status, 1);
         CHECK_CONTAINS(r.err, "X display");
     } else {
+        /* The remedy the build's own: a PREVIEW=0 build (mk/preview.mk defines
+         * RT_PREVIEW_LEFT_OUT for it and its tests) says it leaves the window out on
+         * purpose; one that found no GLUT says what to install. */
         CHECK_INT(r.status, 2);
+#ifdef RT_PREVIEW_LEFT_OUT
+        CHECK_CONTAINS(r.err, "this build leaves it out on purpose, PREVIEW=0");
+#else
         CHECK_CONTAINS(r.err, "apt-get install libglut-dev");
+#endif
     }
     CHECK_INT(e2e_count_entries(dir), 1);
     e2e_run_free(&r);
