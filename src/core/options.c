@@ -361,6 +361,11 @@ static bool take_float(Cursor *c, const char *flag, float *out)
     char *end;
     errno = 0;
     float v = strtof(s, &end);
+    /* An overflow: '1e40' is a finite number, only too large for a float (as for an
+     * underflow, below, 'expects a finite number' would send the user after a typo). */
+    if (end != s && *end == '\0' && errno == ERANGE && isinf(v))
+        return usage_error(c, "option %s: %s = %s is too large in size for a float (the "
+                           "largest is about %g)", flag, name, s, (double)FLT_MAX);
     if (end == s || *end != '\0' || !isfinite(v))
         return usage_error(c, "option %s: %s expects a finite number, got '%s'", flag, name, s);
     /* ERANGE with a finite result is an underflow: '1e-40' is a finite number, and

@@ -107,6 +107,9 @@ static void test_usage_errors(void)
         {"-input s.txt -gaussian_filter 1e-40",
          "option -gaussian_filter: s = 1e-40 is too close to 0 for a float"},
         {"-input s.txt -weight 1e-300", "option -weight: w = 1e-300 is too close to 0"},
+        /* nor an overflow; an infinity is still not a finite number */
+        {"-input s.txt -weight 1e40", "option -weight: w = 1e40 is too large in size for a float"},
+        {"-input s.txt -weight -inf", "option -weight: w expects a finite number, got '-inf'"},
         {"-input s.txt -bounces 2000", "option -bounces: n = 2000 is out of range 0..1000"},
         /* a value that is exactly an option name: the value was left out */
         {"-input s.txt -output -size 10 10", "missing value for -output"},
