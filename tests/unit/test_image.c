@@ -806,9 +806,6 @@ static void test_read_too_long(void)
     rmdir(dir);
 }
 
-/* A file name of 248-255 bytes is valid (NAME_MAX 255) but its temporary, ".NAME.XXXXXX",
- * was 8 bytes too long: the write failed with "File name too long" (after the whole
- * render). Written now, under its own name, with no temporary file left. */
 /* The writer of test_read_header_first: zeros into the FIFO until the reader goes
  * (EPIPE) or 8 MiB are written; how many it wrote. */
 typedef struct ZeroWriter {
@@ -887,6 +884,9 @@ static void test_read_header_first(void)
     rmdir(dir);
 }
 
+/* A file name of 248-255 bytes is valid (NAME_MAX 255) but its temporary, ".NAME.XXXXXX",
+ * was 8 bytes too long: the write failed with "File name too long" (after the whole
+ * render). Written now, under its own name, with no temporary file left. */
 static void test_write_longest_name(void)
 {
     char *dir = make_tmpdir();
