@@ -565,48 +565,6 @@ static void test_mpi_names_itself(void)
     e2e_run_free(&r);
 }
 
-/* Writes bytes into the FIFO fd (a reader that went away: EPIPE, not SIGPIPE) and
- * closes it. */
-static void feed_fifo(int fd, const char *bytes)
-{
-    if (fd < 0)
-        return;
-    struct sigaction ign, old;
-    memset(&ign, 0, sizeof ign);
-    ign.sa_handler = SIG_IGN;
-    sigaction(SIGPIPE, &ign, &old);
-    ssize_t w = write(fd, bytes, strlen(bytes));
-    (void)w;
-    close(fd);
-    sigaction(SIGPIPE, &old, NULL);
-}
-
-/* Spawns argv (its stdin: none), waits until it opens fifo for reading, sends SIGTERM,
- * feeds the FIFO bytes and waits; the exit status in *st (-1: hung, killed) and the
- * stderr in err. */
-static void term_while_reading(const char *const *argv, const char *fifo, const char *bytes,
-                               int *st, char *err, size_t errlen)
-{
-    int errfd = -1;
-    *st = -1;
-    err[0] = '\0';
-    pid_t pid = e2e_spawn(argv, &errfd);
-    CHECK(pid > 0);
-    if (pid <= 0)
-        return;
-    alarm(120); /* a guard against a run that never ends, not a timing condition */
-    int fd = open(fifo, O_WRONLY);
-    CHECK(fd >= 0);
-    kill(pid, SIGTERM);
-    feed_fifo(fd, bytes);
-    int status = 0;
-    bool hung = !e2e_wait_or_kill(pid, 60, &status);
-    alarm(0);
-    e2e_read_close(errfd, err, errlen);
-    if (!hung && WIFEXITED(status))
-        *st = WEXITSTATUS(status);
-}
-
 /* raytracer-mpi names itself when a stop signal ends -merge (it runs before MPI) or
  * the set-up of a singleton run (no mpirun: one process, which stops after the parse):
  * both said "raytracer: interrupted; no image written" from a fixed string. The input
@@ -630,14 +588,17 @@ static void test_mpi_interrupted_names_itself(void)
     int st = 0;
     char err[4096];
     const char *merge[] = {mpi, "-merge", out, fifo, NULL};
-    term_while_reading(merge, fifo, "", &st, err, sizeof err);
-    CHECK_MSG(st == 128 + SIGTERM, "-merge: exit %d, expected %d: %s", st, 128 + SIGTERM, err);
+    CHECK_MSG(e2e_signal_while_reading(merge, fifo, SIGTERM, "", 0, &st, err, sizeof err) &&
+                  WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
+              "-merge: status %#x, expected exit %d: %s", st, 128 + SIGTERM, err);
     CHECK_CONTAINS(err, "raytracer-mpi: interrupted; no image written\n");
     CHECK_MSG(!strstr(err, "raytracer: "), "-merge: another name: %s", err);
     const char *setup[] = {mpi, "-input", scene, "-size", "8", "8", "-output", out, NULL};
-    term_while_reading(setup, mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", &st, err,
-                       sizeof err);
-    CHECK_MSG(st == 128 + SIGTERM, "set-up: exit %d, expected %d: %s", st, 128 + SIGTERM, err);
+    static const char obj[] = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    CHECK_MSG(e2e_signal_while_reading(setup, mesh, SIGTERM, obj, sizeof obj - 1, &st, err,
+                                       sizeof err) &&
+                  WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
+              "set-up: status %#x, expected exit %d: %s", st, 128 + SIGTERM, err);
     CHECK_CONTAINS(err, "raytracer-mpi: interrupted; no image written\n");
     CHECK_MSG(!strstr(err, "raytracer: "), "set-up: another name: %s", err);
     CHECK(!e2e_exists(out));

@@ -258,35 +258,12 @@ static void signal_during_merge(int sig)
         return;
     }
     const char *args[] = {harness_bin(), "-merge", out, fifo, part1, NULL};
-    int errfd = -1;
-    pid_t pid = e2e_spawn(args, &errfd);
-    CHECK(pid > 0);
-    if (pid <= 0) {
-        free(bytes);
-        return;
-    }
-    alarm(120); /* a guard against a run that never ends, not a timing condition */
-    int fd = open(fifo, O_WRONLY);
-    CHECK(fd >= 0);
-    kill(pid, sig);
-    /* Read whole or not at all: a merge killed by the signal closes the FIFO (EPIPE,
-     * SIGPIPE ignored by the harness or not: only the write's result differs). */
-    if (fd >= 0) {
-        struct sigaction ign, old;
-        memset(&ign, 0, sizeof ign);
-        ign.sa_handler = SIG_IGN;
-        sigaction(SIGPIPE, &ign, &old);
-        ssize_t w = write(fd, bytes, len);
-        (void)w;
-        close(fd);
-        sigaction(SIGPIPE, &old, NULL);
-    }
+    /* The part is read whole or not at all: a merge killed by the signal closes the
+     * FIFO (the write meets EPIPE). */
     int st = 0;
-    bool hung = !e2e_wait_or_kill(pid, 60, &st);
-    alarm(0);
     char err[4096] = "";
-    e2e_read_close(errfd, err, sizeof err);
-    CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
+    bool ended = e2e_signal_while_reading(args, fifo, sig, bytes, len, &st, err, sizeof err);
+    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
               "signal %d: %s %d, expected exit %d: %s", sig,
               WIFEXITED(st) ? "exit" : "killed by",
               WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + sig, err);
@@ -323,36 +300,16 @@ static void test_sigterm_during_setup(void)
         return;
     const char *args[] = {harness_bin(), "-input", fifo, "-size", "8", "8", "-grid", "auto",
                           "-cache", cache, "-output", out, NULL};
-    int errfd = -1;
-    pid_t pid = e2e_spawn(args, &errfd);
-    CHECK(pid > 0);
-    if (pid <= 0)
-        return;
-    alarm(120); /* a guard against a run that never ends, not a timing condition */
-    int fd = open(fifo, O_WRONLY);
-    CHECK(fd >= 0);
-    kill(pid, SIGTERM);
     static const char scene[] =
         "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
         "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
         "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
         "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mesh.obj } }\n";
-    if (fd >= 0) {
-        struct sigaction ign, old;
-        memset(&ign, 0, sizeof ign);
-        ign.sa_handler = SIG_IGN;
-        sigaction(SIGPIPE, &ign, &old);
-        ssize_t w = write(fd, scene, sizeof scene - 1);
-        (void)w;
-        close(fd);
-        sigaction(SIGPIPE, &old, NULL);
-    }
     int st = 0;
-    bool hung = !e2e_wait_or_kill(pid, 60, &st);
-    alarm(0);
     char err[4096] = "";
-    e2e_read_close(errfd, err, sizeof err);
-    CHECK_MSG(!hung && WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
+    bool ended = e2e_signal_while_reading(args, fifo, SIGTERM, scene, sizeof scene - 1, &st,
+                                          err, sizeof err);
+    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
               "%s %d, expected exit %d: %s", WIFEXITED(st) ? "exit" : "killed by",
               WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + SIGTERM, err);
     CHECK_CONTAINS(err, "interrupted; no image written");
