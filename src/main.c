@@ -54,6 +54,19 @@ static void on_stop_signal(int sig)
     }
 }
 
+/* A stop signal the run was started with ignored stays ignored: that is how a user
+ * asks for a run that outlives the terminal (nohup: SIGHUP), and how a shell keeps
+ * Ctrl-C away from the jobs a script starts in the background (SIGINT). Catching
+ * those anyway ended a nohup render at logout, with no image. */
+static void catch_unless_ignored(int sig, const struct sigaction *sa)
+{
+    struct sigaction old;
+    if (sigaction(sig, NULL, &old) == 0 && !(old.sa_flags & SA_SIGINFO) &&
+        old.sa_handler == SIG_IGN)
+        return;
+    sigaction(sig, sa, NULL);
+}
+
 static void install_signal_handlers(void)
 {
     struct sigaction sa;
@@ -61,9 +74,9 @@ static void install_signal_handlers(void)
     sa.sa_handler = on_stop_signal;
     sigemptyset(&sa.sa_mask);
     sa.sa_flags = SA_RESTART;
-    sigaction(SIGINT, &sa, NULL);
-    sigaction(SIGTERM, &sa, NULL);
-    sigaction(SIGHUP, &sa, NULL);
+    catch_unless_ignored(SIGINT, &sa);
+    catch_unless_ignored(SIGTERM, &sa);
+    catch_unless_ignored(SIGHUP, &sa);
     /* A closed pipe on stdout (raytracer -stats | head) is an output error with a
      * message and exit status 1, not a silent death by SIGPIPE. */
     signal(SIGPIPE, SIG_IGN);

@@ -2,6 +2,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include "harness.h"
 
+#include <signal.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <sys/stat.h>
@@ -66,6 +67,14 @@ int harness_main(int argc, char **argv, const TestCase *tests, int count)
 {
     int passed = 0, failed = 0, skipped = 0;
     const char *only = argc > 1 ? argv[1] : NULL; /* run the tests whose name contains it */
+    /* The programs under test keep a stop signal ignored when they are started with it
+     * ignored (nohup, a script's background job). The tests that send SIGINT, SIGTERM
+     * or SIGHUP model a user at a terminal, so every test starts with the defaults,
+     * however make test itself was started (a CI script's background job ignores
+     * SIGINT). */
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
+    signal(SIGHUP, SIG_DFL);
 
     for (int i = 0; i < count; i++) {
         if (only && !strstr(tests[i].name, only))

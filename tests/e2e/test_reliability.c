@@ -88,6 +88,56 @@ static void signal_during_write(int sig)
     e2e_rmtree(dir);
 }
 
+/* A stop signal the run was started with ignored stays ignored (nohup's SIGHUP; the
+ * SIGINT a shell gives a script's background jobs): the same signal at the same point
+ * as above, and the run goes on to write both images, exit 0. Before the fix the run
+ * caught it anyway: a nohup render ended at logout with no image (exit 129). */
+static void signal_ignored_during_write(int sig)
+{
+    char dir[PATH_MAX], fifo[PATH_MAX], out[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigign") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "depth.tga");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    repro(scene, sizeof scene, "planes_only.txt");
+    CHECK(mkfifo(fifo, 0600) == 0);
+    const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-depth", "0", "20",
+                          fifo, "-size", "200", "200", NULL};
+    signal(sig, SIG_IGN); /* as nohup (SIGHUP) or a shell's background job (SIGINT) */
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
+    signal(sig, SIG_DFL);
+    CHECK(pid > 0);
+    alarm(120); /* a guard against a run that never ends, not a timing condition */
+    int fd = open(fifo, O_RDONLY);
+    CHECK(fd >= 0);
+    unsigned char buf[65536];
+    CHECK(read(fd, buf, 1) == 1);
+    kill(pid, sig);
+    long total = 1;
+    for (ssize_t n; (n = read(fd, buf, sizeof buf)) != 0;)
+        if (n > 0)
+            total += n;
+        else if (errno != EINTR)
+            break;
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0) {
+    }
+    close(fd);
+    char err[4096] = "";
+    if (errfd >= 0)
+        e2e_read_close(errfd, err, sizeof err);
+    CHECK_MSG(WIFEXITED(st) && WEXITSTATUS(st) == 0, "signal %d ignored: %s %d, expected exit 0: %s",
+              sig, WIFEXITED(st) ? "exit" : "killed by",
+              WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), err);
+    CHECK_MSG(total == 18 + 200L * 200 * 3, "the depth image had %ld bytes", total);
+    CHECK_MSG(e2e_exists(out), "the colour image was not written");
+    CHECK_MSG(!has_temp_file(dir), "a temporary image was left behind");
+    e2e_rmtree(dir);
+}
+
+static void test_sighup_ignored_like_nohup(void) { signal_ignored_during_write(SIGHUP); }
+static void test_sigint_ignored_in_background(void) { signal_ignored_during_write(SIGINT); }
+
 static void test_sigterm_during_write(void) { signal_during_write(SIGTERM); }
 static void test_sighup_during_write(void) { signal_during_write(SIGHUP); }
 static void test_sigint_during_write(void) { signal_during_write(SIGINT); }
@@ -730,6 +780,8 @@ static const TestCase tests[] = {
     {"empty_scene", test_empty_scene},
     {"sigterm_during_write", test_sigterm_during_write},
     {"sighup_during_write", test_sighup_during_write},
+    {"sighup_ignored_like_nohup", test_sighup_ignored_like_nohup},
+    {"sigint_ignored_in_background", test_sigint_ignored_in_background},
     {"sigint_during_write", test_sigint_during_write},
     {"sigint_inside_pixel", test_sigint_inside_pixel},
     {"sigterm_inside_pixel", test_sigterm_inside_pixel},
