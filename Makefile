@@ -174,7 +174,8 @@ test: $(BIN) tools $(TEST_BINS) $(OOM_SHIM)
 asan:
 	$(Q)$(MAKE) --no-print-directory BUILD=build-asan SAN=1 OPT=-O1 test
 
-demo: $(BIN)
+# The tools too: README's next steps after make demo use build/tools/imgdiff.
+demo: all
 	$(Q)sh scenes/demo.sh $(abspath $(BIN))
 
 clean:
