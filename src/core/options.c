@@ -62,6 +62,7 @@ static const char usage_text[] =
         "  -stats                   print the RAY TRACING STATISTICS block on stdout\n"
         "  -timings                 print parse/build/render/write times on stderr\n"
         "  -progress                show the progress line even when stderr is not a terminal\n"
+        "                           (there as whole lines: at most one per 5% and 30 s)\n"
         "  -quiet                   no progress line and no hints on stderr\n"
         "Shading\n"
         "  -shadows                 cast shadow rays toward every light\n"

@@ -1,5 +1,6 @@
 /* The progress line (rt/progress.h): workers add to atomic counters; one thread wakes
- * every 100 ms, formats the line and redraws it with a carriage return. */
+ * every 100 ms, formats the line and redraws it with a carriage return on a terminal,
+ * or, into a file or a pipe, appends it as a whole line now and then. */
 #include "rt/progress.h"
 
 #include <pthread.h>
@@ -14,6 +15,15 @@
 /* At most ten redraws a second: smooth enough to read, too few to cost anything. */
 #define PROGRESS_PERIOD_NS 100000000L
 
+/* Into a log (not a terminal) a redraw cannot overwrite anything: ten carriage-return
+ * updates a second made ~2 MB of log an hour. There a line is appended only once both
+ * 5% more of the work is done and 30 s have passed since the last line (or the start),
+ * so a run leaves at most 19 such lines, 30 s apart at least, plus the final line
+ * that progress_finish appends. The text of a line is the terminal's, so a script
+ * reads either the same way. */
+#define PROGRESS_LOG_STEPS 20
+#define PROGRESS_LOG_SECONDS 30.0
+
 struct Progress {
     _Atomic uint64_t done, rays;
     uint64_t total;
@@ -21,6 +31,9 @@ struct Progress {
     const char *what;
     double t0;
     size_t drawn;            /* length of the longest line drawn (what must be erased) */
+    bool log;                /* out is not a terminal: whole lines, rarely (see above) */
+    uint64_t logged;         /* log: units done at the last line appended */
+    double logged_at;        /* log: clock_now() of the last line (or of the start) */
     pthread_t thread;
     pthread_mutex_t lock;    /* guards stop; the drawer waits on wake */
     pthread_cond_t wake;
@@ -74,12 +87,35 @@ void progress_format(char *buf, size_t size, const char *what, uint64_t done, ui
     snprintf(buf, size, "%s %3d%%%s  %s elapsed%s", what, percent, rate, elapsed, left);
 }
 
-static void draw(Progress *p)
+/* The log's rule: whether a line is due with done units after now. The last line of
+ * a finished run is left to progress_finish, which always writes one. */
+static bool log_line_due(const Progress *p, uint64_t done, double now)
+{
+    uint64_t step = (p->total + PROGRESS_LOG_STEPS - 1) / PROGRESS_LOG_STEPS;
+    return done < p->total && done - p->logged >= step &&
+           now - p->logged_at >= PROGRESS_LOG_SECONDS;
+}
+
+/* Draws the line (a terminal) or appends it when one is due (a log; every time when
+ * final). */
+static void draw(Progress *p, bool final)
 {
     char line[160];
-    progress_format(line, sizeof line, p->what, atomic_load_explicit(&p->done, memory_order_relaxed),
-                    p->total, atomic_load_explicit(&p->rays, memory_order_relaxed),
-                    clock_now() - p->t0);
+    uint64_t done = atomic_load_explicit(&p->done, memory_order_relaxed);
+    double now = clock_now();
+    if (p->log) {
+        if (!final && !log_line_due(p, done, now))
+            return;
+        p->logged = done;
+        p->logged_at = now;
+    }
+    progress_format(line, sizeof line, p->what, done, p->total,
+                    atomic_load_explicit(&p->rays, memory_order_relaxed), now - p->t0);
+    if (p->log) {
+        fprintf(p->out, "%s\n", line);
+        fflush(p->out);
+        return;
+    }
     size_t n = strlen(line);
     /* Blanks over what a longer earlier line left (no terminal escape needed). */
     fprintf(p->out, "\r%s%*s", line, p->drawn > n ? (int)(p->drawn - n) : 0, "");
@@ -106,7 +142,7 @@ static void *drawer_main(void *arg)
         if (p->stop)
             break;
         pthread_mutex_unlock(&p->lock);
-        draw(p);
+        draw(p, false);
         pthread_mutex_lock(&p->lock);
     }
     pthread_mutex_unlock(&p->lock);
@@ -126,6 +162,8 @@ Progress *progress_start(ProgressMode mode, FILE *out, const char *what, uint64_
     p->out = out;
     p->what = what;
     p->t0 = clock_now();
+    p->log = isatty(fileno(out)) != 1;
+    p->logged_at = p->t0;
     pthread_condattr_t ca;
     bool ok = pthread_condattr_init(&ca) == 0;
     ok = ok && pthread_condattr_setclock(&ca, CLOCK_MONOTONIC) == 0 &&
@@ -136,10 +174,12 @@ Progress *progress_start(ProgressMode mode, FILE *out, const char *what, uint64_
         return NULL;
     }
     pthread_mutex_init(&p->lock, NULL);
-    /* The first line is drawn here, so even a short run shows (and erases) it. */
-    draw(p);
+    /* On a terminal the first line is drawn here, so even a short run shows (and
+     * erases) it; a log gets its first line when one is due. */
+    draw(p, false);
     if (pthread_create(&p->thread, NULL, drawer_main, p) != 0) {
-        fprintf(out, "\r%*s\r", (int)p->drawn, "");
+        if (p->drawn > 0)
+            fprintf(out, "\r%*s\r", (int)p->drawn, "");
         pthread_cond_destroy(&p->wake);
         pthread_mutex_destroy(&p->lock);
         free(p);
@@ -171,7 +211,9 @@ void progress_finish(Progress *p)
     pthread_cond_signal(&p->wake);
     pthread_mutex_unlock(&p->lock);
     pthread_join(p->thread, NULL);
-    if (p->drawn > 0) {
+    if (p->log)
+        draw(p, true); /* where the work ended: 100%, or how far a stopped run got */
+    else if (p->drawn > 0) {
         fprintf(p->out, "\r%*s\r", (int)p->drawn, "");
         fflush(p->out);
     }
