@@ -14,6 +14,7 @@ enum { MAX_COMMANDS = 256 };
 
 typedef struct Command {
     int line;      /* 1-based line of the "$ " in README.txt */
+    int end_line;  /* its last line (the same unless continued by backslashes) */
     char *text;    /* the shell command, continuation lines joined */
 } Command;
 
@@ -81,6 +82,7 @@ static int extract_commands(const char *text, Command *out, int max)
         }
         if (n < max) {
             out[n].line = start_line;
+            out[n].end_line = line - 1;
             out[n].text = cmd;
             n++;
         } else {
@@ -188,6 +190,129 @@ static bool missing_input(const char *cmd, const char *dir, char *name, size_t s
     return false;
 }
 
+/* True when the program name (a word without a slash) is an executable file in one of
+ * PATH's folders, as the shell would find it. */
+static bool on_path(const char *name)
+{
+    const char *path = getenv("PATH");
+    if (!path)
+        path = "/usr/bin:/bin";
+    char file[PATH_MAX];
+    for (const char *p = path;;) {
+        size_t n = strcspn(p, ":");
+        snprintf(file, sizeof file, "%.*s/%s", (int)(n ? n : 1), n ? p : ".", name);
+        if (access(file, X_OK) == 0)
+            return true;
+        if (!p[n])
+            return false;
+        p += n + 1;
+    }
+}
+
+/* The first program of cmd that the shell would look up in PATH and not find (copied
+ * into name): the first word of each stage of a pipeline, after any NAME=value. A word with a slash
+ * (./raytracer, build/tools/imgdiff) is the project's own and never counts as missing:
+ * a wrong path in README must fail, not be skipped. */
+static bool missing_program(const char *cmd, char *name, size_t size)
+{
+    for (const char *p = cmd; p;) {
+        p += strspn(p, " ");
+        size_t n = strcspn(p, " |");
+        /* Environment assignments (NAME=value) come before the program. */
+        while (n > 0 && memchr(p, '=', n)) {
+            p += n;
+            p += strspn(p, " ");
+            n = strcspn(p, " |");
+        }
+        if (n > 0 && n < size && !memchr(p, '/', n)) {
+            snprintf(name, size, "%.*s", (int)n, p);
+            if (!on_path(name))
+                return true;
+        }
+        p = strchr(p, '|');
+        if (p)
+            p++;
+    }
+    return false;
+}
+
+typedef struct Tally {
+    int ran, skipped, failed;
+} Tally;
+
+/* Runs cmds[0..n) with /bin/sh in the current folder and counts them. A command is
+ * skipped, with the reason printed, when its input is the course's and there is no
+ * course folder, when it names a program that is not installed (GNU parallel is an
+ * optional package: README section 1), or when this build leaves out the feature it
+ * uses; and so is every command of the same block after it (commands on consecutive
+ * lines: the merge after the renders of its parts), since it uses what the skipped one
+ * would have made. With require_tools (RT_REQUIRE_TOOLS=1, as CI runs) a missing
+ * program is a failure instead. A failure is printed and counted; report says whether
+ * it is also a failed check of the test. */
+static void run_commands(const char *src, const Command *cmds, int n, const char *dir,
+                         bool have_course, bool require_tools, bool report, Tally *t)
+{
+    int skipped_at = 0, block_end = -1;
+    for (int i = 0; i < n; i++) {
+        char name[256];
+        bool same_block = cmds[i].line == block_end + 1;
+        block_end = cmds[i].end_line;
+        if (skipped_at && same_block) {
+            printf("   %s:%d: skipped: follows the skipped command of line %d\n",
+                   src, cmds[i].line, skipped_at);
+            t->skipped++;
+            continue;
+        }
+        skipped_at = 0;
+        if (!have_course && missing_input(cmds[i].text, dir, name, sizeof name)) {
+            printf("   %s:%d: skipped: %s is not there (no course folder)\n",
+                   src, cmds[i].line, name);
+            skipped_at = cmds[i].line;
+            t->skipped++;
+            continue;
+        }
+        if (missing_program(cmds[i].text, name, sizeof name)) {
+            if (require_tools) {
+                printf("   %s:%d: %s is not installed (RT_REQUIRE_TOOLS=1)\n",
+                       src, cmds[i].line, name);
+                CHECK_MSG(!report, "%s:%d: RT_REQUIRE_TOOLS=1 but %s is not "
+                          "installed", src, cmds[i].line, name);
+                t->failed++;
+            } else {
+                printf("   %s:%d: skipped: %s is not installed\n", src, cmds[i].line,
+                       name);
+                t->skipped++;
+            }
+            skipped_at = cmds[i].line;
+            continue;
+        }
+        char *argv[] = {(char *)"/bin/sh", (char *)"-c", cmds[i].text, NULL};
+        E2eRun r;
+        CHECK(e2e_run(argv, &r));
+        /* A feature left out of this build says so and exits 2: not a README bug. */
+        if (r.status == 2 && strstr(r.err, "not built in")) {
+            printf("   %s:%d: skipped: %s", src, cmds[i].line, r.err);
+            skipped_at = cmds[i].line;
+            t->skipped++;
+        } else if (r.status != 0) {
+            char why[512];
+            e2e_describe(&r, why, sizeof why);
+            printf("   %s:%d: '%s': %s\n", src, cmds[i].line, cmds[i].text, why);
+            CHECK_MSG(!report, "%s:%d: '%s': %s", src, cmds[i].line, cmds[i].text, why);
+            t->failed++;
+        } else {
+            t->ran++;
+        }
+        e2e_run_free(&r);
+    }
+}
+
+static bool require_tools(void)
+{
+    const char *req = getenv("RT_REQUIRE_TOOLS");
+    return req && strcmp(req, "1") == 0;
+}
+
 static void test_commands_run(void)
 {
     char *text = readme_text();
@@ -210,40 +335,61 @@ static void test_commands_run(void)
     char path_env[PATH_MAX * 2];
     snprintf(path_env, sizeof path_env, "%s:%s", dir, old_path ? old_path : "/usr/bin:/bin");
     setenv("PATH", path_env, 1);
-    int ran = 0, skipped = 0;
+    Tally t = {0, 0, 0};
     /* Asked before the chdir: the default course folder is relative to the project
      * ("./../shared/course"), and from the temporary folder it would name another. */
     bool have_course = harness_course_dir() != NULL;
     if (chdir(dir) == 0) {
-        for (int i = 0; i < n; i++) {
-            char name[256];
-            if (!have_course && missing_input(cmds[i].text, dir, name, sizeof name)) {
-                printf("   README.txt:%d: skipped: %s is not there (no course folder)\n",
-                       cmds[i].line, name);
-                skipped++;
-                continue;
-            }
-            char *argv[] = {(char *)"/bin/sh", (char *)"-c", cmds[i].text, NULL};
-            E2eRun r;
-            CHECK(e2e_run(argv, &r));
-            /* A feature left out of this build says so and exits 2: not a README bug. */
-            if (r.status == 2 && strstr(r.err, "not built in")) {
-                printf("   README.txt:%d: skipped: %s", cmds[i].line, r.err);
-                skipped++;
-            } else {
-                char why[512];
-                CHECK_MSG(r.status == 0, "README.txt:%d: '%s': %s", cmds[i].line,
-                          cmds[i].text, e2e_describe(&r, why, sizeof why));
-                ran++;
-            }
-            e2e_run_free(&r);
-        }
+        run_commands("README.txt", cmds, n, dir, have_course, require_tools(), true, &t);
         CHECK(chdir(cwd) == 0);
     }
-    printf("   %d README commands run, %d skipped\n", ran, skipped);
-    CHECK(ran > 0);
+    printf("   %d README commands run, %d skipped\n", t.ran, t.skipped);
+    CHECK(t.ran > 0);
     e2e_rmtree(dir);
     free_commands(cmds, n);
+}
+
+/* A README command whose program is not installed is skipped with the commands of its
+ * block after it, not failed (make test on a machine with only README's requirements);
+ * the next block runs; with RT_REQUIRE_TOOLS=1 the missing program is a failure. Before
+ * this, README's GNU parallel recipe failed make test wherever parallel was not
+ * installed, and the merge after it failed for want of the parts. */
+static void test_missing_program_skips_block(void)
+{
+    static const char sample[] =
+        "    $ rt-readme-test-no-such-program -x ::: 0 1\n"
+        "    $ false\n"
+        "\n"
+        "    $ true | RT_X=1 rt-readme-test-no-such-program-either\n"
+        "\n"
+        "    $ ./rt-readme-test-no-such-file\n"
+        "\n"
+        "    $ true\n";
+    Command c[8];
+    int n = extract_commands(sample, c, 8);
+    CHECK_INT(n, 5);
+    char dir[PATH_MAX], cwd[PATH_MAX];
+    if (n != 5 || !e2e_tmpdir(dir, sizeof dir, "readme_skip") || !getcwd(cwd, sizeof cwd)) {
+        free_commands(c, n);
+        return;
+    }
+    if (chdir(dir) == 0) {
+        Tally t = {0, 0, 0};
+        run_commands("sample", c, n, dir, true, false, false, &t);
+        /* The first two and the pipeline skipped; the missing ./ file is README's own
+         * mistake and fails; true runs. */
+        CHECK_INT(t.skipped, 3);
+        CHECK_INT(t.failed, 1);
+        CHECK_INT(t.ran, 1);
+        Tally req = {0, 0, 0};
+        run_commands("sample", c, n, dir, true, true, false, &req);
+        CHECK_INT(req.failed, 3);
+        CHECK_INT(req.skipped, 1);
+        CHECK_INT(req.ran, 1);
+        CHECK(chdir(cwd) == 0);
+    }
+    e2e_rmtree(dir);
+    free_commands(c, n);
 }
 
 /* Each entry "N. Title" of the Contents is a heading "N. Title" underlined by dashes,
@@ -343,6 +489,7 @@ static void test_stats_example_matches(void)
 static const TestCase tests[] = {
     {"readme_command_extraction", test_extraction},
     {"readme_commands_run", test_commands_run},
+    {"readme_missing_program_skips_block", test_missing_program_skips_block},
     {"readme_contents_match_sections", test_contents_match_sections},
     {"readme_docs_links_exist", test_docs_links_exist},
     {"readme_stats_example_matches", test_stats_example_matches},
