@@ -489,16 +489,37 @@ static void replaced_by(const char **current, const char **replaced, const char 
     *current = flag;
 }
 
-/* An image file's name must end in a format's extension (the file's format): a name
- * that does not is refused here, as a usage error before any work, naming the
- * extensions this build writes. "-" (standard output, -format's) and the null device
- * (-output /dev/null: render, keep nothing) pass, and so does a folder:
- * image_check_output says "it is a folder", the better message. */
+/* A format this build knows but does not write (PNG without libpng, or PNG=0), named by
+ * "-format png" or by a file's extension ("-output x.png"): one user error, so one
+ * usage error (exit 2, before any work) for both, saying why and what it writes. */
+static bool format_not_built_in(Cursor *c, const char *flag, const char *value,
+                                const ImageCodec *codec)
+{
+    char name[16], list[128];
+    size_t i = 0;
+    for (; codec->name[i] && i + 1 < sizeof name; i++)
+        name[i] = (char)toupper((unsigned char)codec->name[i]);
+    name[i] = '\0';
+    image_format_list(list, sizeof list);
+    c->hinted = true; /* the message says what to do: no "-h for help" */
+    return usage_error(c, "option %s %s: %s output is not built in: %s, or write one of %s",
+                       flag, value, name, codec->missing ? codec->missing : "rebuild with it",
+                       list);
+}
+
+/* An image file's name must end in a format's extension (the file's format) that this
+ * build writes: a name that does not is refused here, as a usage error before any
+ * work, naming the extensions this build writes. "-" (standard output, -format's) and
+ * the null device (-output /dev/null: render, keep nothing) pass, and so does a
+ * folder: image_check_output says "it is a folder", the better message. */
 static bool check_image_name(Cursor *c, const char *flag, const char *path)
 {
     struct stat st;
-    if (!path || !strcmp(path, IMAGE_STDOUT) || image_codec_for_path(path) ||
-        image_is_null_device(path) || (stat(path, &st) == 0 && S_ISDIR(st.st_mode)))
+    const ImageCodec *codec = path ? image_codec_for_path(path) : NULL;
+    if (codec && !codec->encode)
+        return format_not_built_in(c, flag, path, codec);
+    if (!path || !strcmp(path, IMAGE_STDOUT) || codec || image_is_null_device(path) ||
+        (stat(path, &st) == 0 && S_ISDIR(st.st_mode)))
         return true;
     char list[128];
     image_format_list(list, sizeof list);
@@ -592,12 +613,13 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (!take(&c, a, &o->format))
                 return false;
             const ImageCodec *codec = image_codec_find(o->format);
-            if (!codec || !codec->encode) {
+            if (codec && !codec->encode)
+                return format_not_built_in(&c, a, o->format, codec);
+            if (!codec) {
                 char list[128];
                 image_format_list(list, sizeof list);
-                return usage_error(&c, "option -format: %s '%s' (this build writes %s)",
-                                   codec ? "not built in:" : "unknown format", o->format,
-                                   list);
+                return usage_error(&c, "option -format: unknown format '%s' (this build "
+                                   "writes %s)", o->format, list);
             }
         } else if (!strcmp(a, "-size")) {
             if (!take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->width) ||
