@@ -211,8 +211,10 @@ int options_names(const char **names, int max)
     return count;
 }
 
-/* The synopsis of option name from usage_text ("-size w h"), into buf; "" if none. */
-static void option_synopsis(const char *name, char *buf, size_t size)
+/* The synopsis of option name from usage_text ("-size w h"), into buf; "" if none. An
+ * option with two forms (-grid nx ny nz, -grid auto) gives the one of values value
+ * words when there is one, else its first; values < 0 asks for the first. */
+static void option_synopsis_of(const char *name, int values, char *buf, size_t size)
 {
     size_t len = strlen(name);
     buf[0] = '\0';
@@ -225,11 +227,24 @@ static void option_synopsis(const char *name, char *buf, size_t size)
             const char *start = line + 2, *end = strstr(start, "  ");
             if (!end || end > eol)
                 end = eol;
-            snprintf(buf, size, "%.*s", (int)(end - start), start);
-            return;
+            int words = 0;
+            for (const char *p = start; p < end; words++) {
+                p += strcspn(p, " ");
+                p += strspn(p, " ");
+            }
+            bool fits = values < 0 || words - 1 == values;
+            if (fits || !buf[0])
+                snprintf(buf, size, "%.*s", (int)(end - start), start);
+            if (fits)
+                return;
         }
         line = *eol ? eol + 1 : eol;
     }
+}
+
+static void option_synopsis(const char *name, char *buf, size_t size)
+{
+    option_synopsis_of(name, -1, buf, size);
 }
 
 static bool usage_error(Cursor *c, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -455,7 +470,8 @@ static bool unknown_argument(Cursor *c, const Options *o)
     int values = c->prev > 0 ? c->opt - c->prev - 1 : 0;
     if (values > 0) {
         char synopsis[128], given[256];
-        option_synopsis(c->argv[c->prev], synopsis, sizeof synopsis);
+        /* "-grid auto 3": the form that was given, -grid auto, not -grid nx ny nz. */
+        option_synopsis_of(c->argv[c->prev], values, synopsis, sizeof synopsis);
         size_t used = (size_t)snprintf(given, sizeof given, "%s", c->argv[c->prev]);
         for (int k = c->prev + 1; k < c->opt && used < sizeof given; k++)
             used += (size_t)snprintf(given + used, sizeof given - used, " %s", c->argv[k]);

@@ -125,6 +125,12 @@ static void test_usage_errors(void)
         {"-input s.txt -output o.tga -grid atuo", "option -grid: 'atuo' (did you mean auto?)"},
         {"-input s.txt -output o.tga -grid aut 10 10", "option -grid: 'aut' (did you mean auto?)"},
         {"-input s.txt -output o.tga -grid x 10 10", "option -grid: nx expects an integer, got 'x'"},
+        /* an extra value names the form of the option that was given: "-grid auto 3"
+         * said "-grid takes 1 value (-grid nx ny nz)" */
+        {"-input s.txt -output o.tga -grid auto 3",
+         "extra value '3' after '-grid auto': -grid takes 1 value (-grid auto)"},
+        {"-input s.txt -output o.tga -grid 4 4 4 4",
+         "extra value '4' after '-grid 4 4 4': -grid takes 3 values (-grid nx ny nz)"},
         /* -adaptive_samples t is a difference of channels in 0..1 */
         {"-input s.txt -output o.tga -adaptive_samples 4 16 1.5",
          "option -adaptive_samples: t = 1.5 is out of range 0..1"},
