@@ -107,7 +107,7 @@ static const AccelOps grid_cells_ops =
 
 const AccelOps accel_grid_ops = {
     .name = "grid",
-    .summary = "uniform grid (-grid nx ny nz, or a resolution chosen from the scene)",
+    .summary = "uniform grid (-grid nx ny nz or -grid auto)",
     .create = grid_create,
     .destroy = grid_destroy,
     .intersect = grid_accel_intersect,

@@ -870,7 +870,7 @@ static const AccelOps twolevel_cells_ops =
 
 const AccelOps accel_twolevel_ops = {
     .name = "twolevel",
-    .summary = "two-level grid for uneven scenes (what -grid auto builds when crowded)",
+    .summary = "two-level grid for uneven scenes (-grid auto's pick)",
     .create = twolevel_create,
     .destroy = twolevel_destroy,
     .intersect = twolevel_accel_intersect,

@@ -325,12 +325,46 @@ static void test_usage_lists_tables(void)
     free(text);
 }
 
+/* -h fits a terminal of 80 columns: every line at most 79 characters (16 lines were
+ * 81-97 wide and wrapped, among them the accelerators' summaries, which the registry
+ * supplies), the codec rows with "(not built in)" included. */
+static void test_usage_fits_80_columns(void)
+{
+    char *text = NULL;
+    size_t len = 0;
+    FILE *f = open_memstream(&text, &len);
+    CHECK(f != NULL);
+    if (!f)
+        return;
+    options_usage(f);
+    fclose(f);
+    int lines = 0;
+    for (const char *p = text; *p; lines++) {
+        size_t n = strcspn(p, "\n");
+        CHECK_MSG(n <= 79, "-h line of %zu characters: '%.*s'", n, (int)n, p);
+        p += n + (p[n] == '\n');
+    }
+    CHECK(lines > 50);
+    char row[128];
+    const ImageCodec *c;
+    for (int i = 0; (c = image_codec_at(i)) != NULL; i++) {
+        /* the row of a codec left out of the build, as -h would print it */
+        int n = snprintf(row, sizeof row, "      %-20s", c->name);
+        for (const char *const *e = c->extensions; *e; e++)
+            n += snprintf(row + n, sizeof row - (size_t)n, " %s", *e);
+        n += snprintf(row + n, sizeof row - (size_t)n, " (not built in)");
+        CHECK_MSG(n <= 79, "-h row '%s' is %d characters", row, n);
+    }
+    free(text);
+}
+
 static const TestCase tests[] = {
     {"options: a full course command line", test_course_line},
     {"options: defaults, repeats, -grid auto, -h", test_defaults_and_repeats},
     {"options: usage errors say why", test_usage_errors},
     {"options: an empty value is a usage error", test_empty_values},
     {"options: -h lists the codec table and the accelerator registry", test_usage_lists_tables},
+    {"options: -h fits 80 columns", test_usage_fits_80_columns},
     {"stats: the course block, label for label", test_stats_block},
     {"stats: rays per second, the course's formula", test_stats_rays_per_second},
 };
