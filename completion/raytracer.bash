@@ -2,8 +2,9 @@
 # share/bash-completion/completions/raytracer; or source this file).
 # The options and how many values each takes are read from `raytracer -h` of the
 # command being completed, so they are always those of the binary at hand. Files:
-# -input offers *.txt (all files when there is none), the image options offer *.tga,
-# *.ppm and *.png, -merge offers images for every argument; folders always.
+# -input offers *.txt (all files when there is none), -cache *.cache (the same), the
+# image options offer *.tga, *.ppm and *.png, -merge offers images for every argument;
+# folders always.
 
 # Reads `CMD -h` once per command into _raytracer_syn (option -> its value words) and
 # _raytracer_accels (the names listed under -accel), _raytracer_formats and
@@ -120,6 +121,14 @@ _raytracer()
             compopt -o filenames 2>/dev/null
             _raytracer_files "$cur" "txt"
             # no scene file here: any file
+            local n_dirs
+            n_dirs=$(compgen -d -- "$cur" | wc -l)
+            ((${#COMPREPLY[@]} == n_dirs)) && _raytracer_files "$cur" ""
+            ;;
+        -cache:*)
+            # the set-up cache is no image: *.cache (the name README uses), else any file
+            compopt -o filenames 2>/dev/null
+            _raytracer_files "$cur" "cache"
             local n_dirs
             n_dirs=$(compgen -d -- "$cur" | wc -l)
             ((${#COMPREPLY[@]} == n_dirs)) && _raytracer_files "$cur" ""

@@ -379,7 +379,8 @@ static void test_bash_completion(void)
     char work[PATH_MAX];
     e2e_join(work, sizeof work, dest, "files");
     CHECK(mkdir(work, 0755) == 0);
-    static const char *const files[] = {"a.txt", "b.tga", "c.png", "d.obj", "e.ppm"};
+    static const char *const files[] = {"a.txt", "b.tga", "c.png", "d.obj", "e.ppm",
+                                        "f.cache"};
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++) {
         e2e_join(path, sizeof path, work, files[i]);
         CHECK(e2e_write_file(path, "x"));
@@ -400,8 +401,10 @@ static void test_bash_completion(void)
              "comp '%s' -accel ''\n"
              "comp '%s' -merge out.tga ''\n"
              "comp '%s' -input a.txt -grid auto -shad\n"
-             "comp '%s' -\n",
-             work, file, k_comp_helper, bin, bin, bin, bin, bin, bin, bin, bin, bin);
+             "comp '%s' -\n"
+             "comp '%s' -input a.txt -cache ''\n"
+             "comp '%s' -input a.txt -cache f\n",
+             work, file, k_comp_helper, bin, bin, bin, bin, bin, bin, bin, bin, bin, bin, bin);
     E2eRun r;
     CHECK(run_bash(bash, dest, text, &r));
     char why[512];
@@ -416,8 +419,8 @@ static void test_bash_completion(void)
             *eol = '\0';
         p = eol ? eol + 1 : NULL;
     }
-    CHECK_INT(n, 9);
-    if (n == 9) {
+    CHECK_INT(n, 11);
+    if (n == 11) {
         CHECK_STR(lines[0], "-shade_back -shadows ");
         CHECK_STR(lines[1], "a.txt sub ");
         CHECK_STR(lines[2], "b.tga c.png e.ppm sub ");
@@ -436,6 +439,10 @@ static void test_bash_completion(void)
                       names[i]);
             free(names[i]);
         }
+        /* the set-up cache: *.cache, not the images (which it never replaces); they
+         * hid frame.cache, so '-cache f' completed nothing */
+        CHECK_STR(lines[9], "f.cache sub ");
+        CHECK_STR(lines[10], "f.cache ");
     }
     e2e_run_free(&r);
 
