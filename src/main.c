@@ -187,22 +187,24 @@ static uint64_t render_identity(const Scene *s, const Options *o, int kind)
  * where it sits in the full image and its render identity. bytes: a byte image
  * (rt/image.h), for an image that is only written: the renderer quantises each pixel as
  * it stores it, and the encoder copies rows (a 1080p frame is 6 MB instead of 25 MB of
- * floats read back). */
+ * floats read back). shape_only: no pixels at all, only the size and the record (an
+ * image whose file is written strip by strip while it is rendered: stream_film). */
 static bool alloc_image(Image **slot, Image *storage, const char *want, const Options *o,
-                        bool bytes, const Scene *s, int kind, Diag *d)
+                        bool bytes, const Scene *s, int kind, bool shape_only, Diag *d)
 {
     *slot = NULL;
     if (!want)
         return true;
     int w = o->region ? o->region_w : o->width, h = o->region ? o->region_h : o->height;
-    if (!dist_is_root()) { /* only the root gathers pixels: the others say what is wanted */
+    if (!dist_is_root() || shape_only) {
+        /* Only the root gathers pixels: the others say what is wanted. */
         memset(storage, 0, sizeof *storage);
         storage->width = w;
         storage->height = h;
         *slot = storage;
-        return true;
-    }
-    if (!(bytes ? image_init_bytes(storage, w, h) : image_init(storage, w, h))) {
+        if (!dist_is_root())
+            return true;
+    } else if (!(bytes ? image_init_bytes(storage, w, h) : image_init(storage, w, h))) {
         diag_error(d, NULL, "out of memory for a %dx%d image", w, h);
         return false;
     }
@@ -403,6 +405,14 @@ typedef struct RectJob {
     atomic_int rows;
     bool color_in_file; /* render_rect put the colour bytes into enc[0] (color_direct) */
     bool color_staged;  /* ... or band by band straight into its file (color_rows) */
+    /* The film hands its output rows strip by strip to film_rows_out (stream_film):
+     * into enc[i] where that is a streamed file held as its header only, else into
+     * whole[i], the image rendered whole (standard output, a pipe, PNG). film_pixels
+     * counts the output pixels handed over: the files are used only when it reaches
+     * w * h. */
+    bool film_rows;
+    Image *whole[3];
+    uint64_t film_pixels;
 } RectJob;
 
 /* Whether the whole rectangle's render puts the colour bytes straight into their file
@@ -420,6 +430,31 @@ static void color_rows_to_file(void *user, int y_lo, int y_hi, const uint8_t *ro
 {
     RectJob *rj = user;
     image_encoding_flush_rows(&rj->enc[0], y_lo - rj->y0, y_hi - rj->y0, rows);
+}
+
+/* FilmConfig.rows (the calling thread, between strips): a strip of the rectangle's
+ * output rows into the streamed files or the whole images. */
+static void film_rows_out(void *user, const FilmRows *r)
+{
+    RectJob *rj = user;
+    const Image *part[3] = {r->color, r->depth, r->normals};
+    for (int i = 0; i < 3; i++) {
+        const Image *p = part[i];
+        if (!p)
+            continue;
+        if (rj->enc[i].head_only) {
+            image_encoding_put(&rj->enc[i], p, r->x, r->y);
+        } else if (rj->whole[i] && rj->whole[i]->bytes) { /* byte images in one process */
+            Image *img = rj->whole[i];
+            size_t row = (size_t)p->width * 3;
+            for (int k = 0; k < p->height; k++)
+                memcpy(img->bytes + ((size_t)(r->y + k) * (size_t)img->width + (size_t)r->x) * 3,
+                       p->bytes + (size_t)k * row, row);
+        }
+    }
+    const Image *any = part[0] ? part[0] : part[1] ? part[1] : part[2];
+    if (any)
+        rj->film_pixels += (uint64_t)any->width * (uint64_t)any->height;
 }
 
 /* render_image's row callback (worker threads): row y of the full image is done. */
@@ -446,7 +481,7 @@ static void encode_row(void *user, int y)
 static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, Image *depth,
                         Image *normals, RtStats *stats, volatile int *cancel)
 {
-    const RectJob *rj = user;
+    RectJob *rj = user;
     const Options *o = &rj->app->opt;
     RtStats st;
     memset(&st, 0, sizeof st);
@@ -473,13 +508,13 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
         if (whole && color_direct(rj) && color == rj->img[0]) {
             t.color_file = rj->enc[0].data + rj->enc[0].top;
             t.color_bgr = rj->enc[0].bgr;
-            ((RectJob *)user)->color_in_file = true; /* before the workers start */
+            rj->color_in_file = true; /* before the workers start */
             /* A streamed file takes the rows as they come: the render keeps them in
              * band buffers, and the file's 6 MB (1080p) in memory hold only its
              * header. */
             if (rj->enc[0].fd >= 0) {
                 t.color_rows = color_rows_to_file;
-                ((RectJob *)user)->color_staged = true;
+                rj->color_staged = true;
             }
         }
         ok = render_image(&rj->app->rt, rj->camera, &t, o->threads, &st,
@@ -493,6 +528,21 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
         fc.color = color;
         fc.depth = depth;
         fc.normals = normals;
+        if (rj->film_rows) {
+            /* Strip by strip (stream_film): one call renders the whole rectangle. */
+            Image *given[3] = {color, depth, normals};
+            static const unsigned which[3] = {FILM_COLOR, FILM_DEPTH, FILM_NORMALS};
+            fc.rows = film_rows_out;
+            fc.rows_user = rj;
+            fc.rows_wanted = 0;
+            for (int i = 0; i < 3; i++) {
+                rj->whole[i] = given[i] && !rj->enc[i].head_only ? given[i] : NULL;
+                if (given[i])
+                    fc.rows_wanted |= which[i];
+            }
+            rj->film_pixels = 0;
+            fc.color = fc.depth = fc.normals = NULL;
+        }
         fc.trace_cpu = fc.filter_cpu = 0.0;
         ok = film_render(&rj->app->rt, rj->camera, &fc, o->threads, &st, cancel);
         rj->fc->trace_cpu += fc.trace_cpu;
@@ -533,6 +583,12 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
     /* The files of color, depth and normals when the render made them (RectJob); freed at done. */
     ImageEncoding encoded[3];
     memset(encoded, 0, sizeof encoded);
+    /* The files of the images an antialiased render streams (stream_film), until the
+     * render takes them (RectJob.enc). */
+    ImageEncoding film_enc[3];
+    memset(film_enc, 0, sizeof film_enc);
+    for (int i = 0; i < 3; i++)
+        film_enc[i].fd = film_enc[i].slot = -1;
     /* Byte images where nothing reads the pixels back: the plain renderer and the film
      * (it filters in float and stores each output pixel once) in one process (MPI
      * ranks send float tiles to the root). A 1080p frame is then 6 MB instead of 25,
@@ -555,13 +611,37 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
             pre_enc = prep->enc;
         free(prep);
     }
-    bool allocated =
-        (pre_image || alloc_image(&target.color, &color, o->output, o, bytes, s,
-                                  IMAGE_KIND_COLOR, &app->diag)) &&
-        alloc_image(&target.depth, &depth, o->depth_file, o, bytes, s, IMAGE_KIND_DEPTH,
-                    &app->diag) &&
-        alloc_image(&target.normals, &normals, o->normals_file, o, bytes, s,
-                    IMAGE_KIND_NORMALS, &app->diag);
+    bool film = antialiasing_requested(o);
+    /* An antialiased render in one process writes each image whose file can be written
+     * while it is made (a regular file, TGA or PPM: image_encoding_stream_only) strip by
+     * strip as the film filters it (FilmConfig.rows, film_rows_out): such an image is
+     * never held whole, in memory or in an encoding (6000 x 6000, uniform 4: 226 MB of
+     * memory at most before). The others (standard output, a pipe or device, PNG) are
+     * rendered whole as before, and filled from the same strips. Not in the preview
+     * (its r key), nor with -render_samples or -render_filter, whose pictures are whole
+     * images anyway. */
+    bool stream_film = film && bytes && !o->gui && !o->gui_snapshot && !o->samples_file &&
+                       !o->filter_file;
+    bool any_streamed = false;
+    const char *out_paths[3] = {o->output, o->depth_file, o->normals_file};
+    Image *out_storage[3] = {&color, &depth, &normals};
+    Image **out_slot[3] = {&target.color, &target.depth, &target.normals};
+    static const int out_kind[3] = {IMAGE_KIND_COLOR, IMAGE_KIND_DEPTH, IMAGE_KIND_NORMALS};
+    bool allocated = true;
+    for (int i = 0; i < 3 && allocated; i++) {
+        if (i == 0 && pre_image)
+            continue;
+        if (stream_film && out_paths[i] &&
+            alloc_image(out_slot[i], out_storage[i], out_paths[i], o, bytes, s, out_kind[i],
+                        true, &app->diag) &&
+            image_encoding_stream_only(&film_enc[i], out_storage[i], out_paths[i],
+                                       stdout_format(o, out_paths[i]))) {
+            any_streamed = true;
+            continue;
+        }
+        allocated = alloc_image(out_slot[i], out_storage[i], out_paths[i], o, bytes, s,
+                                out_kind[i], false, &app->diag);
+    }
     if (!dist_root_ok(allocated)) {
         status = EXIT_INPUT;
         goto done;
@@ -570,7 +650,6 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
     Sampler sampler, refine;
     Filter filter;
     bool adaptive = false;
-    bool film = antialiasing_requested(o);
     if (film) {
         film_setup(o, &sampler, &refine, &filter, &adaptive);
         if (o->samples_file) {
@@ -647,6 +726,14 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         rj.w = target.w;
         rj.h = target.h;
         atomic_init(&rj.rows, 0);
+        if (any_streamed) {
+            rj.film_rows = true;
+            for (int i = 0; i < 3; i++) {
+                rj.enc[i] = film_enc[i];
+                memset(&film_enc[i], 0, sizeof film_enc[i]);
+                film_enc[i].fd = film_enc[i].slot = -1;
+            }
+        }
         /* The plain renderer in one process fills byte images: their TGA and PPM files
          * are encoded row by row on its threads (a 1080p TGA's 6 MB took ~4 ms after
          * the render), and the write only writes them. The colour goes straight into
@@ -691,13 +778,16 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         job.user = &rj;
         job.progress = preview ? PROGRESS_NEVER : o->progress;
         ok = dist_render(&job, &counts, cancel);
-        if (atomic_load(&rj.rows) == rj.h) {
+        bool complete = rj.film_rows ? rj.film_pixels == (uint64_t)rj.w * (uint64_t)rj.h
+                                     : atomic_load(&rj.rows) == rj.h;
+        if (complete) {
             for (int i = 0; i < 3; i++)
                 encoded[i] = rj.enc[i];
         } else {
             /* Never after a whole render (each of its rows is reported); but with the
-             * colour put straight into its file, the image itself holds no pixel. */
-            if (ok && rj.color_in_file)
+             * colour put straight into its file, or streamed strip by strip, the image
+             * itself holds no pixel. */
+            if (ok && (rj.color_in_file || rj.film_rows))
                 ok = false;
             for (int i = 0; i < 3; i++)
                 image_encoding_free(&rj.enc[i]);
@@ -811,6 +901,8 @@ done:
     if (app->last_render)
         bigmem_leave_to_exit();
     image_encoding_free(&pre_enc); /* made ahead and not used (a run stopped before) */
+    for (int i = 0; i < 3; i++)
+        image_encoding_free(&film_enc[i]); /* a run stopped before its render */
     for (int i = 0; i < 3; i++)
         image_encoding_free(&encoded[i]);
     if (target.color && (target.color->pixels || target.color->bytes))

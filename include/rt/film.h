@@ -31,6 +31,19 @@
  * 59 MB a row) held 294 MB. Beyond this the rectangle goes in column chunks. */
 #define FILM_STRIP_LIMIT ((size_t)32 << 20)
 
+/* One strip of output rows handed over by film_render (FilmConfig.rows): byte images
+ * (rt/image.h) of the strip's rows for the outputs asked for (NULL for the others), all
+ * of one size, whose pixel (0, 0) is pixel (x, y) of the outputs (the rectangle's
+ * coordinates, y from the bottom, as FilmConfig's images). They are the film's own and
+ * reused for the next strip. */
+typedef struct FilmRows {
+    int x, y;
+    const Image *color, *depth, *normals;
+} FilmRows;
+
+/* FilmConfig.rows_wanted's outputs. */
+enum { FILM_COLOR = 1, FILM_DEPTH = 2, FILM_NORMALS = 4 };
+
 typedef struct FilmConfig {
     const Sampler *sampler;    /* required */
     const Filter *filter;      /* required */
@@ -47,6 +60,16 @@ typedef struct FilmConfig {
      * byte images (rt/image.h: written once per pixel, by image_put). Depth and normal
      * images are filtered like the colour (each sample's grey depth, |normal|). */
     Image *color, *depth, *normals;
+    /* Or strip by strip, for outputs too big to hold whole (a file written while it is
+     * made): when rows is non-NULL, color, depth, normals and samples must be NULL,
+     * and the outputs named in rows_wanted (FILM_COLOR | FILM_DEPTH | FILM_NORMALS, at
+     * least one) are filtered into the film's byte images of one strip's output rows,
+     * which rows gets with rows_user on the calling thread once each strip is filtered:
+     * strips from the bottom up, within each column chunk (strip_limit) in turn, every
+     * output pixel once. The bytes are the whole images' (the same image_put). */
+    void (*rows)(void *user, const FilmRows *r);
+    void *rows_user;
+    unsigned rows_wanted;
     float depth_min, depth_max;
     /* The samples picture of the rectangle, (width*zoom) x (height*zoom), or NULL: pixel
      * blocks grey (0.2) and black like a checkerboard, (0,0) grey, each sample a dot of

@@ -147,6 +147,11 @@ typedef struct ImageEncoding {
     int fd, slot;
     char *target;
     atomic_int err;
+    /* data holds only the header (its first top bytes), len is still the whole file's:
+     * the rows exist only in the streamed file (image_encoding_stream_only).
+     * image_encoding_row and image_encoding_flush then do nothing, and image_write_all
+     * takes the encoding only as the streamed file it is. */
+    bool head_only;
 } ImageEncoding;
 /* Begins the file of img (its size and region record) for path in format (as
  * ImageOutput). False, with *e zeroed and nothing reported, when the format has no
@@ -171,6 +176,22 @@ void image_encoding_flush(ImageEncoding *e, int y_lo, int y_hi);
  * instead of from e->data, whose rows are then left as they are: for rows made
  * elsewhere (RenderTarget.color_rows). */
 void image_encoding_flush_rows(ImageEncoding *e, int y_lo, int y_hi, const uint8_t *rows);
+/* Begins img's file for path in format (as image_encoding_begin) and streams it (as
+ * image_encoding_stream) without ever holding its rows: only the header is kept
+ * (head_only), and the rows are given by image_encoding_put. For an image too big to
+ * hold whole (an antialiased render's rows come strip by strip: rt/film.h). img is only
+ * read for its size and region record (it needs no pixels). False, with nothing made
+ * and nothing reported, where image_encoding_begin or image_encoding_stream would fail
+ * (PNG, standard output, a pipe or device, a file that cannot be made): the caller then
+ * renders the whole image as before. */
+bool image_encoding_stream_only(ImageEncoding *e, const Image *img, const char *path,
+                                const char *format);
+/* Part of the image into the streamed file at its place: part's pixels (a float or byte
+ * image, row 0 at the bottom) are the image's columns x .. x + part->width - 1 of rows
+ * y .. y + part->height - 1. A failed write is kept for image_write_all to report, as
+ * image_encoding_flush's; nothing happens when not streamed or when part does not lie
+ * inside. Calls for disjoint parts may run at once. */
+void image_encoding_put(ImageEncoding *e, const Image *part, int x, int y);
 /* Frees the bytes; a streamed file not handed to image_write_all is closed and removed
  * (a failed or stopped render leaves no file). */
 void image_encoding_free(ImageEncoding *e);
@@ -216,7 +237,15 @@ typedef struct ImageCodec {
      * input (/dev/zero) is refused at its header instead of after gigabytes. */
     bool (*header)(const uint8_t *data, size_t len, size_t *max_len, char *err,
                    size_t errlen);
+    /* NULL, or layout's file without the rows, for a file written row by row without
+     * ever being held whole (image_encoding_stream_only): its first *top bytes (the
+     * header, at most IMAGE_HEAD_MAX) into head, the whole file's length into *out_len,
+     * the pixels' order into *bgr. False when img's region record cannot be written. */
+    bool (*head)(const Image *img, uint8_t *head, size_t *top, size_t *out_len, bool *bgr);
 } ImageCodec;
+
+/* The longest header ImageCodec.head writes. */
+enum { IMAGE_HEAD_MAX = 256 };
 
 /* The i-th codec of the table (0, 1, ...), built in or not; NULL past the last. */
 const ImageCodec *image_codec_at(int i);

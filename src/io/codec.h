@@ -5,7 +5,9 @@
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
+#include "rt/bigmem.h"
 #include "rt/image.h"
+#include <string.h>
 
 /* The codec that reads data: the first whose signature matches, else the one without a
  * signature (TGA). Never NULL. */
@@ -24,6 +26,24 @@ static inline bool codec_fail(char *err, size_t errlen, const char *fmt, ...)
         va_end(ap);
     }
     return false;
+}
+
+/* A codec's layout made from its head: the whole file allocated (rt/bigmem.h, zeroed)
+ * and the header copied to its start. */
+static inline bool codec_layout_from_head(bool (*head)(const Image *, uint8_t *, size_t *,
+                                                       size_t *, bool *),
+                                          const Image *img, uint8_t **out, size_t *out_len,
+                                          size_t *top, bool *bgr)
+{
+    uint8_t h[IMAGE_HEAD_MAX];
+    if (!head(img, h, top, out_len, bgr))
+        return false;
+    uint8_t *b = bigmem_alloc(*out_len);
+    if (!b)
+        return false;
+    memcpy(b, h, *top);
+    *out = b;
+    return true;
 }
 
 #endif

@@ -458,7 +458,7 @@ bool image_encoding_begin(ImageEncoding *e, const Image *img, const char *path,
 
 void image_encoding_row(const ImageEncoding *e, const Image *img, int y)
 {
-    if (!e->data || y < 0 || y >= e->height)
+    if (!e->data || e->head_only || y < 0 || y >= e->height)
         return;
     size_t row = (size_t)e->width * 3;
     image_row_bytes(img, y, e->bgr, e->data + e->top + (size_t)(e->height - 1 - y) * row);
@@ -497,6 +497,14 @@ static bool pwrite_all(int fd, const uint8_t *p, size_t n, off_t off)
     return true;
 }
 
+/* Keeps a streamed file's first failed write (errno e; 0 counts as EIO) for
+ * image_write_all's report. */
+static void encoding_failed(ImageEncoding *e, int err)
+{
+    int expected = 0;
+    atomic_compare_exchange_strong(&e->err, &expected, err ? err : EIO);
+}
+
 bool image_encoding_stream(ImageEncoding *e, const char *path)
 {
     if (!e->data || e->fd >= 0 || !path)
@@ -531,7 +539,7 @@ bool image_encoding_stream(ImageEncoding *e, const char *path)
 
 void image_encoding_flush(ImageEncoding *e, int y_lo, int y_hi)
 {
-    if (!e->data || e->fd < 0 || y_lo < 0 || y_hi >= e->height || y_lo > y_hi)
+    if (!e->data || e->head_only || e->fd < 0 || y_lo < 0 || y_hi >= e->height || y_lo > y_hi)
         return;
     size_t row = (size_t)e->width * 3;
     image_encoding_flush_rows(e, y_lo, y_hi,
@@ -544,10 +552,73 @@ void image_encoding_flush_rows(ImageEncoding *e, int y_lo, int y_hi, const uint8
         return;
     size_t row = (size_t)e->width * 3;
     size_t off = e->top + (size_t)(e->height - 1 - y_hi) * row;
-    if (!pwrite_all(e->fd, rows, (size_t)(y_hi - y_lo + 1) * row, (off_t)off)) {
-        int expected = 0;
-        atomic_compare_exchange_strong(&e->err, &expected, errno ? errno : EIO);
+    if (!pwrite_all(e->fd, rows, (size_t)(y_hi - y_lo + 1) * row, (off_t)off))
+        encoding_failed(e, errno);
+}
+
+bool image_encoding_stream_only(ImageEncoding *e, const Image *img, const char *path,
+                                const char *format)
+{
+    memset(e, 0, sizeof *e);
+    e->fd = e->slot = -1;
+    if (!img || img->width <= 0 || img->height <= 0 || !path)
+        return false;
+    const ImageCodec *codec = codec_for_writing(path, format, NULL);
+    uint8_t head[IMAGE_HEAD_MAX];
+    size_t top = 0, len = 0;
+    bool bgr = false;
+    if (!codec || !codec->head || !codec->head(img, head, &top, &len, &bgr))
+        return false;
+    e->data = bigmem_alloc(top);
+    if (!e->data)
+        return false;
+    memcpy(e->data, head, top);
+    e->len = len;
+    e->top = top;
+    e->bgr = bgr;
+    e->width = img->width;
+    e->height = img->height;
+    e->head_only = true;
+    if (!image_encoding_stream(e, path)) {
+        image_encoding_free(e);
+        return false;
     }
+    return true;
+}
+
+/* Rows of image_encoding_put's buffer: whole rows are written this many bytes at a time
+ * at most (a strip of a 6000-wide image, 18 KB a row, in one or two writes). */
+enum { PUT_BYTES = 256 << 10 };
+
+void image_encoding_put(ImageEncoding *e, const Image *part, int x, int y)
+{
+    if (!e->data || e->fd < 0 || !part || x < 0 || y < 0 || part->width <= 0 ||
+        part->height <= 0 || part->width > e->width - x || part->height > e->height - y)
+        return;
+    size_t row = (size_t)part->width * 3, file_row = (size_t)e->width * 3;
+    /* Whole rows lie one after the other in the file (its top row first), so several go
+     * in one write; a narrower part's rows are apart, one write each. */
+    int batch = 1;
+    if (part->width == e->width) {
+        size_t fit = PUT_BYTES / row;
+        batch = fit < 1 ? 1 : fit > (size_t)part->height ? part->height : (int)fit;
+    }
+    uint8_t *buf = malloc(row * (size_t)batch);
+    if (!buf) {
+        encoding_failed(e, ENOMEM);
+        return;
+    }
+    for (int top = part->height - 1; top >= 0; top -= batch) {
+        int n = top + 1 < batch ? top + 1 : batch;
+        for (int k = 0; k < n; k++)
+            image_row_bytes(part, top - k, e->bgr, buf + (size_t)k * row);
+        size_t off = e->top + (size_t)(e->height - 1 - (y + top)) * file_row + (size_t)x * 3;
+        if (!pwrite_all(e->fd, buf, (size_t)n * row, (off_t)off)) {
+            encoding_failed(e, errno);
+            break;
+        }
+    }
+    free(buf);
 }
 
 /* Decides how the bytes reach path: in place for existing devices and pipes; through a
@@ -600,7 +671,8 @@ bool image_write_all(const ImageOutput *outs, int n, Diag *diag)
         pend[i].path = outs[i].path;
         pend[i].format = outs[i].format;
         ImageEncoding *pre = outs[i].encoded;
-        if (encoding_usable(pre, outs[i].image)) {
+        /* A file held only as its header is of use only as the streamed file. */
+        if (encoding_usable(pre, outs[i].image) && (!pre->head_only || pend[i].slot >= 0)) {
             pend[i].data = pre->data;
             pend[i].len = pre->len;
             pend[i].borrowed = true;

@@ -244,7 +244,7 @@ static const char *const png_extensions[] = {".png", NULL};
 
 #ifdef RT_HAVE_PNG
 const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, NULL, png_decode,
-                              NULL, NULL};
+                              NULL, NULL, NULL};
 #else
 /* Why PNG is missing, for its messages and --version. A PNG=0 build (mk/png.mk defines
  * RT_PNG_LEFT_OUT) left it out on purpose: telling its user to install libpng-dev, which
@@ -255,5 +255,5 @@ const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, NULL
 #define PNG_MISSING "install libpng-dev and rebuild (make PNG=1)"
 #endif
 const ImageCodec png_codec = {"png", png_extensions, png_sniff, NULL, NULL, NULL, PNG_MISSING,
-                              NULL};
+                              NULL, NULL};
 #endif

@@ -8,12 +8,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-static bool ppm_layout(const Image *img, uint8_t **out, size_t *out_len, size_t *top,
-                       bool *bgr)
+static bool ppm_head(const Image *img, uint8_t *b, size_t *top, size_t *out_len, bool *bgr)
 {
     int w = img->width, h = img->height;
     /* A part image (-region) names its place in a comment line after the magic. */
     char head[192], rec[96] = "";
+    _Static_assert(sizeof head <= IMAGE_HEAD_MAX, "the header fits");
     if (img->has_region && !image_region_format(img, rec, sizeof rec))
         return false;
     int n = snprintf(head, sizeof head, "P6\n%s%s%s%d %d\n255\n",
@@ -21,16 +21,17 @@ static bool ppm_layout(const Image *img, uint8_t **out, size_t *out_len, size_t 
                      img->has_region ? "\n" : "", w, h);
     if (n < 0 || (size_t)n >= sizeof head)
         return false;
-    size_t len = (size_t)n + (size_t)w * (size_t)h * 3;
-    uint8_t *b = bigmem_alloc(len);
-    if (!b)
-        return false;
     memcpy(b, head, (size_t)n);
-    *out = b;
-    *out_len = len;
+    *out_len = (size_t)n + (size_t)w * (size_t)h * 3;
     *top = (size_t)n; /* top row first, R G B */
     *bgr = false;
     return true;
+}
+
+static bool ppm_layout(const Image *img, uint8_t **out, size_t *out_len, size_t *top,
+                       bool *bgr)
+{
+    return codec_layout_from_head(ppm_head, img, out, out_len, top, bgr);
 }
 
 static bool ppm_encode(const Image *img, uint8_t **out, size_t *out_len)
@@ -146,4 +147,4 @@ static bool ppm_sniff(const uint8_t *d, size_t len)
 static const char *const ppm_extensions[] = {".ppm", NULL};
 
 const ImageCodec ppm_codec = {"ppm", ppm_extensions, ppm_sniff, ppm_encode, ppm_layout, ppm_decode,
-                              NULL, NULL};
+                              NULL, NULL, ppm_head};

@@ -10,8 +10,7 @@
 
 enum { TGA_HEADER = 18 };
 
-static bool tga_layout(const Image *img, uint8_t **out, size_t *out_len, size_t *top,
-                       bool *bgr)
+static bool tga_head(const Image *img, uint8_t *b, size_t *top, size_t *out_len, bool *bgr)
 {
     int w = img->width, h = img->height;
     /* A part image (-region) names its place in the image ID field, which the format
@@ -24,10 +23,7 @@ static bool tga_layout(const Image *img, uint8_t **out, size_t *out_len, size_t 
             return false;
         id_len = (size_t)snprintf(id, sizeof id, "%s %s", IMAGE_REGION_TAG, rec);
     }
-    size_t len = TGA_HEADER + id_len + (size_t)w * (size_t)h * 3;
-    uint8_t *b = bigmem_alloc(len);
-    if (!b)
-        return false;
+    _Static_assert(TGA_HEADER + sizeof id <= IMAGE_HEAD_MAX, "the header fits");
     memset(b, 0, TGA_HEADER);
     b[0] = (uint8_t)id_len;
     memcpy(b + TGA_HEADER, id, id_len);
@@ -41,11 +37,16 @@ static bool tga_layout(const Image *img, uint8_t **out, size_t *out_len, size_t 
     b[15] = (uint8_t)((h >> 8) & 0xff);
     b[16] = 24;
     b[17] = 0x20;
-    *out = b;
-    *out_len = len;
+    *out_len = TGA_HEADER + id_len + (size_t)w * (size_t)h * 3;
     *top = TGA_HEADER + id_len;
     *bgr = true; /* each pixel as B, G, R */
     return true;
+}
+
+static bool tga_layout(const Image *img, uint8_t **out, size_t *out_len, size_t *top,
+                       bool *bgr)
+{
+    return codec_layout_from_head(tga_head, img, out, out_len, top, bgr);
 }
 
 static bool tga_encode(const Image *img, uint8_t **out, size_t *out_len)
@@ -175,4 +176,4 @@ static const char *const tga_extensions[] = {".tga", NULL};
 
 /* No signature: TGA is what image_read assumes when no other format's matched. */
 const ImageCodec tga_codec = {"tga", tga_extensions, NULL, tga_encode, tga_layout, tga_decode,
-                              NULL, tga_header};
+                              NULL, tga_header, tga_head};

@@ -59,6 +59,11 @@ typedef struct Film {
     int out0, out1;             /* output rows of the strip being filtered */
     bool pairs;                 /* filter jobs of two rows (film_filter_pair) */
     volatile int *cancel;       /* the stop flag, polled before every tile as well */
+    /* Where the filter stores output pixels: cfg's whole images, or with cfg->rows the
+     * strip images (one strip's output rows, handed to cfg->rows when filtered). Pixel
+     * (i, j) of the full image goes to (i - ox, j - oy) of them. */
+    Image *color, *depth, *normals;
+    int ox, oy;
 } Film;
 
 /* The buffer row of film row y (y0 <= y < y0 + rows_cap): the buffer is a ring of
@@ -1377,22 +1382,22 @@ static void film_put_unweighted(const Film *f, int i, int j)
                 }
             }
         }
-    int x = i - c->x0 + c->out_x, y = j - c->y0;
+    int x = i - f->ox, y = j - f->oy;
     if (!best) { /* (never: every pixel of the support holds its samples) */
-        if (c->color)
-            image_put(c->color, x, y, v3(0, 0, 0));
+        if (f->color)
+            image_put(f->color, x, y, v3(0, 0, 0));
         return;
     }
-    if (c->color)
-        image_put(c->color, x, y, v3(best[2 * cs], best[3 * cs], best[4 * cs]));
+    if (f->color)
+        image_put(f->color, x, y, v3(best[2 * cs], best[3 * cs], best[4 * cs]));
     /* depth and normals are stored only pixel by pixel (cs = 1: channels side by side) */
-    if (c->depth && f->off_depth >= 0) {
+    if (f->depth && f->off_depth >= 0) {
         const float *e = best + f->off_depth;
-        image_put(c->depth, x, y, v3(e[0], e[1], e[2]));
+        image_put(f->depth, x, y, v3(e[0], e[1], e[2]));
     }
-    if (c->normals && f->off_normal >= 0) {
+    if (f->normals && f->off_normal >= 0) {
         const float *e = best + f->off_normal;
-        image_put(c->normals, x, y, v3(e[0], e[1], e[2]));
+        image_put(f->normals, x, y, v3(e[0], e[1], e[2]));
     }
 }
 
@@ -1406,7 +1411,6 @@ __attribute__((target("avx2"))) static int film_put_sums8(const Film *f, int j, 
                                                          const float *sg, const float *sb,
                                                          const float *sw)
 {
-    const FilmConfig *c = f->cfg;
     int q = 0;
     for (; q + 8 <= m; q += 8) {
         __m256 w = _mm256_loadu_ps(sw + q);
@@ -1416,7 +1420,7 @@ __attribute__((target("avx2"))) static int film_put_sums8(const Film *f, int j, 
         _mm256_storeu_ps(qb, _mm256_div_ps(_mm256_loadu_ps(sb + q), w));
         for (int k = 0; k < 8; k++)
             if (sw[q + k] != 0.0f)
-                image_put(c->color, p0 + q + k - c->x0 + c->out_x, j - c->y0, v3(qr[k], qg[k], qb[k]));
+                image_put(f->color, p0 + q + k - f->ox, j - f->oy, v3(qr[k], qg[k], qb[k]));
             else
                 film_put_unweighted(f, p0 + q + k, j);
     }
@@ -1429,8 +1433,7 @@ __attribute__((target("avx2"))) static int film_put_sums8(const Film *f, int j, 
 static void film_put_sums(const Film *f, int j, int p0, int m, const float *sr,
                           const float *sg, const float *sb, const float *sw)
 {
-    const FilmConfig *c = f->cfg;
-    if (!c->color)
+    if (!f->color)
         return;
     int q = 0;
 #ifdef FILM_HAVE_AVX2
@@ -1440,7 +1443,7 @@ static void film_put_sums(const Film *f, int j, int p0, int m, const float *sr,
     for (; q < m; q++) {
         float w = sw[q];
         if (w != 0.0f)
-            image_put(c->color, p0 + q - c->x0 + c->out_x, j - c->y0,
+            image_put(f->color, p0 + q - f->ox, j - f->oy,
                       v3(sr[q] / w, sg[q] / w, sb[q] / w));
         else
             film_put_unweighted(f, p0 + q, j);
@@ -1563,11 +1566,11 @@ static int film_filter_own(const Film *f, int j, int i0, int i1)
             sb += vb * w;
             sw += w;
         }
-        if (c->color)
+        if (f->color)
             for (int k = 0; k < FILM_OWN; k++) {
                 float w = sw[k];
                 if (w != 0.0f)
-                    image_put(c->color, i + k - c->x0 + c->out_x, j - c->y0,
+                    image_put(f->color, i + k - f->ox, j - f->oy,
                               v3(sr[k] / w, sg[k] / w, sb[k] / w));
                 else
                     film_put_unweighted(f, i + k, j);
@@ -1649,7 +1652,7 @@ __attribute__((target("avx2"))) static int film_filter_own8(const Film *f, int j
             sb = _mm256_add_ps(sb, _mm256_mul_ps(_mm256_load_ps(d[4]), w));
             sw = _mm256_add_ps(sw, w);
         }
-        if (c->color) {
+        if (f->color) {
             /* colour over weight, correctly rounded as the scalar divisions;
              * film_put_unweighted where no weight reached the pixel */
             float qr[8], qg[8], qb[8], ws[8];
@@ -1659,7 +1662,7 @@ __attribute__((target("avx2"))) static int film_filter_own8(const Film *f, int j
             _mm256_storeu_ps(ws, sw);
             for (int q = 0; q < 8; q++)
                 if (ws[q] != 0.0f)
-                    image_put(c->color, i + q - c->x0 + c->out_x, j - c->y0,
+                    image_put(f->color, i + q - f->ox, j - f->oy,
                               v3(qr[q], qg[q], qb[q]));
                 else
                     film_put_unweighted(f, i + q, j);
@@ -1771,19 +1774,19 @@ static void film_filter_line(const Film *f, int j, bool span)
                     wsum += w;
                 }
             }
-        int x = i - c->x0 + c->out_x, y = j - c->y0;
+        int x = i - f->ox, y = j - f->oy;
         /* No weight at all (a filter whose support misses every sample): the nearest
          * sample's values. */
         if (wsum == 0.0f) {
             film_put_unweighted(f, i, j);
             continue;
         }
-        if (c->color)
-            image_put(c->color, x, y, v3(sum.x / wsum, sum.y / wsum, sum.z / wsum));
-        if (c->depth)
-            image_put(c->depth, x, y, v3(sum_d.x / wsum, sum_d.y / wsum, sum_d.z / wsum));
-        if (c->normals)
-            image_put(c->normals, x, y, v3(sum_n.x / wsum, sum_n.y / wsum, sum_n.z / wsum));
+        if (f->color)
+            image_put(f->color, x, y, v3(sum.x / wsum, sum.y / wsum, sum.z / wsum));
+        if (f->depth)
+            image_put(f->depth, x, y, v3(sum_d.x / wsum, sum_d.y / wsum, sum_d.z / wsum));
+        if (f->normals)
+            image_put(f->normals, x, y, v3(sum_n.x / wsum, sum_n.y / wsum, sum_n.z / wsum));
     }
 }
 
@@ -1845,8 +1848,20 @@ static void film_margin(int x0, int n, int R, int full, int *lo, int *hi)
     *hi = x0 + n + R < full ? x0 + n + R : full;
 }
 
+/* Whether an output (FILM_COLOR, FILM_DEPTH or FILM_NORMALS) is asked for: as a whole
+ * image or strip by strip. */
+static bool film_wants(const FilmConfig *c, unsigned which)
+{
+    const Image *whole = which == FILM_DEPTH ? c->depth : which == FILM_NORMALS ? c->normals
+                                                                                : c->color;
+    return whole || (c->rows && (c->rows_wanted & which));
+}
+
 static bool film_check(const FilmConfig *c)
 {
+    if (c->rows && (c->color || c->depth || c->normals || c->samples || !c->rows_wanted ||
+                    (c->rows_wanted & ~(unsigned)(FILM_COLOR | FILM_DEPTH | FILM_NORMALS))))
+        return false;
     return c->sampler && c->filter && c->full_width > 0 && c->full_height > 0 &&
            c->x0 >= 0 && c->y0 >= 0 && c->width > 0 && c->height > 0 &&
            c->x0 + c->width <= c->full_width && c->y0 + c->height <= c->full_height &&
@@ -1872,6 +1887,11 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     memset(&f, 0, sizeof f);
     f.cancel = cancel;
     f.cfg = cfg;
+    f.color = cfg->color;
+    f.depth = cfg->depth;
+    f.normals = cfg->normals;
+    f.ox = cfg->x0 - cfg->out_x;
+    f.oy = cfg->y0;
 #ifdef FILM_HAVE_AVX2
     f.avx2 = film_path_cap >= 1 && cpu_has_avx2();
 #endif
@@ -1890,11 +1910,11 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
         f.slots = cfg->refine->count;
     f.stride = 5;
     f.off_depth = f.off_normal = -1;
-    if (cfg->depth) {
+    if (film_wants(cfg, FILM_DEPTH)) {
         f.off_depth = f.stride;
         f.stride += 3;
     }
-    if (cfg->normals) {
+    if (film_wants(cfg, FILM_NORMALS)) {
         f.off_normal = f.stride;
         f.stride += 3;
     }
@@ -1928,7 +1948,8 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
      * filtering at 400x400); each sample's own 2-D weight in a plane (jittered + box
      * 0.5) filtered in 4 ms instead of 12 but cost more than that in the trace phase
      * (the weight pass and the tile copy; paired runs in bench/REPORT.txt). */
-    f.planes = !cfg->refine && !cfg->depth && !cfg->normals && R > 0 && (f.per || f.table);
+    f.planes = !cfg->refine && f.off_depth < 0 && f.off_normal < 0 && R > 0 &&
+               (f.per || f.table);
     f.row_weights = f.per && f.planes;
     /* Filter jobs of two rows where their spans share loads (film_span_sums2_avx512,
      * film_span_sums2_avx2). */
@@ -1988,6 +2009,22 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
         f.weights = bigmem_alloc(cap * (size_t)f.pw * (size_t)f.slots * (size_t)f.per *
                                  sizeof(float));
     bool ok = f.data && f.count && (!f.per || f.weights);
+    /* Strip by strip (cfg->rows): byte images of a strip's output rows, at most the
+     * rows held (a strip's output rows are among its traced ones), each of a strip's
+     * pixels put once, so they are reused without clearing. */
+    Image strip[3];
+    memset(strip, 0, sizeof strip);
+    if (cfg->rows) {
+        int sh = f.rows_cap < cfg->height ? f.rows_cap : cfg->height;
+        Image **outs[3] = {&f.color, &f.depth, &f.normals};
+        static const unsigned which[3] = {FILM_COLOR, FILM_DEPTH, FILM_NORMALS};
+        for (int k = 0; k < 3 && ok; k++)
+            if (cfg->rows_wanted & which[k]) {
+                ok = image_init_bytes(&strip[k], cfg->width, sh);
+                *outs[k] = &strip[k];
+            }
+        f.ox = cfg->x0;
+    }
     cfg->held = cap * (size_t)f.pw * (size_t)f.slots * (size_t)(f.stride + f.per) * sizeof(float) +
                 cap * (size_t)f.fw * sizeof(int);
 
@@ -2028,6 +2065,8 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
         }
         f.out0 = oy;
         f.out1 = out1;
+        if (cfg->rows)
+            f.oy = oy; /* the strip images' row 0 */
         if (ok) {
             double t0 = clock_thread_cpu();
             if (f.pairs)
@@ -2038,8 +2077,23 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
                                      cancel);
             cfg->filter_cpu += clock_thread_cpu() - t0;
         }
+        if (ok && cfg->rows) {
+            /* The strip's rows, as images of their height (the same bytes). */
+            Image view[3];
+            const Image *give[3] = {NULL, NULL, NULL};
+            for (int k = 0; k < 3; k++)
+                if (strip[k].bytes) {
+                    view[k] = strip[k];
+                    view[k].height = out1 - oy;
+                    give[k] = &view[k];
+                }
+            FilmRows r = {cfg->out_x, oy - cfg->y0, give[0], give[1], give[2]};
+            cfg->rows(cfg->rows_user, &r);
+        }
         oy = out1;
     }
+    for (int k = 0; k < 3; k++)
+        image_free(&strip[k]);
     bigmem_free(f.data);
     bigmem_free(f.count);
     bigmem_free(f.weights);
@@ -2059,7 +2113,8 @@ static size_t film_column_bytes(const FilmConfig *cfg)
     size_t slots = (size_t)cfg->sampler->count;
     if (cfg->refine && (size_t)cfg->refine->count > slots)
         slots = (size_t)cfg->refine->count;
-    size_t stride = 5 + (cfg->depth ? 3 : 0) + (cfg->normals ? 3 : 0);
+    size_t stride = 5 + (film_wants(cfg, FILM_DEPTH) ? 3 : 0) +
+                    (film_wants(cfg, FILM_NORMALS) ? 3 : 0);
     bool fixed = cfg->sampler->ops->fixed && !cfg->refine;
     size_t per = !fixed && cfg->filter->ops->weight_1d && R > 0 ? 2 * (2 * (size_t)R + 1) : 0;
     return slots * (stride + per) * sizeof(float) + sizeof(int);

@@ -6,7 +6,9 @@
  *     can do without: a helper thread's memory, a cache, a faster path), or
  *   - with status 1, a message on stderr that says memory ran out, no image written and
  *     no temporary file left behind;
- * never with a crash, an abort, a hang or a half-written image. */
+ * never with a crash, an abort, a hang or a half-written image. And one where every
+ * big allocation fails (OOM_MAX_BYTES): an antialiased render written into its files
+ * while it is made must not need one. */
 #define _POSIX_C_SOURCE 200809L
 #include <dirent.h>
 #include <limits.h>
@@ -263,10 +265,65 @@ static void test_oom_merge(void)
     e2e_rmtree(dir);
 }
 
+/* An antialiased render into files holds no whole image (main.c stream_film: the film
+ * hands its rows strip by strip to the files, rt/film.h FilmConfig.rows): under the
+ * injector every allocation of more than 1.5 MB fails (OOM_MAX_BYTES), less than one
+ * whole 1000 x 700 image (2.1 MB, and as much again for its file's bytes), yet the
+ * colour (TGA) and normal (PPM) images are written, with the bytes of the same render to
+ * standard output, which is rendered whole (not under the injector). One thread: with
+ * two the film's strips take its 8 MB budget. Before, the render allocated the whole
+ * images and stopped with "out of memory for a 1000x700 image". */
+static void test_oom_streamed_film(void)
+{
+    char shim[PATH_MAX], dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX], nor[PATH_MAX],
+        ref_nor[PATH_MAX], why[512];
+    if (!setup(shim, sizeof shim, dir, sizeof dir, "oom_stream", scene, sizeof scene))
+        return;
+    char planes[PATH_MAX];
+    snprintf(planes, sizeof planes, "%s/tests/repro/planes_only.txt", harness_root());
+    e2e_join(out, sizeof out, dir, "s.tga");
+    e2e_join(nor, sizeof nor, dir, "n.ppm");
+    e2e_join(ref_nor, sizeof ref_nor, dir, "ref_n.ppm");
+    const char *args[] = {"-input", planes, "-size", "1000", "700", "-jittered_samples", "1",
+                          "-tent_filter", "1", "-threads", "1", "-output", out, "-normals",
+                          nor, NULL};
+    setenv("LD_PRELOAD", shim, 1);
+    setenv("OOM_MAX_BYTES", "1500000", 1);
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    unsetenv("LD_PRELOAD");
+    unsetenv("OOM_MAX_BYTES");
+    CHECK_MSG(r.status == 0, "the streamed render under a 1.5 MB cap: %s",
+              e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    const char *ref_args[] = {"-input", planes, "-size", "1000", "700", "-jittered_samples",
+                              "1", "-tent_filter", "1", "-threads", "1", "-output", "-",
+                              "-normals", ref_nor, NULL};
+    CHECK(e2e_run_bin(harness_bin(), ref_args, &r));
+    CHECK_MSG(r.status == 0, "the render to standard output: %s",
+              e2e_describe(&r, why, sizeof why));
+    size_t len = 0, nlen = 0, rnlen = 0;
+    char *got = e2e_read_file(out, &len);
+    char *got_n = e2e_read_file(nor, &nlen), *ref_n = e2e_read_file(ref_nor, &rnlen);
+    CHECK_MSG(got && len == r.out_len && len == 18 + 1000 * 700 * 3 &&
+                  memcmp(got, r.out, len) == 0,
+              "the streamed colour image (%zu bytes) differs from the whole one (%zu)", len,
+              r.out_len);
+    CHECK_MSG(got_n && ref_n && nlen == rnlen && memcmp(got_n, ref_n, nlen) == 0,
+              "the streamed normal image (%zu bytes) differs from the whole one (%zu)", nlen,
+              rnlen);
+    free(got);
+    free(got_n);
+    free(ref_n);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"oom_render", test_oom_render},
     {"oom_part", test_oom_part},
     {"oom_cache", test_oom_cache},
     {"oom_merge", test_oom_merge},
+    {"oom_streamed_film", test_oom_streamed_film},
 };
 RT_TEST_MAIN(tests)

@@ -160,11 +160,13 @@ static void signal_inside_pixel(int sig)
 }
 
 /* A signal while the render streams its image into a temporary file (the renderer
- * writes each finished band into it, rt/image.h image_encoding_stream): the test waits
- * until the temporary file exists (the one pixel of deep_ray_tree.txt then takes for
- * ever; 60 s is only a guard), then signals. Expected: exit 128 + signal, no image and
- * no temporary file left. */
-static void signal_while_streaming(int sig)
+ * writes each finished band into it, rt/image.h image_encoding_stream; with film, an
+ * antialiased render, each filtered strip: main.c stream_film): the test waits until
+ * the temporary file exists (the one pixel of deep_ray_tree.txt then takes for ever;
+ * 60 s is only a guard), then signals. Expected: exit 128 + signal, no image and no
+ * temporary file left. (Before the antialiased render streamed, it made its file only
+ * after the render: the film case then saw no temporary file.) */
+static void signal_while_streaming_as(int sig, bool film)
 {
     char dir[PATH_MAX], out[PATH_MAX], scene[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "sigstream") != NULL);
@@ -172,7 +174,7 @@ static void signal_while_streaming(int sig)
     repro(scene, sizeof scene, "deep_ray_tree.txt");
     const char *args[] = {harness_bin(), "-input", scene, "-output", out, "-size", "1", "1",
                           "-shade_back", "-bounces", "60", "-weight", "0", "-threads", "2",
-                          NULL};
+                          film ? "-jittered_samples" : NULL, "4", "-tent_filter", "1", NULL};
     int errfd = -1;
     pid_t pid = e2e_spawn(args, &errfd);
     CHECK(pid > 0);
@@ -347,8 +349,9 @@ static void test_sigterm_during_setup(void)
     e2e_rmtree(dir);
 }
 
-static void test_sigterm_while_streaming(void) { signal_while_streaming(SIGTERM); }
-static void test_sigint_while_streaming(void) { signal_while_streaming(SIGINT); }
+static void test_sigterm_while_streaming(void) { signal_while_streaming_as(SIGTERM, false); }
+static void test_sigint_while_streaming(void) { signal_while_streaming_as(SIGINT, false); }
+static void test_sigterm_while_streaming_film(void) { signal_while_streaming_as(SIGTERM, true); }
 
 static void test_sigint_inside_pixel(void) { signal_inside_pixel(SIGINT); }
 static void test_sigterm_inside_pixel(void) { signal_inside_pixel(SIGTERM); }
@@ -765,6 +768,7 @@ static const TestCase tests[] = {
     {"sigterm_inside_pixel", test_sigterm_inside_pixel},
     {"sigterm_while_streaming", test_sigterm_while_streaming},
     {"sigint_while_streaming", test_sigint_while_streaming},
+    {"sigterm_while_streaming_film", test_sigterm_while_streaming_film},
     {"sigterm_before_snapshot", test_sigterm_before_snapshot},
     {"sigterm_during_merge", test_sigterm_during_merge},
     {"sigint_during_merge", test_sigint_during_merge},

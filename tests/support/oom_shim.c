@@ -4,7 +4,10 @@
  * makes call number OOM_FAIL_AT fail as the C library does when memory runs out (NULL
  * or MAP_FAILED, errno ENOMEM); every other call goes to the C library. With
  * OOM_COUNT_FILE set it writes the number of calls it saw to that file at exit, so a
- * test knows how many failure points a command has. Not linked into the program. */
+ * test knows how many failure points a command has. With OOM_MAX_BYTES set, every call
+ * that asks for more bytes than that fails the same way: a program that must never
+ * hold some big buffer (a whole image) is shown not to ask for it. Not linked into the
+ * program. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <errno.h>
@@ -30,6 +33,7 @@ static void *(*real_aligned_alloc)(size_t, size_t);
 static void *(*real_mmap)(void *, size_t, int, int, int, off_t);
 
 static long fail_at = -1;
+static size_t max_bytes = (size_t)-1;
 static atomic_long calls;
 static atomic_bool armed;
 
@@ -38,6 +42,9 @@ __attribute__((constructor)) static void oom_init(void)
     const char *s = getenv("OOM_FAIL_AT");
     if (s)
         fail_at = atol(s);
+    const char *m = getenv("OOM_MAX_BYTES");
+    if (m)
+        max_bytes = (size_t)strtoull(m, NULL, 10);
     real_malloc = (void *(*)(size_t))dlsym(RTLD_NEXT, "malloc");
     real_calloc = (void *(*)(size_t, size_t))dlsym(RTLD_NEXT, "calloc");
     real_realloc = (void *(*)(void *, size_t))dlsym(RTLD_NEXT, "realloc");
@@ -60,17 +67,17 @@ __attribute__((destructor)) static void oom_fini(void)
     }
 }
 
-/* Whether this call is the one to fail (counting only once armed). */
-static bool oom_now(void)
+/* Whether this call, for n bytes, is to fail (counting only once armed). */
+static bool oom_now_n(size_t n)
 {
     if (!atomic_load(&armed))
         return false;
-    return atomic_fetch_add(&calls, 1) + 1 == fail_at;
+    return atomic_fetch_add(&calls, 1) + 1 == fail_at || n > max_bytes;
 }
 
 void *malloc(size_t n)
 {
-    if (oom_now()) {
+    if (oom_now_n(n)) {
         errno = ENOMEM;
         return NULL;
     }
@@ -79,7 +86,7 @@ void *malloc(size_t n)
 
 void *calloc(size_t a, size_t b)
 {
-    if (oom_now()) {
+    if (oom_now_n(b && a > (size_t)-1 / b ? (size_t)-1 : a * b)) {
         errno = ENOMEM;
         return NULL;
     }
@@ -88,7 +95,7 @@ void *calloc(size_t a, size_t b)
 
 void *realloc(void *p, size_t n)
 {
-    if (oom_now()) {
+    if (oom_now_n(n)) {
         errno = ENOMEM;
         return NULL;
     }
@@ -97,7 +104,7 @@ void *realloc(void *p, size_t n)
 
 int posix_memalign(void **out, size_t align, size_t n)
 {
-    if (oom_now())
+    if (oom_now_n(n))
         return ENOMEM;
     if (real_posix_memalign)
         return real_posix_memalign(out, align, n);
@@ -107,7 +114,7 @@ int posix_memalign(void **out, size_t align, size_t n)
 
 void *aligned_alloc(size_t align, size_t n)
 {
-    if (oom_now()) {
+    if (oom_now_n(n)) {
         errno = ENOMEM;
         return NULL;
     }
@@ -116,7 +123,7 @@ void *aligned_alloc(size_t align, size_t n)
 
 void *mmap(void *addr, size_t n, int prot, int flags, int fd, off_t off)
 {
-    if (oom_now()) {
+    if (oom_now_n(n)) {
         errno = ENOMEM;
         return MAP_FAILED;
     }

@@ -841,6 +841,164 @@ static void test_film_column_chunks(void)
     fixture_close(&fx);
 }
 
+/* FilmConfig.rows: what a strip-by-strip render hands over. Its strips are copied into
+ * byte images here, and every output pixel must come exactly once, strips of a column
+ * chunk from the bottom up, all three outputs of a strip the same size. */
+typedef struct RowsSink {
+    Image out[3];              /* the rectangle's colour, depth, normals (bytes) */
+    int *seen;                 /* per output pixel: strips that held it */
+    int calls, last_x, last_y; /* the strip before: chunks left to right, rows upwards */
+    bool ordered, sized;
+} RowsSink;
+
+static void rows_sink(void *user, const FilmRows *r)
+{
+    RowsSink *k = user;
+    const Image *part[3] = {r->color, r->depth, r->normals};
+    const Image *any = NULL;
+    for (int i = 0; i < 3; i++) {
+        if (!part[i])
+            continue;
+        if (any && (part[i]->width != any->width || part[i]->height != any->height))
+            k->sized = false;
+        any = part[i];
+        for (int y = 0; y < part[i]->height; y++)
+            memcpy(k->out[i].bytes + ((size_t)(r->y + y) * k->out[i].width + r->x) * 3,
+                   part[i]->bytes + (size_t)y * part[i]->width * 3,
+                   (size_t)part[i]->width * 3);
+    }
+    if (!any)
+        return;
+    if (k->calls > 0 && !(r->x > k->last_x || (r->x == k->last_x && r->y > k->last_y)))
+        k->ordered = false;
+    k->calls++;
+    k->last_x = r->x;
+    k->last_y = r->y;
+    for (int y = 0; y < any->height; y++)
+        for (int x = 0; x < any->width; x++)
+            k->seen[(size_t)(r->y + y) * k->out[0].width + r->x + x]++;
+}
+
+/* Strip by strip (FilmConfig.rows, what a streamed output file is written from) gives
+ * the bytes of the whole images: colour only (the planes and the vector filter), with
+ * depth and normals (the general loop), adaptive; the whole image and a rectangle; the
+ * default budget and the smallest (a strip per output row), column chunks
+ * (strip_limit 1: chunks of 16 columns), 1 and 2 threads. Every pixel comes once. */
+static void test_film_rows_strip_by_strip(void)
+{
+    Fixture fx;
+    if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
+        return;
+    Sampler jit, uni, ada;
+    make_sampler(&jit, "jittered", 4, 3);
+    make_sampler(&uni, "uniform", 4, 0);
+    make_sampler(&ada, "jittered", 16, 3);
+    ada.stream = 1;
+    Filter gauss, tent;
+    char why[160];
+    CHECK(filter_init(&gauss, filter_find("gaussian"), 0.4f, why, sizeof why));
+    CHECK(filter_init(&tent, filter_find("tent"), 1.5f, why, sizeof why));
+    struct { const Sampler *s; const Filter *f; const Sampler *refine; unsigned want; }
+        cases[] = {{&jit, &gauss, NULL, FILM_COLOR},
+                   {&uni, &tent, NULL, FILM_COLOR | FILM_DEPTH | FILM_NORMALS},
+                   {&jit, &tent, &ada, FILM_COLOR | FILM_NORMALS},
+                   {&jit, &gauss, NULL, FILM_DEPTH}};
+    const int W = 61, H = 47;
+    static const int rects[][4] = {{0, 0, 61, 47}, {13, 5, 40, 30}};
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 2; r++)
+            for (int v = 0; v < 3; v++) {
+                int x0 = rects[r][0], y0 = rects[r][1], w = rects[r][2], h = rects[r][3];
+                int threads = v == 1 ? 1 : 2;
+                FilmConfig fc;
+                memset(&fc, 0, sizeof fc);
+                fc.sampler = cases[c].s;
+                fc.filter = cases[c].f;
+                fc.refine = cases[c].refine;
+                fc.threshold = 0.05f;
+                fc.full_width = W;
+                fc.full_height = H;
+                fc.x0 = x0;
+                fc.y0 = y0;
+                fc.width = w;
+                fc.height = h;
+                fc.depth_min = 5;
+                fc.depth_max = 15;
+                fc.budget = v == 0 ? 0 : 1;
+                fc.strip_limit = v == 2 ? 1 : 0;
+                /* the whole images */
+                Image whole[3];
+                memset(whole, 0, sizeof whole);
+                for (int i = 0; i < 3; i++)
+                    if (cases[c].want & (1u << i))
+                        CHECK(image_init_bytes(&whole[i], w, h));
+                FilmConfig a = fc;
+                a.color = whole[0].bytes ? &whole[0] : NULL;
+                a.depth = whole[1].bytes ? &whole[1] : NULL;
+                a.normals = whole[2].bytes ? &whole[2] : NULL;
+                RtStats st_a, st_b;
+                CHECK(film_render(&fx.rt, &fx.scene->camera, &a, threads, &st_a, NULL));
+                /* strip by strip */
+                RowsSink k;
+                memset(&k, 0, sizeof k);
+                k.ordered = k.sized = true;
+                for (int i = 0; i < 3; i++)
+                    CHECK(image_init_bytes(&k.out[i], w, h));
+                k.seen = calloc((size_t)w * (size_t)h, sizeof *k.seen);
+                CHECK(k.seen != NULL);
+                FilmConfig b = fc;
+                b.rows = rows_sink;
+                b.rows_user = &k;
+                b.rows_wanted = cases[c].want;
+                if (k.seen)
+                    CHECK(film_render(&fx.rt, &fx.scene->camera, &b, threads, &st_b, NULL));
+                bool once = k.seen != NULL;
+                for (size_t i = 0; once && i < (size_t)w * (size_t)h; i++)
+                    once = k.seen[i] == 1;
+                bool same = true;
+                for (int i = 0; i < 3; i++)
+                    if (whole[i].bytes)
+                        same = same && memcmp(whole[i].bytes, k.out[i].bytes,
+                                              (size_t)w * (size_t)h * 3) == 0;
+                CHECK_MSG(same, "case %d rect %d variant %d: the strips differ from the whole "
+                          "images", c, r, v);
+                CHECK_MSG(once && k.ordered && k.sized && k.calls > (v == 0 ? 0 : 1),
+                          "case %d rect %d variant %d: %d strips, every pixel once %d, in "
+                          "order %d, of one size %d", c, r, v, k.calls, once, k.ordered,
+                          k.sized);
+                CHECK_MSG(st_a.nonshadow_rays == st_b.nonshadow_rays,
+                          "case %d rect %d variant %d: %llu rays whole, %llu strip by strip",
+                          c, r, v, (unsigned long long)st_a.nonshadow_rays,
+                          (unsigned long long)st_b.nonshadow_rays);
+                free(k.seen);
+                for (int i = 0; i < 3; i++) {
+                    image_free(&whole[i]);
+                    image_free(&k.out[i]);
+                }
+            }
+    /* rows with whole images too, or with nothing wanted: a bad configuration */
+    Image one;
+    CHECK(image_init_bytes(&one, 4, 4));
+    RowsSink k;
+    memset(&k, 0, sizeof k);
+    FilmConfig bad;
+    memset(&bad, 0, sizeof bad);
+    bad.sampler = &jit;
+    bad.filter = &gauss;
+    bad.full_width = bad.full_height = bad.width = bad.height = 4;
+    bad.rows = rows_sink;
+    bad.rows_user = &k;
+    bad.rows_wanted = FILM_COLOR;
+    bad.color = &one;
+    CHECK(!film_render(&fx.rt, &fx.scene->camera, &bad, 1, NULL, NULL));
+    bad.color = NULL;
+    bad.rows_wanted = 0;
+    CHECK(!film_render(&fx.rt, &fx.scene->camera, &bad, 1, NULL, NULL));
+    CHECK_INT(k.calls, 0);
+    image_free(&one);
+    fixture_close(&fx);
+}
+
 /* One worker and no shared rows (R = 0: the box 0.5 with any sampler): the film holds
  * one band of rows at a time, strip after strip; the bytes are those of the one strip
  * that two workers' default budget holds (the whole image here), with and without the
@@ -1284,6 +1442,8 @@ static const TestCase tests[] = {
     {"film: rectangle == crop of the full render; tiny budget == one strip",
      test_film_region_and_budget},
     {"film: column chunks == one piece, holding a chunk's strips", test_film_column_chunks},
+    {"film: strip by strip (FilmConfig.rows) == whole images, every pixel once",
+     test_film_rows_strip_by_strip},
     {"film: colour-only vector filter == general loop; any column offset",
      test_film_vector_filter},
     {"film: one worker, R = 0: a strip per band == one strip", test_film_band_strips},

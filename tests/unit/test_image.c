@@ -1246,6 +1246,133 @@ static void test_encoding_stream(void)
     image_free(&img);
 }
 
+/* Files streamed without their rows in memory (image_encoding_stream_only, the
+ * antialiased render's): only the header is held (head_only, data of top bytes), the
+ * parts given by image_encoding_put -- column chunks of part rows, whole-row strips, a
+ * float part and byte parts, in any order -- land at their places, and image_write_all
+ * renames the file with encode's bytes (a part image's region record in the header too);
+ * image_encoding_row and image_encoding_flush leave such a file alone; a part that does
+ * not lie inside is ignored; freed without a write, nothing is left. Standard output and
+ * PNG are not streamed, and image_write_all does not take a header-only encoding that
+ * is not streamed as the file's bytes. */
+static void test_encoding_stream_only(void)
+{
+    int w = 37, h = 23;
+    Image img, fimg;
+    CHECK(image_init_bytes(&img, w, h));
+    CHECK(image_init(&fimg, w, h));
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            Vec3 c = v3((float)x / 37.0f, (float)(x ^ y) / 64.0f, (float)y / 23.0f);
+            image_put(&img, x, y, c);
+            image_set(&fimg, x, y, c);
+        }
+    /* A part of img: columns x0 .. x0 + pw - 1, rows y0 .. y0 + ph - 1. */
+#define PART(dst, src, x0, y0, pw, ph, bytes)                                              \
+    do {                                                                                   \
+        CHECK((bytes) ? image_init_bytes(&(dst), pw, ph) : image_init(&(dst), pw, ph));    \
+        for (int yy = 0; yy < (ph); yy++)                                                  \
+            for (int xx = 0; xx < (pw); xx++)                                              \
+                image_put(&(dst), xx, yy, image_get(&(src), (x0) + xx, (y0) + yy));        \
+    } while (0)
+    const char *names[] = {"o.tga", "o.ppm"};
+    for (int n = 0; n < 2; n++)
+        for (int region = 0; region < 2; region++) {
+            char *dir = make_tmpdir();
+            CHECK(dir != NULL);
+            char path[128];
+            snprintf(path, sizeof path, "%s/%s", dir, names[n]);
+            img.has_region = region != 0;
+            if (region) {
+                img.region = (ImageRegion){5, 7, 100, 90, true, 0x1234abcdULL};
+            }
+            Image shape;
+            memset(&shape, 0, sizeof shape);
+            shape.width = w;
+            shape.height = h;
+            shape.has_region = img.has_region;
+            shape.region = img.region;
+            ImageEncoding e;
+            CHECK(image_encoding_stream_only(&e, &shape, path, NULL));
+            CHECK(e.head_only && e.fd >= 0 && e.top < 256 && e.len == e.top + (size_t)w * h * 3);
+            CHECK_INT(count_entries(dir), 1); /* the temporary file */
+            /* Column chunks of the top 11 rows (a float part among them), then two
+             * whole-row strips, the lower one first. */
+            Image p;
+            int cols[] = {0, 16, 32, 37};
+            for (int k = 0; k < 3; k++) {
+                PART(p, fimg, cols[k], 12, cols[k + 1] - cols[k], 11, k != 1);
+                image_encoding_put(&e, &p, cols[k], 12);
+                image_free(&p);
+            }
+            PART(p, fimg, 0, 0, w, 5, true);
+            image_encoding_put(&e, &p, 0, 0);
+            image_free(&p);
+            PART(p, fimg, 0, 5, w, 7, true);
+            image_encoding_put(&e, &p, 0, 5);
+            /* Outside: ignored (it would overwrite rows 5-11 with row 17's place). */
+            image_encoding_put(&e, &p, 1, 5);
+            image_encoding_put(&e, &p, 0, 17);
+            image_free(&p);
+            image_encoding_row(&e, &img, 3);
+            image_encoding_flush(&e, 0, h - 1);
+            ImageOutput out = {&shape, path, NULL, &e};
+            Diag d;
+            diag_init(&d, NULL);
+            CHECK_MSG(image_write_all(&out, 1, &d), "%s", d.last);
+            CHECK_INT(count_entries(dir), 1);
+            uint8_t *ref = NULL, *got = NULL;
+            size_t len = 0, glen = 0;
+            CHECK(image_codec_for_path(path)->encode(&img, &ref, &len));
+            got = read_all(path, &glen);
+            CHECK_MSG(got && glen == len && memcmp(got, ref, len) == 0,
+                      "%s region %d: the streamed file differs from encode's", names[n], region);
+            free(got);
+            bigmem_free(ref);
+            image_encoding_free(&e);
+
+            /* Freed without a write: nothing is left. */
+            unlink(path);
+            CHECK(image_encoding_stream_only(&e, &shape, path, NULL));
+            CHECK_INT(count_entries(dir), 1);
+            image_encoding_free(&e);
+            CHECK_INT(count_entries(dir), 0);
+            remove_tree(dir);
+        }
+#undef PART
+    img.has_region = false;
+    ImageEncoding e;
+    CHECK(!image_encoding_stream_only(&e, &img, "-", NULL));
+    CHECK(e.data == NULL && e.fd < 0);
+    char *dir = make_tmpdir();
+    CHECK(dir != NULL);
+    char path[128];
+    snprintf(path, sizeof path, "%s/o.png", dir);
+    CHECK(!image_encoding_stream_only(&e, &img, path, NULL));
+    CHECK_INT(count_entries(dir), 0);
+    /* Not streamed (made by hand here): the file is encoded from the image instead. */
+    snprintf(path, sizeof path, "%s/o.tga", dir);
+    CHECK(image_encoding_stream_only(&e, &img, path, NULL));
+    image_encoding_free(&e);
+    CHECK(image_encoding_begin(&e, &img, path, NULL));
+    e.head_only = true;
+    ImageOutput out = {&img, path, NULL, &e};
+    Diag d;
+    diag_init(&d, NULL);
+    CHECK_MSG(image_write_all(&out, 1, &d), "%s", d.last);
+    uint8_t *ref = NULL, *got = NULL;
+    size_t len = 0, glen = 0;
+    CHECK(image_codec_for_path(path)->encode(&img, &ref, &len));
+    got = read_all(path, &glen);
+    CHECK(got && glen == len && memcmp(got, ref, len) == 0);
+    free(got);
+    bigmem_free(ref);
+    image_encoding_free(&e);
+    remove_tree(dir);
+    image_free(&img);
+    image_free(&fimg);
+}
+
 /* A failed decode leaves every field of the image defined (no pixels, no bytes), whatever
  * the caller's struct held before, so image_free after a failure is always safe: callers
  * (merge, imgdiff, the fuzz targets) keep an uninitialised Image on the stack. Inputs:
@@ -1316,6 +1443,8 @@ static const TestCase tests[] = {
     {"image: files made row by row = encode; written as they are", test_encoding_rows},
     {"image: streamed files: renamed whole, removed when not written or failed",
      test_encoding_stream},
+    {"image: streamed without rows in memory: parts at their places, renamed whole",
+     test_encoding_stream_only},
 };
 
 RT_TEST_MAIN(tests)
