@@ -948,6 +948,22 @@ static int run(App *app)
                                                               : stdout_format(o, outputs[i]),
                                               &app->diag))
             return EXIT_INPUT;
+    /* So are the preview's: a build without it, a bad -gui_keys command, a shot:FILE
+     * that cannot be written said so only after the scene's parse and grid build. */
+    if (o->gui_snapshot && !preview_snapshot_built()) {
+        diag_error(&app->diag, NULL, "-gui_snapshot is not built in: %s",
+                   preview_remedy(false));
+        return EXIT_USAGE;
+    }
+    if (o->gui && !o->gui_snapshot && !preview_window_built()) {
+        diag_error(&app->diag, NULL, "-gui is not built in: %s", preview_remedy(true));
+        return EXIT_USAGE;
+    }
+    if ((o->gui || o->gui_snapshot) && o->gui_keys) {
+        int status = preview_keys_validate(o->gui_keys, &app->diag);
+        if (status)
+            return status == 2 ? EXIT_USAGE : EXIT_INPUT;
+    }
     /* The set-up's helpers start now and stay for the render (rt/par.h): each starts
      * once, while the scene file is read, instead of once per parallel step and again
      * for the render. */

@@ -41,5 +41,10 @@ const char *preview_remedy(bool window);
 int preview_run_window(const PreviewConfig *cfg, Diag *diag);
 /* Draws one frame (after the scripted keys) offscreen and writes snapshot_path. */
 int preview_snapshot(const PreviewConfig *cfg, Diag *diag);
+/* The -gui_keys script checked before the scene is read, as the other outputs are: 0
+ * when every command is well formed and every shot:FILE can be written; 2 (a usage
+ * error, "-gui_keys: ..." reported) for a bad command or a shot:FILE without a known
+ * image extension; 1 for a shot:FILE that cannot be written (a missing folder). */
+int preview_keys_validate(const char *keys, Diag *diag);
 
 #endif

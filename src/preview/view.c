@@ -312,6 +312,31 @@ bool preview_keys_outputs_ok(const KeyScript *s, Diag *diag)
     return true;
 }
 
+int preview_keys_validate(const char *keys, Diag *diag)
+{
+    KeyScript s;
+    if (!preview_keys_parse(keys, &s, diag))
+        return 2;
+    int status = 0;
+    for (int k = 0; k < s.count && !status; k++) {
+        const char *path = s.cmds[k].path;
+        if (s.cmds[k].kind != KEYCMD_SHOT)
+            continue;
+        /* The extension is the user's spelling, like -output x.jpg: a usage error. */
+        if (!image_codec_for_path(path) && !image_is_null_device(path)) {
+            char list[128];
+            image_format_list(list, sizeof list);
+            diag_error(diag, NULL, "-gui_keys: shot:%s: unknown image format (the file "
+                       "name must end in one of %s)", path, list);
+            status = 2;
+        } else if (!image_check_output(path, NULL, diag)) {
+            status = 1;
+        }
+    }
+    preview_keys_free(&s);
+    return status;
+}
+
 void preview_keys_free(KeyScript *s)
 {
     for (int k = 0; k < s->count; k++)

@@ -438,6 +438,62 @@ static void test_outputs_checked_first(void)
     e2e_rmtree(p.dir);
 }
 
+/* The preview's options are checked before the scene is read, as the outputs are: a
+ * bad -gui_keys command and a shot:FILE without an image extension are usage errors
+ * (2; shot:a.jpg was 1), a shot:FILE in a missing folder an output error (1), and a
+ * build without the preview says so (2); all of them, before, came only after the
+ * scene's parse and grid build (here: "cannot open scene file"). Nothing is written. */
+static void test_preview_checked_first(void)
+{
+    Paths p;
+    paths_init(&p);
+    char missing_scene[PATH_MAX], snap[PATH_MAX], jpg[PATH_MAX], in_missing_dir[PATH_MAX];
+    e2e_join(missing_scene, sizeof missing_scene, p.dir, "no_such_scene.txt");
+    e2e_join(snap, sizeof snap, p.dir, "snap.tga");
+    e2e_join(jpg, sizeof jpg, p.dir, "a.jpg");
+    e2e_join(in_missing_dir, sizeof in_missing_dir, p.dir, "nodir/a.tga");
+    char shot_jpg[PATH_MAX + 8], shot_missing[PATH_MAX + 8];
+    snprintf(shot_jpg, sizeof shot_jpg, "r shot:%s", jpg);
+    snprintf(shot_missing, sizeof shot_missing, "shot:%s q", in_missing_dir);
+    struct {
+        bool window;
+        const char *keys, *want;
+        int status;
+    } cases[] = {
+        {false, "r x", "-gui_keys: bad command 'x' at character 3", 2},
+        {false, shot_jpg, "unknown image format", 2},
+        {false, shot_missing, "No such file or directory", 1},
+        {true, "rot:1", "-gui_keys: bad command 'rot:1'", 2},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        bool built = cases[i].window ? preview_window_built() : preview_snapshot_built();
+        const char *args[10];
+        int n = 0;
+        args[n++] = "-input";
+        args[n++] = missing_scene;
+        if (cases[i].window) {
+            args[n++] = "-gui";
+        } else {
+            args[n++] = "-gui_snapshot";
+            args[n++] = snap;
+        }
+        args[n++] = "-gui_keys";
+        args[n++] = cases[i].keys;
+        args[n] = NULL;
+        E2eRun r;
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        int status = built ? cases[i].status : 2;
+        CHECK_MSG(r.status == status, "-gui_keys '%s': exit %d, expected %d: %s",
+                  cases[i].keys, r.status, status, r.err);
+        CHECK_CONTAINS(r.err, built ? cases[i].want : "is not built in");
+        CHECK_MSG(!strstr(r.err, "scene"), "-gui_keys '%s': the scene was opened: %s",
+                  cases[i].keys, r.err);
+        e2e_run_free(&r);
+    }
+    CHECK_INT(e2e_count_entries(p.dir), 0);
+    e2e_rmtree(p.dir);
+}
+
 /* The preview's g key says on the terminal which view it switched to, like t and c
  * (headless: -gui_snapshot through OSMesa); r's statistics start on a line of their
  * own. */
@@ -465,6 +521,8 @@ static void test_preview_keys_print(void)
 
 static const TestCase tests[] = {
     {"ux: the preview's g prints its view", test_preview_keys_print},
+    {"ux: the preview's options are checked before the scene is read",
+     test_preview_checked_first},
     {"ux: outputs are checked before the scene is read", test_outputs_checked_first},
     {"ux: progress line on a terminal, erased at the end", test_progress_on_terminal},
     {"ux: progress line while antialiasing", test_progress_antialiased},
