@@ -19,6 +19,7 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 enum {
@@ -861,6 +862,25 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 same_file(files[i], files[j]))
                 return usage_error(&c, "%s and %s name the same file '%s'", names[i], names[j],
                                    files[j]);
+    /* The preview's shot:FILE too: "-output o.tga -gui_keys 'r shot:o.tga'" wrote the
+     * render and then replaced it with the preview's frame. Only where the script runs
+     * (otherwise -gui_keys is a warning, below). Words as the key parser splits them;
+     * its keywords are case-insensitive. */
+    if (o->gui_keys && (o->gui || o->gui_snapshot)) {
+        for (const char *w = o->gui_keys; *w;) {
+            size_t n = strcspn(w, " \t\n\r\f\v");
+            char shot[PATH_MAX];
+            if (n > 5 && n - 5 < sizeof shot && strncasecmp(w, "shot:", 5) == 0) {
+                snprintf(shot, sizeof shot, "%.*s", (int)(n - 5), w + 5);
+                for (int i = 0; i < 8; i++)
+                    if (files[i] && strcmp(files[i], "-") != 0 && same_file(files[i], shot))
+                        return usage_error(&c, "%s and -gui_keys shot:%s name the same file",
+                                           names[i], shot);
+            }
+            w += n;
+            w += strspn(w, " \t\n\r\f\v");
+        }
+    }
     if (o->tile) {
         int rows = o->tile_n / o->tile_cols;
         if (rows > o->height)

@@ -144,6 +144,13 @@ static void test_usage_errors(void)
         {"-input s.txt -output o.tga -gui_snapshot ./o.tga",
          "-output and -gui_snapshot name the same file './o.tga'"},
         {"-input s.txt -output o.tga -cache o.tga", "-output and -cache name the same file"},
+        /* and the preview's shot:FILE, which replaced the render r had written there */
+        {"-input s.txt -output o.tga -gui_snapshot v.tga -gui_keys shot:o.tga",
+         "-output and -gui_keys shot:o.tga name the same file"},
+        {"-input s.txt -gui -depth 1 2 d.tga -gui_keys SHOT:./d.tga",
+         "-depth and -gui_keys shot:./d.tga name the same file"},
+        {"-input s.txt -gui_snapshot v.tga -gui_keys shot:v.tga",
+         "-gui_snapshot and -gui_keys shot:v.tga name the same file"},
         {"-input s.txt -output o.tga -cache s.txt", "-cache and -input name the same file"},
         {"-input s.txt -depth 0 1 c -cache ./c", "-depth and -cache name the same file"},
     };
