@@ -80,6 +80,10 @@ static void install_signal_handlers(void)
     /* A closed pipe on stdout (raytracer -stats | head) is an output error with a
      * message and exit status 1, not a silent death by SIGPIPE. */
     signal(SIGPIPE, SIG_IGN);
+    /* Likewise a file-size limit (ulimit -f) reached while writing an image: the write
+     * fails with EFBIG, reported as "File too large", and the temporary file is
+     * removed; by default SIGXFSZ ended the run silently with it left behind. */
+    signal(SIGXFSZ, SIG_IGN);
 }
 
 /* Exit status for a run stopped by the signal in g_cancel. */

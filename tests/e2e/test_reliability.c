@@ -395,6 +395,50 @@ static void test_outputs_all_or_nothing(void)
     e2e_rmtree(dir);
 }
 
+/* A file-size limit (ulimit -f, a batch system's quota) reached while an image is
+ * written: exit 1 with "File too large", no image and no temporary file, and an older
+ * image keeps its bytes. The limit (64 blocks: 32 or 64 KB) lets the header through but
+ * not a 200x200 TGA (120 KB), so the failure comes mid-file: for the plain renderer's
+ * streamed colour rows and for an antialiased render's strips (and its depth image).
+ * Before the fix SIGXFSZ killed the run (exit 153, nothing said) with the temporary
+ * file left behind. The limit is set in a shell that then runs the program, so it never
+ * applies to this test's own output. */
+static void test_file_size_limit(void)
+{
+    char dir[PATH_MAX], out[PATH_MAX], depth[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "fsize") != NULL);
+    e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(depth, sizeof depth, dir, "d.tga");
+    repro(scene, sizeof scene, "planes_only.txt");
+    char *plain[] = {"/bin/sh", "-c", "ulimit -f 64 && exec \"$0\" \"$@\"",
+                     (char *)harness_bin(), "-input", scene, "-output", out, "-size", "200",
+                     "200", "-threads", "2", NULL};
+    char *film[] = {"/bin/sh", "-c", "ulimit -f 64 && exec \"$0\" \"$@\"",
+                    (char *)harness_bin(), "-input", scene, "-output", out, "-depth", "0",
+                    "20", depth, "-size", "200", "200", "-jittered_samples", "4",
+                    "-threads", "2", NULL};
+    char *const *runs[] = {plain, film};
+    for (int i = 0; i < 2; i++) {
+        E2eRun r;
+        CHECK(e2e_run(runs[i], &r));
+        CHECK_INT(r.status, 1);
+        CHECK_CONTAINS(r.err, "File too large");
+        CHECK_INT(e2e_count_entries(dir), 0);
+        e2e_run_free(&r);
+    }
+    CHECK(e2e_write_file(out, "old bytes"));
+    E2eRun r;
+    CHECK(e2e_run(film, &r));
+    CHECK_INT(r.status, 1);
+    size_t len = 0;
+    char *old = e2e_read_file(out, &len);
+    CHECK_STR(old, "old bytes");
+    free(old);
+    CHECK_INT(e2e_count_entries(dir), 1);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 /* -gui_snapshot with a key script whose last shot cannot be written: exit 1 with the
  * reason and no image at all. The shot's folder was found missing only when the shot
  * came, after the r key had written -output (exit 1, one image written). */
@@ -774,6 +818,7 @@ static const TestCase tests[] = {
     {"sigint_during_merge", test_sigint_during_merge},
     {"sigterm_during_setup", test_sigterm_during_setup},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
+    {"file_size_limit", test_file_size_limit},
     {"same_path_twice", test_same_path_twice},
     {"snapshot_shot_checked_first", test_snapshot_shot_checked_first},
     {"stats_write_errors", test_stats_write_errors},
