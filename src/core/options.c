@@ -635,6 +635,12 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         } else if (!strcmp(a, "-cache")) {
             if (!take(&c, a, &o->cache_file))
                 return false;
+            /* "-" is standard input or output for -input and the images, but the cache
+             * is written and read back by name: "-cache -" made a file named "-". */
+            if (!strcmp(o->cache_file, "-"))
+                return usage_error(&c, "option -cache: '-' is no file here: the set-up "
+                                   "cache is written and read back by name (-cache "
+                                   "frame.cache)");
         } else if (!strcmp(a, "-format")) {
             if (!take(&c, a, &o->format))
                 return false;

@@ -144,6 +144,8 @@ static void test_usage_errors(void)
         {"-input s.txt -output o.tga -gui_snapshot ./o.tga",
          "-output and -gui_snapshot name the same file './o.tga'"},
         {"-input s.txt -output o.tga -cache o.tga", "-output and -cache name the same file"},
+        /* "-" is no cache: it made a file named "-" in the working folder */
+        {"-input s.txt -output o.tga -cache -", "option -cache: '-' is no file here"},
         /* and the preview's shot:FILE, which replaced the render r had written there */
         {"-input s.txt -output o.tga -gui_snapshot v.tga -gui_keys shot:o.tga",
          "-output and -gui_keys shot:o.tga name the same file"},
