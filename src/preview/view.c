@@ -322,8 +322,10 @@ int preview_keys_validate(const char *keys, Diag *diag)
         const char *path = s.cmds[k].path;
         if (s.cmds[k].kind != KEYCMD_SHOT)
             continue;
-        /* The extension is the user's spelling, like -output x.jpg: a usage error. */
-        if (!image_codec_for_path(path) && !image_is_null_device(path)) {
+        /* The extension is the user's spelling, like -output x.jpg: a usage error.
+         * shot:- is standard output (TGA), as it was before this check. */
+        if (strcmp(path, IMAGE_STDOUT) != 0 && !image_codec_for_path(path) &&
+            !image_is_null_device(path)) {
             char list[128];
             image_format_list(list, sizeof list);
             diag_error(diag, NULL, "-gui_keys: shot:%s: unknown image format (the file "

@@ -490,6 +490,17 @@ static void test_preview_checked_first(void)
                   cases[i].keys, r.err);
         e2e_run_free(&r);
     }
+    /* shot:- is standard output (here a pipe), not a name without an extension: the
+     * script passes, and the scene's error is the one reported. */
+    if (preview_snapshot_built()) {
+        const char *args[] = {"-input", missing_scene, "-gui_snapshot", snap, "-gui_keys",
+                              "shot:-", NULL};
+        E2eRun r;
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        CHECK_INT(r.status, 1);
+        CHECK_CONTAINS(r.err, "cannot open scene file");
+        e2e_run_free(&r);
+    }
     CHECK_INT(e2e_count_entries(p.dir), 0);
     e2e_rmtree(p.dir);
 }
