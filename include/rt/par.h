@@ -81,6 +81,16 @@ int par_threads(void);
  * benchmarks; call it while no par_for runs. */
 void par_set_helpers(int n);
 
+/* The run's stop request, for the set-up's long loops (the OBJ reader's lines, the
+ * grid build's chunks), which are given no stop flag of their own: main points it at
+ * the flag its stop signals set (Ctrl-C, SIGTERM), and those loops poll it every so
+ * many lines or primitives and end early, reporting nothing: their caller says
+ * "interrupted". flag NULL (the default): never stopped. Set it before the threads that
+ * poll start. */
+void par_set_stop_flag(const volatile int *flag);
+/* Whether a stop was requested (the flag is non-zero). Any thread; a load and a test. */
+bool par_stop_requested(void);
+
 /* For any thread started to help a short job: attr makes the new thread start on a
  * CPU other than the caller's (Linux tends to start it on its creator's CPU, where the
  * two then share one CPU for milliseconds while the other idles). Best effort. */

@@ -51,8 +51,9 @@ typedef struct PrimTable {
     uint32_t num_xforms, cap_xforms;
 } PrimTable;
 
-/* Flattens scene->root (NULL root: an empty table). False when out of memory (the table
- * is then empty and needs no prim_table_free). */
+/* Flattens scene->root (NULL root: an empty table). False when out of memory, or when a
+ * stop was requested (par_stop_requested, rt/par.h: looked at between chunks of a big
+ * group's leaves); the table is then empty and needs no prim_table_free. */
 bool prim_table_build(PrimTable *t, const Scene *scene);
 void prim_table_free(PrimTable *t);
 

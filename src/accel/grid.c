@@ -214,6 +214,11 @@ static Grid *build(const PrimTable *t, int nx, int ny, int nz, bool fitted, Diag
         }
     }
     if (!grid_bin_fill_pack(&b)) {
+        if (b.stopped) { /* nothing to report: the caller says "interrupted" */
+            grid_free_build_state(&b);
+            grid_free(g);
+            return NULL;
+        }
         if (!b.too_many)
             goto oom;
         diag_error(diag, NULL, "grid %dx%dx%d would hold too many entries; use fewer cells",

@@ -125,8 +125,14 @@ static void bin_chunk(void *ctx, int i, int worker)
     }
     Grid *g = job->g;
     BinPart *bp = &job->part[worker];
-    if (bp->oom || bp->too_many)
+    if (bp->oom || bp->too_many || bp->stopped)
         return;
+    /* A stop (Ctrl-C) is looked for once per BIN_CHUNK primitives: the 1.3M-triangle
+     * blob's binning is ~0.4 s of a thread, so it ends within a millisecond or so. */
+    if (par_stop_requested()) {
+        bp->stopped = true;
+        return;
+    }
     if (!bp->pairs) {
         bp->g = g;
         bp->cell_axis = job->b->cell_axis;
@@ -160,7 +166,7 @@ static void bin_chunk(void *ctx, int i, int worker)
 static bool parts_ok(const BinJob *job)
 {
     for (int w = 0; w < PAR_MAX_WORKERS; w++)
-        if (job->part[w].oom || job->part[w].too_many)
+        if (job->part[w].oom || job->part[w].too_many || job->part[w].stopped)
             return false;
     return true;
 }
@@ -199,6 +205,7 @@ bool grid_bin_fill_pack(GridBuild *b)
         par_for((int)all_chunks, bin_chunk, &job);
         for (int w = 0; w < PAR_MAX_WORKERS; w++) {
             b->too_many = b->too_many || job.part[w].too_many;
+            b->stopped = b->stopped || job.part[w].stopped;
             total += job.part[w].num_pairs;
         }
         ok = parts_ok(&job);
@@ -246,9 +253,14 @@ bool grid_bin_fill_pack(GridBuild *b)
             bigmem_free(job.part[w].count);
         job.part[w].count = NULL;
     }
-    /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c). */
+    /* Packed copies of the untransformed triangles for the hot loop (grid_pack.c), which
+     * fails when a stop cut it short too. */
+    if (ok && par_stop_requested())
+        ok = false;
     if (ok)
         ok = grid_pack(g);
+    if (!ok && par_stop_requested())
+        b->stopped = true;
     if (ok)
         grid_occupancy_make(g);
     free(job.chunk);

@@ -46,7 +46,7 @@ typedef struct BinPart {
     uint32_t *count;      /* per cell: marching entries (worker 0: g->cell_start + 1) */
     uint32_t *pairs;      /* cells of each binned primitive's marching set, in order */
     size_t num_pairs, cap_pairs;
-    bool oom, too_many;
+    bool oom, too_many, stopped;
 } BinPart;
 
 typedef struct CellRange {
@@ -87,10 +87,12 @@ typedef struct GridBuild {
                                cells of its marching set */
     double *cell_axis;      /* per axis and cell: padded bounds, centre, half sizes */
     bool too_many;          /* more marching entries than a uint32_t index can hold */
+    bool stopped;           /* cut short: a stop was requested (rt/par.h) */
 } GridBuild;
 
-/* grid_bin.c: the marching sets, the CSR arrays and grid_pack, on the set-up threads. False when out of memory, or with b->too_many when the entries
- * overflow a uint32_t. */
+/* grid_bin.c: the marching sets, the CSR arrays and grid_pack, on the set-up threads. False when out of memory, with b->too_many when the entries
+ * overflow a uint32_t, or with b->stopped when a stop was requested (the binning and
+ * the pack look before each chunk: a stop ends the build within a chunk's time). */
 bool grid_bin_fill_pack(GridBuild *b);
 /* Frees the build-time arrays (prim_ncells, cell_axis). */
 void grid_free_build_state(GridBuild *b);

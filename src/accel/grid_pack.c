@@ -117,6 +117,8 @@ static void pack_chunk(void *ctx, int k, int worker)
 {
     (void)worker;
     const PackJob *job = ctx;
+    if (par_stop_requested())
+        return; /* grid_pack fails: the grid is thrown away */
     Grid *g = job->g;
     uint32_t p0 = (uint32_t)k * PACK_CHUNK;
     uint32_t p1 = g->num_prims - p0 > PACK_CHUNK ? p0 + PACK_CHUNK : g->num_prims;
@@ -216,6 +218,10 @@ bool grid_pack(Grid *g)
     PackJob job = {g, newix, g->prims_spare};
     par_for((int)(g->num_prims / PACK_CHUNK + (g->num_prims % PACK_CHUNK != 0)), pack_chunk,
             &job);
+    if (par_stop_requested()) { /* chunks were skipped (the flag is never cleared) */
+        bigmem_free(newix);
+        return false;
+    }
     if (job.dst) {
         g->prims_spare = g->prims;
         g->prims = job.dst;

@@ -625,6 +625,8 @@ static void fill_chunk(void *ctx, int i, int worker)
 {
     FillJob *job = ctx;
     LeafPlan *pl = &job->plans->p[job->order[i]];
+    if (par_stop_requested())
+        return; /* pl->ok stays false: the build ends (twolevel_build) */
     fill_leaf(job->g, pl, job->plans->small + pl->small0, &job->scratch[worker], job->pbox,
               job->start);
 }
@@ -784,6 +786,10 @@ TwoLevelGrid *twolevel_build(const PrimTable *table, Diag *diag)
             scratch_free(&job->scratch[w]);
     free(job);
     bigmem_free(pbox);
+    if (!ok && par_stop_requested()) { /* a stop (Ctrl-C): nothing to report */
+        twolevel_free(t);
+        return NULL;
+    }
     if (!ok)
         goto oom;
     /* The leaf lists are copies of the top grid's entries; the group loop also needs

@@ -528,3 +528,16 @@ bool par_background_finish(void)
 }
 
 bool par_try_for(int n, ParChunkFn fn, void *ctx) { return run_job(n, fn, ctx, true); }
+
+/* ---- the stop request (rt/par.h) ---- */
+
+/* Set once, before the set-up's threads poll it; the flag itself is a signal handler's. */
+static const volatile int *g_stop_flag;
+
+void par_set_stop_flag(const volatile int *flag) { g_stop_flag = flag; }
+
+bool par_stop_requested(void)
+{
+    const volatile int *f = g_stop_flag;
+    return f && *f != 0;
+}

@@ -16,7 +16,12 @@ typedef struct Walk {
      * depth d only after visiting deeper ones, so this finds every repeat. */
     const PrimXform *last_at_depth[RT_MAX_NESTING + 1];
     bool oom;
+    bool stopped; /* a stop was requested (rt/par.h): the table is given up */
 } Walk;
+
+/* A big group's children between two looks at the stop request (a power of two): a
+ * 1M-triangle mesh is flattened in ~0.1-0.2 s, so a Ctrl-C ends it within a few ms. */
+enum { STOP_LEAVES = 65536 };
 
 static bool path_equal(const XformPath *a, const XformPath *b)
 {
@@ -127,6 +132,8 @@ static void leaf_chunk(void *ctx, int k, int worker)
 {
     (void)worker;
     const LeafJob *job = ctx;
+    if (par_stop_requested())
+        return; /* add_leaf_group gives the table up */
     int i0 = k * LEAF_CHUNK, i1 = job->n - i0 > LEAF_CHUNK ? i0 + LEAF_CHUNK : job->n;
     uint32_t bounded = 0, kept_out = 0;
     int first_out = -1;
@@ -188,6 +195,12 @@ static bool add_leaf_group(Walk *w, const Object3D *o, const XformPath *path)
     }
     LeafJob job = {o, xf, t->prims + t->num_prims, n, counts, counts + nchunks, first};
     par_for(nchunks, leaf_chunk, &job);
+    if (par_stop_requested()) { /* chunks were skipped (the flag is never cleared) */
+        free(counts);
+        free(first);
+        w->stopped = true;
+        return true;
+    }
     for (int k = 0; k < nchunks; k++) {
         if (job.kept_out[k] > 0 && t->num_kept_out == 0)
             t->first_kept_out = t->num_prims + (uint32_t)job.first_out[k];
@@ -203,14 +216,18 @@ static bool add_leaf_group(Walk *w, const Object3D *o, const XformPath *path)
 /* Groups recurse, Transforms push themselves onto path, leaves are added. */
 static void walk(Walk *w, const Object3D *o, XformPath *path)
 {
-    if (!o || w->oom)
+    if (!o || w->oom || w->stopped)
         return;
     switch (obj_kind(o)) {
     case OBJ_GROUP:
         if (add_leaf_group(w, o, path))
             return;
-        for (int i = 0; i < group_count(o); i++)
-            walk(w, group_child(o, i), path);
+        for (int i = 0; i < group_count(o) && !w->stopped; i++) {
+            if ((i & (STOP_LEAVES - 1)) == STOP_LEAVES - 1 && par_stop_requested())
+                w->stopped = true;
+            else
+                walk(w, group_child(o, i), path);
+        }
         return;
     case OBJ_TRANSFORM:
         if (path->depth >= RT_MAX_NESTING)
@@ -244,7 +261,7 @@ bool prim_table_build(PrimTable *t, const Scene *scene)
         t->scene_bounds = scene->bounds;
         walk(&w, scene->root, &path);
     }
-    if (w.oom) {
+    if (w.oom || w.stopped) {
         prim_table_free(t);
         return false;
     }

@@ -20,6 +20,10 @@
  * line end: some 20 pieces for the 40k bunny (1.3 MB). */
 #define OBJ_PAR_MIN_BYTES RT_FILE_PAR_MIN_BYTES
 #define OBJ_PIECE_BYTES ((size_t)64 << 10)
+/* The serial reader looks at the stop request (rt/par.h) every this many lines (a power
+ * of two): ~2 MB of a mesh's text, some 10 ms of reading, for one test per line of an
+ * already counted line number. The pieces look at it before each piece. */
+#define OBJ_STOP_LINES 65536
 
 void objfile_mesh_free(ObjMesh *m)
 {
@@ -395,7 +399,8 @@ static bool read_face_simple(ObjReader *r)
     return true;
 }
 
-/* The records of r->p .. r->end, line by line; false after reporting an error. */
+/* The records of r->p .. r->end, line by line; false after reporting an error, or
+ * with nothing reported when a stop was requested (rt/par.h). */
 static bool parse_lines(ObjReader *r)
 {
     while (r->p < r->end) {
@@ -419,6 +424,8 @@ static bool parse_lines(ObjReader *r)
             r->p++;
             if (r->line < INT_MAX)
                 r->line++;
+            if ((r->line & (OBJ_STOP_LINES - 1)) == 0 && par_stop_requested())
+                return false; /* stopped: nothing to report */
         }
     }
     return true;
@@ -475,6 +482,8 @@ static void count_piece(void *ctx, int i, int worker)
 {
     (void)worker;
     ObjPiece *pc = &((PieceJob *)ctx)->piece[i];
+    if (par_stop_requested())
+        return; /* parse_pieces gives up after this pass */
     count_records(pc->begin, pc->end, &pc->nverts, &pc->ntris);
 }
 
@@ -484,6 +493,8 @@ static void parse_piece(void *ctx, int i, int worker)
     (void)worker;
     PieceJob *job = ctx;
     ObjPiece *pc = &job->piece[i];
+    if (par_stop_requested())
+        return; /* pc->ok stays false: the whole read fails, and is not done again */
     Diag quiet; /* a failed piece is read again by the serial reader, which reports */
     diag_init(&quiet, NULL);
     ObjMesh mesh = {job->verts ? job->verts + pc->vbefore : NULL, 0,
@@ -539,6 +550,10 @@ static bool parse_pieces(const char *buf, size_t len, ObjMesh *out)
     }
     PieceJob job = {piece, NULL, NULL};
     par_for(np, count_piece, &job);
+    if (par_stop_requested()) { /* the counts may be cut short: nothing is allocated */
+        free(piece);
+        return false;
+    }
     long nv = 0, nt = 0;
     for (int k = 0; k < np; k++) {
         piece[k].vbefore = nv;
@@ -601,6 +616,8 @@ bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, 
         diag_error(diag, &l, "NUL byte: not a text OBJ file");
         return false;
     }
+    /* Pieces cut short by a stop fail as any failed piece does; the serial reader then
+     * stops too, at its first look (within OBJ_STOP_LINES lines). */
     if (len >= OBJ_PAR_MIN_BYTES && par_threads() > 1 && parse_pieces(buf, len, out))
         return true;
     ObjReader r = {buf, buf + len, buf, buf, 1, name, diag, out, 0, 0, false, 0, false};

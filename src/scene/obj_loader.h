@@ -20,8 +20,9 @@ typedef struct ObjMesh {
 /* Parses an OBJ text of len bytes; buf[len] must be '\0' (file_read_all, rt/file.h,
  * provides it: the scanners use it as the end sentinel). name is used in located
  * messages. Faces with n > 3 vertices become the fan (v0, vi, vi+1); negative
- * indices count back from the last vertex read so far. False after reporting an error
- * (nothing left allocated). */
+ * indices count back from the last vertex read so far. False after reporting an error,
+ * or with nothing reported when a stop was requested (par_stop_requested, rt/par.h:
+ * looked at every so many lines); nothing is left allocated either way. */
 bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag);
 void objfile_mesh_free(ObjMesh *m);
 /* For tests: how many files objfile_parse has read in parallel pieces so far (the

@@ -349,6 +349,68 @@ static void test_sigterm_during_setup(void)
     e2e_rmtree(dir);
 }
 
+/* A signal during a big OBJ file's parse ends the parse itself, not just the run after
+ * it: the reader looks at the stop flag every 64K lines (rt/par.h). The scene file is
+ * the FIFO, as in sigterm_during_setup, so the signal is in before the OBJ file is
+ * read; the generated mesh (70,004 lines, 560 KB: read in pieces on two threads) ends
+ * with a face naming a vertex that does not exist. A parse that went on to its end
+ * reported that line (exit 1: before the fix, the stop was looked at only after the
+ * parse); a cut one never reaches it: exit 128 + signal, "interrupted; no image
+ * written" and no error, no image and no -cache file. One thread (the serial reader)
+ * and two (the pieces, then the serial reader). */
+static void test_sigterm_during_obj_parse(void)
+{
+    enum { VERTS = 70000 };
+    char dir[PATH_MAX], fifo[PATH_MAX], mesh[PATH_MAX], out[PATH_MAX], cache[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigparse") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "scene.txt");
+    e2e_join(mesh, sizeof mesh, dir, "mesh.obj");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(cache, sizeof cache, dir, "set.cache");
+    static const char vertex[] = "v 0 0 0\n";
+    size_t vlen = sizeof vertex - 1;
+    char tail[64];
+    snprintf(tail, sizeof tail, "v 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 %d\n", VERTS + 3);
+    char *obj = malloc(VERTS * vlen + sizeof tail);
+    CHECK(obj != NULL);
+    if (!obj)
+        return;
+    for (size_t i = 0; i < VERTS; i++)
+        memcpy(obj + i * vlen, vertex, vlen);
+    memcpy(obj + VERTS * vlen, tail, strlen(tail) + 1);
+    CHECK(e2e_write_file(mesh, obj));
+    free(obj);
+    CHECK(mkfifo(fifo, 0600) == 0);
+    if (harness_failures)
+        return;
+    static const char scene[] =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
+        "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+        "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mesh.obj } }\n";
+    static const char *const threads[] = {"1", "2"};
+    for (int k = 0; k < 2; k++) {
+        const char *args[] = {harness_bin(), "-input", fifo, "-size", "8", "8", "-grid",
+                              "auto", "-threads", threads[k], "-cache", cache, "-output",
+                              out, NULL};
+        int st = 0;
+        char err[4096] = "";
+        bool ended = e2e_signal_while_reading(args, fifo, SIGTERM, scene, sizeof scene - 1,
+                                              &st, err, sizeof err);
+        CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
+                  "-threads %s: %s %d, expected exit %d: %s", threads[k],
+                  WIFEXITED(st) ? "exit" : "killed by",
+                  WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + SIGTERM, err);
+        CHECK_CONTAINS(err, "interrupted; no image written");
+        CHECK_MSG(!strstr(err, "error"), "-threads %s: the parse reached the end: %s",
+                  threads[k], err);
+        CHECK_MSG(!e2e_exists(out), "an image was written");
+        CHECK_MSG(!e2e_exists(cache), "the set-up cache was written after the signal");
+        CHECK_INT(e2e_count_entries(dir), 2); /* the FIFO and the OBJ file */
+    }
+    e2e_rmtree(dir);
+}
+
 static void test_sigterm_while_streaming(void) { signal_while_streaming_as(SIGTERM, false); }
 static void test_sigint_while_streaming(void) { signal_while_streaming_as(SIGINT, false); }
 static void test_sigterm_while_streaming_film(void) { signal_while_streaming_as(SIGTERM, true); }
@@ -817,6 +879,7 @@ static const TestCase tests[] = {
     {"sigterm_during_merge", test_sigterm_during_merge},
     {"sigint_during_merge", test_sigint_during_merge},
     {"sigterm_during_setup", test_sigterm_during_setup},
+    {"sigterm_during_obj_parse", test_sigterm_during_obj_parse},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"file_size_limit", test_file_size_limit},
     {"same_path_twice", test_same_path_twice},
