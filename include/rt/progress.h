@@ -2,9 +2,9 @@
  * left", redrawn in place on a terminal by one drawing thread at most 10 times a
  * second, and erased when the work ends. Into a file or a pipe (-progress 2> log) the
  * same text comes as whole lines instead: one when both 5% more is done and 30 s have
- * passed since the last, and a final one when the work ends. Workers only add to two atomic counters, so
- * it costs them nothing measurable; anything that counts units of work (image rows,
- * MPI tiles, samples) can use it. */
+ * passed since the last, and a final one when the work ends. Workers only add to two
+ * atomic counters, so it costs them nothing measurable; anything that counts units of
+ * work (image rows, MPI tiles, samples) can use it. */
 #ifndef RT_PROGRESS_H
 #define RT_PROGRESS_H
 
@@ -24,9 +24,10 @@ typedef struct Progress Progress;
 bool progress_wanted(ProgressMode mode, FILE *out);
 
 /* Starts a line "<what> 0%" on out (a terminal; elsewhere nothing yet) for total
- * units of work (total > 0) and the thread that redraws it. Returns NULL when nothing is to be drawn (progress_wanted is false,
- * total is 0, or no memory or thread): every function below accepts NULL and then does
- * nothing, so callers need no test. what is borrowed until progress_finish. */
+ * units of work (total > 0) and the thread that redraws it. Returns NULL when nothing
+ * is to be drawn (progress_wanted is false, total is 0, or no memory or thread): every
+ * function below accepts NULL and then does nothing, so callers need no test. what is
+ * borrowed until progress_finish. */
 Progress *progress_start(ProgressMode mode, FILE *out, const char *what, uint64_t total);
 
 /* Adds units of finished work and the rays they traced (0 when rays are not the
@@ -37,7 +38,8 @@ void progress_add(Progress *p, uint64_t units, uint64_t rays);
 uint64_t progress_done(const Progress *p);
 
 /* Stops the drawing thread, erases the line (out is left where the line began; not a
- * terminal: appends the final line) and frees p. Call it before anything else is printed on out's terminal. */
+ * terminal: appends the final line) and frees p. Call it before anything else is
+ * printed on out's terminal. */
 void progress_finish(Progress *p);
 
 /* The text of the line for the given state, into buf (for the drawer and the tests):
