@@ -878,8 +878,11 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             char shot[PATH_MAX];
             if (n > 5 && n - 5 < sizeof shot && strncasecmp(w, "shot:", 5) == 0) {
                 snprintf(shot, sizeof shot, "%.*s", (int)(n - 5), w + 5);
+                /* "-" of -cache or -input is no standard output (as above), but
+                 * shot:- and -output - are both standard output: two images in one. */
                 for (int i = 0; i < 8; i++)
-                    if (files[i] && strcmp(files[i], "-") != 0 && same_file(files[i], shot))
+                    if (files[i] && !(i >= 6 && strcmp(files[i], "-") == 0) &&
+                        same_file(files[i], shot))
                         return usage_error(&c, "%s and -gui_keys shot:%s name the same file",
                                            names[i], shot);
             }

@@ -153,6 +153,11 @@ static void test_usage_errors(void)
          "-depth and -gui_keys shot:./d.tga name the same file"},
         {"-input s.txt -gui_snapshot v.tga -gui_keys shot:v.tga",
          "-gui_snapshot and -gui_keys shot:v.tga name the same file"},
+        /* standard output twice: the render r writes and the frame, one after the other */
+        {"-input s.txt -output - -gui_snapshot v.tga -gui_keys shot:-",
+         "-output and -gui_keys shot:- name the same file"},
+        {"-input s.txt -gui_snapshot - -gui_keys shot:-",
+         "-gui_snapshot and -gui_keys shot:- name the same file"},
         {"-input s.txt -output o.tga -cache s.txt", "-cache and -input name the same file"},
         {"-input s.txt -depth 0 1 c -cache ./c", "-depth and -cache name the same file"},
     };
@@ -164,6 +169,11 @@ static void test_usage_errors(void)
         CHECK_CONTAINS(err, bad[i][1]);
         CHECK_CONTAINS(err, "raytracer: ");
     }
+    /* while -input - is standard input: no pair with shot:- */
+    Options o;
+    char err[512] = "";
+    CHECK_MSG(parse(&o, "-input - -gui_snapshot v.tga -gui_keys shot:-", err, sizeof err),
+              "refused: %s", err);
 }
 
 /* An empty value (a shell variable left unset) is a usage error naming the option; it
