@@ -47,6 +47,7 @@
     X(void, ReadBuffer, (GLenum mode)) \
     X(void, PixelStorei, (GLenum pname, GLint param)) \
     X(void, Finish, (void)) \
+    X(void, GetIntegerv, (GLenum pname, GLint *params)) \
     X(GLenum, GetError, (void))
 
 #define RT_GL_MEMBER(ret, name, params) ret (APIENTRY *name) params;

@@ -131,6 +131,22 @@ static int snapshot_run(Snapshot *s, const KeyScript *script)
     return snapshot_write(s, s->cfg->snapshot_path);
 }
 
+/* GL clamps a viewport to GL_MAX_VIEWPORT_DIMS (16384 in Mesa): a wider or taller
+ * -size drew the frame squeezed into the buffer's first 16384 columns or rows and left
+ * the rest background, without a word. Said instead, before anything is drawn. */
+static bool fits_viewport(const GlApi *gl, int w, int h, Diag *diag)
+{
+    GLint dims[2] = {0, 0};
+    gl->GetIntegerv(GL_MAX_VIEWPORT_DIMS, dims);
+    if (dims[0] > 0 && dims[1] > 0 && (w > dims[0] || h > dims[1])) {
+        diag_error(diag, NULL, "-gui_snapshot: -size %d %d is larger than OpenGL can draw "
+                   "here (at most %d x %d): give a smaller -size", w, h, (int)dims[0],
+                   (int)dims[1]);
+        return false;
+    }
+    return true;
+}
+
 int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
 {
     KeyScript script;
@@ -167,6 +183,8 @@ int preview_snapshot(const PreviewConfig *cfg, Diag *diag)
         diag_error(diag, NULL, "OSMesa cannot draw a %d x %d buffer", s.w, s.h);
     } else if (!gl_api_load(&s.gl, osmesa_proc, &missing)) {
         diag_error(diag, NULL, "OSMesa lacks the GL function %s", missing);
+    } else if (!fits_viewport(&s.gl, s.w, s.h, diag)) {
+        status = 2;
     } else if (preview_view_init(&s.view, cfg, diag)) {
         status = snapshot_run(&s, &script);
         preview_view_free(&s.view);

@@ -13,6 +13,8 @@
 #include "../harness.h"
 #include "e2e_util.h"
 
+#include "rt/diag.h"
+#include "rt/image.h"
 #include "rt/preview.h"
 #include "rt/progress.h"
 #include "rt/suggest.h"
@@ -505,6 +507,45 @@ static void test_preview_checked_first(void)
     e2e_rmtree(p.dir);
 }
 
+/* A -gui_snapshot wider than GL's largest viewport (16384 in Mesa): refused with the
+ * limit named (exit 2, no file). It was drawn squeezed into the first 16384 columns and
+ * written with the rest background (feat_ortho's shapes ended at 0.67 of the width
+ * instead of 0.81). Where GL draws wider, the frame must then be whole. */
+static void test_snapshot_wider_than_gl(void)
+{
+    if (!preview_snapshot_built())
+        harness_skip("-gui_snapshot not built (apt-get install libosmesa6-dev; rebuild)");
+    Paths p;
+    paths_init(&p);
+    char snap[PATH_MAX], scene[PATH_MAX];
+    e2e_join(snap, sizeof snap, p.dir, "wide.tga");
+    e2e_join(scene, sizeof scene, harness_root(), "scenes/feat_ortho.txt");
+    const char *args[] = {"-input", scene, "-size", "20000", "2", "-gui_snapshot", snap, NULL};
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    if (r.status == 2) {
+        CHECK_CONTAINS(r.err, "is larger than OpenGL can draw here (at most ");
+        CHECK_INT(e2e_count_entries(p.dir), 0);
+    } else {
+        CHECK_INT(r.status, 0);
+        Image img;
+        Diag diag;
+        diag_init(&diag, NULL);
+        CHECK_MSG(image_read(&img, snap, &diag), "%s", diag.last);
+        int last = -1;
+        for (int x = 0; img.pixels && x < img.width; x++) {
+            Vec3 px = image_get(&img, x, 0), bg = image_get(&img, 0, 0);
+            if (px.x != bg.x || px.y != bg.y || px.z != bg.z)
+                last = x;
+        }
+        CHECK_MSG(last > img.width * 3 / 4, "the frame ends at column %d of %d", last,
+                  img.width);
+        image_free(&img);
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(p.dir);
+}
+
 /* The preview's g key says on the terminal which view it switched to, like t and c
  * (headless: -gui_snapshot through OSMesa); r's statistics start on a line of their
  * own. */
@@ -534,6 +575,7 @@ static const TestCase tests[] = {
     {"ux: the preview's g prints its view", test_preview_keys_print},
     {"ux: the preview's options are checked before the scene is read",
      test_preview_checked_first},
+    {"ux: a -gui_snapshot wider than OpenGL draws is refused", test_snapshot_wider_than_gl},
     {"ux: outputs are checked before the scene is read", test_outputs_checked_first},
     {"ux: progress line on a terminal, erased at the end", test_progress_on_terminal},
     {"ux: progress line while antialiasing", test_progress_antialiased},
