@@ -269,6 +269,13 @@ static void test_mpi_killed_rank(void)
     setenv("RT_MPI_TEST_KILL_RANK", "1", 1);
     Cmd c;
     mpirun_prefix(&c, "3");
+    /* mpirun ends the other ranks with SIGTERM and, odls_base_sigkill_timeout seconds
+     * later (1 by default), SIGKILL. On a loaded machine rank 0's line was sometimes
+     * cut off by that SIGKILL or lost with mpirun's forwarding of its stderr (2 of 12
+     * runs with four busy loops on the 2-core host; 0 of 8 with 3 s, ~3 s longer). */
+    add(&c, "--mca");
+    add(&c, "odls_base_sigkill_timeout");
+    add(&c, "3");
     add(&c, "-x");
     add(&c, "RT_MPI_TEST_KILL_RANK");
     add(&c, mpi);
