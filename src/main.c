@@ -36,6 +36,13 @@ enum { HINT_PRIMITIVES = 1000 };
 /* The stopping signal received (SIGINT, SIGTERM, SIGHUP), 0 while none: the render
  * polls it and stops early. */
 static volatile int g_cancel;
+/* The stop flag a render in one process polls: the stop signals set it as they set
+ * g_cancel, and so does a failed write into an image file streamed during the render
+ * (RectJob.write_failed), which must end the render at once (a full disk met in the
+ * first minutes of a render of hours was reported only at its end). g_cancel itself
+ * still says whether a signal came. MPI ranks poll g_cancel (dist_render copies rank
+ * 0's signal into every rank's), and stream nothing. */
+static volatile int g_render_stop;
 
 /* Ctrl-C, kill and a closed terminal all end the run the same way: no image written,
  * exit status 128 + signal. During the render the workers notice g_cancel; while the
@@ -43,7 +50,8 @@ static volatile int g_cancel;
  * the process at once (a write into a pipe may block for ever). */
 static void on_stop_signal(int sig)
 {
-    g_cancel = sig;
+    g_cancel = sig; /* first: render_and_write's reset of g_render_stop relies on it */
+    g_render_stop = sig;
     if (image_write_abort()) {
         static const char msg[] = ": interrupted; no image written\n";
         const char *name = diag_program();
@@ -417,7 +425,21 @@ typedef struct RectJob {
     bool film_rows;
     Image *whole[3];
     uint64_t film_pixels;
+    /* The render's stop flag, and whether a write into one of the streamed files
+     * failed: the first failure sets both (stop_on_write_error), so the render ends
+     * within a band or strip and the run reports the write's error. */
+    volatile int *stop;
+    atomic_bool write_failed;
 } RectJob;
+
+/* After a write into enc (any thread): when it failed, stops the render. One load per
+ * band or strip written. */
+static void stop_on_write_error(RectJob *rj, const ImageEncoding *enc)
+{
+    if (image_encoding_error(enc) &&
+        !atomic_exchange_explicit(&rj->write_failed, true, memory_order_relaxed))
+        *rj->stop = 1;
+}
 
 /* Whether the whole rectangle's render puts the colour bytes straight into their file
  * (RenderTarget.color_file): when that file is made during the render from a byte
@@ -434,6 +456,7 @@ static void color_rows_to_file(void *user, int y_lo, int y_hi, const uint8_t *ro
 {
     RectJob *rj = user;
     image_encoding_flush_rows(&rj->enc[0], y_lo - rj->y0, y_hi - rj->y0, rows);
+    stop_on_write_error(rj, &rj->enc[0]);
 }
 
 /* FilmConfig.rows (the calling thread, between strips): a strip of the rectangle's
@@ -448,6 +471,7 @@ static void film_rows_out(void *user, const FilmRows *r)
             continue;
         if (rj->enc[i].head_only) {
             image_encoding_put(&rj->enc[i], p, r->x, r->y);
+            stop_on_write_error(rj, &rj->enc[i]);
         } else if (rj->whole[i] && rj->whole[i]->bytes) { /* byte images in one process */
             Image *img = rj->whole[i];
             size_t row = (size_t)p->width * 3;
@@ -476,8 +500,10 @@ static void encode_row(void *user, int y)
         if (rj->enc[i].data) {
             if (!(i == 0 && rj->color_in_file)) /* else the render put the row there */
                 image_encoding_row(&rj->enc[i], rj->img[i], r);
-            if (last && !(i == 0 && rj->color_staged)) /* else color_rows wrote it */
+            if (last && !(i == 0 && rj->color_staged)) { /* else color_rows wrote it */
                 image_encoding_flush(&rj->enc[i], lo > 0 ? lo : 0, r);
+                stop_on_write_error(rj, &rj->enc[i]);
+            }
         }
     atomic_fetch_add_explicit(&rj->rows, 1, memory_order_relaxed);
 }
@@ -563,8 +589,20 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
 static int render_and_write(void *user, const Camera *camera, volatile int *cancel)
 {
     App *app = user;
-    if (!cancel)
-        cancel = &g_cancel;
+    /* What the render polls: the preview's flag, or in one process g_render_stop (so
+     * that a failed write can stop it too), or under MPI g_cancel. */
+    volatile int *stop = cancel;
+    if (!cancel) {
+        cancel = stop = &g_cancel;
+        if (dist_size() == 1) {
+            /* Cleared of an earlier render's failed write, keeping any signal: one that
+             * comes between the two stores has set g_cancel before g_render_stop. */
+            g_render_stop = 0;
+            if (g_cancel)
+                g_render_stop = g_cancel;
+            stop = &g_render_stop;
+        }
+    }
     const Options *o = &app->opt;
     Image color, depth, normals;
     Image samples_img, filter_img;
@@ -584,6 +622,9 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         target.h = o->region_h;
     }
     int status = 0;
+    /* A streamed file's failed write that stopped the render: its output and errno. */
+    const char *failed_path = NULL;
+    int failed_err = 0;
     /* The files of color, depth and normals when the render made them (RectJob); freed at done. */
     ImageEncoding encoded[3];
     memset(encoded, 0, sizeof encoded);
@@ -730,6 +771,8 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         rj.w = target.w;
         rj.h = target.h;
         atomic_init(&rj.rows, 0);
+        rj.stop = stop;
+        atomic_init(&rj.write_failed, false);
         if (any_streamed) {
             rj.film_rows = true;
             for (int i = 0; i < 3; i++) {
@@ -781,10 +824,15 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         job.render = render_rect;
         job.user = &rj;
         job.progress = preview ? PROGRESS_NEVER : o->progress;
-        ok = dist_render(&job, &counts, cancel);
+        ok = dist_render(&job, &counts, stop);
+        /* The first output whose write failed, in the order image_write_all writes
+         * them (its report, had the render gone on to the end). */
+        for (int i = 0; i < 3 && !failed_err && atomic_load(&rj.write_failed); i++)
+            if ((failed_err = image_encoding_error(&rj.enc[i])) != 0)
+                failed_path = out_paths[i];
         bool complete = rj.film_rows ? rj.film_pixels == (uint64_t)rj.w * (uint64_t)rj.h
                                      : atomic_load(&rj.rows) == rj.h;
-        if (complete) {
+        if (complete && !failed_err) {
             for (int i = 0; i < 3; i++)
                 encoded[i] = rj.enc[i];
         } else {
@@ -804,6 +852,12 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         par_release();
     progress_finish(target.progress);
     target.progress = NULL;
+    if (failed_err && !g_cancel) {
+        /* Nothing was written: the streamed files are removed below. */
+        image_report_write_error(failed_path, failed_err, &app->diag);
+        status = EXIT_INPUT;
+        goto done;
+    }
     if (*cancel && cancel != &g_cancel)
         goto done; /* the preview stopped it (q, a moved camera): nothing to write */
     if (g_cancel) {

@@ -195,6 +195,13 @@ void image_encoding_put(ImageEncoding *e, const Image *part, int x, int y);
 /* Frees the bytes; a streamed file not handed to image_write_all is closed and removed
  * (a failed or stopped render leaves no file). */
 void image_encoding_free(ImageEncoding *e);
+/* The errno of the first failed write into e's streamed file, 0 while none failed (any
+ * thread: a render checks it after each write, so that a full disk or a file-size
+ * limit stops the render at once instead of being reported only at its end). */
+int image_encoding_error(const ImageEncoding *e);
+/* Reports err for path as image_write_all reports a failed write ("cannot write image:
+ * <reason>"), for a render that stopped on image_encoding_error. */
+void image_report_write_error(const char *path, int err, Diag *diag);
 
 /* For a signal handler (async-signal-safe): when image_write_all is writing its
  * temporary files, removes them and returns true (the caller then ends the process

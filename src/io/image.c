@@ -505,6 +505,16 @@ static void encoding_failed(ImageEncoding *e, int err)
     atomic_compare_exchange_strong(&e->err, &expected, err ? err : EIO);
 }
 
+int image_encoding_error(const ImageEncoding *e)
+{
+    return e->data && e->fd >= 0 ? atomic_load(&e->err) : 0;
+}
+
+void image_report_write_error(const char *path, int err, Diag *diag)
+{
+    report(diag, path, "cannot write image: ", strerror(err ? err : EIO));
+}
+
 bool image_encoding_stream(ImageEncoding *e, const char *path)
 {
     if (!e->data || e->fd >= 0 || !path)

@@ -501,6 +501,53 @@ static void test_file_size_limit(void)
     e2e_rmtree(dir);
 }
 
+/* The percentage of the last "rendering N%" progress line in err, -1 when none. */
+static int last_progress_percent(const char *err)
+{
+    int pct = -1;
+    for (const char *p = strstr(err, "rendering"); p; p = strstr(p + 1, "rendering")) {
+        int v;
+        if (sscanf(p, "rendering %d%%", &v) == 1)
+            pct = v;
+    }
+    return pct;
+}
+
+/* A write into a streamed image that fails during the render (here a file-size limit,
+ * as a full disk would) stops the render at once: the same exit 1, "File too large",
+ * and no file, but the final -progress line (which a stopped render ends with, at the
+ * rows done) is far from 100%. The limit (64 blocks: 32 or 64 KB) is reached within
+ * the first bands or strip of a 1000x1000 TGA (3 MB), for the plain renderer's colour
+ * and an antialiased render's colour and depth. Before the fix the render went on to
+ * the end ("rendering 100%") and only then reported the failed write. */
+static void test_write_error_stops_render(void)
+{
+    char dir[PATH_MAX], out[PATH_MAX], depth[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "fstop") != NULL);
+    e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(depth, sizeof depth, dir, "d.tga");
+    repro(scene, sizeof scene, "planes_only.txt");
+    char *plain[] = {"/bin/sh", "-c", "ulimit -f 64 && exec \"$0\" \"$@\"",
+                     (char *)harness_bin(), "-input", scene, "-output", out, "-size", "1000",
+                     "1000", "-threads", "2", "-progress", NULL};
+    char *film[] = {"/bin/sh", "-c", "ulimit -f 64 && exec \"$0\" \"$@\"",
+                    (char *)harness_bin(), "-input", scene, "-output", out, "-depth", "0",
+                    "20", depth, "-size", "1000", "1000", "-jittered_samples", "4",
+                    "-threads", "2", "-progress", NULL};
+    char *const *runs[] = {plain, film};
+    for (int i = 0; i < 2; i++) {
+        E2eRun r;
+        CHECK(e2e_run(runs[i], &r));
+        CHECK_INT(r.status, 1);
+        CHECK_CONTAINS(r.err, "o.tga: error: cannot write image: File too large");
+        int pct = last_progress_percent(r.err);
+        CHECK_MSG(pct >= 0 && pct < 50, "run %d: the render was not cut short: %s", i, r.err);
+        CHECK_INT(e2e_count_entries(dir), 0);
+        e2e_run_free(&r);
+    }
+    e2e_rmtree(dir);
+}
+
 /* -gui_snapshot with a key script whose last shot cannot be written: exit 1 with the
  * reason and no image at all. The shot's folder was found missing only when the shot
  * came, after the r key had written -output (exit 1, one image written). */
@@ -882,6 +929,7 @@ static const TestCase tests[] = {
     {"sigterm_during_obj_parse", test_sigterm_during_obj_parse},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"file_size_limit", test_file_size_limit},
+    {"write_error_stops_render", test_write_error_stops_render},
     {"same_path_twice", test_same_path_twice},
     {"snapshot_shot_checked_first", test_snapshot_shot_checked_first},
     {"stats_write_errors", test_stats_write_errors},
