@@ -236,6 +236,73 @@ static void test_tiles_sbatch_fallback(void)
     e2e_rmtree(s.dir);
 }
 
+/* The whole render's depth and normal images (-depth 7 10), made with the binary. */
+static bool render_aovs(const Setup *s, char *depth, char *normals)
+{
+    e2e_join(depth, PATH_MAX, s->dir, "ref_depth.tga");
+    e2e_join(normals, PATH_MAX, s->dir, "ref_normals.tga");
+    const char *args[] = {"-input", s->scene, "-size", SIZE_W, SIZE_H, "-shadows",
+                          "-bounces", "2", "-depth", "7", "10", depth, "-normals", normals,
+                          NULL};
+    E2eRun r;
+    char why[512];
+    bool ok = e2e_run_bin(harness_bin(), args, &r) && r.status == 0;
+    CHECK_MSG(ok, "whole depth and normals: %s", e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    return ok;
+}
+
+/* -depth and -normals given to tiles.sbatch: each is rendered in bands beside the parts
+ * and merged into its file, the whole render's bytes (passed on as they were, every
+ * band wrote its own band into the one file, and the last band was left there as the
+ * image, exit 0); -output is the script's second argument, so giving it is refused. */
+static void test_tiles_sbatch_depth_normals(void)
+{
+    need("bash", "bash");
+    Setup s;
+    if (!setup(&s, "tilesaov"))
+        return;
+    char ref_depth[PATH_MAX], ref_normals[PATH_MAX];
+    if (!render_aovs(&s, ref_depth, ref_normals)) {
+        e2e_rmtree(s.dir);
+        return;
+    }
+    char cmd[6 * PATH_MAX], path[PATH_MAX];
+    snprintf(cmd, sizeof cmd,
+             "TILES=3 RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt frame.tga "
+             "-size %s %s -shadows -depth 7 10 d.tga -bounces 2 -normals n.tga", s.bin, s.root,
+             SIZE_W, SIZE_H);
+    if (run_recipe(&s, cmd, "tiles.sbatch -depth -normals (no Slurm)")) {
+        CHECK_MSG(same_file(e2e_join(path, sizeof path, s.dir, "d.tga"), ref_depth),
+                  "tiles.sbatch: the -depth image is not the whole render's");
+        CHECK_MSG(same_file(e2e_join(path, sizeof path, s.dir, "n.tga"), ref_normals),
+                  "tiles.sbatch: the -normals image is not the whole render's");
+        /* scene, ref, ref_depth, ref_normals, frame, d, n: no parts folder */
+        CHECK_MSG(e2e_count_entries(s.dir) == 7, "tiles.sbatch left its parts behind");
+    }
+    /* refused before anything runs: -output, and two merges into one file */
+    static const char *const bad[][2] = {
+        {"-output x.tga", "give no -output"},
+        {"-depth 7 10 x.tga -normals x.tga", "must name different files"},
+    };
+    for (int i = 0; i < 2; i++) {
+        E2eRun r;
+        snprintf(cmd, sizeof cmd,
+                 "cd '%s' && RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt "
+                 "other.tga -size %s %s %s", s.dir, s.bin, s.root, SIZE_W, SIZE_H, bad[i][0]);
+        char *argv[] = {(char *)"/bin/sh", (char *)"-c", cmd, NULL};
+        CHECK(e2e_run(argv, &r));
+        CHECK_MSG(r.status == 2, "tiles.sbatch with %s: exit %d, expected 2", bad[i][0],
+                  r.status);
+        CHECK_CONTAINS(r.err, bad[i][1]);
+        e2e_run_free(&r);
+        CHECK_MSG(!e2e_exists(e2e_join(path, sizeof path, s.dir, "x.tga")) &&
+                      e2e_count_entries(s.dir) == 7,
+                  "tiles.sbatch with %s wrote something", bad[i][0]);
+    }
+    e2e_rmtree(s.dir);
+}
+
 /* The array path as Slurm runs it: one run per task with Slurm's variables (in a
  * scrambled order), a stand-in sbatch that records the merge job it is given, then
  * that job's command. */
@@ -256,7 +323,8 @@ static void test_tiles_sbatch_array_mode(void)
                  "PATH=\"$PWD:$PATH\" SLURM_ARRAY_JOB_ID=4242 SLURM_ARRAY_TASK_MIN=10 "
                  "SLURM_ARRAY_TASK_COUNT=4 SLURM_ARRAY_TASK_ID=%d RAYTRACER='%s' "
                  "bash '%s/scripts/slurm/tiles.sbatch' scene.txt frame.tga -size %s %s "
-                 "-shadows -bounces 2", 10 + order[i], s.bin, s.root, SIZE_W, SIZE_H);
+                 "-shadows -bounces 2 -depth 7 10 d.tga -normals n.tga", 10 + order[i],
+                 s.bin, s.root, SIZE_W, SIZE_H);
         shell(s.dir, cmd, &r);
         e2e_run_free(&r);
     }
@@ -275,7 +343,15 @@ static void test_tiles_sbatch_array_mode(void)
             char parts[PATH_MAX];
             e2e_join(parts, sizeof parts, s.dir, "frame.tga.parts.4242");
             CHECK_MSG(e2e_exists(parts), "the array job's parts are not in frame.tga.parts.4242");
-            run_recipe(&s, merge, "tiles.sbatch (array), merge job");
+            char ref_depth[PATH_MAX], ref_normals[PATH_MAX], path[PATH_MAX];
+            if (run_recipe(&s, merge, "tiles.sbatch (array), merge job") &&
+                render_aovs(&s, ref_depth, ref_normals)) {
+                CHECK_MSG(same_file(e2e_join(path, sizeof path, s.dir, "d.tga"), ref_depth),
+                          "tiles.sbatch (array): the -depth image is not the whole render's");
+                CHECK_MSG(same_file(e2e_join(path, sizeof path, s.dir, "n.tga"), ref_normals),
+                          "tiles.sbatch (array): the -normals image is not the whole "
+                          "render's");
+            }
             CHECK_MSG(!e2e_exists(parts), "the merge job left the parts folder behind");
         }
         free(args);
@@ -312,6 +388,7 @@ static const TestCase tests[] = {
     {"parallel_one_machine", test_parallel_one_machine},
     {"parallel_sshlogin_form", test_parallel_sshlogin_form},
     {"tiles_sbatch_fallback", test_tiles_sbatch_fallback},
+    {"tiles_sbatch_depth_normals", test_tiles_sbatch_depth_normals},
     {"tiles_sbatch_array_mode", test_tiles_sbatch_array_mode},
     {"render_sbatch_fallback", test_render_sbatch_fallback},
 };
