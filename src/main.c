@@ -278,7 +278,8 @@ static bool antialiasing_requested(const Options *o)
  * bands). The temporary file is still made by render_and_write on the main thread
  * (the signal handler's registry, image_encoding_stream). Only for the plain renderer
  * writing a whole image in one process, which render_and_write would make the same
- * way. */
+ * way, into a pipe, a device or PNG: a TGA or PPM file is written while it is made,
+ * and needs neither block (stream_plain). */
 typedef struct Prepared {
     int width, height;
     const char *path, *format;
@@ -310,9 +311,7 @@ static void prepare_piece(void *ctx, int i)
     size_t img_len = (size_t)p->width * (size_t)p->height * 3;
     size_t img_steps = prepare_steps(img_len);
     /* With the file made, the render puts the colour bytes straight into it
-     * (color_direct), the image's own bytes untouched; and as the file is written
-     * while it is made (a file, not a pipe or a device: image_encoding_stream), band
-     * by band from small buffers (RenderTarget.color_rows), its rows untouched too. */
+     * (color_direct), the image's own bytes untouched. */
     if (p->have_enc)
         return;
     if (k < img_steps && p->have_image)
@@ -327,6 +326,9 @@ static void prepare_output(App *app)
     if (!o->output || o->region || dist_size() != 1 || antialiasing_requested(o) ||
         o->gui || o->gui_snapshot || strcmp(o->output, IMAGE_STDOUT) == 0 ||
         par_threads() < 2)
+        return;
+    /* A file written while it is made needs neither (render_and_write, stream_plain). */
+    if (image_output_streams(o->output, stdout_format(o, o->output)))
         return;
     Prepared *p = calloc(1, sizeof *p);
     if (!p)
@@ -535,7 +537,13 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
          * rectangle (one process does). */
         bool whole = x0 == rj->x0 && y0 == rj->y0 && w == rj->w && h == rj->h;
         bool any = rj->enc[0].data || rj->enc[1].data || rj->enc[2].data;
-        if (whole && color_direct(rj) && color == rj->img[0]) {
+        if (whole && rj->enc[0].head_only && color == rj->img[0]) {
+            /* The colour's file begun as its header only (stream_plain): band by band
+             * into it, from the render's band buffers. */
+            t.color_bgr = rj->enc[0].bgr;
+            t.color_rows = color_rows_to_file;
+            rj->color_in_file = rj->color_staged = true; /* before the workers start */
+        } else if (whole && color_direct(rj) && color == rj->img[0]) {
             t.color_file = rj->enc[0].data + rj->enc[0].top;
             t.color_bgr = rj->enc[0].bgr;
             rj->color_in_file = true; /* before the workers start */
@@ -628,12 +636,12 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
     /* The files of color, depth and normals when the render made them (RectJob); freed at done. */
     ImageEncoding encoded[3];
     memset(encoded, 0, sizeof encoded);
-    /* The files of the images an antialiased render streams (stream_film), until the
-     * render takes them (RectJob.enc). */
-    ImageEncoding film_enc[3];
-    memset(film_enc, 0, sizeof film_enc);
+    /* The files streamed without their image ever being held (stream_film, stream_plain),
+     * until the render takes them (RectJob.enc). */
+    ImageEncoding shaped_enc[3];
+    memset(shaped_enc, 0, sizeof shaped_enc);
     for (int i = 0; i < 3; i++)
-        film_enc[i].fd = film_enc[i].slot = -1;
+        shaped_enc[i].fd = shaped_enc[i].slot = -1;
     /* Byte images where nothing reads the pixels back: the plain renderer and the film
      * (it filters in float and stores each output pixel once) in one process (MPI
      * ranks send float tiles to the root). A 1080p frame is then 6 MB instead of 25,
@@ -667,6 +675,13 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
      * images anyway. */
     bool stream_film = film && bytes && !o->gui && !o->gui_snapshot && !o->samples_file &&
                        !o->filter_file;
+    /* The plain renderer in one process puts the colour band by band into its file
+     * (RenderTarget.color_rows, color_rows_to_file) where that file is written while it
+     * is made: the image's bytes and the file's rows were never touched, yet reserved
+     * whole (two 48 MB blocks at 4000 x 4000, which a `ulimit -v` counts). Such a file
+     * is begun as its header only, and the image as its size only. The depth and normal
+     * images are filled whole and encoded from there, as before. */
+    bool stream_plain = !film && bytes;
     bool any_streamed = false;
     const char *out_paths[3] = {o->output, o->depth_file, o->normals_file};
     Image *out_storage[3] = {&color, &depth, &normals};
@@ -676,10 +691,10 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
     for (int i = 0; i < 3 && allocated; i++) {
         if (i == 0 && pre_image)
             continue;
-        if (stream_film && out_paths[i] &&
+        if ((stream_film || (stream_plain && i == 0)) && out_paths[i] &&
             alloc_image(out_slot[i], out_storage[i], out_paths[i], o, bytes, s, out_kind[i],
                         true, &app->diag) &&
-            image_encoding_stream_only(&film_enc[i], out_storage[i], out_paths[i],
+            image_encoding_stream_only(&shaped_enc[i], out_storage[i], out_paths[i],
                                        stdout_format(o, out_paths[i]))) {
             any_streamed = true;
             continue;
@@ -774,17 +789,20 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
         rj.stop = stop;
         atomic_init(&rj.write_failed, false);
         if (any_streamed) {
-            rj.film_rows = true;
+            rj.film_rows = film;
             for (int i = 0; i < 3; i++) {
-                rj.enc[i] = film_enc[i];
-                memset(&film_enc[i], 0, sizeof film_enc[i]);
-                film_enc[i].fd = film_enc[i].slot = -1;
+                rj.enc[i] = shaped_enc[i];
+                memset(&shaped_enc[i], 0, sizeof shaped_enc[i]);
+                shaped_enc[i].fd = shaped_enc[i].slot = -1;
             }
+            if (!film)
+                rj.img[0] = target.color; /* its size only (stream_plain) */
         }
         /* The plain renderer in one process fills byte images: their TGA and PPM files
          * are encoded row by row on its threads (a 1080p TGA's 6 MB took ~4 ms after
          * the render), and the write only writes them. The colour goes straight into
-         * its file's rows (color_direct): its image's 6 MB are not touched at all. */
+         * its file's rows (color_direct) or, streamed, band by band into the file
+         * (stream_plain, above): its image's 6 MB are not touched at all. */
         if (!film && bytes) {
             const char *paths[3] = {o->output, o->depth_file, o->normals_file};
             const Image *imgs[3] = {target.color, target.depth, target.normals};
@@ -960,7 +978,7 @@ done:
         bigmem_leave_to_exit();
     image_encoding_free(&pre_enc); /* made ahead and not used (a run stopped before) */
     for (int i = 0; i < 3; i++)
-        image_encoding_free(&film_enc[i]); /* a run stopped before its render */
+        image_encoding_free(&shaped_enc[i]); /* a run stopped before its render */
     for (int i = 0; i < 3; i++)
         image_encoding_free(&encoded[i]);
     if (target.color && (target.color->pixels || target.color->bytes))

@@ -186,6 +186,11 @@ void image_encoding_flush_rows(ImageEncoding *e, int y_lo, int y_hi, const uint8
  * renders the whole image as before. */
 bool image_encoding_stream_only(ImageEncoding *e, const Image *img, const char *path,
                                 const char *format);
+/* Whether image_encoding_stream_only would stream path's file: a format with fixed
+ * rows (TGA, PPM, by format or else the extension), and a path that is neither
+ * standard output nor an existing pipe or device (a regular file, or none yet). Made
+ * for deciding ahead; the stream itself may still fail (and say so). */
+bool image_output_streams(const char *path, const char *format);
 /* Part of the image into the streamed file at its place: part's pixels (a float or byte
  * image, row 0 at the bottom) are the image's columns x .. x + part->width - 1 of rows
  * y .. y + part->height - 1. A failed write is kept for image_write_all to report, as

@@ -27,13 +27,14 @@ typedef struct RenderTarget {
      * are then neither faulted in nor copied row by row into the file. */
     uint8_t *color_file;
     bool color_bgr;
-    /* NULL, or with color_file: the colour rows go band by band (rows y_lo..y_hi of
-     * the full image, y_lo = bottom, each band once, when all of its pixels are there
-     * and before row_done is called for its rows) to this function with render_image's
-     * user, in color_file's layout from row y_hi down (3 * w bytes each), from a small
-     * buffer used again afterwards; color_file itself is then not written. For a file
-     * written while it is made: the whole image's rows would be fresh memory only to
-     * be copied once. */
+    /* NULL, or the colour rows go band by band (rows y_lo..y_hi of the full image,
+     * y_lo = bottom, each band once, when all of its pixels are there and before
+     * row_done is called for its rows) to this function with render_image's user, in
+     * color_file's layout from row y_hi down (3 * w bytes each), from a small buffer
+     * used again afterwards; color_file (which may then be NULL) and color's pixels
+     * (color may be an image of its size only) are not written. For a file written
+     * while it is made: the whole image's rows would be fresh memory only to be copied
+     * once, or not even that. */
     void (*color_rows)(void *user, int y_lo, int y_hi, const uint8_t *rows);
 } RenderTarget;
 

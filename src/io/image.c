@@ -596,6 +596,17 @@ bool image_encoding_stream_only(ImageEncoding *e, const Image *img, const char *
     return true;
 }
 
+bool image_output_streams(const char *path, const char *format)
+{
+    if (!path || is_stdout(path))
+        return false;
+    const ImageCodec *codec = codec_for_writing(path, format, NULL);
+    struct stat st;
+    /* As plan(): an existing file that is not regular (a pipe, a device) is written in
+     * place, after the render; a folder was refused before (image_check_output). */
+    return codec && codec->head && (stat(path, &st) != 0 || S_ISREG(st.st_mode));
+}
+
 /* Rows of image_encoding_put's buffer: whole rows are written this many bytes at a time
  * at most (a strip of a 6000-wide image, 18 KB a row, in one or two writes). */
 enum { PUT_BYTES = 256 << 10 };
