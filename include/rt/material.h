@@ -111,6 +111,9 @@ Material *wood_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
  * mat_checker_child: the child a Checkerboard delegates every question about world
  * point p to (the same for shade, diffuse, reflective, transparent and ior); NULL when
  * m is not a Checkerboard.
+ * mat_checker_reaches_phong: whether m is a Checkerboard that picks a PhongMaterial
+ * somewhere (directly or through nested Checkerboards): only then can its hits be
+ * shaded as Phong lanes.
  * mat_phong_blend: whether m is a Noise, Marble or Wood whose children are both
  * PhongMaterials; if so their parameters (p1 is weighted by t, p2 by 1 - t) and
  * whether both have zero reflective and transparent colours (*plain).
@@ -119,6 +122,7 @@ Material *wood_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
  * then: diffuse = blend(diffuse), shade = blend(phong_term) with blend(a, b) = a when
  * t >= 1, b when t <= 0, else v3_lerp(a, b, t). */
 const Material *mat_checker_child(const Material *m, Vec3 p);
+bool mat_checker_reaches_phong(const Material *m);
 bool mat_phong_blend(const Material *m, const PhongParams **p1, const PhongParams **p2,
                      bool *plain);
 void mat_blend_weights(const Material *m, const Vec3 *p, int n, float *t);

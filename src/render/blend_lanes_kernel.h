@@ -6,7 +6,9 @@
  * are phong_term's and v3_lerp's single IEEE operations in their order (no FMA: the
  * file is built with -ffp-contract=off), so every width gives the same bits.
  *
- * One directional light (l, lc) on the quick lanes of mask, all of one material of
+ * BL_NAME: one directional light (l, lc) on the quick lanes of mask; BL_NAME_each: one
+ * light of a direction and colour per lane (a point light's, in a LightLanes). Either on
+ * the quick lanes of mask, all of one material of
  * children p1, p2: per lane and channel k, with nl = n . l, diffuse = nl > 0 ? nl : 0,
  * term_j = lc_k (d_j diffuse + s_j 0) (phong_term without powf, whose specular factor
  * is then 0), and the blend blend_of(term_1, term_2, t) added to the colour. */
@@ -19,6 +21,8 @@
 #define BL_STORE BL_CAT(BL_NAME, _store)
 #define BL_SET BL_CAT(BL_NAME, _set)
 #define BL_SEL BL_CAT(BL_NAME, _sel)
+#define BL_BODY BL_CAT(BL_NAME, _body)
+#define BL_EACH BL_CAT(BL_NAME, _each)
 #if BL_W == 4
 #define BL_REP(x) x, x, x, x
 #define BL_BITS 1, 2, 4, 8
@@ -58,13 +62,18 @@ static inline __attribute__((always_inline)) BL_V BL_SEL(BL_M m, BL_V a, BL_V b)
     return (BL_V)(((BL_M)a & m) | ((BL_M)b & ~m));
 }
 
-static void BL_NAME(BlendLanes *bl, uint64_t mask, const PhongParams *p1,
-                    const PhongParams *p2, Vec3 l, Vec3 lc)
+/* The light the same for every lane (ll NULL: l, lc) or each lane's own (ll's columns);
+ * always inlined with ll a constant, so each case is compiled for itself. */
+static inline __attribute__((always_inline)) void BL_BODY(BlendLanes *bl, uint64_t mask,
+                                                          const PhongParams *p1,
+                                                          const PhongParams *p2, Vec3 l,
+                                                          Vec3 lc, const LightLanes *ll)
 {
     BL_V lx = BL_SET(l.x), ly = BL_SET(l.y), lz = BL_SET(l.z), zero = BL_SET(0.0f),
          one = BL_SET(1.0f);
     const BL_M bit = {BL_BITS};
     const float lck[3] = {lc.x, lc.y, lc.z};
+    const float *llc[3] = {ll ? ll->r : NULL, ll ? ll->g : NULL, ll ? ll->b : NULL};
     const float d1[3] = {p1->diffuse.x, p1->diffuse.y, p1->diffuse.z};
     const float s1[3] = {p1->specular.x, p1->specular.y, p1->specular.z};
     const float d2[3] = {p2->diffuse.x, p2->diffuse.y, p2->diffuse.z};
@@ -75,12 +84,17 @@ static void BL_NAME(BlendLanes *bl, uint64_t mask, const PhongParams *p1,
         if (!m)
             continue;
         BL_M on = ((m + (BL_M){0}) & bit) != 0;
+        if (ll) {
+            lx = BL_LOAD(ll->x + g);
+            ly = BL_LOAD(ll->y + g);
+            lz = BL_LOAD(ll->z + g);
+        }
         BL_V nl = BL_LOAD(bl->nx + g) * lx + BL_LOAD(bl->ny + g) * ly + BL_LOAD(bl->nz + g) * lz;
         BL_V diffuse = BL_SEL(nl > zero, nl, zero);
         BL_V t = BL_LOAD(bl->t + g), u = one - t;
         BL_M hi = t >= one, lo = t <= zero;
         for (int k = 0; k < 3; k++) {
-            BL_V c = BL_SET(lck[k]);
+            BL_V c = ll ? BL_LOAD(llc[k] + g) : BL_SET(lck[k]);
             BL_V a = c * (BL_SET(d1[k]) * diffuse + BL_SET(s1[k]) * zero);
             BL_V b = c * (BL_SET(d2[k]) * diffuse + BL_SET(s2[k]) * zero);
             BL_V term = BL_SEL(hi, a, BL_SEL(lo, b, a * t + b * u));
@@ -90,6 +104,20 @@ static void BL_NAME(BlendLanes *bl, uint64_t mask, const PhongParams *p1,
     }
 }
 
+static void BL_NAME(BlendLanes *bl, uint64_t mask, const PhongParams *p1,
+                    const PhongParams *p2, Vec3 l, Vec3 lc)
+{
+    BL_BODY(bl, mask, p1, p2, l, lc, NULL);
+}
+
+static void BL_EACH(BlendLanes *bl, uint64_t mask, const PhongParams *p1,
+                    const PhongParams *p2, const LightLanes *ll)
+{
+    BL_BODY(bl, mask, p1, p2, v3(0, 0, 0), v3(0, 0, 0), ll);
+}
+
+#undef BL_BODY
+#undef BL_EACH
 #undef BL_CAT2
 #undef BL_CAT
 #undef BL_V

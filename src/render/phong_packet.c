@@ -20,6 +20,7 @@
 #endif
 #define PP_BEGIN phong_packet_begin_base
 #define PP_LIGHT phong_packet_light_base
+#define PP_LIGHT_LANES phong_packet_light_lanes_base
 #define PP_SETTLE phong_packet_settle_base
 #define PP_BRACKET phong_packet_bracket_base
 #include "phong_packet_kernel.h"
@@ -27,6 +28,7 @@
 typedef uint64_t (*BeginFn)(PhongPacket *, int, uint64_t, const PhongParams *const *, bool,
                             Vec3, uint64_t *);
 typedef void (*LightFn)(PhongPacket *, int, uint64_t, Vec3, Vec3);
+typedef void (*LightLanesFn)(PhongPacket *, int, uint64_t, const LightLanes *);
 typedef uint64_t (*SettleFn)(const PhongPacket *, int, uint64_t);
 typedef void (*BracketFn)(const float *, const float *, int, float *, float *);
 
@@ -34,17 +36,19 @@ typedef struct PhongKernel {
     const char *name;
     BeginFn begin;
     LightFn light;
+    LightLanesFn light_lanes;
     SettleFn settle;
     BracketFn bracket;
 } PhongKernel;
 
 static const PhongKernel kernels[] = {
     {PP_ISA ? "sse2" : "generic", phong_packet_begin_base, phong_packet_light_base,
-     phong_packet_settle_base, phong_packet_bracket_base},
-    {"avx2", phong_packet_begin_avx2, phong_packet_light_avx2, phong_packet_settle_avx2,
+     phong_packet_light_lanes_base, phong_packet_settle_base, phong_packet_bracket_base},
+    {"avx2", phong_packet_begin_avx2, phong_packet_light_avx2, phong_packet_light_lanes_avx2,
+     phong_packet_settle_avx2,
      phong_packet_bracket_avx2},
     {"avx512", phong_packet_begin_avx512, phong_packet_light_avx512,
-     phong_packet_settle_avx512, phong_packet_bracket_avx512},
+     phong_packet_light_lanes_avx512, phong_packet_settle_avx512, phong_packet_bracket_avx512},
 };
 enum { NUM_KERNELS = sizeof kernels / sizeof kernels[0] };
 
@@ -96,6 +100,11 @@ uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
 {
     kernel->light(pp, n, mask, l, lc);
+}
+
+void phong_packet_light_lanes(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll)
+{
+    kernel->light_lanes(pp, n, mask, ll);
 }
 
 uint64_t phong_packet_settle(const PhongPacket *pp, int n, uint64_t mask)

@@ -7,8 +7,8 @@
 #include "rt/accel.h"
 #include "rt/material.h"
 
-/* Lanes 0 .. ACCEL_PACKET_MAX-1 in columns. A lane holds a hit on a PhongMaterial seen
- * under directional lights: its facing normal, the direction towards the eye, the
+/* Lanes 0 .. ACCEL_PACKET_MAX-1 in columns. A lane holds a hit on a PhongMaterial: its
+ * facing normal, the direction towards the eye, the
  * material's colours and exponent, and the colour summed so far. Lanes without such a
  * hit hold zeros or another lane's material and are never read back. */
 typedef struct PhongPacket {
@@ -69,6 +69,18 @@ uint64_t phong_packet_begin(PhongPacket *pp, int n, uint64_t cand,
  * and max(n.h, 0) <= 1.0625, and powf otherwise. */
 void phong_packet_light(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
 
+/* One light that is not the same for every lane (a point light), lane by lane in
+ * columns: the direction towards it and its colour there (light_illuminate's answers
+ * at the lane's hit point). Lanes that are not asked may hold anything finite. */
+typedef struct LightLanes {
+    float x[ACCEL_PACKET_MAX], y[ACCEL_PACKET_MAX], z[ACCEL_PACKET_MAX];
+    float r[ACCEL_PACKET_MAX], g[ACCEL_PACKET_MAX], b[ACCEL_PACKET_MAX];
+} LightLanes;
+
+/* phong_packet_light with each lane's own direction and colour from ll: the same
+ * arithmetic lane by lane, never the power bracket (the caller clears pp->brk). */
+void phong_packet_light_lanes(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll);
+
 /* The lanes of mask & pp->brk whose low and high colours (the bracket above) are not
  * both finite or do not quantise to the same three bytes: these need powf. */
 uint64_t phong_packet_settle(const PhongPacket *pp, int n, uint64_t mask);
@@ -102,6 +114,7 @@ uint64_t phong_packet_begin_base(PhongPacket *pp, int n, uint64_t cand,
                                  const PhongParams *const *lp, bool shade_back, Vec3 ambient,
                                  uint64_t *entering);
 void phong_packet_light_base(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+void phong_packet_light_lanes_base(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll);
 uint64_t phong_packet_settle_base(const PhongPacket *pp, int n, uint64_t mask);
 uint64_t phong_packet_settle_avx2(const PhongPacket *pp, int n, uint64_t mask);
 uint64_t phong_packet_settle_avx512(const PhongPacket *pp, int n, uint64_t mask);
@@ -112,10 +125,12 @@ uint64_t phong_packet_begin_avx2(PhongPacket *pp, int n, uint64_t cand,
                                  const PhongParams *const *lp, bool shade_back, Vec3 ambient,
                                  uint64_t *entering);
 void phong_packet_light_avx2(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+void phong_packet_light_lanes_avx2(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll);
 uint64_t phong_packet_begin_avx512(PhongPacket *pp, int n, uint64_t cand,
                                    const PhongParams *const *lp, bool shade_back,
                                    Vec3 ambient, uint64_t *entering);
 void phong_packet_light_avx512(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+void phong_packet_light_lanes_avx512(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll);
 
 static inline Vec3 phong_packet_color(const PhongPacket *pp, int i)
 {

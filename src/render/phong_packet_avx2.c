@@ -13,6 +13,7 @@
 #define PP_ISA 2
 #define PP_BEGIN phong_packet_begin_avx2
 #define PP_LIGHT phong_packet_light_avx2
+#define PP_LIGHT_LANES phong_packet_light_lanes_avx2
 #define PP_SETTLE phong_packet_settle_avx2
 #define PP_BRACKET phong_packet_bracket_avx2
 #include "phong_packet_kernel.h"
@@ -31,6 +32,11 @@ uint64_t phong_packet_begin_avx2(PhongPacket *pp, int n, uint64_t cand,
 void phong_packet_light_avx2(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
 {
     phong_packet_light_base(pp, n, mask, l, lc);
+}
+
+void phong_packet_light_lanes_avx2(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll)
+{
+    phong_packet_light_lanes_base(pp, n, mask, ll);
 }
 
 uint64_t phong_packet_settle_avx2(const PhongPacket *pp, int n, uint64_t mask)

@@ -14,6 +14,7 @@
 #define PP_ISA 3
 #define PP_BEGIN phong_packet_begin_avx512
 #define PP_LIGHT phong_packet_light_avx512
+#define PP_LIGHT_LANES phong_packet_light_lanes_avx512
 #define PP_SETTLE phong_packet_settle_avx512
 #define PP_BRACKET phong_packet_bracket_avx512
 #include "phong_packet_kernel.h"
@@ -32,6 +33,11 @@ uint64_t phong_packet_begin_avx512(PhongPacket *pp, int n, uint64_t cand,
 void phong_packet_light_avx512(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
 {
     phong_packet_light_base(pp, n, mask, l, lc);
+}
+
+void phong_packet_light_lanes_avx512(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll)
+{
+    phong_packet_light_lanes_base(pp, n, mask, ll);
 }
 
 uint64_t phong_packet_settle_avx512(const PhongPacket *pp, int n, uint64_t mask)

@@ -1,8 +1,8 @@
 /* The body of phong_packet_begin and phong_packet_light for one instruction set, on
  * groups of PP_W lanes (phong_packet.h states what they compute). Included once per
  * kernel: phong_packet.c (PP_ISA 0, plain C, or 1, SSE2), phong_packet_avx2.c (2) and
- * phong_packet_avx512.c (3), each defining PP_ISA, PP_BEGIN, PP_LIGHT, PP_SETTLE and
- * PP_BRACKET first.
+ * phong_packet_avx512.c (3), each defining PP_ISA, PP_BEGIN, PP_LIGHT, PP_LIGHT_LANES,
+ * PP_SETTLE and PP_BRACKET first.
  *
  * Every operation is one IEEE single-precision add, multiply, divide, square root or
  * comparison, lane by lane in the order of shade_begin and phong_term (rt/material.h);
@@ -408,18 +408,26 @@ uint64_t PP_BEGIN(PhongPacket *pp, int n, uint64_t cand, const PhongParams *cons
     return phong;
 }
 
-void PP_LIGHT(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
-void PP_LIGHT(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
+/* PP_LIGHT and PP_LIGHT_LANES: one light's term, its direction and colour the same for
+ * every lane (ll NULL: l, lc) or each lane's own (ll's columns, no bracket). Always
+ * inlined with ll a constant, so each caller is compiled for its own case. */
+static inline __attribute__((always_inline)) void pp_light(PhongPacket *pp, int n,
+                                                           uint64_t mask, Vec3 l, Vec3 lc,
+                                                           const LightLanes *ll)
 {
     V zero = v_set(0.0f), one = v_set(1.0f), x_max = v_set(1.0625f);
     V lx = v_set(l.x), ly = v_set(l.y), lz = v_set(l.z);
     V lr = v_set(lc.x), lg = v_set(lc.y), lb = v_set(lc.z);
     /* The bracket needs the light's colour >= 0 too (the other multiplier). */
-    uint64_t brk = lc.x >= 0.0f && lc.y >= 0.0f && lc.z >= 0.0f ? pp->brk : 0;
+    uint64_t brk = !ll && lc.x >= 0.0f && lc.y >= 0.0f && lc.z >= 0.0f ? pp->brk : 0;
     for (int i = 0; i < n; i += PP_W) {
         unsigned m = (unsigned)(mask >> i) & PP_ALL;
         if (!m)
             continue;
+        if (ll) {
+            lx = v_load(ll->x + i), ly = v_load(ll->y + i), lz = v_load(ll->z + i);
+            lr = v_load(ll->r + i), lg = v_load(ll->g + i), lb = v_load(ll->b + i);
+        }
         V nx = v_load(pp->nx + i), ny = v_load(pp->ny + i), nz = v_load(pp->nz + i);
         V nl = v_add(v_add(v_mul(nx, lx), v_mul(ny, ly)), v_mul(nz, lz));
         M lit = m_gt(nl, zero);
@@ -474,13 +482,25 @@ void PP_LIGHT(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
         v_store(pp->cg + i, v_sel(on, v_add(g0, v_mul(lg, v_add(dg, v_mul(sg, spec_lo)))), g0));
         v_store(pp->cb + i, v_sel(on, v_add(b0, v_mul(lb, v_add(db, v_mul(sb, spec_lo)))), b0));
         /* The same sums with the bracket's highs, where a lane of the group has one. */
-        if ((unsigned)(pp->brk >> i) & m) {
+        if (!ll && ((unsigned)(pp->brk >> i) & m)) {
             V r1 = v_load(pp->hr + i), g1 = v_load(pp->hg + i), b1 = v_load(pp->hb + i);
             v_store(pp->hr + i, v_sel(on, v_add(r1, v_mul(lr, v_add(dr, v_mul(sr, spec_hi)))), r1));
             v_store(pp->hg + i, v_sel(on, v_add(g1, v_mul(lg, v_add(dg, v_mul(sg, spec_hi)))), g1));
             v_store(pp->hb + i, v_sel(on, v_add(b1, v_mul(lb, v_add(db, v_mul(sb, spec_hi)))), b1));
         }
     }
+}
+
+void PP_LIGHT(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc);
+void PP_LIGHT(PhongPacket *pp, int n, uint64_t mask, Vec3 l, Vec3 lc)
+{
+    pp_light(pp, n, mask, l, lc, NULL);
+}
+
+void PP_LIGHT_LANES(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll);
+void PP_LIGHT_LANES(PhongPacket *pp, int n, uint64_t mask, const LightLanes *ll)
+{
+    pp_light(pp, n, mask, v3(0, 0, 0), v3(0, 0, 0), ll);
 }
 
 uint64_t PP_SETTLE(const PhongPacket *pp, int n, uint64_t mask);

@@ -215,15 +215,18 @@ Vec3 raytracer_trace(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, float 
     return trace(rt, ctx, ray, tmin, depth, weight, ior, rt->pixel_width, hit_out, RAYSEG_MAIN);
 }
 
-/* Packets shade their hits on a PhongMaterial inline, four at a time (phong_packet.h),
- * when every light is directional and -noise_cutoff is off (packet_inline_ok): the
- * arithmetic of shade_begin and phong_term in the same order, so the same bits as
- * through the material's ops, without the indirect calls, the view vector made once for
- * all lights and each light's direction and colour once per packet. */
-static bool packet_inline_ok(const RayTracer *rt)
+/* Packets shade their hits on a PhongMaterial inline, a group of lanes at a time
+ * (phong_packet.h), when -noise_cutoff is off (packet_inline_ok): the arithmetic of
+ * shade_begin and phong_term in the same order, so the same bits as through the
+ * material's ops, without the indirect calls, the view vector made once for all lights
+ * and a directional light's direction and colour once per packet (a point light's lane
+ * by lane, as light_illuminate gives them). */
+static bool packet_inline_ok(const RayTracer *rt) { return !cutoff_on(rt); }
+
+/* Whether every light is directional: one direction and colour for all lanes, and the
+ * power bracket (which keeps each light's direction and colour for the packet). */
+static bool all_directional(const RayTracer *rt)
 {
-    if (cutoff_on(rt))
-        return false;
     for (int i = 0; i < rt->scene->num_lights; i++)
         if (rt->scene->lights[i].kind != LIGHT_DIRECTIONAL)
             return false;
@@ -256,7 +259,8 @@ static Vec3 phong_lane_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ra
 typedef enum PacketKind {
     PACKET_OPS,     /* through the material's ops (shade_begin, shade_light, shade_finish) */
     PACKET_PHONG,   /* a PhongMaterial: the Phong packet kernel */
-    PACKET_CHECKER, /* a Checkerboard: each lane as the child it picks there */
+    PACKET_CHECKER, /* a Checkerboard that may pick a PhongMaterial: each lane as the
+                       child it picks there */
     PACKET_BLEND,   /* a Noise, Marble or Wood of two PhongMaterials: blend lanes */
 } PacketKind;
 
@@ -269,7 +273,9 @@ static PacketKind packet_kind(const RayTracer *rt, const Material *m, bool blend
     bool plain;
     if (phong_params_of(m))
         return PACKET_PHONG;
-    if (mat_checker_child(m, v3(0, 0, 0)))
+    /* A Checkerboard none of whose picks is a PhongMaterial (a Wood under a checker,
+     * say) goes through the ops: checker_lane would pick its child only to give up. */
+    if (mat_checker_reaches_phong(m))
         return PACKET_CHECKER;
     if (blends_ok && mat_phong_blend(m, &p1, &p2, &plain) && (plain || rt->bounces == 0))
         return PACKET_BLEND;
@@ -330,6 +336,8 @@ static inline Vec3 blend_normal(const BlendLanes *bl, int i)
  * sixteen in AVX-512; the widest this CPU runs is chosen once. */
 typedef void (*BlendGroupFn)(BlendLanes *, uint64_t, const PhongParams *,
                              const PhongParams *, Vec3, Vec3);
+typedef void (*BlendEachFn)(BlendLanes *, uint64_t, const PhongParams *, const PhongParams *,
+                            const LightLanes *);
 #define BL_NAME blend_lights_group_base
 #define BL_W 4
 #include "blend_lanes_kernel.h"
@@ -463,6 +471,7 @@ typedef unsigned (*BlendRunFn)(const Ray *, const Hit *, int, const float *, Vec
 typedef int (*PhongPutFn)(const Ray *, const Hit *, int, PhongPacket *);
 
 static BlendGroupFn blend_lights_group = blend_lights_group_base;
+static BlendEachFn blend_lights_each = blend_lights_group_base_each;
 static BlendRunFn blend_begin_run8 = NULL;
 static PhongPutFn phong_put_run8 = NULL;
 static pthread_once_t blend_once = PTHREAD_ONCE_INIT;
@@ -470,14 +479,17 @@ static pthread_once_t blend_once = PTHREAD_ONCE_INIT;
 static const struct {
     const char *isa;
     BlendGroupFn fn;
+    BlendEachFn each;
     BlendRunFn run8;
     PhongPutFn put8;
 } blend_kernels[] = {
-    {"base", blend_lights_group_base, NULL, NULL},
+    {"base", blend_lights_group_base, blend_lights_group_base_each, NULL, NULL},
 #if defined(BLEND_WIDE)
-    {"avx2", blend_lights_group_avx2, blend_begin_run8_avx2, phong_put_run8_avx2},
+    {"avx2", blend_lights_group_avx2, blend_lights_group_avx2_each, blend_begin_run8_avx2,
+     phong_put_run8_avx2},
     /* AVX-512 has AVX2 */
-    {"avx512", blend_lights_group_avx512, blend_begin_run8_avx2, phong_put_run8_avx2},
+    {"avx512", blend_lights_group_avx512, blend_lights_group_avx512_each, blend_begin_run8_avx2,
+     phong_put_run8_avx2},
 #endif
 };
 
@@ -486,6 +498,7 @@ static bool blend_set(const char *name)
     for (size_t i = 0; i < sizeof blend_kernels / sizeof blend_kernels[0]; i++)
         if (!strcmp(name, blend_kernels[i].isa) && cpu_runs(name)) {
             blend_lights_group = blend_kernels[i].fn;
+            blend_lights_each = blend_kernels[i].each;
             blend_begin_run8 = blend_kernels[i].run8;
             phong_put_run8 = blend_kernels[i].put8;
             return true;
@@ -512,6 +525,15 @@ static void blend_lights_flat(BlendLanes *bl, uint64_t mask, Vec3 l, Vec3 lc)
     for (int j = 0; j < bl->groups; j++)
         if (bl->group_lanes[j] & mask)
             blend_lights_group(bl, bl->group_lanes[j] & mask, bl->g1[j], bl->g2[j], l, lc);
+}
+
+/* blend_lights_flat for a light of a direction and colour per lane (ll). */
+static void blend_lights_lanes(BlendLanes *bl, uint64_t mask, const LightLanes *ll)
+{
+    pthread_once(&blend_once, blend_choose);
+    for (int j = 0; j < bl->groups; j++)
+        if (bl->group_lanes[j] & mask)
+            blend_lights_each(bl, bl->group_lanes[j] & mask, bl->g1[j], bl->g2[j], ll);
 }
 
 /* shade_begin for the blend lanes of mask (their hit points made): the weights of each
@@ -668,6 +690,7 @@ static bool trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     uint64_t found = accel_intersect_packet(rt->accel, rays, n, hits, tmin, ctx);
 
     bool inline_ok = packet_inline_ok(rt);
+    bool all_dir = all_directional(rt);
     bool blends_ok = inline_ok && mat_footprint() == 0.0f;
     PacketKind last_kind = PACKET_OPS;
     uint64_t blend = 0;
@@ -770,7 +793,8 @@ static bool trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
     if (phong) {
         /* The bracket for colours that go only to bytes: not for lanes with bounces
          * (shade_finish adds to their colour), nor with too many lights to keep. */
-        pp.brk = to_bytes && scene->num_lights <= BRACKET_LIGHTS ? phong & ~bounce : 0;
+        pp.brk = to_bytes && all_dir && scene->num_lights <= BRACKET_LIGHTS ? phong & ~bounce
+                                                                              : 0;
         uint64_t shaded = phong_packet_begin(&pp, lanes, phong, lp, rt->shade_back,
                                              scene->ambient, &entering);
         for (uint64_t m = phong & ~shaded; m; m &= m - 1) /* back faces: black */
@@ -779,12 +803,19 @@ static bool trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
         bounce &= shaded;
         live |= shaded;
     }
-    /* The shadow rays (and the light directions of the lanes shaded through the ops)
-     * start at the hit points, the same lanes for every light: origins set once (the
-     * other lanes' with their hit points above). A Phong lane's hit point is made only
-     * here, for its shadow rays and secondary rays. */
-    uint64_t rays_needed = rt->shadows ? live : live & ~phong;
-    for (uint64_t m = rt->shadows ? phong : bounce; m; m &= m - 1) {
+    /* The shadow rays (and the light directions of the lanes shaded through the ops, and
+     * of every lane under a point light) start at the hit points, the same lanes for
+     * every light: origins set once (the other lanes' with their hit points above). A
+     * Phong lane's hit point is made only here, for its shadow rays, its point lights'
+     * directions and its secondary rays. */
+    bool points_needed = rt->shadows || !all_dir;
+    uint64_t rays_needed = points_needed ? live : live & ~phong;
+    /* A point light's direction and colour of the inline lanes, in columns; zeros until
+     * a light fills them (the kernels read whole groups). */
+    LightLanes ll;
+    if (!all_dir && (phong | (blend & bl.quick)))
+        memset(&ll, 0, sizeof ll);
+    for (uint64_t m = points_needed ? phong : bounce; m; m &= m - 1) {
         int i = __builtin_ctzll(m);
         Vec3 p = ray_at(&rays[i], hits[i].t);
         hits[i].point = p;
@@ -811,6 +842,15 @@ static bool trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
                 int i = __builtin_ctzll(m);
                 light_illuminate(light, hits[i].point, &srays[i].dir, &lcol[i], &dist[i]);
             }
+            for (uint64_t m = phong | (blend & bl.quick); m; m &= m - 1) {
+                int i = __builtin_ctzll(m);
+                ll.x[i] = srays[i].dir.x;
+                ll.y[i] = srays[i].dir.y;
+                ll.z[i] = srays[i].dir.z;
+                ll.r[i] = lcol[i].x;
+                ll.g[i] = lcol[i].y;
+                ll.b[i] = lcol[i].z;
+            }
         }
         uint64_t blocked = 0;
         if (rt->shadows) {
@@ -820,8 +860,10 @@ static bool trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
                                   : accel_occluded_packet(rt->accel, srays, live, RT_EPSILON,
                                                           dist, ctx);
         }
-        if (phong & ~blocked) /* phong lanes only exist when every light is directional */
+        if ((phong & ~blocked) && directional)
             phong_packet_light(&pp, lanes, phong & ~blocked, l0, lc0);
+        else if (phong & ~blocked)
+            phong_packet_light_lanes(&pp, lanes, phong & ~blocked, &ll);
         if (pp.brk) {
             lit[li] = phong & ~blocked;
             ldir[li] = l0;
@@ -831,14 +873,16 @@ static bool trace_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays, i
             int i = __builtin_ctzll(m);
             shade_light(rt, &st[i], &rays[i], directional ? l0 : srays[i].dir, lcol[i]);
         }
-        /* Blend lanes exist only when every light is directional, as phong lanes. */
-        if (blend & bl.quick & ~blocked)
+        if ((blend & bl.quick & ~blocked) && directional)
             blend_lights_flat(&bl, blend & bl.quick & ~blocked, l0, lc0);
+        else if (blend & bl.quick & ~blocked)
+            blend_lights_lanes(&bl, blend & bl.quick & ~blocked, &ll);
         for (uint64_t m = blend & ~bl.quick & ~blocked; m; m &= m - 1) {
             int i = __builtin_ctzll(m);
             Vec3 c = v3(bl.c[0][i], bl.c[1][i], bl.c[2][i]);
             c = v3_add(c, blend_light(bl.p1[i], bl.p2[i], bl.t[i], blend_normal(&bl, i), bl.v[i],
-                                      l0, lc0));
+                                      directional ? l0 : srays[i].dir,
+                                      directional ? lc0 : lcol[i]));
             bl.c[0][i] = c.x;
             bl.c[1][i] = c.y;
             bl.c[2][i] = c.z;

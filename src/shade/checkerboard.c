@@ -44,14 +44,30 @@ static const MaterialOps checkerboard_ops = {
     checkerboard_transparent_at, checkerboard_ior_at, procedural_preview,
 };
 
+/* Whether m is a PhongMaterial or a Checkerboard that can pick one (its flag, set when
+ * it was made: the children exist before their parent, so no walk is needed). */
+static bool leads_to_phong(const Material *m)
+{
+    return phong_params_of(m) ||
+           (m->ops == &checkerboard_ops && ((const Procedural *)m)->reaches_phong);
+}
+
 Material *checkerboard_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
                            const Material *m2)
 {
     ProceduralBlend *b = procedural_alloc(a, &checkerboard_ops, texture_xf, m1, m2);
-    return b ? &b->proc.base : NULL;
+    if (!b)
+        return NULL;
+    b->proc.reaches_phong = leads_to_phong(m1) || leads_to_phong(m2);
+    return &b->proc.base;
 }
 
 const Material *mat_checker_child(const Material *m, Vec3 p)
 {
     return m->ops == &checkerboard_ops ? checkerboard_select(m, p) : NULL;
+}
+
+bool mat_checker_reaches_phong(const Material *m)
+{
+    return m->ops == &checkerboard_ops && ((const Procedural *)m)->reaches_phong;
 }

@@ -51,6 +51,7 @@ ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *
     b->proc.xf = texture_xf ? *texture_xf : mat4_identity();
     b->proc.no_reflective = zero_everywhere(m1, 0) && zero_everywhere(m2, 0);
     b->proc.no_transparent = zero_everywhere(m1, 1) && zero_everywhere(m2, 1);
+    b->proc.reaches_phong = false;
     b->octaves = 0;
     b->frequency = b->amplitude = 0.0f;
     b->serial = 0;

@@ -22,6 +22,9 @@ typedef struct Procedural {
      * colour: the blend's colour is then zero at every point, and the blends answer
      * without computing their weight (the tracer only asks whether it is zero). */
     bool no_reflective, no_transparent;
+    /* Checkerboard: some material it can pick at a point, through nested Checkerboards,
+     * is a PhongMaterial (the packet tracer's inline lanes need one); false otherwise. */
+    bool reaches_phong;
 } Procedural;
 
 /* Noise, Marble and Wood share one layout; Checkerboard ignores the three numbers. */

@@ -535,7 +535,7 @@ static void test_refraction_and_tir(void)
  * -shade_back, bounces and a point light (everything through the ops) vary. */
 static void test_packet_procedural_same_bits(void)
 {
-    enum { NM = 14 };
+    enum { NM = 16 };
     Mini m;
     mini_init(&m);
     Material *mats[NM];
@@ -573,7 +573,14 @@ static void test_packet_procedural_same_bits(void)
     mats[11] = checkerboard_new(&m.s.arena, &cxf, mats[4], mats[1]);    /* over a Marble */
     mats[12] = noise_new(&m.s.arena, NULL, mats[4], mats[1], 2);        /* of a Marble */
     mats[13] = marble_new(&m.s.arena, &xf, mats[0], mats[1], 0, 8, 4);  /* no octaves */
-    Object3D *g = group_new(&m.s.arena, 11);
+    mats[14] = checkerboard_new(&m.s.arena, &cxf, mats[4], mats[6]);    /* no Phong pick */
+    mats[15] = checkerboard_new(&m.s.arena, NULL, mats[14], mats[5]);   /* nor nested */
+    /* Which checkers' lanes may be Phong lanes (the others go through the ops). */
+    CHECK(mat_checker_reaches_phong(mats[9]) && mat_checker_reaches_phong(mats[10]) &&
+          mat_checker_reaches_phong(mats[11]));
+    CHECK(!mat_checker_reaches_phong(mats[14]) && !mat_checker_reaches_phong(mats[15]) &&
+          !mat_checker_reaches_phong(mats[0]) && !mat_checker_reaches_phong(mats[4]));
+    Object3D *g = group_new(&m.s.arena, 13);
     group_set_child(g, 0, plane_new(&m.s.arena, v3(0, 1, 0), -1, mats[5]));
     group_set_child(g, 1, sphere_new(&m.s.arena, v3(-0.6f, 0, 0), 0.45f, mats[4]));
     group_set_child(g, 2, sphere_new(&m.s.arena, v3(0.5f, 0.1f, -0.5f), 0.4f, mats[6]));
@@ -588,6 +595,8 @@ static void test_packet_procedural_same_bits(void)
                                        v3(-0.5f, 0.2f, 0.5f), mats[4]));
     group_set_child(g, 10, triangle_new(&m.s.arena, v3(0.3f, -0.3f, 0.9f), v3(1, -0.2f, 0.9f),
                                         v3(0.6f, 0.4f, 0.9f), mats[9]));
+    group_set_child(g, 11, sphere_new(&m.s.arena, v3(-0.1f, 0.25f, 0.4f), 0.2f, mats[14]));
+    group_set_child(g, 12, sphere_new(&m.s.arena, v3(0.45f, -0.15f, 0.55f), 0.15f, mats[15]));
     group_finish(g);
     mini_set_root(&m, g);
     PrimTable prims;
@@ -617,8 +626,13 @@ static void test_packet_procedural_same_bits(void)
             rt.shade_back = variant % 3 == 1;
             rt.bounces = variant >= 2 ? 2 : 0;
             rt.weight = 0.01f;
-            m.lights[1].kind = variant >= 5 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
+            /* The last two: a point light whose colour falls off with distance, with
+             * and without shadows (each lane its own direction and colour). */
+            m.lights[1].kind = variant >= 4 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
             m.lights[1].position = v3(0.5f, 3, 2);
+            m.lights[1].attenuation[1] = variant >= 4 ? 0.25f : 0.0f;
+            m.lights[1].attenuation[2] = variant >= 4 ? 0.125f : 0.0f;
+            m.lights[1].color = variant >= 4 ? v3(0.7f, 0.5f, 0.35f) : v3(0.5f, 0.5f, 0.5f);
             RenderCtx pctx, sctx;
             CHECK(raytracer_ctx_init(&pctx, &rt));
             CHECK(raytracer_ctx_init(&sctx, &rt));
@@ -738,9 +752,13 @@ static void test_packet_shading_same_bits(void)
             rt.shade_back = variant % 3 == 1;
             rt.bounces = variant >= 2 ? 3 : 0;
             rt.weight = 0.01f;
-            /* The last two variants: a point light (those lanes go through the ops). */
+            /* The last two variants: a point light whose colour falls off with distance
+             * (each lane its own direction and colour). */
             m.lights[1].kind = variant >= 4 ? LIGHT_POINT : LIGHT_DIRECTIONAL;
             m.lights[1].position = v3(0.5f, 3, 2);
+            m.lights[1].attenuation[1] = variant >= 4 ? 0.25f : 0.0f;
+            m.lights[1].attenuation[2] = variant >= 4 ? 0.125f : 0.0f;
+            m.lights[1].color = variant >= 4 ? v3(0.7f, 0.5f, 0.35f) : v3(0.5f, 0.5f, 0.5f);
             RenderCtx pctx, sctx, bctx;
             CHECK(raytracer_ctx_init(&pctx, &rt));
             CHECK(raytracer_ctx_init(&bctx, &rt));
