@@ -6,12 +6,12 @@
  * are phong_term's and v3_lerp's single IEEE operations in their order (no FMA: the
  * file is built with -ffp-contract=off), so every width gives the same bits.
  *
- * BL_NAME: one directional light (l, lc) on the quick lanes of mask; BL_NAME_each: one
- * light of a direction and colour per lane (a point light's, in a LightLanes). Either on
- * the quick lanes of mask, all of one material of
- * children p1, p2: per lane and channel k, with nl = n . l, diffuse = nl > 0 ? nl : 0,
- * term_j = lc_k (d_j diffuse + s_j 0) (phong_term without powf, whose specular factor
- * is then 0), and the blend blend_of(term_1, term_2, t) added to the colour. */
+ * BL_NAME: one directional light (l, lc); BL_NAME_each: one light of a direction and
+ * colour per lane (a point light's, in a LightLanes). Either on the quick lanes of
+ * mask, all of one material of children p1, p2: per lane and channel k, with
+ * nl = n . l, diffuse = nl > 0 ? nl : 0, term_j = lc_k (d_j diffuse + s_j 0)
+ * (phong_term without powf, whose specular factor is then 0), and the blend
+ * blend_of(term_1, term_2, t) added to the colour. */
 
 #define BL_CAT2(a, b) a##b
 #define BL_CAT(a, b) BL_CAT2(a, b)
