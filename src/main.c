@@ -1266,6 +1266,9 @@ int main(int argc, char **argv)
     if (!dist_init(&argc, &argv))
         return EXIT_INPUT;
     install_signal_handlers();
+    /* -output - under mpirun: the rank's standard output is mpirun's pseudo-terminal,
+     * not the user's (-merge, before this, is one process's and keeps the check). */
+    image_stdout_forwarded(dist_stdout_forwarded());
     /* The set-up's long loops (OBJ reading, grid build) end early on a stop signal
      * (rt/par.h). In one process only, as stopped_in_setup: MPI ranks must all reach the
      * scene's broadcast and the render's farm. */

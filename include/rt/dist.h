@@ -22,6 +22,11 @@ int dist_finish(int status);
 bool dist_is_root(void);
 /* Number of processes in the job (1 when alone). */
 int dist_size(void);
+/* True when an MPI launcher (mpirun, srun) started this process: its standard output
+ * is then the launcher's channel, a pseudo-terminal under OpenMPI's mpirun whatever
+ * mpirun's own standard output is (a file, a pipe), so it cannot be told from here
+ * whether an image written there would reach a terminal. Always false when alone. */
+bool dist_stdout_forwarded(void);
 /* A short description for --version ("MPI (OpenMPI ...)" or "no"). */
 const char *dist_describe(void);
 

@@ -114,6 +114,13 @@ bool image_is_null_device(const char *path);
  * bytes would garble it). False with the reason reported to diag. */
 bool image_check_output(const char *path, const char *format, Diag *diag);
 
+/* Standard output is a launcher's channel (an MPI rank's): from then on
+ * image_check_output does not refuse a terminal there. OpenMPI's mpirun gives every
+ * rank a pseudo-terminal as standard output and copies its bytes, unchanged, to its own
+ * standard output, so a terminal there says nothing about where the image goes
+ * (mpirun ... -output - > frame.tga was refused). */
+void image_stdout_forwarded(bool forwarded);
+
 /* Several images, all or nothing: each goes to its temporary file first (an existing
  * pipe or device is written in place after those), and the temporary files are renamed
  * into place only when every write succeeded; on failure none is renamed and all are

@@ -15,6 +15,7 @@ bool dist_init(int *argc, char ***argv)
 int dist_finish(int status) { return status; }
 bool dist_is_root(void) { return true; }
 int dist_size(void) { return 1; }
+bool dist_stdout_forwarded(void) { return false; }
 const char *dist_describe(void)
 {
     return "not in this binary (make mpi builds ./raytracer-mpi, which has it)";

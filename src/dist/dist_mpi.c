@@ -148,6 +148,8 @@ typedef struct Pending {
 enum { MAX_PENDING = 8 };
 static Pending g_pending[MAX_PENDING];
 static int g_npending;
+/* Started by an MPI launcher (dist_stdout_forwarded). */
+static bool g_launched;
 
 static double now_ms(void)
 {
@@ -264,6 +266,12 @@ const char dist_program_name[] = "raytracer-mpi";
 
 bool dist_init(int *argc, char ***argv)
 {
+    /* Started by a launcher: its own variables, read before MPI_Init (a singleton's
+     * MPI_Init sets OpenMPI's in this process): OpenMPI's mpirun, a PMIx launcher
+     * (OpenMPI 5's prterun, srun --mpi=pmix) or a PMI one (MPICH's mpiexec, srun
+     * --mpi=pmi2). */
+    g_launched = env_count("OMPI_COMM_WORLD_SIZE") >= 0 || env_count("PMIX_RANK") >= 0 ||
+                 env_count("PMI_RANK") >= 0;
     int env_rank = env_count("OMPI_COMM_WORLD_RANK");
     int env_size = env_count("OMPI_COMM_WORLD_SIZE");
     if (env_rank == 0 && env_size > 0) {
@@ -303,6 +311,8 @@ int dist_finish(int status)
 
 bool dist_is_root(void) { return g_rank == 0; }
 int dist_size(void) { return g_size; }
+
+bool dist_stdout_forwarded(void) { return g_launched; }
 const char *dist_describe(void)
 {
     ready();

@@ -333,6 +333,10 @@ static const ImageCodec *codec_for_writing(const char *path, const char *format,
 static bool check_target(const char *path, const char *target, bool exists,
                          const struct stat *st, const char *format, Diag *diag);
 
+static bool g_stdout_forwarded;
+
+void image_stdout_forwarded(bool forwarded) { g_stdout_forwarded = forwarded; }
+
 bool image_check_output(const char *path, const char *format, Diag *diag)
 {
     struct stat st;
@@ -343,7 +347,7 @@ bool image_check_output(const char *path, const char *format, Diag *diag)
             report(diag, path, "cannot write image: ", strerror(errno));
             return false;
         }
-        if (isatty(STDOUT_FILENO)) {
+        if (!g_stdout_forwarded && isatty(STDOUT_FILENO)) {
             report(diag, path, "cannot write image: ", "standard output is a terminal "
                    "(pipe it into a program or redirect it into a file)");
             return false;

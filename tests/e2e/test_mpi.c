@@ -3,9 +3,11 @@
  * message and exit 1 on a scene error, a clean abort with no image when a rank dies.
  * They run when RT_MPI_BIN names a built binary and mpirun is on PATH; otherwise they
  * are skipped, unless RT_REQUIRE_MPI=1 (CI), which makes a missing build a failure. */
-#define _POSIX_C_SOURCE 200809L
+#define _XOPEN_SOURCE 600
 #include "../harness.h"
 #include <ctype.h>
+#include <fcntl.h>
+#include <sys/wait.h>
 #include "e2e_util.h"
 
 static char g_mpirun[PATH_MAX];
@@ -572,6 +574,101 @@ static void test_mpi_names_itself(void)
     e2e_run_free(&r);
 }
 
+/* -output - under mpirun (into mpirun's standard output, here a pipe): the image's
+ * bytes, the same as ./raytracer's, on 1 and 2 ranks. OpenMPI gives every rank a
+ * pseudo-terminal as standard output, and the check that refuses to write an image to a
+ * terminal refused it ("standard output is a terminal", exit 1, nothing written). */
+static void test_mpi_output_stdout(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], ref[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpiout") != NULL);
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(ref, sizeof ref, dir, "ref.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    const char *const opts[] = {"-input", scene, "-size", "40", "30", "-jittered_samples",
+                                "4", "-gaussian_filter", "1", "-output", NULL};
+    Cmd c;
+    c.n = 0;
+    add(&c, harness_bin());
+    for (int i = 0; opts[i]; i++)
+        add(&c, opts[i]);
+    add(&c, ref);
+    E2eRun r;
+    CHECK_INT(run(&c, &r), 0);
+    e2e_run_free(&r);
+    size_t ref_len = 0;
+    char *want = e2e_read_file(ref, &ref_len);
+    CHECK(want != NULL && ref_len > 0);
+    for (int np = 1; np <= 2 && want && !harness_failures; np++) {
+        mpirun_prefix(&c, np == 1 ? "1" : "2");
+        add(&c, mpi);
+        for (int i = 0; opts[i]; i++)
+            add(&c, opts[i]);
+        add(&c, "-");
+        int st = run(&c, &r);
+        char why[512];
+        CHECK_MSG(st == 0, "-np %d -output -: %s", np, e2e_describe(&r, why, sizeof why));
+        CHECK_MSG(r.out_len == ref_len && memcmp(r.out, want, ref_len) == 0,
+                  "-np %d -output -: %zu bytes on stdout, not ./raytracer's %zu", np,
+                  r.out_len, ref_len);
+        e2e_run_free(&r);
+    }
+    free(want);
+    /* Started without mpirun (a singleton, whose MPI_Init sets OpenMPI's variables in
+     * the process) onto a terminal, the image is still refused: the terminal is the
+     * user's. Its standard output and error on a new pseudo-terminal. */
+    int master = posix_openpt(O_RDWR | O_NOCTTY);
+    CHECK(master >= 0 && grantpt(master) == 0 && unlockpt(master) == 0);
+    const char *slave_name = master >= 0 ? ptsname(master) : NULL;
+    CHECK(slave_name != NULL);
+    if (slave_name && !harness_failures) {
+        c.n = 0;
+        add(&c, mpi);
+        for (int i = 0; opts[i]; i++)
+            add(&c, opts[i]);
+        add(&c, "-");
+        c.v[c.n] = NULL;
+        fflush(stdout);
+        fflush(stderr);
+        pid_t pid = fork();
+        if (pid == 0) {
+            setsid();
+            int slave = open(slave_name, O_RDWR);
+            int devnull = open("/dev/null", O_RDONLY);
+            if (slave < 0 || devnull < 0)
+                _exit(126);
+            dup2(devnull, 0);
+            dup2(slave, 1);
+            dup2(slave, 2);
+            close(master);
+            execv(c.v[0], (char *const *)c.v);
+            _exit(127);
+        }
+        size_t len = 0, cap = 0;
+        char *text = NULL, buf[4096];
+        e2e_append(&text, &len, &cap, "", 0);
+        for (;;) {
+            ssize_t got = read(master, buf, sizeof buf);
+            if (got > 0)
+                e2e_append(&text, &len, &cap, buf, (size_t)got);
+            else if (!(got < 0 && errno == EINTR))
+                break; /* EIO: the terminal's other side has gone */
+        }
+        int st = 0;
+        while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+        }
+        CHECK_MSG(WIFEXITED(st) && WEXITSTATUS(st) == 1 &&
+                      strstr(text, "standard output is a terminal") && len < 1000,
+                  "singleton -output - onto a terminal: status %d, %zu bytes:\n%.300s", st,
+                  len, text);
+        free(text);
+    }
+    if (master >= 0)
+        close(master);
+    e2e_rmtree(dir);
+}
+
 /* raytracer-mpi names itself when a stop signal ends -merge (it runs before MPI) or
  * the set-up of a singleton run (no mpirun: one process, which stops after the parse):
  * both said "raytracer: interrupted; no image written" from a fixed string. The input
@@ -661,6 +758,7 @@ static const TestCase tests[] = {
     {"mpi_sigint_to_mpirun", test_mpi_sigint_to_mpirun},
     {"mpi_env_mismatch", test_mpi_env_mismatch},
     {"mpi_names_itself", test_mpi_names_itself},
+    {"mpi_output_stdout", test_mpi_output_stdout},
     {"mpi_warnings_once", test_mpi_warnings_once},
     {"mpi_interrupted_names_itself", test_mpi_interrupted_names_itself},
 };
