@@ -16,9 +16,17 @@
  * reader parses them in pieces from the same size on. */
 #define RT_FILE_PAR_MIN_BYTES ((size_t)256 << 10)
 
+/* A read by one thread looks at the stop request before each of its reads of this
+ * many bytes at most: a 100 MB OBJ file on a slow disk or network file system took
+ * seconds in one fread, and a Ctrl-C waited for all of it. */
+#define RT_FILE_STOP_BYTES ((size_t)4 << 20)
+
 /* Reads a whole file into a malloc'd, NUL-terminated buffer; *len excludes the NUL.
  * The path "-" reads standard input (the scene of -input -).
- * False with errno set (EISDIR, EFBIG past RT_FILE_MAX_BYTES, ENOMEM, or fopen's). */
+ * False with errno set (EISDIR, EFBIG past RT_FILE_MAX_BYTES, ENOMEM, or fopen's), or
+ * EINTR when a stop was requested (rt/par.h: looked at before every RT_FILE_STOP_BYTES
+ * read, and every parallel chunk), which the caller does not report. These reads
+ * and the next two all look at it. */
 bool file_read_all(const char *path, char **out, size_t *len);
 /* The same into an arena buffer (rt/arena.h; arena_buffer_free), which
  * objfile_build_group can reuse for the triangles. */

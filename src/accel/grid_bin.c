@@ -61,11 +61,6 @@ void grid_free_build_state(GridBuild *b)
 }
 
 
-typedef struct BinChunk {
-    size_t off, len;      /* its run in the pairs of the worker that binned it */
-    int worker;
-} BinChunk;
-
 /* Bytes of the packed arrays faulted in per extra chunk of the binning job. */
 enum { PREFAULT_BYTES = 2 << 20 };
 
@@ -171,6 +166,24 @@ static bool parts_ok(const BinJob *job)
     return true;
 }
 
+bool grid_fill_items(uint32_t *items, uint32_t *cursor, const uint32_t *ncells, uint32_t n,
+                     const BinChunk *chunk, const BinPart *part)
+{
+    uint32_t nchunks = n / BIN_CHUNK + (n % BIN_CHUNK != 0);
+    for (uint32_t k = 0; k < nchunks; k++) {
+        /* One thread writes every entry here (tens of ms at 1.3M triangles): a stop is
+         * looked for every FILL_STOP_CHUNKS chunks, about a millisecond apart. */
+        if (k % FILL_STOP_CHUNKS == FILL_STOP_CHUNKS - 1 && par_stop_requested())
+            return false;
+        const uint32_t *cell = part[chunk[k].worker].pairs + chunk[k].off;
+        uint32_t p1 = n - k * BIN_CHUNK > BIN_CHUNK ? (k + 1) * BIN_CHUNK : n;
+        for (uint32_t p = k * BIN_CHUNK; p < p1; p++)
+            for (uint32_t j = ncells[p]; j > 0; j--)
+                items[cursor[*cell++]++] = p;
+    }
+    return true;
+}
+
 /* The marching cells of every primitive (bin_chunk, in parallel), the CSR arrays, then
  * grid_pack. The CSR fill adds the workers' counts
  * up into offsets and writes the entries chunk by chunk, i.e. in primitive order within
@@ -232,15 +245,10 @@ bool grid_bin_fill_pack(GridBuild *b)
         g->cell_items = bigmem_calloc((size_t)total + 1, sizeof *g->cell_items);
         ok = g->cell_items != NULL;
     }
+    if (ok)
+        ok = grid_fill_items(g->cell_items, g->cell_start, b->prim_ncells, n, job.chunk,
+                             job.part);
     if (ok) {
-        uint32_t *items = g->cell_items, *cursor = g->cell_start;
-        for (uint32_t k = 0; k < job.nchunks; k++) {
-            const uint32_t *cell = job.part[job.chunk[k].worker].pairs + job.chunk[k].off;
-            uint32_t p1 = n - k * BIN_CHUNK > BIN_CHUNK ? (k + 1) * BIN_CHUNK : n;
-            for (uint32_t p = k * BIN_CHUNK; p < p1; p++)
-                for (uint32_t j = b->prim_ncells[p]; j > 0; j--)
-                    items[cursor[*cell++]++] = p;
-        }
         /* Each cursor now stands at the start of the next cell. */
         memmove(g->cell_start + 1, g->cell_start, (size_t)cells * sizeof *g->cell_start);
         g->cell_start[0] = 0;

@@ -90,6 +90,34 @@ typedef struct GridBuild {
     bool stopped;           /* cut short: a stop was requested (rt/par.h) */
 } GridBuild;
 
+/* A binning chunk's cells: its run in the pairs of the worker that binned it. */
+typedef struct BinChunk {
+    size_t off, len;
+    int worker;
+} BinChunk;
+
+/* grid_bin.c: the CSR fill, on one thread: primitive p (of n, in chunks of BIN_CHUNK)
+ * goes into each of its ncells[p] cells, listed in order in part[chunk[k].worker].pairs
+ * from chunk[k].off for its chunk k: items[cursor[cell]++] = p. False, the items cut
+ * short, when a stop was requested (rt/par.h: looked at every FILL_STOP_CHUNKS chunks,
+ * from the last of the first FILL_STOP_CHUNKS on). */
+enum { FILL_STOP_CHUNKS = 64 };
+bool grid_fill_items(uint32_t *items, uint32_t *cursor, const uint32_t *ncells, uint32_t n,
+                     const BinChunk *chunk, const BinPart *part);
+
+/* grid_cache.c: a table primitive by its leaf and Transforms, and its index in the
+ * table; sorted by (obj, xf) to find each grid primitive's index. */
+typedef struct PrimRef {
+    const Object3D *obj;
+    const PrimXform *xf;
+    uint32_t index;
+} PrimRef;
+/* Sorts refs[0..n) by (obj, xf) as addresses, stably, with tmp (n refs) as scratch.
+ * False, refs left in some order, when a stop was requested (rt/par.h: looked at every
+ * SORT_STOP refs moved). */
+enum { SORT_STOP = 65536 };
+bool grid_cache_sort_refs(PrimRef *refs, uint32_t n, PrimRef *tmp);
+
 /* grid_bin.c: the marching sets, the CSR arrays and grid_pack, on the set-up threads. False when out of memory, with b->too_many when the entries
  * overflow a uint32_t, or with b->stopped when a stop was requested (the binning and
  * the pack look before each chunk: a stop ends the build within a chunk's time). */

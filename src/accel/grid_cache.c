@@ -151,14 +151,6 @@ Grid *grid_cache_load(const PrimTable *t, SetupCache *c, SetupKey key, Diag *dia
     return g;
 }
 
-/* Sorting the table's primitives by (leaf, Transforms) to find each grid primitive's
- * index in the table. */
-typedef struct PrimRef {
-    const Object3D *obj;
-    const PrimXform *xf;
-    uint32_t index;
-} PrimRef;
-
 static int ref_cmp(const void *pa, const void *pb)
 {
     const PrimRef *a = pa, *b = pb;
@@ -169,22 +161,79 @@ static int ref_cmp(const void *pa, const void *pb)
     return 0;
 }
 
+static inline bool ref_less(const PrimRef *a, const PrimRef *b)
+{
+    if (a->obj != b->obj)
+        return (uintptr_t)a->obj < (uintptr_t)b->obj;
+    return (uintptr_t)a->xf < (uintptr_t)b->xf;
+}
+
+/* Refs sorted by insertion into runs of this many before the merges. */
+enum { SORT_RUN = 16 };
+
+bool grid_cache_sort_refs(PrimRef *refs, uint32_t n, PrimRef *tmp)
+{
+    /* A stable merge sort of our own rather than qsort, which cannot be stopped inside
+     * (a quarter of a second at 1.3M triangles): runs of SORT_RUN by insertion, then
+     * passes that merge pairs of runs between refs and tmp, looking at the stop request
+     * every SORT_STOP refs written. Stable, as glibc's qsort (a merge sort when it can
+     * have its buffer), so equal keys, if ever, keep the same order. */
+    for (uint32_t lo = 0; lo < n; lo += SORT_RUN) {
+        if (lo % SORT_STOP == 0 && par_stop_requested())
+            return false;
+        uint32_t hi = n - lo > SORT_RUN ? lo + SORT_RUN : n;
+        for (uint32_t i = lo + 1; i < hi; i++) {
+            PrimRef r = refs[i];
+            uint32_t j = i;
+            for (; j > lo && ref_less(&r, &refs[j - 1]); j--)
+                refs[j] = refs[j - 1];
+            refs[j] = r;
+        }
+    }
+    PrimRef *src = refs, *dst = tmp;
+    for (uint64_t width = SORT_RUN; width < n; width *= 2) {
+        uint64_t written = 0;
+        for (uint64_t lo = 0; lo < n; lo += 2 * width) {
+            uint32_t mid = (uint32_t)(lo + width < n ? lo + width : n);
+            uint32_t hi = (uint32_t)(lo + 2 * width < n ? lo + 2 * width : n);
+            uint32_t a = (uint32_t)lo, b = mid;
+            for (uint32_t o = (uint32_t)lo; o < hi; o++) {
+                if (++written % SORT_STOP == 0 && par_stop_requested())
+                    return false;
+                /* The left run's ref first unless the right one is smaller: stable. */
+                dst[o] = a < mid && (b >= hi || !ref_less(&src[b], &src[a])) ? src[a++]
+                                                                              : src[b++];
+            }
+        }
+        PrimRef *t = src;
+        src = dst;
+        dst = t;
+    }
+    if (src != refs)
+        memcpy(refs, src, (size_t)n * sizeof *refs);
+    return true;
+}
+
 void grid_cache_store(const Grid *g, const PrimTable *t, SetupCache *c, SetupKey key,
                       const int req[3])
 {
     if (g->packing_off || g->num_prims != t->num_bounded)
         return;
     PrimRef *refs = malloc((t->num_prims ? t->num_prims : 1) * sizeof *refs);
+    PrimRef *tmp = malloc((t->num_prims ? t->num_prims : 1) * sizeof *tmp);
     uint32_t *index = malloc((g->num_prims ? g->num_prims : 1) * sizeof *index);
     /* A stop (Ctrl-C, rt/par.h) ends the store: the run writes no cache then. Looked at
-     * before the sort and every 64K look-ups (a 1.3M-triangle grid's store is ~0.3 s). */
-    bool ok = refs && index && !par_stop_requested();
+     * before the sort, every SORT_STOP refs it writes and every 64K look-ups (a
+     * 1.3M-triangle grid's store is ~0.3 s). */
+    bool ok = refs && tmp && index && !par_stop_requested();
     uint32_t nr = 0;
     for (uint32_t i = 0; ok && i < t->num_prims; i++)
         if (t->prims[i].bounded)
             refs[nr++] = (PrimRef){t->prims[i].obj, t->prims[i].xf, i};
     if (ok)
-        qsort(refs, nr, sizeof *refs, ref_cmp);
+        ok = grid_cache_sort_refs(refs, nr, tmp);
+    free(tmp);
+    tmp = NULL;
     for (uint32_t p = 0; ok && p < g->num_prims; p++) {
         if ((p & 0xFFFF) == 0xFFFF && par_stop_requested()) {
             ok = false;

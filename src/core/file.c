@@ -53,6 +53,10 @@ static void read_chunk(void *ctx, int i, int worker)
 {
     (void)worker;
     ReadJob *job = ctx;
+    if (par_stop_requested()) { /* read_all_id tells a stop from a failure */
+        atomic_store(&job->failed, true);
+        return;
+    }
     size_t off = (size_t)i * READ_CHUNK, end = job->size - off > READ_CHUNK ? off + READ_CHUNK
                                                                             : job->size;
     while (off < end) {
@@ -220,6 +224,9 @@ static bool read_all_id(const char *path, char **out, size_t *len, bool reusable
     if (whole)
         n = cap - 1;
     while (!whole) {
+        /* A stop (Ctrl-C) ends the read: EINTR, which the callers do not report. */
+        if (par_stop_requested())
+            return read_failed(f, buf, reusable, EINTR);
         if (n + 1 >= cap) {
             /* Full: a regular file usually ends right here (cap is its size + 1), so
              * look for one more byte before doubling the buffer. The doubling was a
@@ -241,7 +248,8 @@ static bool read_all_id(const char *path, char **out, size_t *len, bool reusable
             cap *= 2;
             buf[n++] = more;
         }
-        size_t got = fread(buf + n, 1, cap - 1 - n, f);
+        size_t want = cap - 1 - n;
+        size_t got = fread(buf + n, 1, want > RT_FILE_STOP_BYTES ? RT_FILE_STOP_BYTES : want, f);
         n += got;
         if (got == 0) {
             if (ferror(f))

@@ -745,7 +745,11 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
             first_errno = errno;
     }
     bool ok = true;
-    if (used < 0) {
+    if (used < 0 && par_stop_requested()) {
+        /* A stop (Ctrl-C) cut the read short (rt/file.h): nothing to report, main says
+         * "interrupted". */
+        ok = false;
+    } else if (used < 0) {
         char shown[256];
         lex_show(&name, shown, sizeof shown);
         if (ntried == 2)

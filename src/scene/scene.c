@@ -9,6 +9,7 @@
 #include "obj_loader.h"
 #include "parser.h"
 #include "rt/geom.h"
+#include "rt/par.h"
 
 static Scene *scene_new(const char *name)
 {
@@ -127,6 +128,8 @@ Scene *scene_load_with(const char *path, SceneFiles *files, SetupCache *cache, b
     bool from_stdin = strcmp(path, SCENE_STDIN) == 0;
     const char *name = from_stdin ? "<stdin>" : path;
     if (!scene_files_read(files, path, false, &buf, &len)) {
+        if (par_stop_requested())
+            return NULL; /* a stop cut the read short (rt/file.h): main says so */
         SrcLoc loc = {name, 0, 0};
         diag_error(diag, &loc, "cannot open scene file: %s", strerror(errno));
         return NULL;

@@ -411,6 +411,51 @@ static void test_sigterm_during_obj_parse(void)
     e2e_rmtree(dir);
 }
 
+/* A signal while an OBJ file is being read ends the read itself (rt/file.h: the read
+ * looks at the stop flag before each step): the OBJ file is the FIFO this time (no
+ * -cache, so it is opened once), the scene a plain file, and the signal is in while the
+ * run waits for the OBJ's bytes. The bytes are an OBJ whose first line is an error (a
+ * face before any vertex), which the reader reports at once, before its first look at
+ * the flag: a read that went on to its end led to that error (exit 1, on 1f2bcd1); a
+ * cut one to exit 128 + signal, "interrupted; no image written", no error, no image.
+ * One thread and two. */
+static void test_sigterm_during_obj_read(void)
+{
+    char dir[PATH_MAX], fifo[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigread") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "mesh.obj");
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    CHECK(e2e_write_file(
+        scene, "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+               "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
+               "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+               "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mesh.obj } }\n"));
+    CHECK(mkfifo(fifo, 0600) == 0);
+    if (harness_failures)
+        return;
+    static const char obj[] = "f 1 2 3\nv 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    static const char *const threads[] = {"1", "2"};
+    for (int k = 0; k < 2; k++) {
+        const char *args[] = {harness_bin(), "-input", scene, "-size", "8", "8", "-threads",
+                              threads[k], "-output", out, NULL};
+        int st = 0;
+        char err[4096] = "";
+        bool ended = e2e_signal_while_reading(args, fifo, SIGTERM, obj, sizeof obj - 1, &st,
+                                              err, sizeof err);
+        CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
+                  "-threads %s: %s %d, expected exit %d: %s", threads[k],
+                  WIFEXITED(st) ? "exit" : "killed by",
+                  WIFEXITED(st) ? WEXITSTATUS(st) : WTERMSIG(st), 128 + SIGTERM, err);
+        CHECK_CONTAINS(err, "interrupted; no image written");
+        CHECK_MSG(!strstr(err, "error"), "-threads %s: the OBJ file was read to its end: %s",
+                  threads[k], err);
+        CHECK_MSG(!e2e_exists(out), "an image was written");
+        CHECK_INT(e2e_count_entries(dir), 2); /* the FIFO and the scene */
+    }
+    e2e_rmtree(dir);
+}
+
 static void test_sigterm_while_streaming(void) { signal_while_streaming_as(SIGTERM, false); }
 static void test_sigint_while_streaming(void) { signal_while_streaming_as(SIGINT, false); }
 static void test_sigterm_while_streaming_film(void) { signal_while_streaming_as(SIGTERM, true); }
@@ -927,6 +972,7 @@ static const TestCase tests[] = {
     {"sigint_during_merge", test_sigint_during_merge},
     {"sigterm_during_setup", test_sigterm_during_setup},
     {"sigterm_during_obj_parse", test_sigterm_during_obj_parse},
+    {"sigterm_during_obj_read", test_sigterm_during_obj_read},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"file_size_limit", test_file_size_limit},
     {"write_error_stops_render", test_write_error_stops_render},

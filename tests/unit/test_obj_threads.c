@@ -5,6 +5,7 @@
  * comment form, long lines, polygons and bad indices placed in late pieces, piece cuts
  * swept across CRLF pairs) and seeded random mutations of valid files, each read with 0
  * helpers and with 1-3; also whole-file reads at the reader's buffer boundaries. */
+#include <errno.h>
 #include <pthread.h>
 #include <stdarg.h>
 #include <stdint.h>
@@ -600,6 +601,68 @@ static void test_file_sizes(void)
     CHECK_MSG(rmdir(dir) == 0, "%s left behind", dir);
 }
 
+/* A stop request (rt/par.h: main's stop-signal flag) ends a whole-file read: false with
+ * EINTR (the callers report nothing and main says "interrupted"), for the one-thread
+ * read and the parallel one, reusable or not, a big file and a small one; with the flag
+ * clear the same reads succeed, and a file of two steps and a byte more
+ * (RT_FILE_STOP_BYTES: the one-thread read goes in steps to look between them) is
+ * read whole. Before, a read ran to its end whatever the flag (a 100 MB OBJ file on a
+ * slow disk kept a Ctrl-C waiting for seconds). */
+static void test_read_stop_request(void)
+{
+    char dir[] = "/tmp/rt_objstop_XXXXXX";
+    CHECK(mkdtemp(dir) != NULL);
+    char big[256], small[256];
+    snprintf(big, sizeof big, "%s/big.obj", dir);
+    snprintf(small, sizeof small, "%s/small.obj", dir);
+    GenOpts o = {1, false, false};
+    Text text = {0};
+    size_t len = 2 * RT_FILE_STOP_BYTES + 1;
+    gen_obj(&text, len, &o, NULL);
+    CHECK(text.s != NULL && text.len >= len);
+    if (harness_failures) {
+        free(text.s);
+        return;
+    }
+    FILE *f = fopen(big, "wb");
+    CHECK(f != NULL && fwrite(text.s, 1, len, f) == len);
+    if (f)
+        fclose(f);
+    f = fopen(small, "wb");
+    CHECK(f != NULL && fwrite(text.s, 1, 100, f) == 100);
+    if (f)
+        fclose(f);
+    volatile int stop = 0;
+    par_set_stop_flag(&stop);
+    for (int h = 0; h < 3; h += 2) {
+        par_set_helpers(h);
+        const char *paths[2] = {big, small};
+        for (int k = 0; k < 2; k++) {
+            char *buf = NULL;
+            size_t n = 0;
+            stop = 0;
+            CHECK(file_read_reusable(paths[k], &buf, &n));
+            CHECK_MSG(buf && n == (k ? 100 : len) && memcmp(buf, text.s, n) == 0 && !buf[n],
+                      "%d helpers, %s: the read differs (%zu bytes)", h, paths[k], n);
+            arena_buffer_free(buf);
+            stop = 15; /* SIGTERM's number, as the handler stores it */
+            buf = NULL;
+            errno = 0;
+            CHECK_MSG(!file_read_reusable(paths[k], &buf, &n) && errno == EINTR,
+                      "%d helpers, %s: read after the stop (errno %d)", h, paths[k], errno);
+            errno = 0;
+            CHECK_MSG(!file_read_all(paths[k], &buf, &n) && errno == EINTR,
+                      "%d helpers, %s: read (file_read_all) after the stop (errno %d)", h,
+                      paths[k], errno);
+        }
+    }
+    par_set_stop_flag(NULL);
+    par_set_helpers(-1);
+    free(text.s);
+    CHECK(unlink(big) == 0 && unlink(small) == 0);
+    CHECK_MSG(rmdir(dir) == 0, "%s left behind", dir);
+}
+
 /* Each test runs in its own process (tests/harness.c): it reports its own count. */
 static void report(int min_cases)
 {
@@ -623,6 +686,7 @@ static const TestCase tests[] = {
      run_degenerate},
     {"obj threads: seeded mutations of valid files", run_mutations},
     {"obj threads: whole-file and FIFO reads at buffer sizes", run_file_sizes},
+    {"obj threads: a stop request ends a whole-file read", test_read_stop_request},
 };
 
 RT_TEST_MAIN(tests)
