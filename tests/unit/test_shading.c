@@ -676,8 +676,9 @@ static void test_packet_procedural_same_bits(void)
 
 /* Packets shade their plain Phong hits inline (raytracer_trace_packet); every colour
  * and hit must be the bits raytracer_trace gives ray by ray through the materials' ops:
- * Phong with and without specular colour, a mirror (bounces), a checkerboard (not
- * inline), back faces with and without -shade_back, directional and point lights. */
+ * Phong with and without specular colour, a mirror and glass (bounces: their secondary
+ * rays as packets), a checkerboard, back faces with and without -shade_back,
+ * directional and point lights. */
 static void test_packet_shading_same_bits(void)
 {
     Mini m;
@@ -702,7 +703,17 @@ static void test_packet_shading_same_bits(void)
     m.mats[1] = phong_new(&m.s.arena, &matte);
     m.mats[2] = phong_new(&m.s.arena, &mirror);
     m.mats[3] = checkerboard_new(&m.s.arena, NULL, m.mats[0], m.mats[1]);
-    Object3D *g = group_new(&m.s.arena, 6);
+    /* Glass: refracted rays in and out (total internal reflection on the way out) and
+     * reflected ones, traced as packets of secondary rays where they stay close. */
+    PhongParams glass = phong_defaults();
+    glass.diffuse = v3(0.05f, 0.08f, 0.05f);
+    glass.specular = v3(0.5f, 0.5f, 0.5f);
+    glass.exponent = 30;
+    glass.reflective = v3(0.15f, 0.2f, 0.15f);
+    glass.transparent = v3(0.8f, 0.75f, 0.8f);
+    glass.ior = 1.5f;
+    Material *glass_m = phong_new(&m.s.arena, &glass);
+    Object3D *g = group_new(&m.s.arena, 8);
     group_set_child(g, 0, plane_new(&m.s.arena, v3(0, 1, 0), -1, m.mats[1]));
     group_set_child(g, 1, sphere_new(&m.s.arena, v3(-0.4f, 0, 0), 0.5f, m.mats[0]));
     group_set_child(g, 2, sphere_new(&m.s.arena, v3(0.5f, 0.1f, -0.5f), 0.4f, m.mats[2]));
@@ -712,6 +723,10 @@ static void test_packet_shading_same_bits(void)
                                        v3(-0.5f, 0.2f, 0.5f), m.mats[0]));
     group_set_child(g, 5, triangle_new(&m.s.arena, v3(0.3f, 0.3f, 0.2f), v3(1, 0.4f, 0.2f),
                                        v3(0.6f, 1, 0.2f), m.mats[2]));
+    group_set_child(g, 6, sphere_new(&m.s.arena, v3(0.45f, -0.3f, 1.2f), 0.45f, glass_m));
+    /* A glass slab (one triangle) in front of the mirror: coherent refracted rays. */
+    group_set_child(g, 7, triangle_new(&m.s.arena, v3(-1.2f, -0.9f, 1.5f), v3(0.2f, -0.9f, 1.5f),
+                                       v3(-1.2f, 0.2f, 1.7f), glass_m));
     group_finish(g);
     mini_set_root(&m, g);
     PrimTable prims;
