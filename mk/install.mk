@@ -25,7 +25,10 @@ install: all
 	    ln -sf raytracer '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi' && \
 	    ln -sf raytracer.1 '$(DESTDIR)$(MANDIR)/man1/raytracer-mpi.1'; fi
 
-# Removes exactly what install puts there (the folders stay: others share them).
+# Removes exactly what install puts there. The folders stay, even empty: install makes
+# none of the project's own (no share/raytracer, no share/doc/raytracer), only the
+# shared BINDIR, MANDIR/man1 and BASHCOMPDIR (and their parents) when they are missing,
+# and another program's install may rely on those being there.
 uninstall:
 	$(say) UNINST $(DESTDIR)$(PREFIX)
 	$(Q)rm -f '$(DESTDIR)$(BINDIR)/raytracer' '$(DESTDIR)$(BINDIR)/raytracer-mpi' \

@@ -153,6 +153,16 @@ static void test_install_uninstall(void)
         e2e_join(path, sizeof path, dest, "usr/local/share/man/man1/raytracer-mpi.1");
         struct stat lst;
         CHECK_MSG(lstat(path, &lst) != 0, "make uninstall left raytracer-mpi.1");
+        /* Nothing of ours is left, and the folders install made stay: each is shared
+         * (README.txt, Installing), none is the project's own. */
+        static const char *const shared[] = {"usr/local/bin", "usr/local/share/man/man1",
+                                             "usr/local/share/bash-completion/completions"};
+        for (size_t i = 0; i < sizeof shared / sizeof shared[0]; i++) {
+            e2e_join(path, sizeof path, dest, shared[i]);
+            int n = e2e_count_entries(path);
+            CHECK_MSG(n == 0, "after make uninstall %s %s", shared[i],
+                      n < 0 ? "is gone (a shared folder)" : "still holds files");
+        }
     }
     e2e_run_free(&r);
     e2e_rmtree(dest);
