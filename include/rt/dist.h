@@ -55,7 +55,8 @@ typedef struct DistJob {
     /* The root's "rows done" line on stderr, when there are other ranks: -progress
      * (PROGRESS_ALWAYS) draws it, -quiet or the preview (PROGRESS_NEVER) not, else
      * only when stderr is a terminal. Under OpenMPI's mpirun it never is (the ranks'
-     * stderr is a pipe to mpirun), so there the line needs -progress. */
+     * stderr is a pipe to mpirun), so there the line needs -progress, and it comes as
+     * whole lines at the cadence of rt/progress.h's log. */
     ProgressMode progress;
     DistRectFn render;
     void *user;

@@ -20,6 +20,12 @@ typedef enum ProgressMode {
 
 typedef struct Progress Progress;
 
+/* The log's cadence (out not a terminal): a line once both 1/PROGRESS_LOG_STEPS more of
+ * the work is done and PROGRESS_LOG_SECONDS have passed since the last line (or the
+ * start), and a final one. raytracer-mpi's "rows done" line keeps the same. */
+#define PROGRESS_LOG_STEPS 20
+#define PROGRESS_LOG_SECONDS 30.0
+
 /* Whether mode draws on out (AUTO: out is a terminal). */
 bool progress_wanted(ProgressMode mode, FILE *out);
 

@@ -17,12 +17,10 @@
 
 /* Into a log (not a terminal) a redraw cannot overwrite anything: ten carriage-return
  * updates a second made ~2 MB of log an hour. There a line is appended only once both
- * 5% more of the work is done and 30 s have passed since the last line (or the start),
- * so a run leaves at most 19 such lines, 30 s apart at least, plus the final line
- * that progress_finish appends. The text of a line is the terminal's, so a script
- * reads either the same way. */
-#define PROGRESS_LOG_STEPS 20
-#define PROGRESS_LOG_SECONDS 30.0
+ * 5% more of the work is done and 30 s have passed since the last line (or the start)
+ * (PROGRESS_LOG_STEPS, PROGRESS_LOG_SECONDS), so a run leaves at most 19 such lines,
+ * 30 s apart at least, plus the final line that progress_finish appends. The text of a
+ * line is the terminal's, so a script reads either the same way. */
 
 struct Progress {
     _Atomic uint64_t done, rays;

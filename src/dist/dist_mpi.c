@@ -430,6 +430,11 @@ typedef struct Farm {
     RtStats local;           /* the root's own tiles */
     bool local_failed;
     double t0;               /* the root: when its dist_render started (now_ms) */
+    /* The root's "rows done" line (progress): the rows it last showed (-1: none yet);
+     * when stderr is no terminal (log), when the last line was written (now_ms). */
+    int shown;
+    bool log;
+    double logged_at;
 } Farm;
 
 /* -timings under MPI (dist_report): what the root saw of its last dist_render, per
@@ -560,14 +565,32 @@ static void *local_main(void *arg)
     return NULL;
 }
 
-/* "rows done", rewritten in place, when the job asks for it (DistJob.progress). */
-static void progress(const Farm *f, int *shown, bool last)
+/* "rows done", when the job asks for it (DistJob.progress): on a terminal rewritten in
+ * place; into a pipe or a file (under OpenMPI's mpirun stderr always is one; a batch
+ * job's log) as whole lines at ./raytracer's cadence (rt/progress.h): one once both 5%
+ * more rows are done and 30 s have passed since the last, and the final one (last).
+ * Redrawn there with carriage returns, every tile added ~40 bytes to one endless line
+ * of the log. */
+static void progress(Farm *f, bool last)
 {
-    int d = atomic_load(&f->done);
-    if (d == *shown && !last)
+    int d = atomic_load(&f->done), h = f->full->h;
+    if (f->log) {
+        double now = now_ms();
+        int step = (h + PROGRESS_LOG_STEPS - 1) / PROGRESS_LOG_STEPS;
+        bool due = d < h && d - (f->shown > 0 ? f->shown : 0) >= step &&
+                   now - f->logged_at >= PROGRESS_LOG_SECONDS * 1e3;
+        if (!last && !due)
+            return;
+        f->shown = d;
+        f->logged_at = now;
+        fprintf(stderr, "raytracer-mpi: %d/%d rows on %d ranks\n", d, h, g_size);
+        fflush(stderr);
         return;
-    *shown = d;
-    fprintf(stderr, "\rraytracer-mpi: %d/%d rows on %d ranks%s", d, f->full->h, g_size,
+    }
+    if (d == f->shown && !last)
+        return;
+    f->shown = d;
+    fprintf(stderr, "\rraytracer-mpi: %d/%d rows on %d ranks%s", d, h, g_size,
             last ? "\n" : "");
     fflush(stderr);
 }
@@ -612,7 +635,6 @@ static void serve(Farm *f)
     if (!msg)
         die("out of memory");
     bool tty = progress_wanted(f->full->progress, stderr);
-    int shown = -1;
     int active = (g_size - 1) * REQUESTS_IN_FLIGHT;
     long ns = NAP_MIN_NS;
     while (active > 0) {
@@ -622,7 +644,7 @@ static void serve(Farm *f)
         MPI_Improbe(MPI_ANY_SOURCE, TAG_RESULT, MPI_COMM_WORLD, &flag, &handle, &st);
         if (!flag) {
             if (tty)
-                progress(f, &shown, false);
+                progress(f, false);
             nap(&ns);
             continue;
         }
@@ -665,11 +687,11 @@ static void serve(Farm *f)
             }
         }
         if (tty)
-            progress(f, &shown, false);
+            progress(f, false);
     }
     bigmem_free(msg);
     if (tty)
-        progress(f, &shown, false);
+        progress(f, false);
 }
 
 /* A worker's tile buffers: a tile waits for the render thread (TODO), is rendered,
@@ -899,6 +921,9 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
     f.end_row = hi;
     pthread_mutex_init(&f.lock, NULL);
     atomic_init(&f.done, 0);
+    f.shown = -1;
+    f.log = isatty(STDERR_FILENO) != 1;
+    f.logged_at = now_ms();
     if (g_rank == 0) {
         /* Every tile but the last has min_rows rows or more. */
         f.cap_tiles = (hi - lo) / min_rows + 1;
@@ -929,10 +954,8 @@ bool dist_render(const DistJob *job, RtStats *stats_out, volatile int *cancel)
             local_main(&f); /* no thread: render what is left here */
         if (f.local_failed)
             die("could not render a tile (out of memory?)");
-        if (progress_wanted(job->progress, stderr)) {
-            int shown = -1;
-            progress(&f, &shown, true);
-        }
+        if (progress_wanted(job->progress, stderr))
+            progress(&f, true);
         mine = f.local;
         cancelled = *cancel; /* the signal that stopped rank 0, for everyone's status */
     } else {
