@@ -289,6 +289,7 @@ uint64_t grid_intersect_packet(const Grid *g, const Ray *rays, int n, Hit *hits,
     pk.march_tmin = grid_march_tmin(g, tmin);
     pk.shadow = false;
     pk.same_dir = false;
+    pk.xf = NULL;
     pk.hits = hits;
     pk.rays = rays;
     for (int i = 0; i < n; i++) {
@@ -336,6 +337,7 @@ static uint64_t occluded_packet(const Grid *g, const Ray *rays, uint64_t mask, f
     Packet pk; /* 64-aligned by its type */
     pk.rays = rays;
     pk.same_dir = dir != NULL;
+    pk.xf = NULL;
     if (dir) {
         pk.dir[0] = dir->x;
         pk.dir[1] = dir->y;

@@ -56,6 +56,13 @@ typedef struct Packet {
     PacketPlane planes[PK_MAX_PLANES];
     Hit *hits;                  /* nearest: the caller's hits */
     const Ray *rays;
+    /* The rays of xf_lanes carried through the transform chain xf (the first step of
+     * every test of a leaf below it: transform_path_to_object), kept for the leaf after:
+     * the leaves of one mesh under a Transform share a chain. NULL: none yet. */
+    const PrimXform *xf;
+    uint64_t xf_lanes;
+    Ray xf_ray[GRID_PACKET_MAX];
+    float xf_tmin[GRID_PACKET_MAX];
 } Packet;
 
 /* Ray i of the packet as the single-ray code takes it (with same_dir, its origin and

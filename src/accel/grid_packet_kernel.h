@@ -359,23 +359,45 @@ PK_INLINE void pk_test_tri(const Grid *g, Packet *pk, uint32_t p, uint64_t want)
 
 /* Any other primitive (sphere, transformed triangle, ...): its own intersect, ray by
  * ray, through the caller's Hit (nearest), or its occluded op up to the ray's tmax
- * (shadow). */
+ * (shadow). Below Transforms, prim_intersect's steps (transform_path_intersect) with the
+ * ray carried into object space once per chain and lane (pk->xf): the same
+ * arithmetic on the same inputs, so the same bits. */
 static void pk_test_prim(const Grid *g, Packet *pk, uint32_t p, uint64_t want, RenderCtx *ctx)
 {
+    const GridPrim *gp = &g->prims[p];
+    const PrimXform *xf = gp->xf;
+    if (xf && xf != pk->xf) {
+        pk->xf = xf;
+        pk->xf_lanes = 0;
+    }
     while (want) {
         int i = __builtin_ctzll(want);
         want &= want - 1;
         int gi = i / PK_LANES, l = i % PK_LANES;
         const Ray r = packet_ray(pk, i), *ray = &r;
+        float tmin = pk->tmin;
+        if (xf) {
+            uint64_t bit = (uint64_t)1 << i;
+            if (!(pk->xf_lanes & bit)) {
+                pk->xf_tmin[i] = tmin;
+                pk->xf_ray[i] = transform_path_to_object(&xf->path, ray, &pk->xf_tmin[i]);
+                pk->xf_lanes |= bit;
+            }
+            ray = &pk->xf_ray[i];
+            tmin = pk->xf_tmin[i];
+        }
         if (pk->shadow) {
-            if (grid_occluded_prim(&g->prims[p], ray, pk->tmin, pk->best_t[gi][l], ctx))
+            if (obj_occluded(gp->obj, ray, tmin, pk->best_t[gi][l], ctx))
                 pk->hit |= (uint64_t)1 << i;
             continue;
         }
         Hit *h = &pk->hits[i];
         h->t = pk->best_t[gi][l];
         h->id = pk->best_id[gi][l];
-        if (grid_test_prim(&g->prims[p], ray, h, pk->tmin, ctx)) {
+        bool found = obj_intersect(gp->obj, ray, h, tmin, ctx);
+        if (found && xf)
+            h->normal = transform_path_normal_to_world(&xf->path, h->normal);
+        if (found) {
             pk->best_t[gi][l] = h->t;
             pk->best_id[gi][l] = h->id;
             pk->best_prim[gi][l] = -1;
