@@ -300,6 +300,32 @@ static void test_tiles_sbatch_depth_normals(void)
                       e2e_count_entries(s.dir) == 7,
                   "tiles.sbatch with %s wrote something", bad[i][0]);
     }
+    /* A merged image that cannot be written is refused before any band is rendered
+     * (no band's -stats block on stdout): it was found only by the merge, after every
+     * band (under Slurm, after the whole array), and -depth's and -normals' names,
+     * which the bands no longer write, only there too. */
+    static const char *const late[][3] = {
+        {"frame.jpg", "", "2"},
+        {"nodir/frame.tga", "", "1"},
+        {"other.tga", "-depth 7 10 d.jpg", "2"},
+        {"other.tga", "-normals nodir/n.tga", "1"},
+    };
+    for (int i = 0; i < 4; i++) {
+        E2eRun r;
+        snprintf(cmd, sizeof cmd,
+                 "cd '%s' && RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt "
+                 "%s -size %s %s -stats %s", s.dir, s.bin, s.root, late[i][0], SIZE_W, SIZE_H,
+                 late[i][1]);
+        char *argv[] = {(char *)"/bin/sh", (char *)"-c", cmd, NULL};
+        CHECK(e2e_run(argv, &r));
+        CHECK_MSG(r.status == atoi(late[i][2]) && r.out_len == 0 && strchr(r.err, '\n') &&
+                      !strchr(r.err, '\n')[1],
+                  "tiles.sbatch %s %s: exit %d (expected %s), stdout:\n%.300s\nstderr:\n%s",
+                  late[i][0], late[i][1], r.status, late[i][2], r.out, r.err);
+        e2e_run_free(&r);
+        CHECK_MSG(e2e_count_entries(s.dir) == 7, "tiles.sbatch %s %s left something behind",
+                  late[i][0], late[i][1]);
+    }
     e2e_rmtree(s.dir);
 }
 
