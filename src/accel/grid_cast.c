@@ -28,12 +28,12 @@
 static inline __attribute__((always_inline)) bool test_entry(const Grid *g, uint32_t e,
                                                               const Ray *ray, Hit *hit,
                                                               float tmin, RenderCtx *ctx,
-                                                              bool any)
+                                                              XfMemo *xm, bool any)
 {
     uint32_t p = GRID_ITEM_INDEX(e);
     if (!(e & GRID_ITEM_TRI))
-        return any ? grid_occluded_prim(&g->prims[p], ray, tmin, hit->t, ctx)
-                   : grid_test_prim(&g->prims[p], ray, hit, tmin, ctx);
+        return any ? grid_occluded_prim_memo(&g->prims[p], ray, tmin, hit->t, ctx, xm)
+                   : grid_test_prim_memo(&g->prims[p], ray, hit, tmin, ctx, xm);
     const PackedTri *pt = &g->tri[p];
     ctx->stats.intersections++;
     float t;
@@ -613,7 +613,8 @@ static inline __attribute__((always_inline)) bool test_items(const Grid *g,
                                                               Hit *hit, float tmin,
                                                               RenderCtx *ctx, uint32_t *mb,
                                                               uint32_t stamp,
-                                                              const void *rsimd, bool any)
+                                                              const void *rsimd, XfMemo *xm,
+                                                              bool any)
 {
     bool found = false;
 #if RT_GRID_SIMD
@@ -642,13 +643,13 @@ static inline __attribute__((always_inline)) bool test_items(const Grid *g,
             continue;
         }
 #endif
-        found |= test_entry(g, item, ray, hit, tmin, ctx, any);
+        found |= test_entry(g, item, ray, hit, tmin, ctx, xm, any);
         if (any && found)
             return true;
     }
 #if RT_GRID_SIMD
     for (int i = 0; i < batch.n; i++) { /* the last one to three: scalar */
-        found |= test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, hit, tmin, ctx, any);
+        found |= test_entry(g, batch.p[i] | GRID_ITEM_TRI, ray, hit, tmin, ctx, xm, any);
         if (any && found)
             return true;
     }
@@ -661,11 +662,12 @@ static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint3
                                                              const Ray *ray, Hit *hit,
                                                              float tmin, RenderCtx *ctx,
                                                              uint32_t *mb, uint32_t stamp,
-                                                             const void *rsimd, bool any)
+                                                             const void *rsimd, XfMemo *xm,
+                                                             bool any)
 {
     uint32_t s0 = g->cell_start[c];
     return test_items(g, g->cell_items + s0, g->cell_start[c + 1] - s0, ray, hit, tmin, ctx,
-                      mb, stamp, rsimd, any);
+                      mb, stamp, rsimd, xm, any);
 }
 
 /* Everything of grid_intersect after the unbounded primitives: the march (or the
@@ -680,6 +682,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
         return brute_intersect(g, ray, hit, tmin, ctx);
     uint32_t stamp, *mb;
     MARCH_RAY_SIMD(rsimd, ray, tmin);
+    XfMemo xm = {NULL, {{0, 0, 0}, {0, 0, 0}}, 0.0f};
     if (!ctx->tree) { /* the loop below, in registers */
         LeanMarch m;
         if (!cast_lean_init(g, ray, tmarch, ctx, &m))
@@ -690,7 +693,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
             if (m.t > hit->t)
                 break;
             if (cell_occupied_in(occ, m.c))
-                found |= test_cell(g, m.c, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
+                found |= test_cell(g, m.c, ray, hit, tmin, ctx, mb, stamp, rsimd, &xm, false);
             if (hit->t <= lean_exit_t(&m))
                 break;
         } while (lean_next(&m));
@@ -706,7 +709,7 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
         if (mi.t > hit->t)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
-        found |= test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
+        found |= test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, &xm, false);
         /* 3. A hit inside this cell or an earlier one is final: every primitive that
          * could be hit sooner lies in a cell already tested (cells are padded, so this
          * holds up to float rounding at borders). A hit beyond it stays a candidate. */
@@ -780,6 +783,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
         return brute_occluded(g, ray, tmin, tmax, ctx);
     uint32_t stamp, *mb;
     MARCH_RAY_SIMD(rsimd, ray, tmin);
+    XfMemo xm = {NULL, {{0, 0, 0}, {0, 0, 0}}, 0.0f};
     if (!ctx->tree) { /* the loop below, in registers */
         LeanMarch m;
         if (!cast_lean_init(g, ray, tmarch, ctx, &m))
@@ -791,7 +795,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
             if (m.t > tmax)
                 break;
             if (cell_occupied_in(occ, m.c) &&
-                test_cell(g, m.c, ray, &h, tmin, ctx, mb, stamp, rsimd, true)) {
+                test_cell(g, m.c, ray, &h, tmin, ctx, mb, stamp, rsimd, &xm, true)) {
                 occluded = true; /* the first occluder settles it */
                 break;
             }
@@ -807,7 +811,7 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
         if (mi.t > tmax)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
-        if (test_cell(g, c, ray, &h, tmin, ctx, mb, stamp, rsimd, true))
+        if (test_cell(g, c, ray, &h, tmin, ctx, mb, stamp, rsimd, &xm, true))
             return true; /* the first occluder settles it */
     } while (march_next(&mi, ctx));
     return false;
@@ -864,7 +868,8 @@ bool grid_items_intersect(const Grid *g, const uint32_t *items, uint32_t n, cons
     if (n == 0)
         return false;
     MARCH_RAY_SIMD(rsimd, ray, tmin);
-    return test_items(g, items, n, ray, hit, tmin, ctx, mb, stamp, rsimd, false);
+    XfMemo xm = {NULL, {{0, 0, 0}, {0, 0, 0}}, 0.0f};
+    return test_items(g, items, n, ray, hit, tmin, ctx, mb, stamp, rsimd, &xm, false);
 }
 
 bool grid_items_occluded(const Grid *g, const uint32_t *items, uint32_t n, const Ray *ray,
@@ -873,7 +878,8 @@ bool grid_items_occluded(const Grid *g, const uint32_t *items, uint32_t n, const
     if (n == 0)
         return false;
     MARCH_RAY_SIMD(rsimd, ray, tmin);
-    return test_items(g, items, n, ray, h, tmin, ctx, mb, stamp, rsimd, true);
+    XfMemo xm = {NULL, {{0, 0, 0}, {0, 0, 0}}, 0.0f};
+    return test_items(g, items, n, ray, h, tmin, ctx, mb, stamp, rsimd, &xm, true);
 }
 
 float grid_march_error(const Grid *g, const Ray *ray) { return march_error(g, ray); }
@@ -910,6 +916,7 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
     float err = march_error(g, ray);
     MARCH_RAY_SIMD(rsimd, ray, tmin);
+    XfMemo xm = {NULL, {{0, 0, 0}, {0, 0, 0}}, 0.0f};
     uint64_t cells = 1; /* the first top cell; the rest are lean_cells(&m) */
     bool found = false;
     do {
@@ -921,7 +928,7 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
         if (!cell_occupied(g, c)) {
             /* nothing to test */
         } else if ((s = t->sub_of[c]) == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
-            if (test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, any)) {
+            if (test_cell(g, c, ray, hit, tmin, ctx, mb, stamp, rsimd, &xm, any)) {
                 found = true;
                 if (any)
                     break;
@@ -929,7 +936,7 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
         } else {
             const SubGrid *sg = &t->subs[s];
             if (test_items(g, t->items + sg->big_start, sg->big_count, ray, hit, tmin, ctx, mb,
-                           stamp, rsimd, any)) {
+                           stamp, rsimd, &xm, any)) {
                 found = true;
                 if (any)
                     break;
@@ -945,7 +952,7 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
                         break;
                     uint32_t s0 = t->start[l.c], nl = t->start[l.c + 1] - s0;
                     if (nl && test_items(g, t->items + s0, nl, ray, hit, tmin, ctx, mb, stamp,
-                                         rsimd, any)) {
+                                         rsimd, &xm, any)) {
                         found = true;
                         if (any) {
                             stop = true;

@@ -201,6 +201,51 @@ static inline bool grid_occluded_prim(const GridPrim *p, const Ray *ray, float t
     return prim_occluded(p->obj, p->xf, ray, tmin, tmax, ctx);
 }
 
+/* One ray's march (one ray, one tmin) carried into a Transform chain's object space:
+ * the first step of every test of a leaf below chain xf (transform_path_to_object),
+ * kept for the next leaf below the same chain, as the other triangles of a transformed
+ * mesh. NULL xf: none yet. */
+typedef struct XfMemo {
+    const PrimXform *xf;
+    Ray ray;
+    float tmin;
+} XfMemo;
+
+static inline const Ray *grid_xf_memo(const PrimXform *xf, const Ray *ray, float tmin,
+                                      XfMemo *xm)
+{
+    if (xm->xf != xf) {
+        xm->xf = xf;
+        xm->tmin = tmin;
+        xm->ray = transform_path_to_object(&xf->path, ray, &xm->tmin);
+    }
+    return &xm->ray;
+}
+
+/* grid_test_prim and grid_occluded_prim for the rays of one march: prim_intersect's and
+ * prim_occluded's steps, with the ray in object space from xm (the same arithmetic on
+ * the same inputs, so the same bits). */
+static inline bool grid_test_prim_memo(const GridPrim *p, const Ray *ray, Hit *hit,
+                                       float tmin, RenderCtx *ctx, XfMemo *xm)
+{
+    if (!p->xf)
+        return obj_intersect(p->obj, ray, hit, tmin, ctx);
+    const Ray *local = grid_xf_memo(p->xf, ray, tmin, xm);
+    if (!obj_intersect(p->obj, local, hit, xm->tmin, ctx))
+        return false;
+    hit->normal = transform_path_normal_to_world(&p->xf->path, hit->normal);
+    return true;
+}
+
+static inline bool grid_occluded_prim_memo(const GridPrim *p, const Ray *ray, float tmin,
+                                           float tmax, RenderCtx *ctx, XfMemo *xm)
+{
+    if (!p->xf)
+        return obj_occluded(p->obj, ray, tmin, tmax, ctx);
+    const Ray *local = grid_xf_memo(p->xf, ray, tmin, xm);
+    return obj_occluded(p->obj, local, xm->tmin, tmax, ctx);
+}
+
 /* grid_cast.c, for the packet traversal (grid_packet.c): */
 /* grid_intersect / grid_occluded without the unbounded primitives (the caller tests
  * those first), for one ray. */
