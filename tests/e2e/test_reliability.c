@@ -952,7 +952,49 @@ static void test_grid_limit_with_options(void)
     e2e_run_free(&r);
 }
 
+/* Reflected and refracted rays go on as packets of the next depth, each depth's
+ * packet state on the stack (about 27 KB). Under a small stack limit (ulimit -s 128,
+ * which the render threads' stacks follow) they are traced one by one, as before: a
+ * deep -bounces between two mirrors, which fits one by one, must still render, and the
+ * same bytes as with the default stack. With packets at every depth it overflowed the
+ * stack (SIGSEGV, seen). Not under the sanitizers, whose frames are larger. */
+static void test_deep_bounces_small_stack(void)
+{
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+    harness_skip("the sanitizers' stack frames do not fit under ulimit -s 128");
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+    harness_skip("the sanitizers' stack frames do not fit under ulimit -s 128");
+#endif
+#endif
+    char dir[PATH_MAX], small[PATH_MAX], dflt[PATH_MAX], scene[PATH_MAX], why[512];
+    snprintf(scene, sizeof scene, "%s/scenes/feat_mirrors.txt", harness_root());
+    CHECK(e2e_tmpdir(dir, sizeof dir, "stack") != NULL);
+    e2e_join(small, sizeof small, dir, "small.tga");
+    e2e_join(dflt, sizeof dflt, dir, "default.tga");
+    for (int k = 0; k < 2; k++) {
+        char *args[] = {"/bin/sh", "-c",
+                        k == 0 ? "ulimit -s 128 && exec \"$0\" \"$@\"" : "exec \"$0\" \"$@\"",
+                        (char *)harness_bin(), "-input", scene, "-output", k == 0 ? small : dflt,
+                        "-size", "40", "40", "-shadows", "-bounces", "200", "-weight", "0",
+                        "-grid", "10", "10", "10", "-threads", "2", NULL};
+        E2eRun r;
+        CHECK(e2e_run(args, &r));
+        CHECK_MSG(r.status == 0, "-bounces 200 between mirrors%s: %s",
+                  k == 0 ? " under ulimit -s 128" : "", e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+    }
+    size_t a_len = 0, b_len = 0;
+    char *a = e2e_read_file(small, &a_len), *b = e2e_read_file(dflt, &b_len);
+    CHECK_MSG(a && b && a_len == b_len && a_len == 18 + 40 * 40 * 3 && !memcmp(a, b, a_len),
+              "the image under the small stack is the default stack's");
+    free(a);
+    free(b);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
+    {"deep_bounces_small_stack", test_deep_bounces_small_stack},
     {"repro_grid_scenes", test_repro_grid_scenes},
     {"huge_among_small", test_huge_among_small},
     {"grid_limit_with_options", test_grid_limit_with_options},
