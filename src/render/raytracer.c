@@ -123,6 +123,32 @@ static bool stop_spawning(const RenderCtx *ctx)
     return (ctx->cancel && *ctx->cancel) || (ctx->tree && ray_tree_full(ctx->tree));
 }
 
+/* The mirror direction of d about the facing normal n. */
+static inline Vec3 reflect_dir(Vec3 d, Vec3 n)
+{
+    return v3_sub(d, v3_scale(n, 2.0f * v3_dot(d, n)));
+}
+
+/* The refracted direction of d through the hit of st on material m at p (Snell's law
+ * with the facing normal; objects sit in vacuum, not nested (A4): entering goes
+ * 1 -> eta_m, leaving eta_m -> 1), and in *eta_t the index the ray travels on in.
+ * False on total internal reflection, which adds nothing. */
+static inline bool refract_dir(const ShadeState *st, const Material *m, Vec3 p, Vec3 d,
+                               Vec3 *t, float *eta_t)
+{
+    float eta_m = mat_ior_at(m, p);
+    float eta_i = st->entering ? 1.0f : eta_m;
+    *eta_t = st->entering ? eta_m : 1.0f;
+    float eta = eta_i / *eta_t;
+    Vec3 n = st->sh.normal;
+    float cos_i = -v3_dot(n, d);
+    float k = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
+    if (k < 0.0f)
+        return false;
+    *t = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(n, eta * cos_i - sqrtf(k))));
+    return true;
+}
+
 static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, ShadeState *st,
                          int depth, float weight, float ior)
 {
@@ -136,7 +162,7 @@ static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, Sh
     if (!v3_is_zero(kr)) {
         float w = weight * v3_length(kr);
         if (w >= rt->weight) {
-            Ray r = {p, v3_sub(d, v3_scale(n, 2.0f * v3_dot(d, n)))};
+            Ray r = {p, reflect_dir(d, n)};
             Vec3 c = trace(rt, ctx, &r, RT_EPSILON, depth + 1, w, ior, st->cone, NULL,
                            RAYSEG_REFLECTED);
             color = v3_add(color, v3_mul(kr, c));
@@ -146,22 +172,13 @@ static void shade_finish(const RayTracer *rt, RenderCtx *ctx, const Ray *ray, Sh
     Vec3 kt = mat_transparent_at(m, p);
     if (!v3_is_zero(kt) && !stop_spawning(ctx)) {
         float w = weight * v3_length(kt);
-        if (w >= rt->weight) {
-            /* Objects sit in vacuum, not nested (A4): entering goes 1 -> eta_m. */
-            float eta_m = mat_ior_at(m, p);
-            float eta_i = st->entering ? 1.0f : eta_m;
-            float eta_t = st->entering ? eta_m : 1.0f;
-            float eta = eta_i / eta_t;
-            float cos_i = -v3_dot(n, d);
-            float k = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
-            if (k >= 0.0f) { /* k < 0: total internal reflection adds nothing */
-                Vec3 t = v3_normalize(
-                    v3_add(v3_scale(d, eta), v3_scale(n, eta * cos_i - sqrtf(k))));
-                Ray r = {p, t};
-                Vec3 c = trace(rt, ctx, &r, RT_EPSILON, depth + 1, w, eta_t, st->cone, NULL,
-                               RAYSEG_TRANSMITTED);
-                color = v3_add(color, v3_mul(kt, c));
-            }
+        Vec3 t;
+        float eta_t;
+        if (w >= rt->weight && refract_dir(st, m, p, d, &t, &eta_t)) {
+            Ray r = {p, t};
+            Vec3 c = trace(rt, ctx, &r, RT_EPSILON, depth + 1, w, eta_t, st->cone, NULL,
+                           RAYSEG_TRANSMITTED);
+            color = v3_add(color, v3_mul(kt, c));
         }
     }
     st->color = color;
@@ -715,6 +732,8 @@ enum { SECONDARY_MIN = 8 };
 static void trace_secondary(const RayTracer *rt, RenderCtx *ctx, const Ray *sec, int ns,
                             Vec3 *c, Hit *hits, const PacketDepth *next, RaySegKind kind)
 {
+    if (ns == 0)
+        return;
     Vec3 lo = sec[0].dir, hi = sec[0].dir;
     for (int j = 1; j < ns; j++) {
         lo = v3_min(lo, sec[j].dir);
@@ -729,6 +748,15 @@ static void trace_secondary(const RayTracer *rt, RenderCtx *ctx, const Ray *sec,
     for (int j = 0; j < ns; j++)
         c[j] = trace(rt, ctx, &sec[j], RT_EPSILON, next->depth, next->weight[j], next->ior[j],
                      next->cone[j], NULL, kind);
+}
+
+/* The colours c of secondary rays j < ns, weighted by k, added to their lanes' colours
+ * (shade_finish's color + k * c). */
+static void add_secondary(ShadeState *st, const int *lane, const Vec3 *k, const Vec3 *c,
+                          int ns)
+{
+    for (int j = 0; j < ns; j++)
+        st[lane[j]].color = v3_add(st[lane[j]].color, v3_mul(k[j], c[j]));
 }
 
 /* shade_finish for the lanes of mask at depth (their weights and indices of refraction
@@ -768,19 +796,15 @@ static void finish_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
         float wr = w[i] * v3_length(kr);
         if (wr < rt->weight)
             continue;
-        Vec3 n = st[i].sh.normal, d = rays[i].dir;
-        sec[ns] = (Ray){st[i].sh.point, v3_sub(d, v3_scale(n, 2.0f * v3_dot(d, n)))};
+        sec[ns] = (Ray){st[i].sh.point, reflect_dir(rays[i].dir, st[i].sh.normal)};
         k[ns] = kr;
         sw[ns] = wr;
         sior[ns] = ior[i];
         scone[ns] = st[i].cone;
         lane[ns++] = i;
     }
-    if (ns) {
-        trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_REFLECTED);
-        for (int j = 0; j < ns; j++)
-            st[lane[j]].color = v3_add(st[lane[j]].color, v3_mul(k[j], c[j]));
-    }
+    trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_REFLECTED);
+    add_secondary(st, lane, k, c, ns);
     /* The refracted rays. */
     ns = 0;
     for (uint64_t m = mask; m; m &= m - 1) {
@@ -794,17 +818,10 @@ static void finish_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
         float wt = w[i] * v3_length(kt);
         if (wt < rt->weight)
             continue;
-        /* Objects sit in vacuum, not nested (A4): entering goes 1 -> eta_m. */
-        float eta_m = mat_ior_at(mat, p);
-        float eta_i = st[i].entering ? 1.0f : eta_m;
-        float eta_t = st[i].entering ? eta_m : 1.0f;
-        float eta = eta_i / eta_t;
-        Vec3 n = st[i].sh.normal, d = rays[i].dir;
-        float cos_i = -v3_dot(n, d);
-        float kk = 1.0f - eta * eta * (1.0f - cos_i * cos_i);
-        if (kk < 0.0f) /* total internal reflection adds nothing */
+        Vec3 t;
+        float eta_t;
+        if (!refract_dir(&st[i], mat, p, rays[i].dir, &t, &eta_t))
             continue;
-        Vec3 t = v3_normalize(v3_add(v3_scale(d, eta), v3_scale(n, eta * cos_i - sqrtf(kk))));
         sec[ns] = (Ray){p, t};
         k[ns] = kt;
         sw[ns] = wt;
@@ -812,11 +829,8 @@ static void finish_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
         scone[ns] = st[i].cone;
         lane[ns++] = i;
     }
-    if (ns) {
-        trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_TRANSMITTED);
-        for (int j = 0; j < ns; j++)
-            st[lane[j]].color = v3_add(st[lane[j]].color, v3_mul(k[j], c[j]));
-    }
+    trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_TRANSMITTED);
+    add_secondary(st, lane, k, c, ns);
 }
 
 /* raytracer_trace_packet, and with to_bytes raytracer_trace_packet_bytes: the Phong
