@@ -268,6 +268,15 @@ static bool antialiasing_requested(const Options *o)
     return o->sampler || o->adaptive || o->filter || o->samples_file || o->filter_file;
 }
 
+/* Whether the run traces any ray: only a filter picture (-render_filter with no image
+ * of the scene, no samples picture and no preview) is drawn from the filter alone, as
+ * render_and_write decides. Advice about tracing speed is for the others. */
+static bool traces_rays(const Options *o)
+{
+    return !o->filter_file || o->output || o->depth_file || o->normals_file ||
+           o->samples_file || o->gui || o->gui_snapshot;
+}
+
 /* The colour image and its file's layout (ImageEncoding), made before the render by
  * the set-up's helper in its idle moments (par_background) (their pages were faulted
  * in too, before the render wrote neither of them: prepare_piece):
@@ -1192,8 +1201,9 @@ static int run(App *app)
     }
     /* Without an accelerator every ray tests every primitive: fine for the course's
      * small scenes, thousands of times slower on a mesh. The course's semantics stay (no
-     * -grid, no grid); the user is told once. */
-    if (!o->grid && !o->accel && !o->quiet && dist_is_root() &&
+     * -grid, no grid); the user is told once, and not when nothing is traced (a filter
+     * picture alone), where a grid would only add its build. */
+    if (!o->grid && !o->accel && !o->quiet && dist_is_root() && traces_rays(o) &&
         s->num_primitives > HINT_PRIMITIVES)
         fprintf(stderr, "%s: hint: %u primitives and no -grid: add -grid auto (same "
                 "image, much faster)\n", diag_program(), (unsigned)s->num_primitives);

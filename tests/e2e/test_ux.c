@@ -367,6 +367,23 @@ static void test_warnings_and_hint(void)
     CHECK_INT(r.status, 0);
     CHECK_MSG(r.err_len == 0, "stderr: %s", r.err);
     e2e_run_free(&r);
+    /* A filter picture alone traces no ray (README, 9): no hint to speed up tracing,
+     * which it gave. With the scene's image as well, the hint again. */
+    char fpic[PATH_MAX];
+    e2e_join(fpic, sizeof fpic, p.dir, "filter.tga");
+    const char *a5[] = {"-input", scene, "-size", "8", "8", "-gaussian_filter", "1",
+                        "-render_filter", fpic, "2", NULL};
+    CHECK(e2e_run_bin(harness_bin(), a5, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(r.err_len == 0, "stderr: %s", r.err);
+    CHECK(e2e_exists(fpic));
+    e2e_run_free(&r);
+    const char *a6[] = {"-input", scene, "-output", p.out, "-size", "8", "8",
+                        "-gaussian_filter", "1", "-render_filter", fpic, "2", NULL};
+    CHECK(e2e_run_bin(harness_bin(), a6, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_CONTAINS(r.err, "hint: 1280 primitives and no -grid: add -grid auto");
+    e2e_run_free(&r);
     e2e_rmtree(p.dir);
 }
 
