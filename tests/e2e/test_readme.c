@@ -5,6 +5,7 @@
  * are extracted generically, so commands added to README later are run too. */
 #define _POSIX_C_SOURCE 200809L
 #include <ctype.h>
+#include <dirent.h>
 #include <unistd.h>
 
 #include "../harness.h"
@@ -486,6 +487,70 @@ static void test_stats_example_matches(void)
     free(text);
 }
 
+/* Section 11 lists every document of docs/: a new one (docs/distributed.md was left
+ * out) shows up in the list, not only where another section mentions it. */
+static void test_docs_listed(void)
+{
+    char *text = readme_text();
+    if (!text)
+        return;
+    const char *list = strstr(text, "\n11. More documentation (docs/)\n-");
+    CHECK_MSG(list != NULL, "README.txt has no section 11, More documentation (docs/)");
+    const char *end = list ? strstr(list + 1, "\n12. ") : NULL;
+    char dir[PATH_MAX];
+    e2e_join(dir, sizeof dir, harness_root(), "docs");
+    DIR *d = opendir(dir);
+    CHECK_MSG(d != NULL, "cannot open %s", dir);
+    int docs = 0;
+    for (struct dirent *e; d && list && end && (e = readdir(d)) != NULL;) {
+        size_t len = strlen(e->d_name);
+        if (len < 4 || strcmp(e->d_name + len - 3, ".md") != 0)
+            continue;
+        /* An entry is the line "  docs/NAME.md" followed by its description. */
+        char entry[300];
+        snprintf(entry, sizeof entry, "\n  docs/%s ", e->d_name);
+        const char *at = strstr(list, entry);
+        CHECK_MSG(at != NULL && at < end, "docs/%s is not listed in README.txt section 11",
+                  e->d_name);
+        docs++;
+    }
+    if (d)
+        closedir(d);
+    CHECK(docs >= 10);
+    free(text);
+}
+
+/* The usage errors section 5 shows are the program's own lines, word for word: each
+ * command line below gives one line on stderr, and README.txt shows it (indented by
+ * four). The scene is never opened: usage is checked first. */
+static void test_usage_examples_match(void)
+{
+    char *text = readme_text();
+    if (!text)
+        return;
+    static const char *const runs[][9] = {
+        {"-input", "s.txt", "-output", "a.tga", "-shadow", NULL},
+        {"-input", "s.txt", "-output", "a.tga", "-size", "200", "200", "300", NULL},
+        {"-input", "s.txt", "-output", "a.tga", "-size", "200", "0", NULL},
+        {"-input", "s.txt", "-output", "-size", "200", "200", NULL},
+        {"-input", "s.txt", "shadows", "-output", "a.tga", NULL},
+    };
+    for (size_t i = 0; i < sizeof runs / sizeof runs[0]; i++) {
+        E2eRun r;
+        if (!e2e_run_bin(harness_bin(), runs[i], &r))
+            continue;
+        CHECK_INT(r.status, 2);
+        const char *nl = strchr(r.err, '\n');
+        CHECK_MSG(nl && !nl[1], "not one line on stderr:\n%s", r.err);
+        char line[600];
+        snprintf(line, sizeof line, "\n    %s", r.err);
+        CHECK_MSG(strstr(text, line) != NULL, "README.txt section 5 does not show the "
+                  "program's line:\n%s", r.err);
+        e2e_run_free(&r);
+    }
+    free(text);
+}
+
 static const TestCase tests[] = {
     {"readme_command_extraction", test_extraction},
     {"readme_commands_run", test_commands_run},
@@ -493,6 +558,8 @@ static const TestCase tests[] = {
     {"readme_contents_match_sections", test_contents_match_sections},
     {"readme_docs_links_exist", test_docs_links_exist},
     {"readme_stats_example_matches", test_stats_example_matches},
+    {"readme_docs_listed", test_docs_listed},
+    {"readme_usage_examples_match", test_usage_examples_match},
 };
 
 RT_TEST_MAIN(tests)
