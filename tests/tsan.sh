@@ -2,8 +2,10 @@
 # `make tsan`: the threaded code under ThreadSanitizer (binaries of build-tsan/). The
 # set-up helpers (rt/par.h), grid binning and OBJ pieces, the property test (ray
 # packets against single rays), renders through the binary on 2 threads (tiles,
-# packets, shadows, outputs streamed by the render threads, the per-thread statistics merge, an antialiased film), the OSMesa snapshot's render key
-# and the GLUT window's background render under Xvfb. Any report fails.
+# packets, shadows, secondary-ray packets, point lights in packets, outputs streamed by
+# the render threads, the per-thread statistics merge, an antialiased film), the OSMesa
+# snapshot's render key and the GLUT window's background render under Xvfb. Any report
+# fails.
 set -u
 bin=${RT_BIN:?}
 tests=${RT_TESTS:?}
@@ -46,6 +48,13 @@ check render_streamed "$bin" -input scenes/feat_mesh_transform.txt -size 64 64 \
     -output "$out/e.ppm" -depth 8 12 "$out/e_d.tga" -normals "$out/e_n.ppm" -shadows \
     -grid 16 16 16 -timings -threads 2
 check render_no_grid "$bin" -input scenes/tex_nested.txt -size 48 48 -output "$out/c.tga" -threads 2
+# Without -stats (which turns the packets off): reflected and refracted rays traced as
+# packets of the next depths (glass, -bounces 4), and point lights shaded in the
+# packets' lanes (each lane's direction and colour), with the depth limit chosen once.
+check render_secondary "$bin" -input scenes/feat_refraction.txt -size 64 48 -output "$out/g.tga" \
+    -shadows -shade_back -bounces 4 -grid 10 10 10 -threads 2
+check render_point_lights "$bin" -input scenes/feat_attenuation.txt -size 64 48 \
+    -output "$out/h.tga" -shadows -bounces 2 -grid 10 10 10 -threads 2
 # Antialiasing: the sampler's batches, the Gaussian's per-sample weights and the film's
 # bands, shared by the render threads.
 check render_antialiased "$bin" -input scenes/showcase.txt -size 64 48 -output "$out/d.tga" \
