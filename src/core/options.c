@@ -1007,6 +1007,11 @@ void options_warn(const Options *o, int cores, FILE *err)
     if (o->no_marking && !any_grid)
         fprintf(err, "%s: warning: -no_marking has no effect without a grid (-grid, "
                 "or -accel grid or twolevel)\n", diag_program());
+    /* The weight only ends reflected and refracted paths, and -bounces 0 (the default)
+     * traces none: a forgotten -bounces would otherwise pass for a cut-off weight. */
+    if (o->weight > 0.0f && o->bounces == 0)
+        fprintf(err, "%s: warning: -weight has no effect without -bounces (no reflected "
+                "or refracted ray is traced)\n", diag_program());
     /* Two samplers (or filters): the later wins, as every repeated option does, but a
      * render with another sampler than meant would pass unseen. */
     if (o->sampler_replaced)

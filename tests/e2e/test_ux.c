@@ -275,19 +275,22 @@ static void test_warnings_and_hint(void)
     e2e_run_free(&r);
 
     /* Options this run does not use: -seed without a random sampler, -no_packets and
-     * -no_marking without a grid; each once. With what they act on, none of them. */
+     * -no_marking without a grid, -weight without -bounces; each once. With what they
+     * act on, none of them. */
     const char *u1[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8",
                         "-uniform_samples", "4", "-seed", "7", "-no_packets", "-no_marking",
-                        NULL};
+                        "-weight", "0.01", NULL};
     CHECK(e2e_run_bin(harness_bin(), u1, &r));
     CHECK_INT(r.status, 0);
     CHECK_CONTAINS(r.err, "warning: -seed has no effect without a random sampler");
     CHECK_CONTAINS(r.err, "warning: -no_packets has no effect without -grid");
     CHECK_CONTAINS(r.err, "warning: -no_marking has no effect without a grid");
+    CHECK_CONTAINS(r.err, "warning: -weight has no effect without -bounces");
     e2e_run_free(&r);
     const char *u2[] = {"-input", p.scene, "-output", p.out, "-size", "8", "8",
                         "-jittered_samples", "4", "-seed", "7", "-grid", "2", "2", "2",
-                        "-no_packets", "-no_marking", NULL};
+                        "-no_packets", "-no_marking", "-bounces", "1", "-weight", "0.01",
+                        NULL};
     CHECK(e2e_run_bin(harness_bin(), u2, &r));
     CHECK_INT(r.status, 0);
     CHECK(strstr(r.err, "warning") == NULL);
