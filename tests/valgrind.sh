@@ -36,6 +36,12 @@ check visualize_grid 0 "$bin" -input scenes/feat_sphere_grid.txt -size 20 20 \
     -output "$out/v.tga" -grid 6 6 6 -visualize_grid
 check refraction 0 "$bin" -input scenes/feat_refraction.txt -size 20 20 -output "$out/r.tga" \
     -shadows -bounces 5 -no_packets
+# The same glass through the grid's packets (reflected and refracted rays as packets of
+# the next depths), and point lights shaded in the packets' lanes.
+check refraction_packets 0 "$bin" -input scenes/feat_refraction.txt -size 24 24 \
+    -output "$out/p.tga" -shadows -shade_back -bounces 5 -grid 8 8 8 -threads 2
+check point_lights 0 "$bin" -input scenes/feat_attenuation.txt -size 24 24 \
+    -output "$out/q.tga" -shadows -bounces 2 -grid 8 8 8
 check bad_scene 1 "$bin" -input tests/bad/missing_brace.txt -output "$out/x.tga"
 check bad_obj 1 "$bin" -input tests/bad/obj_bad_index.txt -output "$out/x.tga"
 check usage 2 "$bin" -input scenes/showcase.txt -grid 0 0 0
