@@ -755,6 +755,12 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
         if (ntried == 2)
             fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s', '%s'): %s", shown,
                  tried[0], tried[1], strerror(first_errno));
+        else if (file[0] != '/' && name.loc.file && strcmp(name.loc.file, "<stdin>") == 0)
+            /* A scene piped in has no folder of its own: its relative names are taken
+             * from the working folder, which surprises a scene written for its folder. */
+            fail(p, &name.loc, "cannot open OBJ file '%s' in the working folder (a scene "
+                 "read from standard input has no folder of its own): %s", shown,
+                 strerror(first_errno));
         else
             fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s'): %s", shown, tried[0],
                  strerror(first_errno));

@@ -193,6 +193,15 @@ static void test_input_stdin(void)
     CHECK_INT(r.status, 1);
     CHECK_CONTAINS(r.err, "<stdin>:2:");
     e2e_run_free(&r);
+    /* The same scene piped in from another folder: its ../models/ names are not found
+     * there, and the message says why (it named the path only, as if the scene's own
+     * folder had been searched). */
+    CHECK(sh(&e, &r, "cd '%s' && '%s' -input - -size 60 40 -output x.tga < "
+             "'%s/feat_mesh_transform.txt'", e.dir, e.bin, e.scenes));
+    CHECK_INT(r.status, 1);
+    CHECK_CONTAINS(r.err, "in the working folder (a scene read from standard input has no "
+                   "folder of its own)");
+    e2e_run_free(&r);
     e2e_rmtree(e.dir);
 }
 
