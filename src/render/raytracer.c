@@ -688,8 +688,9 @@ typedef struct PacketDepth {
 } PacketDepth;
 
 /* Secondary rays go on in packets up to this depth; deeper ones are traced one by one.
- * Each depth holds a packet's shading state on the stack (trace_packet's frame, about
- * 27 KB with gcc 12 -O2): seven levels take about 190 KB of a thread's stack. Depth 6
+ * Each depth holds a packet's shading state on the stack (trace_packet's frame and
+ * finish_packet_wide's, about 20 + 7.5 KB with gcc 12 -O2): seven levels take about
+ * 190 KB of a thread's stack. Depth 6
  * covers the course's -bounces 5; 4 left course line 14 12% slower. */
 enum { PACKET_DEPTH_MAX = 6 };
 
@@ -732,8 +733,6 @@ enum { SECONDARY_MIN = 8 };
 static void trace_secondary(const RayTracer *rt, RenderCtx *ctx, const Ray *sec, int ns,
                             Vec3 *c, Hit *hits, const PacketDepth *next, RaySegKind kind)
 {
-    if (ns == 0)
-        return;
     Vec3 lo = sec[0].dir, hi = sec[0].dir;
     for (int j = 1; j < ns; j++) {
         lo = v3_min(lo, sec[j].dir);
@@ -759,24 +758,18 @@ static void add_secondary(ShadeState *st, const int *lane, const Vec3 *k, const 
         st[lane[j]].color = v3_add(st[lane[j]].color, v3_mul(k[j], c[j]));
 }
 
-/* shade_finish for the lanes of mask at depth (their weights and indices of refraction
- * w and ior), with the reflected rays of all lanes traced as one packet and then the
- * refracted ones as another: per lane the same queries, rays, recursion and sums in the
- * same order as shade_finish, so the same bits (the lanes only trade places in time;
- * nothing one lane does reads another's). */
-static void finish_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
-                          ShadeState *st, uint64_t mask, int depth, const float *w,
-                          const float *ior)
+/* finish_packet's packets: the reflected rays of all lanes of mask traced as one packet
+ * of depth + 1, then the refracted ones as another. Per lane the same queries, rays,
+ * recursion and sums in the same order as shade_finish, so the same bits (the lanes
+ * only trade places in time; nothing one lane does reads another's). Out of line: its
+ * arrays (about 8 KB) stay off trace_packet's frame, which every eye ray's packet holds
+ * even without bounces (inlined, they raised the smallest stack a plain render at
+ * -threads 2 runs in from about 92 KB to 100 KB: review30, gcc 12). */
+__attribute__((noinline)) static void finish_packet_wide(const RayTracer *rt, RenderCtx *ctx,
+                                                         const Ray *rays, ShadeState *st,
+                                                         uint64_t mask, int depth,
+                                                         const float *w, const float *ior)
 {
-    if (depth >= rt->bounces || !mask)
-        return;
-    if (depth >= packet_depth_max || !packets_on(rt, ctx)) {
-        for (uint64_t m = mask; m; m &= m - 1) {
-            int i = __builtin_ctzll(m);
-            shade_finish(rt, ctx, &rays[i], &st[i], depth, w[i], ior[i]);
-        }
-        return;
-    }
     Ray sec[ACCEL_PACKET_MAX];
     Vec3 k[ACCEL_PACKET_MAX], c[ACCEL_PACKET_MAX];
     Hit hits[ACCEL_PACKET_MAX];
@@ -803,8 +796,10 @@ static void finish_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
         scone[ns] = st[i].cone;
         lane[ns++] = i;
     }
-    trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_REFLECTED);
-    add_secondary(st, lane, k, c, ns);
+    if (ns) {
+        trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_REFLECTED);
+        add_secondary(st, lane, k, c, ns);
+    }
     /* The refracted rays. */
     ns = 0;
     for (uint64_t m = mask; m; m &= m - 1) {
@@ -829,8 +824,29 @@ static void finish_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
         scone[ns] = st[i].cone;
         lane[ns++] = i;
     }
-    trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_TRANSMITTED);
-    add_secondary(st, lane, k, c, ns);
+    if (ns) {
+        trace_secondary(rt, ctx, sec, ns, c, hits, &next, RAYSEG_TRANSMITTED);
+        add_secondary(st, lane, k, c, ns);
+    }
+}
+
+/* shade_finish for the lanes of mask at depth (their weights and indices of refraction
+ * w and ior): as packets (finish_packet_wide) while packets go that deep, else lane by
+ * lane. */
+static void finish_packet(const RayTracer *rt, RenderCtx *ctx, const Ray *rays,
+                          ShadeState *st, uint64_t mask, int depth, const float *w,
+                          const float *ior)
+{
+    if (depth >= rt->bounces || !mask)
+        return;
+    if (depth >= packet_depth_max || !packets_on(rt, ctx)) {
+        for (uint64_t m = mask; m; m &= m - 1) {
+            int i = __builtin_ctzll(m);
+            shade_finish(rt, ctx, &rays[i], &st[i], depth, w[i], ior[i]);
+        }
+        return;
+    }
+    finish_packet_wide(rt, ctx, rays, st, mask, depth, w, ior);
 }
 
 /* raytracer_trace_packet, and with to_bytes raytracer_trace_packet_bytes: the Phong
