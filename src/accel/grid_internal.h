@@ -222,6 +222,20 @@ static inline const Ray *grid_xf_memo(const PrimXform *xf, const Ray *ray, float
     return &xm->ray;
 }
 
+/* prim_intersect's steps after the first, for a ray already in the object space of p's
+ * chain (local, with the tmin of that space; the ray itself when p has no chain): the
+ * leaf's intersect, and the hit's normal back to world space. Shared by the single-ray
+ * march (XfMemo) and the packet walk (Packet.xf_ray). */
+static inline bool grid_test_local(const GridPrim *p, const Ray *local, Hit *hit,
+                                   float tmin, RenderCtx *ctx)
+{
+    if (!obj_intersect(p->obj, local, hit, tmin, ctx))
+        return false;
+    if (p->xf)
+        hit->normal = transform_path_normal_to_world(&p->xf->path, hit->normal);
+    return true;
+}
+
 /* grid_test_prim and grid_occluded_prim for the rays of one march: prim_intersect's and
  * prim_occluded's steps, with the ray in object space from xm (the same arithmetic on
  * the same inputs, so the same bits). */
@@ -230,11 +244,8 @@ static inline bool grid_test_prim_memo(const GridPrim *p, const Ray *ray, Hit *h
 {
     if (!p->xf)
         return obj_intersect(p->obj, ray, hit, tmin, ctx);
-    const Ray *local = grid_xf_memo(p->xf, ray, tmin, xm);
-    if (!obj_intersect(p->obj, local, hit, xm->tmin, ctx))
-        return false;
-    hit->normal = transform_path_normal_to_world(&p->xf->path, hit->normal);
-    return true;
+    const Ray *local = grid_xf_memo(p->xf, ray, tmin, xm); /* sets xm->tmin: first */
+    return grid_test_local(p, local, hit, xm->tmin, ctx);
 }
 
 static inline bool grid_occluded_prim_memo(const GridPrim *p, const Ray *ray, float tmin,

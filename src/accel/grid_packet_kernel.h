@@ -394,10 +394,7 @@ static void pk_test_prim(const Grid *g, Packet *pk, uint32_t p, uint64_t want, R
         Hit *h = &pk->hits[i];
         h->t = pk->best_t[gi][l];
         h->id = pk->best_id[gi][l];
-        bool found = obj_intersect(gp->obj, ray, h, tmin, ctx);
-        if (found && xf)
-            h->normal = transform_path_normal_to_world(&xf->path, h->normal);
-        if (found) {
+        if (grid_test_local(gp, ray, h, tmin, ctx)) {
             pk->best_t[gi][l] = h->t;
             pk->best_id[gi][l] = h->id;
             pk->best_prim[gi][l] = -1;

@@ -690,8 +690,8 @@ typedef struct PacketDepth {
 /* Secondary rays go on in packets up to this depth; deeper ones are traced one by one.
  * Each depth holds a packet's shading state on the stack (trace_packet's frame and
  * finish_packet_wide's, about 20 + 7.5 KB with gcc 12 -O2): seven levels take about
- * 190 KB of a thread's stack. Depth 6
- * covers the course's -bounces 5; 4 left course line 14 12% slower. */
+ * 190 KB of a thread's stack. Depth 6 covers the course's -bounces 5; 4 left course
+ * line 14 12% slower. */
 enum { PACKET_DEPTH_MAX = 6 };
 
 /* The depth this run's packets go to: PACKET_DEPTH_MAX, or 0 (secondary rays one by one,

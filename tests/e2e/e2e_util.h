@@ -22,6 +22,21 @@
 #include <time.h>
 #include <unistd.h>
 
+/* 1 when this test program is built with AddressSanitizer or ThreadSanitizer (gcc's
+ * macros, clang's __has_feature): their runtimes must load first, their shadow memory
+ * fits no ulimit -v and their stack frames are larger, so tests that depend on those
+ * skip: if (E2E_SANITIZED) harness_skip(why). */
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define E2E_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define E2E_SANITIZED 1
+#endif
+#endif
+#ifndef E2E_SANITIZED
+#define E2E_SANITIZED 0
+#endif
+
 /* ---- folders and files --------------------------------------------------------- */
 
 /* Creates a fresh folder under $TMPDIR (or /tmp) into buf; NULL on failure. */

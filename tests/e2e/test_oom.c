@@ -170,13 +170,8 @@ done:
 static bool setup(char *shim, size_t shim_size, char *dir, size_t dir_size, const char *name,
                   char *scene, size_t scene_size)
 {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-    harness_skip("the sanitizers' runtime must be the first library loaded: no injector");
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-    harness_skip("the sanitizers' runtime must be the first library loaded: no injector");
-#endif
-#endif
+    if (E2E_SANITIZED)
+        harness_skip("the sanitizers' runtime must be the first library loaded: no injector");
     CHECK_MSG(shim_path(shim, shim_size), "no allocation injector (build/tests/liboom_shim.so; "
               "make test builds it)");
     if (harness_failures)
@@ -329,13 +324,8 @@ static void test_oom_streamed_film(void)
  * about 5. Not under the sanitizers, whose shadow memory no such limit admits. */
 static void test_plain_stream_address_limit(void)
 {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-    harness_skip("the sanitizers' shadow memory does not fit under ulimit -v");
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-    harness_skip("the sanitizers' shadow memory does not fit under ulimit -v");
-#endif
-#endif
+    if (E2E_SANITIZED)
+        harness_skip("the sanitizers' shadow memory does not fit under ulimit -v");
     char dir[PATH_MAX], out[PATH_MAX], planes[PATH_MAX], why[512];
     snprintf(planes, sizeof planes, "%s/tests/repro/planes_only.txt", harness_root());
     CHECK(e2e_tmpdir(dir, sizeof dir, "aslimit") != NULL);

@@ -953,20 +953,15 @@ static void test_grid_limit_with_options(void)
 }
 
 /* Reflected and refracted rays go on as packets of the next depth, each depth's
- * packet state on the stack (about 27 KB). Under a small stack limit (ulimit -s 128,
+ * packet state on the stack (about 27 KB a depth). Under a small stack limit (ulimit -s 128,
  * which the render threads' stacks follow) they are traced one by one, as before: a
  * deep -bounces between two mirrors, which fits one by one, must still render, and the
  * same bytes as with the default stack. With packets at every depth it overflowed the
  * stack (SIGSEGV, seen). Not under the sanitizers, whose frames are larger. */
 static void test_deep_bounces_small_stack(void)
 {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-    harness_skip("the sanitizers' stack frames do not fit under ulimit -s 128");
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-    harness_skip("the sanitizers' stack frames do not fit under ulimit -s 128");
-#endif
-#endif
+    if (E2E_SANITIZED)
+        harness_skip("the sanitizers' stack frames do not fit under ulimit -s 128");
     char dir[PATH_MAX], small[PATH_MAX], dflt[PATH_MAX], scene[PATH_MAX], why[512];
     snprintf(scene, sizeof scene, "%s/scenes/feat_mirrors.txt", harness_root());
     CHECK(e2e_tmpdir(dir, sizeof dir, "stack") != NULL);
