@@ -82,6 +82,12 @@ static const char *const k_phong_fields[] = {"diffuseColor", "specularColor", "e
 static const char *const k_background_fields[] = {"color", "ambientLight", NULL};
 static const char *const k_top_level[] = {"OrthographicCamera", "PerspectiveCamera",
                                           "Background", "Lights", "Materials", "Group", NULL};
+/* What may stand in a Transform before its object: a transformation or an object (no
+ * MaterialIndex: only a Group takes one). */
+static const char *const k_transform_items[] = {"Scale", "UniformScale", "Translate", "XRotate",
+                                                "YRotate", "ZRotate", "Rotate", "Matrix",
+                                                "Group", "Sphere", "Plane", "Triangle",
+                                                "TriangleMesh", "Transform", NULL};
 
 static size_t name_count(const char *const *names)
 {
@@ -123,6 +129,17 @@ static void token_hint(char *buf, size_t size, const char *shown, const char *co
                      "them)");
         return;
     }
+    /* The format has no comments: a writer who tries one sees the first word of it
+     * refused, so name the cause rather than that word. */
+    if (shown[0] == '#' || !strncmp(shown, "//", 2) || !strncmp(shown, "/*", 2)) {
+        snprintf(buf, size, " (scene files have no comments)");
+        return;
+    }
+    /* A keyword of the list itself is not misspelt, only misplaced: the caller says
+     * where it belongs; "did you mean" the very word would only puzzle. */
+    for (const char *const *k = names; k && *k; k++)
+        if (!strcmp(*k, shown))
+            return;
     if (names)
         suggest_format(buf, size, shown, names, name_count(names));
 }
@@ -145,6 +162,19 @@ static bool fail_expected(Parser *p, const Token *t, const char *what)
     return fail(p, &t->loc, "expected %s, found '%s'%s", what, shown, hint);
 }
 
+/* "expected WHAT, found 'tok'" where WHAT is one of several names (names), the nearest
+ * of which is offered when the token looks like a misspelling of one. */
+static bool fail_expected_among(Parser *p, const Token *t, const char *what,
+                                const char *const *names)
+{
+    char shown[256], hint[160];
+    if (lex_eof(t))
+        return fail(p, &t->loc, "unexpected end of file, expected %s", what);
+    lex_show(t, shown, sizeof shown);
+    token_hint(hint, sizeof hint, shown, names);
+    return fail(p, &t->loc, "expected %s, found '%s'%s", what, shown, hint);
+}
+
 /* "unknown KIND 'tok'" with the nearest names of the kind when the token looks like a
  * misspelling of one, or the end-of-file message when the file just stops. */
 static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char *eof_what)
@@ -160,6 +190,7 @@ static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char
         {"PhongMaterial field", k_phong_fields},
         {"Background field", k_background_fields},
         {"top-level block", k_top_level},
+        {"transformation or object", k_transform_items},
     };
     char shown[256], hint[160];
     if (lex_eof(t))
@@ -237,6 +268,10 @@ static bool num_error(Parser *p, const Token *t, NumResult r, bool want_int)
         return fail(p, &t->loc, "number out of range: '%s'", shown);
     char hint[160];
     token_hint(hint, sizeof hint, shown, NULL);
+    /* "0,5" or "1,0,0": a decimal comma or commas between the numbers. */
+    if (!hint[0] && strchr(shown, ',') && strpbrk(shown, "0123456789") == shown + strspn(shown, "+-"))
+        snprintf(hint, sizeof hint, " (numbers are separated by white space, and their "
+                 "decimal point is '.')");
     return fail(p, &t->loc, "expected %s, found '%s'%s", want_int ? "an integer" : "a number",
                 shown, hint);
 }
@@ -545,8 +580,12 @@ static bool parse_transform(Parser *p, const Token *kw, Object3D **out)
     }
     if (lex_is(&t, "}"))
         return fail(p, &t.loc, "Transform has no object (expected an object before '}')");
+    if (lex_is(&t, "MaterialIndex"))
+        return fail(p, &t.loc, "MaterialIndex is not allowed in a Transform (it holds "
+                    "transformations and one object): put it before the Transform, in the "
+                    "Group");
     if (!is_object(&t))
-        return fail_unknown(p, &t, "object", "an object");
+        return fail_unknown(p, &t, "transformation or object", "an object");
     Object3D *child;
     if (!parse_object(p, &t, &child))
         return false;
@@ -555,6 +594,9 @@ static bool parse_transform(Parser *p, const Token *kw, Object3D **out)
     if (!lex_is(&t, "}")) {
         if (is_object(&t))
             return fail(p, &t.loc, "a Transform holds exactly one object; expected '}'");
+        if (is_transformation(&t))
+            return fail(p, &t.loc, "a Transform's transformations come before its object; "
+                        "expected '}'");
         return fail_expected(p, &t, "'}'");
     }
     Object3D *x = transform_new(&p->s->arena, &m, child);
@@ -1087,7 +1129,8 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
             if (lex_is(&u, "}"))
                 break;
             if (!is_transformation(&u))
-                return fail_expected(p, &u, "a transformation or '}'");
+                return fail_expected_among(p, &u, "a transformation or '}'",
+                                           k_transformations);
             if (!parse_transformation(p, &u, &m))
                 return false;
         }
@@ -1242,6 +1285,15 @@ static void note_top_block(Parser *p, const Token *t)
         }
 }
 
+/* Whether token t is close enough to a top-level block's name to be a misspelling of it. */
+static bool near_top_level(const Token *t)
+{
+    char shown[64];
+    const char *hit;
+    lex_show(t, shown, sizeof shown);
+    return suggest_find(shown, k_top_level, name_count(k_top_level), &hit, 1) > 0;
+}
+
 bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
                  const char *base_dir, Diag *diag)
 {
@@ -1276,6 +1328,17 @@ bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
             ok = parse_group(&p, &t, &root);
             if (ok)
                 s->root = root;   /* a second Group replaces the first (2) */
+        } else if ((is_object(&t) || lex_is(&t, "MaterialIndex") || is_light(&t) ||
+                    is_material(&t)) && !near_top_level(&t)) {
+            /* A correct keyword in the wrong place: say which block takes it (unless it
+             * is one letter from a block's name: "Material" for Materials). */
+            char shown[64];
+            lex_show(&t, shown, sizeof shown);
+            ok = fail(&p, &t.loc, "'%s' is not a top-level block: %s", shown,
+                      is_light(&t) ? "lights go inside Lights { numLights N ... }"
+                      : is_material(&t) ? "materials go inside Materials { numMaterials N ... }"
+                      : is_object(&t) ? "objects go inside Group { numObjects N ... }"
+                                      : "MaterialIndex lines go inside Group { numObjects N ... }");
         } else {
             ok = fail_unknown(&p, &t, "top-level block", "a block");
         }
