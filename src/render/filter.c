@@ -301,7 +301,7 @@ enum { FILTER_FLOAT_ARG_R = 2 };
 
 __attribute__((always_inline, FILTER_AVX512)) static inline void
 gaussian_offsets16(const Filter *f, const float *pos, int n, int R, float *w, size_t plane,
-                   bool float_arg)
+                   size_t bstride, bool float_arg)
 {
     double s = (double)f->r, ni = -1.0 / (2.0 * s * s);
     __m512d neg_inv = _mm512_set1_pd(ni);
@@ -341,9 +341,15 @@ gaussian_offsets16(const Filter *f, const float *pos, int n, int R, float *w, si
                     e1 = _mm512_mask_blend_pd((__mmask8)(bad >> 8), e1,
                                               (__m512d)exp_nonpos8((V8d)t1));
             }
-            __m512 g = _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtpd_ps(e0)),
-                                          _mm512_cvtpd_ps(e1), 1);
-            _mm512_mask_storeu_ps(w + (size_t)k * plane + (size_t)i, m, g);
+            float *dst = w + (size_t)k * plane + (size_t)(i / 8) * bstride;
+            if (bstride == 8) {
+                __m512 g = _mm512_insertf32x8(_mm512_castps256_ps512(_mm512_cvtpd_ps(e0)),
+                                              _mm512_cvtpd_ps(e1), 1);
+                _mm512_mask_storeu_ps(dst, m, g);
+            } else { /* groups i / 8 and i / 8 + 1 apart (filter_weights_1d_blocks) */
+                _mm256_mask_storeu_ps(dst, (__mmask8)m, _mm512_cvtpd_ps(e0));
+                _mm256_mask_storeu_ps(dst + bstride, (__mmask8)(m >> 8), _mm512_cvtpd_ps(e1));
+            }
         }
     }
 }
@@ -354,9 +360,24 @@ __attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter 
                                                                    size_t plane)
 {
     if (R <= FILTER_FLOAT_ARG_R)
-        gaussian_offsets16(f, pos, n, R, w, plane, true);
+        gaussian_offsets16(f, pos, n, R, w, plane, 8, true);
     else
-        gaussian_offsets16(f, pos, n, R, w, plane, false);
+        gaussian_offsets16(f, pos, n, R, w, plane, 8, false);
+}
+
+/* filter_weights_1d_blocks for the Gaussian with AVX-512: gaussian_offsets16 with the
+ * groups of eight bstride floats apart, two groups a step. (A group at a time through
+ * gaussian_offsets_avx512 left half of every sixteen-lane step empty: on a Zen 4 host
+ * the AVX2 blocks were then faster, bench/REPORT.txt.) */
+__attribute__((FILTER_AVX512)) static void gaussian_blocks_avx512(const Filter *f,
+                                                                  const float *pos, int nblk,
+                                                                  int R, float *w, size_t plane,
+                                                                  size_t bstride)
+{
+    if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets16(f, pos, 8 * nblk, R, w, plane, bstride, true);
+    else
+        gaussian_offsets16(f, pos, 8 * nblk, R, w, plane, bstride, false);
 }
 
 /* The AVX2 + FMA Gaussian (Zen 3 and other CPUs without AVX-512): the cheaper exp F of
@@ -749,13 +770,19 @@ void filter_weights_1d_blocks(const Filter *f, const float *pos, int nblk, int R
                               size_t plane, size_t bstride)
 {
 #ifdef HAVE_AVX2_BATCH
-    /* The AVX2 host's case in one call (the film's tile rows: 2 x 16 groups of eight
-     * positions a call); with AVX-512, or without AVX2, a group at a time through
-     * filter_weights_1d_offsets, whose kernels those are. */
-    if (f->ops == &gaussian_ops && !(gaussian_path_cap >= 2 && cpu_has_avx512()) &&
-        gaussian_path_cap >= 1 && cpu_has_avx2_fma()) {
-        gaussian_blocks_avx2(f, pos, nblk, R, w, plane, bstride);
-        return;
+    /* The Gaussian in one call (the film's tile rows: 2 x 16 groups of eight positions
+     * a call), sixteen positions a step with AVX-512, eight with AVX2; other filters,
+     * or neither instruction set, a group at a time through filter_weights_1d_offsets.
+     * Every path gives the plain build's bits. */
+    if (f->ops == &gaussian_ops) {
+        if (gaussian_path_cap >= 2 && cpu_has_avx512()) {
+            gaussian_blocks_avx512(f, pos, nblk, R, w, plane, bstride);
+            return;
+        }
+        if (gaussian_path_cap >= 1 && cpu_has_avx2_fma()) {
+            gaussian_blocks_avx2(f, pos, nblk, R, w, plane, bstride);
+            return;
+        }
     }
 #endif
     for (int v = 0; v < nblk; v++)
