@@ -5,9 +5,15 @@
 #   make tsan       the threaded code under ThreadSanitizer (build-tsan/): the set-up
 #                   helpers, grid binning, the property test (packets), renders through
 #                   the binary on 2 threads, and the preview's background render
-# Both stop at the first error (exit status non-zero).
+#   make diffcheck  the byte rule on random scenes (tools/diffcheck.c): N scenes (default
+#                   200) from SEED (default 1), each rendered brute force, with -grid auto,
+#                   -grid nx ny nz, -accel twolevel, packets or not, 1-3 threads, in parts
+#                   merged, and compared byte for byte; DIFFCHECK_FLAGS adds options
+#                   (-quick, -keep, -v, -dir DIR, -sets K)
+# Each stops at the first error (exit status non-zero); diffcheck reports every
+# difference and keeps the scenes that differ.
 
-.PHONY: valgrind tsan
+.PHONY: valgrind tsan diffcheck
 
 valgrind:
 	$(Q)$(MAKE) --no-print-directory all tests
@@ -18,3 +24,10 @@ tsan:
 	$(Q)$(MAKE) --no-print-directory BUILD=build-tsan OPT=-O1 SAN_FLAGS='-fsanitize=thread' all tests
 	$(Q)RT_BIN=$(abspath build-tsan/raytracer) RT_TESTS=$(abspath build-tsan/tests) \
 	    RT_TOOLS=$(abspath build-tsan/tools) bash tests/tsan.sh
+
+# Recipes expand late, so $(BIN) (defined after this fragment is read) is safe here.
+N ?= 200
+SEED ?= 1
+diffcheck:
+	$(Q)$(MAKE) --no-print-directory all
+	$(Q)$(BUILD)/tools/diffcheck -bin $(abspath $(BIN)) -n $(N) -seed $(SEED) $(DIFFCHECK_FLAGS)
