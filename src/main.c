@@ -426,8 +426,10 @@ typedef struct RectJob {
     ImageEncoding enc[3];
     const Image *img[3];
     atomic_int rows;
-    bool color_in_file; /* render_rect put the colour bytes into enc[0] (color_direct) */
-    bool color_staged;  /* ... or band by band straight into its file (color_rows) */
+    /* render_rect put image i's bytes into enc[i] (the colour: color_direct), or band
+     * by band straight into its file (staged: RenderTarget's color_rows, depth_rows,
+     * normals_rows); the image itself then holds no pixel. */
+    bool in_file[3], staged[3];
     /* The film hands its output rows strip by strip to film_rows_out (stream_film):
      * into enc[i] where that is a streamed file held as its header only, else into
      * whole[i], the image rendered whole (standard output, a pipe, PNG). film_pixels
@@ -461,13 +463,27 @@ static bool color_direct(const RectJob *rj)
            rj->enc[0].width == rj->w && rj->enc[0].height == rj->h;
 }
 
-/* RenderTarget.color_rows (worker threads): rows y_lo..y_hi of the full image, in the
- * file's layout, into the streamed colour file. */
+/* RenderTarget's color_rows, depth_rows, normals_rows (worker threads): rows
+ * y_lo..y_hi of the full image, in the file's layout, into streamed file i. */
+static void rows_to_file(RectJob *rj, int i, int y_lo, int y_hi, const uint8_t *rows)
+{
+    image_encoding_flush_rows(&rj->enc[i], y_lo - rj->y0, y_hi - rj->y0, rows);
+    stop_on_write_error(rj, &rj->enc[i]);
+}
+
 static void color_rows_to_file(void *user, int y_lo, int y_hi, const uint8_t *rows)
 {
-    RectJob *rj = user;
-    image_encoding_flush_rows(&rj->enc[0], y_lo - rj->y0, y_hi - rj->y0, rows);
-    stop_on_write_error(rj, &rj->enc[0]);
+    rows_to_file(user, 0, y_lo, y_hi, rows);
+}
+
+static void depth_rows_to_file(void *user, int y_lo, int y_hi, const uint8_t *rows)
+{
+    rows_to_file(user, 1, y_lo, y_hi, rows);
+}
+
+static void normals_rows_to_file(void *user, int y_lo, int y_hi, const uint8_t *rows)
+{
+    rows_to_file(user, 2, y_lo, y_hi, rows);
 }
 
 /* FilmConfig.rows (the calling thread, between strips): a strip of the rectangle's
@@ -509,9 +525,9 @@ static void encode_row(void *user, int y)
     int lo = y - y % RENDER_TILE - rj->y0;
     for (int i = 0; i < 3; i++)
         if (rj->enc[i].data) {
-            if (!(i == 0 && rj->color_in_file)) /* else the render put the row there */
+            if (!rj->in_file[i]) /* else the render put the row there */
                 image_encoding_row(&rj->enc[i], rj->img[i], r);
-            if (last && !(i == 0 && rj->color_staged)) { /* else color_rows wrote it */
+            if (last && !rj->staged[i]) { /* else the rows callback wrote it */
                 image_encoding_flush(&rj->enc[i], lo > 0 ? lo : 0, r);
                 stop_on_write_error(rj, &rj->enc[i]);
             }
@@ -551,18 +567,29 @@ static bool render_rect(void *user, int x0, int y0, int w, int h, Image *color, 
              * into it, from the render's band buffers. */
             t.color_bgr = rj->enc[0].bgr;
             t.color_rows = color_rows_to_file;
-            rj->color_in_file = rj->color_staged = true; /* before the workers start */
+            rj->in_file[0] = rj->staged[0] = true; /* before the workers start */
         } else if (whole && color_direct(rj) && color == rj->img[0]) {
             t.color_file = rj->enc[0].data + rj->enc[0].top;
             t.color_bgr = rj->enc[0].bgr;
-            rj->color_in_file = true; /* before the workers start */
+            rj->in_file[0] = true; /* before the workers start */
             /* A streamed file takes the rows as they come: the render keeps them in
              * band buffers, and the file's 6 MB (1080p) in memory hold only its
              * header. */
             if (rj->enc[0].fd >= 0) {
                 t.color_rows = color_rows_to_file;
-                rj->color_staged = true;
+                rj->staged[0] = true;
             }
+        }
+        /* The depth and normal files begun as their headers only (stream_plain): the
+         * same, band by band from the render's band buffers. */
+        if (whole && rj->enc[1].head_only && depth == rj->img[1]) {
+            t.depth_rows = depth_rows_to_file;
+            rj->in_file[1] = rj->staged[1] = true;
+        }
+        if (whole && rj->enc[2].head_only && normals == rj->img[2]) {
+            t.normals_rows = normals_rows_to_file;
+            t.normals_bgr = rj->enc[2].bgr;
+            rj->in_file[2] = rj->staged[2] = true;
         }
         ok = render_image(&rj->app->rt, rj->camera, &t, o->threads, &st,
                           whole && any ? encode_row : NULL, (void *)rj, cancel);
@@ -688,8 +715,9 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
      * (RenderTarget.color_rows, color_rows_to_file) where that file is written while it
      * is made: the image's bytes and the file's rows were never touched, yet reserved
      * whole (two 48 MB blocks at 4000 x 4000, which a `ulimit -v` counts). Such a file
-     * is begun as its header only, and the image as its size only. The depth and normal
-     * images are filled whole and encoded from there, as before. */
+     * is begun as its header only, and the image as its size only. So are the depth and
+     * normal images (RenderTarget's depth_rows, normals_rows): 1.2 GB each at
+     * 20000 x 20000, only to be copied into their files. */
     bool stream_plain = !film && bytes;
     bool any_streamed = false;
     const char *out_paths[3] = {o->output, o->depth_file, o->normals_file};
@@ -700,7 +728,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
     for (int i = 0; i < 3 && allocated; i++) {
         if (i == 0 && pre_image)
             continue;
-        if ((stream_film || (stream_plain && i == 0)) && out_paths[i] &&
+        if ((stream_film || stream_plain) && out_paths[i] &&
             alloc_image(out_slot[i], out_storage[i], out_paths[i], o, bytes, s, out_kind[i],
                         true, &app->diag) &&
             image_encoding_stream_only(&shaped_enc[i], out_storage[i], out_paths[i],
@@ -804,8 +832,12 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
                 memset(&shaped_enc[i], 0, sizeof shaped_enc[i]);
                 shaped_enc[i].fd = shaped_enc[i].slot = -1;
             }
-            if (!film)
-                rj.img[0] = target.color; /* its size only (stream_plain) */
+            if (!film) { /* their sizes only (stream_plain) where rj.enc[i] is set */
+                Image *given[3] = {target.color, target.depth, target.normals};
+                for (int i = 0; i < 3; i++)
+                    if (rj.enc[i].head_only)
+                        rj.img[i] = given[i];
+            }
         }
         /* The plain renderer in one process fills byte images: their TGA and PPM files
          * are encoded row by row on its threads (a 1080p TGA's 6 MB took ~4 ms after
@@ -866,7 +898,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
             /* Never after a whole render (each of its rows is reported); but with the
              * colour put straight into its file, or streamed strip by strip, the image
              * itself holds no pixel. */
-            if (ok && (rj.color_in_file || rj.film_rows))
+            if (ok && (rj.in_file[0] || rj.in_file[1] || rj.in_file[2] || rj.film_rows))
                 ok = false;
             for (int i = 0; i < 3; i++)
                 image_encoding_free(&rj.enc[i]);

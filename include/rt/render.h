@@ -36,6 +36,14 @@ typedef struct RenderTarget {
      * while it is made: the whole image's rows would be fresh memory only to be copied
      * once, or not even that. */
     void (*color_rows)(void *user, int y_lo, int y_hi, const uint8_t *rows);
+    /* The same for the depth and the normal images (each with its own file, so its own
+     * order: normals_bgr as color_bgr; the depth's grey reads the same either way):
+     * NULL, or their rows go band by band to these, and the images' pixels (they may
+     * be images of their size only) are not written. A 20000 x 20000 render's depth
+     * and normals would otherwise be 1.2 GB each, only to be copied into their files. */
+    void (*depth_rows)(void *user, int y_lo, int y_hi, const uint8_t *rows);
+    void (*normals_rows)(void *user, int y_lo, int y_hi, const uint8_t *rows);
+    bool normals_bgr;
 } RenderTarget;
 
 /* Called from a worker thread after row y (0 = bottom, of the full image) is complete

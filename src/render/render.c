@@ -82,26 +82,45 @@ static uint8_t *file_pixel(const FileRows *f, const RenderTarget *t, int x, int 
     return f->rows + 3 * ((size_t)(f->top - y) * (size_t)t->w + (size_t)x);
 }
 
-/* (x, y) is a pixel of the full image; the images hold the target's rectangle, and the
- * colour goes to f instead when f is not NULL. */
-static void store_pixel(RenderTarget *t, const FileRows *f, int x, int y, Vec3 c,
+/* The three images a render fills, as indices of its per-image arrays. */
+enum { OUT_COLOR, OUT_DEPTH, OUT_NORMALS, OUT_COUNT };
+
+/* Pixel (x, y) of the target's rectangle into f (quantised as image_put does), in
+ * B G R order when bgr. */
+static void file_put(const FileRows *f, const RenderTarget *t, int x, int y, bool bgr, Vec3 c)
+{
+    uint8_t *b = file_pixel(f, t, x, y);
+    int r = bgr ? 2 : 0;
+    b[r] = image_color_to_byte(c.x);
+    b[1] = image_color_to_byte(c.y);
+    b[2 - r] = image_color_to_byte(c.z);
+}
+
+/* Pixel (x, y) of image i of t (NULL: not requested) into f[i], or into the image when
+ * f[i] is NULL. */
+static void out_put(RenderTarget *t, FileRows *const f[OUT_COUNT], int i, int x, int y, Vec3 c)
+{
+    Image *img = i == OUT_COLOR ? t->color : i == OUT_DEPTH ? t->depth : t->normals;
+    if (!img)
+        return;
+    if (f[i])
+        file_put(f[i], t, x, y, i == OUT_COLOR ? t->color_bgr : t->normals_bgr, c);
+    else
+        image_put(img, x, y, c);
+}
+
+/* (x, y) is a pixel of the full image; the images hold the target's rectangle, and
+ * image i goes to f[i] instead when f[i] is not NULL. */
+static void store_pixel(RenderTarget *t, FileRows *const f[OUT_COUNT], int x, int y, Vec3 c,
                         const Hit *hit)
 {
     x -= t->x0;
     y -= t->y0;
-    if (f) {
-        uint8_t *b = file_pixel(f, t, x, y);
-        int r = t->color_bgr ? 2 : 0;
-        b[r] = image_color_to_byte(c.x);
-        b[1] = image_color_to_byte(c.y);
-        b[2 - r] = image_color_to_byte(c.z);
-    } else if (t->color) {
-        image_put(t->color, x, y, c);
-    }
+    out_put(t, f, OUT_COLOR, x, y, c);
     if (t->depth)
-        image_put(t->depth, x, y, render_depth_color(hit, t->depth_min, t->depth_max));
+        out_put(t, f, OUT_DEPTH, x, y, render_depth_color(hit, t->depth_min, t->depth_max));
     if (t->normals)
-        image_put(t->normals, x, y, render_normal_color(hit));
+        out_put(t, f, OUT_NORMALS, x, y, render_normal_color(hit));
 }
 
 /* The last bands of a render with several threads are split into parts of whole
@@ -123,11 +142,14 @@ typedef struct ImageJob {
     int split_from;         /* bands from this one on come in `parts` parts (jobs) */
     int parts;              /* 1: no band is split */
     atomic_int *parts_left; /* per split band: its parts not yet rendered */
-    /* With target->color_rows: band buffers of stage_bytes each (TILE rows), the first
-     * `pool` taken by one whole band at a time (stage_busy), then one per split band
-     * (all of its parts write into it). */
+    /* With target's color_rows, depth_rows or normals_rows (rows[i] for image i, NULL
+     * when that image is not handed out by rows): band buffers (slots) of slot_bytes,
+     * the first `pool` taken by one whole band at a time (stage_busy), then one per
+     * split band (all of its parts write into it); image i's part of a slot
+     * (stage_bytes, TILE rows) begins at part_at[i]. */
+    void (*rows[OUT_COUNT])(void *user, int y_lo, int y_hi, const uint8_t *rows);
     uint8_t *stage;
-    size_t stage_bytes;
+    size_t stage_bytes, slot_bytes, part_at[OUT_COUNT];
     int pool;
     atomic_bool *stage_busy;
 } ImageJob;
@@ -297,7 +319,7 @@ bool render_use_tile_planes(bool on)
  * grid, so a rectangle on that grid traces the very packets of the whole render;
  * pixels of a tile outside the rectangle are left out of its packet. */
 static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int xa, int xb,
-                        const FileRows *f)
+                        FileRows *const f[OUT_COUNT])
 {
     RenderTarget *t = job->target;
     float tmin = camera_tmin(job->camera);
@@ -318,7 +340,7 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
      * cut edges) skip the per-pixel bounds, and with only a byte colour image to fill
      * store their bytes a tile at a time. */
     bool full_rows = ylo == y0 && y1 - y0 == TILE;
-    bool to_bytes = t->color && (t->color->bytes || f);
+    bool to_bytes = t->color && (t->color->bytes || f[OUT_COLOR]);
     bool bytes_only = to_bytes && !t->depth && !t->normals;
     /* Colours that only become bytes may come from the power bracket (rt/raytracer.h):
      * the same bytes. Depth and normal images read the hits, never the colours. */
@@ -344,11 +366,12 @@ static void render_band(const ImageJob *job, RenderCtx *ctx, int y0, int y1, int
             camera_block8_rays(job->camera, x0, y0, t->width, t->height, cell, rays);
             if (bytes_only) {
                 int tx = x0 - t->x0, ty = y0 - t->y0;
-                uint8_t *corner = f ? file_pixel(f, t, tx, ty)
-                                    : t->color->bytes + 3 * ((size_t)ty * (size_t)t->color->width +
-                                                             (size_t)tx);
-                ptrdiff_t stride = f ? -3 * (ptrdiff_t)t->w : 3 * (ptrdiff_t)t->color->width;
-                bool bgr = f && t->color_bgr;
+                const FileRows *fc = f[OUT_COLOR];
+                uint8_t *corner = fc ? file_pixel(fc, t, tx, ty)
+                                     : t->color->bytes + 3 * ((size_t)ty * (size_t)t->color->width +
+                                                              (size_t)tx);
+                ptrdiff_t stride = fc ? -3 * (ptrdiff_t)t->w : 3 * (ptrdiff_t)t->color->width;
+                bool bgr = fc && t->color_bgr;
 #if defined(RENDER_PLANES_AVX2)
                 if (planes_on && raytracer_trace_tile_bytes(job->rt, ctx, rays, tmin, colors,
                                                             planes, hits)) {
@@ -405,9 +428,10 @@ static void image_band(void *user, RenderCtx *ctx, int index)
         xa += c0 * TILE;
     }
     int lo = y0 > t->y0 ? y0 : t->y0; /* the rows of this band inside the rectangle */
-    /* Where the colour bytes go: a band buffer (a free one of the pool for a whole
-     * band; a split band's own), or the whole file's rows. */
-    FileRows fr, *f = NULL;
+    /* Where the bytes go: a band buffer (a free slot of the pool for a whole band; a
+     * split band's own) for each image handed out by rows, or for the colour the whole
+     * file's rows; else the images. */
+    FileRows fr[OUT_COUNT], *f[OUT_COUNT] = {NULL, NULL, NULL};
     int stage = -1;
     if (job->stage) {
         if (band >= job->split_from) {
@@ -419,13 +443,17 @@ static void image_band(void *user, RenderCtx *ctx, int index)
                                               memory_order_acquire))
                     break;
         }
-        fr.rows = job->stage + (size_t)stage * job->stage_bytes;
-        fr.top = y1 - 1 - t->y0;
-        f = &fr;
-    } else if (t->color_file) {
-        fr.rows = t->color_file;
-        fr.top = t->h - 1;
-        f = &fr;
+        for (int i = 0; i < OUT_COUNT; i++)
+            if (job->rows[i]) {
+                fr[i].rows = job->stage + (size_t)stage * job->slot_bytes + job->part_at[i];
+                fr[i].top = y1 - 1 - t->y0;
+                f[i] = &fr[i];
+            }
+    }
+    if (!f[OUT_COLOR] && t->color_file) {
+        fr[OUT_COLOR].rows = t->color_file;
+        fr[OUT_COLOR].top = t->h - 1;
+        f[OUT_COLOR] = &fr[OUT_COLOR];
     }
     const RtStats *st = &ctx->stats;
     uint64_t rays = st->nonshadow_rays + st->shadow_rays;
@@ -439,7 +467,9 @@ static void image_band(void *user, RenderCtx *ctx, int index)
                  atomic_fetch_sub_explicit(&job->parts_left[band - job->split_from], 1,
                                            memory_order_acq_rel) == 1);
     if (done && job->stage)
-        t->color_rows(job->user, lo, y1 - 1, fr.rows);
+        for (int i = 0; i < OUT_COUNT; i++)
+            if (job->rows[i])
+                job->rows[i](job->user, lo, y1 - 1, fr[i].rows);
     if (stage >= 0 && stage < job->pool)
         atomic_store_explicit(&job->stage_busy[stage], false, memory_order_release);
     if (job_cancelled(job))
@@ -561,7 +591,16 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         target->h = target->height;
     }
     int bands = (target->y0 + target->h + TILE - 1) / TILE - target->y0 / TILE;
-    ImageJob job = {rt, camera, target, row_done, user, cancel, bands, 1, NULL, NULL, 0, 0, NULL};
+    ImageJob job;
+    memset(&job, 0, sizeof job);
+    job.rt = rt;
+    job.camera = camera;
+    job.target = target;
+    job.row_done = row_done;
+    job.user = user;
+    job.cancel = cancel;
+    job.split_from = bands;
+    job.parts = 1;
     /* With several threads, the last 2 bands per thread in parts (SPLIT_PARTS), when
      * the rectangle is that many tiles wide. */
     int nthreads = threads > 0 ? threads : render_default_threads();
@@ -578,15 +617,23 @@ bool render_image(const RayTracer *rt, const Camera *camera, RenderTarget *targe
         job.parts_left = left;
     }
     int jobs = job.split_from + (bands - job.split_from) * job.parts;
-    if (target->color && target->color_rows) {
+    job.rows[OUT_COLOR] = target->color ? target->color_rows : NULL;
+    job.rows[OUT_DEPTH] = target->depth ? target->depth_rows : NULL;
+    job.rows[OUT_NORMALS] = target->normals ? target->normals_rows : NULL;
+    job.stage_bytes = (size_t)TILE * 3 * (size_t)target->w;
+    for (int i = 0; i < OUT_COUNT; i++)
+        if (job.rows[i]) {
+            job.part_at[i] = job.slot_bytes;
+            job.slot_bytes += job.stage_bytes;
+        }
+    if (job.slot_bytes > 0) {
         /* One band buffer per thread and per split band: a few hundred KB at 1080p,
          * used again band after band (in the cache, no fresh pages), instead of the
-         * whole image's rows. From bigmem's pool of huge pages: from malloc, the six
+         * whole images' rows. From bigmem's pool of huge pages: from malloc, the six
          * buffers of 2 threads at 1080p (276 KB) were ~60 fresh 4 KB pages. */
         job.pool = nthreads < jobs ? nthreads : jobs;
         int nsplit = bands - job.split_from;
-        job.stage_bytes = (size_t)TILE * 3 * (size_t)target->w;
-        job.stage = bigmem_alloc((size_t)(job.pool + nsplit) * job.stage_bytes);
+        job.stage = bigmem_alloc((size_t)(job.pool + nsplit) * job.slot_bytes);
         job.stage_busy = malloc((size_t)job.pool * sizeof *job.stage_busy);
         if (!job.stage || !job.stage_busy || job.pool < 1) {
             bigmem_free(job.stage);

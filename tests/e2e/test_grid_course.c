@@ -412,7 +412,7 @@ static void check_marking_counters(const char *scene_name, int bounces, bool sha
         RayTracer rt = {scene, &acc, shadows, false, bounces, 0.01f, pass >= 4, 0.0f, 0.0f};
         CHECK(image_init(&img[pass], 64, 64));
         RenderTarget target = {64, 64, &img[pass], NULL, 0.0f, 1.0f, NULL, 0, 0, 0, 0, NULL, NULL,
-                               false, NULL};
+                               false, NULL, NULL, NULL, false};
         CHECK(render_image(&rt, &scene->camera, &target, 2, &st[pass], NULL, NULL, NULL));
     }
     if (grid) {

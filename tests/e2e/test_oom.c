@@ -314,45 +314,76 @@ static void test_oom_streamed_film(void)
     e2e_rmtree(dir);
 }
 
-/* A plain render into a TGA file reserves no whole image (main.c stream_plain: the
- * colour goes band by band into the file, which is begun as its header only): under an
- * address-space limit (ulimit -v 30000, about 29 MB) a 2000 x 2000 render (12 MB of
- * image and as much again for the file's bytes, never touched but reserved before)
- * is written whole, every pixel the plane's colour. The limit is set in a shell that
- * then runs the program. Before, the run needed 48-56 MB of address space (measured)
- * and stopped with "cannot write image: Cannot allocate memory", exit 1; it now needs
- * about 5. Not under the sanitizers, whose shadow memory no such limit admits. */
-static void test_plain_stream_address_limit(void)
+/* Whether every pixel of the file at path (len bytes, the pixels from byte `top` on)
+ * is the three bytes px. */
+static bool all_pixels(const unsigned char *img, size_t len, size_t top, const unsigned char *px)
+{
+    for (size_t i = top; i + 3 <= len; i += 3)
+        if (memcmp(img + i, px, 3) != 0)
+            return false;
+    return true;
+}
+
+/* The file at path: 2000 x 2000 pixels after a header of `top` bytes, each px. */
+static void check_flat_image(const char *path, size_t top, const unsigned char *px)
+{
+    size_t len = 0;
+    unsigned char *img = (unsigned char *)e2e_read_file(path, &len);
+    CHECK_MSG(img && len == top + (size_t)2000 * 2000 * 3, "%s has %zu bytes", path, len);
+    if (img && len == top + (size_t)2000 * 2000 * 3)
+        CHECK_MSG(all_pixels(img, len, top, px), "%s: a pixel is not %u %u %u", path, px[0],
+                  px[1], px[2]);
+    free(img);
+}
+
+/* A plain render into TGA and PPM files reserves no whole image (main.c stream_plain:
+ * each image goes band by band into its file, which is begun as its header only):
+ * under an address-space limit (ulimit -v 30000, about 29 MB) a 2000 x 2000 render
+ * (12 MB per image and as much again for its file's bytes, never touched but reserved
+ * before) is written whole, every pixel the plane's colour; with aux, its -depth (t = 11
+ * between 9 and 13: grey 127) and -normals (0 0 1: blue) too. The limit is set in a
+ * shell that then runs the program. Before, the colour alone needed 48-56 MB of address
+ * space (measured) and stopped with "cannot write image: Cannot allocate memory", exit
+ * 1; it now needs about 5. With the depth and normal images, which were held whole until
+ * polish31, 85-90 MB at -threads 2 (exit 1, "out of memory for a 2000x2000 image"); now
+ * about 18. Not under the sanitizers, whose shadow memory no such limit admits. */
+static void plain_stream_address_limit(bool aux)
 {
     if (E2E_SANITIZED)
         harness_skip("the sanitizers' shadow memory does not fit under ulimit -v");
-    char dir[PATH_MAX], out[PATH_MAX], planes[PATH_MAX], why[512];
+    char dir[PATH_MAX], out[PATH_MAX], dep[PATH_MAX], nor[PATH_MAX], planes[PATH_MAX],
+        why[512];
     snprintf(planes, sizeof planes, "%s/tests/repro/planes_only.txt", harness_root());
     CHECK(e2e_tmpdir(dir, sizeof dir, "aslimit") != NULL);
     e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(dep, sizeof dep, dir, "d.tga");
+    e2e_join(nor, sizeof nor, dir, "n.ppm");
     char *args[] = {"/bin/sh", "-c", "ulimit -v 30000 && exec \"$0\" \"$@\"",
                     (char *)harness_bin(), "-input", planes, "-output", out, "-size", "2000",
-                    "2000", "-threads", "2", NULL};
+                    "2000", "-threads", "2", "-depth", "9", "13", dep, "-normals", nor, NULL};
+    if (!aux)
+        args[13] = NULL; /* the colour alone */
     E2eRun r;
     CHECK(e2e_run(args, &r));
-    CHECK_MSG(r.status == 0, "a plain 2000x2000 render under ulimit -v 30000: %s",
-              e2e_describe(&r, why, sizeof why));
+    CHECK_MSG(r.status == 0, "a plain 2000x2000 render%s under ulimit -v 30000: %s",
+              aux ? " with -depth and -normals" : "", e2e_describe(&r, why, sizeof why));
     e2e_run_free(&r);
-    size_t len = 0;
-    unsigned char *img = (unsigned char *)e2e_read_file(out, &len);
-    CHECK_MSG(img && len == 18 + (size_t)2000 * 2000 * 3, "the image has %zu bytes", len);
-    if (img && len == 18 + (size_t)2000 * 2000 * 3) {
-        /* The plane fills the view: every pixel is the first one's (red, B G R). */
-        CHECK(img[18] == 0 && img[19] == 0 && img[20] == 255);
-        size_t differ = 0;
-        for (size_t i = 18; i < len; i += 3)
-            differ += memcmp(img + i, img + 18, 3) != 0;
-        CHECK_INT((int)differ, 0);
+    /* The plane fills the view: red (B G R in the TGA). */
+    static const unsigned char red_bgr[3] = {0, 0, 255}, grey[3] = {127, 127, 127},
+                               blue[3] = {0, 0, 255};
+    check_flat_image(out, 18, red_bgr);
+    if (aux) {
+        check_flat_image(dep, 18, grey);
+        check_flat_image(nor, 17, blue); /* "P6\n2000 2000\n255\n" */
     }
-    free(img);
-    CHECK_INT(e2e_count_entries(dir), 1);
+    CHECK_INT(e2e_count_entries(dir), aux ? 3 : 1);
     e2e_rmtree(dir);
 }
+
+static void test_plain_stream_address_limit(void) { plain_stream_address_limit(false); }
+
+/* The same with -depth and -normals: on 0816af8 exit 1 under the limit (fails). */
+static void test_plain_stream_aux_address_limit(void) { plain_stream_address_limit(true); }
 
 static const TestCase tests[] = {
     {"oom_render", test_oom_render},
@@ -361,5 +392,6 @@ static const TestCase tests[] = {
     {"oom_merge", test_oom_merge},
     {"oom_streamed_film", test_oom_streamed_film},
     {"plain_stream_address_limit", test_plain_stream_address_limit},
+    {"plain_stream_aux_address_limit", test_plain_stream_aux_address_limit},
 };
 RT_TEST_MAIN(tests)

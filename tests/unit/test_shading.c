@@ -1130,7 +1130,7 @@ static void test_depth_and_normals_images(void)
     CHECK(image_init(&depth, 8, 8));
     CHECK(image_init(&normals, 8, 8));
     RenderTarget target = {8, 8, NULL, &depth, 9.0f, 11.0f, &normals, 0, 0, 0, 0, NULL,
-                           NULL, false, NULL};
+                           NULL, false, NULL, NULL, NULL, false};
     CHECK(render_image(&rt, &m.s.camera, &target, 2, NULL, NULL, NULL, NULL));
     Vec3 n = v3_normalize(v3(0.5f, 0, 1)); /* the triangle's plane: z = -x/2 */
     for (int x = 0; x < 8; x++) {
@@ -1180,7 +1180,7 @@ static void test_render_cancel(void)
     CHECK(image_init(&color, 64, 32));
     image_fill(&color, v3(-1, -1, -1)); /* "never written" */
     RenderTarget target = {64, 32, &color, NULL, 0, 1, NULL, 0, 0, 0, 0, NULL, NULL, false,
-                           NULL};
+                           NULL, NULL, NULL, false};
     g_rows_reported = 0;
     g_stop = 0;
     CHECK(!render_image(&rt, &m.s.camera, &target, 1, NULL, stop_after_first_row, NULL,
@@ -1250,7 +1250,7 @@ static void test_render_split_bands(void)
             rc.w = w;
             rc.h = h;
             RenderTarget t = {70, 45, &img, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false,
-                              NULL};
+                              NULL, NULL, NULL, false};
             RtStats st;
             CHECK(render_image(&rt, &m.s.camera, &t, threads, &st, check_row, &rc, NULL));
             CHECK_INT(atomic_load(&rc.early), 0);
@@ -1360,7 +1360,7 @@ static void test_render_tile_planes(void)
             CHECK(file != NULL);
             memset(file, 0xcd, len);
             RenderTarget t = {W, H, &img, NULL, 0, 1, NULL, 0, 0, W, H, NULL,
-                              out ? file : NULL, out == 1, NULL};
+                              out ? file : NULL, out == 1, NULL, NULL, NULL, false};
             CHECK(render_image(&rt, &m.s.camera, &t, threads, NULL, NULL, NULL, NULL));
             if (!out)
                 memcpy(file, img.bytes, len);
@@ -1411,7 +1411,7 @@ static void test_render_color_into_file(void)
         CHECK(image_init_bytes(&ref, w, h));
         CHECK(image_init(&depth, w, h));
         RenderTarget rt_ref = {70, 45, &ref, NULL, 0, 1, NULL, x0, y0, w, h, NULL, NULL, false,
-                               NULL};
+                               NULL, NULL, NULL, false};
         CHECK(render_image(&rt, &m.s.camera, &rt_ref, 1, NULL, NULL, NULL, NULL));
         for (size_t i = 0; i < len; i += 3)
             lit += ref.bytes[i] != ref.bytes[i + 2];
@@ -1433,7 +1433,7 @@ static void test_render_color_into_file(void)
             sf.h = h;
             RenderTarget t = {70, 45, &img, with_depth ? &depth : NULL, 0, 1, NULL,
                               x0, y0, w, h, NULL, staged ? unused : file, bgr,
-                              staged ? staged_rows : NULL};
+                              staged ? staged_rows : NULL, NULL, NULL, false};
             CHECK(render_image(&rt, &m.s.camera, &t, threads, NULL,
                                staged ? staged_row_done : NULL, &sf, NULL));
             if (staged) {
