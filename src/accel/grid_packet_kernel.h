@@ -772,11 +772,43 @@ uint64_t PK_PREP(const Grid *g, Packet *pk, uint64_t cand, const float *tmax,
                 _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
                 _mm512_set1_epi32(6));
             const __mmask16 km = (__mmask16)byte;
-            for (int a = 0; a < 3; a++) {
-                o[a] = (pk_fv)_mm512_mask_i32gather_ps((__m512)zero, km, idx, base + a, 4);
-                d[a] = same ? sd[a]
-                            : (pk_fv)_mm512_mask_i32gather_ps((__m512)one, km, idx,
-                                                              base + 3 + a, 4);
+            if (byte == PK_WMASK) {
+                /* A whole group (all 96 floats are the caller's): six plain loads and,
+                 * per component, three two-vector permutes and two blends instead of a
+                 * gather. Float f = 6 l + a of the group (ray l, component a) lies in
+                 * vector pair f / 32 at index f mod 32 (vpermt2ps reads the index's
+                 * low five bits); lane l takes pair 1 where 32 <= f < 64, pair 2 from
+                 * 64 on. Only loads and moves: the same values. */
+                __m512 z[6];
+                for (int v = 0; v < 6; v++)
+                    z[v] = _mm512_loadu_ps(base + 16 * v);
+                const __m512i six = _mm512_mullo_epi32(
+                    _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15),
+                    _mm512_set1_epi32(6));
+                for (int a = 0; a < 6; a++) {
+                    if (same && a >= 3)
+                        break;
+                    __m512i f = _mm512_add_epi32(six, _mm512_set1_epi32(a));
+                    __mmask16 p1 = _mm512_cmpge_epi32_mask(f, _mm512_set1_epi32(32));
+                    __mmask16 p2 = _mm512_cmpge_epi32_mask(f, _mm512_set1_epi32(64));
+                    __m512 r = _mm512_permutex2var_ps(z[0], f, z[1]);
+                    r = _mm512_mask_mov_ps(r, p1, _mm512_permutex2var_ps(z[2], f, z[3]));
+                    r = _mm512_mask_mov_ps(r, p2, _mm512_permutex2var_ps(z[4], f, z[5]));
+                    if (a < 3)
+                        o[a] = (pk_fv)r;
+                    else
+                        d[a - 3] = (pk_fv)r;
+                }
+                if (same)
+                    for (int a = 0; a < 3; a++)
+                        d[a] = sd[a];
+            } else {
+                for (int a = 0; a < 3; a++) {
+                    o[a] = (pk_fv)_mm512_mask_i32gather_ps((__m512)zero, km, idx, base + a, 4);
+                    d[a] = same ? sd[a]
+                                : (pk_fv)_mm512_mask_i32gather_ps((__m512)one, km, idx,
+                                                                  base + 3 + a, 4);
+                }
             }
             if (tmax)
                 tm = (pk_fv)_mm512_mask_loadu_ps((__m512)inf, km, tmax + PK_W * gi);
