@@ -9,7 +9,7 @@
 #                   200) from SEED (default 1), each rendered brute force, with -grid auto,
 #                   -grid nx ny nz, -accel twolevel, packets or not, 1-3 threads, in parts
 #                   merged, and compared byte for byte; DIFFCHECK_FLAGS adds options
-#                   (-quick, -keep, -v, -dir DIR, -sets K)
+#                   (-quick, -keep, -v, -dir DIR, -sets K, -stop, -no_reduce)
 # Each stops at the first error (exit status non-zero); diffcheck reports every
 # difference and keeps the scenes that differ.
 

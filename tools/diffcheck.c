@@ -153,8 +153,20 @@ static void put_dir(Buf *b)
 
 /* ---- scene generation -------------------------------------------------------------- */
 
+enum { MAX_ITEMS = 64, MAX_LIGHTS = 3 };
+
+/* A scene in the pieces the reducer (reduce below) leaves out one by one: the root
+ * Group's objects and the lights. */
 typedef struct Gen {
-    Buf scene;
+    Buf scene;            /* the whole text (scene_text) */
+    Buf head;             /* camera and background */
+    Buf mats;             /* the Materials block */
+    bool lights_block;    /* a Lights block, even with 0 lights */
+    char *lights[MAX_LIGHTS];
+    int nlights;
+    int mat0;             /* the root Group's first MaterialIndex */
+    char *items[MAX_ITEMS]; /* the root Group's objects, each with its MaterialIndex line */
+    int nitems;
     const char *dir;      /* the scene's folder, where its OBJ files go */
     int nmat;
     int nmesh;
@@ -220,7 +232,7 @@ static void gen_transformations(Buf *b, int max)
 
 static void gen_materials(Gen *g)
 {
-    Buf *b = &g->scene;
+    Buf *b = &g->mats;
     g->nmat = irange(2, 8);
     bprintf(b, "Materials {\n  numMaterials %d\n", g->nmat);
     for (int i = 0; i < g->nmat; i++) {
@@ -353,12 +365,21 @@ static void gen_primitive(Gen *g, Buf *b)
         bprintf(b, "Triangle {");
         int flat = chance(0.3) ? irand(3) : -1; /* all three in one axis plane */
         double fv = coord(-2, 2);
+        /* Rarely degenerate: two vertices the same, or the third halfway between the
+         * first two (no area, no normal; every path must miss it alike). */
+        int degenerate = chance(0.04) ? irange(1, 2) : 0;
+        double p[3][3];
         for (int v = 0; v < 3; v++) {
-            double p[3] = {coord(-2, 2), coord(-2, 2), coord(-2, 2)};
+            for (int k = 0; k < 3; k++)
+                p[v][k] = coord(-2, 2);
             if (flat >= 0)
-                p[flat] = fv;
+                p[v][flat] = fv;
+        }
+        for (int k = 0; k < 3 && degenerate; k++)
+            p[2][k] = degenerate == 1 ? p[0][k] : (p[0][k] + p[1][k]) / 2;
+        for (int v = 0; v < 3; v++) {
             bprintf(b, " vertex%d ", v);
-            put3(b, p[0], p[1], p[2]);
+            put3(b, p[v][0], p[v][1], p[v][2]);
         }
         bprintf(b, " }");
     } else {
@@ -402,14 +423,60 @@ static void gen_object(Gen *g, Buf *b, int depth, int indent)
     }
 }
 
-/* The whole scene text into g->scene. */
+/* The scene text into out, with the root objects and lights whose keep flag is set
+ * (NULL: all). */
+static void scene_text(const Gen *g, const bool *keep_item, const bool *keep_light, Buf *out)
+{
+    out->len = 0;
+    bprintf(out, "%s", g->head.s);
+    if (g->lights_block) {
+        int nl = 0;
+        for (int i = 0; i < g->nlights; i++)
+            nl += !keep_light || keep_light[i];
+        bprintf(out, "Lights {\n  numLights %d\n", nl);
+        for (int i = 0; i < g->nlights; i++)
+            if (!keep_light || keep_light[i])
+                bprintf(out, "%s", g->lights[i]);
+        bprintf(out, "}\n");
+    }
+    bprintf(out, "%s", g->mats.s);
+    int n = 0;
+    for (int i = 0; i < g->nitems; i++)
+        n += !keep_item || keep_item[i];
+    bprintf(out, "Group {\n  numObjects %d\n  MaterialIndex %d\n", n, g->mat0);
+    for (int i = 0; i < g->nitems; i++)
+        if (!keep_item || keep_item[i])
+            bprintf(out, "%s", g->items[i]);
+    bprintf(out, "}\n");
+}
+
+static void gen_free(Gen *g)
+{
+    for (int k = 0; k < g->nprims; k++)
+        free(g->prims[k]);
+    for (int k = 0; k < g->nlights; k++)
+        free(g->lights[k]);
+    for (int k = 0; k < g->nitems; k++)
+        free(g->items[k]);
+    free(g->scene.s);
+    free(g->head.s);
+    free(g->mats.s);
+}
+
+/* A new scene into g's pieces and g->scene. */
 static void gen_scene(Gen *g)
 {
-    Buf *b = &g->scene;
+    Buf *b = &g->head;
     /* Camera: looking at a point near the origin from outside the objects' box, or from
      * inside it (rays that start inside the grid); an axis-parallel view now and then. */
     double c[3], t[3] = {pos(-0.5, 0.5), pos(-0.5, 0.5), pos(-0.5, 0.5)};
     double dist = chance(0.15) ? pos(0.3, 2.0) : pos(3.5, 9);
+    /* Now and then from thousands of scene sizes away (through a narrow perspective
+     * angle): rays whose origins are far outside the grid's box, which the packet walk
+     * sends to the single-ray march (docs/grid.md). */
+    bool far = chance(0.08);
+    if (far)
+        dist *= 1000.0;
     if (chance(0.25)) {
         int a = irand(3);
         for (int k = 0; k < 3; k++)
@@ -455,7 +522,7 @@ static void gen_scene(Gen *g)
         put3(b, dir[0], dir[1], dir[2]);
         bprintf(b, " up ");
         put3(b, up[0], up[1], up[2]);
-        bprintf(b, " angle %g }\n", pos(20, 75));
+        bprintf(b, " angle %g }\n", far ? pos(0.1, 0.5) : pos(20, 75));
     }
     if (chance(0.85)) {
         bprintf(b, "Background {");
@@ -469,49 +536,47 @@ static void gen_scene(Gen *g)
         }
         bprintf(b, " }\n");
     }
-    int nl = chance(0.1) ? 0 : irange(1, 3);
-    if (nl > 0 || chance(0.5)) {
-        bprintf(b, "Lights {\n  numLights %d\n", nl);
-        for (int i = 0; i < nl; i++) {
-            if (chance(0.5)) {
-                bprintf(b, "  DirectionalLight { direction ");
-                put_dir(b);
-                bprintf(b, " color ");
-                put_colour(b, 0.2, 1.2);
-                bprintf(b, " }\n");
-            } else {
-                bprintf(b, "  PointLight { position ");
-                put3(b, coord(-5, 5), coord(-5, 5), coord(-5, 5));
-                bprintf(b, " color ");
-                put_colour(b, 0.2, 1.5);
-                if (chance(0.6)) {
-                    double a = chance(0.3) ? 0.0 : pos(0.2, 1), l = pos(0, 0.5),
-                           q = chance(0.4) ? 0.0 : pos(0, 0.1);
-                    if (a + l + q == 0.0)
-                        a = 1;
-                    bprintf(b, " attenuation %g %g %g", a, l, q);
-                }
-                bprintf(b, " }\n");
+    int nl = chance(0.1) ? 0 : irange(1, MAX_LIGHTS);
+    g->lights_block = nl > 0 || chance(0.5);
+    for (int i = 0; i < nl && g->lights_block; i++) {
+        Buf l = {0};
+        if (chance(0.5)) {
+            bprintf(&l, "  DirectionalLight { direction ");
+            put_dir(&l);
+            bprintf(&l, " color ");
+            put_colour(&l, 0.2, 1.2);
+            bprintf(&l, " }\n");
+        } else {
+            bprintf(&l, "  PointLight { position ");
+            put3(&l, coord(-5, 5), coord(-5, 5), coord(-5, 5));
+            bprintf(&l, " color ");
+            put_colour(&l, 0.2, 1.5);
+            if (chance(0.6)) {
+                double a = chance(0.3) ? 0.0 : pos(0.2, 1), lin = pos(0, 0.5),
+                       q = chance(0.4) ? 0.0 : pos(0, 0.1);
+                if (a + lin + q == 0.0)
+                    a = 1;
+                bprintf(&l, " attenuation %g %g %g", a, lin, q);
             }
+            bprintf(&l, " }\n");
         }
-        bprintf(b, "}\n");
+        g->lights[g->nlights++] = l.s;
     }
     gen_materials(g);
     /* Now and then many small objects, so a grid has crowded and empty cells. */
     g->budget = chance(0.2) ? irange(20, 60) : irange(1, 14);
     int top = g->budget > 8 ? g->budget : irange(1, g->budget);
-    Buf grp = {0};
-    bprintf(&grp, "Group {\n  numObjects %d\n  MaterialIndex %d\n", top, irand(g->nmat));
+    g->mat0 = irand(g->nmat);
     for (int i = 0; i < top; i++) {
+        Buf it = {0};
         if (i > 0 && chance(0.35))
-            bprintf(&grp, "  MaterialIndex %d\n", irand(g->nmat));
-        bprintf(&grp, "  ");
-        gen_object(g, &grp, 1, 2);
-        bprintf(&grp, "\n");
+            bprintf(&it, "  MaterialIndex %d\n", irand(g->nmat));
+        bprintf(&it, "  ");
+        gen_object(g, &it, 1, 2);
+        bprintf(&it, "\n");
+        g->items[g->nitems++] = it.s;
     }
-    bprintf(&grp, "}\n");
-    bprintf(b, "%s", grp.s);
-    free(grp.s);
+    scene_text(g, NULL, NULL, &g->scene);
 }
 
 #define MAX_ARGS 64
@@ -730,13 +795,16 @@ typedef struct Variant {
     int stack_kb; /* see Args */
 } Variant;
 
+/* The scene every command reads; the reducer points it at its reduced copy. */
+static const char *input_name = "scene.txt";
+
 static void variant_args(const Variant *v, const Shading *s, const int grid[3],
                          const char *tag, Args *a)
 {
     a->stack_kb = v->stack_kb;
     add(a, "%s", bin);
     add(a, "-input");
-    add(a, "scene.txt");
+    add(a, "%s", input_name);
     add(a, "-output");
     add(a, "%s.%s", tag, s->ext);
     for (int i = 0; i < s->opts.n; i++)
@@ -794,6 +862,36 @@ static const char *const cov_names[COV_COUNT] = {
     "stats", "small_stack", "tiles", "regions", "cache", "antialiased"};
 static long cov[COV_COUNT];
 
+/* The first failure of a scene, for the reducer: two renders whose images differ, one
+ * that fails (its status), or two -stats blocks that differ. A split render's failure
+ * is not reduced (kind FIND_NONE). */
+enum { FIND_NONE, FIND_IMAGES, FIND_STATUS, FIND_STATS };
+typedef struct Finding {
+    int kind, status;
+    Shading s;
+    int grid[3];
+    Variant a, b;
+} Finding;
+static Finding finding;
+static bool reduce_on = true;
+
+static void note_finding(int kind, int status, const Shading *s, const int grid[3],
+                         const Variant *a, const Variant *b)
+{
+    if (finding.kind != FIND_NONE)
+        return;
+    finding.kind = kind;
+    finding.status = status;
+    finding.s = *s;
+    memset(&finding.s.opts, 0, sizeof finding.s.opts);
+    for (int i = 0; i < s->opts.n; i++)
+        add(&finding.s.opts, "%s", s->opts.v[i]);
+    memcpy(finding.grid, grid, sizeof finding.grid);
+    finding.a = *a;
+    if (b)
+        finding.b = *b;
+}
+
 static void count_words(const char *text)
 {
     const char *p = text;
@@ -845,6 +943,8 @@ static bool same_file(const char *dir, const char *a, const char *b, long *first
                 ++*ndiff;
             }
         *ndiff += (long)(la > lb ? la - lb : lb - la);
+        if (*first < 0) /* one is the other and more */
+            *first = (long)n;
     }
     free(x);
     free(y);
@@ -866,12 +966,15 @@ static void report(const char *dir, const char *what, const Args *ref, const Arg
 
 /* Runs a (a full command line) in dir, stdout and stderr into tag.out and tag.err;
  * a non-zero status is reported against the reference ref. */
+static int last_status; /* of run_ok's last command */
+
 static bool run_ok(const char *dir, const Args *a, const char *tag, const Args *ref)
 {
     char outp[4096], errp[4096];
     fmt(outp, sizeof outp, "%s/%s.out", dir, tag);
     fmt(errp, sizeof errp, "%s/%s.err", dir, tag);
     int st = run(dir, a, outp, errp);
+    last_status = st;
     n_renders++;
     if (verbose) {
         Buf b = {0};
@@ -917,10 +1020,17 @@ static bool same_images(const char *dir, const Shading *s, const char *tag, cons
 static bool check_variant(const char *dir, const Shading *s, const int grid[3],
                           const Variant *v, const char *tag, const Args *ref)
 {
+    static const Variant ref_v = {ACC_NONE, 1, false, false, false, 0};
     Args a = {0};
     variant_args(v, s, grid, tag, &a);
     count_variant(v);
-    bool ok = run_ok(dir, &a, tag, ref) && (!ref || same_images(dir, s, tag, ref, &a));
+    bool ok = run_ok(dir, &a, tag, ref);
+    if (!ok) {
+        note_finding(FIND_STATUS, last_status, s, grid, v, NULL);
+    } else if (ref && !same_images(dir, s, tag, ref, &a)) {
+        note_finding(FIND_IMAGES, 0, s, grid, &ref_v, v);
+        ok = false;
+    }
     args_free(&a);
     return ok;
 }
@@ -1086,6 +1196,7 @@ static bool check_shading(const char *dir, const Shading *s, int set, bool quick
                      acc_name[sacc], p1, p3);
             report(dir, what, &ra, &va);
             args_free(&va);
+            note_finding(FIND_STATS, 0, s, grid, &vs[nv - 2], &vs[nv - 1]);
             ok = false;
         }
         free(a);
@@ -1093,6 +1204,108 @@ static bool check_shading(const char *dir, const Shading *s, int set, bool quick
     }
     args_free(&ra);
     return ok;
+}
+
+/* Whether the finding repeats on the scene with only the kept root objects and lights
+ * (written to dir/reduced.txt): the same status, or the same two renders differing. */
+static bool still_fails(const Gen *g, const char *dir, const bool *keep_item,
+                        const bool *keep_light)
+{
+    Buf t = {0};
+    scene_text(g, keep_item, keep_light, &t);
+    char path[4096];
+    fmt(path, sizeof path, "%s/reduced.txt", dir);
+    FILE *f = fopen(path, "w");
+    if (!f || fwrite(t.s, 1, t.len, f) != t.len || fclose(f) != 0)
+        die("cannot write %s", path);
+    free(t.s);
+    const Finding *fd = &finding;
+    input_name = "reduced.txt";
+    Args a = {0}, b = {0};
+    char oa[4096], ea[4096], ob[4096], eb[4096];
+    fmt(oa, sizeof oa, "%s/xa.out", dir);
+    fmt(ea, sizeof ea, "%s/xa.err", dir);
+    fmt(ob, sizeof ob, "%s/xb.out", dir);
+    fmt(eb, sizeof eb, "%s/xb.err", dir);
+    variant_args(&fd->a, &fd->s, fd->grid, "xa", &a);
+    int sa = run(dir, &a, oa, ea), sb = 0;
+    n_renders++;
+    bool fails = false;
+    if (fd->kind == FIND_STATUS) {
+        fails = sa == fd->status;
+    } else if (sa == 0) {
+        variant_args(&fd->b, &fd->s, fd->grid, "xb", &b);
+        sb = run(dir, &b, ob, eb);
+        n_renders++;
+        if (sb == 0 && fd->kind == FIND_IMAGES) {
+            const char *suffix[] = {"", "_d", "_n"};
+            bool want[] = {true, fd->s.depth, fd->s.normals};
+            for (int k = 0; k < 3 && !fails; k++) {
+                char fa[64], fb[64];
+                long first, nd;
+                fmt(fa, sizeof fa, "xa%s.%s", suffix[k], fd->s.ext);
+                fmt(fb, sizeof fb, "xb%s.%s", suffix[k], fd->s.ext);
+                fails = want[k] && !same_file(dir, fa, fb, &first, &nd);
+            }
+        } else if (sb == 0) {
+            char *x = stats_without_time(oa), *y = stats_without_time(ob);
+            fails = !x || !y || strcmp(x, y) != 0;
+            free(x);
+            free(y);
+        }
+    }
+    input_name = "scene.txt";
+    args_free(&a);
+    args_free(&b);
+    return fails;
+}
+
+/* Shrinks a scene whose finding repeats: leaves out root objects and lights one at a
+ * time while it still repeats, until no single one can go, and writes what is left to
+ * dir/reduced.txt (its OBJ files are the scene's, beside it). */
+static void reduce(const Gen *g, const char *dir)
+{
+    bool keep_item[MAX_ITEMS], keep_light[MAX_LIGHTS];
+    for (int i = 0; i < MAX_ITEMS; i++)
+        keep_item[i] = true;
+    for (int i = 0; i < MAX_LIGHTS; i++)
+        keep_light[i] = true;
+    if (!still_fails(g, dir, keep_item, keep_light)) {
+        printf("  not reduced: the finding did not repeat with the reducer's two commands\n");
+        return;
+    }
+    int items = g->nitems, lights = g->nlights;
+    for (bool changed = true; changed;) {
+        changed = false;
+        for (int i = g->nitems - 1; i >= 0; i--) {
+            if (!keep_item[i] || items == 1)
+                continue;
+            keep_item[i] = false;
+            if (still_fails(g, dir, keep_item, keep_light)) {
+                items--;
+                changed = true;
+            } else {
+                keep_item[i] = true;
+            }
+        }
+        for (int i = g->nlights - 1; i >= 0; i--) {
+            if (!keep_light[i])
+                continue;
+            keep_light[i] = false;
+            if (still_fails(g, dir, keep_item, keep_light)) {
+                lights--;
+                changed = true;
+            } else {
+                keep_light[i] = true;
+            }
+        }
+    }
+    /* The last try may have been one that was put back: write the result again. */
+    still_fails(g, dir, keep_item, keep_light);
+    printf("  reduced to %d of %d root objects and %d of %d lights: %s/reduced.txt "
+           "(the same commands with -input reduced.txt)\n",
+           items, g->nitems, lights, g->nlights, dir);
+    fflush(stdout);
 }
 
 static void rmtree(const char *dir)
@@ -1120,7 +1333,7 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: diffcheck [-bin PATH] [-n N] [-seed S] [-start I] [-sets K] [-dir DIR]\n"
-            "                 [-timeout SECONDS] [-quick] [-stop] [-keep] [-v]\n"
+            "                 [-timeout SECONDS] [-quick] [-stop] [-no_reduce] [-keep] [-v]\n"
             "  Renders N random scenes (scene I uses seed S and index I: -seed S -start I -n 1\n"
             "  repeats it) under K shading option sets each (default 3), and compares the\n"
             "  bytes of every image of the brute-force single-thread render with -grid auto,\n"
@@ -1131,6 +1344,9 @@ static void usage(FILE *f)
             "             agreeing scenes are removed, differing ones kept and named\n"
             "  -quick     smaller images, fewer bounces and variants (for the test suite)\n"
             "  -stop      stop after the first scene with a difference\n"
+            "  -no_reduce do not shrink a differing scene (by default its root objects and\n"
+            "             lights are left out one by one while the difference stays, and\n"
+            "             what is left is written beside it as reduced.txt)\n"
             "  -keep      keep every scene\n"
             "  -v         print every command\n"
             "Exit status: 0 all agreed, 1 a difference or a failed render, 2 usage error.\n");
@@ -1177,6 +1393,8 @@ int main(int argc, char **argv)
             timeout_s = (int)parse_long(o, argv[++i], 1, 100000);
         } else if (!strcmp(o, "-quick")) {
             quick = true;
+        } else if (!strcmp(o, "-no_reduce")) {
+            reduce_on = false;
         } else if (!strcmp(o, "-stop")) {
             stop = true;
         } else if (!strcmp(o, "-keep")) {
@@ -1222,6 +1440,8 @@ int main(int argc, char **argv)
         Gen g = {0};
         g.dir = dir;
         gen_scene(&g);
+        args_free(&finding.s.opts);
+        finding.kind = FIND_NONE;
         char sp[4096];
         fmt(sp, sizeof sp, "%s/scene.txt", dir);
         FILE *f = fopen(sp, "w");
@@ -1238,9 +1458,9 @@ int main(int argc, char **argv)
             ok = check_shading(dir, &s, k, quick);
             args_free(&s.opts);
         }
-        for (int k = 0; k < g.nprims; k++)
-            free(g.prims[k]);
-        free(g.scene.s);
+        if (!ok && reduce_on && finding.kind != FIND_NONE)
+            reduce(&g, dir);
+        gen_free(&g);
         if (!ok) {
             failed_scenes++;
             if (stop) {
@@ -1264,6 +1484,7 @@ int main(int argc, char **argv)
         rmdir(root);
     else if (failed_scenes)
         printf("diffcheck: the differing scenes are kept in %s\n", root);
+    args_free(&finding.s.opts);
     free(abs_bin);
     return failed_scenes ? 1 : 0;
 }
