@@ -771,7 +771,7 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
     }
 
     /* -noise_cutoff: the pixel's cone for this camera (the preview may have moved it). */
-    if (o->noise_cutoff)
+    if (o->noise_cutoff && camera) /* none for a filter picture alone */
         raytracer_set_pixel_cone(&app->rt, camera, o->width, o->height);
 
     RtStats counts;
@@ -1082,6 +1082,13 @@ static int run(App *app)
         int status = preview_keys_validate(o->gui_keys, &app->diag);
         if (status)
             return status == 2 ? EXIT_USAGE : EXIT_INPUT;
+    }
+    /* A filter picture alone depends on the filter options, -size and the zoom only:
+     * the scene (a big mesh's file and grid take seconds; a scene that is missing or
+     * broken failed the run) is not read, and render_and_write traces nothing. */
+    if (!options_needs_scene(o)) {
+        app->last_render = true;
+        return render_and_write(app, NULL, NULL);
     }
     /* The set-up's helpers start now and stay for the render (rt/par.h): each starts
      * once, while the scene file is read, instead of once per parallel step and again

@@ -87,6 +87,11 @@ void options_usage(FILE *out);
  * also a part and no part twice (the same text or the same file, rt/file.h file_same).
  * On a usage error prints one line on err and returns false; the caller exits 2. */
 bool options_check_merge(int argc, char **argv, FILE *err);
+/* Whether the run reads the scene: not for a -render_filter picture alone (no -output,
+ * -depth, -normals, -render_samples, -gui, -gui_snapshot, -stats or -cache), which is
+ * drawn from -size, the zoom and the filter options only; -input may be left out then,
+ * and a scene given is not even opened. */
+bool options_needs_scene(const Options *o);
 /* Warnings for options that do nothing here (preview options without a preview,
  * -threads far above the cores), each one line on err. */
 void options_warn(const Options *o, int cores, FILE *err);

@@ -104,7 +104,7 @@ static const char usage_text[] =
         "  -render_samples file z   also write the sample positions, zoomed z times\n"
         "                           (1..100)\n"
         "  -render_filter file z    also write the filter weights, zoomed z times\n"
-        "                           (1..100)\n"
+        "                           (1..100); alone, it needs no -input (not read)\n"
         "  -seed n                  seed of the random samplers (default 0)\n"
         "Splitting a render (README.txt, 8)\n"
         "  -region x y w h          render only the w x h rectangle at (x, y) (top-left)\n"
@@ -828,7 +828,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
     }
     if (o->help || o->version)
         return true;
-    if (!o->input)
+    if (!o->input && options_needs_scene(o))
         return usage_error(&c, "no scene given: -input scene.txt is required");
     /* Both choose the rectangle; "the later wins" would silently drop one of them. */
     if (region_given && tile_given)
@@ -942,6 +942,12 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                            "-stats, -render_samples, -render_filter, -gui, -gui_snapshot)");
     }
     return true;
+}
+
+bool options_needs_scene(const Options *o)
+{
+    return !o->filter_file || o->output || o->depth_file || o->normals_file ||
+           o->samples_file || o->gui || o->gui_snapshot || o->stats || o->cache_file;
 }
 
 void options_tile_cols(int k, int n, int width, int *x, int *w)

@@ -577,6 +577,58 @@ static void test_null_device(void)
     e2e_rmtree(f.dir);
 }
 
+/* -render_filter alone draws the filter from its options, -size and the zoom: the
+ * picture is the same whether the scene is good, missing, broken or not given at all
+ * (before, the scene was read: no -input was a usage error, exit 2, and a missing or
+ * broken scene exit 1). Anything that shows the scene still needs it: -output with no
+ * -input stays a usage error, and a broken scene with -stats an input error. */
+static void test_filter_picture_without_scene(void)
+{
+    Fixture f;
+    fixture_init(&f);
+    char ref[PATH_MAX], pic[PATH_MAX], missing[PATH_MAX], why[512];
+    e2e_join(ref, sizeof ref, f.dir, "ref.tga");
+    e2e_join(pic, sizeof pic, f.dir, "pic.tga");
+    e2e_join(missing, sizeof missing, f.dir, "nothere.txt");
+    E2eRun r;
+    const char *good[] = {"-input", f.scene, "-size", "5", "4", "-render_filter", ref, "3",
+                          "-tent_filter", "1.2", NULL};
+    expect_status(good, 0, "filter picture with a good scene", &r);
+    e2e_run_free(&r);
+    size_t ref_len = 0;
+    char *want = e2e_read_file(ref, &ref_len);
+    CHECK_MSG(want && ref_len == 18 + 16 * 13 * 3, "the picture has %zu bytes", ref_len);
+    const char *scenes[] = {NULL, missing, f.bad_scene};
+    const char *what[] = {"no -input", "a missing scene", "a broken scene"};
+    for (int i = 0; i < 3; i++) {
+        const char *args[] = {"-size", "5", "4", "-render_filter", pic, "3", "-tent_filter",
+                              "1.2", "-input", scenes[i], NULL};
+        if (!scenes[i])
+            args[8] = NULL; /* no -input at all */
+        CHECK_MSG(run(args, &r) == 0 && r.err_len == 0, "filter picture with %s: %s",
+                  what[i], e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+        size_t len = 0;
+        char *got = e2e_read_file(pic, &len);
+        CHECK_MSG(got && want && len == ref_len && memcmp(got, want, len) == 0,
+                  "filter picture with %s differs from the one with the scene", what[i]);
+        free(got);
+        unlink(pic);
+    }
+    free(want);
+    const char *with_output[] = {"-size", "5", "4", "-render_filter", pic, "3", "-output",
+                                 f.out, NULL};
+    expect_status(with_output, 2, "-render_filter and -output without -input", &r);
+    CHECK_CONTAINS(r.err, "-input scene.txt is required");
+    e2e_run_free(&r);
+    const char *with_stats[] = {"-input", f.bad_scene, "-size", "5", "4", "-render_filter",
+                                pic, "3", "-stats", NULL};
+    expect_status(with_stats, 1, "-render_filter -stats with a broken scene", &r);
+    e2e_run_free(&r);
+    CHECK(!e2e_exists(pic) && !e2e_exists(f.out));
+    e2e_rmtree(f.dir);
+}
+
 static const TestCase tests[] = {
     {"cli: -timings prints phase times on stderr", test_timings},
     {"cli: Ctrl-C exits 130 and writes nothing", test_interrupt},
@@ -591,6 +643,7 @@ static const TestCase tests[] = {
     {"cli: failed second image leaves no temp file", test_failed_second_image_leaves_no_first},
     {"cli: -stats block on stdout", test_stats_on_stdout},
     {"cli: -output /dev/null renders and discards", test_null_device},
+    {"cli: -render_filter alone needs no scene", test_filter_picture_without_scene},
     {"imgdiff: figures, exit statuses, -o", test_imgdiff_tool},
 };
 
