@@ -159,6 +159,8 @@ typedef struct ImageEncoding {
      * image_encoding_row and image_encoding_flush then do nothing, and image_write_all
      * takes the encoding only as the streamed file it is. */
     bool head_only;
+    /* Bytes written so far by image_encoding_append (src/io/codec.h: -merge's PNG). */
+    size_t appended;
 } ImageEncoding;
 /* Begins the file of img (its size and region record) for path in format (as
  * ImageOutput). False, with *e zeroed and nothing reported, when the format has no
@@ -228,6 +230,7 @@ bool image_read(Image *img, const char *path, Diag *diag);
 /* One image file format: a static const table in the format's own file (src/io/tga.c,
  * ppm.c, png.c), listed in src/io/codec_table.c. Adding a format is one new file and one
  * row there. */
+struct ImageRowLayout;
 typedef struct ImageCodec {
     const char *name;              /* "tga": lower case, what image_codec_find takes */
     const char *const *extensions; /* NULL-terminated, with the dot: ".tga" */
@@ -261,6 +264,13 @@ typedef struct ImageCodec {
      * header, at most IMAGE_HEAD_MAX) into head, the whole file's length into *out_len,
      * the pixels' order into *bgr. False when img's region record cannot be written. */
     bool (*head)(const Image *img, uint8_t *head, size_t *top, size_t *out_len, bool *bgr);
+    /* NULL, or for formats of uncompressed rows at fixed places (TGA, PPM), for -merge,
+     * which reads its parts row by row: from a file's first len bytes (at least 64 KiB
+     * of a longer file) and its length file_len, what decode checks before the pixels,
+     * with its reasons (1 when it would go on, 0 with the reason in err), and where the
+     * rows lie (*lay, src/io/codec.h); -1 when the header does not end within len. */
+    int (*rows)(const uint8_t *data, size_t len, size_t file_len, struct ImageRowLayout *lay,
+                char *err, size_t errlen);
 } ImageCodec;
 
 /* The longest header ImageCodec.head writes. */
@@ -278,12 +288,14 @@ bool image_format_supported(const char *name);
  * NUL-terminated; when size is too small, only the entries that fit whole. */
 void image_format_list(char *buf, size_t size);
 
-/* raytracer -merge: reads the n part images (each with a region record), checks that
- * they are parts of one full size, do not overlap and leave no gap, and writes the full
- * image to out (without a region record). Any problem is reported to diag naming the
- * file, and nothing is written. stop (NULL: none) is polled before each part and
- * before the write: once it is non-zero the merge returns false, says nothing and
- * writes nothing (the caller reports the signal that set it). */
+/* raytracer -merge: reads the headers of the n part images (each with a region
+ * record), checks that they are parts of one full size and render, do not overlap and
+ * leave no gap, and only then writes the full image to out (without a region record),
+ * strip by strip from the parts' rows, so that neither the image nor a part is held
+ * (src/io/merge.c). Any problem, also one found in a part's pixels during the write, is
+ * reported to diag naming the file, and nothing is written. stop (NULL: none) is polled
+ * before each part and before each strip: once it is non-zero the merge returns false,
+ * says nothing and writes nothing (the caller reports the signal that set it). */
 bool image_merge(const char *out, const char *const *parts, int n,
                  const volatile int *stop, Diag *diag);
 

@@ -36,7 +36,7 @@ static void report(Diag *diag, const char *path, const char *fmt_msg, const char
 }
 
 /* The format's name as messages write it: "PNG". */
-static void upper_name(const ImageCodec *codec, char *buf, size_t size)
+void codec_upper_name(const ImageCodec *codec, char *buf, size_t size)
 {
     size_t i = 0;
     for (; codec->name[i] && i + 1 < size; i++)
@@ -319,7 +319,7 @@ static const ImageCodec *codec_for_writing(const char *path, const char *format,
     if (!codec->encode) {
         if (diag) {
             char name[16], list[128];
-            upper_name(codec, name, sizeof name);
+            codec_upper_name(codec, name, sizeof name);
             image_format_list(list, sizeof list);
             SrcLoc loc = {shown(path), 0, 0};
             diag_error(diag, &loc, "%s output is not built in: %s, or write one of %s", name,
@@ -600,6 +600,35 @@ bool image_encoding_stream_only(ImageEncoding *e, const Image *img, const char *
     return true;
 }
 
+bool image_encoding_stream_raw(ImageEncoding *e, const Image *img, const char *path)
+{
+    memset(e, 0, sizeof *e);
+    e->fd = e->slot = -1;
+    if (!img || img->width <= 0 || img->height <= 0 || !path)
+        return false;
+    /* No header yet (top 0): the file's bytes all come through image_encoding_append. */
+    e->data = bigmem_alloc(0);
+    if (!e->data)
+        return false;
+    e->width = img->width;
+    e->height = img->height;
+    e->head_only = true;
+    if (!image_encoding_stream(e, path)) {
+        image_encoding_free(e);
+        return false;
+    }
+    return true;
+}
+
+void image_encoding_append(ImageEncoding *e, const uint8_t *p, size_t n)
+{
+    if (!e->data || e->fd < 0 || atomic_load(&e->err))
+        return;
+    if (!pwrite_all(e->fd, p, n, (off_t)e->appended))
+        encoding_failed(e, errno);
+    e->appended += n;
+}
+
 bool image_output_streams(const char *path, const char *format)
 {
     if (!path || is_stdout(path))
@@ -761,14 +790,14 @@ bool image_write(const Image *img, const char *path, Diag *diag)
  * 3 GiB of pixels as TGA or PPM and a little more as PNG (a filter byte a row, the
  * deflate blocks' headers); 64 MiB more covers those and the headers and part record.
  * A longer input (/dev/zero, a pipe that never ends) is refused instead of filling
- * the memory until the system kills the process. */
-#define IMAGE_READ_MAX_BYTES ((size_t)3 * 32768 * 32768 + ((size_t)64 << 20))
+ * the memory until the system kills the process
+ * (IMAGE_READ_MAX_BYTES, src/io/codec.h) */
 
 /* The file's first bytes, checked by their codec's header function when there is one:
  * false with the reason in why when they cannot begin an image it decodes; else *limit
  * is lowered to the longest file they can begin. */
-static bool header_ok(const uint8_t *data, size_t len, size_t *limit, char *why,
-                      size_t whylen)
+bool codec_header_ok(const uint8_t *data, size_t len, size_t *limit, char *why,
+                     size_t whylen)
 {
     const ImageCodec *codec = image_codec_for_data(data, len);
     size_t max = SIZE_MAX;
@@ -805,7 +834,7 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
         *err = EFBIG;
         return false;
     }
-    size_t cap = 1 << 16, len = 0, limit = IMAGE_READ_MAX_BYTES;
+    size_t cap = IMAGE_HEAD_PEEK, len = 0, limit = IMAGE_READ_MAX_BYTES;
     bool checked = false, too_long = false;
     uint8_t *buf = malloc(cap);
     if (!buf) {
@@ -844,7 +873,7 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
          * more can belong to the image (a shorter file is read whole and decoded). */
         if (!checked && len == cap) {
             checked = true;
-            if (!header_ok(buf, len, &limit, why, whylen)) {
+            if (!codec_header_ok(buf, len, &limit, why, whylen)) {
                 free(buf);
                 fclose(f);
                 *err = 0;
@@ -859,7 +888,7 @@ static bool read_file(const char *path, uint8_t **out, size_t *out_len, int *err
     if (too_long) {
         const ImageCodec *codec = image_codec_for_data(buf, len);
         char name[16];
-        upper_name(codec, name, sizeof name);
+        codec_upper_name(codec, name, sizeof name);
         free(buf);
         if (limit == IMAGE_READ_MAX_BYTES) {
             *err = EFBIG;
@@ -892,7 +921,7 @@ bool image_read(Image *img, const char *path, Diag *diag)
     const ImageCodec *codec = image_codec_for_data(data, len);
     if (!codec->decode) {
         char name[16];
-        upper_name(codec, name, sizeof name);
+        codec_upper_name(codec, name, sizeof name);
         snprintf(why, sizeof why, "%s input is not built in: %s", name, codec->missing);
         ok = false;
     } else {

@@ -1,13 +1,20 @@
 /* raytracer -merge: assembles part images (-region, -tile) into the full image. Every
- * part is read and checked before anything is written, so a refused merge writes
- * nothing. Each part is copied into the full image's bytes as soon as it is read and
- * checked, and freed: one part's pixels are held at a time, and the full image is a
- * byte image (rt/image.h) that the encoder only copies. */
+ * part's header and region record is read and checked before anything is written, so a
+ * refused merge writes nothing; then the output is written strip by strip from the top,
+ * each strip's rows read from the parts that hold them (src/io/rows.c), so a merge holds
+ * one strip and a row buffer per part being read, not the images: a 20000x20000 frame
+ * is merged in a few MB. A TGA or PPM output is written at its rows' places, a PNG
+ * output row by row, both into the temporary file that is renamed at the end; standard
+ * output, a pipe or a device gets the whole image at the end, as before (held as bytes
+ * meanwhile), so a failure half-way still writes nothing there. */
 #include "rt/image.h"
+#include "codec.h"
 
+#include <errno.h>
 #include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 /* The part's rectangle in the full image's top-left coordinates. */
 typedef struct Part {
@@ -47,6 +54,213 @@ static void part_describe(const Part *p, char *buf, size_t size)
     snprintf(buf, size, "region %d %d %dx%d", p->x0, p->y0, p->x1 - p->x0, p->y1 - p->y0);
 }
 
+/* Bytes of output a strip holds at most: a 20000-wide image's strip is 69 rows. */
+enum { STRIP_BYTES = 4 << 20 };
+
+/* The part order the strips read in: by first row, then column. */
+static int by_top(const void *a, const void *b)
+{
+    const Part *p = *(const Part *const *)a, *q = *(const Part *const *)b;
+    if (p->y0 != q->y0)
+        return p->y0 < q->y0 ? -1 : 1;
+    return (p->x0 > q->x0) - (p->x0 < q->x0);
+}
+
+/* The output on its way to out: how its rows are written. */
+typedef struct Sink {
+    int how;             /* SINK_FIXED, SINK_PNG, SINK_WHOLE */
+    Image img;           /* size only; SINK_WHOLE: the byte image */
+    ImageEncoding enc;   /* SINK_FIXED, SINK_PNG: the streamed temporary file */
+#ifdef RT_HAVE_PNG
+    PngOut *png;
+#endif
+} Sink;
+enum { SINK_FIXED = 1, SINK_PNG, SINK_WHOLE };
+
+#ifdef RT_HAVE_PNG
+static bool sink_append(void *ctx, const uint8_t *p, size_t n)
+{
+    ImageEncoding *e = ctx;
+    image_encoding_append(e, p, n);
+    return image_encoding_error(e) == 0;
+}
+#endif
+
+/* Chooses how out is written and begins it; false when out of memory (reported). */
+static bool sink_begin(Sink *s, const char *out, int w, int h, Diag *diag)
+{
+    memset(s, 0, sizeof *s);
+    s->img.width = w;
+    s->img.height = h;
+    if (image_encoding_stream_only(&s->enc, &s->img, out, NULL)) {
+        s->how = SINK_FIXED;
+        return true;
+    }
+#ifdef RT_HAVE_PNG
+    const ImageCodec *c = image_codec_for_path(out);
+    struct stat st;
+    if (c && strcmp(c->name, "png") == 0 && strcmp(out, IMAGE_STDOUT) != 0 &&
+        (stat(out, &st) != 0 || S_ISREG(st.st_mode)) &&
+        image_encoding_stream_raw(&s->enc, &s->img, out)) {
+        s->png = png_out_begin(&s->img, sink_append, &s->enc);
+        if (s->png) {
+            s->how = SINK_PNG;
+            return true;
+        }
+        image_encoding_free(&s->enc);
+    }
+#endif
+    /* Standard output, a pipe or a device (or a file that could not be made: the write
+     * at the end says why) */
+    if (!image_init_bytes(&s->img, w, h)) {
+        diag_error(diag, NULL, "out of memory for a %dx%d image", w, h);
+        return false;
+    }
+    s->how = SINK_WHOLE;
+    return true;
+}
+
+/* Rows top .. top + n - 1 (from the top), R G B (B G R for a TGA's fixed rows, as
+ * sink_bgr says), into the output. */
+static bool sink_rows(Sink *s, int top, int n, const uint8_t *rows)
+{
+    size_t w3 = (size_t)s->img.width * 3;
+    int h = s->img.height;
+    if (s->how == SINK_FIXED) {
+        image_encoding_flush_rows(&s->enc, h - top - n, h - 1 - top, rows);
+        return image_encoding_error(&s->enc) == 0;
+    }
+#ifdef RT_HAVE_PNG
+    if (s->how == SINK_PNG) {
+        for (int k = 0; k < n; k++)
+            if (!png_out_row(s->png, rows + (size_t)k * w3))
+                return false;
+        return true;
+    }
+#endif
+    for (int k = 0; k < n; k++) /* byte image rows count from the bottom */
+        memcpy(s->img.bytes + (size_t)(h - 1 - (top + k)) * w3, rows + (size_t)k * w3, w3);
+    return true;
+}
+
+static bool sink_bgr(const Sink *s) { return s->how == SINK_FIXED && s->enc.bgr; }
+
+/* Writes the rest and renames the file into place (or writes the whole image). */
+static bool sink_finish(Sink *s, const char *out, Diag *diag)
+{
+#ifdef RT_HAVE_PNG
+    if (s->how == SINK_PNG) {
+        bool ended = png_out_end(s->png);
+        s->png = NULL;
+        if (!ended && image_encoding_error(&s->enc) == 0) {
+            image_report_write_error(out, ENOMEM, diag);
+            return false;
+        }
+    }
+#endif
+    if (s->how == SINK_WHOLE)
+        return image_write(&s->img, out, diag);
+    ImageOutput one = {&s->img, out, NULL, &s->enc};
+    return image_write_all(&one, 1, diag);
+}
+
+static void sink_free(Sink *s)
+{
+#ifdef RT_HAVE_PNG
+    png_out_free(s->png);
+    s->png = NULL;
+#endif
+    if (s->how == SINK_FIXED || s->how == SINK_PNG)
+        image_encoding_free(&s->enc);
+    image_free(&s->img);
+}
+
+/* Writes the checked parts into out, strip by strip. */
+static bool write_strips(const char *out, Part *parts, ImageRows *rows, int n, int fw, int fh,
+                         const volatile int *stop, Diag *diag)
+{
+    size_t w3 = (size_t)fw * 3;
+    int strip = (int)(STRIP_BYTES / w3);
+    if (strip < 1)
+        strip = 1;
+    if (strip > fh)
+        strip = fh;
+    int widest = 1;
+    for (int i = 0; i < n; i++)
+        if (parts[i].x1 - parts[i].x0 > widest)
+            widest = parts[i].x1 - parts[i].x0;
+    Part **order = malloc((size_t)n * sizeof *order);
+    uint8_t *buf = malloc(w3 * (size_t)strip);
+    uint8_t *row = malloc((size_t)widest * 3);
+    Sink sink;
+    bool ok = order && buf && row;
+    if (!ok)
+        diag_error(diag, NULL, "out of memory");
+    else
+        ok = sink_begin(&sink, out, fw, fh, diag);
+    if (!ok) {
+        free(order);
+        free(buf);
+        free(row);
+        return false;
+    }
+    for (int i = 0; i < n; i++)
+        order[i] = &parts[i];
+    qsort(order, (size_t)n, sizeof *order, by_top);
+    bool bgr = sink_bgr(&sink);
+    int first = 0; /* parts before it in order are all written */
+    for (int top = 0; top < fh && ok; top += strip) {
+        /* A big merge takes a while: a stop is obeyed between strips. */
+        if (stop && *stop) {
+            ok = false;
+            break;
+        }
+        int end = top + strip < fh ? top + strip : fh;
+        while (first < n && order[first]->y1 <= top)
+            first++;
+        for (int k = first; k < n && ok && order[k]->y0 < end; k++) {
+            Part *p = order[k];
+            if (p->y1 <= top)
+                continue;
+            ImageRows *r = &rows[p - parts];
+            int pw = p->x1 - p->x0;
+            int from = p->y0 > top ? p->y0 : top, to = p->y1 < end ? p->y1 : end;
+            for (int y = from; y < to && ok; y++) {
+                ok = image_rows_read(r, y - p->y0, row, diag);
+                uint8_t *dst = buf + (size_t)(y - top) * w3 + (size_t)p->x0 * 3;
+                if (ok && bgr) {
+                    for (int x = 0; x < pw; x++) {
+                        dst[3 * x] = row[3 * x + 2];
+                        dst[3 * x + 1] = row[3 * x + 1];
+                        dst[3 * x + 2] = row[3 * x];
+                    }
+                } else if (ok) {
+                    memcpy(dst, row, (size_t)pw * 3);
+                }
+            }
+            /* Its last row is read: its file is closed (a PNG's end checked). */
+            if (ok && p->y1 <= end)
+                ok = image_rows_end(r, diag);
+        }
+        if (ok && !sink_rows(&sink, top, end - top, buf)) {
+            ok = false;
+            if (sink.how == SINK_FIXED || sink.how == SINK_PNG) {
+                int e = image_encoding_error(&sink.enc);
+                image_report_write_error(out, e ? e : ENOMEM, diag);
+            }
+        }
+    }
+    if (ok && stop && *stop)
+        ok = false;
+    if (ok)
+        ok = sink_finish(&sink, out, diag);
+    sink_free(&sink);
+    free(order);
+    free(buf);
+    free(row);
+    return ok;
+}
+
 bool image_merge(const char *out, const char *const *paths, int n,
                  const volatile int *stop, Diag *diag)
 {
@@ -59,18 +273,21 @@ bool image_merge(const char *out, const char *const *paths, int n,
     if (!image_check_output(out, NULL, diag))
         return false;
     Part *parts = calloc((size_t)n, sizeof *parts);
-    if (!parts) {
+    ImageRows *rows = calloc((size_t)n, sizeof *rows);
+    if (!parts || !rows) {
+        free(parts);
+        free(rows);
         diag_error(diag, NULL, "out of memory");
         return false;
     }
+    for (int i = 0; i < n; i++)
+        rows[i].fd = -1;
     bool ok = true;
     int fw = 0, fh = 0;
     bool has_id = false;
     uint64_t id = 0;
     long long area = 0;
-    Image full;
-    memset(&full, 0, sizeof full);
-    /* A part of a big image takes a while to read (a 4000x4000 PNG about 0.3 s): a stop
+    /* A part's header is quick to check, but a part from a pipe is read whole: a stop
      * is obeyed between parts, not only after all of them. */
     for (int i = 0; i < n && ok; i++) {
         if (stop && *stop) {
@@ -80,32 +297,27 @@ bool image_merge(const char *out, const char *const *paths, int n,
         Part *p = &parts[i];
         p->path = paths[i];
         SrcLoc loc = {p->path, 0, 0};
-        Image img;
-        if (!image_read(&img, p->path, diag)) {
+        ImageRows *img = &rows[i];
+        if (!image_rows_open(img, p->path, diag)) {
             ok = false;
             break;
         }
-        if (!img.has_region) {
+        if (!img->has_region) {
             diag_error(diag, &loc, "not a part image: it has no region record (write parts "
                        "with -region or -tile)");
-            image_free(&img);
             ok = false;
             break;
         }
-        const ImageRegion *r = &img.region;
+        const ImageRegion *r = &img->region;
         p->x0 = r->x;
         p->y0 = r->y;
-        p->x1 = r->x + img.width;
-        p->y1 = r->y + img.height;
+        p->x1 = r->x + img->width;
+        p->y1 = r->y + img->height;
         if (i == 0) {
             fw = r->full_width;
             fh = r->full_height;
             has_id = r->has_id;
             id = r->id;
-            if (!image_init_bytes(&full, fw, fh)) {
-                diag_error(diag, NULL, "out of memory for a %dx%d image", fw, fh);
-                ok = false;
-            }
         } else if (r->full_width != fw || r->full_height != fh) {
             diag_error(diag, &loc, "part of a %dx%d image, but %s is part of a %dx%d image",
                        r->full_width, r->full_height, parts[0].path, fw, fh);
@@ -138,16 +350,6 @@ bool image_merge(const char *out, const char *const *paths, int n,
                 ok = false;
             }
         }
-        /* Inside the full image (image_read checked the record) and disjoint from the
-         * parts before it: its pixels go to their place now. Decoded pixels are
-         * byte / 255, which quantise back to the same byte. */
-        for (int y = 0; ok && y < img.height; y++) {
-            /* Image rows count from the bottom, regions from the top. */
-            int fy = fh - 1 - (p->y0 + (img.height - 1 - y));
-            for (int x = 0; x < img.width; x++)
-                image_put(&full, p->x0 + x, fy, image_get(&img, x, y));
-        }
-        image_free(&img);
         area += (long long)(p->x1 - p->x0) * (p->y1 - p->y0);
     }
     /* Inside the full image and pairwise disjoint: they cover it exactly when the areas
@@ -166,9 +368,13 @@ bool image_merge(const char *out, const char *const *paths, int n,
     }
     if (ok && stop && *stop)
         ok = false;
+    /* Inside the full image (the read checked the record), disjoint and covering it:
+     * every output pixel comes from exactly one part. */
     if (ok)
-        ok = image_write(&full, out, diag);
-    image_free(&full);
+        ok = write_strips(out, parts, rows, n, fw, fh, stop, diag);
+    for (int i = 0; i < n; i++)
+        image_rows_free(&rows[i]);
+    free(rows);
     free(parts);
     return ok;
 }

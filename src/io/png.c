@@ -10,6 +10,9 @@
 
 #ifdef RT_HAVE_PNG
 
+#include "codec.h"
+#include <unistd.h>
+
 #include <png.h>
 #include <setjmp.h>
 
@@ -17,31 +20,10 @@
 typedef struct PngBuf {
     uint8_t *data;
     size_t len, cap;
-    bool oom;
 } PngBuf;
 
-static void buf_write(png_structp png, png_bytep src, png_size_t n)
-{
-    PngBuf *b = png_get_io_ptr(png);
-    if (b->oom)
-        return;
-    if (b->len + n > b->cap) {
-        size_t cap = b->cap ? b->cap : 4096;
-        while (cap < b->len + n)
-            cap *= 2;
-        uint8_t *nd = bigmem_resize(b->data, cap);
-        if (!nd) {
-            b->oom = true;
-            png_error(png, "out of memory");
-        }
-        b->data = nd;
-        b->cap = cap;
-    }
-    memcpy(b->data + b->len, src, n);
-    b->len += n;
-}
-
 static void buf_flush(png_structp png) { (void)png; }
+
 
 /* libpng reports through longjmp; its default handler also prints to stderr, which we
  * replace with silence because the caller reports the failure itself. */
@@ -57,52 +39,132 @@ static void quiet_warning(png_structp png, png_const_charp msg)
     (void)msg;
 }
 
-static bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
+/* A PNG file being written row by row (codec.h). */
+struct PngOut {
+    png_structp png;
+    png_infop info;
+    bool (*write)(void *ctx, const uint8_t *p, size_t n);
+    void *ctx;
+};
+
+static void out_write(png_structp png, png_bytep src, png_size_t n)
 {
-    int w = img->width, h = img->height;
-    PngBuf buf = {NULL, 0, 0, false};
-    /* Allocated before setjmp so a longjmp cannot lose track of it. */
-    uint8_t *row = malloc((size_t)w * 3);
-    if (!row)
+    PngOut *o = png_get_io_ptr(png);
+    if (!o->write(o->ctx, src, n))
+        png_error(png, "write");
+}
+
+void png_out_free(PngOut *o)
+{
+    if (!o)
+        return;
+    png_destroy_write_struct(&o->png, &o->info);
+    free(o);
+}
+
+/* The header chunks of img (its region record as a tEXt chunk); false on failure. */
+static bool out_start(PngOut *o, const Image *img)
+{
+    if (setjmp(png_jmpbuf(o->png)))
         return false;
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, quiet_error,
-                                              quiet_warning);
-    png_infop info = png ? png_create_info_struct(png) : NULL;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, &info);
-        free(row);
-        return false;
-    }
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        free(row);
-        bigmem_free(buf.data);
-        return false;
-    }
-    png_set_write_fn(png, &buf, buf_write, buf_flush);
-    png_set_IHDR(png, info, (png_uint_32)w, (png_uint_32)h, 8, PNG_COLOR_TYPE_RGB,
-                 PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    png_set_write_fn(o->png, o, out_write, buf_flush);
+    png_set_IHDR(o->png, o->info, (png_uint_32)img->width, (png_uint_32)img->height, 8,
+                 PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
+                 PNG_FILTER_TYPE_DEFAULT);
     /* A part image (-region) names its place in a tEXt chunk before the pixels. */
     char rec[96];
     if (img->has_region) {
         if (!image_region_format(img, rec, sizeof rec))
-            png_error(png, "region record");
+            png_error(o->png, "region record");
         png_text text;
         memset(&text, 0, sizeof text);
         text.compression = PNG_TEXT_COMPRESSION_NONE;
         text.key = (png_charp)IMAGE_REGION_TAG;
         text.text = rec;
         text.text_length = strlen(rec);
-        png_set_text(png, info, &text, 1);
+        png_set_text(o->png, o->info, &text, 1);
     }
-    png_write_info(png, info);
-    for (int y = h - 1; y >= 0; y--) { /* PNG stores the top row first */
+    png_write_info(o->png, o->info);
+    return true;
+}
+
+PngOut *png_out_begin(const Image *img, bool (*write)(void *ctx, const uint8_t *p, size_t n),
+                      void *ctx)
+{
+    PngOut *o = calloc(1, sizeof *o);
+    if (!o)
+        return NULL;
+    o->write = write;
+    o->ctx = ctx;
+    o->png = png_create_write_struct(PNG_LIBPNG_VER_STRING, NULL, quiet_error, quiet_warning);
+    o->info = o->png ? png_create_info_struct(o->png) : NULL;
+    if (!o->png || !o->info || !out_start(o, img)) {
+        png_out_free(o);
+        return NULL;
+    }
+    return o;
+}
+
+bool png_out_row(PngOut *o, const uint8_t *rgb)
+{
+    if (setjmp(png_jmpbuf(o->png)))
+        return false;
+    png_write_row(o->png, rgb);
+    return true;
+}
+
+static bool out_end(PngOut *o)
+{
+    if (setjmp(png_jmpbuf(o->png)))
+        return false;
+    png_write_end(o->png, o->info);
+    return true;
+}
+
+bool png_out_end(PngOut *o)
+{
+    bool ok = out_end(o);
+    png_out_free(o);
+    return ok;
+}
+
+/* png_encode's sink: the growable buffer. */
+static bool buf_put(void *ctx, const uint8_t *src, size_t n)
+{
+    PngBuf *b = ctx;
+    if (b->len + n > b->cap) {
+        size_t cap = b->cap ? b->cap : 4096;
+        while (cap < b->len + n)
+            cap *= 2;
+        uint8_t *nd = bigmem_resize(b->data, cap);
+        if (!nd)
+            return false;
+        b->data = nd;
+        b->cap = cap;
+    }
+    memcpy(b->data + b->len, src, n);
+    b->len += n;
+    return true;
+}
+
+static bool png_encode(const Image *img, uint8_t **out, size_t *out_len)
+{
+    int w = img->width, h = img->height;
+    PngBuf buf = {NULL, 0, 0};
+    uint8_t *row = malloc((size_t)w * 3);
+    PngOut *o = row ? png_out_begin(img, buf_put, &buf) : NULL;
+    bool ok = o != NULL;
+    for (int y = h - 1; y >= 0 && ok; y--) { /* PNG stores the top row first */
         image_row_bytes(img, y, false, row);
-        png_write_row(png, row);
+        ok = png_out_row(o, row);
     }
-    png_write_end(png, info);
-    png_destroy_write_struct(&png, &info);
+    if (o)
+        ok = png_out_end(o) && ok;
     free(row);
+    if (!ok) {
+        bigmem_free(buf.data);
+        return false;
+    }
     *out = buf.data;
     *out_len = buf.len;
     return true;
@@ -230,6 +292,142 @@ static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, s
     return true;
 }
 
+/* ---- row by row (-merge's parts, codec.h) ----------------------------------------- */
+
+struct PngRows {
+    png_structp png;
+    png_infop info;
+    FILE *f;
+};
+
+static void file_read(png_structp png, png_bytep dst, png_size_t n)
+{
+    PngRows *r = png_get_io_ptr(png);
+    if (fread(dst, 1, n, r->f) != n)
+        png_error(png, "truncated PNG file");
+}
+
+/* chunks_fit on a file: the chunk headers read at their places, the data skipped. */
+static bool chunks_fit_fd(int fd, size_t len)
+{
+    size_t pos = 8;
+    while (pos + 8 <= len) {
+        uint8_t h[8];
+        if (pread(fd, h, 8, (off_t)pos) != 8)
+            return true; /* libpng meets the same end and reports it */
+        uint32_t n = (uint32_t)h[0] << 24 | (uint32_t)h[1] << 16 | (uint32_t)h[2] << 8 | h[3];
+        if ((size_t)n > len - pos - 8)
+            return false;
+        if (memcmp(h + 4, "IEND", 4) == 0)
+            return true;
+        pos += 8 + (size_t)n + 4;
+    }
+    return true;
+}
+
+void png_rows_free(PngRows *r)
+{
+    if (!r)
+        return;
+    png_destroy_read_struct(&r->png, &r->info, NULL);
+    if (r->f)
+        fclose(r->f);
+    free(r);
+}
+
+PngRows *png_rows_open(int fd, size_t len, ImageRowLayout *lay, bool *interlaced, char *err,
+                       size_t errlen)
+{
+    memset(lay, 0, sizeof *lay);
+    *interlaced = false;
+    if (!chunks_fit_fd(fd, len)) {
+        codec_fail(err, errlen, "corrupt or truncated PNG file (a chunk is longer than the "
+                   "file)");
+        return NULL;
+    }
+    PngRows *r = calloc(1, sizeof *r);
+    int dfd = r ? dup(fd) : -1;
+    if (r && dfd >= 0) {
+        r->f = fdopen(dfd, "rb");
+        if (!r->f)
+            close(dfd);
+    }
+    if (r && r->f)
+        r->png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, quiet_error,
+                                        quiet_warning);
+    if (r && r->png)
+        r->info = png_create_info_struct(r->png);
+    if (!r || !r->f || !r->png || !r->info) {
+        png_rows_free(r);
+        codec_fail(err, errlen, "out of memory");
+        return NULL;
+    }
+    if (setjmp(png_jmpbuf(r->png))) {
+        png_rows_free(r);
+        codec_fail(err, errlen, "corrupt or truncated PNG file");
+        return NULL;
+    }
+    png_set_read_fn(r->png, r, file_read);
+    png_set_user_limits(r->png, 65535, 65535);
+    png_read_info(r->png, r->info);
+    png_uint_32 w = png_get_image_width(r->png, r->info);
+    png_uint_32 h = png_get_image_height(r->png, r->info);
+    png_textp texts = NULL;
+    int ntexts = 0;
+    png_get_text(r->png, r->info, &texts, &ntexts);
+    for (int i = 0; i < ntexts; i++) {
+        if (strcmp(texts[i].key, IMAGE_REGION_TAG) != 0)
+            continue;
+        char why[160];
+        if (!image_region_parse(texts[i].text, texts[i].text_length, (int)w, (int)h,
+                                &lay->region, why, sizeof why)) {
+            png_rows_free(r);
+            codec_fail(err, errlen, "%s", why);
+            return NULL;
+        }
+        lay->has_region = true;
+    }
+    lay->width = (int)w;
+    lay->height = (int)h;
+    /* The passes of an interlaced file each cover the whole image. */
+    if (png_get_interlace_type(r->png, r->info) != PNG_INTERLACE_NONE) {
+        *interlaced = true;
+        return r;
+    }
+    /* As decode: every colour type and depth to 8-bit RGB. */
+    png_set_expand(r->png);
+    png_set_strip_16(r->png);
+    png_set_strip_alpha(r->png);
+    png_set_gray_to_rgb(r->png);
+    png_read_update_info(r->png, r->info);
+    if (png_get_rowbytes(r->png, r->info) != (size_t)w * 3)
+        png_error(r->png, "unexpected row layout");
+    return r;
+}
+
+bool png_rows_next(PngRows *r, uint8_t *rgb, char *err, size_t errlen)
+{
+    if (setjmp(png_jmpbuf(r->png)))
+        return codec_fail(err, errlen, "corrupt or truncated PNG file");
+    png_read_row(r->png, rgb, NULL);
+    return true;
+}
+
+static bool rows_end(PngRows *r, char *err, size_t errlen)
+{
+    if (setjmp(png_jmpbuf(r->png)))
+        return codec_fail(err, errlen, "corrupt or truncated PNG file");
+    png_read_end(r->png, NULL);
+    return true;
+}
+
+bool png_rows_finish(PngRows *r, char *err, size_t errlen)
+{
+    bool ok = rows_end(r, err, errlen);
+    png_rows_free(r);
+    return ok;
+}
+
 #endif
 
 /* The signature is known without libpng, so a PNG file is recognised (and refused with
@@ -244,7 +442,7 @@ static const char *const png_extensions[] = {".png", NULL};
 
 #ifdef RT_HAVE_PNG
 const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, NULL, png_decode,
-                              NULL, NULL, NULL};
+                              NULL, NULL, NULL, NULL};
 #else
 /* Why PNG is missing, for its messages and --version. A PNG=0 build (mk/png.mk defines
  * RT_PNG_LEFT_OUT) left it out on purpose: telling its user to install libpng-dev, which
@@ -255,5 +453,5 @@ const ImageCodec png_codec = {"png", png_extensions, png_sniff, png_encode, NULL
 #define PNG_MISSING "install libpng-dev and rebuild (make PNG=1)"
 #endif
 const ImageCodec png_codec = {"png", png_extensions, png_sniff, NULL, NULL, NULL, PNG_MISSING,
-                              NULL, NULL};
+                              NULL, NULL, NULL};
 #endif

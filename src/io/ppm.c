@@ -82,11 +82,16 @@ static bool read_header_int(const uint8_t *d, size_t len, size_t *pos, long *val
     return true;
 }
 
-static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+/* Everything decode checks before the pixels, from the file's first len bytes of
+ * file_len: where the rows lie; -1 when the header does not end within those bytes
+ * (comments may make it long). */
+static int ppm_rows(const uint8_t *d, size_t len, size_t file_len, ImageRowLayout *lay,
+                    char *err, size_t errlen)
 {
-    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
+    memset(lay, 0, sizeof *lay);
     if (len < 2 || d[0] != 'P' || d[1] != '6')
         return codec_fail(err, errlen, "not a binary PPM file (expected \"P6\")");
+    bool whole = len == file_len;
     /* Our region record, if any, is the comment line right after the magic. */
     static const char tag[] = "\n# " IMAGE_REGION_TAG " ";
     const char *rec = NULL;
@@ -95,16 +100,18 @@ static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size
         rec = (const char *)d + 2 + sizeof tag - 1;
         const char *nl = memchr(rec, '\n', len - 2 - (sizeof tag - 1));
         if (!nl)
-            return codec_fail(err, errlen, "malformed PPM header");
+            return whole ? codec_fail(err, errlen, "malformed PPM header") : -1;
         rec_len = (size_t)(nl - rec);
     }
     size_t pos = 2;
     long w, h, maxval;
     if (!read_header_int(d, len, &pos, &w) || !read_header_int(d, len, &pos, &h) ||
         !read_header_int(d, len, &pos, &maxval))
-        return codec_fail(err, errlen, "malformed PPM header");
+        return whole ? codec_fail(err, errlen, "malformed PPM header") : -1;
     /* Exactly one whitespace character separates the header from the samples. */
-    if (pos >= len || !is_space(d[pos]))
+    if (pos >= len)
+        return whole ? codec_fail(err, errlen, "malformed PPM header") : -1;
+    if (!is_space(d[pos]))
         return codec_fail(err, errlen, "malformed PPM header");
     pos++;
     if (w <= 0 || h <= 0 || w > 65535 || h > 65535)
@@ -113,18 +120,34 @@ static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size
         return codec_fail(err, errlen, "unsupported PPM maximum value %ld (only 8-bit, 1..255)",
                     maxval);
     size_t need = (size_t)w * (size_t)h * 3;
-    if (len - pos < need)
+    if (file_len - pos < need)
         return codec_fail(err, errlen, "truncated PPM file: %ldx%ld needs %zu pixel bytes, "
-                    "file has %zu", w, h, need, len - pos);
-    ImageRegion region;
-    if (rec && !image_region_parse(rec, rec_len, (int)w, (int)h, &region, err, errlen))
+                    "file has %zu", w, h, need, file_len - pos);
+    if (rec && !image_region_parse(rec, rec_len, (int)w, (int)h, &lay->region, err, errlen))
+        return 0;
+    lay->has_region = rec != NULL;
+    lay->width = (int)w;
+    lay->height = (int)h;
+    lay->offset = pos;
+    lay->pixel_bytes = 3;
+    lay->top_down = true;
+    lay->maxval = (int)maxval;
+    return 1;
+}
+
+static bool ppm_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+{
+    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
+    ImageRowLayout lay;
+    if (ppm_rows(d, len, len, &lay, err, errlen) != 1)
         return false;
+    long w = lay.width, h = lay.height, maxval = lay.maxval;
     if (!image_init(img, (int)w, (int)h))
         return codec_fail(err, errlen, "out of memory for a %ldx%ld image", w, h);
-    img->has_region = rec != NULL;
-    if (rec)
-        img->region = region;
-    const uint8_t *p = d + pos;
+    img->has_region = lay.has_region;
+    if (lay.has_region)
+        img->region = lay.region;
+    const uint8_t *p = d + lay.offset;
     for (long r = 0; r < h; r++) {
         int y = (int)(h - 1 - r);
         for (int x = 0; x < (int)w; x++) {
@@ -147,4 +170,4 @@ static bool ppm_sniff(const uint8_t *d, size_t len)
 static const char *const ppm_extensions[] = {".ppm", NULL};
 
 const ImageCodec ppm_codec = {"ppm", ppm_extensions, ppm_sniff, ppm_encode, ppm_layout, ppm_decode,
-                              NULL, NULL, ppm_head};
+                              NULL, NULL, ppm_head, ppm_rows};

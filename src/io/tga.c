@@ -127,43 +127,61 @@ static bool tga_header(const uint8_t *d, size_t len, size_t *max_len, char *err,
     return true;
 }
 
-static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+/* Everything decode checks before the pixels, from the file's first len bytes (all of
+ * them, or at least the header and the ID field) of file_len: where the rows lie. */
+static int tga_rows(const uint8_t *d, size_t len, size_t file_len, ImageRowLayout *lay,
+                    char *err, size_t errlen)
 {
-    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
+    memset(lay, 0, sizeof *lay);
     size_t need = 0;
     if (!tga_check_header(d, len, &need, err, errlen))
-        return false;
+        return 0;
     unsigned id_len = d[0];
     int w = d[12] | (d[13] << 8), h = d[14] | (d[15] << 8);
     unsigned bpp = d[16], desc = d[17];
-
-    size_t bytes = bpp / 8;
-    if (len < need)
+    if (file_len < need)
         return codec_fail(err, errlen, "truncated TGA file: %dx%d needs %zu bytes, file has %zu",
-                    w, h, need, len);
-    ImageRegion region;
-    bool has_region = false;
+                    w, h, need, file_len);
+    if (len < TGA_HEADER + (size_t)id_len)
+        return -1; /* not reached: image_rows_open gives at least 64 KiB */
     const char *id = (const char *)d + TGA_HEADER;
     size_t tag = sizeof IMAGE_REGION_TAG - 1;
     if (id_len > tag && memcmp(id, IMAGE_REGION_TAG " ", tag + 1) == 0) {
-        if (!image_region_parse(id + tag + 1, id_len - tag - 1, w, h, &region, err, errlen))
-            return false;
-        has_region = true;
+        if (!image_region_parse(id + tag + 1, id_len - tag - 1, w, h, &lay->region, err, errlen))
+            return 0;
+        lay->has_region = true;
     }
+    lay->width = w;
+    lay->height = h;
+    lay->offset = TGA_HEADER + id_len;
+    lay->pixel_bytes = (int)(bpp / 8);
+    /* Descriptor bit 5: first stored row is the top one; bit 4: pixels run right to left. */
+    lay->top_down = (desc & 0x20) != 0;
+    lay->right_to_left = (desc & 0x10) != 0;
+    lay->bgr = true;
+    lay->maxval = 255;
+    return 1;
+}
+
+static bool tga_decode(const uint8_t *d, size_t len, Image *img, char *err, size_t errlen)
+{
+    memset(img, 0, sizeof *img);   /* every field, so image_free is safe on failure */
+    ImageRowLayout lay;
+    if (tga_rows(d, len, len, &lay, err, errlen) != 1)
+        return false;
+    int w = lay.width, h = lay.height;
     if (!image_init(img, w, h))
         return codec_fail(err, errlen, "out of memory for a %dx%d image", w, h);
-    img->has_region = has_region;
-    if (has_region)
-        img->region = region;
+    img->has_region = lay.has_region;
+    if (lay.has_region)
+        img->region = lay.region;
 
-    /* Descriptor bit 5: first stored row is the top one; bit 4: pixels run right to left. */
-    bool top_down = (desc & 0x20) != 0;
-    bool right_to_left = (desc & 0x10) != 0;
-    const uint8_t *p = d + TGA_HEADER + id_len;
+    size_t bytes = (size_t)lay.pixel_bytes;
+    const uint8_t *p = d + lay.offset;
     for (int r = 0; r < h; r++) {
-        int y = top_down ? h - 1 - r : r;
+        int y = lay.top_down ? h - 1 - r : r;
         for (int i = 0; i < w; i++) {
-            int x = right_to_left ? w - 1 - i : i;
+            int x = lay.right_to_left ? w - 1 - i : i;
             Vec3 c = v3(p[2] / 255.0f, p[1] / 255.0f, p[0] / 255.0f);
             image_set(img, x, y, c);
             p += bytes;
@@ -176,4 +194,4 @@ static const char *const tga_extensions[] = {".tga", NULL};
 
 /* No signature: TGA is what image_read assumes when no other format's matched. */
 const ImageCodec tga_codec = {"tga", tga_extensions, NULL, tga_encode, tga_layout, tga_decode,
-                              NULL, tga_header, tga_head};
+                              NULL, tga_header, tga_head, tga_rows};

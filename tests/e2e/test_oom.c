@@ -385,6 +385,71 @@ static void test_plain_stream_address_limit(void) { plain_stream_address_limit(f
 /* The same with -depth and -normals: on 0816af8 exit 1 under the limit (fails). */
 static void test_plain_stream_aux_address_limit(void) { plain_stream_address_limit(true); }
 
+/* Whether the files at a and b hold the same bytes (both readable). */
+static bool same_bytes(const char *a, const char *b)
+{
+    size_t la = 0, lb = 0;
+    char *da = e2e_read_file(a, &la), *db = e2e_read_file(b, &lb);
+    bool same = da && db && la == lb && memcmp(da, db, la) == 0;
+    free(da);
+    free(db);
+    return same;
+}
+
+/* -merge reads its parts row by row and writes the output strip by strip (src/io/merge.c,
+ * rows.c), so its memory does not grow with the image: under ulimit -v 20000 (about
+ * 19.5 MB of address space) four 1000 x 1000 tiles of a 2000 x 2000 image, one each as
+ * TGA, PNG and PPM, merge into TGA and PNG files that are the whole render's bytes. It
+ * needs about 10 MB; before, the merge held the whole output (12 MB) and each part as
+ * floats (12 MB) and stopped with "cannot read image: out of memory for a 1000x1000
+ * image" (exit 1) below about 35 MB. Under the sanitizers, whose shadow memory no such
+ * limit admits, the merges run without the limit (the bytes are still checked). */
+static void test_merge_address_limit(void)
+{
+    char dir[PATH_MAX], scene[PATH_MAX], why[512];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mergelimit") != NULL);
+    e2e_join(scene, sizeof scene, dir, "spheres.txt");
+    /* Two spheres under a slanted light: every row differs, so a row out of place shows. */
+    CHECK(e2e_write_file(scene,
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Lights { numLights 1 DirectionalLight { direction -0.3 -0.5 -1 color 1 1 1 } }\n"
+        "Materials { numMaterials 2 PhongMaterial { diffuseColor 1 0 0 }\n"
+        "  PhongMaterial { diffuseColor 0 1 0 } }\n"
+        "Background { color 0 0 0.5 ambientLight 0.1 0.1 0.1 }\n"
+        "Group { numObjects 2 MaterialIndex 0 Sphere { center -1 0 0 radius 2 }\n"
+        "  MaterialIndex 1 Sphere { center 1.5 1 0 radius 1.5 } }\n"));
+    static const char *const names[] = {"whole.tga", "whole.png", "t0.tga", "t1.png",
+                                        "t2.ppm", "t3.tga"};
+    char paths[6][PATH_MAX];
+    for (int i = 0; i < 6; i++) {
+        e2e_join(paths[i], sizeof paths[i], dir, names[i]);
+        char k[4];
+        snprintf(k, sizeof k, "%d", i - 2);
+        const char *args[] = {"-input", scene, "-size", "2000", "2000", "-output", paths[i],
+                              i >= 2 ? "-tile" : NULL, k, "2x2", NULL};
+        E2eRun r;
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        CHECK_MSG(r.status == 0, "render of %s: %s", names[i], e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+    }
+    for (int i = 0; i < 2; i++) {
+        char out[PATH_MAX];
+        e2e_join(out, sizeof out, dir, i == 0 ? "merged.tga" : "merged.png");
+        char *limited[] = {"/bin/sh", "-c", "ulimit -v 20000 && exec \"$0\" \"$@\"",
+                           (char *)harness_bin(), "-merge", out, paths[5], paths[4],
+                           paths[3], paths[2], NULL};
+        E2eRun r;
+        CHECK(e2e_run(E2E_SANITIZED ? limited + 3 : limited, &r));
+        CHECK_MSG(r.status == 0, "-merge %s under ulimit -v 20000: %s", out,
+                  e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+        CHECK_MSG(same_bytes(out, paths[i]), "%s differs from the whole render %s", out,
+                  paths[i]);
+    }
+    CHECK_INT(e2e_count_entries(dir), 9); /* the scene, 6 renders, 2 merges: no leftovers */
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"oom_render", test_oom_render},
     {"oom_part", test_oom_part},
@@ -393,5 +458,6 @@ static const TestCase tests[] = {
     {"oom_streamed_film", test_oom_streamed_film},
     {"plain_stream_address_limit", test_plain_stream_address_limit},
     {"plain_stream_aux_address_limit", test_plain_stream_aux_address_limit},
+    {"merge_address_limit", test_merge_address_limit},
 };
 RT_TEST_MAIN(tests)
