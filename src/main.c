@@ -18,6 +18,7 @@
 #include "rt/bigmem.h"
 #include "rt/twolevel.h"
 #include "rt/image.h"
+#include "rt/cpu.h"
 #include "rt/options.h"
 #include "rt/par.h"
 #include "rt/preview.h"
@@ -150,7 +151,7 @@ static SetupKey key_text(SetupKey k, const char *s)
  * version, the image's kind and every option that can change one of its pixels. Left
  * out, because no pixel depends on them: -threads, -grid and -accel (byte-identical
  * images; but they shape -visualize_grid's picture, so then they count), -cache,
- * -no_packets, -stats, -timings, -progress, -quiet, the output's name and format, the
+ * -no_packets, -isa, -stats, -timings, -progress, -quiet, the output's name and format, the
  * preview's options, and the region itself (the record says where the part sits).
  * Options are taken as the renderer uses them, so that equal renders spelt
  * differently agree: -seed only for the samplers that draw random numbers, the count
@@ -1334,6 +1335,8 @@ int main(int argc, char **argv)
         fclose(quiet);
     if (!parsed)
         return dist_finish(EXIT_USAGE);
+    /* Before anything chooses a kernel (each module chooses at its first use). */
+    cpu_isa_cap = app.opt.isa;
     if (app.opt.help || app.opt.version) {
         int status = 0;
         if (dist_is_root()) {

@@ -6,6 +6,7 @@
 #include <stdbool.h>
 #include <stdio.h>
 
+#include "rt/cpu.h"
 #include "rt/progress.h"
 
 typedef struct Options {
@@ -30,6 +31,8 @@ typedef struct Options {
     bool visualize_grid, visualize_grid_count;
     bool no_marking;             /* -no_marking: grid without mailboxing (analysis) */
     bool no_packets;             /* -no_packets: every ray marched alone (comparisons) */
+    CpuIsa isa;                  /* -isa NAME: the widest instruction set used (rt/cpu.h;
+                                    default the widest, which the CPU caps) */
     const char *accel;           /* -accel NAME (a registered one, rt/accel.h); NULL:
                                     "grid" when -grid is given, else "none" */
     bool gui, gouraud;

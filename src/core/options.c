@@ -2,6 +2,7 @@
  * followed by its fixed number of arguments; the later of two occurrences wins, like the
  * course loop. Unlike the course (atoi/atof, assert), every value is validated. */
 #include "rt/options.h"
+#include "rt/cpu.h"
 #include "rt/diag.h"
 #include "rt/filter.h"
 #include "rt/sampler.h"
@@ -41,6 +42,7 @@ void options_defaults(Options *o)
     o->depth_max = 1.0f;
     o->tess_theta = 20;
     o->tess_phi = 10;
+    o->isa = CPU_ISA_AVX512; /* the widest; the CPU caps it */
 }
 
 /* The one list of options: -h prints it, and "did you mean", the extra-value message,
@@ -83,6 +85,8 @@ static const char usage_text[] =
         "  -visualize_grid_count    same as -visualize_grid (cells coloured by count)\n"
         "  -no_marking              grid: test an object again in every cell (analysis)\n"
         "  -no_packets              grid: march every ray on its own, no ray packets\n"
+        "  -isa NAME                widest instruction set used: base, avx2 or avx512\n"
+        "                           (default: the CPU's widest; the same images)\n"
         "  -accel NAME              accelerator by name (-accel grid: -grid auto):\n"
         "  -threads n               render threads (default: all cores)\n"
         "Antialiasing (one centred sample and a box filter of radius 0.5 by default)\n"
@@ -702,6 +706,18 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (!accel_find(o->accel))
                 return usage_error(&c, "option -accel: unknown accelerator '%s' (known: %s)",
                                    o->accel, accel_names());
+        } else if (!strcmp(a, "-isa")) {
+            const char *name;
+            if (!take(&c, a, &name))
+                return false;
+            if (!cpu_isa_find(name, &o->isa))
+                return usage_error(&c,
+                                   "option -isa: unknown instruction set '%s' (known: base, "
+                                   "avx2, avx512)",
+                                   name);
+            if (o->isa > cpu_isa_best())
+                return usage_error(&c, "option -isa: this CPU has no %s (its widest: %s)", name,
+                                   cpu_isa_name(cpu_isa_best()));
         } else if (!strcmp(a, "-visualize_grid_count")) {
             o->visualize_grid = true;
             o->visualize_grid_count = true;
