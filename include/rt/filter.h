@@ -60,6 +60,11 @@ static inline float filter_weight(const Filter *f, float x, float y)
  * else 0): the film sums a pixel's own samples without a call per weight. */
 bool filter_is_box(const Filter *f);
 
+/* Whether f has negative lobes (Mitchell): a pixel's weight sum may then come out small
+ * or negative with few samples, which the film guards against (film.c,
+ * film_fix_lobes). */
+bool filter_has_negative_lobes(const Filter *f);
+
 /* w[i] = the separable weight_1d at x[i] for i < n (ops->weights_1d when the filter
  * has one, else one call each); the filter must have weight_1d. */
 void filter_weights_1d(const Filter *f, const float *x, float *w, int n);

@@ -58,6 +58,9 @@ typedef struct Film {
     int r0, r1;                 /* rows being traced (film_band) */
     int out0, out1;             /* output rows of the strip being filtered */
     bool pairs;                 /* filter jobs of two rows (film_filter_pair) */
+    bool lobes;                 /* the filter has negative lobes (film_fix_lobes) */
+    bool lobes_inside_ok;       /* ... and with fixed offsets, the pixels whose support
+                                   the image does not cut are trusted */
     volatile int *cancel;       /* the stop flag, polled before every tile as well */
     /* Where the filter stores output pixels: cfg's whole images, or with cfg->rows the
      * strip images (one strip's output rows, handed to cfg->rows when filtered). Pixel
@@ -1672,6 +1675,124 @@ __attribute__((target("avx2"))) static int film_filter_own8(const Film *f, int j
 }
 #endif
 
+/* The weight sum of an output pixel over the sum of its weights' magnitudes (rho),
+ * below which a filter with negative lobes is not trusted there (film_fix_lobes). The
+ * normalised colour can lie beyond the range of its samples' colours by at most
+ * (1 - rho) / (2 rho) of that range: densely sampled, Mitchell's rho is 0.87 (its
+ * negative lobes weigh 6.8% of its positive part, in 2-D), at most 7%; at 0.7, 21%.
+ * With one sample per pixel a pixel's few samples can put most of the weight in the
+ * negative lobes: rho near 0 blows the colour up, a negative rho turns it over (at
+ * radius 1, 7% of the course's checkerboard pixels were more than a quarter of the
+ * range beyond their samples; none are now: bench/REPORT.txt, polish31). */
+#define FILM_LOBE_TRUST 0.7f
+
+/* Whether a pixel whose weights sum to sum, pos of it from the positive ones, is
+ * trusted: rho = sum / (sum of magnitudes) = sum / (2 pos - sum) >= FILM_LOBE_TRUST.
+ * No weight at all (both 0: film_put_unweighted's pixel) counts as trusted. */
+static inline bool film_lobes_trusted(float pos, float sum)
+{
+    return sum >= FILM_LOBE_TRUST * (2.0f * pos - sum);
+}
+
+/* The weight sums of output pixel (i, j) (film_lobes_trusted's pos and sum): terms in
+ * the order film_lobe_sums4 adds them (columns, rows, samples), each weight as the
+ * filter loops make it (film_weight, times the adaptive share). */
+static void film_lobe_sums(const Film *f, int i, int j, float *pos_out, float *sum_out)
+{
+    const FilmConfig *c = f->cfg;
+    int R = f->R;
+    int a0 = i - R > 0 ? i - R : 0, a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
+    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    bool adaptive = c->refine != NULL;
+    float pos = 0.0f, sum = 0.0f;
+    for (int a = a0; a <= a1; a++)
+        for (int b = b0; b <= b1; b++) {
+            int n = *film_count(f, a, b);
+            const float *d = film_sample(f, a, b, 0);
+            float share = adaptive ? 1.0f / (float)n : 1.0f;
+            for (int s = 0; s < n; s++, d += f->ss) {
+                float w = film_weight(f, d, a, b, i, j, s) * share;
+                if (w > 0.0f)
+                    pos += w;
+                sum += w;
+            }
+        }
+    *pos_out = pos;
+    *sum_out = sum;
+}
+
+/* film_lobe_sums of the four pixels i .. i+3 of row j at once, each in its own lane
+ * (the same terms in the same order, the same float operations, so the same bits):
+ * planes with separable weights (every pixel with the sampler's count), the four
+ * supports' columns inside the image. Their weights towards a column offset lie side
+ * by side, as the spans' sums read them. */
+static void film_lobe_sums4(const Film *f, int i, int j, float pos_out[4], float sum_out[4])
+{
+    const FilmConfig *c = f->cfg;
+    int R = f->R, n = c->sampler->count;
+    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    const FilmV4f zero = {0.0f, 0.0f, 0.0f, 0.0f};
+    FilmV4f pos = zero, sum = zero;
+    for (int da = -R; da <= R; da++)
+        for (int b = b0; b <= b1; b++) {
+            const float *wx = film_weights(f, i + da, b, 0, da + R);
+            const float *wy = film_weights(f, i + da, b, 0, 2 * R + 1 + b - j + R);
+            for (int s = 0; s < n; s++, wx += f->ws, wy += f->ws) {
+                FilmV4f x, y;
+                memcpy(&x, wx, sizeof x);
+                memcpy(&y, wy, sizeof y);
+                FilmV4f w = x * y;
+                pos += (FilmV4f)((FilmV4i)w & (w > zero)); /* w where positive, else +0 */
+                sum += w;
+            }
+        }
+    memcpy(pos_out, &pos, sizeof pos);
+    memcpy(sum_out, &sum, sizeof sum);
+}
+
+/* Output pixel (i, j) from its samples weighted by the filter's positive part only
+ * (max(w, 0), the same weights as film_lobe_sums), whose sum is pos > 0. */
+static void film_put_positive_part(const Film *f, int i, int j, float pos)
+{
+    const FilmConfig *c = f->cfg;
+    int R = f->R;
+    int a0 = i - R > 0 ? i - R : 0, a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
+    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    bool adaptive = c->refine != NULL;
+    size_t cs = f->cs;
+    Vec3 sum = v3(0, 0, 0), sum_d = v3(0, 0, 0), sum_n = v3(0, 0, 0);
+    for (int a = a0; a <= a1; a++)
+        for (int b = b0; b <= b1; b++) {
+            int n = *film_count(f, a, b);
+            const float *d = film_sample(f, a, b, 0);
+            float share = adaptive ? 1.0f / (float)n : 1.0f;
+            for (int s = 0; s < n; s++, d += f->ss) {
+                float w = film_weight(f, d, a, b, i, j, s) * share;
+                if (!(w > 0.0f))
+                    continue;
+                sum = v3_add(sum, v3_scale(v3(d[2 * cs], d[3 * cs], d[4 * cs]), w));
+                /* depth and normals are stored only pixel by pixel (cs = 1) */
+                if (f->off_depth >= 0) {
+                    const float *e = d + f->off_depth;
+                    sum_d = v3_add(sum_d, v3_scale(v3(e[0], e[1], e[2]), w));
+                }
+                if (f->off_normal >= 0) {
+                    const float *e = d + f->off_normal;
+                    sum_n = v3_add(sum_n, v3_scale(v3(e[0], e[1], e[2]), w));
+                }
+            }
+        }
+    /* pos is the sum of these weights, added in the same order, so a constant channel
+     * comes out exactly (a reciprocal's product was one byte low). */
+    int x = i - f->ox, y = j - f->oy;
+    if (f->color)
+        image_put(f->color, x, y, v3(sum.x / pos, sum.y / pos, sum.z / pos));
+    if (f->depth && f->off_depth >= 0)
+        image_put(f->depth, x, y, v3(sum_d.x / pos, sum_d.y / pos, sum_d.z / pos));
+    if (f->normals && f->off_normal >= 0)
+        image_put(f->normals, x, y, v3(sum_n.x / pos, sum_n.y / pos, sum_n.z / pos));
+}
+
 /* Output row (out0 + job) of the rectangle: every pixel is the weighted average of the
  * samples of its support (cropped at the image border), columns outer, rows inner,
  * samples innermost, in float, divided by the sum of the weights used. */
@@ -1709,7 +1830,7 @@ static void film_filter_line(const Film *f, int j, bool span)
         int a0 = i - R > 0 ? i - R : 0;
         int a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
         Vec3 sum = v3(0, 0, 0), sum_d = v3(0, 0, 0), sum_n = v3(0, 0, 0);
-        float wsum = 0.0f;
+        float wsum = 0.0f, wpos = 0.0f; /* wpos: the general loop's positive weights */
         for (int a = a0; a <= a1; a++)
             for (int b = b0; b <= b1; b++) {
                 int n = *film_count(f, a, b);
@@ -1762,6 +1883,8 @@ static void film_filter_line(const Film *f, int j, bool span)
                     float w = film_weight(f, d, a, b, i, j, s);
                     if (adaptive)
                         w *= share;
+                    if (w > 0.0f)
+                        wpos += w;
                     sum = v3_add(sum, v3_scale(v3(d[2], d[3], d[4]), w));
                     if (f->off_depth >= 0) {
                         const float *e = d + f->off_depth;
@@ -1781,6 +1904,15 @@ static void film_filter_line(const Film *f, int j, bool span)
             film_put_unweighted(f, i, j);
             continue;
         }
+        /* Negative lobes not outweighed (film_fix_lobes, which does the plain case's
+         * pixels after the row): wpos and wsum are film_lobe_sums' sums. */
+        if (f->lobes && !plain && !film_lobes_trusted(wpos, wsum)) {
+            if (wpos > 0.0f)
+                film_put_positive_part(f, i, j, wpos);
+            else
+                film_put_unweighted(f, i, j);
+            continue;
+        }
         if (f->color)
             image_put(f->color, x, y, v3(sum.x / wsum, sum.y / wsum, sum.z / wsum));
         if (f->depth)
@@ -1790,11 +1922,58 @@ static void film_filter_line(const Film *f, int j, bool span)
     }
 }
 
+/* Output row j again where the filter has negative lobes: a pixel whose weight sum is
+ * not clearly positive (rho < FILM_LOBE_TRUST) gets the average of the same samples
+ * weighted by the filter's positive part only (film_put_positive_part: its central
+ * lobe, a positive filter, so the colour stays between the samples'), or the nearest
+ * sample's values when no sample lies in that lobe (film_put_unweighted). The other
+ * pixels keep what the filter loops stored. With 16 samples per pixel and radius 1.5
+ * or more no pixel falls back. The same weights as the loops (film_weight), summed in
+ * one order by every path, so the same result for any -threads, -tile or strip. The
+ * fixed offsets' weights (uniform) are the same in every pixel whose support the image
+ * does not cut: judged once (lobes_inside_ok), and only the border pixels one by one. */
+static void film_fix_lobes(const Film *f, int j)
+{
+    const FilmConfig *c = f->cfg;
+    if (c->refine || f->off_depth >= 0 || f->off_normal >= 0)
+        return; /* film_filter_line's general loop judged its pixels as it summed them */
+    int R = f->R;
+    bool rows_inside = j - R >= 0 && j + R <= c->full_height - 1;
+    bool fours = f->planes && f->per; /* (rows cut at the border alike in every lane) */
+    for (int i = c->x0; i < c->x0 + c->width;) {
+        float pos[4], sum[4];
+        int m = 1;
+        bool inside = rows_inside && i - R >= 0 && i + R <= c->full_width - 1;
+        if (f->table && inside && f->lobes_inside_ok) {
+            i++;
+            continue;
+        }
+        if (fours && i - R >= 0 && i + 3 + R <= c->full_width - 1 &&
+            i + 3 < c->x0 + c->width) {
+            film_lobe_sums4(f, i, j, pos, sum);
+            m = 4;
+        } else {
+            film_lobe_sums(f, i, j, &pos[0], &sum[0]);
+        }
+        for (int k = 0; k < m; k++) {
+            if (film_lobes_trusted(pos[k], sum[k]))
+                continue;
+            if (pos[k] > 0.0f)
+                film_put_positive_part(f, i + k, j, pos[k]);
+            else
+                film_put_unweighted(f, i + k, j);
+        }
+        i += m;
+    }
+}
+
 static void film_filter_row(void *user, RenderCtx *ctx, int job)
 {
     (void)ctx;
     const Film *f = user;
     film_filter_line(f, f->out0 + job, true);
+    if (f->lobes)
+        film_fix_lobes(f, f->out0 + job);
 }
 
 /* Output rows out0 + 2 job and the next (when the strip has it), their spans together
@@ -1812,12 +1991,18 @@ static void film_filter_pair(void *user, RenderCtx *ctx, int job)
         film_filter_line(f, j, false);
         film_filter_line(f, j + 1, false);
         film_filter_span2(f, j, in0, in1);
-        return;
-    }
+    } else
 #endif
-    film_filter_line(f, j, true);
-    if (j + 1 < f->out1)
-        film_filter_line(f, j + 1, true);
+    {
+        film_filter_line(f, j, true);
+        if (j + 1 < f->out1)
+            film_filter_line(f, j + 1, true);
+    }
+    if (f->lobes) {
+        film_fix_lobes(f, j);
+        if (j + 1 < f->out1)
+            film_fix_lobes(f, j + 1);
+    }
 }
 
 /* The floats from one plane row to the next (data in planes, weights) for rows of fw
@@ -1954,6 +2139,18 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     /* Filter jobs of two rows where their spans share loads (film_span_sums2_avx512,
      * film_span_sums2_avx2). */
     f.pairs = f.row_weights && (f.avx512 || f.avx2);
+    f.lobes = filter_has_negative_lobes(cfg->filter);
+    if (f.lobes && f.table) {
+        /* film_lobe_sums of a pixel whose support is whole, from the table */
+        float pos = 0.0f, sum = 0.0f;
+        for (int k = 0; k < (2 * R + 1) * (2 * R + 1) * f.slots; k++) {
+            float w = f.table[k];
+            if (w > 0.0f)
+                pos += w;
+            sum += w;
+        }
+        f.lobes_inside_ok = film_lobes_trusted(pos, sum);
+    }
     size_t px_floats = (size_t)f.slots * (size_t)f.stride;
     f.pw = f.planes || f.per ? film_plane_width(f.fw) : f.fw;
     f.rs = (size_t)(f.planes ? f.pw : f.fw) * px_floats;

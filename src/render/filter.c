@@ -791,6 +791,8 @@ void filter_weights_1d_blocks(const Filter *f, const float *pos, int nblk, int R
 
 bool filter_is_box(const Filter *f) { return f->ops == &box_ops; }
 
+bool filter_has_negative_lobes(const Filter *f) { return f->ops == &mitchell_ops; }
+
 static const FilterOps *const all_filters[] = {&box_ops, &tent_ops, &gaussian_ops,
                                                &mitchell_ops};
 
