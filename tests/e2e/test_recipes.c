@@ -385,6 +385,116 @@ static void test_tiles_sbatch_array_mode(void)
     e2e_rmtree(s.dir);
 }
 
+/* One array task of tiles.sbatch as Slurm runs it: job, the array's lowest and highest
+ * id and how many it has, this task's id; env: more variables (TILES, PARTS_DIR) or "".
+ * The stand-in sbatch in the folder records the merge job as sbatch.JOB. */
+static int array_task(const Setup *s, const char *env, int job, int min, int max, int count,
+                      int id, E2eRun *r)
+{
+    char cmd[6 * PATH_MAX], full[7 * PATH_MAX + 16];
+    snprintf(cmd, sizeof cmd,
+             "%s PATH=\"$PWD:$PATH\" SLURM_ARRAY_JOB_ID=%d SLURM_ARRAY_TASK_MIN=%d "
+             "SLURM_ARRAY_TASK_MAX=%d SLURM_ARRAY_TASK_COUNT=%d SLURM_ARRAY_TASK_ID=%d "
+             "RAYTRACER='%s' bash '%s/scripts/slurm/tiles.sbatch' scene.txt frame.tga "
+             "-size %s %s -shadows -bounces 2", env, job, min, max, count, id, s->bin, s->root,
+             SIZE_W, SIZE_H);
+    snprintf(full, sizeof full, "cd '%s' && %s", s->dir, cmd);
+    char *argv[] = {(char *)"/bin/sh", (char *)"-c", full, NULL};
+    CHECK(e2e_run(argv, r));
+    return r->status;
+}
+
+/* The merge job task `first` of array job `job` submitted (its --wrap command), run as
+ * Slurm runs it (sh); its exit status, or -1 when none was submitted. */
+static int array_merge(const Setup *s, int job, E2eRun *r)
+{
+    char path[PATH_MAX], name[32];
+    snprintf(name, sizeof name, "sbatch.%d", job);
+    char *args = e2e_read_file(e2e_join(path, sizeof path, s->dir, name), NULL);
+    CHECK_MSG(args != NULL, "array job %d submitted no merge job", job);
+    if (!args)
+        return -1;
+    char dep[64];
+    snprintf(dep, sizeof dep, "--dependency=afterok:%d\n", job);
+    CHECK_CONTAINS(args, dep);
+    const char *wrap = strstr(args, "--wrap=");
+    CHECK(wrap != NULL);
+    int status = -1;
+    if (wrap) {
+        char merge[4096], full[4096 + PATH_MAX + 16];
+        snprintf(merge, sizeof merge, "%s", wrap + 7);
+        merge[strcspn(merge, "\n")] = '\0';
+        snprintf(full, sizeof full, "cd '%s' && %s", s->dir, merge);
+        char *argv[] = {(char *)"/bin/sh", (char *)"-c", full, NULL};
+        CHECK(e2e_run(argv, r));
+        status = r->status;
+    }
+    free(args);
+    return status;
+}
+
+/* Task ids that are not one range (scripts/slurm/tiles.sbatch): with TILES the ids are
+ * the tile numbers, so a frame of 4 tiles rendered by --array=0,2 and then by
+ * --array=1,3 into the first job's folder (PARTS_DIR) merges into the whole render;
+ * the first job's merge finds tiles 1 and 3 missing, says so and keeps the folder.
+ * Without TILES such an array is refused before any tile is rendered, and so is an id
+ * outside 0..TILES-1. Before, a task rendered tile (id - lowest id) of (count) tiles:
+ * --array=3,7 gave task 3 the top half of a 2-band frame and task 7 raytracer's usage
+ * error "-tile k n: k must be below n", and the frame could not be made. */
+static void test_tiles_sbatch_array_ids(void)
+{
+    need("bash", "bash");
+    Setup s;
+    if (!setup(&s, "tilesids"))
+        return;
+    char fake[PATH_MAX], parts[PATH_MAX], frame[PATH_MAX], why[1024];
+    e2e_join(fake, sizeof fake, s.dir, "sbatch");
+    CHECK(e2e_write_file(fake, "#!/bin/sh\nprintf '%s\\n' \"$@\" > sbatch.$SLURM_ARRAY_JOB_ID\n"));
+    CHECK(chmod(fake, 0755) == 0);
+    e2e_join(parts, sizeof parts, s.dir, "frame.tga.parts.500");
+    e2e_join(frame, sizeof frame, s.dir, "frame.tga");
+    E2eRun r;
+    /* Without TILES: refused, nothing rendered. */
+    CHECK_INT(array_task(&s, "", 499, 0, 2, 2, 2, &r), 2);
+    CHECK_CONTAINS(r.err, "are not one range");
+    CHECK_CONTAINS(r.err, "TILES=N");
+    e2e_run_free(&r);
+    /* An id past the tiles: refused. */
+    CHECK_INT(array_task(&s, "TILES=4", 499, 0, 6, 4, 6, &r), 2);
+    CHECK_CONTAINS(r.err, "array task 6: out of range: TILES=4 tiles are numbered 0 to 3");
+    e2e_run_free(&r);
+    char stray[PATH_MAX];
+    CHECK_MSG(!e2e_exists(e2e_join(stray, sizeof stray, s.dir, "frame.tga.parts.499")),
+              "a refused task made its parts folder");
+    /* --array=0,2 of 4 tiles (ids out of order, as Slurm may run them). */
+    static const int first_ids[2] = {2, 0}, again_ids[2] = {3, 1};
+    for (int i = 0; i < 2; i++) {
+        CHECK_MSG(array_task(&s, "TILES=4", 500, 0, 2, 2, first_ids[i], &r) == 0,
+                  "task %d of --array=0,2: %s", first_ids[i], e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+    }
+    CHECK_MSG(array_merge(&s, 500, &r) != 0, "the merge of tiles 0 and 2 of 4 succeeded");
+    CHECK_CONTAINS(r.err, "part1.tga: error: cannot read image:");
+    e2e_run_free(&r);
+    CHECK_MSG(!e2e_exists(frame), "a failed merge wrote the frame");
+    CHECK_MSG(e2e_exists(parts), "a failed merge removed the parts folder");
+    /* --array=1,3 into that folder: the missing tiles, then the whole frame. */
+    char env[PATH_MAX + 64];
+    snprintf(env, sizeof env, "TILES=4 PARTS_DIR='%s'", parts);
+    for (int i = 0; i < 2; i++) {
+        CHECK_MSG(array_task(&s, env, 501, 1, 3, 2, again_ids[i], &r) == 0,
+                  "task %d of --array=1,3: %s", again_ids[i], e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+    }
+    CHECK_MSG(array_merge(&s, 501, &r) == 0, "the merge of all 4 tiles: %s",
+              e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    CHECK_MSG(same_file(frame, s.ref), "--array=0,2 then 1,3: frame differs from the whole "
+              "render");
+    CHECK_MSG(!e2e_exists(parts), "the merge job left the parts folder behind");
+    e2e_rmtree(s.dir);
+}
+
 static void test_render_sbatch_fallback(void)
 {
     need("mpirun", "openmpi-bin");
@@ -416,6 +526,7 @@ static const TestCase tests[] = {
     {"tiles_sbatch_fallback", test_tiles_sbatch_fallback},
     {"tiles_sbatch_depth_normals", test_tiles_sbatch_depth_normals},
     {"tiles_sbatch_array_mode", test_tiles_sbatch_array_mode},
+    {"tiles_sbatch_array_ids", test_tiles_sbatch_array_ids},
     {"render_sbatch_fallback", test_render_sbatch_fallback},
 };
 RT_TEST_MAIN(tests)
