@@ -1103,6 +1103,12 @@ static int run(App *app)
             fprintf(stderr, "timings: set-up cache %s not used (%s): building\n",
                     o->cache_file, setup_cache_rejected(app->cache));
     }
+    /* -input - on a terminal waits for typed text without a word, which looks like a
+     * hang: say what it waits for and how to end it. */
+    if (o->input && !strcmp(o->input, "-") && !o->quiet && dist_is_root() &&
+        isatty(STDIN_FILENO) == 1)
+        fprintf(stderr, "%s: reading the scene from the terminal (-input -): type or paste "
+                "it, then press Ctrl-D on a line of its own\n", diag_program());
     /* A part image records the render's identity (rt/image.h): the scene's files are
      * keyed as they are read. */
     app->scene = dist_scene_load(o->input, app->cache, o->region, &app->diag);

@@ -256,6 +256,12 @@ static bool read_all_id(const char *path, char **out, size_t *len, bool reusable
                 return read_failed(f, buf, reusable, errno ? errno : EIO);
             break;
         }
+        /* The end was seen: stop here. A terminal's end of file (Ctrl-D) is one read of
+         * 0 bytes, not a lasting state, and a further fread would wait for a second
+         * Ctrl-D (glibc reads large requests straight from the descriptor). A stop
+         * that came during this read is still obeyed, at the loop's top. */
+        if (feof(f) && !par_stop_requested())
+            break;
     }
     if (known) {
         struct stat after;

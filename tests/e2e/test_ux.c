@@ -591,6 +591,127 @@ static void test_preview_keys_print(void)
     e2e_rmtree(p.dir);
 }
 
+/* Runs the binary with args, its standard input and standard error on a new
+ * pseudo-terminal (stdout to /dev/null), types feed into the terminal followed by the
+ * end-of-file character (Ctrl-D), and returns what the terminal showed (malloc'd: the
+ * program's stderr and the echo of what was typed) and the exit status. */
+static char *run_stdin_on_pty(const char *const *args, const char *feed, int *status)
+{
+    *status = -1;
+    int master = posix_openpt(O_RDWR | O_NOCTTY);
+    if (master < 0 || grantpt(master) != 0 || unlockpt(master) != 0)
+        return NULL;
+    const char *slave_name = ptsname(master);
+    if (!slave_name)
+        return NULL;
+    char *argv[64];
+    int n = 0;
+    argv[n++] = (char *)harness_bin();
+    for (int i = 0; args[i] && n < 63; i++)
+        argv[n++] = (char *)args[i];
+    argv[n] = NULL;
+    /* The terminal keeps typed lines until the program reads them (canonical mode),
+     * once its other side is open: opened here, before the typing below. */
+    int slave = open(slave_name, O_RDWR | O_NOCTTY);
+    if (slave < 0) {
+        close(master);
+        return NULL;
+    }
+    fflush(stdout);
+    fflush(stderr);
+    pid_t pid = fork();
+    if (pid == 0) {
+        setsid();
+        int devnull = open("/dev/null", O_RDWR);
+        if (devnull < 0)
+            _exit(126);
+        dup2(slave, 0);
+        dup2(devnull, 1);
+        dup2(slave, 2);
+        close(slave);
+        close(master);
+        execv(argv[0], argv);
+        _exit(127);
+    }
+    close(slave);
+    /* The text goes in at once; a Ctrl-D at the start of a line ends it. */
+    char eof = 4;
+    size_t flen = strlen(feed);
+    bool typed = write(master, feed, flen) == (ssize_t)flen && write(master, &eof, 1) == 1;
+    size_t len = 0, cap = 0;
+    char *text = NULL;
+    e2e_append(&text, &len, &cap, "", 0);
+    char buf[4096];
+    /* A program that waits for more than the one Ctrl-D would hang the test: after 60 s
+     * it is killed and the run fails (status -1). */
+    double t0 = e2e_now();
+    bool hung = false;
+    for (;;) {
+        double left = 60.0 - (e2e_now() - t0);
+        struct pollfd pfd = {master, POLLIN, 0};
+        if (left <= 0.0 || poll(&pfd, 1, (int)(left * 1000.0) + 1) == 0) {
+            hung = true;
+            kill(pid, SIGKILL);
+            break;
+        }
+        ssize_t got = read(master, buf, sizeof buf);
+        if (got > 0)
+            e2e_append(&text, &len, &cap, buf, (size_t)got);
+        else if (got < 0 && errno == EINTR)
+            continue;
+        else
+            break; /* EIO: the last holder of the terminal's other side has gone */
+    }
+    close(master);
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+    }
+    *status = hung ? -1 : WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    if (!typed) {
+        free(text);
+        return NULL;
+    }
+    return text;
+}
+
+/* -input - with a terminal as standard input said nothing and waited: a new user saw a
+ * hang. It now says what it waits for (not with -quiet, not from a pipe), and one
+ * Ctrl-D ends the scene (it took two: the read went on after the first). */
+static void test_stdin_terminal_hint(void)
+{
+    Paths p;
+    paths_init(&p);
+    static const char scene[] =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+        "Group { numObjects 1 MaterialIndex 0\n"
+        "Sphere { center 0 0 0 radius 1 } }\n";
+    static const char hint[] = "reading the scene from the terminal (-input -)";
+    const char *args[] = {"-input", "-", "-output", p.out, "-size", "8", "8", NULL};
+    int status;
+    char *text = run_stdin_on_pty(args, scene, &status);
+    CHECK(text != NULL);
+    CHECK_INT(status, 0);
+    if (text)
+        CHECK_CONTAINS(text, hint);
+    free(text);
+    CHECK(e2e_exists(p.out));
+    const char *quiet[] = {"-input", "-", "-output", p.out, "-size", "8", "8", "-quiet", NULL};
+    text = run_stdin_on_pty(quiet, scene, &status);
+    CHECK_INT(status, 0);
+    CHECK_MSG(text && !strstr(text, hint), "-quiet printed the hint: '%s'",
+              text ? text : "(null)");
+    free(text);
+    /* Standard input that is no terminal (/dev/null here, a pipe alike): no hint, only
+     * the empty scene's error. */
+    E2eRun r;
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    CHECK_INT(r.status, 1);
+    CHECK_MSG(!strstr(r.err, hint), "the hint without a terminal: '%s'", r.err);
+    e2e_run_free(&r);
+    e2e_rmtree(p.dir);
+}
+
 static const TestCase tests[] = {
     {"ux: the preview's g prints its view", test_preview_keys_print},
     {"ux: the preview's options are checked before the scene is read",
@@ -606,5 +727,6 @@ static const TestCase tests[] = {
     {"ux: edit distance and suggestions", test_suggestions},
     {"ux: usage errors suggest the fix", test_usage_suggestions},
     {"ux: warnings for options without effect, the grid hint", test_warnings_and_hint},
+    {"ux: -input - on a terminal says what it waits for", test_stdin_terminal_hint},
 };
 RT_TEST_MAIN(tests)
