@@ -25,6 +25,11 @@ typedef struct MarchingInfo {
     /* Boundary k of axis a lies at t = base[a] + k*dt[a]: t_next is recomputed from the
      * boundary index instead of accumulated, so its error does not grow along the ray. */
     float base[3], dt[3];
+    /* march_next_band: how far along the ray (in t) the band beyond each face reaches
+     * (march_band_width over the direction's component; 0 when parallel), and the axes
+     * held in it (bits). */
+    float band_t[3];
+    unsigned held;
 } MarchingInfo;
 
 /* One axis of a march's slab test (Kay & Kajiya) for a ray not parallel to that axis:
@@ -62,6 +67,13 @@ static inline __attribute__((always_inline)) void march_slab_axis(float lo, floa
  * ctx->tree when that is non-NULL. */
 bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],
                 const Ray *ray, float tmin, RenderCtx *ctx);
+
+/* The width of the band beyond the faces of box that march_next_band (and the grid's own
+ * march) still walks on axis a: where a triangle test can accept a point outside the
+ * box (its edge tolerance, RT_TRI_EDGE_TOL and RT_TRI_FAR_TOL of rt/geom.h, times the
+ * box's sides, which bound every edge, plus rounding), but no more than the cells'
+ * padding pad, which holds such triangles in the border cells. */
+float march_band_width(const BBox *box, float pad);
 
 /* Cell index of coordinate x on an axis whose cells start at lo and measure
  * 1/inv_size, clamped to [0, n-1] in float first so a far or NaN coordinate cannot
@@ -129,6 +141,42 @@ static inline bool march_next(MarchingInfo *mi, RenderCtx *ctx)
     mi->started_inside = false;
     march_enter_cell(mi, ctx);
     return true;
+}
+
+/* march_next, except that a step that would leave the grid along an axis holds that
+ * axis at its last cell until the ray leaves the band beyond that face (band_t), and the
+ * march goes on along the other axes (the grid's single-ray queries: the triangle test
+ * accepts points a little outside a triangle, and a ray running along a face of the box
+ * just outside it can hit one in a cell it reaches only after crossing the face;
+ * docs/grid.md, Exactness). The cells entered so are neither counted nor recorded:
+ * the course's march ends at the box. */
+static inline bool march_next_band(MarchingInfo *mi, RenderCtx *ctx)
+{
+    for (;;) {
+        int a = 0;
+        if (mi->t_next[1] < mi->t_next[a])
+            a = 1;
+        if (mi->t_next[2] < mi->t_next[a])
+            a = 2;
+        if (!(mi->t_next[a] < INFINITY))
+            return false;
+        int c = mi->cell[a] + mi->step[a];
+        if (c < 0 || c >= mi->n[a]) {
+            if (mi->held & (1u << a))
+                return false; /* out of the band too */
+            mi->held |= 1u << a;
+            mi->t_next[a] += mi->band_t[a]; /* from the face to the band's side */
+            continue;
+        }
+        mi->cell[a] = c;
+        mi->t = mi->t_next[a];
+        int k = mi->step[a] > 0 ? c + 1 : c;
+        mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
+        mi->normal = march_axis_normal(a, -mi->step[a]);
+        mi->started_inside = false;
+        march_enter_cell(mi, mi->held ? NULL : ctx);
+        return true;
+    }
 }
 
 /* t at which the ray leaves the current cell. */

@@ -87,6 +87,8 @@ void grid_setup_geometry(Grid *g)
         g->pad[a] = 1e-2f * g->size[a] + 1e-5f * mag;
     }
     g->min_pad = fminf(g->pad[0], fminf(g->pad[1], g->pad[2]));
+    for (int a = 0; a < 3; a++)
+        g->band[a] = march_band_width(&g->box, g->pad[a]);
     g->box_mag = mag;
     for (int a = 0; a < 3; a++) {
         g->inv_size[a] = (float)g->n[a] / (hi3[a] - lo3[a]);

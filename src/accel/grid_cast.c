@@ -274,6 +274,11 @@ typedef struct LeanMarch {
     float tn0, tn1, tn2;        /* t_next per axis */
     float b0, b1, b2, dt0, dt1, dt2, k0, k1, k2, s0, s1, s2; /* base, dt, k, step */
     int left0, left1, left2;    /* steps left inside the box per axis */
+    /* lean_next_band only (set by band_walk, not by lean_init): how far along the ray
+     * (in t) the band beyond each face reaches (the grid's band width over the
+     * direction's component; 0 when parallel), and the axes held in it (bits). */
+    float p0, p1, p2;
+    unsigned held;
     int32_t d0, d1, d2;         /* index stride of one step per axis (signed) */
     uint32_t c;                 /* the current cell's index (grid_cell_index) */
     int left_sum;               /* left0 + left1 + left2 at the start (lean_cells) */
@@ -290,9 +295,19 @@ static inline __attribute__((always_inline)) float lean_exit_t(const LeanMarch *
  * checks and counts down that axis' steps left, moves the index and updates its t_next
  * (only the stepped axis' counter can reach zero; fewer instructions than selects for all
  * three counters and the index, 214bc03); false when the ray leaves the box or runs
- * parallel to every axis left. */
-static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
+ * parallel to every axis left.
+ * With band (a constant at each call): a step that would leave the box along an axis
+ * holds that axis at its last cell instead, until the ray leaves the band beyond that
+ * face (p0..p2: march_band_width, rt/marching_info.h), and the march goes on along the
+ * other axes. The triangle test accepts points a little outside a triangle
+ * (RT_TRI_EDGE_TOL, rt/geom.h), so a ray running along a face of the box just outside it
+ * can hit a triangle in a cell it reaches only after crossing that face; the cells are
+ * padded for such hits, and the plain loop finds them (docs/grid.md, "Beyond the box's
+ * faces"). band_walk takes those cells, leaving them out of the counts: the course's
+ * march ends at the box. */
+static inline __attribute__((always_inline)) bool lean_next_band(LeanMarch *m, bool band)
 {
+again:;
     bool y = m->tn1 < m->tn0;
     float tm = y ? m->tn1 : m->tn0;
     bool z = m->tn2 < tm;
@@ -300,22 +315,37 @@ static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
     if (!(tm < INFINITY))
         return false;
     if (z) {
-        if (m->left2 == 0)
-            return false; /* the step leaves the box */
+        if (m->left2 == 0) {
+            if (!band || (m->held & 4u))
+                return false; /* the step leaves the box (or the band) */
+            m->held |= 4u;
+            m->tn2 += m->p2; /* from the face to the band's side */
+            goto again;
+        }
         m->left2--;
         m->c += (uint32_t)m->d2;
         m->k2 += m->s2;
         m->tn2 = m->b2 + m->k2 * m->dt2;
     } else if (y) {
-        if (m->left1 == 0)
-            return false;
+        if (m->left1 == 0) {
+            if (!band || (m->held & 2u))
+                return false;
+            m->held |= 2u;
+            m->tn1 += m->p1; /* from the face to the band's side */
+            goto again;
+        }
         m->left1--;
         m->c += (uint32_t)m->d1;
         m->k1 += m->s1;
         m->tn1 = m->b1 + m->k1 * m->dt1;
     } else {
-        if (m->left0 == 0)
-            return false;
+        if (m->left0 == 0) {
+            if (!band || (m->held & 1u))
+                return false;
+            m->held |= 1u;
+            m->tn0 += m->p0; /* from the face to the band's side */
+            goto again;
+        }
         m->left0--;
         m->c += (uint32_t)m->d0;
         m->k0 += m->s0;
@@ -323,6 +353,13 @@ static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
     }
     m->t = tm;
     return true;
+}
+
+/* lean_next without the band: the two-level walk's marches, whose leaf grids pad their
+ * triangles' boxes for the tolerance instead (twolevel.c, tri_tolerance). */
+static inline __attribute__((always_inline)) bool lean_next(LeanMarch *m)
+{
+    return lean_next_band(m, false);
 }
 
 /* The cells entered after the first: every step counts one axis' steps left down by
@@ -432,6 +469,40 @@ static inline __attribute__((always_inline)) bool lean_init(
            (uint32_t)cell[0];
     m->left_sum = m->left0 + m->left1 + m->left2;
     return true;
+}
+
+/* The counts of a march as the course's march makes them, which ends at the box: the
+ * cells entered beyond a face (band_walk, march_next_band), and the tests made in them,
+ * are left out of every counter (cells traversed, intersections, and the mailbox's
+ * skips and repeats, so that with and without marking they still add up:
+ * test_grid_course). band_note notes the counts when the band begins, band_restore puts
+ * them back at the end. */
+typedef struct LeanBand {
+    bool on;
+    uint64_t intersections, mailbox_skips, repeat_tests; /* when the band began */
+} LeanBand;
+
+/* The band's counts: noted when it begins (held: its first cell is current), put back
+ * at the end. Shared with the ray-tree march (march_next_band). */
+static inline __attribute__((always_inline)) void band_note(bool held, LeanBand *b,
+                                                             const RenderCtx *ctx)
+{
+    if (__builtin_expect(held && !b->on, 0)) {
+        b->on = true;
+        b->intersections = ctx->stats.intersections;
+        b->mailbox_skips = ctx->stats.mailbox_skips;
+        b->repeat_tests = ctx->stats.repeat_tests;
+    }
+}
+
+static inline __attribute__((always_inline)) void band_restore(const LeanBand *b,
+                                                                RenderCtx *ctx)
+{
+    if (__builtin_expect(b->on, 0)) {
+        ctx->stats.intersections = b->intersections;
+        ctx->stats.mailbox_skips = b->mailbox_skips;
+        ctx->stats.repeat_tests = b->repeat_tests;
+    }
 }
 
 /* Whether cell c has entries: the occupancy bits when the grid has them. */
@@ -670,6 +741,63 @@ static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint3
                       mb, stamp, rsimd, xm, any);
 }
 
+/* After a lean march that ended by leaving the box: whether the band beyond the face it
+ * left by (lean_next_band) reaches another cell before limit (the best hit's t, or the
+ * shadow ray's tmax). Most rays leave far from any other cell's border, so the walk
+ * below is rare; it stays out of the march's loop, whose state fills the registers. */
+static inline __attribute__((always_inline)) bool band_needed(const Grid *g, const LeanMarch *m,
+                                                               const Ray *ray, float limit)
+{
+    /* lean_next's choice of the axis it failed on */
+    bool y = m->tn1 < m->tn0;
+    float tm = y ? m->tn1 : m->tn0;
+    bool z = m->tn2 < tm;
+    tm = z ? m->tn2 : tm;
+    if (!(tm < INFINITY))
+        return false;
+    int a = z ? 2 : y ? 1 : 0;
+    float d = a == 0 ? ray->dir.x : a == 1 ? ray->dir.y : ray->dir.z;
+    float reach = tm + g->band[a] * fabsf(1.0f / d); /* as lean_next_band holds it */
+    float other = a == 0 ? fminf(m->tn1, m->tn2) : a == 1 ? fminf(m->tn0, m->tn2)
+                                                          : fminf(m->tn0, m->tn1);
+    return other <= reach && other <= limit;
+}
+
+/* The cells the ray enters in that band, in order (lean_next_band from where the march
+ * stopped), tested like the march's, with the counts left as they were. */
+static __attribute__((noinline, cold)) bool band_walk(const Grid *g, LeanMarch at,
+                                                      const Ray *ray, Hit *hit, float tmin,
+                                                      RenderCtx *ctx, uint32_t *mb,
+                                                      uint32_t stamp, const void *rsimd,
+                                                      XfMemo *xm, bool any)
+{
+    /* A copy: the march's own state stays in registers (its address is never taken). */
+    LeanMarch *m = &at;
+    const float inv[3] = {1.0f / ray->dir.x, 1.0f / ray->dir.y, 1.0f / ray->dir.z};
+    m->p0 = g->band[0] * fabsf(inv[0]);
+    m->p1 = g->band[1] * fabsf(inv[1]);
+    m->p2 = g->band[2] * fabsf(inv[2]);
+    m->held = 0;
+    LeanBand band = {false, 0, 0, 0};
+    band_note(true, &band, ctx);
+    bool found = false;
+    const uint64_t *occ = g->occupied;
+    while (lean_next_band(m, true)) {
+        if (m->t > hit->t)
+            break;
+        if (cell_occupied_in(occ, m->c) &&
+            test_cell(g, m->c, ray, hit, tmin, ctx, mb, stamp, rsimd, xm, any)) {
+            found = true;
+            if (any)
+                break;
+        }
+        if (!any && hit->t <= lean_exit_t(m))
+            break;
+    }
+    band_restore(&band, ctx);
+    return found;
+}
+
 /* Everything of grid_intersect after the unbounded primitives: the march (or the
  * brute-force loop for rays too far out), updating hit. */
 static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
@@ -698,13 +826,18 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
                 break;
         } while (lean_next(&m));
         ctx->stats.cells_traversed += lean_cells(&m);
+        /* Ended by leaving the box (neither break holds): the band beyond its face. */
+        if (hit->t > lean_exit_t(&m) && band_needed(g, &m, ray, hit->t))
+            found |= band_walk(g, m, ray, hit, tmin, ctx, mb, stamp, rsimd, &xm, false);
         return found;
     }
     MarchingInfo mi;
     if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
         return false;
     stamp = march_stamp(g, ctx, &mb);
+    LeanBand band = {false, 0, 0, 0};
     do {
+        band_note(mi.held != 0, &band, ctx);
         /* 4. The cell starts beyond the best hit: nothing in it or later is nearer. */
         if (mi.t > hit->t)
             break;
@@ -715,7 +848,8 @@ static inline __attribute__((always_inline)) bool march_intersect(const Grid *g,
          * holds up to float rounding at borders). A hit beyond it stays a candidate. */
         if (hit->t <= march_exit_t(&mi))
             break;
-    } while (march_next(&mi, ctx));
+    } while (march_next_band(&mi, ctx));
+    band_restore(&band, ctx);
     return found;
 }
 
@@ -801,20 +935,28 @@ static inline __attribute__((always_inline)) bool march_occluded(const Grid *g,
             }
         } while (lean_next(&m));
         ctx->stats.cells_traversed += lean_cells(&m);
+        if (!occluded && m.t <= tmax && band_needed(g, &m, ray, tmax))
+            occluded = band_walk(g, m, ray, &h, tmin, ctx, mb, stamp, rsimd, &xm, true);
         return occluded;
     }
     MarchingInfo mi;
     if (!march_init(&mi, &g->box, g->n, g->pad, ray, tmarch, ctx))
         return false;
     stamp = march_stamp(g, ctx, &mb);
+    LeanBand band = {false, 0, 0, 0};
+    bool occluded = false;
     do {
+        band_note(mi.held != 0, &band, ctx);
         if (mi.t > tmax)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
-        if (test_cell(g, c, ray, &h, tmin, ctx, mb, stamp, rsimd, &xm, true))
-            return true; /* the first occluder settles it */
-    } while (march_next(&mi, ctx));
-    return false;
+        if (test_cell(g, c, ray, &h, tmin, ctx, mb, stamp, rsimd, &xm, true)) {
+            occluded = true; /* the first occluder settles it */
+            break;
+        }
+    } while (march_next_band(&mi, ctx));
+    band_restore(&band, ctx);
+    return occluded;
 }
 
 #if RT_CAST_AVX2

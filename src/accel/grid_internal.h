@@ -56,6 +56,8 @@ struct Grid {
     float pad[3];           /* rounding margin (world units): cells are padded by it when
                                inserting for marching, and the march's slab test too */
     float min_pad;          /* smallest pad[a] */
+    float band[3];          /* march_band_width of box and pad[a]: how far beyond the box's
+                               faces the single-ray march goes on (lean_next_band) */
     /* march_init's per-grid constants, computed once by the same float expressions
      * (grid_setup_geometry) for the cast's own march (grid_cast.c): n[a] / extent,
      * and the padded slab's sides box.min - pad and box.max + pad. */

@@ -1,6 +1,20 @@
 /* The 3D-DDA (Amanatides & Woo 1987) that walks a ray through the grid's cells in order
  * (docs/grid.md). Used by RayCastFast, the shadow query and -visualize_grid. */
 #include "rt/marching_info.h"
+#include "rt/geom.h"
+
+float march_band_width(const BBox *box, float pad)
+{
+    float ext = 0.0f, mag = 0.0f;
+    const float lo[3] = {box->min.x, box->min.y, box->min.z};
+    const float hi[3] = {box->max.x, box->max.y, box->max.z};
+    for (int a = 0; a < 3; a++) {
+        ext += hi[a] - lo[a];
+        mag = fmaxf(mag, fmaxf(fabsf(lo[a]), fabsf(hi[a])));
+    }
+    float w = 2.0f * (RT_TRI_EDGE_TOL + RT_TRI_FAR_TOL) * ext + 1e-5f * mag;
+    return w < pad ? w : pad;
+}
 
 bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float pad[3],
                 const Ray *ray, float tmin, RenderCtx *ctx)
@@ -19,13 +33,16 @@ bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float p
         inv[a] = 1.0f / d[a];
         parallel[a] = d[a] == 0.0f || !isfinite(inv[a]);
         float plo = lo[a] - pad[a], phi = hi[a] + pad[a];
+        mi->band_t[a] = 0.0f;
         if (parallel[a]) {
             if (!(o[a] >= plo && o[a] <= phi))
                 return false;
             continue;
         }
+        mi->band_t[a] = march_band_width(box, pad[a]) * fabsf(inv[a]);
         march_slab_axis(plo, phi, o[a], inv[a], a, &t_enter, &t_exit, &enter_axis);
     }
+    mi->held = 0;
     if (enter_axis < 0)
         return false; /* zero direction: the ray goes nowhere */
     if (!(t_enter <= t_exit) || t_exit < tmin)

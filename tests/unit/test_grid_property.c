@@ -346,7 +346,10 @@ static void check_ray(const RScene *r, const Grid *g, RenderCtx *ctx, const Test
     else if (grid_marking(g))
         CHECK_MSG(repeats == 0, "marking on, but %ld repeated primitive tests", repeats);
     else if (ctx->mailbox)
-        CHECK_INT(ctx->stats.repeat_tests - rep0, repeats);
+        /* The tests in cells beyond a face of the box (the march's band: lean_next_band
+         * in src/accel/grid_cast.c) are left out of the counters, so they may hold
+         * fewer repeats than the wrapper sees, never more. */
+        CHECK(ctx->stats.repeat_tests - rep0 <= (uint64_t)repeats);
     check_same_march(g, ctx, &before, tr, 0.0f, false, fg, &hg);
 
     memset(test_counts, 0, np * sizeof *test_counts);
