@@ -793,6 +793,7 @@ typedef struct Variant {
     int acc, threads;
     bool no_packets, stats, no_marking;
     int stack_kb; /* see Args */
+    const char *isa; /* -isa NAME, or NULL: the CPU's widest */
 } Variant;
 
 /* The scene every command reads; the reducer points it at its reduced copy. */
@@ -838,8 +839,18 @@ static void variant_args(const Variant *v, const Shading *s, const int grid[3],
         add(a, "-no_marking");
     if (v->stats)
         add(a, "-stats");
+    if (v->isa) {
+        add(a, "-isa");
+        add(a, "%s", v->isa);
+    }
     add(a, "-quiet");
 }
+
+/* The instruction sets the binary takes with -isa on this CPU (probe_isas; none for a
+ * binary without the option), given to the variants in turn: the AVX2 and baseline
+ * copies of the kernels must give the AVX-512 copies' bytes. */
+static const char *isas[3];
+static int n_isas;
 
 /* Counters of the whole run. */
 static long n_renders, n_compares, n_failures;
@@ -856,10 +867,10 @@ static const char *const covered_words[] = {
 enum { N_WORDS = sizeof covered_words / sizeof covered_words[0] };
 static long covered[N_WORDS];
 enum { COV_GRID_AUTO, COV_GRID_FIXED, COV_TWOLEVEL, COV_NO_PACKETS, COV_THREADS3,
-       COV_STATS, COV_STACK, COV_TILES, COV_REGIONS, COV_CACHE, COV_AA, COV_COUNT };
+       COV_STATS, COV_STACK, COV_TILES, COV_REGIONS, COV_CACHE, COV_AA, COV_ISA, COV_COUNT };
 static const char *const cov_names[COV_COUNT] = {
     "grid_auto", "grid_fixed", "twolevel", "no_packets", "threads3",
-    "stats", "small_stack", "tiles", "regions", "cache", "antialiased"};
+    "stats", "small_stack", "tiles", "regions", "cache", "antialiased", "isa"};
 static long cov[COV_COUNT];
 
 /* The first failure of a scene, for the reducer: two renders whose images differ, one
@@ -1020,7 +1031,7 @@ static bool same_images(const char *dir, const Shading *s, const char *tag, cons
 static bool check_variant(const char *dir, const Shading *s, const int grid[3],
                           const Variant *v, const char *tag, const Args *ref)
 {
-    static const Variant ref_v = {ACC_NONE, 1, false, false, false, 0};
+    static const Variant ref_v = {ACC_NONE, 1, false, false, false, 0, NULL};
     Args a = {0};
     variant_args(v, s, grid, tag, &a);
     count_variant(v);
@@ -1136,10 +1147,10 @@ static bool check_split(const char *dir, const Shading *s, const int grid[3],
 }
 
 /* Renders and compares every variant of one shading option set. */
-static bool check_shading(const char *dir, const Shading *s, int set, bool quick)
+static bool check_shading(const char *dir, const Shading *s, int set, bool quick, long scene)
 {
     int grid[3] = {irange(1, 12), irange(1, 12), irange(1, 12)};
-    Variant ref = {ACC_NONE, 1, false, false, false, 0};
+    Variant ref = {ACC_NONE, 1, false, false, false, 0, NULL};
     Args ra = {0};
     variant_args(&ref, s, grid, "r", &ra);
     bool ok = check_variant(dir, s, grid, &ref, "r", NULL);
@@ -1151,24 +1162,32 @@ static bool check_shading(const char *dir, const Shading *s, int set, bool quick
      * and the single-ray march; then a few drawn from every combination. */
     Variant vs[12];
     int nv = 0;
-    vs[nv++] = (Variant){ACC_AUTO, 2, false, false, false, 0};
-    vs[nv++] = (Variant){ACC_FIXED, 3, false, false, false, 0};
-    vs[nv++] = (Variant){ACC_FIXED, 1, true, false, false, 0};
+    vs[nv++] = (Variant){ACC_AUTO, 2, false, false, false, 0, NULL};
+    vs[nv++] = (Variant){ACC_FIXED, 3, false, false, false, 0, NULL};
+    vs[nv++] = (Variant){ACC_FIXED, 1, true, false, false, 0, NULL};
     if (!quick) {
-        vs[nv++] = (Variant){ACC_TWOLEVEL, 1, false, false, false, 0};
+        vs[nv++] = (Variant){ACC_TWOLEVEL, 1, false, false, false, 0, NULL};
         for (int i = 0; i < 2; i++)
             vs[nv++] = (Variant){irand(ACC_COUNT), irange(1, 3), chance(0.5), false,
-                                 chance(0.15), chance(0.15) ? 512 : 0};
+                                 chance(0.15), chance(0.15) ? 512 : 0, NULL};
     } else {
-        vs[nv++] = (Variant){ACC_TWOLEVEL, 2, chance(0.5), false, false, chance(0.2) ? 512 : 0};
+        vs[nv++] = (Variant){ACC_TWOLEVEL, 2, chance(0.5), false, false, chance(0.2) ? 512 : 0, NULL};
     }
     /* -stats at 1 and 3 threads on one accelerator: the same image, and the same block
      * but for its time lines. */
     bool stats = chance(quick ? 0.2 : 0.3);
     int sacc = irand(ACC_COUNT);
     if (stats) {
-        vs[nv++] = (Variant){sacc, 1, false, true, false, 0};
-        vs[nv++] = (Variant){sacc, 3, false, true, false, 0};
+        vs[nv++] = (Variant){sacc, 1, false, true, false, 0, NULL};
+        vs[nv++] = (Variant){sacc, 3, false, true, false, 0, NULL};
+    }
+    /* Each variant an instruction set in turn (from the scene, set and variant, not
+     * from the scene's random stream, which stays as it was), or the default. */
+    for (int i = 0; i < nv && n_isas > 0; i++) {
+        int k = (int)((scene + 3 * set + i) % (n_isas + 1));
+        vs[i].isa = k < n_isas ? isas[k] : NULL;
+        if (vs[i].isa)
+            cov[COV_ISA]++;
     }
     for (int i = 0; i < nv && ok; i++) {
         char tag[32];
@@ -1177,7 +1196,7 @@ static bool check_shading(const char *dir, const Shading *s, int set, bool quick
     }
     /* Now and then the render in parts, merged. */
     if (ok && chance(quick ? 0.25 : 0.4)) {
-        Variant v = {irand(ACC_COUNT), irange(1, 3), chance(0.3), false, false, 0};
+        Variant v = {irand(ACC_COUNT), irange(1, 3), chance(0.3), false, false, 0, NULL};
         char tag[32];
         fmt(tag, sizeof tag, "s%dsplit", set);
         ok = check_split(dir, s, grid, &v, tag, &ra);
@@ -1329,6 +1348,43 @@ static void rmtree(const char *dir)
     rmdir(dir);
 }
 
+/* Which of -isa base, avx2, avx512 the binary renders a one-sphere scene with (in the
+ * run's folder root). */
+static void probe_isas(const char *root)
+{
+    static const char *const names[] = {"base", "avx2", "avx512"};
+    char scene[4096], outp[4096], errp[4096];
+    fmt(scene, sizeof scene, "%s/isa_probe.txt", root);
+    fmt(outp, sizeof outp, "%s/isa_probe.out", root);
+    fmt(errp, sizeof errp, "%s/isa_probe.err", root);
+    FILE *f = fopen(scene, "w");
+    if (!f || fputs("OrthographicCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 size 3 }\n"
+                    "Materials { numMaterials 1 PhongMaterial { } }\n"
+                    "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n",
+                    f) < 0 || fclose(f) != 0)
+        die("cannot write %s", scene);
+    for (int k = 0; k < 3; k++) {
+        Args a = {0};
+        add(&a, "%s", bin);
+        add(&a, "-input");
+        add(&a, "isa_probe.txt");
+        add(&a, "-output");
+        add(&a, "/dev/null");
+        add(&a, "-size");
+        add(&a, "1");
+        add(&a, "1");
+        add(&a, "-isa");
+        add(&a, "%s", names[k]);
+        add(&a, "-quiet");
+        if (run(root, &a, outp, errp) == 0)
+            isas[n_isas++] = names[k];
+        args_free(&a);
+    }
+    unlink(scene);
+    unlink(outp);
+    unlink(errp);
+}
+
 static void usage(FILE *f)
 {
     fprintf(f,
@@ -1427,6 +1483,9 @@ int main(int argc, char **argv)
     }
     /* A render killed by a signal is a failure to report, not a reason to stop. */
     signal(SIGPIPE, SIG_IGN);
+    probe_isas(root);
+    if (verbose)
+        printf("diffcheck: -isa takes %d instruction sets\n", n_isas);
     long failed_scenes = 0;
     for (long i = start; i < start + n; i++) {
         char dir[4096];
@@ -1455,7 +1514,7 @@ int main(int argc, char **argv)
             Shading s;
             gen_shading(&s, quick);
             cov[COV_AA] += s.antialiased;
-            ok = check_shading(dir, &s, k, quick);
+            ok = check_shading(dir, &s, k, quick, i);
             args_free(&s.opts);
         }
         if (!ok && reduce_on && finding.kind != FIND_NONE)
