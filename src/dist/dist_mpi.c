@@ -1000,14 +1000,19 @@ void dist_report(FILE *out)
         first_done = r == 0 || d < first_done ? d : first_done;
         last_done = d > last_done ? d : last_done;
     }
-    fprintf(out, "; %d tiles, the first rank done %.1f ms before the last; per rank, ms "
-            "after rank 0's render start (first request, last tile placed):",
-            g_log_tiles, last_done - first_done);
+    /* The count is of the tiles cut from the queue, all ranks together; each rank's
+     * entry counts the ones it rendered (they add up to it). "1 tile", not "1 tiles":
+     * a small image is a single tile. */
+    fprintf(out, "; %d %s handed out to %d ranks, the first rank done %.1f ms before the "
+            "last; per rank, the tiles it rendered and ms after rank 0's render start "
+            "(first request, last tile placed):", g_log_tiles,
+            g_log_tiles == 1 ? "tile" : "tiles", g_size, last_done - first_done);
     /* A rank with no tile placed has no last time: "-", not a 0.0 that reads as a
      * tile placed at the render's start (a rank that joined after rank 0 had rendered
      * everything). */
     for (int r = 0; r < g_size; r++) {
-        fprintf(out, " %d: %d tiles %.1f ", r, g_log[r].tiles, g_log[r].first);
+        fprintf(out, " %d: %d %s %.1f ", r, g_log[r].tiles,
+                g_log[r].tiles == 1 ? "tile" : "tiles", g_log[r].first);
         if (g_log[r].tiles)
             fprintf(out, "%.1f", g_log[r].last);
         else

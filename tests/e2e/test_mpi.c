@@ -341,12 +341,12 @@ static void test_mpi_timings_version(void)
     CHECK_INT(count(r.err, "timings: mpi: MPI_Init "), 1);
     CHECK_CONTAINS(r.err, " ms beside rank 0's set-up and render; ");
     const char *line = strstr(r.err, "timings: mpi: ");
-    const char *tiles = line ? strstr(line, " tiles, the first rank done ") : NULL;
+    const char *tiles = line ? strstr(line, " render; ") : NULL;
     int total = -1, sum = 0, ranks = 0;
     if (tiles) {
-        while (tiles > line && tiles[-1] >= '0' && tiles[-1] <= '9')
-            tiles--;
+        tiles += strlen(" render; ");
         total = atoi(tiles);
+        CHECK_CONTAINS(tiles, " tiles handed out to 3 ranks, the first rank done ");
         const char *p = strstr(tiles, "last tile placed):");
         for (int rank = 0; p && rank < 3; rank++) {
             char key[16];
@@ -362,7 +362,8 @@ static void test_mpi_timings_version(void)
               "%d cut:\n%s", sum, ranks, total, r.err);
     e2e_run_free(&r);
     /* An 8x8 image is one tile: one of the two ranks places none, and its entry has no
-     * last time ("-"; it said 0.0, as if a tile had been placed at the start). */
+     * last time ("-"; it said 0.0, as if a tile had been placed at the start). One tile
+     * is "1 tile", in all and in the rank that rendered it (it said "1 tiles"). */
     mpirun_prefix(&c, "2");
     add(&c, mpi);
     add(&c, "-input");
@@ -379,6 +380,9 @@ static void test_mpi_timings_version(void)
     char last = 0;
     CHECK_MSG(none && sscanf(none, ": 0 tiles %lf %c", &first, &last) == 2 && last == '-',
               "the rank with no tile:\n%s", r.err);
+    CHECK_CONTAINS(r.err, " render; 1 tile handed out to 2 ranks, the first rank done ");
+    CHECK_MSG(strstr(r.err, ": 1 tile ") != NULL && strstr(r.err, "1 tiles") == NULL,
+              "one tile, as \"1 tile\" in all and in its rank:\n%s", r.err);
     e2e_run_free(&r);
     mpirun_prefix(&c, "2");
     add(&c, mpi);
