@@ -120,37 +120,15 @@ static inline void march_enter_cell(const MarchingInfo *mi, RenderCtx *ctx)
 /* Moves to the next cell along the ray (the axis with the smallest t_next; ties go to x,
  * then y, then z). Returns false when the ray leaves the grid. A cell entered is counted
  * and recorded like the first one (every visited cell counts once in -stats' cells
- * traversed). */
-static inline bool march_next(MarchingInfo *mi, RenderCtx *ctx)
-{
-    int a = 0;
-    if (mi->t_next[1] < mi->t_next[a])
-        a = 1;
-    if (mi->t_next[2] < mi->t_next[a])
-        a = 2;
-    if (!(mi->t_next[a] < INFINITY))
-        return false; /* parallel to every remaining axis: nothing more to cross */
-    int c = mi->cell[a] + mi->step[a];
-    if (c < 0 || c >= mi->n[a])
-        return false;
-    mi->cell[a] = c;
-    mi->t = mi->t_next[a];
-    int k = mi->step[a] > 0 ? c + 1 : c;
-    mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
-    mi->normal = march_axis_normal(a, -mi->step[a]);
-    mi->started_inside = false;
-    march_enter_cell(mi, ctx);
-    return true;
-}
-
-/* march_next, except that a step that would leave the grid along an axis holds that
- * axis at its last cell until the ray leaves the band beyond that face (band_t), and the
- * march goes on along the other axes (the grid's single-ray queries: the triangle test
- * accepts points a little outside a triangle, and a ray running along a face of the box
- * just outside it can hit one in a cell it reaches only after crossing the face;
- * docs/grid.md, Exactness). The cells entered so are neither counted nor recorded:
- * the course's march ends at the box. */
-static inline bool march_next_band(MarchingInfo *mi, RenderCtx *ctx)
+ * traversed).
+ * With band (a constant at each call: march_next_band), a step that would leave the
+ * grid along an axis holds that axis at its last cell until the ray leaves the band
+ * beyond that face (band_t), and the march goes on along the other axes (the grid's
+ * single-ray queries: the triangle test accepts points a little outside a triangle, and
+ * a ray running along a face of the box just outside it can hit one in a cell it
+ * reaches only after crossing the face; docs/grid.md, Exactness). The cells entered so
+ * are neither counted nor recorded: the course's march ends at the box. */
+static inline bool march_step(MarchingInfo *mi, RenderCtx *ctx, bool band)
 {
     for (;;) {
         int a = 0;
@@ -159,11 +137,11 @@ static inline bool march_next_band(MarchingInfo *mi, RenderCtx *ctx)
         if (mi->t_next[2] < mi->t_next[a])
             a = 2;
         if (!(mi->t_next[a] < INFINITY))
-            return false;
+            return false; /* parallel to every remaining axis: nothing more to cross */
         int c = mi->cell[a] + mi->step[a];
         if (c < 0 || c >= mi->n[a]) {
-            if (mi->held & (1u << a))
-                return false; /* out of the band too */
+            if (!band || (mi->held & (1u << a)))
+                return false; /* out of the grid (and of the band) */
             mi->held |= 1u << a;
             mi->t_next[a] += mi->band_t[a]; /* from the face to the band's side */
             continue;
@@ -174,9 +152,19 @@ static inline bool march_next_band(MarchingInfo *mi, RenderCtx *ctx)
         mi->t_next[a] = mi->base[a] + (float)k * mi->dt[a];
         mi->normal = march_axis_normal(a, -mi->step[a]);
         mi->started_inside = false;
-        march_enter_cell(mi, mi->held ? NULL : ctx);
+        march_enter_cell(mi, band && mi->held ? NULL : ctx);
         return true;
     }
+}
+
+static inline bool march_next(MarchingInfo *mi, RenderCtx *ctx)
+{
+    return march_step(mi, ctx, false);
+}
+
+static inline bool march_next_band(MarchingInfo *mi, RenderCtx *ctx)
+{
+    return march_step(mi, ctx, true);
 }
 
 /* t at which the ray leaves the current cell. */

@@ -1345,6 +1345,16 @@ __attribute__((target("avx2"))) static void film_span_sums2_avx2(const Film *f, 
 #define FILM_HAVE_PAIRS 1
 #endif
 
+static void film_margin(int x0, int n, int R, int full, int *lo, int *hi);
+
+/* The columns (rows) lo..hi, inclusive, whose samples output column (row) v of an image
+ * `full` wide (high) weighs: its support of radius R, cropped at the border. */
+static void film_support(int v, int R, int full, int *lo, int *hi)
+{
+    film_margin(v, 1, R, full, lo, hi);
+    --*hi;
+}
+
 /* Pixel (i, j) of the rectangle when no sample of its support got a non-zero weight (a
  * box, tent or Mitchell narrower than the gaps between the samples, or a Gaussian whose
  * weights all underflow to 0: sigma 0.02 with uniform 4): the colour (and depth grey,
@@ -1362,8 +1372,9 @@ static void film_put_unweighted(const Film *f, int i, int j)
 {
     const FilmConfig *c = f->cfg;
     int R = f->R;
-    int a0 = i - R > 0 ? i - R : 0, a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
-    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    int a0, a1, b0, b1;
+    film_support(i, R, c->full_width, &a0, &a1);
+    film_support(j, R, c->full_height, &b0, &b1);
     size_t cs = f->cs;
     const float *best = NULL;
     double best_d2 = 0.0;
@@ -1701,8 +1712,9 @@ static void film_lobe_sums(const Film *f, int i, int j, float *pos_out, float *s
 {
     const FilmConfig *c = f->cfg;
     int R = f->R;
-    int a0 = i - R > 0 ? i - R : 0, a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
-    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    int a0, a1, b0, b1;
+    film_support(i, R, c->full_width, &a0, &a1);
+    film_support(j, R, c->full_height, &b0, &b1);
     bool adaptive = c->refine != NULL;
     float pos = 0.0f, sum = 0.0f;
     for (int a = a0; a <= a1; a++)
@@ -1729,8 +1741,8 @@ static void film_lobe_sums(const Film *f, int i, int j, float *pos_out, float *s
 static void film_lobe_sums4(const Film *f, int i, int j, float pos_out[4], float sum_out[4])
 {
     const FilmConfig *c = f->cfg;
-    int R = f->R, n = c->sampler->count;
-    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    int R = f->R, n = c->sampler->count, b0, b1;
+    film_support(j, R, c->full_height, &b0, &b1);
     const FilmV4f zero = {0.0f, 0.0f, 0.0f, 0.0f};
     FilmV4f pos = zero, sum = zero;
     for (int da = -R; da <= R; da++)
@@ -1756,8 +1768,9 @@ static void film_put_positive_part(const Film *f, int i, int j, float pos)
 {
     const FilmConfig *c = f->cfg;
     int R = f->R;
-    int a0 = i - R > 0 ? i - R : 0, a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
-    int b0 = j - R > 0 ? j - R : 0, b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    int a0, a1, b0, b1;
+    film_support(i, R, c->full_width, &a0, &a1);
+    film_support(j, R, c->full_height, &b0, &b1);
     bool adaptive = c->refine != NULL;
     size_t cs = f->cs;
     Vec3 sum = v3(0, 0, 0), sum_d = v3(0, 0, 0), sum_n = v3(0, 0, 0);
@@ -1800,8 +1813,8 @@ static void film_filter_line(const Film *f, int j, bool span)
 {
     const FilmConfig *c = f->cfg;
     int R = f->R;
-    int b0 = j - R > 0 ? j - R : 0;
-    int b1 = j + R < c->full_height - 1 ? j + R : c->full_height - 1;
+    int b0, b1;
+    film_support(j, R, c->full_height, &b0, &b1);
     bool adaptive = c->refine != NULL;
     /* The colour-only case without adaptive shares has its own loops (the common one,
      * and most of the filtering time); both paths add the same terms in the same order. */
@@ -1827,8 +1840,8 @@ static void film_filter_line(const Film *f, int j, bool span)
             i = in1 - 1;
             continue;
         }
-        int a0 = i - R > 0 ? i - R : 0;
-        int a1 = i + R < c->full_width - 1 ? i + R : c->full_width - 1;
+        int a0, a1;
+        film_support(i, R, c->full_width, &a0, &a1);
         Vec3 sum = v3(0, 0, 0), sum_d = v3(0, 0, 0), sum_n = v3(0, 0, 0);
         float wsum = 0.0f, wpos = 0.0f; /* wpos: the general loop's positive weights */
         for (int a = a0; a <= a1; a++)
