@@ -20,9 +20,34 @@ void lex_init(Lexer *lx, const char *buf, size_t len, const char *file, Diag *di
     lx->col = 1;
     /* A UTF-8 byte-order mark, which some editors put at the start of every text file
      * they save, is not part of the first keyword: skipped, and columns count from
-     * the byte after it (where the editor shows column 1). */
+     * the character after it (where the editor shows column 1). */
     if (len >= 3 && memcmp(buf, "\xEF\xBB\xBF", 3) == 0)
         lx->pos = 3;
+}
+
+size_t lex_char_bytes(const char *p, size_t n)
+{
+    unsigned char c = (unsigned char)p[0];
+    /* The sequence length a valid lead byte announces (RFC 3629: C2..F4 lead). */
+    size_t k = c < 0x80                ? 1
+               : c >= 0xc2 && c <= 0xdf ? 2
+               : c >= 0xe0 && c <= 0xef ? 3
+               : c >= 0xf0 && c <= 0xf4 ? 4
+                                        : 0;
+    if (k == 0 || k > n)
+        return 1;
+    for (size_t i = 1; i < k; i++)
+        if (((unsigned char)p[i] & 0xc0) != 0x80)
+            return 1;
+    return k;
+}
+
+size_t lex_chars(const char *p, size_t n)
+{
+    size_t chars = 0;
+    for (size_t i = 0; i < n; chars++)
+        i += lex_char_bytes(p + i, n - i);
+    return chars;
 }
 
 /* fscanf's %s stops at isspace() in the C locale; CR counts, so CRLF files read alike. */
@@ -47,23 +72,29 @@ static bool lex_scan(Lexer *lx, Token *t)
     t->loc.col = lx->col;
     t->text = lx->buf + lx->pos;
     size_t start = lx->pos;
+    /* Columns count characters, not bytes: an editor (and gcc's default column unit)
+     * puts 'x' in "é x" at column 3, not 4. chars counts the token's so far. */
+    size_t chars = 0;
     while (lx->pos < lx->len && !is_space((unsigned char)lx->buf[lx->pos])) {
         unsigned char c = (unsigned char)lx->buf[lx->pos];
         /* Scene files are text: a NUL or other control byte is never part of a token
          * (it would end a C string early, and it is never what the author meant). */
         if (c < 0x20 || c == 0x7f) {
             SrcLoc at = t->loc;
-            size_t col = (size_t)lx->col + (lx->pos - start);
+            size_t col = (size_t)lx->col + chars;
             at.col = col > INT_MAX ? INT_MAX : (int)col;
             diag_error(lx->diag, &at, "control byte \\x%02x in the scene (scene files are text)",
                        c);
             return false;
         }
-        lx->pos++;
+        /* A character's continuation bytes are 0x80..0xbf: never white space or a
+         * control byte, so the whole character belongs to the token. */
+        lx->pos += lex_char_bytes(lx->buf + lx->pos, lx->len - lx->pos);
+        chars++;
     }
     t->len = lx->pos - start;
-    /* Columns count bytes; a token never contains a newline. Saturate on absurd lines. */
-    size_t col = (size_t)lx->col + t->len;
+    /* A token never contains a newline. Saturate on absurd lines. */
+    size_t col = (size_t)lx->col + chars;
     lx->col = col > INT_MAX ? INT_MAX : (int)col;
     if (t->len > LEX_MAX_TOKEN) {
         diag_error(lx->diag, &t->loc, "token too long (%zu characters, the limit is %d)",

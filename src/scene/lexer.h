@@ -1,6 +1,6 @@
 /* Private to src/scene: the scene-file tokenizer (docs/scene-format.md). Tokens are maximal
- * runs of non-whitespace bytes, each located file:line:col (1-based, col in bytes), and
- * carry their length (they are not NUL-terminated). A control byte (below 0x20 other
+ * runs of non-whitespace bytes, each located file:line:col (1-based, col in characters:
+ * lex_chars), and carry their length (they are not NUL-terminated). A control byte (below 0x20 other
  * than whitespace, or 0x7f) is a located error. */
 #ifndef RT_SCENE_LEXER_H
 #define RT_SCENE_LEXER_H
@@ -27,6 +27,15 @@ typedef struct Lexer {
     bool has_peek;
     Token peeked;
 } Lexer;
+
+/* Bytes of the UTF-8 character at p (n > 0 bytes there): its lead byte and the
+ * continuation bytes it announces; 1 for a byte that begins no valid character (a stray
+ * continuation byte, a sequence cut short), which an editor shows as one replacement
+ * character, so it counts as one too. */
+size_t lex_char_bytes(const char *p, size_t n);
+/* Characters in the n bytes at p (lex_char_bytes): what a column counts, so an error
+ * after "é" or "→" on a line is where an editor shows it, not 1 or 2 columns on. */
+size_t lex_chars(const char *p, size_t n);
 
 void lex_init(Lexer *lx, const char *buf, size_t len, const char *file, Diag *diag);
 

@@ -2,6 +2,7 @@
  * single line-oriented pass over memory. Same triangles as the course reader on the
  * official files; also slash forms, polygons (fanned), negative indices and CRLF. */
 #include "obj_loader.h"
+#include "lexer.h"
 
 #include <assert.h>
 #include <limits.h>
@@ -147,7 +148,10 @@ typedef struct ObjReader {
 
 static SrcLoc objfile_loc(const ObjReader *r, const char *at)
 {
-    SrcLoc l = {r->name, r->line, (int)(at - r->line_start) + 1};
+    /* In characters, as the scene's columns (lex_chars). Only made for a message: it
+     * walks the line up to at. */
+    size_t col = lex_chars(r->line_start, (size_t)(at - r->line_start)) + 1;
+    SrcLoc l = {r->name, r->line, col > INT_MAX ? INT_MAX : (int)col};
     return l;
 }
 
@@ -242,8 +246,9 @@ static bool read_vertex(ObjReader *r)
     for (int i = 0; i < 3; i++) {
         skip_blanks(r);
         const char *at = r->p;
-        SrcLoc l = objfile_loc(r, at);
+        SrcLoc l;
         if (at_eol(r)) {
+            l = objfile_loc(r, at);
             diag_error(r->diag, &l, "vertex needs 3 coordinates, found %d", i);
             return false;
         }
@@ -251,10 +256,12 @@ static bool read_vertex(ObjReader *r)
             const char *e = at;
             while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
                 e++;
+            l = objfile_loc(r, at);
             diag_error(r->diag, &l, "malformed number '%.*s'", (int)(e - at), at);
             return false;
         }
         if (!isfinite(c[i])) {
+            l = objfile_loc(r, at);
             diag_error(r->diag, &l, "number out of range: '%.*s'", (int)(r->p - at), at);
             return false;
         }
@@ -299,7 +306,7 @@ static bool read_face(ObjReader *r, const char *f_at)
         if (at_eol(r) || *r->p == '#') /* a trailing comment ends the face */
             break;
         const char *at = r->p;
-        SrcLoc l = objfile_loc(r, at);
+        SrcLoc l; /* made only for a message (objfile_loc walks the line) */
         long idx, ignored;
         bool ok = read_index(r, &idx);
         /* v, v/vt, v/vt/vn, v//vn: only the vertex index matters here. */
@@ -316,6 +323,7 @@ static bool read_face(ObjReader *r, const char *f_at)
             const char *e = at;
             while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
                 e++;
+            l = objfile_loc(r, at);
             diag_error(r->diag, &l, "malformed face vertex '%.*s'", (int)(e - at), at);
             return false;
         }
@@ -325,6 +333,7 @@ static bool read_face(ObjReader *r, const char *f_at)
             if (idx - nv > r->excess)
                 r->excess = idx - nv;
         } else if (r->piece || idx == 0 || resolved < 0 || resolved >= nv) {
+            l = objfile_loc(r, at);
             if (idx == 0)
                 diag_error(r->diag, &l, "vertex index 0 out of range (indices start at 1)");
             else
@@ -338,6 +347,7 @@ static bool read_face(ObjReader *r, const char *f_at)
             if (r->m->ntris >= r->cap_t &&
                 (r->m->ntris == INT_MAX || r->fixed ||
                  !grow((void **)&r->m->tris, &r->cap_t, r->m->ntris + 1, sizeof(int[3])))) {
+                l = objfile_loc(r, at);
                 diag_error(r->diag, &l, "out of memory (too many faces)");
                 return false;
             }
@@ -598,7 +608,7 @@ bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, 
      * every byte; a NUL inside the text is refused below, so NUL means end of buffer. */
     assert(buf[len] == '\0');
     /* A UTF-8 byte-order mark at the start (some editors write one) is no record:
-     * skipped, as the scene lexer does; columns then count from the byte after it. */
+     * skipped, as the scene lexer does; columns then count from the character after it. */
     if (len >= 3 && memcmp(buf, "\xEF\xBB\xBF", 3) == 0) {
         buf += 3;
         len -= 3;

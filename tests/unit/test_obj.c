@@ -138,6 +138,13 @@ static void test_errors(void)
     }
     CHECK(!objfile_parse("v 0 0 0\nv 1\0 0 0\n", 17, "m.obj", &m, &g_diag));
     CHECK_CONTAINS(g_diag.last, "m.obj:2:4: error: NUL byte: not a text OBJ file");
+    /* Columns count characters: "é" and "→" in a comment are 2 and 3 bytes but one
+     * column each (a BOM before them none). */
+    {
+        static const char utf8[] = "\xEF\xBB\xBF" "v 0 0 0 # \xC3\xA9\xE2\x86\x92\0";
+        CHECK(!objfile_parse(utf8, sizeof utf8 - 1, "m.obj", &m, &g_diag));
+        CHECK_CONTAINS(g_diag.last, "m.obj:1:13: error: NUL byte");
+    }
 }
 
 /* objfile_parse_float must give exactly strtof's float (fscanf %f) for every input. */

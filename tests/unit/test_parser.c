@@ -674,6 +674,17 @@ static void test_obj_file_resolution(void)
                           "str.txt", sub, &d);
     CHECK(s == NULL);
     CHECK_CONTAINS(d.last, "/sc/bad.obj:5:7: error: vertex index 7 out of range (3 vertices)");
+    /* Columns count characters: a file name of 2-, 3- and 4-byte characters (6 bytes
+     * more than characters) before the error's token on its line shifts it by none. */
+    snprintf(obj, sizeof obj, "%s/caf\xC3\xA9\xE2\x86\x92\xF0\x9F\x98\x80.obj", sub);
+    write_file(obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\n");
+    diag_init(&d, NULL);
+    s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
+                          "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file "
+                          "caf\xC3\xA9\xE2\x86\x92\xF0\x9F\x98\x80.obj } Sphere { } }",
+                          "str.txt", sub, &d);
+    CHECK(s == NULL);
+    CHECK_CONTAINS(d.last, "str.txt:2:75: error: ");
     /* A missing scene file. */
     char missing[600];
     snprintf(missing, sizeof missing, "%s/none.txt", g_tmp);
@@ -871,9 +882,20 @@ static void test_errors_limits(void)
     EXPECT_ERROR("\x01\x02\xff", "t.txt:1:1: error: control byte \\x01 in the scene");
     EXPECT_ERROR("Group\x7f {", "t.txt:1:6: error: control byte \\x7f in the scene");
     EXPECT_ERROR("\xfe\xff", "t.txt:1:1: error: unknown top-level block '\\xfe\\xff'");
-    /* A UTF-8 byte-order mark at the start is skipped (columns from the byte after
-     * it); anywhere else it is an unknown word like any other. */
+    /* Columns count characters (gcc's and an editor's column), not bytes: after "Gruß"
+     * (5 bytes) the control byte is at column 5; a byte that begins no character (a
+     * stray continuation byte, a sequence cut short) is one. */
+    EXPECT_ERROR("Gru\xC3\x9F\x01", "t.txt:1:5: error: control byte \\x01 in the scene");
+    EXPECT_ERROR("\x80\xC3\xE2\x86\xF0\x9F\x98\x80\x01",
+                 "t.txt:1:6: error: control byte \\x01 in the scene");
+    EXPECT_ERROR("Background { color 0 0 \xE2\x86\x92\x01",
+                 "t.txt:1:25: error: control byte \\x01 in the scene");
+    /* A UTF-8 byte-order mark at the start is skipped (columns from the character
+     * after it); anywhere else it is an unknown word like any other. */
     EXPECT_ERROR("\xEF\xBB\xBF" "Foo {", "t.txt:1:1: error: unknown top-level block 'Foo'");
+    EXPECT_ERROR("\xEF\xBB\xBF" "Background { colour",
+                 "t.txt:1:14: error: unknown Background field 'colour'");
+    EXPECT_ERROR("\xEF\xBB\xBF" "\xC3\xA9\x01", "t.txt:1:2: error: control byte \\x01");
     EXPECT_ERROR("\xEF\xBB\xBF" "Background { color 0 0 0 }\n\xEF\xBB\xBF",
                  "t.txt:2:1: error: unknown top-level block '\\xef\\xbb\\xbf'");
     s = load("\xEF\xBB\xBF" "Background { color 0.25 0.5 1 }");
