@@ -58,24 +58,31 @@ static void nested_make_env(void)
     unsetenv("MFLAGS");
 }
 
-/* Runs make TARGET DESTDIR=dest PREFIX=/usr/local in the project's root. */
-static bool run_make(const char *target, const char *dest, E2eRun *r)
+/* Runs make TARGET DESTDIR=dest PREFIX=prefix in the project's root. */
+static bool run_make_prefix(const char *target, const char *dest, const char *prefix,
+                            E2eRun *r)
 {
-    char make[PATH_MAX], destvar[PATH_MAX + 16];
+    char make[PATH_MAX], destvar[PATH_MAX + 16], prefixvar[PATH_MAX + 16];
     if (!find_program("make", make, sizeof make)) {
         CHECK_MSG(false, "make not found");
         return false;
     }
     nested_make_env();
     snprintf(destvar, sizeof destvar, "DESTDIR=%s", dest);
+    snprintf(prefixvar, sizeof prefixvar, "PREFIX=%s", prefix);
     char *argv[] = {make, (char *)"--no-print-directory", (char *)"-C", (char *)harness_root(),
-                    (char *)target, destvar, (char *)"PREFIX=/usr/local", NULL};
+                    (char *)target, destvar, prefixvar, NULL};
     if (!e2e_run(argv, r))
         return false;
     char why[512];
     CHECK_MSG(r->status == 0, "make %s: %s; stdout: %.300s", target,
               e2e_describe(r, why, sizeof why), r->out);
     return r->status == 0;
+}
+
+static bool run_make(const char *target, const char *dest, E2eRun *r)
+{
+    return run_make_prefix(target, dest, "/usr/local", r);
 }
 
 /* Installs into a fresh DESTDIR (dest); false on failure (already reported). */
@@ -95,6 +102,7 @@ static const char *const k_installed[] = {
     "usr/local/bin/raytracer",
     "usr/local/share/man/man1/raytracer.1",
     "usr/local/share/bash-completion/completions/raytracer",
+    "usr/local/share/doc/raytracer/README.txt",
 };
 
 static bool same_bytes(const char *a, const char *b)
@@ -143,6 +151,22 @@ static void test_install_uninstall(void)
     else
         CHECK_MSG(tn < 0 && !e2e_exists(path), "raytracer-mpi.1 installed without raytracer-mpi");
 
+    /* The user's guide the manual page names is installed, and the page names it where
+     * it is (an installed page has no source tree to point into). */
+    char readme[PATH_MAX];
+    e2e_join(path, sizeof path, dest, "usr/local/share/doc/raytracer/README.txt");
+    e2e_join(readme, sizeof readme, harness_root(), "README.txt");
+    CHECK_MSG(same_bytes(path, readme), "the installed README.txt is not the tree's");
+    e2e_join(path, sizeof path, dest, "usr/local/share/man/man1/raytracer.1");
+    char *page = e2e_read_file(path, NULL);
+    CHECK_MSG(page && strstr(page, "\n.SH \"SEE ALSO\"") &&
+                  strstr(strstr(page, "\n.SH \"SEE ALSO\""),
+                         "\n.I /usr/local/share/doc/raytracer/README.txt\n"),
+              "the manual page's SEE ALSO does not name the installed README.txt");
+    CHECK_MSG(page && !strstr(page, "README.txt and docs/ in the source tree"),
+              "the manual page's SEE ALSO points into the source tree");
+    free(page);
+
     if (run_make("uninstall", dest, &r)) {
         for (size_t i = 0; i < sizeof k_installed / sizeof k_installed[0]; i++) {
             e2e_join(path, sizeof path, dest, k_installed[i]);
@@ -153,15 +177,50 @@ static void test_install_uninstall(void)
         e2e_join(path, sizeof path, dest, "usr/local/share/man/man1/raytracer-mpi.1");
         struct stat lst;
         CHECK_MSG(lstat(path, &lst) != 0, "make uninstall left raytracer-mpi.1");
+        /* The project's own folder goes with its file; its parent is shared. */
+        e2e_join(path, sizeof path, dest, "usr/local/share/doc/raytracer");
+        CHECK_MSG(!e2e_exists(path), "make uninstall left share/doc/raytracer");
         /* Nothing of ours is left, and the folders install made stay: each is shared
          * (README.txt, Installing), none is the project's own. */
         static const char *const shared[] = {"usr/local/bin", "usr/local/share/man/man1",
-                                             "usr/local/share/bash-completion/completions"};
+                                             "usr/local/share/bash-completion/completions",
+                                             "usr/local/share/doc"};
         for (size_t i = 0; i < sizeof shared / sizeof shared[0]; i++) {
             e2e_join(path, sizeof path, dest, shared[i]);
             int n = e2e_count_entries(path);
             CHECK_MSG(n == 0, "after make uninstall %s %s", shared[i],
                       n < 0 ? "is gone (a shared folder)" : "still holds files");
+        }
+    }
+    e2e_run_free(&r);
+    e2e_rmtree(dest);
+}
+
+/* Another PREFIX (or DOCDIR): the README goes under it, and the installed manual page
+ * names it there, not at the default's /usr/local. */
+static void test_install_prefix_doc(void)
+{
+    char dest[PATH_MAX], path[PATH_MAX];
+    if (!e2e_tmpdir(dest, sizeof dest, "install")) {
+        CHECK_MSG(false, "cannot make a temporary folder");
+        return;
+    }
+    E2eRun r;
+    memset(&r, 0, sizeof r);
+    if (run_make_prefix("install", dest, "/opt/rt", &r)) {
+        e2e_join(path, sizeof path, dest, "opt/rt/share/doc/raytracer/README.txt");
+        CHECK_MSG(e2e_exists(path), "make install PREFIX=/opt/rt did not install %s", path);
+        e2e_join(path, sizeof path, dest, "opt/rt/share/man/man1/raytracer.1");
+        char *page = e2e_read_file(path, NULL);
+        CHECK_MSG(page && strstr(page, "\n.I /opt/rt/share/doc/raytracer/README.txt\n"),
+                  "the manual page installed with PREFIX=/opt/rt does not name its README");
+        CHECK_MSG(page && !strstr(page, "/usr/local/share/doc"),
+                  "the manual page installed with PREFIX=/opt/rt names /usr/local's README");
+        free(page);
+        e2e_run_free(&r);
+        if (run_make_prefix("uninstall", dest, "/opt/rt", &r)) {
+            e2e_join(path, sizeof path, dest, "opt/rt/share/doc/raytracer");
+            CHECK_MSG(!e2e_exists(path), "make uninstall left %s", path);
         }
     }
     e2e_run_free(&r);
@@ -480,6 +539,7 @@ static void test_bash_completion(void)
 
 static const TestCase tests[] = {
     {"install_uninstall", test_install_uninstall},
+    {"install_prefix_doc", test_install_prefix_doc},
     {"install_man_page", test_man_page},
     {"install_bash_completion", test_bash_completion},
 };
