@@ -1296,8 +1296,19 @@ int main(int argc, char **argv)
     diag_set_program(dist_program_name);
     /* raytracer -merge out part...: its own small command (README.txt). */
     if (argc >= 2 && strcmp(argv[1], "-merge") == 0) {
+        /* Under mpirun (or srun with an MPI plugin) every rank runs this same command:
+         * each merged and wrote the output, and each printed every message. The merge
+         * is one process's work and needs no MPI (none is started): rank 0 does it, the
+         * others leave at once, saying and writing nothing, with status 0 (mpirun's
+         * status is then rank 0's). */
+        int rank = dist_launcher_rank();
+        if (rank > 0)
+            return 0;
         if (!options_check_merge(argc, argv, stderr))
             return EXIT_USAGE;
+        /* -merge - under mpirun: standard output is mpirun's channel (its
+         * pseudo-terminal), not the user's terminal, as for a render's -output -. */
+        image_stdout_forwarded(rank == 0);
         /* A merge of big parts takes seconds. Without the handlers a Ctrl-C or kill
          * ended it by the signal itself, and one that came during the write left the
          * temporary file behind (a 48 MB ".whole.tga.XXXXXX" for a 4000x4000 image).
@@ -1323,7 +1334,7 @@ int main(int argc, char **argv)
         return EXIT_INPUT;
     install_signal_handlers();
     /* -output - under mpirun: the rank's standard output is mpirun's pseudo-terminal,
-     * not the user's (-merge, before this, is one process's and keeps the check). */
+     * not the user's (-merge, before this, sets it the same way). */
     image_stdout_forwarded(dist_stdout_forwarded());
     /* The set-up's long loops (OBJ reading, grid build) end early on a stop signal
      * (rt/par.h). In one process only, as stopped_in_setup: MPI ranks must all reach the

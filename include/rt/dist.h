@@ -27,6 +27,12 @@ int dist_size(void);
  * mpirun's own standard output is (a file, a pipe), so it cannot be told from here
  * whether an image written there would reach a terminal. Always false when alone. */
 bool dist_stdout_forwarded(void);
+/* The rank an MPI launcher gave this process, read from the launcher's environment
+ * (OpenMPI's OMPI_COMM_WORLD_RANK, PMIx's PMIX_RANK, PMI's PMI_RANK) without starting
+ * MPI; -1 when none did (a singleton, a plain process), and always -1 when alone
+ * (./raytracer is no MPI program: under mpirun each copy is a process of its own).
+ * For -merge, which needs no MPI: under mpirun only rank 0 merges. */
+int dist_launcher_rank(void);
 /* A short description for --version ("MPI (OpenMPI ...)" or "no"). */
 const char *dist_describe(void);
 

@@ -115,6 +115,7 @@ static const char usage_text[] =
         "  -tile k n                render only band k (0 = top) of n horizontal bands;\n"
         "                           n as CxR: tile k of C columns x R rows (row by row)\n"
         "  -merge out part...       (first option) assemble -region/-tile parts into out\n"
+        "                           (under mpirun only rank 0 merges)\n"
         "  -cache file              set-up cache: the first process writes the parsed\n"
         "                           meshes and the grid to file, the others map them\n"
         "                           (same image)\n"

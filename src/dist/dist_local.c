@@ -16,6 +16,7 @@ int dist_finish(int status) { return status; }
 bool dist_is_root(void) { return true; }
 int dist_size(void) { return 1; }
 bool dist_stdout_forwarded(void) { return false; }
+int dist_launcher_rank(void) { return -1; }
 const char *dist_describe(void)
 {
     return "not in this binary (make mpi builds ./raytracer-mpi, which has it)";

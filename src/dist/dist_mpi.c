@@ -313,6 +313,19 @@ bool dist_is_root(void) { return g_rank == 0; }
 int dist_size(void) { return g_size; }
 
 bool dist_stdout_forwarded(void) { return g_launched; }
+
+int dist_launcher_rank(void)
+{
+    /* The variables dist_init takes as "started by a launcher", in the same order of
+     * trust: OpenMPI's own first (it may set the PMIx one too). */
+    static const char *const names[] = {"OMPI_COMM_WORLD_RANK", "PMIX_RANK", "PMI_RANK"};
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
+        int rank = env_count(names[i]);
+        if (rank >= 0)
+            return rank;
+    }
+    return -1;
+}
 const char *dist_describe(void)
 {
     ready();

@@ -752,6 +752,80 @@ static void test_mpi_warnings_once(void)
     e2e_rmtree(dir);
 }
 
+/* -merge under mpirun: every rank ran it, each writing the output and printing every
+ * message (a missing part was named three times at -np 3), and -merge - was refused on
+ * every rank ("standard output is a terminal": OpenMPI gives each rank a
+ * pseudo-terminal). Now rank 0 merges and the others leave with status 0: one image on
+ * mpirun's standard output, the same bytes as the whole render, one message. */
+static void test_mpi_merge_once(void)
+{
+    const char *mpi = mpi_or_skip();
+    char dir[PATH_MAX], scene[PATH_MAX], whole[PATH_MAX], t0[PATH_MAX], t1[PATH_MAX],
+        out[PATH_MAX], missing[PATH_MAX], why[512];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "mpimerge") != NULL);
+    e2e_join(scene, sizeof scene, dir, "s.txt");
+    e2e_join(whole, sizeof whole, dir, "whole.tga");
+    e2e_join(t0, sizeof t0, dir, "t0.tga");
+    e2e_join(t1, sizeof t1, dir, "t1.tga");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    e2e_join(missing, sizeof missing, dir, "missing.tga");
+    CHECK(e2e_write_file(scene, SCENE));
+    const char *outs[3] = {whole, t0, t1};
+    for (int i = 0; i < 3; i++) {
+        char k[4];
+        snprintf(k, sizeof k, "%d", i - 1);
+        const char *args[] = {"-input", scene, "-size", "40", "30", "-output", outs[i],
+                              i ? "-tile" : NULL, k, "2", NULL};
+        E2eRun r;
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        CHECK_MSG(r.status == 0, "render: %s", e2e_describe(&r, why, sizeof why));
+        e2e_run_free(&r);
+    }
+    size_t want_len = 0;
+    char *want = e2e_read_file(whole, &want_len);
+    CHECK(want != NULL);
+    Cmd c;
+    E2eRun r;
+    mpirun_prefix(&c, "3");
+    add(&c, mpi);
+    add(&c, "-merge");
+    add(&c, "-");
+    add(&c, t1);
+    add(&c, t0);
+    int st = run(&c, &r);
+    CHECK_MSG(st == 0, "-merge - at -np 3: %s", e2e_describe(&r, why, sizeof why));
+    CHECK_MSG(want && r.out_len == want_len && memcmp(r.out, want, want_len) == 0,
+              "-merge - at -np 3: %zu bytes on stdout, not the whole render's %zu", r.out_len,
+              want_len);
+    e2e_run_free(&r);
+    mpirun_prefix(&c, "3");
+    add(&c, mpi);
+    add(&c, "-merge");
+    add(&c, out);
+    add(&c, t0);
+    add(&c, t1);
+    st = run(&c, &r);
+    CHECK_MSG(st == 0, "-merge at -np 3: %s", e2e_describe(&r, why, sizeof why));
+    CHECK_MSG(same_file(out, whole), "-merge at -np 3: not the whole render's bytes");
+    e2e_run_free(&r);
+    /* A missing part: named once, status 1, nothing written. */
+    unlink(out);
+    mpirun_prefix(&c, "3");
+    add(&c, mpi);
+    add(&c, "-merge");
+    add(&c, out);
+    add(&c, t0);
+    add(&c, missing);
+    st = run(&c, &r);
+    CHECK_MSG(st == 1, "-merge of a missing part at -np 3: exit %d, expected 1", st);
+    CHECK_MSG(count(r.err, "missing.tga: error: ") == 1, "the missing part is named %d "
+              "times, expected once:\n%s", count(r.err, "missing.tga: error: "), r.err);
+    CHECK(!e2e_exists(out));
+    e2e_run_free(&r);
+    free(want);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"mpi_03d", test_mpi_03d},
     {"mpi_11b", test_mpi_11b},
@@ -769,5 +843,6 @@ static const TestCase tests[] = {
     {"mpi_output_stdout", test_mpi_output_stdout},
     {"mpi_warnings_once", test_mpi_warnings_once},
     {"mpi_interrupted_names_itself", test_mpi_interrupted_names_itself},
+    {"mpi_merge_once", test_mpi_merge_once},
 };
 RT_TEST_MAIN(tests)
