@@ -85,12 +85,11 @@ void filter_weights_1d_offsets(const Filter *f, const float *pos, int n, int R, 
 void filter_weights_1d_blocks(const Filter *f, const float *pos, int nblk, int R, float *w,
                               size_t plane, size_t bstride);
 
-/* exp(t) for -700 <= t <= 0 without libm, the separable Gaussian's (below -700, and
- * NaN, it returns exp(-700), whose float is 0 like exp(t)'s): relative error below
- * 1e-15 (a few double ulps), so rounded to float it equals the rounded libm exp except
- * when exp(t) lies within 1e-15 of a float rounding boundary (about one weight in 10^7;
- * then they are 1 float ulp apart). Tested against libm in tests/unit/test_antialias.c. */
-double filter_exp_nonpos(double t);
+/* exp(t) for t <= 0 in float without libm, the separable Gaussian's: within about an ulp
+ * of exp(t) rounded to float (subnormals included), exactly 1 at 0, 0 below -104 and for
+ * NaN. The same bits on every path and CPU (its operations are plain IEEE single ones, in
+ * one order). Tested against libm in tests/unit/test_antialias.c. */
+float filter_expf(float t);
 
 /* The widest vector path the separable Gaussian may use: 0 the plain build, 1 AVX2,
  * 2 AVX-512 (the default; a path the CPU lacks is never taken). For tests, which hold
