@@ -343,6 +343,47 @@ static void gen_obj(Gen *g, char *name, size_t size)
     free(o.s);
 }
 
+/* -crowded: a dense cluster of small triangles (a mesh written beside the scene), so
+ * that -grid auto takes the two-level grid (its crowding test, docs/twolevel.md) and
+ * -accel twolevel builds leaf grids. Drawn from a stream of its own (crowded_stream), so
+ * the scenes of a seed without -crowded stay what they were. */
+static double crowded_p;
+static long n_crowded;
+
+static void gen_cluster(Gen *g, Buf *b)
+{
+    char name[64];
+    fmt(name, sizeof name, "c%d.obj", g->nmesh++);
+    Buf o = {0};
+    bprintf(&o, "# diffcheck cluster\n");
+    double c[3], s = pos(0.05, 0.5);
+    for (int k = 0; k < 3; k++)
+        c[k] = coord(-1.5, 1.5);
+    int nt = irange(40, 240), flat = chance(0.3) ? irand(3) : -1;
+    for (int i = 0; i < nt; i++) {
+        /* Small triangles inside the cluster's cube, a third of them in an axis plane,
+         * some with a vertex on the cube's faces (ties with the leaf grids' borders). */
+        double p[3], e = s * pos(0.02, 0.3);
+        for (int k = 0; k < 3; k++)
+            p[k] = c[k] + (chance(0.1) ? (chance(0.5) ? s : -s) : urand(-s, s));
+        int plane = flat >= 0 ? flat : chance(0.3) ? irand(3) : -1;
+        for (int v = 0; v < 3; v++) {
+            double q[3];
+            for (int k = 0; k < 3; k++)
+                q[k] = v == 0 || k == plane ? p[k] : p[k] + urand(-e, e);
+            bprintf(&o, "v %.6g %.6g %.6g\n", q[0], q[1], q[2]);
+        }
+        bprintf(&o, "f %d %d %d\n", 3 * i + 1, 3 * i + 2, 3 * i + 3);
+    }
+    char path[4096];
+    fmt(path, sizeof path, "%s/%s", g->dir, name);
+    FILE *f = fopen(path, "w");
+    if (!f || fwrite(o.s, 1, o.len, f) != o.len || fclose(f) != 0)
+        die("cannot write %s: %s", path, strerror(errno));
+    free(o.s);
+    bprintf(b, "TriangleMesh { obj_file %s }", name);
+}
+
 static void gen_primitive(Gen *g, Buf *b)
 {
     size_t start = b->len;
@@ -575,6 +616,21 @@ static void gen_scene(Gen *g)
         gen_object(g, &it, 1, 2);
         bprintf(&it, "\n");
         g->items[g->nitems++] = it.s;
+    }
+    if (crowded_p > 0.0) {
+        /* Its own stream (from the main one's state, which is then put back). */
+        uint64_t saved = rng;
+        rng ^= 0xC3A5C85C97CB3127ull;
+        rnext();
+        if (chance(crowded_p) && g->nitems < MAX_ITEMS) {
+            Buf it = {0};
+            bprintf(&it, "  ");
+            gen_cluster(g, &it);
+            bprintf(&it, "\n");
+            g->items[g->nitems++] = it.s;
+            n_crowded++;
+        }
+        rng = saved;
     }
     scene_text(g, NULL, NULL, &g->scene);
 }
@@ -1389,7 +1445,8 @@ static void usage(FILE *f)
 {
     fprintf(f,
             "usage: diffcheck [-bin PATH] [-n N] [-seed S] [-start I] [-sets K] [-dir DIR]\n"
-            "                 [-timeout SECONDS] [-quick] [-stop] [-no_reduce] [-keep] [-v]\n"
+            "                 [-timeout SECONDS] [-quick] [-crowded P] [-stop] [-no_reduce]\n"
+            "                 [-keep] [-v]\n"
             "  Renders N random scenes (scene I uses seed S and index I: -seed S -start I -n 1\n"
             "  repeats it) under K shading option sets each (default 3), and compares the\n"
             "  bytes of every image of the brute-force single-thread render with -grid auto,\n"
@@ -1399,6 +1456,10 @@ static void usage(FILE *f)
             "  -dir       where scenes are written (default a fresh $TMPDIR/rt_diffcheck.XXXXXX);\n"
             "             agreeing scenes are removed, differing ones kept and named\n"
             "  -quick     smaller images, fewer bounces and variants (for the test suite)\n"
+            "  -crowded P add, to P%% of the scenes, a dense cluster of 40-240 small triangles\n"
+            "             (an OBJ mesh), so that -grid auto builds the two-level grid and\n"
+            "             -accel twolevel its leaf grids (from a stream of its own: the\n"
+            "             scenes are otherwise those of the seed without it)\n"
             "  -stop      stop after the first scene with a difference\n"
             "  -no_reduce do not shrink a differing scene (by default its root objects and\n"
             "             lights are left out one by one while the difference stays, and\n"
@@ -1447,6 +1508,8 @@ int main(int argc, char **argv)
             dir_arg = argv[++i];
         } else if (!strcmp(o, "-timeout") && has) {
             timeout_s = (int)parse_long(o, argv[++i], 1, 100000);
+        } else if (!strcmp(o, "-crowded") && has) {
+            crowded_p = parse_long(o, argv[++i], 0, 100) / 100.0;
         } else if (!strcmp(o, "-quick")) {
             quick = true;
         } else if (!strcmp(o, "-no_reduce")) {
@@ -1533,6 +1596,8 @@ int main(int argc, char **argv)
     printf("diffcheck: %ld scenes (seed %llu, from %ld), %ld renders, %ld comparisons, "
            "%ld failures in %ld scenes\n",
            n, (unsigned long long)seed, start, n_renders, n_compares, n_failures, failed_scenes);
+    if (crowded_p > 0.0)
+        printf("diffcheck: %ld scenes with a dense cluster (-crowded)\n", n_crowded);
     printf("diffcheck: covered:");
     for (int k = 0; k < N_WORDS; k++)
         printf(" %s=%ld", covered_words[k], covered[k]);

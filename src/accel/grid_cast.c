@@ -741,6 +741,32 @@ static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint3
                       mb, stamp, rsimd, xm, any);
 }
 
+static inline __attribute__((always_inline)) int lean_exit_axis(const LeanMarch *m, float *tm_out)
+{
+    /* lean_next's choice of the axis it failed on (-1: parallel to every axis left) */
+    bool y = m->tn1 < m->tn0;
+    float tm = y ? m->tn1 : m->tn0;
+    bool z = m->tn2 < tm;
+    tm = z ? m->tn2 : tm;
+    *tm_out = tm;
+    if (!(tm < INFINITY))
+        return -1;
+    return z ? 2 : y ? 1 : 0;
+}
+
+/* Whether the band beyond the face crossed on axis a at tm reaches another of m's cells
+ * (another axis' next border) no later than limit. */
+static inline __attribute__((always_inline)) bool band_reaches(const Grid *g, const LeanMarch *m,
+                                                                const Ray *ray, int a, float tm,
+                                                                float limit)
+{
+    float d = a == 0 ? ray->dir.x : a == 1 ? ray->dir.y : ray->dir.z;
+    float reach = tm + g->band[a] * fabsf(1.0f / d); /* as lean_next_band holds it */
+    float other = a == 0 ? fminf(m->tn1, m->tn2) : a == 1 ? fminf(m->tn0, m->tn2)
+                                                          : fminf(m->tn0, m->tn1);
+    return other <= reach && other <= limit;
+}
+
 /* After a lean march that ended by leaving the box: whether the band beyond the face it
  * left by (lean_next_band) reaches another cell before limit (the best hit's t, or the
  * shadow ray's tmax). Most rays leave far from any other cell's border, so the walk
@@ -748,19 +774,9 @@ static inline __attribute__((always_inline)) bool test_cell(const Grid *g, uint3
 static inline __attribute__((always_inline)) bool band_needed(const Grid *g, const LeanMarch *m,
                                                                const Ray *ray, float limit)
 {
-    /* lean_next's choice of the axis it failed on */
-    bool y = m->tn1 < m->tn0;
-    float tm = y ? m->tn1 : m->tn0;
-    bool z = m->tn2 < tm;
-    tm = z ? m->tn2 : tm;
-    if (!(tm < INFINITY))
-        return false;
-    int a = z ? 2 : y ? 1 : 0;
-    float d = a == 0 ? ray->dir.x : a == 1 ? ray->dir.y : ray->dir.z;
-    float reach = tm + g->band[a] * fabsf(1.0f / d); /* as lean_next_band holds it */
-    float other = a == 0 ? fminf(m->tn1, m->tn2) : a == 1 ? fminf(m->tn0, m->tn2)
-                                                          : fminf(m->tn0, m->tn1);
-    return other <= reach && other <= limit;
+    float tm;
+    int a = lean_exit_axis(m, &tm);
+    return a >= 0 && band_reaches(g, m, ray, a, tm, limit);
 }
 
 /* The cells the ray enters in that band, in order (lean_next_band from where the march
@@ -1028,6 +1044,58 @@ float grid_march_error(const Grid *g, const Ray *ray) { return march_error(g, ra
 
 /* ---- the two-level grid's walk (twolevel.c builds it; twolevel_internal.h) ---- */
 
+/* Beyond the scene box's faces (docs/grid.md and docs/twolevel.md, "Beyond the box's
+ * faces"). The top march ends at the box as the uniform grid's did: tl_walk then walks
+ * the band beyond the face with band_walk (the top cells' whole lists). A leaf grid
+ * tiles its primitives' boxes (widened by the triangle test's tolerance, tri_tolerance in
+ * twolevel.c) clipped to its top cell, so where that cell lies on a face of the box, the
+ * clipping cuts off the band beyond the face where the triangle test still accepts hits,
+ * and the leaf march ends at the face too. (Inside the box, a point beyond a leaf grid's
+ * face lies in another top cell, whose list or leaf grid holds those primitives.)
+ * leaf_band: after a leaf march that left its grid, with last the axes along which its
+ * top cell is the last the ray meets (the top march's steps left are 0): when it left
+ * along one of them and the band beyond that face (the top grid's band width, as
+ * band_walk's) reaches another leaf cell before the best hit, the leaf cells in that band
+ * are walked, with the counts left as they were and without marking (the walk goes on
+ * after it, and a primitive marked here would be skipped there, changing its counts).
+ * Out of the walk's loop: most calls are rays leaving a border cell's leaf grid, and
+ * return at the test. */
+static __attribute__((noinline, cold)) bool leaf_band(const TwoLevelGrid *t, unsigned last,
+                                                      LeanMarch at, const Ray *ray, Hit *hit,
+                                                      float tmin, RenderCtx *ctx,
+                                                      const void *rsimd, XfMemo *xm, bool any)
+{
+    const Grid *g = t->top;
+    LeanMarch *m = &at;
+    float tm;
+    int a = lean_exit_axis(m, &tm);
+    if (a < 0 || !(last & (1u << a)) || !band_reaches(g, m, ray, a, tm, hit->t))
+        return false;
+    const float inv[3] = {1.0f / ray->dir.x, 1.0f / ray->dir.y, 1.0f / ray->dir.z};
+    m->p0 = g->band[0] * fabsf(inv[0]);
+    m->p1 = g->band[1] * fabsf(inv[1]);
+    m->p2 = g->band[2] * fabsf(inv[2]);
+    m->held = 0;
+    LeanBand band = {false, 0, 0, 0};
+    band_note(true, &band, ctx);
+    bool found = false;
+    while (lean_next_band(m, true)) {
+        if (m->t > hit->t)
+            break;
+        uint32_t s0 = t->start[m->c], nl = t->start[m->c + 1] - s0;
+        if (nl && test_items(g, t->items + s0, nl, ray, hit, tmin, ctx, NULL, 0, rsimd, xm,
+                             any)) {
+            found = true;
+            if (any)
+                break;
+        }
+        if (!any && hit->t <= lean_exit_t(m))
+            break;
+    }
+    band_restore(&band, ctx);
+    return found;
+}
+
 /* Why the leaf march may stop the whole walk when the best hit lies within the current
  * leaf cell: every point of the ray before it lies in a top cell already walked, or in
  * this top cell, where the only primitives to hit (this cell's entries) lie in the
@@ -1060,8 +1128,8 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
     MARCH_RAY_SIMD(rsimd, ray, tmin);
     XfMemo xm = {NULL, {{0, 0, 0}, {0, 0, 0}}, 0.0f};
     uint64_t cells = 1; /* the first top cell; the rest are lean_cells(&m) */
-    bool found = false;
-    do {
+    bool found = false, left = false;
+    for (;;) {
         if (m.t > hit->t)
             break;
         /* Empty top cells (most of what a ray crosses in a sparse scene) are passed on
@@ -1088,7 +1156,7 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
             if (lean_init(slo, sg->slab_lo, sg->slab_hi, sg->inv_size, sg->size, sg->n, sg->base,
                           &lr, tmarch, &l)) {
                 bool stop = false;
-                do {
+                for (;;) {
                     cells++;
                     if (l.t > hit->t)
                         break;
@@ -1105,15 +1173,36 @@ static inline __attribute__((always_inline)) bool tl_walk(const TwoLevelGrid *t,
                         stop = true;
                         break;
                     }
-                } while (lean_next(&l));
+                    if (!lean_next(&l)) {
+                        /* Left the leaf grid: in a top cell that is the last the ray
+                         * meets along some axis, the band beyond that face of the box
+                         * (leaf_band; here only the cheap test, in registers). */
+                        unsigned last = (unsigned)(m.left0 == 0) | (unsigned)(m.left1 == 0) << 1 |
+                                        (unsigned)(m.left2 == 0) << 2;
+                        if (__builtin_expect(last != 0, 0) &&
+                            leaf_band(t, last, l, ray, hit, tmin, ctx, rsimd, &xm, any)) {
+                            found = true;
+                            stop = any;
+                        }
+                        break;
+                    }
+                }
                 if (stop)
                     break;
             }
         }
         if (!any && hit->t <= lean_exit_t(&m))
             break;
-    } while (lean_next(&m));
+        if (!lean_next(&m)) {
+            left = true;
+            break;
+        }
+    }
     ctx->stats.cells_traversed += cells + lean_cells(&m);
+    /* Ended by leaving the box: the band beyond its face, as march_intersect's (the
+     * cells' whole lists, which their padding makes hold the band's primitives). */
+    if (left && band_needed(g, &m, ray, hit->t))
+        found |= band_walk(g, m, ray, hit, tmin, ctx, mb, stamp, rsimd, &xm, any);
     return found;
 }
 
@@ -1123,6 +1212,56 @@ static inline uint32_t leaf_cell(const SubGrid *sg, const MarchingInfo *sm)
 {
     return sg->base + ((uint32_t)sm->cell[2] * (uint32_t)sg->n[1] + (uint32_t)sm->cell[1]) *
                           (uint32_t)sg->n[0] + (uint32_t)sm->cell[0];
+}
+
+/* leaf_band for the ray-tree walk's leaf march sm, which march_next has just ended
+ * (top: the top march, in the leaf grid's top cell): the same choice of axis, the same
+ * test and the same cells (march_next_band with the top grid's band widths), nothing
+ * counted or recorded, nothing marked. any: the shadow query (hit = (tmax, id 0)). */
+static bool tl_tree_leaf_band(const TwoLevelGrid *t, const SubGrid *sg, const MarchingInfo *top,
+                              MarchingInfo sm, const Ray *ray, Hit *hit, float tmin,
+                              RenderCtx *ctx, bool any)
+{
+    const Grid *g = t->top;
+    int a = 0;
+    if (sm.t_next[1] < sm.t_next[a])
+        a = 1;
+    if (sm.t_next[2] < sm.t_next[a])
+        a = 2;
+    float tm = sm.t_next[a];
+    int c = top->cell[a] + top->step[a];
+    if (!(tm < INFINITY) || (c >= 0 && c < top->n[a]))
+        return false;
+    const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
+    float reach = tm + g->band[a] * fabsf(1.0f / d[a]);
+    float other = a == 0 ? fminf(sm.t_next[1], sm.t_next[2])
+                  : a == 1 ? fminf(sm.t_next[0], sm.t_next[2])
+                           : fminf(sm.t_next[0], sm.t_next[1]);
+    if (!(other <= reach && other <= hit->t))
+        return false;
+    for (int k = 0; k < 3; k++)
+        sm.band_t[k] = g->band[k] * fabsf(1.0f / d[k]);
+    sm.held = 0;
+    LeanBand band = {false, 0, 0, 0};
+    band_note(true, &band, ctx);
+    bool found = false;
+    while (march_next_band(&sm, NULL)) {
+        if (sm.t > hit->t)
+            break;
+        uint32_t lc = leaf_cell(sg, &sm);
+        const uint32_t *items = t->items + t->start[lc];
+        uint32_t n = t->start[lc + 1] - t->start[lc];
+        if (any ? grid_items_occluded(g, items, n, ray, hit, tmin, NULL, 0, ctx)
+                : grid_items_intersect(g, items, n, ray, hit, tmin, NULL, 0, ctx)) {
+            found = true;
+            if (any)
+                break;
+        }
+        if (!any && hit->t <= march_exit_t(&sm))
+            break;
+    }
+    band_restore(&band, ctx);
+    return found;
 }
 
 static bool tl_tree_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, float tmin,
@@ -1136,12 +1275,16 @@ static bool tl_tree_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, f
     uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
     float err = grid_march_error(g, ray);
+    LeanBand band = {false, 0, 0, 0};
     do {
+        /* Beyond the box's face (march_next_band; uncounted): the cell's whole list,
+         * as tl_walk's band_walk. */
+        band_note(mi.held != 0, &band, ctx);
         if (mi.t > hit->t)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
         uint32_t s = t->sub_of[c];
-        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
+        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad) || mi.held) {
             found |= grid_items_intersect(g, g->cell_items + g->cell_start[c],
                                           g->cell_start[c + 1] - g->cell_start[c], ray, hit,
                                           tmin, mb, stamp, ctx);
@@ -1160,13 +1303,18 @@ static bool tl_tree_intersect(const TwoLevelGrid *t, const Ray *ray, Hit *hit, f
                                                   t->start[lc + 1] - t->start[lc], ray, hit,
                                                   tmin, mb, stamp, ctx);
                     if (hit->t <= march_exit_t(&sm))
-                        return found;
-                } while (march_next(&sm, NULL));
+                        return found; /* never in the band: held cells take the list */
+                    if (!march_next(&sm, NULL)) {
+                        found |= tl_tree_leaf_band(t, sg, &mi, sm, ray, hit, tmin, ctx, false);
+                        break;
+                    }
+                } while (true);
             }
         }
         if (hit->t <= march_exit_t(&mi))
             break;
-    } while (march_next(&mi, ctx));
+    } while (march_next_band(&mi, ctx));
+    band_restore(&band, ctx);
     return found;
 }
 
@@ -1183,21 +1331,26 @@ static bool tl_tree_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, 
     uint32_t stamp = grid_begin_ray(g, ctx);
     uint32_t *mb = stamp ? ctx->mailbox : NULL;
     float err = grid_march_error(g, ray);
+    LeanBand band = {false, 0, 0, 0};
+    bool occluded = false;
     do {
+        band_note(mi.held != 0, &band, ctx);
         if (mi.t > tmax)
             break;
         uint32_t c = grid_cell_index(g, mi.cell[0], mi.cell[1], mi.cell[2]);
         uint32_t s = t->sub_of[c];
-        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad)) {
+        if (s == TWOLEVEL_NO_SUB || !(err < t->subs[s].min_pad) || mi.held) {
             if (grid_items_occluded(g, g->cell_items + g->cell_start[c],
                                     g->cell_start[c + 1] - g->cell_start[c], ray, &h, tmin, mb,
-                                    stamp, ctx))
-                return true;
+                                    stamp, ctx)) {
+                occluded = true;
+                break;
+            }
         } else {
             const SubGrid *sg = &t->subs[s];
             if (grid_items_occluded(g, t->items + sg->big_start, sg->big_count, ray, &h, tmin,
                                     mb, stamp, ctx))
-                return true;
+                return true; /* before any band: nothing to restore */
             MarchingInfo sm;
             if (march_init(&sm, &sg->box, sg->n, sg->pad, ray, tmarch, NULL)) {
                 do {
@@ -1209,11 +1362,17 @@ static bool tl_tree_occluded(const TwoLevelGrid *t, const Ray *ray, float tmin, 
                                             t->start[lc + 1] - t->start[lc], ray, &h, tmin, mb,
                                             stamp, ctx))
                         return true;
-                } while (march_next(&sm, NULL));
+                    if (!march_next(&sm, NULL)) {
+                        if (tl_tree_leaf_band(t, sg, &mi, sm, ray, &h, tmin, ctx, true))
+                            return true;
+                        break;
+                    }
+                } while (true);
             }
         }
-    } while (march_next(&mi, ctx));
-    return false;
+    } while (march_next_band(&mi, ctx));
+    band_restore(&band, ctx);
+    return occluded;
 }
 
 /* The walk compiled a second time for AVX2 CPUs, as march_intersect_avx2 and

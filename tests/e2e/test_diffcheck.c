@@ -139,6 +139,35 @@ static void test_detects_a_stats_difference(void)
                    "-stats blocks");
 }
 
+/* -crowded: one scene with a dense cluster, checked like the others; -grid auto must
+ * build the two-level grid on it (-timings names it), which random scenes alone almost
+ * never make it do. */
+static void test_crowded_scene(void)
+{
+    char tool[PATH_MAX], dir[PATH_MAX], seed[32], scene[PATH_MAX + 64], img[PATH_MAX];
+    CHECK_MSG(diffcheck_path(tool, sizeof tool), "%s not found (make builds it)", tool);
+    CHECK(e2e_tmpdir(dir, sizeof dir, "diffcheck_crowded") != NULL);
+    snprintf(seed, sizeof seed, "%d", SEED);
+    const char *extra[] = {"-quick", "-sets", "1", "-crowded", "100", "-seed", seed, "-n", "1",
+                           "-keep", NULL};
+    E2eRun r;
+    CHECK(run_diffcheck(harness_bin(), dir, extra, &r));
+    CHECK_MSG(r.status == 0, "diffcheck found a difference (status %d):\n%s%s", r.status,
+              r.out, r.err);
+    CHECK_CONTAINS(r.out, "diffcheck: 1 scenes with a dense cluster (-crowded)");
+    e2e_run_free(&r);
+    snprintf(scene, sizeof scene, "%s/work/scene_%d_0/scene.txt", dir, SEED);
+    e2e_join(img, sizeof img, dir, "auto.ppm");
+    const char *args[] = {"-input", scene, "-size", "4", "4", "-output", img, "-grid", "auto",
+                          "-timings", "-quiet", NULL};
+    char why[512];
+    CHECK_MSG(e2e_run_bin(harness_bin(), args, &r) && r.status == 0, "-grid auto: %s",
+              e2e_describe(&r, why, sizeof why));
+    CHECK_CONTAINS(r.err, "grid auto: two-level");
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 /* A difference is shrunk: the wrapper spoils the 2-thread image of any scene with a
  * sphere, so the reducer must end with one root object (the one holding the sphere)
  * and no light, written as reduced.txt beside the scene. */
@@ -220,6 +249,81 @@ static void test_march_band_beyond_the_box(void)
     e2e_rmtree(dir);
 }
 
+/* The same eye and two triangles for the two-level grid (-accel twolevel, and -grid auto
+ * where the scene is crowded enough to get it), which ended its walks at the box's faces
+ * the same way. Small triangles behind the eye (y = 0.7..0.78, out of view) make the
+ * levels: 12 of them (14 entries in all) give one top cell holding a leaf grid, whose box
+ * is clipped at the face z = 0 and whose march ended there; 126 give 2 x 2 x 2 top cells,
+ * the small ones in a leaf grid of their own, and the top walk ended at the face in the
+ * eye's cell, before the one holding the first triangle. Every render must give the
+ * plain loop's bytes. */
+static void test_twolevel_band_beyond_the_box(void)
+{
+    static const struct {
+        int small;
+        const char *what, *args[3];
+    } cases[] = {
+        {12, "one top cell, leaf grid (-accel twolevel)", {"-accel", "twolevel", NULL}},
+        {126, "2x2x2 top cells (-accel twolevel)", {"-accel", "twolevel", NULL}},
+        {126, "2x2x2 top cells (-grid auto)", {"-grid", "auto", NULL}},
+    };
+    char dir[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "diffcheck_twolevel_band") != NULL);
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        /* The scene: the band reproducer's camera and triangles, then the small ones. */
+        static char scene[32768];
+        int len = snprintf(scene, sizeof scene,
+                           "PerspectiveCamera { center 0 0.62 0 direction 0 -1 -0.00001 "
+                           "up 1 0 0 angle 30 }\n"
+                           "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 1 1 } }\n"
+                           "Group { numObjects %d MaterialIndex 0\n"
+                           "  Triangle { vertex0 -0.136 -0.158 0 vertex1 0.914 -0.158 0 "
+                           "vertex2 0.914 -0.158 1.385 }\n"
+                           "  Triangle { vertex0 -0.136 -0.158 1.385 vertex1 0.914 0.791 1.385 "
+                           "vertex2 -0.136 0.791 1.385 }\n",
+                           2 + cases[c].small);
+        for (int i = 0; i < cases[c].small && len > 0 && (size_t)len < sizeof scene; i++) {
+            double x = 0.5 + 0.003 * (i % 100), y = 0.70 + 0.0005 * i, z = 0.9 + 0.003 * i;
+            len += snprintf(scene + len, sizeof scene - (size_t)len,
+                            "  Triangle { vertex0 %.4f %.4f %.3f vertex1 %.4f %.4f %.3f "
+                            "vertex2 %.4f %.4f %.3f }\n",
+                            x, y, z, x + 0.002, y, z, x, y, z + 0.002);
+        }
+        CHECK(len > 0 && (size_t)len + 3 < sizeof scene);
+        if (!(len > 0 && (size_t)len + 3 < sizeof scene))
+            break;
+        memcpy(scene + len, "}\n", 3);
+        char path[PATH_MAX], out[2][PATH_MAX];
+        CHECK(e2e_write_file(e2e_join(path, sizeof path, dir, "scene.txt"), scene));
+        char *img[2] = {NULL, NULL};
+        size_t n[2] = {0, 0};
+        for (int k = 0; k < 2; k++) {
+            e2e_join(out[k], sizeof out[k], dir, k ? "accel.ppm" : "plain.ppm");
+            const char *args[16] = {"-input", path, "-size", "3", "3", "-output", out[k],
+                                    "-quiet"};
+            int na = 8;
+            for (int i = 0; k && cases[c].args[i]; i++)
+                args[na++] = cases[c].args[i];
+            args[na] = NULL;
+            E2eRun r;
+            char why[512];
+            CHECK_MSG(e2e_run_bin(harness_bin(), args, &r) && r.status == 0, "%s, render %d: %s",
+                      cases[c].what, k, e2e_describe(&r, why, sizeof why));
+            e2e_run_free(&r);
+            img[k] = e2e_read_file(out[k], &n[k]);
+            CHECK(img[k] != NULL);
+        }
+        CHECK_MSG(img[0] && img[1] && n[0] == n[1] && memcmp(img[0], img[1], n[0]) == 0,
+                  "%s differs from the plain loop's", cases[c].what);
+        /* The plain loop's centre pixel is the first triangle's back face (black). */
+        CHECK(img[0] && n[0] > 15 && img[0][n[0] - 15] == 0);
+        free(img[0]);
+        free(img[1]);
+    }
+    e2e_rmtree(dir);
+
+}
+
 static const TestCase tests[] = {
     {"random scenes render the same bytes with every accelerator, thread count, packets",
      test_fixed_seed_agrees},
@@ -227,7 +331,11 @@ static const TestCase tests[] = {
     {"diffcheck reports a render that fails", test_detects_a_failed_render},
     {"diffcheck reports -stats blocks that differ", test_detects_a_stats_difference},
     {"diffcheck shrinks a scene that differs", test_reduces_a_difference},
+    {"diffcheck -crowded adds a cluster that -grid auto gives the two-level grid",
+     test_crowded_scene},
     {"the grid march goes on beyond a face of its box (diffcheck's finding)",
      test_march_band_beyond_the_box},
+    {"the two-level grid's walks go on beyond a face of its box (diffcheck's finding)",
+     test_twolevel_band_beyond_the_box},
 };
 RT_TEST_MAIN(tests)

@@ -866,6 +866,94 @@ static void test_walk_copies_all_triangles(void)
     CHECK(copies_compared - before > 20000);
 }
 
+/* Beyond the box's faces (docs/twolevel.md): the e2e reproducer's two triangles (one
+ * in the plane z = 0, a face of the scene's box) and small triangles away from them, 12
+ * (one top cell, whose leaf grid is clipped at that face) or 126 (2 x 2 x 2 top cells).
+ * Rays from points on, just outside and just inside that face, running along it and
+ * leaving it by a little, as a camera in the face's plane makes them: the triangle test
+ * accepts hits up to its tolerance outside the face, which the walks (with and without a
+ * ray tree, both copies: check_walks) ended before. */
+static void test_band_beyond_the_box(void)
+{
+    for (int variant = 0; variant < 2; variant++) {
+        rng_state = 777u + (uint64_t)variant;
+        int small = variant ? 126 : 12;
+        UScene u;
+        memset(&u, 0, sizeof u);
+        arena_init(&u.s.arena);
+        PhongParams pp = phong_defaults();
+        u.mats[0] = u.mats[1] = u.mats[2] = phong_new(&u.s.arena, &pp);
+        Arena *a = &u.s.arena;
+        Object3D *root = group_new(a, 2 + small);
+        group_set_child(root, 0, triangle_new(a, v3(-0.136f, -0.158f, 0), v3(0.914f, -0.158f, 0),
+                                              v3(0.914f, -0.158f, 1.385f), u.mats[0]));
+        group_set_child(root, 1, triangle_new(a, v3(-0.136f, -0.158f, 1.385f),
+                                              v3(0.914f, 0.791f, 1.385f),
+                                              v3(-0.136f, 0.791f, 1.385f), u.mats[0]));
+        for (int i = 0; i < small; i++) {
+            float x = 0.5f + 0.003f * (float)(i % 100), y = 0.70f + 0.0005f * (float)i,
+                  z = 0.9f + 0.003f * (float)i;
+            group_set_child(root, 2 + i, triangle_new(a, v3(x, y, z), v3(x + 0.002f, y, z),
+                                                      v3(x, y, z + 0.002f), u.mats[0]));
+        }
+        group_finish(root);
+        u.s.root = root;
+        u.s.num_primitives = group_assign_ids(root);
+        u.s.bounds = root->bbox;
+        Diag d;
+        diag_init(&d, stderr);
+        PrimTable table;
+        CHECK(prim_table_build(&table, &u.s));
+        TwoLevelGrid *t = twolevel_build(&table, &d);
+        CHECK(t != NULL);
+        if (t) {
+            uint32_t subs = 0;
+            twolevel_counts(t, &subs, NULL);
+            int n[3];
+            grid_dims(twolevel_top(t), n);
+            CHECK(subs == 1);
+            CHECK(n[0] * n[1] * n[2] == (variant ? 8 : 1));
+            RenderCtx ctx;
+            memset(&ctx, 0, sizeof ctx);
+            ctx.num_mailbox = grid_mailbox_size(twolevel_top(t));
+            ctx.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+            RenderCtx lean = ctx, tree = ctx, base = ctx;
+            lean.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+            tree.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+            base.mailbox = calloc(ctx.num_mailbox + 1, sizeof *ctx.mailbox);
+            tree.tree = malloc(sizeof *tree.tree);
+            bool ok = ctx.mailbox && lean.mailbox && tree.mailbox && base.mailbox && tree.tree;
+            CHECK(ok);
+            walk_lean = ok ? &lean : NULL;
+            walk_tree = &tree;
+            walk_base = ok ? &base : NULL;
+            Totals tot = {0};
+            long outside = 0; /* hits on the first triangle beyond the face z = 0 */
+            for (int i = 0; ok && i < 3000; i++) {
+                Ray r;
+                float z0 = irand(2) ? 0.0f : frand(-2e-5f, 2e-5f);
+                r.origin = v3(frand(-0.1f, 0.9f), frand(0.0f, 0.7f), z0);
+                r.dir = v3(frand(-0.3f, 0.3f), -1.0f, irand(4) ? -frand(0.0f, 4e-5f) : 0.0f);
+                Hit h;
+                check_one(&u, t, &ctx, &r, 0.0f, &tot, &h);
+                outside += isfinite(h.t) && h.id == 0 && ray_at(&r, h.t).z < 0.0f;
+            }
+            printf("    %d top cell(s): %ld rays, %ld hits, %ld of them beyond the face\n",
+                   n[0] * n[1] * n[2], tot.rays, tot.hits, outside);
+            CHECK(outside > 100); /* the case is met */
+            walk_lean = walk_tree = walk_base = NULL;
+            free(base.mailbox);
+            free(lean.mailbox);
+            free(tree.mailbox);
+            free(tree.tree);
+            free(ctx.mailbox);
+            twolevel_free(t);
+        }
+        prim_table_free(&table);
+        arena_free(&u.s.arena);
+    }
+}
+
 static const TestCase tests[] = {
     {"twolevel_uneven_scenes_match_brute_force", test_uneven_scenes},
     {"twolevel_leaf_cells_exact", test_leaf_cells},
@@ -875,6 +963,7 @@ static const TestCase tests[] = {
     {"twolevel_shrinking_transform_tmin", test_shrinking_transform_tmin},
     {"twolevel_structure_pinned", test_structure_pinned},
     {"twolevel_walk_copies_all_triangles", test_walk_copies_all_triangles},
+    {"twolevel_band_beyond_the_box", test_band_beyond_the_box},
 };
 
 RT_TEST_MAIN(tests)
