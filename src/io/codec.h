@@ -5,6 +5,7 @@
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
+#include <sys/types.h>
 #include "rt/bigmem.h"
 #include "rt/image.h"
 #include <string.h>
@@ -81,7 +82,7 @@ void codec_row_to_rgb(const ImageRowLayout *lay, const uint8_t *stored, uint8_t 
 
 #ifdef RT_HAVE_PNG
 /* A PNG file read row by row (png.c): png_rows_open reads the chunks before the pixels
- * from fd (which it does not close; len is the file's length) and fills lay's size and
+ * from fd (which it neither keeps nor closes; len is the file's length) and fills lay's size and
  * region record; *interlaced files cannot be read by rows (every pass covers all of
  * them): the caller reads those whole. png_rows_next gives the next row down as R G B
  * bytes, and png_rows_finish reads the rest of the file (the checksums decode checks)
@@ -89,8 +90,10 @@ void codec_row_to_rgb(const ImageRowLayout *lay, const uint8_t *stored, uint8_t 
 typedef struct PngRows PngRows;
 PngRows *png_rows_open(int fd, size_t len, ImageRowLayout *lay, bool *interlaced, char *err,
                        size_t errlen);
-bool png_rows_next(PngRows *r, uint8_t *rgb, char *err, size_t errlen);
-bool png_rows_finish(PngRows *r, char *err, size_t errlen);
+/* fd: the file, open (it is read at the decoder's own offset, so it may be another
+ * descriptor of the same file than the last call's, which may have been closed). */
+bool png_rows_next(PngRows *r, int fd, uint8_t *rgb, char *err, size_t errlen);
+bool png_rows_finish(PngRows *r, int fd, char *err, size_t errlen);
 void png_rows_free(PngRows *r);
 
 /* A PNG file written row by row (the top row first) through write(ctx, bytes, n), which
@@ -105,11 +108,25 @@ bool png_out_end(PngOut *o);
 void png_out_free(PngOut *o);
 #endif
 
+/* The open files of a merge's parts (rows.c). A part's file stays open from row to row
+ * while fewer than cap are; to open another beyond that, the one read longest ago is
+ * closed (and opened again at its next row: a TGA or PPM part is read at each row's
+ * offset, a PNG part's decoder keeps its place in the file). Without it every part
+ * crossing a strip held its file open, and a merge of some 500 parts side by side (two
+ * per PNG part: 250) met the usual limit of 1024 open files (RLIMIT_NOFILE). */
+typedef struct ImageRowsFiles {
+    int open, cap;
+    struct ImageRows *newest, *oldest; /* the parts whose file is open, by last read */
+} ImageRowsFiles;
+
 /* A part image read by rows for -merge (rows.c): image_rows_open checks the file as
  * image_read would before its pixels (the codec's header, the region record, the
  * length the header declares) and keeps no descriptor open; image_rows_read then gives
  * rows from the top, in increasing order, opening the file at the first, and
  * image_rows_end closes it (the rows read are all of them: a PNG's end is checked).
+ * With files set (after image_rows_open) the file may be closed and opened again in
+ * between, as ImageRowsFiles says; it must then still be the same file (device, inode
+ * and length), or the read fails with "the file changed while it was merged".
  * Formats or files that cannot be read by rows (an interlaced PNG, a pipe, standard
  * input, a PPM whose header runs past its first 64 KiB) are read whole, as bytes, when
  * their first row is asked for (pipes when opened: they can be read once). Failures are
@@ -119,10 +136,14 @@ typedef struct ImageRows {
     int width, height;
     bool has_region;
     ImageRegion region;
+    ImageRowsFiles *files; /* NULL: the file stays open from the first row to the end */
     /* The rest is rows.c's. */
     int mode;
     int fd;
     size_t file_len;
+    dev_t dev;           /* the file image_rows_open checked */
+    ino_t ino;
+    struct ImageRows *newer, *older; /* in files' list while fd is open */
     ImageRowLayout lay;
     uint8_t *stored;     /* one stored row (ROWS_FILE) */
     uint8_t *whole;      /* the whole image as R G B, top row first (ROWS_WHOLE) */

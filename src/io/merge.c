@@ -3,7 +3,8 @@
  * refused merge writes nothing; then the output is written strip by strip from the top,
  * each strip's rows read from the parts that hold them (src/io/rows.c), so a merge holds
  * one strip and a row buffer per part being read, not the images: a 20000x20000 frame
- * is merged in a few MB. A TGA or PPM output is written at its rows' places, a PNG
+ * is merged in a few MB. The parts' open files are capped below the open-file limit
+ * (part_files_cap, rows.c's ImageRowsFiles), so any number of parts merges. A TGA or PPM output is written at its rows' places, a PNG
  * output row by row, both into the temporary file that is renamed at the end; standard
  * output, a pipe or a device gets the whole image at the end, as before (held as bytes
  * meanwhile), so a failure half-way still writes nothing there. */
@@ -14,6 +15,7 @@
 #include <inttypes.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 /* The part's rectangle in the full image's top-left coordinates. */
@@ -52,6 +54,38 @@ static bool find_gap(const Part *parts, int n, int w, int h, int *gx, int *gy)
 static void part_describe(const Part *p, char *buf, size_t size)
 {
     snprintf(buf, size, "region %d %d %dx%d", p->x0, p->y0, p->x1 - p->x0, p->y1 - p->y0);
+}
+
+/* Descriptors left to the rest of the process while parts are open: the standard
+ * streams, the output's temporary file, what the C library opens for itself (a
+ * locale's message catalogue for strerror), at most half the limit. */
+enum { FILES_KEPT = 32 };
+
+/* How many part files may be open at once (rows.c, ImageRowsFiles). Parts side by side
+ * are all read in every strip they cross, so with fewer open than that some are closed
+ * and opened again at each strip (two system calls a part: cheap beside its rows, but
+ * not free), and the soft open-file limit is first raised towards the hard one (which
+ * a process may do unprivileged) as far as n parts need: 1024 is the usual soft limit,
+ * with hard limits of 4096 to a million. The limit stays raised: the merge is the
+ * process's last work. */
+static int part_files_cap(int n)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
+        return FILES_KEPT / 2;
+    rlim_t want = (rlim_t)n + FILES_KEPT;
+    if (rl.rlim_cur != RLIM_INFINITY && rl.rlim_cur < want && rl.rlim_max > rl.rlim_cur) {
+        struct rlimit raised = rl;
+        raised.rlim_cur = rl.rlim_max != RLIM_INFINITY && rl.rlim_max < want ? rl.rlim_max
+                                                                               : want;
+        if (setrlimit(RLIMIT_NOFILE, &raised) == 0)
+            rl = raised;
+    }
+    if (rl.rlim_cur == RLIM_INFINITY || rl.rlim_cur >= want)
+        return n;
+    long soft = (long)rl.rlim_cur;
+    long keep = soft / 2 < FILES_KEPT ? soft / 2 : FILES_KEPT;
+    return soft - keep < 1 ? 1 : (int)(soft - keep);
 }
 
 /* Bytes of output a strip holds at most: a 20000-wide image's strip is 69 rows. */
@@ -282,6 +316,7 @@ bool image_merge(const char *out, const char *const *paths, int n,
     }
     for (int i = 0; i < n; i++)
         rows[i].fd = -1;
+    ImageRowsFiles files = {0, part_files_cap(n), NULL, NULL};
     bool ok = true;
     int fw = 0, fh = 0;
     bool has_id = false;
@@ -302,6 +337,7 @@ bool image_merge(const char *out, const char *const *paths, int n,
             ok = false;
             break;
         }
+        img->files = &files;
         if (!img->has_region) {
             diag_error(diag, &loc, "not a part image: it has no region record (write parts "
                        "with -region or -tile)");

@@ -11,6 +11,7 @@
 #ifdef RT_HAVE_PNG
 
 #include "codec.h"
+#include <errno.h>
 #include <unistd.h>
 
 #include <png.h>
@@ -294,17 +295,40 @@ static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, s
 
 /* ---- row by row (-merge's parts, codec.h) ----------------------------------------- */
 
+/* The decoder reads the file through buf at its own offset pos, from the descriptor of
+ * the current call: -merge may close a part's file between rows and open it again (its
+ * open files are limited: codec.h, ImageRowsFiles). It had its own FILE (a dup of the
+ * descriptor), a second descriptor per part held from the first row to the last. */
 struct PngRows {
     png_structp png;
     png_infop info;
-    FILE *f;
+    int fd;          /* the current call's */
+    size_t pos;      /* the file offset of buf's end */
+    size_t have, at; /* bytes in buf, of which at are used */
+    uint8_t buf[8192];
 };
 
 static void file_read(png_structp png, png_bytep dst, png_size_t n)
 {
     PngRows *r = png_get_io_ptr(png);
-    if (fread(dst, 1, n, r->f) != n)
-        png_error(png, "truncated PNG file");
+    while (n > 0) {
+        if (r->at == r->have) {
+            ssize_t k;
+            do
+                k = pread(r->fd, r->buf, sizeof r->buf, (off_t)r->pos);
+            while (k < 0 && errno == EINTR);
+            if (k <= 0)
+                png_error(png, "truncated PNG file");
+            r->pos += (size_t)k;
+            r->have = (size_t)k;
+            r->at = 0;
+        }
+        size_t take = r->have - r->at < n ? r->have - r->at : n;
+        memcpy(dst, r->buf + r->at, take);
+        r->at += take;
+        dst += take;
+        n -= take;
+    }
 }
 
 /* chunks_fit on a file: the chunk headers read at their places, the data skipped. */
@@ -330,8 +354,6 @@ void png_rows_free(PngRows *r)
     if (!r)
         return;
     png_destroy_read_struct(&r->png, &r->info, NULL);
-    if (r->f)
-        fclose(r->f);
     free(r);
 }
 
@@ -346,18 +368,14 @@ PngRows *png_rows_open(int fd, size_t len, ImageRowLayout *lay, bool *interlaced
         return NULL;
     }
     PngRows *r = calloc(1, sizeof *r);
-    int dfd = r ? dup(fd) : -1;
-    if (r && dfd >= 0) {
-        r->f = fdopen(dfd, "rb");
-        if (!r->f)
-            close(dfd);
-    }
-    if (r && r->f)
+    if (r) {
+        r->fd = fd;
         r->png = png_create_read_struct(PNG_LIBPNG_VER_STRING, NULL, quiet_error,
                                         quiet_warning);
+    }
     if (r && r->png)
         r->info = png_create_info_struct(r->png);
-    if (!r || !r->f || !r->png || !r->info) {
+    if (!r || !r->png || !r->info) {
         png_rows_free(r);
         codec_fail(err, errlen, "out of memory");
         return NULL;
@@ -405,8 +423,9 @@ PngRows *png_rows_open(int fd, size_t len, ImageRowLayout *lay, bool *interlaced
     return r;
 }
 
-bool png_rows_next(PngRows *r, uint8_t *rgb, char *err, size_t errlen)
+bool png_rows_next(PngRows *r, int fd, uint8_t *rgb, char *err, size_t errlen)
 {
+    r->fd = fd;
     if (setjmp(png_jmpbuf(r->png)))
         return codec_fail(err, errlen, "corrupt or truncated PNG file");
     png_read_row(r->png, rgb, NULL);
@@ -421,8 +440,9 @@ static bool rows_end(PngRows *r, char *err, size_t errlen)
     return true;
 }
 
-bool png_rows_finish(PngRows *r, char *err, size_t errlen)
+bool png_rows_finish(PngRows *r, int fd, char *err, size_t errlen)
 {
+    r->fd = fd;
     bool ok = rows_end(r, err, errlen);
     png_rows_free(r);
     return ok;

@@ -102,6 +102,8 @@ bool image_rows_open(ImageRows *r, const char *path, Diag *diag)
             close(fd);
         return read_whole(r, diag);
     }
+    r->dev = st.st_dev;
+    r->ino = st.st_ino;
     if ((uintmax_t)st.st_size > IMAGE_READ_MAX_BYTES) {
         close(fd);
         rows_report(diag, path, strerror(EFBIG));
@@ -177,6 +179,92 @@ bool image_rows_open(ImageRows *r, const char *path, Diag *diag)
     return true;
 }
 
+/* r's place in its files' list (newest first), while its file is open. */
+static void files_remove(ImageRows *r)
+{
+    ImageRowsFiles *f = r->files;
+    if (!f)
+        return;
+    if (r->newer)
+        r->newer->older = r->older;
+    else
+        f->newest = r->older;
+    if (r->older)
+        r->older->newer = r->newer;
+    else
+        f->oldest = r->newer;
+    r->newer = r->older = NULL;
+    f->open--;
+}
+
+static void files_add(ImageRows *r)
+{
+    ImageRowsFiles *f = r->files;
+    if (!f)
+        return;
+    r->newer = NULL;
+    r->older = f->newest;
+    if (f->newest)
+        f->newest->newer = r;
+    else
+        f->oldest = r;
+    f->newest = r;
+    f->open++;
+}
+
+/* Closes r's file; its place (the next row, a PNG decoder's offset) is kept. */
+static void rows_close(ImageRows *r)
+{
+    if (r->fd < 0)
+        return;
+    files_remove(r);
+    close(r->fd);
+    r->fd = -1;
+}
+
+/* r's file, open in r->fd and the newest of its files: opened (again) when it is not,
+ * after closing the file read longest ago when cap are open, or when the open finds
+ * no descriptor left (the cap is the merge's estimate; the process may hold others).
+ * It must be the file image_rows_open checked: one renamed over it meanwhile (a part
+ * rendered again) would mix two files' rows. */
+static bool rows_file(ImageRows *r, Diag *diag)
+{
+    ImageRowsFiles *f = r->files;
+    if (r->fd >= 0) {
+        if (f && f->newest != r) {
+            files_remove(r);
+            files_add(r);
+        }
+        return true;
+    }
+    if (f && f->open >= f->cap && f->oldest)
+        rows_close(f->oldest);
+    int fd;
+    for (;;) {
+        fd = open(r->path, O_RDONLY | O_CLOEXEC);
+        if (fd >= 0)
+            break;
+        if (errno == EINTR)
+            continue;
+        if ((errno == EMFILE || errno == ENFILE) && f && f->oldest) {
+            rows_close(f->oldest);
+            continue;
+        }
+        rows_report(diag, r->path, strerror(errno));
+        return false;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_dev != r->dev ||
+        st.st_ino != r->ino || (uintmax_t)st.st_size != (uintmax_t)r->file_len) {
+        close(fd);
+        rows_report(diag, r->path, "the file changed while it was merged");
+        return false;
+    }
+    r->fd = fd;
+    files_add(r);
+    return true;
+}
+
 /* Opens the file for its rows (the first image_rows_read). */
 static bool rows_start(ImageRows *r, Diag *diag)
 {
@@ -193,11 +281,8 @@ static bool rows_start(ImageRows *r, Diag *diag)
         }
         return true;
     }
-    r->fd = open(r->path, O_RDONLY | O_CLOEXEC);
-    if (r->fd < 0) {
-        rows_report(diag, r->path, strerror(errno));
+    if (!rows_file(r, diag))
         return false;
-    }
     char why[256] = "";
 #ifdef RT_HAVE_PNG
     if (r->mode == ROWS_PNG) {
@@ -237,6 +322,8 @@ bool image_rows_read(ImageRows *r, int row, uint8_t *rgb, Diag *diag)
     char why[256] = "";
     if (r->mode == ROWS_WHOLE) {
         memcpy(rgb, r->whole + (size_t)row * w3, w3);
+    } else if (!rows_file(r, diag)) {
+        return false;
     } else if (r->mode == ROWS_FILE) {
         const ImageRowLayout *lay = &r->lay;
         size_t stored = (size_t)r->width * (size_t)lay->pixel_bytes;
@@ -260,7 +347,7 @@ bool image_rows_read(ImageRows *r, int row, uint8_t *rgb, Diag *diag)
     } else if (r->mode == ROWS_PNG) {
         /* libpng gives the rows in order: the ones skipped are read and dropped. */
         for (int t = r->next; t <= row; t++)
-            if (!png_rows_next(r->png, rgb, why, sizeof why)) {
+            if (!png_rows_next(r->png, r->fd, rgb, why, sizeof why)) {
                 rows_report(diag, r->path, why);
                 return false;
             }
@@ -276,28 +363,30 @@ bool image_rows_end(ImageRows *r, Diag *diag)
 #ifdef RT_HAVE_PNG
     if (r->png) {
         char why[256] = "";
+        /* The rest of the file is read (reported by rows_file when it cannot be). */
+        bool reported = !rows_file(r, diag);
+        ok = !reported;
         /* Rows left unread would fail png_read_end: read them first. */
-        uint8_t *rest = r->next < r->height ? malloc((size_t)r->width * 3) : NULL;
-        ok = rest || r->next >= r->height;
-        if (!ok)
+        uint8_t *rest = ok && r->next < r->height ? malloc((size_t)r->width * 3) : NULL;
+        if (ok && !rest && r->next < r->height) {
             snprintf(why, sizeof why, "%s", strerror(ENOMEM));
+            ok = false;
+        }
         for (int t = r->next; t < r->height && ok; t++)
-            ok = png_rows_next(r->png, rest, why, sizeof why);
+            ok = png_rows_next(r->png, r->fd, rest, why, sizeof why);
         free(rest);
         if (ok)
-            ok = png_rows_finish(r->png, why, sizeof why); /* frees it */
+            ok = png_rows_finish(r->png, r->fd, why, sizeof why); /* frees it */
         else
             png_rows_free(r->png);
         r->png = NULL;
-        if (!ok)
+        if (!ok && !reported)
             rows_report(diag, r->path, why);
     }
 #else
     (void)diag;
 #endif
-    if (r->fd >= 0)
-        close(r->fd);
-    r->fd = -1;
+    rows_close(r);
     free(r->stored);
     r->stored = NULL;
     free(r->whole);
@@ -312,9 +401,7 @@ void image_rows_free(ImageRows *r)
     png_rows_free(r->png);
     r->png = NULL;
 #endif
-    if (r->fd >= 0)
-        close(r->fd);
-    r->fd = -1;
+    rows_close(r);
     free(r->stored);
     free(r->whole);
     r->stored = r->whole = NULL;

@@ -1415,7 +1415,99 @@ static void test_failed_decode_defines_image(void)
     image_free(&img);
 }
 
+/* The merge's test pixel at (x, y) of the whole image: every column of a part and every
+ * part differs, so a column or part out of place shows. */
+static Vec3 merge_pixel(int x, int y, int part_w)
+{
+    return v3((float)(x % 256) / 255.0f, (float)(y % 256) / 255.0f,
+              (float)((x / part_w) * 37 % 256) / 255.0f);
+}
+
+static bool same_file_bytes(const char *a, const char *b)
+{
+    FILE *fa = fopen(a, "rb"), *fb = fopen(b, "rb");
+    bool same = fa && fb;
+    while (same) {
+        int ca = getc(fa), cb = getc(fb);
+        same = ca == cb;
+        if (ca == EOF)
+            break;
+    }
+    if (fa)
+        fclose(fa);
+    if (fb)
+        fclose(fb);
+    return same;
+}
+
+/* -merge kept each part's file open from its first strip to its last, so parts side by
+ * side held one descriptor each across a strip: some 500 of them met the default limit
+ * of 1024 open files ("cannot read image: Too many open files", exit 1). 130 parts of
+ * 100 x 110 pixels side by side in a 13000 x 110 image (whose strips are 107 rows: every
+ * part crosses the first strip's end), as TGA, PPM and PNG (when built), merge into the
+ * whole image's bytes under an open-file limit of 32: with the hard limit above what
+ * they need (the merge raises its soft limit), then with soft and hard both 32 (parts'
+ * files are closed and opened again). The harness runs each test in a child process, so
+ * the lowered limits end with it. */
+static void test_merge_many_parts(void)
+{
+    enum { NP = 130, PW = 100, H = 110 };
+    char dir[] = "/tmp/rt_merge_XXXXXX";
+    if (!mkdtemp(dir)) {
+        CHECK_MSG(false, "cannot make a temporary folder");
+        return;
+    }
+    Diag d;
+    diag_init(&d, NULL);
+    static char paths[NP + 1][64];
+    const char *parts[NP];
+    Image whole;
+    CHECK(image_init_bytes(&whole, NP * PW, H));
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < NP * PW; x++)
+            image_put(&whole, x, y, merge_pixel(x, y, PW));
+    snprintf(paths[NP], sizeof paths[NP], "%s/whole.tga", dir);
+    CHECK_MSG(image_write(&whole, paths[NP], &d), "%s", d.last);
+    image_free(&whole);
+    const ImageCodec *png = image_codec_find("png");
+    int kinds = png && png->encode ? 3 : 2;
+    static const char *const ext[] = {"tga", "ppm", "png"};
+    for (int i = 0; i < NP && !harness_failures; i++) {
+        Image part;
+        CHECK(image_init_bytes(&part, PW, H));
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < PW; x++)
+                image_put(&part, x, y, merge_pixel(i * PW + x, y, PW));
+        part.has_region = true;
+        part.region = (ImageRegion){i * PW, 0, NP * PW, H, true, 0x5eed0123456789abull};
+        snprintf(paths[i], sizeof paths[i], "%s/p%03d.%s", dir, i, ext[i % kinds]);
+        parts[i] = paths[i];
+        CHECK_MSG(image_write(&part, paths[i], &d), "%s", d.last);
+        image_free(&part);
+    }
+    struct rlimit rl;
+    CHECK(getrlimit(RLIMIT_NOFILE, &rl) == 0);
+    for (int round = 0; round < 2 && !harness_failures; round++) {
+        /* The raise needs a hard limit above the parts' count. */
+        if (round == 0 && rl.rlim_max != RLIM_INFINITY && rl.rlim_max < NP + 64)
+            continue;
+        struct rlimit low = {32, round == 0 ? rl.rlim_max : 32};
+        CHECK(setrlimit(RLIMIT_NOFILE, &low) == 0);
+        char out[80];
+        snprintf(out, sizeof out, "%s/merged%d.tga", dir, round);
+        diag_init(&d, NULL);
+        CHECK_MSG(image_merge(out, parts, NP, NULL, &d), "open-file limit 32, hard %s: %s",
+                  round == 0 ? "higher" : "32", d.last);
+        CHECK_MSG(same_file_bytes(out, paths[NP]), "open-file limit 32, hard %s: the merged "
+                  "image is not the whole image's bytes", round == 0 ? "higher" : "32");
+    }
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
+    CHECK(system(cmd) == 0);
+}
+
 static const TestCase tests[] = {
+    {"image: merge of 130 parts side by side under an open-file limit of 32", test_merge_many_parts},
     {"image: codec table: names, extensions, signatures", test_codec_table},
     {"image: PNG declaring a 1 GB chunk refused in little memory", test_png_huge_chunk},
     {"image: a file longer than any image refused unread", test_read_too_long},
