@@ -67,6 +67,11 @@ void camera_block8_rays_plain(bool on);
  * pixel). */
 void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
                         int height, Ray *rays);
+/* camera_sample_rays for 16 samples of each of npx pixels: pixel i's position pairs at
+ * xy[i] (32 floats), its rays to rays + 16 i. The same rays; where the CPU has AVX-512,
+ * two pixels' chains of divisions overlap. */
+void camera_sample_rays_pixels(const Camera *c, int npx, const int *x, const int *y,
+                               const float *const *xy, int width, int height, Ray *rays);
 /* camera_sample_rays, and each sample's position (xy[2k], xy[2k+1]) stored at
  * pos + k * stride (two floats side by side) with that address in dest[k]: the film's
  * scratch and its packet's destinations, in the same pass as the rays (eight at a time

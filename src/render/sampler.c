@@ -180,12 +180,13 @@ static void jittered_place(const Strata *g, int k, int n2, const float *u, float
 __attribute__((always_inline, SAMPLER_AVX512)) static inline __m256
 jittered_draws8(__m512i base, int j0)
 {
-    __m512i j = _mm512_add_epi64(_mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7),
-                                 _mm512_set1_epi64(j0));
-    /* key ^ (stream << 48 | dim << 32 | index) with dim = j & 1, index = j >> 1 */
-    __m512i z = _mm512_xor_si512(
-        base, _mm512_xor_si512(_mm512_slli_epi64(_mm512_and_si512(j, _mm512_set1_epi64(1)), 32),
-                               _mm512_srli_epi64(j, 1)));
+    /* key ^ (stream << 48 | dim << 32 | index) with dim = j & 1, index = j >> 1 for
+     * j = j0 + i (j0 even): dim is i & 1, index j0 / 2 + i / 2, so the counters are a
+     * constant vector plus j0 / 2 (one add and one xor instead of six steps) */
+    const long long d1 = 1LL << 32;
+    __m512i ctr = _mm512_add_epi64(_mm512_setr_epi64(0, d1, 1, d1 | 1, 2, d1 | 2, 3, d1 | 3),
+                                   _mm512_set1_epi64(j0 >> 1));
+    __m512i z = _mm512_xor_si512(base, ctr);
     z = _mm512_add_epi64(z, _mm512_set1_epi64((long long)0x9e3779b97f4a7c15ULL));
     z = _mm512_mullo_epi64(_mm512_xor_si512(z, _mm512_srli_epi64(z, 30)),
                            _mm512_set1_epi64((long long)0xbf58476d1ce4e5b9ULL));

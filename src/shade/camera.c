@@ -317,70 +317,185 @@ void camera_block8_rays(const Camera *c, int x0, int y0, int width, int height,
 }
 
 #if defined(__x86_64__) && defined(__GNUC__)
+/* Where sample_rays_avx512's 16 rays (6 floats each: origin, direction) find their
+ * floats in its six output vectors: float l of vector o is channel c = (16 o + l) % 6
+ * of ray i = (16 o + l) / 6. xy: the permute index into (dir.x, dir.y) of the 16 rays
+ * (i, or 16 + i) for c = 3, 4, with those lanes' mask; z: i for c = 5, with its mask;
+ * eye: c for c < 3 (an index into (eye.x, eye.y, eye.z, 0, ...)), else 3. */
+typedef struct SampleRayLanes {
+    int32_t xy[16] __attribute__((aligned(64)));
+    int32_t z[16] __attribute__((aligned(64)));
+    int32_t eye[16] __attribute__((aligned(64)));
+    uint16_t xymask, zmask;
+} SampleRayLanes;
+
+#define SRL_F(o, l) (16 * (o) + (l))
+#define SRL_C(o, l) (SRL_F(o, l) % 6)
+#define SRL_I(o, l) (SRL_F(o, l) / 6)
+#define SRL_XY(o, l) (SRL_C(o, l) == 3 ? SRL_I(o, l) : SRL_C(o, l) == 4 ? 16 + SRL_I(o, l) : 0)
+#define SRL_Z(o, l) (SRL_C(o, l) == 5 ? SRL_I(o, l) : 0)
+#define SRL_EYE(o, l) (SRL_C(o, l) < 3 ? SRL_C(o, l) : 3)
+#define SRL_XYBIT(o, l) (SRL_C(o, l) == 3 || SRL_C(o, l) == 4 ? 1u << (l) : 0u)
+#define SRL_ZBIT(o, l) (SRL_C(o, l) == 5 ? 1u << (l) : 0u)
+#define SRL_ROW(T, o)                                                                      \
+    {T(o, 0), T(o, 1), T(o, 2),  T(o, 3),  T(o, 4),  T(o, 5),  T(o, 6),  T(o, 7),           \
+     T(o, 8), T(o, 9), T(o, 10), T(o, 11), T(o, 12), T(o, 13), T(o, 14), T(o, 15)}
+#define SRL_MASK(P, o)                                                                     \
+    (uint16_t)(P(o, 0) | P(o, 1) | P(o, 2) | P(o, 3) | P(o, 4) | P(o, 5) | P(o, 6) |        \
+               P(o, 7) | P(o, 8) | P(o, 9) | P(o, 10) | P(o, 11) | P(o, 12) | P(o, 13) |   \
+               P(o, 14) | P(o, 15))
+#define SRL_VECTOR(o)                                                                      \
+    {SRL_ROW(SRL_XY, o), SRL_ROW(SRL_Z, o), SRL_ROW(SRL_EYE, o), SRL_MASK(SRL_XYBIT, o),   \
+     SRL_MASK(SRL_ZBIT, o)}
+static const SampleRayLanes sample_ray_lanes[6] = {SRL_VECTOR(0), SRL_VECTOR(1), SRL_VECTOR(2),
+                                                   SRL_VECTOR(3), SRL_VECTOR(4), SRL_VECTOR(5)};
+
+/* The camera's terms of sample_rays_avx512, broadcast once per call. */
+typedef struct SampleRayConsts {
+    __m512 S, cx, cy, llx, lly, llz, xax, xay, xaz, yax, yay, yaz, ex, ey, ez, e0, e1, e2;
+} SampleRayConsts;
+
+__attribute__((always_inline, target("avx512f"))) static inline void
+sample_ray_consts(const Camera *c, int width, int height, SampleRayConsts *K)
+{
+    float s = (float)(width > height ? width : height);
+    Vec3 ll = c->lower_left, xa = c->x_axis, ya = c->y_axis, e = c->center;
+    K->S = _mm512_set1_ps(s);
+    K->cx = _mm512_set1_ps((s - (float)width) * 0.5f);
+    K->cy = _mm512_set1_ps((s - (float)height) * 0.5f);
+    K->llx = _mm512_set1_ps(ll.x);
+    K->lly = _mm512_set1_ps(ll.y);
+    K->llz = _mm512_set1_ps(ll.z);
+    K->xax = _mm512_set1_ps(xa.x);
+    K->xay = _mm512_set1_ps(xa.y);
+    K->xaz = _mm512_set1_ps(xa.z);
+    K->yax = _mm512_set1_ps(ya.x);
+    K->yay = _mm512_set1_ps(ya.y);
+    K->yaz = _mm512_set1_ps(ya.z);
+    K->ex = _mm512_set1_ps(e.x);
+    K->ey = _mm512_set1_ps(e.y);
+    K->ez = _mm512_set1_ps(e.z);
+    /* The eye's floats at the origin channels of the output vectors: vector o's pattern
+     * is vector (o % 3)'s (48 floats are eight whole rays). */
+    const __m512 eye = _mm512_setr_ps(e.x, e.y, e.z, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0);
+    K->e0 = _mm512_permutexvar_ps(_mm512_load_si512(sample_ray_lanes[0].eye), eye);
+    K->e1 = _mm512_permutexvar_ps(_mm512_load_si512(sample_ray_lanes[1].eye), eye);
+    K->e2 = _mm512_permutexvar_ps(_mm512_load_si512(sample_ray_lanes[2].eye), eye);
+}
+
+/* G groups of 16 samples (G = 1 or 2; group g: the pixel (x[g], y[g]), its 16 (x, y)
+ * position pairs at xy[g], the rays to rays[g]), each step of all groups before the
+ * next step: one group's chain of divisions and square root (about 80 cycles on the
+ * Zen 4 host) waits on its own results, while a second group's fills the gaps (one
+ * group at a time, sixteen rays took 36 ns where the divider alone needs 11). The same
+ * IEEE single operations in the same order in every lane as the SSE lanes and the
+ * scalar functions (no FMA: camera.o is built with -ffp-contract=off, and every
+ * operation is an intrinsic). */
+__attribute__((always_inline, target("avx512f"))) static inline void
+sample_ray_groups(const SampleRayConsts *K, int G, const int *x, const int *y,
+                  const float *const *xy, Ray *const *rays)
+{
+    /* Even and odd floats of two vectors: the x and the y of 16 (x, y) pairs. */
+    const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26,
+                                           28, 30);
+    const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27,
+                                          29, 31);
+    __m512 u[2], v[2], dx[2], dy[2], dz[2], l[2];
+#pragma GCC unroll 2
+    for (int g = 0; g < G; g++) {
+        __m512 a = _mm512_loadu_ps(xy[g]), b = _mm512_loadu_ps(xy[g] + 16);
+        __m512 px = _mm512_permutex2var_ps(a, even, b);
+        __m512 py = _mm512_permutex2var_ps(a, odd, b);
+        u[g] = _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(_mm512_set1_ps((float)x[g]), px), K->cx),
+                             K->S);
+        v[g] = _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(_mm512_set1_ps((float)y[g]), py), K->cy),
+                             K->S);
+    }
+#define RT_AXIS(L, X, Y, E, g)                                                             \
+    _mm512_sub_ps(_mm512_add_ps(_mm512_add_ps(K->L, _mm512_mul_ps(K->X, u[g])),             \
+                                _mm512_mul_ps(K->Y, v[g])),                                \
+                  K->E)
+#pragma GCC unroll 2
+    for (int g = 0; g < G; g++) {
+        dx[g] = RT_AXIS(llx, xax, yax, ex, g);
+        dy[g] = RT_AXIS(lly, xay, yay, ey, g);
+        dz[g] = RT_AXIS(llz, xaz, yaz, ez, g);
+    }
+#undef RT_AXIS
+#pragma GCC unroll 2
+    for (int g = 0; g < G; g++)
+        l[g] = _mm512_sqrt_ps(_mm512_add_ps(_mm512_add_ps(_mm512_mul_ps(dx[g], dx[g]),
+                                                          _mm512_mul_ps(dy[g], dy[g])),
+                                            _mm512_mul_ps(dz[g], dz[g])));
+#pragma GCC unroll 2
+    for (int g = 0; g < G; g++) {
+        /* l > 0: d / l; otherwise d itself (as unit_by_division). */
+        __mmask16 pos = _mm512_cmp_ps_mask(l[g], _mm512_setzero_ps(), _CMP_GT_OQ);
+        __m512 qx = _mm512_mask_div_ps(dx[g], pos, dx[g], l[g]);
+        __m512 qy = _mm512_mask_div_ps(dy[g], pos, dy[g], l[g]);
+        __m512 qz = _mm512_mask_div_ps(dz[g], pos, dz[g], l[g]);
+        /* The 16 rays' 96 floats as six whole vectors: in vector o, float l is channel
+         * (16 o + l) % 6 of ray (16 o + l) / 6 (sample_ray_lanes): the eye's pattern,
+         * the x and y of the directions from one two-vector permute, the z from one
+         * more. Per ray, a store of (eye, dir.x) and one of (dir.y, dir.z) read back
+         * from a spilled vector took more instructions than the rest of the function. */
+        _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
+        float *r = (float *)rays[g];
+#pragma GCC unroll 6
+        for (int o = 0; o < 6; o++) {
+            const SampleRayLanes *t = &sample_ray_lanes[o];
+            __m512 dxy = _mm512_permutex2var_ps(qx, _mm512_load_si512(t->xy), qy);
+            __m512 ez = _mm512_mask_permutexvar_ps(o % 3 == 0 ? K->e0 : o % 3 == 1 ? K->e1 : K->e2,
+                                                   t->zmask, _mm512_load_si512(t->z), qz);
+            _mm512_storeu_ps(r + 16 * o, _mm512_mask_mov_ps(ez, t->xymask, dxy));
+        }
+    }
+}
+
 /* camera_sample_rays' perspective lanes sixteen samples at a time, for CPUs with
  * AVX-512 (a pixel's 16 samples in one pass instead of four: the divisions and the
- * square root of a group, latency-bound in four-lane steps, overlap). The same IEEE
- * single operations in the same order in every lane as the SSE lanes and the scalar
- * functions (no FMA: camera.o is built with -ffp-contract=off, and every operation is
- * an intrinsic). Returns the samples done (a multiple of 16). */
+ * square root of a group, latency-bound in four-lane steps, overlap), two groups at a
+ * time where there are two (sample_ray_groups). Returns the samples done (a multiple of
+ * 16). */
 __attribute__((target("avx512f"))) static int sample_rays_avx512(const Camera *c, int x, int y,
                                                                  const float *xy, int n,
                                                                  int width, int height,
                                                                  Ray *rays)
 {
-    float s = (float)(width > height ? width : height);
-    __m512 S = _mm512_set1_ps(s);
-    __m512 ox = _mm512_set1_ps((float)x), oy = _mm512_set1_ps((float)y);
-    __m512 cx = _mm512_set1_ps((s - (float)width) * 0.5f);
-    __m512 cy = _mm512_set1_ps((s - (float)height) * 0.5f);
-    Vec3 ll = c->lower_left, xa = c->x_axis, ya = c->y_axis, e = c->center;
-    /* Even and odd floats of two vectors: the x and the y of 16 (x, y) pairs; then
-     * (y_k, z_k) pairs of 8 rays for each half. */
-    const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26,
-                                           28, 30);
-    const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27,
-                                          29, 31);
-    const __m512i yz_lo = _mm512_setr_epi32(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22,
-                                            7, 23);
-    const __m512i yz_hi = _mm512_setr_epi32(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14,
-                                            30, 15, 31);
-    const __m128 eye = _mm_setr_ps(e.x, e.y, e.z, 0.0f);
+    SampleRayConsts K;
+    sample_ray_consts(c, width, height, &K);
+    const int px[2] = {x, x}, py[2] = {y, y};
     int k = 0;
-    for (; k + 16 <= n; k += 16) {
-        __m512 a = _mm512_loadu_ps(xy + 2 * k), b = _mm512_loadu_ps(xy + 2 * k + 16);
-        __m512 px = _mm512_permutex2var_ps(a, even, b);
-        __m512 py = _mm512_permutex2var_ps(a, odd, b);
-        __m512 u = _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(ox, px), cx), S);
-        __m512 v = _mm512_div_ps(_mm512_add_ps(_mm512_add_ps(oy, py), cy), S);
-#define RT_AXIS(L, X, Y, E)                                                                \
-    _mm512_sub_ps(_mm512_add_ps(_mm512_add_ps(_mm512_set1_ps(L),                           \
-                                              _mm512_mul_ps(_mm512_set1_ps(X), u)),        \
-                                _mm512_mul_ps(_mm512_set1_ps(Y), v)),                      \
-                  _mm512_set1_ps(E))
-        __m512 dx = RT_AXIS(ll.x, xa.x, ya.x, e.x);
-        __m512 dy = RT_AXIS(ll.y, xa.y, ya.y, e.y);
-        __m512 dz = RT_AXIS(ll.z, xa.z, ya.z, e.z);
-#undef RT_AXIS
-        __m512 l = _mm512_sqrt_ps(_mm512_add_ps(
-            _mm512_add_ps(_mm512_mul_ps(dx, dx), _mm512_mul_ps(dy, dy)), _mm512_mul_ps(dz, dz)));
-        /* l > 0: d / l; otherwise d itself (as unit_by_division). */
-        __mmask16 pos = _mm512_cmp_ps_mask(l, _mm512_setzero_ps(), _CMP_GT_OQ);
-        __m512 qx = _mm512_mask_div_ps(dx, pos, dx, l);
-        __m512 qy = _mm512_mask_div_ps(dy, pos, dy, l);
-        __m512 qz = _mm512_mask_div_ps(dz, pos, dz, l);
-        /* Each ray in two stores: (eye, dir.x) and (dir.y, dir.z). */
-        float fx[16], fyz[32];
-        _mm512_storeu_ps(fx, qx);
-        _mm512_storeu_ps(fyz, _mm512_permutex2var_ps(qy, yz_lo, qz));
-        _mm512_storeu_ps(fyz + 16, _mm512_permutex2var_ps(qy, yz_hi, qz));
-        _Static_assert(sizeof(Ray) == 6 * sizeof(float), "a ray is six packed floats");
-        for (int i = 0; i < 16; i++) {
-            float *r = (float *)&rays[k + i];
-            _mm_storeu_ps(r, _mm_insert_ps(eye, _mm_set_ss(fx[i]), 0x30));
-            memcpy(r + 4, fyz + 2 * i, 2 * sizeof(float));
-        }
+    for (; k + 32 <= n; k += 32) {
+        const float *p[2] = {xy + 2 * k, xy + 2 * k + 32};
+        Ray *r[2] = {rays + k, rays + k + 16};
+        sample_ray_groups(&K, 2, px, py, p, r);
+    }
+    if (k + 16 <= n) {
+        const float *p[1] = {xy + 2 * k};
+        Ray *r[1] = {rays + k};
+        sample_ray_groups(&K, 1, px, py, p, r);
+        k += 16;
     }
     return k;
+}
+
+/* camera_sample_rays_pixels' lanes: pixels two at a time. */
+__attribute__((target("avx512f"))) static void sample_rays_pixels_avx512(
+    const Camera *c, int npx, const int *x, const int *y, const float *const *xy, int width,
+    int height, Ray *rays)
+{
+    SampleRayConsts K;
+    sample_ray_consts(c, width, height, &K);
+    int i = 0;
+    for (; i + 2 <= npx; i += 2) {
+        Ray *r[2] = {rays + 16 * i, rays + 16 * i + 16};
+        sample_ray_groups(&K, 2, x + i, y + i, xy + i, r);
+    }
+    if (i < npx) {
+        Ray *r[1] = {rays + 16 * i};
+        sample_ray_groups(&K, 1, x + i, y + i, xy + i, r);
+    }
 }
 #define HAVE_SAMPLE_RAYS_AVX512 1
 #endif
@@ -517,6 +632,20 @@ bool camera_sample_rays_use_kernel(const char *isa)
             return true;
         }
     return false;
+}
+
+void camera_sample_rays_pixels(const Camera *c, int npx, const int *x, const int *y,
+                               const float *const *xy, int width, int height, Ray *rays)
+{
+#ifdef HAVE_SAMPLE_RAYS_AVX512
+    int isa = sample_isa >= 0 ? sample_isa : cpu_has_avx512() ? 2 : 0;
+    if (c->kind == CAMERA_PERSPECTIVE && isa == 2) {
+        sample_rays_pixels_avx512(c, npx, x, y, xy, width, height, rays);
+        return;
+    }
+#endif
+    for (int i = 0; i < npx; i++)
+        camera_sample_rays(c, x[i], y[i], xy[i], 16, width, height, rays + 16 * i);
 }
 
 void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,

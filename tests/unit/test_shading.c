@@ -242,6 +242,50 @@ static void test_sample_rays_put_with(const char *isa)
     CHECK(checked > 1000);
 }
 
+/* camera_sample_rays_pixels: for 1 to 5 pixels (whole pairs and a pixel left over,
+ * the AVX-512 lanes' two interleaved chains), each pixel's 16 rays are
+ * camera_generate_ray(camera_sample_to_screen) of its own position and positions, to
+ * the bit, in its own 16 slots; with each copy of the lanes this CPU runs. */
+static void test_sample_rays_pixels_with(const char *isa)
+{
+    Camera cams[3];
+    ray_test_cameras(cams);
+    const int (*sizes)[2] = ray_test_sizes;
+    uint32_t st = 777;
+    int differ = 0, checked = 0;
+    for (int c = 0; c < 3; c++)
+        for (int s = 0; s < 3; s++)
+            for (int npx = 1; npx <= 5; npx++) {
+                int W = sizes[s][0], H = sizes[s][1];
+                float xy[5][32];
+                const float *p[5];
+                int x[5], y[5];
+                for (int i = 0; i < npx; i++) {
+                    ray_test_unit_floats(&st, xy[i], 32);
+                    p[i] = xy[i];
+                    x[i] = (npx * 29 + 7 * i + c) % W;
+                    y[i] = (npx * 13 + 5 * i + s) % H;
+                }
+                Ray rays[5 * 16];
+                camera_sample_rays_pixels(&cams[c], npx, x, y, p, W, H, rays);
+                for (int i = 0; i < npx; i++)
+                    for (int k = 0; k < 16; k++) {
+                        float u, v;
+                        camera_sample_to_screen(x[i], y[i], xy[i][2 * k], xy[i][2 * k + 1], W,
+                                                H, &u, &v);
+                        Ray r = camera_generate_ray(&cams[c], u, v);
+                        checked++;
+                        if (memcmp(&r, &rays[16 * i + k], sizeof r) != 0)
+                            differ++;
+                    }
+            }
+    if (differ)
+        fprintf(stderr, "  camera_sample_rays_pixels, %s lanes: %d of %d rays differ\n", isa,
+                differ, checked);
+    CHECK_INT(differ, 0);
+    CHECK_INT(checked, 3 * 3 * 15 * 16);
+}
+
 static void test_sample_rays(void)
 {
     const char *isas[] = {"base", "avx2", "avx512"};
@@ -250,6 +294,7 @@ static void test_sample_rays(void)
         if (camera_sample_rays_use_kernel(isas[i])) {
             test_sample_rays_with(isas[i]);
             test_sample_rays_put_with(isas[i]);
+            test_sample_rays_pixels_with(isas[i]);
             ran++;
         }
     CHECK(ran >= 1);
