@@ -63,6 +63,7 @@ static const char usage_text[] =
         "  -depth dmin dmax file    depth image: near dmin white, far dmax black\n"
         "  -normals file            normal image: |nx| |ny| |nz| as RGB\n"
         "  -stats                   print the RAY TRACING STATISTICS block on stdout\n"
+        "                           (rays traced one by one to count them: 2-4x slower)\n"
         "  -timings                 print parse/build/render/write times on stderr\n"
         "  -progress                show the progress line even when stderr is not a\n"
         "                           terminal (there as whole lines: at most one per 5%\n"
@@ -85,9 +86,9 @@ static const char usage_text[] =
         "  -visualize_grid_count    same as -visualize_grid (cells coloured by count)\n"
         "  -no_marking              grid: test an object again in every cell (analysis)\n"
         "  -no_packets              grid: march every ray on its own, no ray packets\n"
-        "  -isa NAME                widest instruction set used: base, avx2 or avx512\n"
+        "  -isa name                widest instruction set used: base, avx2 or avx512\n"
         "                           (default: the CPU's widest; the same images)\n"
-        "  -accel NAME              accelerator by name (-accel grid: -grid auto):\n"
+        "  -accel name              accelerator by name (-accel grid: -grid auto):\n"
         "  -threads n               render threads (default: all cores)\n"
         "Antialiasing (one centred sample and a box filter of radius 0.5 by default)\n"
         "  -uniform_samples n       n = k*k samples per pixel on a regular k x k grid\n"
@@ -121,10 +122,11 @@ static const char usage_text[] =
         "                           (same image)\n"
         "OpenGL preview (when built)\n"
         "  -gui                     open the interactive preview window\n"
-        "  -tessellation th ph      sphere tessellation of the preview (default 20 10)\n"
+        "  -tessellation theta phi  sphere tessellation of the preview (default 20 10)\n"
         "  -gouraud                 smooth sphere normals in the preview\n"
         "  -gui_snapshot file       draw one preview frame offscreen (OSMesa) into file\n"
-        "  -gui_keys \"keys\"         key script for the preview (README.txt, 7)\n"
+        "  -gui_keys script         key commands for the preview to run first, in one\n"
+        "                           argument (\"r t:100,100 q\"; README.txt, 7)\n"
         "Other\n"
         "  -h, --help               this text\n"
         "  --version                version and optional features\n"
@@ -165,7 +167,7 @@ void options_usage(FILE *out)
             fputs(c->encode ? "\n" : " (not built in)\n", out);
         }
     }
-    if (usage_through(out, &pos, "  -accel NAME"))
+    if (usage_through(out, &pos, "  -accel name"))
         for (int i = 0; accel_registry[i]; i++)
             fprintf(out, "      %-20s %s\n", accel_registry[i]->name,
                     accel_registry[i]->summary);

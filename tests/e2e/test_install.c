@@ -344,6 +344,20 @@ static void check_man_groups(const char *man)
             CHECK_MSG(at != NULL, "the manual page has no subsection '%.*s' (-h's group of %s)",
                       (int)hl, heading, name);
             CHECK_MSG(entry != NULL, "the manual page has no entry for %s", name);
+            /* and names its values as -h does ("-tessellation th ph" was "theta phi"
+             * there, "-gui_keys \"keys\"" was "script"): the option and its values are
+             * what -h shows before its description (two blanks), and the entry's line
+             * in the man page starts with exactly that */
+            const char *spec = line + 2, *desc = strstr(spec, "  ");
+            size_t sl = desc && desc < line + len ? (size_t)(desc - spec) : len - 2;
+            char want[96];
+            snprintf(want, sizeof want, "\n       %.*s", (int)sl, spec);
+            bool named = false;
+            size_t wl = strlen(want);
+            for (const char *q = strstr(options, want); q && !named; q = strstr(q + 1, want))
+                named = q[wl] == '\n' || q[wl] == ' ';
+            CHECK_MSG(named, "the manual page has no entry '%.*s' as -h writes it", (int)sl,
+                      spec);
             if (at && entry) {
                 /* the next subsection (3 blanks and a letter) or section (a letter) */
                 const char *next = NULL;

@@ -88,7 +88,7 @@ static void test_usage_errors(void)
         {"-output o.tga", "-input scene.txt is required"},
         {"-input s.txt -threads 0", "out of range"},
         {"-input s.txt -accel bvh", "unknown accelerator 'bvh' (known: none, grid, twolevel)"},
-        {"-input s.txt -accel", "missing value for -accel: the command line ends before NAME"},
+        {"-input s.txt -accel", "missing value for -accel: the command line ends before name"},
         {"-input s.txt -accel none -grid 4 4 4", "-grid goes with -accel grid"},
         {"-input s.txt -accel none -visualize_grid", "not with -accel none (use -grid nx ny nz"},
         {"-input s.txt -accel twolevel -visualize_grid -grid auto", "-grid goes with -accel grid"},
@@ -322,7 +322,7 @@ static void test_usage_lists_tables(void)
         return;
     options_usage(f);
     fclose(f);
-    const char *fmt = strstr(text, "  -format name"), *acc = strstr(text, "  -accel NAME");
+    const char *fmt = strstr(text, "  -format name"), *acc = strstr(text, "  -accel name");
     CHECK(fmt && acc);
     char row[128];
     const ImageCodec *c;
