@@ -51,6 +51,7 @@ void options_defaults(Options *o)
  * blank are its synopsis). A new option needs only its line here. */
 static const char usage_text[] =
         "usage: raytracer -input scene.txt [options]\n"
+        "       raytracer -merge out part...\n"
         "\n"
         "Input and output\n"
         "  -input file              the scene file (required; - reads standard input)\n"
@@ -63,7 +64,8 @@ static const char usage_text[] =
         "  -depth dmin dmax file    depth image: near dmin white, far dmax black\n"
         "  -normals file            normal image: |nx| |ny| |nz| as RGB\n"
         "  -stats                   print the RAY TRACING STATISTICS block on stdout\n"
-        "                           (rays traced one by one to count them: 2-4x slower)\n"
+        "                           (traces rays one by one to count them: up to 4x\n"
+        "                           slower)\n"
         "  -timings                 print parse/build/render/write times on stderr\n"
         "  -progress                show the progress line even when stderr is not a\n"
         "                           terminal (there as whole lines: at most one per 5%\n"
@@ -153,10 +155,17 @@ void options_usage(FILE *out)
      * accelerators from their registry under -accel (bash completion reads both). */
     const char *pos = usage_text;
     /* The synopsis names the binary the user ran (raytracer-mpi takes the same options). */
-    static const char synopsis[] = "usage: raytracer ";
+    static const char synopsis[] = "usage: raytracer ", merge[] = "       raytracer ";
     if (strncmp(pos, synopsis, sizeof synopsis - 1) == 0) {
         fprintf(out, "usage: %s ", diag_program());
         pos += sizeof synopsis - 1;
+        /* the second form, -merge, under the same name */
+        const char *eol = strchr(pos, '\n');
+        if (eol && strncmp(eol + 1, merge, sizeof merge - 1) == 0) {
+            fwrite(pos, 1, (size_t)(eol + 1 - pos), out);
+            fprintf(out, "       %s ", diag_program());
+            pos = eol + 1 + sizeof merge - 1;
+        }
     }
     if (usage_through(out, &pos, "the formats and their extensions:")) {
         const ImageCodec *c;

@@ -202,6 +202,12 @@ static void check_help(const char *flag)
     CHECK_CONTAINS(r.out, "-input");
     CHECK_CONTAINS(r.out, "-output");
     CHECK_CONTAINS(r.out, "-size");
+    /* Both forms, as the man page's SYNOPSIS: the merge one was only an option among
+     * the others, 70 lines further down */
+    static const char synopsis[] = "usage: raytracer -input scene.txt [options]\n"
+                                   "       raytracer -merge out part...\n\n";
+    CHECK_MSG(strncmp(r.out, synopsis, sizeof synopsis - 1) == 0,
+              "%s: the synopsis is not both forms: %.200s", flag, r.out);
     CHECK_MSG(r.err_len == 0, "%s printed on stderr: %s", flag, r.err);
     e2e_run_free(&r);
 }

@@ -558,7 +558,8 @@ static void test_mpi_names_itself(void)
     add(&c, mpi);
     add(&c, "-h");
     CHECK_INT(run(&c, &r), 0);
-    static const char synopsis[] = "usage: raytracer-mpi -input scene.txt [options]\n";
+    static const char synopsis[] = "usage: raytracer-mpi -input scene.txt [options]\n"
+                                   "       raytracer-mpi -merge out part...\n";
     CHECK_MSG(strncmp(r.out, synopsis, sizeof synopsis - 1) == 0,
               "-h:\n%.200s", r.out);
     e2e_run_free(&r);
