@@ -192,7 +192,7 @@ static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char
         {"top-level block", k_top_level},
         {"transformation or object", k_transform_items},
     };
-    char shown[256], hint[160];
+    char shown[256], hint[192];
     if (lex_eof(t))
         return fail(p, &t->loc, "unexpected end of file, expected %s", eof_what);
     lex_show(t, shown, sizeof shown);
@@ -201,6 +201,20 @@ static bool fail_unknown(Parser *p, const Token *t, const char *kind, const char
         if (!strcmp(kinds[i].kind, kind))
             names = kinds[i].names;
     token_hint(hint, sizeof hint, shown, names);
+    /* Nothing close enough to offer ("DirLight", "Camera"): a short list is named
+     * whole, so the writer need not look the grammar up. A keyword of the list itself
+     * (misplaced, not misspelt) is left to the callers' own wording. */
+    bool listed = false;
+    for (const char *const *k = names; k && *k && !listed; k++)
+        listed = !strcmp(*k, shown);
+    size_t count = names ? name_count(names) : 0;
+    if (!hint[0] && !listed && count >= 2 && count <= 8) {
+        size_t used = (size_t)snprintf(hint, sizeof hint, " (expected %s",
+                                       count > 2 ? "one of " : "");
+        for (size_t i = 0; i < count && used < sizeof hint; i++)
+            used += (size_t)snprintf(hint + used, sizeof hint - used, "%s%s", names[i],
+                                     i == count - 1 ? ")" : i == count - 2 ? " or " : ", ");
+    }
     return fail(p, &t->loc, "unknown %s '%s'%s", kind, shown, hint);
 }
 
