@@ -187,6 +187,21 @@ static void test_no_progress_into_pipe(void)
     CHECK_MSG(strncmp(last, "rendering 100%  ", 16) == 0 && strstr(last, " elapsed\n"),
               "the final line: '%s'", last);
     e2e_run_free(&r);
+    /* Of -progress and -quiet the later decides the line (README 3); -quiet's "no
+     * hints" stays either way (the showcase without a grid would get one). */
+    const char *quiet_then[] = {"-input", p.scene, "-output", p.out, "-size", "8", "6",
+                                "-quiet", "-progress", NULL};
+    CHECK(e2e_run_bin(harness_bin(), quiet_then, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(strncmp(r.err, "rendering 100%  ", 16) == 0 && !strstr(r.err, "hint"),
+              "-quiet -progress: '%s'", r.err);
+    e2e_run_free(&r);
+    const char *progress_then[] = {"-input", p.scene, "-output", p.out, "-size", "8", "6",
+                                   "-progress", "-quiet", NULL};
+    CHECK(e2e_run_bin(harness_bin(), progress_then, &r));
+    CHECK_INT(r.status, 0);
+    CHECK_MSG(r.err_len == 0, "-progress -quiet: '%s'", r.err);
+    e2e_run_free(&r);
     e2e_rmtree(p.dir);
 }
 
