@@ -53,7 +53,7 @@ static float gaussian_weight(const Filter *f, float x, float y)
  * were the double exp rounded to float, which needed a double exp with a cheaper
  * estimate and a fallback near float rounding boundaries in every vector path; this
  * float exp is within about an ulp of that, needs no fallback, and took a 16-sample
- * jittered Gaussian render of course line 17a from 190 to 180 ms (bench/REPORT.txt). */
+ * jittered Gaussian render of course line 17a from 186.4 to 181.6 ms (bench/REPORT.txt). */
 typedef float V4f __attribute__((vector_size(16)));
 typedef int32_t V4i __attribute__((vector_size(16)));
 typedef double V4d __attribute__((vector_size(32)));
