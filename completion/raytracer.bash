@@ -8,7 +8,8 @@
 
 # Reads `CMD -h` once per command into _raytracer_syn (option -> its value words) and
 # _raytracer_accels (the names listed under -accel), _raytracer_formats and
-# _raytracer_exts (the formats listed under -format and their extensions, no dot).
+# _raytracer_exts (the formats listed under -format and their extensions, no dot),
+# _raytracer_isas (the sets -isa's line names after "used:").
 _raytracer_read_help()
 {
     local cmd=$1 line syn name after_accel=0 after_format=0 e
@@ -18,6 +19,7 @@ _raytracer_read_help()
     _raytracer_accels=()
     _raytracer_formats=()
     _raytracer_exts=()
+    _raytracer_isas=()
     while IFS= read -r line; do
         if [[ $line == "  -"* ]]; then
             after_accel=0
@@ -40,6 +42,13 @@ _raytracer_read_help()
             fi
             [[ $name == -accel ]] && after_accel=1
             [[ $name == -format ]] && after_format=1
+            # "-isa name   widest instruction set used: base, avx2 or avx512"
+            if [[ $name == -isa && $line == *"used: "* ]]; then
+                e=${line#*used: }
+                e=${e//,/ }
+                e=${e// or / }
+                read -r -a _raytracer_isas <<<"$e"
+            fi
         elif ((after_accel)) && [[ $line == "      "[a-z]* ]]; then
             line=${line#"${line%%[! ]*}"}
             _raytracer_accels+=("${line%% *}")
@@ -138,6 +147,9 @@ _raytracer()
             ;;
         -format:*)
             COMPREPLY=($(compgen -W "${_raytracer_formats[*]:-tga ppm png}" -- "$cur"))
+            ;;
+        -isa:*)
+            COMPREPLY=($(compgen -W "${_raytracer_isas[*]}" -- "$cur"))
             ;;
         -grid:nx)
             COMPREPLY=($(compgen -W "auto" -- "$cur"))

@@ -1003,14 +1003,20 @@ static int render_and_write(void *user, const Camera *camera, volatile int *canc
                 t_write * 1e3,
                 stats_rays_per_second(counts.nonshadow_rays + counts.shadow_rays, phases[2]));
     }
-    /* Worded so that no "render N ms" appears twice (bench/run.sh reads the line above). */
+    /* Worded so that no "render N ms" appears twice (bench/run.sh reads the line above).
+     * The calling thread's CPU time is the render's whole cost only on one thread; with
+     * more it is that thread's share, and the note says so instead of reading as if the
+     * run had one thread. */
+    int threads = o->threads > 0 ? o->threads : render_default_threads();
+    const char *whose = threads == 1 ? "the whole cost on one thread"
+                                     : "its share of the work; with -threads 1 the whole "
+                                       "cost";
     if (o->timings && dist_is_root())
         fprintf(stderr, "timings: CPU time of the calling thread in the render phase %.3f ms "
-                "(the whole cost with -threads 1)\n", cpu_render * 1e3);
+                "(%s)\n", cpu_render * 1e3, whose);
     if (o->timings && film && dist_is_root())
         fprintf(stderr, "timings: film: tracing %.3f ms, filtering %.3f ms (CPU time of the "
-                "calling thread: the whole cost with -threads 1)\n", fc.trace_cpu * 1e3,
-                fc.filter_cpu * 1e3);
+                "calling thread, %s)\n", fc.trace_cpu * 1e3, fc.filter_cpu * 1e3, whose);
     if (o->timings && dist_is_root())
         dist_report(stderr);
 done:

@@ -486,8 +486,9 @@ static void test_bash_completion(void)
              "comp '%s' -input a.txt -grid auto -shad\n"
              "comp '%s' -\n"
              "comp '%s' -input a.txt -cache ''\n"
-             "comp '%s' -input a.txt -cache f\n",
-             work, file, k_comp_helper, bin, bin, bin, bin, bin, bin, bin, bin, bin, bin, bin);
+             "comp '%s' -input a.txt -cache f\n"
+             "comp '%s' -isa ''\n",
+             work, file, k_comp_helper, bin, bin, bin, bin, bin, bin, bin, bin, bin, bin, bin, bin);
     E2eRun r;
     CHECK(run_bash(bash, dest, text, &r));
     char why[512];
@@ -502,8 +503,8 @@ static void test_bash_completion(void)
             *eol = '\0';
         p = eol ? eol + 1 : NULL;
     }
-    CHECK_INT(n, 11);
-    if (n == 11) {
+    CHECK_INT(n, 12);
+    if (n == 12) {
         CHECK_STR(lines[0], "-shade_back -shadows ");
         CHECK_STR(lines[1], "a.txt sub ");
         CHECK_STR(lines[2], "b.tga c.png e.ppm sub ");
@@ -526,6 +527,7 @@ static void test_bash_completion(void)
          * hid frame.cache, so '-cache f' completed nothing */
         CHECK_STR(lines[9], "f.cache sub ");
         CHECK_STR(lines[10], "f.cache ");
+        CHECK_STR(lines[11], "avx2 avx512 base "); /* the sets -isa's line names */
     }
     e2e_run_free(&r);
 
