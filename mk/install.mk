@@ -20,7 +20,7 @@ RT_INSTALL_BIN = $(if $(filter build,$(BUILD)),raytracer,$(BUILD)/raytracer)
 RT_INSTALL_MPI = $(wildcard $(if $(filter build,$(BUILD)),raytracer-mpi,$(BUILD)/raytracer-mpi))
 
 install: all
-	$(say) INSTALL $(DESTDIR)$(PREFIX)
+	$(say) INSTALL '$(DESTDIR)$(PREFIX)'
 	$(Q)$(INSTALL) -d '$(DESTDIR)$(BINDIR)' '$(DESTDIR)$(MANDIR)/man1' '$(DESTDIR)$(BASHCOMPDIR)' \
 	    '$(DESTDIR)$(DOCDIR)'
 	$(Q)$(INSTALL) -m 755 $(RT_INSTALL_BIN) $(RT_INSTALL_MPI) '$(DESTDIR)$(BINDIR)/'
@@ -39,7 +39,7 @@ install: all
 # and DOCDIR's parent, which install makes when they are missing, stay, even empty:
 # another program's install may rely on those being there.
 uninstall:
-	$(say) UNINST $(DESTDIR)$(PREFIX)
+	$(say) UNINST '$(DESTDIR)$(PREFIX)'
 	$(Q)rm -f '$(DESTDIR)$(BINDIR)/raytracer' '$(DESTDIR)$(BINDIR)/raytracer-mpi' \
 	    '$(DESTDIR)$(MANDIR)/man1/raytracer.1' '$(DESTDIR)$(MANDIR)/man1/raytracer-mpi.1' \
 	    '$(DESTDIR)$(BASHCOMPDIR)/raytracer' '$(DESTDIR)$(BASHCOMPDIR)/raytracer-mpi' \

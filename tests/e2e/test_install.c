@@ -197,7 +197,10 @@ static void test_install_uninstall(void)
 }
 
 /* Another PREFIX (or DOCDIR): the README goes under it, and the installed manual page
- * names it there, not at the default's /usr/local. */
+ * names it there, not at the default's /usr/local. The PREFIX has an '&', which the
+ * shell would take as "run in the background" in an unquoted recipe line (make install
+ * printed its INSTALL line that way and failed) and sed as "the match" in the page's
+ * substitution. */
 static void test_install_prefix_doc(void)
 {
     char dest[PATH_MAX], path[PATH_MAX];
@@ -207,19 +210,19 @@ static void test_install_prefix_doc(void)
     }
     E2eRun r;
     memset(&r, 0, sizeof r);
-    if (run_make_prefix("install", dest, "/opt/rt", &r)) {
-        e2e_join(path, sizeof path, dest, "opt/rt/share/doc/raytracer/README.txt");
-        CHECK_MSG(e2e_exists(path), "make install PREFIX=/opt/rt did not install %s", path);
-        e2e_join(path, sizeof path, dest, "opt/rt/share/man/man1/raytracer.1");
+    if (run_make_prefix("install", dest, "/opt/r&t", &r)) {
+        e2e_join(path, sizeof path, dest, "opt/r&t/share/doc/raytracer/README.txt");
+        CHECK_MSG(e2e_exists(path), "make install PREFIX=/opt/r&t did not install %s", path);
+        e2e_join(path, sizeof path, dest, "opt/r&t/share/man/man1/raytracer.1");
         char *page = e2e_read_file(path, NULL);
-        CHECK_MSG(page && strstr(page, "\n.I /opt/rt/share/doc/raytracer/README.txt\n"),
-                  "the manual page installed with PREFIX=/opt/rt does not name its README");
+        CHECK_MSG(page && strstr(page, "\n.I /opt/r&t/share/doc/raytracer/README.txt\n"),
+                  "the manual page installed with PREFIX=/opt/r&t does not name its README");
         CHECK_MSG(page && !strstr(page, "/usr/local/share/doc"),
-                  "the manual page installed with PREFIX=/opt/rt names /usr/local's README");
+                  "the manual page installed with PREFIX=/opt/r&t names /usr/local's README");
         free(page);
         e2e_run_free(&r);
-        if (run_make_prefix("uninstall", dest, "/opt/rt", &r)) {
-            e2e_join(path, sizeof path, dest, "opt/rt/share/doc/raytracer");
+        if (run_make_prefix("uninstall", dest, "/opt/r&t", &r)) {
+            e2e_join(path, sizeof path, dest, "opt/r&t/share/doc/raytracer");
             CHECK_MSG(!e2e_exists(path), "make uninstall left %s", path);
         }
     }
