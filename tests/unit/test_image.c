@@ -5,6 +5,7 @@
 #include "../harness.h"
 
 #include <dirent.h>
+#include <errno.h>
 #include <fcntl.h>
 #include <pthread.h>
 #include <signal.h>
@@ -1492,7 +1493,17 @@ static void test_merge_many_parts(void)
         if (round == 0 && rl.rlim_max != RLIM_INFINITY && rl.rlim_max < NP + 64)
             continue;
         struct rlimit low = {32, round == 0 ? rl.rlim_max : 32};
-        CHECK(setrlimit(RLIMIT_NOFILE, &low) == 0);
+        if (setrlimit(RLIMIT_NOFILE, &low) != 0) {
+            /* valgrind keeps descriptors of its own at the top and refuses to lower the
+             * hard limit (EPERM): that round cannot be set up there, and says so; the
+             * soft limit's round must always run. */
+            int e = errno;
+            CHECK_MSG(round == 1 && e == EPERM, "setrlimit(RLIMIT_NOFILE, 32): %s",
+                      strerror(e));
+            fprintf(stderr, "    (hard open-file limit 32 refused here: %s; that round not "
+                    "run)\n", strerror(e));
+            continue;
+        }
         char out[80];
         snprintf(out, sizeof out, "%s/merged%d.tga", dir, round);
         diag_init(&d, NULL);
