@@ -85,6 +85,22 @@ static void bprintf(Buf *b, const char *fmt, ...)
     }
 }
 
+/* b's text as the file dir/name (its path in path, when path is not NULL); a scene,
+ * a mesh or a reduced scene that cannot be written ends the run. */
+static void buf_write(const Buf *b, const char *dir, const char *name, char *path,
+                      size_t size)
+{
+    char here[4096];
+    if (!path) {
+        path = here;
+        size = sizeof here;
+    }
+    fmt(path, size, "%s/%s", dir, name);
+    FILE *f = fopen(path, "w");
+    if (!f || fwrite(b->s, 1, b->len, f) != b->len || fclose(f) != 0)
+        die("cannot write %s: %s", path, strerror(errno));
+}
+
 static char *xstrdup(const char *s)
 {
     char *d = strdup(s);
@@ -335,11 +351,7 @@ static void gen_obj(Gen *g, char *name, size_t size)
                 bprintf(&o, "f %d %d %d\nf %d/1 %d/1 %d/1\n", a, c, a + 1, a + 1, c, c + 1);
             }
     }
-    char path[4096];
-    fmt(path, sizeof path, "%s/%s", g->dir, name);
-    FILE *f = fopen(path, "w");
-    if (!f || fwrite(o.s, 1, o.len, f) != o.len || fclose(f) != 0)
-        die("cannot write %s: %s", path, strerror(errno));
+    buf_write(&o, g->dir, name, NULL, 0);
     free(o.s);
 }
 
@@ -375,11 +387,7 @@ static void gen_cluster(Gen *g, Buf *b)
         }
         bprintf(&o, "f %d %d %d\n", 3 * i + 1, 3 * i + 2, 3 * i + 3);
     }
-    char path[4096];
-    fmt(path, sizeof path, "%s/%s", g->dir, name);
-    FILE *f = fopen(path, "w");
-    if (!f || fwrite(o.s, 1, o.len, f) != o.len || fclose(f) != 0)
-        die("cannot write %s: %s", path, strerror(errno));
+    buf_write(&o, g->dir, name, NULL, 0);
     free(o.s);
     bprintf(b, "TriangleMesh { obj_file %s }", name);
 }
@@ -1288,11 +1296,7 @@ static bool still_fails(const Gen *g, const char *dir, const bool *keep_item,
 {
     Buf t = {0};
     scene_text(g, keep_item, keep_light, &t);
-    char path[4096];
-    fmt(path, sizeof path, "%s/reduced.txt", dir);
-    FILE *f = fopen(path, "w");
-    if (!f || fwrite(t.s, 1, t.len, f) != t.len || fclose(f) != 0)
-        die("cannot write %s", path);
+    buf_write(&t, dir, "reduced.txt", NULL, 0);
     free(t.s);
     const Finding *fd = &finding;
     input_name = "reduced.txt";
@@ -1565,10 +1569,7 @@ int main(int argc, char **argv)
         args_free(&finding.s.opts);
         finding.kind = FIND_NONE;
         char sp[4096];
-        fmt(sp, sizeof sp, "%s/scene.txt", dir);
-        FILE *f = fopen(sp, "w");
-        if (!f || fwrite(g.scene.s, 1, g.scene.len, f) != g.scene.len || fclose(f) != 0)
-            die("cannot write %s", sp);
+        buf_write(&g.scene, dir, "scene.txt", sp, sizeof sp);
         if (verbose)
             printf("scene %ld: %s\n", i, sp);
         count_words(g.scene.s);
