@@ -48,8 +48,20 @@ typedef struct Film {
     int rows_cap;               /* film rows the buffer holds */
     int y0, rows;               /* film rows held now */
     int ring0;                  /* the buffer row of film row y0 (film_row) */
-    float *data;
+    float *data;                /* NULL with moments and no samples picture */
     float *weights;             /* per floats per slot, or NULL */
+    /* Moments (film_moments_cfg): each output pixel is the sum, over the pixels of its
+     * support (columns outer, rows inner), of that pixel's own weighted sums towards it
+     * (its samples in order, from zero), over the sum of the same weights. mom: those
+     * sums, made as a tile is traced (film_tile_moments) where the data are in planes:
+     * film row y's plane p = 4 (kx side + ky) + c (c: red, green, blue, weight; kx, ky:
+     * towards column x - kx + R and row y - ky + R) at mom + film_row(y) ms + p pw, one
+     * float per column. 4 (2R+1)^2 floats a pixel instead of its samples and their
+     * weights (36 against 176 for 16 samples and the Gaussian 0.4). */
+    bool moments;
+    float *mom;
+    size_t ms;
+    int *failed;                /* set by a band that could not get its scratch (moments) */
     int *count;
     float *table;               /* fixed offsets: the weights, [(a-i+R)(2R+1) + (b-j+R)][s] */
     float *fixed_xy;            /* fixed offsets: the sampler's, the same in every pixel */
@@ -711,6 +723,176 @@ static uint64_t film_tile_quads(const Film *f, RenderCtx *ctx, Stream *st, int x
 }
 #endif
 
+/* Moments (Film.moments) as a tile is traced. A tile row's samples are brought into
+ * eight-column planes (lane dx: column x0 + dx): sample s's position at pos + 16 s
+ * (x) and pos + 16 s + 8 (y), its colour at col + 40 s + 8 c (c = 2, 3, 4: red, green,
+ * blue); the separable weights of those positions at wl: weight k of group v (2s: the x
+ * positions, towards columns; 2s + 1: the y ones, towards rows) at wl + 8 (v side + k).
+ * Then each lane's sums towards the (2R+1)^2 pixels around go to res: towards (kx, ky),
+ * channel c at res + 8 (4 (kx side + ky) + c). Each sum starts from 0 and adds its
+ * samples in order, the weight wx * wy then sum += colour * weight and the weight sum
+ * += weight, separate multiplies and adds, the same IEEE single operations in every
+ * lane and in film_filter_line's general loop: the same bits on every path. */
+typedef float FilmV8f __attribute__((vector_size(32)));
+
+#define FILM_V8(p) ({ FilmV8f v_; memcpy(&v_, (p), sizeof v_); v_; })
+#define FILM_V8_PUT(p, v) do { FilmV8f w_ = (v); memcpy((p), &w_, sizeof w_); } while (0)
+
+/* R = 1 (side 3), the Gaussian 0.4's: the twelve sums of one kx in registers. */
+#define FILM_MOMENTS_3(NAME, ...)                                                          \
+    __attribute__((__VA_ARGS__)) static void NAME(const float *col, const float *wl,       \
+                                                  int n, float *res)                        \
+    {                                                                                      \
+        for (int kx = 0; kx < 3; kx++) {                                                   \
+            FilmV8f z = {0}, r0 = z, g0 = z, b0 = z, w0 = z, r1 = z, g1 = z, b1 = z,       \
+                    w1 = z, r2 = z, g2 = z, b2 = z, w2 = z;                                \
+            for (int s = 0; s < n; s++) {                                                  \
+                const float *c = col + 40 * s;                                             \
+                FilmV8f wx = FILM_V8(wl + 8 * (6 * s + kx));                               \
+                FilmV8f cr = FILM_V8(c + 16), cg = FILM_V8(c + 24), cb = FILM_V8(c + 32);  \
+                const float *wy = wl + 8 * (6 * s + 3);                                    \
+                FilmV8f u = wx * FILM_V8(wy);                                              \
+                r0 += cr * u, g0 += cg * u, b0 += cb * u, w0 += u;                         \
+                u = wx * FILM_V8(wy + 8);                                                  \
+                r1 += cr * u, g1 += cg * u, b1 += cb * u, w1 += u;                         \
+                u = wx * FILM_V8(wy + 16);                                                 \
+                r2 += cr * u, g2 += cg * u, b2 += cb * u, w2 += u;                         \
+            }                                                                              \
+            float *o = res + 8 * 4 * (3 * kx);                                             \
+            FILM_V8_PUT(o, r0); FILM_V8_PUT(o + 8, g0); FILM_V8_PUT(o + 16, b0);           \
+            FILM_V8_PUT(o + 24, w0); FILM_V8_PUT(o + 32, r1); FILM_V8_PUT(o + 40, g1);     \
+            FILM_V8_PUT(o + 48, b1); FILM_V8_PUT(o + 56, w1); FILM_V8_PUT(o + 64, r2);     \
+            FILM_V8_PUT(o + 72, g2); FILM_V8_PUT(o + 80, b2); FILM_V8_PUT(o + 88, w2);     \
+        }                                                                                  \
+    }
+
+/* Any R: the sums in res, added to in place. */
+#define FILM_MOMENTS_N(NAME, ...)                                                          \
+    __attribute__((__VA_ARGS__)) static void NAME(const float *col, const float *wl,       \
+                                                  int n, int side, float *res)              \
+    {                                                                                      \
+        memset(res, 0, (size_t)32 * (size_t)side * (size_t)side * sizeof *res);            \
+        for (int kx = 0; kx < side; kx++)                                                  \
+            for (int s = 0; s < n; s++) {                                                  \
+                const float *c = col + 40 * s;                                             \
+                FilmV8f wx = FILM_V8(wl + 8 * ((size_t)2 * s * side + kx));                \
+                FilmV8f cr = FILM_V8(c + 16), cg = FILM_V8(c + 24), cb = FILM_V8(c + 32);  \
+                const float *wy = wl + 8 * ((size_t)(2 * s + 1) * side);                   \
+                for (int ky = 0; ky < side; ky++) {                                        \
+                    FilmV8f u = wx * FILM_V8(wy + 8 * ky);                                 \
+                    float *o = res + 32 * (kx * side + ky);                                \
+                    FILM_V8_PUT(o, FILM_V8(o) + cr * u);                                   \
+                    FILM_V8_PUT(o + 8, FILM_V8(o + 8) + cg * u);                           \
+                    FILM_V8_PUT(o + 16, FILM_V8(o + 16) + cb * u);                         \
+                    FILM_V8_PUT(o + 24, FILM_V8(o + 24) + u);                              \
+                }                                                                          \
+            }                                                                              \
+    }
+
+FILM_MOMENTS_3(film_moments3, unused)
+FILM_MOMENTS_N(film_moments_n, unused)
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+FILM_MOMENTS_3(film_moments3_avx2, target("avx2"))
+FILM_MOMENTS_N(film_moments_n_avx2, target("avx2"))
+#define FILM_HAVE_MOMENTS_AVX2 1
+#endif
+
+/* Column x of film row y's moment plane p. */
+static inline float *film_mom(const Film *f, int x, int y, int p)
+{
+    return f->mom + film_row(f, y) * f->ms + (size_t)p * (size_t)f->pw + (size_t)(x - f->sx0);
+}
+
+/* The samples of a tile row (bits `row` of the tile's columns, their channels side by
+ * side from src) into the film's planes: only for the samples picture with moments. */
+static void film_row_to_planes(const Film *f, const float *src, int x0, int y, unsigned row)
+{
+    size_t per_px = (size_t)f->slots * 5, cs = f->cs;
+#ifdef FILM_HAVE_COPY_ROW8
+    if (f->avx2 && row == 0xffu) {
+        film_copy_row8(src, per_px, f->slots * 5, film_sample(f, x0, y, 0), f->ss, cs, NULL,
+                       false);
+        return;
+    }
+#endif
+    for (int dx = 0; dx < TILE; dx++) {
+        if (!(row >> dx & 1))
+            continue;
+        const float *p = src + (size_t)dx * per_px;
+        float *d = film_sample(f, x0 + dx, y, 0);
+        for (int i = 0; i < f->slots; i++, p += 5, d += f->ss)
+            for (int c = 0; c < 5; c++)
+                d[(size_t)c * cs] = p[c];
+    }
+}
+
+/* The moments of a traced tile's pixels (bits `queued`, dy * TILE + dx), their samples
+ * in the scratch (channels side by side); work: the planes above (film_band's, behind
+ * the scratch). Rows of the tile's eight pixels through film_copy_row8 where the CPU
+ * has AVX2, else (and for cut rows) a float at a time; a column without a pixel gets
+ * position 0.5 and colour 0, and its sums are not stored. */
+static void film_tile_moments(const Film *f, int x0, int by, uint64_t queued,
+                              const float *scratch, float *work)
+{
+    const FilmConfig *c = f->cfg;
+    int n = f->slots, R = f->R, side = 2 * R + 1;
+    size_t per_px = (size_t)n * 5;
+    float *pos = work, *col = pos + 16 * (size_t)n, *wl = col + 40 * (size_t)n;
+    float *res = wl + 16 * (size_t)side * (size_t)n;
+    for (int dy = 0; dy < TILE; dy++) {
+        unsigned row = (unsigned)(queued >> (dy * TILE)) & 0xffu;
+        if (!row)
+            continue;
+        int y = by + dy;
+        const float *src = scratch + (size_t)(dy * TILE) * per_px;
+        if (c->samples)
+            film_row_to_planes(f, src, x0, y, row);
+        bool done = false;
+#ifdef FILM_HAVE_COPY_ROW8
+        if (f->avx2 && row == 0xffu) {
+            film_copy_row8(src, per_px, 5 * n, col, 40, 8, pos, false);
+            done = true;
+        }
+#endif
+        if (!done)
+            for (int dx = 0; dx < TILE; dx++) {
+                const float *p = src + (size_t)dx * per_px;
+                bool in = row >> dx & 1;
+                for (int s = 0; s < n; s++, p += 5) {
+                    pos[16 * s + dx] = in ? p[0] : 0.5f;
+                    pos[16 * s + 8 + dx] = in ? p[1] : 0.5f;
+                    for (int ch = 2; ch < 5; ch++)
+                        col[40 * s + 8 * ch + dx] = in ? p[ch] : 0.0f;
+                }
+            }
+        filter_weights_1d_blocks(c->filter, pos, 2 * n, R, wl, 8, (size_t)side * 8);
+#ifdef FILM_HAVE_MOMENTS_AVX2
+        if (f->avx2) {
+            if (side == 3)
+                film_moments3_avx2(col, wl, n, res);
+            else
+                film_moments_n_avx2(col, wl, n, side, res);
+        } else
+#endif
+        {
+            if (side == 3)
+                film_moments3(col, wl, n, res);
+            else
+                film_moments_n(col, wl, n, side, res);
+        }
+        int planes = 4 * side * side;
+        if (row == 0xffu) {
+            for (int p = 0; p < planes; p++)
+                memcpy(film_mom(f, x0, y, p), res + 8 * p, 8 * sizeof *res);
+        } else {
+            for (int dx = 0; dx < TILE; dx++)
+                if (row >> dx & 1)
+                    for (int p = 0; p < planes; p++)
+                        *film_mom(f, x0 + dx, y, p) = res[8 * p + dx];
+        }
+    }
+}
+
 /* One 8 x 8 tile of a band (columns x0.., rows by.., those inside [sx0, sx1) and
  * [y0, y1)): its pixels' samples queued in Morton order (with `refine`: only the
  * pixels whose first samples disagree, sampled again), traced, and, through the
@@ -747,6 +929,10 @@ static void film_tile(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by,
     stream_flush(f, ctx, st);
     if (!scratch)
         return;
+    if (f->mom) {
+        film_tile_moments(f, x0, by, queued, scratch, pos);
+        return;
+    }
     size_t cs = f->cs;
     /* The separable weights (film_row_weights' planes and bits) from the scratch, a tile
      * row at a time, while its positions are in registers or L1: weights is set where
@@ -839,10 +1025,16 @@ static void film_band(void *user, RenderCtx *ctx, int band)
      * and behind it, with row weights, the positions of a tile row (film_tile: 2 slots
      * groups of eight, or a pixel's x y pairs) from which film_tile makes the weights. */
     size_t tile_floats = (size_t)TILE * TILE * (size_t)f->slots * (size_t)f->stride;
-    float *scratch = f->planes ? malloc((tile_floats + (f->row_weights ? (size_t)16 * (size_t)f->slots : 0)) *
-                                        sizeof *scratch)
-                               : NULL;
+    size_t side = 2 * (size_t)f->R + 1, work = f->row_weights ? (size_t)16 * (size_t)f->slots : 0;
+    if (f->mom) /* film_tile_moments' planes: positions, colours, weights, sums */
+        work = (56 + 16 * side) * (size_t)f->slots + 32 * side * side;
+    float *scratch = f->planes ? malloc((tile_floats + work) * sizeof *scratch) : NULL;
     float *pos = scratch && f->row_weights ? scratch + tile_floats : NULL;
+    if (f->mom && !scratch) {
+        /* The moments are made from the scratch only: the render fails (out of memory). */
+        __atomic_store_n(f->failed, 1, __ATOMIC_RELAXED);
+        return;
+    }
     /* Tiles of 8 x 8 pixels in Morton order, each pixel's samples in a row: the rays of
      * one packet come from a few neighbouring pixels (16 samples: a 2 x 2 block; a
      * tile's 64 n rays fill whole packets). A band of many samples takes long: a stop
@@ -1899,12 +2091,84 @@ static void film_put_positive_part(const Film *f, int i, int j, float pos)
         image_put(f->normals, x, y, v3(sum_n.x / pos, sum_n.y / pos, sum_n.z / pos));
 }
 
+/* Output pixels of row j from the moments (Film.mom): pixel i's sums are those of the
+ * pixels of its support, columns outer and rows inner, each added whole (film_mom's
+ * plane towards i, j), from zero; then colour over weight. Eight pixels whose support
+ * the image does not cut at a time in the lanes of a vector, each lane adding its
+ * pixel's terms in that order with the same IEEE single operations as the one-pixel
+ * loop, and dividing as it does (correctly rounded): the same bits. The weight is never
+ * 0 (film_moments_cfg). */
+#define FILM_MOMENTS_PUT8(NAME, ...)                                                       \
+    __attribute__((__VA_ARGS__)) static void NAME(const Film *f, int i, int j, int b0,     \
+                                                  int b1)                                   \
+    {                                                                                      \
+        int R = f->R, side = 2 * R + 1;                                                    \
+        size_t pw = (size_t)f->pw;                                                         \
+        FilmV8f z = {0}, sr = z, sg = z, sb = z, sw = z;                                   \
+        for (int ta = 0; ta < side; ta++)                                                  \
+            for (int b = b0; b <= b1; b++) {                                               \
+                const float *m = film_mom(f, i - R + ta, b, 4 * (ta * side + b - j + R));  \
+                sr += FILM_V8(m);                                                          \
+                sg += FILM_V8(m + pw);                                                     \
+                sb += FILM_V8(m + 2 * pw);                                                 \
+                sw += FILM_V8(m + 3 * pw);                                                 \
+            }                                                                              \
+        sr /= sw, sg /= sw, sb /= sw;                                                      \
+        for (int k = 0; k < 8; k++)                                                        \
+            image_put(f->color, i + k - f->ox, j - f->oy, v3(sr[k], sg[k], sb[k]));        \
+    }
+
+FILM_MOMENTS_PUT8(film_moments_put8, unused)
+#ifdef FILM_HAVE_MOMENTS_AVX2
+FILM_MOMENTS_PUT8(film_moments_put8_avx2, target("avx2"))
+#endif
+
+static void film_filter_moments(const Film *f, int j)
+{
+    const FilmConfig *c = f->cfg;
+    if (!f->color)
+        return;
+    int R = f->R, side = 2 * R + 1, b0, b1, in0, in1;
+    size_t pw = (size_t)f->pw;
+    film_support(j, R, c->full_height, &b0, &b1);
+    film_span_cols(f, &in0, &in1);
+    for (int i = c->x0; i < c->x0 + c->width;) {
+        if (i >= in0 && i + 8 <= in1) {
+#ifdef FILM_HAVE_MOMENTS_AVX2
+            if (f->avx2)
+                film_moments_put8_avx2(f, i, j, b0, b1);
+            else
+#endif
+                film_moments_put8(f, i, j, b0, b1);
+            i += 8;
+            continue;
+        }
+        int a0, a1;
+        film_support(i, R, c->full_width, &a0, &a1);
+        float sr = 0.0f, sg = 0.0f, sb = 0.0f, sw = 0.0f;
+        for (int a = a0; a <= a1; a++)
+            for (int b = b0; b <= b1; b++) {
+                const float *m = film_mom(f, a, b, 4 * ((a - i + R) * side + b - j + R));
+                sr += m[0];
+                sg += m[pw];
+                sb += m[2 * pw];
+                sw += m[3 * pw];
+            }
+        image_put(f->color, i - f->ox, j - f->oy, v3(sr / sw, sg / sw, sb / sw));
+        i++;
+    }
+}
+
 /* Output row (out0 + job) of the rectangle: every pixel is the weighted average of the
  * samples of its support (cropped at the image border), columns outer, rows inner,
  * samples innermost, in float, divided by the sum of the weights used. */
 static void film_filter_line(const Film *f, int j, bool span)
 {
     const FilmConfig *c = f->cfg;
+    if (f->mom) {
+        film_filter_moments(f, j);
+        return;
+    }
     int R = f->R;
     int b0, b1;
     film_support(j, R, c->full_height, &b0, &b1);
@@ -1985,22 +2249,35 @@ static void film_filter_line(const Film *f, int j, bool span)
                  * lie side by side. Adaptive: each pixel weighs as one pixel's area,
                  * however many samples. */
                 float share = adaptive ? 1.0f / (float)n : 1.0f;
+                /* With moments each pixel's own sums from zero, then added whole (the
+                 * order of film_tile_moments and film_filter_moments). */
+                Vec3 ps = v3(0, 0, 0), pd = ps, pn = ps;
+                float pws = 0.0f;
+                Vec3 *S = f->moments ? &ps : &sum, *SD = f->moments ? &pd : &sum_d;
+                Vec3 *SN = f->moments ? &pn : &sum_n;
+                float *WS = f->moments ? &pws : &wsum;
                 for (int s = 0; s < n; s++, d += ss) {
                     float w = film_weight(f, d, a, b, i, j, s);
                     if (adaptive)
                         w *= share;
                     if (w > 0.0f)
                         wpos += w;
-                    sum = v3_add(sum, v3_scale(v3(d[2], d[3], d[4]), w));
+                    *S = v3_add(*S, v3_scale(v3(d[2], d[3], d[4]), w));
                     if (f->off_depth >= 0) {
                         const float *e = d + f->off_depth;
-                        sum_d = v3_add(sum_d, v3_scale(v3(e[0], e[1], e[2]), w));
+                        *SD = v3_add(*SD, v3_scale(v3(e[0], e[1], e[2]), w));
                     }
                     if (f->off_normal >= 0) {
                         const float *e = d + f->off_normal;
-                        sum_n = v3_add(sum_n, v3_scale(v3(e[0], e[1], e[2]), w));
+                        *SN = v3_add(*SN, v3_scale(v3(e[0], e[1], e[2]), w));
                     }
-                    wsum += w;
+                    *WS += w;
+                }
+                if (f->moments) {
+                    sum = v3_add(sum, ps);
+                    sum_d = v3_add(sum_d, pd);
+                    sum_n = v3_add(sum_n, pn);
+                    wsum += pws;
                 }
             }
         int x = i - f->ox, y = j - f->oy;
@@ -2159,6 +2436,32 @@ static bool film_check(const FilmConfig *c)
            (!c->refine || c->refine->count >= 1) && (!c->samples || c->samples_zoom >= 1);
 }
 
+/* Whether cfg's film sums by moments (Film.moments): random or jittered positions, not
+ * refined, with a separable filter that reaches the pixels around (R > 0) and has no
+ * negative lobes, whose weight towards a pixel's own samples cannot be 0. Every output
+ * pixel then has weight from its own samples, so film_put_unweighted (which reads the
+ * samples themselves, not kept with moments) is never needed. A pixel's own samples lie
+ * within 0.5 of its centre on each axis, and these filters (box, Gaussian) do not
+ * grow with the distance, so their least weight there is at +-0.5; the margin keeps a
+ * product of two weights a normal float by far. */
+static bool film_moments_cfg(const FilmConfig *cfg)
+{
+    const Filter *flt = cfg->filter;
+    if (cfg->sampler->ops->fixed || cfg->refine || flt->support <= 0 ||
+        !flt->ops->weight_1d || filter_has_negative_lobes(flt))
+        return false;
+    float a = flt->ops->weight_1d(flt, -0.5f), b = flt->ops->weight_1d(flt, 0.5f);
+    return a >= 1e-15f && b >= 1e-15f;
+}
+
+/* ... and keeps them in planes (colour only: with depth or normals the general loop
+ * sums in the same order from the samples). */
+static bool film_moment_planes_cfg(const FilmConfig *cfg)
+{
+    return film_moments_cfg(cfg) && !film_wants(cfg, FILM_DEPTH) &&
+           !film_wants(cfg, FILM_NORMALS);
+}
+
 /* film_path_set's cap: read once per render, written only between renders. */
 static int film_path_cap = 2;
 
@@ -2176,6 +2479,8 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
         return false;
     Film f;
     memset(&f, 0, sizeof f);
+    int failed = 0;
+    f.failed = &failed;
     f.cancel = cancel;
     f.cfg = cfg;
     f.color = cfg->color;
@@ -2242,9 +2547,14 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     f.planes = !cfg->refine && f.off_depth < 0 && f.off_normal < 0 && R > 0 &&
                (f.per || f.table);
     f.row_weights = f.per && f.planes;
+    f.moments = film_moments_cfg(cfg);
+    /* Moments in planes: the samples and their weights stay in the tile's scratch
+     * (film_tile_moments); the samples reach the film's planes only for the samples
+     * picture. */
+    bool mom = f.moments && f.planes;
     /* Filter jobs of two rows where their spans share loads (film_span_sums2_avx512,
      * film_span_sums2_avx2). */
-    f.pairs = f.row_weights && (f.avx512 || f.avx2);
+    f.pairs = f.row_weights && (f.avx512 || f.avx2) && !mom;
     f.lobes = filter_has_negative_lobes(cfg->filter);
     if (f.lobes && f.table) {
         /* film_lobe_sums of a pixel whose support is whole, from the table */
@@ -2271,10 +2581,18 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     }
     f.ws = (size_t)f.per * (size_t)f.pw;
 
+    /* Floats a film row holds per column: the samples (with moments only for the
+     * samples picture), their weights (not with moments), the moments. */
+    int side = 2 * R + 1;
+    size_t data_floats = mom && !cfg->samples ? 0 : (size_t)f.slots * (size_t)f.stride;
+    size_t weight_floats = mom ? 0 : (size_t)f.slots * (size_t)f.per;
+    size_t mom_floats = mom ? 4 * (size_t)side * (size_t)side : 0;
+    size_t col_floats = data_floats + weight_floats + mom_floats;
+    f.ms = mom_floats * (size_t)f.pw;
+
     /* Strip height from the budget; at least 2R + 1 rows so a strip makes progress. */
     size_t budget = cfg->budget ? cfg->budget : FILM_DEFAULT_BUDGET;
-    size_t row_bytes = (size_t)f.pw * ((size_t)f.slots * (size_t)(f.stride + f.per) *
-                                       sizeof(float) + sizeof(int));
+    size_t row_bytes = (size_t)f.pw * (col_floats * sizeof(float) + sizeof(int));
     size_t cap = budget / row_bytes;
     if (cap < (size_t)(2 * R + 1))
         cap = (size_t)(2 * R + 1);
@@ -2306,12 +2624,15 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     if (cap > (size_t)(f.sy1 - f.sy0))
         cap = (size_t)(f.sy1 - f.sy0);
     f.rows_cap = (int)cap;
-    f.data = bigmem_alloc(cap * (size_t)f.pw * (size_t)f.slots * (size_t)f.stride * sizeof(float));
+    if (data_floats)
+        f.data = bigmem_alloc(cap * (size_t)f.pw * data_floats * sizeof(float));
     f.count = bigmem_alloc(cap * (size_t)f.fw * sizeof(int));
-    if (f.per)
-        f.weights = bigmem_alloc(cap * (size_t)f.pw * (size_t)f.slots * (size_t)f.per *
-                                 sizeof(float));
-    bool ok = f.data && f.count && (!f.per || f.weights);
+    if (weight_floats)
+        f.weights = bigmem_alloc(cap * (size_t)f.pw * weight_floats * sizeof(float));
+    if (mom)
+        f.mom = bigmem_alloc(cap * f.ms * sizeof(float));
+    bool ok = (f.data || !data_floats) && f.count && (f.weights || !weight_floats) &&
+              (f.mom || !mom);
     /* Strip by strip (cfg->rows): byte images of a strip's output rows, at most the
      * rows held (a strip's output rows are among its traced ones), each of a strip's
      * pixels put once, so they are reused without clearing. */
@@ -2328,8 +2649,7 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
             }
         f.ox = cfg->x0;
     }
-    cfg->held = cap * (size_t)f.pw * (size_t)f.slots * (size_t)(f.stride + f.per) * sizeof(float) +
-                cap * (size_t)f.fw * sizeof(int);
+    cfg->held = cap * (size_t)f.pw * col_floats * sizeof(float) + cap * (size_t)f.fw * sizeof(int);
 
     RtStats total = {0};
     f.y0 = f.sy0;
@@ -2362,6 +2682,8 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
             int bands = (f.r1 - film_band_base(&f) + TILE - 1) / TILE;
             double t0 = clock_thread_cpu();
             ok = render_parallel(rt, threads, bands, film_band, &f, &st, cancel);
+            if (__atomic_load_n(&failed, __ATOMIC_RELAXED))
+                ok = false;
             cfg->trace_cpu += clock_thread_cpu() - t0;
             stats_merge(&total, &st);
             f.rows = f.r1 - f.y0;
@@ -2400,6 +2722,7 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     bigmem_free(f.data);
     bigmem_free(f.count);
     bigmem_free(f.weights);
+    bigmem_free(f.mom);
     free(f.table);
     free(f.fixed_xy);
     if (stats_out)
@@ -2420,6 +2743,9 @@ static size_t film_column_bytes(const FilmConfig *cfg)
                     (film_wants(cfg, FILM_NORMALS) ? 3 : 0);
     bool fixed = cfg->sampler->ops->fixed && !cfg->refine;
     size_t per = !fixed && cfg->filter->ops->weight_1d && R > 0 ? 2 * (2 * (size_t)R + 1) : 0;
+    if (film_moment_planes_cfg(cfg)) /* film_render_rect's moments, and samples for the picture */
+        return (4 * (size_t)(2 * R + 1) * (size_t)(2 * R + 1) + (cfg->samples ? slots * stride : 0)) *
+                   sizeof(float) + sizeof(int);
     return slots * (stride + per) * sizeof(float) + sizeof(int);
 }
 

@@ -1331,6 +1331,72 @@ static void test_film_unweighted_pixels(void)
     fixture_close(&fx);
 }
 
+/* A film of random or jittered samples whose separable filter has no negative lobes
+ * (the Gaussian, a box wider than a pixel) keeps, per pixel, only its weighted sums
+ * towards the (2R+1)^2 pixels around (red, green, blue, weight: 4 (2R+1)^2 floats), made
+ * as each tile is traced, instead of its samples and their separable weights: a 40 x 20
+ * render holds whole rows of 40 pixels of those floats and a count (at least 2R + 1).
+ * The colour is the same to the bit with the depth image asked too (the general loop,
+ * which keeps the samples and adds each pixel's own sums first, as the moments do), on
+ * every path of the film and on 1 and 2 threads. Fails when the film holds samples
+ * (16 of 5 floats and 6 weights a pixel with the Gaussian 0.4: 176 floats), or when the
+ * moments and the general loop add in different orders. */
+static void test_film_moments(void)
+{
+    Fixture fx;
+    if (!fixture_open_text(&fx, AA_SPHERE_SCENE("0.9 0.9 0.9", "0.2 0.2 0.2", "1 0.5 0.1")))
+        return;
+    Sampler jit, rnd;
+    make_sampler(&jit, "jittered", 16, 5);
+    make_sampler(&rnd, "random", 7, 6);
+    Filter g4, g9, box1;
+    char why[160];
+    CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
+    CHECK(filter_init(&g9, filter_find("gaussian"), 0.9f, why, sizeof why));
+    CHECK(filter_init(&box1, filter_find("box"), 1.0f, why, sizeof why));
+    struct { const Sampler *s; const Filter *f; int R; } cases[] = {
+        {&jit, &g4, 1}, {&jit, &g9, 2}, {&rnd, &box1, 1}, {&rnd, &g4, 1}};
+    const int W = 40, H = 20;
+    for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
+        int side = 2 * cases[c].R + 1;
+        Image ref, depth;
+        CHECK(image_init(&ref, W, H) && image_init(&depth, W, H));
+        FilmConfig fc;
+        memset(&fc, 0, sizeof fc);
+        fc.sampler = cases[c].s;
+        fc.filter = cases[c].f;
+        fc.full_width = fc.width = W;
+        fc.full_height = fc.height = H;
+        fc.color = &ref;
+        fc.depth = &depth;
+        fc.depth_min = 5;
+        fc.depth_max = 15;
+        CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, 1, NULL, NULL));
+        for (int k = 0; k < 6; k++) {
+            int cap = k % 3, threads = 1 + k / 3;
+            Image img;
+            CHECK(image_init(&img, W, H));
+            fc.color = &img;
+            fc.depth = NULL;
+            film_path_set(cap);
+            CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, threads, NULL, NULL));
+            film_path_set(2);
+            size_t row = (size_t)W * ((size_t)(4 * side * side) * sizeof(float) + sizeof(int));
+            size_t rows = fc.held / row;
+            CHECK_MSG(fc.held % row == 0 && rows >= (size_t)side && rows <= (size_t)H,
+                      "case %d, %d threads: the film held %zu bytes, not rows of 40 pixels of %d "
+                      "sums and a count (%zu bytes)", c, threads, fc.held, 4 * side * side, row);
+            CHECK_MSG(same_pixels(&img, &ref, 0, 0),
+                      "case %d, path %d, %d threads: the moments' colour differs from the general "
+                      "loop's", c, cap, threads);
+            image_free(&img);
+        }
+        image_free(&ref);
+        image_free(&depth);
+    }
+    fixture_close(&fx);
+}
+
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
@@ -1362,6 +1428,7 @@ static const TestCase tests[] = {
     {"film: infinite and NaN sample colours make no NaN pixels", test_film_nonfinite_samples},
     {"film: a pixel no weight reaches takes its nearest sample, on every path",
      test_film_unweighted_pixels},
+    {"film: moments: (2R+1)^2 sums a pixel held, the general loop's bits", test_film_moments},
 };
 
 RT_TEST_MAIN(tests)
