@@ -41,6 +41,12 @@ struct Filter {
     const FilterOps *ops;
     float r;                   /* radius or sigma (float, like the course's atof) */
     int support;               /* R = ceil(extent - 0.5), at least 0 */
+    /* The Gaussian's constants (0 for the other filters): ni = -1/(2 sigma^2) in
+     * double, rounded to float once (the weight is exp(ni x^2)), and the factors
+     * between a sample's weights towards neighbouring pixels, exp(ni) and exp(4 ni),
+     * each rounded to float once (filter.c, FILTER_STEPS). Set once by filter_init:
+     * the film asks for weights many thousand times a render. */
+    float gauss_ni, gauss_e1, gauss_e4;
 };
 
 /* The filter whose option is -<name>_filter; NULL when unknown. */
@@ -73,7 +79,12 @@ void filter_weights_1d(const Filter *f, const float *x, float *w, int n);
  * w[k * plane + i] = weight_1d(f, (float)((double)pos[i] - 0.5 - R + k)) for k <= 2R,
  * i < n, the argument's sum in double rounded to float once (the film's offset from
  * the centre of pixel k - R). The same bits as filter_weights_1d on those arguments;
- * the Gaussian makes them in its vector lanes. */
+ * the Gaussian makes them in its vector lanes. Except the Gaussian at R = 1 and 2 (and
+ * sigma >= 1/4) for positions in [0, 1]: their weights are made from the position, the
+ * Gaussian at the offsets u - R + k exactly, u = pos - 0.5 rounded to float (two exps a
+ * position, filter.c's FILTER_STEPS), within 8 ulps of the exact weights; the centre
+ * weight (k = R) is weight_1d's bits, the others may differ from weight_1d's by a few
+ * ulps. The same bits on every vector path and CPU, for any n and offset in a batch. */
 void filter_weights_1d_offsets(const Filter *f, const float *pos, int n, int R, float *w,
                                size_t plane);
 

@@ -360,65 +360,35 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
 }
 
 /* The separable filter's weights of the n samples at offsets xy of pixel (x, y):
- * towards the 2R+1 columns and rows around, at offsets (k - R) + position - 0.5,
- * computed in batches (one call for many weights: the Gaussian's vectorise), a run of
- * all samples per column or row offset, then stored into their planes. Each argument
- * is (position - 0.5) - R in double, plus k, rounded to float once. */
+ * towards the 2R+1 columns and rows around, by filter_weights_1d_offsets on the
+ * samples' x, then y positions (a batch: the Gaussian's vectorise), then stored into
+ * their planes: the bits film_row_weights and film_tile's blocks give the same
+ * positions (the Gaussian at R = 1 and 2 makes them from the position itself, not from
+ * arguments rounded one by one). */
 typedef double FilmV4d __attribute__((vector_size(32)));
 typedef float FilmV4f __attribute__((vector_size(16)));
 typedef int32_t FilmV4i __attribute__((vector_size(16)));
 
 static void film_sample_weights(const Film *f, int x, int y, int n, const float *xy)
 {
-    enum { CHUNK = 256, ARGS = 2048 };
-    int R = f->R, side = 2 * R + 1, per = f->per;
-    double base[2][CHUNK];
-    if (n <= 0 || per <= 0) /* (never: a pixel has samples, the filter weights) */
+    enum { CHUNK = 64, SIDE_MAX = 2 * (int)FILTER_MAX_RADIUS + 1 };
+    int R = f->R, side = 2 * R + 1;
+    float pos[CHUNK], w[SIDE_MAX * CHUNK];
+    if (n <= 0 || f->per <= 0 || side > SIDE_MAX) /* (never: samples, weights, R <= 16) */
         return;
-    if (n == f->slots && n % 4 == 0 && n * per <= ARGS) {
-        /* The common case: the pixel's whole block of weights in one batch, the
-         * arguments four samples at a time. */
-        float arg[ARGS], w[ARGS];
-        for (int i = 0; i < n; i++) {
-            base[0][i] = (double)xy[2 * i] - 0.5 - (double)R;
-            base[1][i] = (double)xy[2 * i + 1] - 0.5 - (double)R;
-        }
-        for (int k = 0; k < per; k++) {
-            const double *b = base[k >= side];
-            double dk = (double)(k >= side ? k - side : k);
-            FilmV4d vk = {dk, dk, dk, dk};
-            for (int i = 0; i < n; i += 4) {
-                FilmV4d v;
-                memcpy(&v, b + i, sizeof v);
-                FilmV4f a = __builtin_convertvector(v + vk, FilmV4f);
-                memcpy(arg + k * n + i, &a, sizeof a);
-            }
-        }
-        filter_weights_1d(f->cfg->filter, arg, w, n * per);
-        size_t ws = f->ws;
-        for (int k = 0; k < per; k++) {
-            float *d = film_weights(f, x, y, 0, k);
-            const float *wk = w + k * n;
-            for (int i = 0; i < n; i++, d += ws)
-                *d = wk[i];
-        }
-        return;
-    }
-    float arg[CHUNK], w[CHUNK];
+    size_t ws = f->ws;
     for (int i0 = 0; i0 < n; i0 += CHUNK) {
         int m = n - i0 < CHUNK ? n - i0 : CHUNK;
-        for (int i = 0; i < m; i++) {
-            base[0][i] = (double)xy[2 * (i0 + i)] - 0.5 - (double)R;
-            base[1][i] = (double)xy[2 * (i0 + i) + 1] - 0.5 - (double)R;
-        }
-        for (int k = 0; k < per; k++) {
-            const double *b = base[k >= side];
-            double dk = (double)(k >= side ? k - side : k);
+        for (int axis = 0; axis < 2; axis++) {
             for (int i = 0; i < m; i++)
-                arg[i] = (float)(b[i] + dk);
-            filter_weights_1d(f->cfg->filter, arg, w, m);
-            for (int i = 0; i < m; i++)
-                *film_weights(f, x, y, i0 + i, k) = w[i];
+                pos[i] = xy[2 * (i0 + i) + axis];
+            filter_weights_1d_offsets(f->cfg->filter, pos, m, R, w, (size_t)m);
+            for (int k = 0; k < side; k++) {
+                float *d = film_weights(f, x, y, i0, axis * side + k);
+                const float *wk = w + k * m;
+                for (int i = 0; i < m; i++, d += ws)
+                    *d = wk[i];
+            }
         }
     }
 }

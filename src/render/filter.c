@@ -42,7 +42,8 @@ static float gaussian_weight(const Filter *f, float x, float y)
 }
 
 /* The separable Gaussian of the film (random positions: each sample's 2(2R+1) weights
- * towards the pixels around it) in float, exp by filter_expf's operations; the 2-D
+ * towards the pixels around it) in float, exp by filter_expf's operations (at R = 1
+ * and 2 two exps a position and factors between its weights: FILTER_STEPS); the 2-D
  * weight above (fixed positions and the filter pictures, which reproduce the course's
  * images to the bit) keeps libm. GCC/clang vector extensions: four lanes in the plain
  * build (SSE2), eight in the AVX2 functions, sixteen in the AVX-512 ones. Every lane of
@@ -76,11 +77,8 @@ typedef int32_t V16i __attribute__((vector_size(64)));
  * rounds once, into the subnormals too (t < -87.3), as one product by 2^k would. At
  * t = 0 exactly 1. */
 #define FILTER_EXPF(NAME, VF, VI, ...)                                                     \
-    __attribute__((always_inline __VA_ARGS__)) static inline VF NAME(VF t)                \
+    __attribute__((always_inline __VA_ARGS__)) static inline VF NAME##_core(VF t, VI *kp)  \
     {                                                                                      \
-        const VF lo = (VF){0} - 104.0f;                                                    \
-        VI keep = t >= lo; /* all ones where t >= -104 (false for NaN) */                  \
-        t = (VF)(((VI)t & keep) | ((VI)lo & ~keep));                                       \
         VF kf = t * 0x1.715476p0f + 0x1.8p23f;                                             \
         VI k = (VI)kf - 0x4b400000; /* the bits of 1.5 * 2^23 */                           \
         kf -= 0x1.8p23f;                                                                   \
@@ -91,10 +89,27 @@ typedef int32_t V16i __attribute__((vector_size(64)));
         VF p45 = r * 0x1.111112p-7f + 0x1.555556p-5f;                                      \
         VF p67 = r * 0x1.a01a02p-13f + 0x1.6c16c2p-10f;                                    \
         VF q = (p67 * r2 + p45) * r2 + p23;                                                \
-        VF p = (q * r2 + r) + 1.0f;                                                        \
+        *kp = k;                                                                           \
+        return (q * r2 + r) + 1.0f;                                                        \
+    }                                                                                      \
+    __attribute__((always_inline __VA_ARGS__)) static inline VF NAME(VF t)                \
+    {                                                                                      \
+        const VF lo = (VF){0} - 104.0f;                                                    \
+        VI keep = t >= lo; /* all ones where t >= -104 (false for NaN) */                  \
+        t = (VF)(((VI)t & keep) | ((VI)lo & ~keep));                                       \
+        VI k;                                                                              \
+        VF p = NAME##_core(t, &k);                                                         \
         VI h = k >> 1;                                                                     \
         VF s1 = (VF)((k - h + 127) << 23), s2 = (VF)((h + 127) << 23);                     \
         return p * s1 * s2;                                                                \
+    }                                                                                      \
+    /* The same bits for -87 <= t <= 88 (no clamp; 2^k normal, so p 2^k rounds once as    \
+     * p 2^(k-h) 2^h does): the Gaussian's steps, whose arguments stay within +-16. */     \
+    __attribute__((always_inline __VA_ARGS__)) static inline VF NAME##_mid(VF t)          \
+    {                                                                                      \
+        VI k;                                                                              \
+        VF p = NAME##_core(t, &k);                                                         \
+        return p * (VF)((k + 127) << 23);                                                  \
     }
 
 /* exp(x^2 times -1/(2 sigma^2)), that factor rounded to float once (gauss_factor). */
@@ -104,14 +119,72 @@ typedef int32_t V16i __attribute__((vector_size(64)));
         return EXPF((x * x) * neg_inv);                                                    \
     }
 
-static float gauss_factor(const Filter *f)
+static float gauss_factor(const Filter *f) { return f->gauss_ni; }
+
+/* The film's weights of positions p towards the 2R + 1 pixels around at R = 1 and 2,
+ * two exps a position instead of 2R + 1. With u = p - 0.5 (one float subtraction, the
+ * same float as the argument towards the pixel itself), ni = gauss_factor and g(x) =
+ * exp(ni x^2): g(u - j) = g(u) exp(j^2 ni) E^j and g(u + j) = g(u) exp(j^2 ni) / E^j,
+ * E = exp(-2 ni u). So the weights towards pixels -j and +j are the offsets u - j and
+ * u + j exactly (the other paths round p - 0.5 - R + k to float: the same for the
+ * centre, within an ulp of the offset for the others). exp(ni) and exp(4 ni) are libm's,
+ * rounded to float once (filter_init); E^2 is E E. Accuracy (test_gaussian_steps):
+ * within a few ulps of the exact Gaussian at those offsets, as the three exps were at
+ * theirs. Range: the steps need ni >= -8 (sigma >= 1/4: every R = 1 or 2 the film uses)
+ * and |u| <= 1/2 (positions in [0, 1]: the film's), so that -2 ni u lies in [-8, 8], g
+ * in [e^-2, 1] and every product above e^-50: all normal, no clamp (expf's _mid form).
+ * A lane outside (NaN, a position far off) takes the arguments p + (k - R - 0.5) in
+ * float and three or five exps, the other gaussian_offsets paths' bits for it. Every
+ * width runs this macro's float operations in one order: the same bits per lane. ALL:
+ * whether every lane of a mask is set. */
+#define FILTER_STEPS(NAME, EXPF, GAUSS, VF, VI, ALL, ...)                                  \
+    __attribute__((always_inline __VA_ARGS__)) static inline void NAME(                    \
+        VF p, int R, float ni, float e1, float e4, VF *w)                                  \
+    {                                                                                      \
+        VF u = p - 0.5f;                                                                   \
+        VI in = (u >= -0.5f) & (u <= 0.5f); /* false for NaN */                            \
+        u = (VF)((VI)u & in);               /* 0 where not: no overflow below */           \
+        VF g = EXPF##_mid((u * u) * ni);                                                   \
+        VF e = EXPF##_mid(u * (-2.0f * ni)); /* -2 ni exact */                             \
+        VF h1 = g * e1;                                                                    \
+        if (R == 1) {                                                                      \
+            w[0] = h1 * e;                                                                 \
+            w[1] = g;                                                                      \
+            w[2] = h1 / e;                                                                 \
+        } else {                                                                           \
+            VF h4 = g * e4, e2 = e * e;                                                    \
+            w[0] = h4 * e2;                                                                \
+            w[1] = h1 * e;                                                                 \
+            w[2] = g;                                                                      \
+            w[3] = h1 / e;                                                                 \
+            w[4] = h4 / e2;                                                                \
+        }                                                                                  \
+        if (!ALL(in)) {                                                                    \
+            FILTER_STEP_OUT(0, VF, VI, GAUSS);                                             \
+            FILTER_STEP_OUT(1, VF, VI, GAUSS);                                             \
+            FILTER_STEP_OUT(2, VF, VI, GAUSS);                                             \
+            if (R == 2) {                                                                  \
+                FILTER_STEP_OUT(3, VF, VI, GAUSS);                                         \
+                FILTER_STEP_OUT(4, VF, VI, GAUSS);                                         \
+            }                                                                              \
+        }                                                                                  \
+    }
+/* Lane by lane: weight k as it is where in is set, else by its float argument. Written
+ * out (not a loop over k: GCC kept w[] in memory then). */
+#define FILTER_STEP_OUT(k, VF, VI, GAUSS)                                                  \
+    w[k] = (VF)(((VI)w[k] & in) | ((VI)GAUSS(p + ((float)((k) - R) - 0.5f), ni) & ~in))
+
+/* Whether R's weights go by FILTER_STEPS. */
+static bool gaussian_steps_ok(const Filter *f, int R)
 {
-    double s = (double)f->r;
-    return (float)(-1.0 / (2.0 * s * s));
+    return (R == 1 || R == 2) && gauss_factor(f) >= -8.0f;
 }
+
+static inline bool all4(V4i m) { return (m[0] & m[1] & m[2] & m[3]) != 0; }
 
 FILTER_EXPF(expf4, V4f, V4i, )
 FILTER_GAUSSIAN(gaussian4, expf4, V4f, )
+FILTER_STEPS(steps4, expf4, gaussian4, V4f, V4i, all4, )
 
 float filter_expf(float t)
 {
@@ -133,12 +206,45 @@ static void gaussian_batch(const Filter *f, const float *x, float *w, int n)
     }
 }
 
-/* filter_weights_1d_offsets for the Gaussian: four positions at a time, their 2R+1
- * arguments made in the lanes (the same double operations and one rounding to float
- * as the generic loop) and their weights stored straight into the planes. */
+/* gaussian_offsets' FILTER_STEPS, R a constant where called (the stores unrolled). */
+__attribute__((always_inline)) static inline void gaussian_steps_plain(const Filter *f,
+                                                                       const float *pos, int n,
+                                                                       int R, float *w,
+                                                                       size_t plane)
+{
+    float ni = gauss_factor(f);
+    for (int i = 0; i < n; i += 4) {
+        int m = n - i < 4 ? n - i : 4;
+        V4f p = {0.0f}, g[5];
+        if (m == 4) /* one load (a copy of m floats into p stalled the load after) */
+            memcpy(&p, pos + i, sizeof p);
+        else
+            memcpy(&p, pos + i, (size_t)m * sizeof pos[0]);
+        steps4(p, R, ni, f->gauss_e1, f->gauss_e4, g);
+        if (m == 4) {
+            for (int k = 0; k <= 2 * R; k++)
+                memcpy(w + (size_t)k * plane + (size_t)i, &g[k], sizeof g[k]);
+        } else {
+            for (int k = 0; k <= 2 * R; k++)
+                memcpy(w + (size_t)k * plane + (size_t)i, &g[k], (size_t)m * sizeof w[0]);
+        }
+    }
+}
+
+/* filter_weights_1d_offsets for the Gaussian: four positions at a time, R = 1 and 2 by
+ * FILTER_STEPS, other R by their 2R+1 arguments made in the lanes (the same double
+ * operations and one rounding to float as the generic loop); the weights stored
+ * straight into the planes. */
 static void gaussian_offsets(const Filter *f, const float *pos, int n, int R, float *w,
                              size_t plane)
 {
+    if (gaussian_steps_ok(f, R)) {
+        if (R == 1)
+            gaussian_steps_plain(f, pos, n, 1, w, plane);
+        else
+            gaussian_steps_plain(f, pos, n, 2, w, plane);
+        return;
+    }
     float ni = gauss_factor(f);
     for (int i = 0; i < n; i += 4) {
         int m = n - i < 4 ? n - i : 4;
@@ -160,6 +266,23 @@ FILTER_EXPF(expf16, V16f, V16i, , FILTER_AVX512)
 FILTER_GAUSSIAN(gaussian16, expf16, V16f, , FILTER_AVX512)
 FILTER_EXPF(expf8, V8f, V8i, , FILTER_AVX2)
 FILTER_GAUSSIAN(gaussian8, expf8, V8f, , FILTER_AVX2)
+
+__attribute__((always_inline, FILTER_AVX512)) static inline bool all16(V16i m)
+{
+    return _mm512_cmpeq_epi32_mask((__m512i)m, _mm512_setzero_si512()) == 0;
+}
+
+__attribute__((always_inline, FILTER_AVX2)) static inline bool all8(V8i m)
+{
+    return _mm256_movemask_ps((__m256)m) == 0xff;
+}
+
+FILTER_STEPS(steps16, expf16, gaussian16, V16f, V16i, all16, , FILTER_AVX512)
+FILTER_STEPS(steps8, expf8, gaussian8, V8f, V8i, all8, , FILTER_AVX2)
+
+/* How the vector paths make a position's weights: FILTER_STEPS (R = 1, 2), or the
+ * arguments by FILTER_FLOAT_ARG_R's float add or by the double steps. */
+enum { ARG_STEPS, ARG_FLOAT, ARG_DOUBLE };
 
 /* The batch sixteen weights a step; the last group masked (its padding lanes compute
  * exp(0)). */
@@ -216,14 +339,28 @@ gaussian_store16(float *dst, __mmask16 m, size_t bstride, __m512 g)
  * rows). */
 __attribute__((always_inline, FILTER_AVX512)) static inline void
 gaussian_offsets16(const Filter *f, const float *pos, int n, int R, float *w, size_t plane,
-                   size_t bstride, bool float_arg)
+                   size_t bstride, int mode)
 {
     float ni = gauss_factor(f);
+    bool float_arg = mode == ARG_FLOAT;
     const __m512 one = _mm512_set1_ps(1.0f);
     const __m512d half = _mm512_set1_pd(0.5), dr = _mm512_set1_pd((double)R);
     for (int i = 0; i < n; i += 16) {
         __mmask16 m = n - i >= 16 ? (__mmask16)0xffff : (__mmask16)((1u << (n - i)) - 1);
         __m512 p = _mm512_maskz_loadu_ps(m, pos + i);
+        if (mode == ARG_STEPS) {
+            V16f g[5];
+            steps16((V16f)p, R, ni, f->gauss_e1, f->gauss_e4, g);
+            float *dst = w + (size_t)(i / 8) * bstride;
+            gaussian_store16(dst, m, bstride, (__m512)g[0]);
+            gaussian_store16(dst + plane, m, bstride, (__m512)g[1]);
+            gaussian_store16(dst + 2 * plane, m, bstride, (__m512)g[2]);
+            if (R == 2) {
+                gaussian_store16(dst + 3 * plane, m, bstride, (__m512)g[3]);
+                gaussian_store16(dst + 4 * plane, m, bstride, (__m512)g[4]);
+            }
+            continue;
+        }
         __m512 c = _mm512_set1_ps(-(float)R - 0.5f); /* k - R - 0.5, exact */
         __m512d b0 = _mm512_setzero_pd(), b1 = b0;
         if (!float_arg) {
@@ -266,10 +403,14 @@ __attribute__((FILTER_AVX512)) static void gaussian_offsets_avx512(const Filter 
                                                                    int R, float *w,
                                                                    size_t plane)
 {
-    if (R <= FILTER_FLOAT_ARG_R)
-        gaussian_offsets16(f, pos, n, R, w, plane, 8, true);
+    if (gaussian_steps_ok(f, R) && R == 1) /* R a constant in the loop: unrolled */
+        gaussian_offsets16(f, pos, n, 1, w, plane, 8, ARG_STEPS);
+    else if (gaussian_steps_ok(f, R))
+        gaussian_offsets16(f, pos, n, 2, w, plane, 8, ARG_STEPS);
+    else if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets16(f, pos, n, R, w, plane, 8, ARG_FLOAT);
     else
-        gaussian_offsets16(f, pos, n, R, w, plane, 8, false);
+        gaussian_offsets16(f, pos, n, R, w, plane, 8, ARG_DOUBLE);
 }
 
 /* filter_weights_1d_blocks for the Gaussian with AVX-512: two groups a step. */
@@ -278,10 +419,14 @@ __attribute__((FILTER_AVX512)) static void gaussian_blocks_avx512(const Filter *
                                                                   int R, float *w, size_t plane,
                                                                   size_t bstride)
 {
-    if (R <= FILTER_FLOAT_ARG_R)
-        gaussian_offsets16(f, pos, 8 * nblk, R, w, plane, bstride, true);
+    if (gaussian_steps_ok(f, R) && R == 1) /* R a constant in the loop: unrolled */
+        gaussian_offsets16(f, pos, 8 * nblk, 1, w, plane, bstride, ARG_STEPS);
+    else if (gaussian_steps_ok(f, R))
+        gaussian_offsets16(f, pos, 8 * nblk, 2, w, plane, bstride, ARG_STEPS);
+    else if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets16(f, pos, 8 * nblk, R, w, plane, bstride, ARG_FLOAT);
     else
-        gaussian_offsets16(f, pos, 8 * nblk, R, w, plane, bstride, false);
+        gaussian_offsets16(f, pos, 8 * nblk, R, w, plane, bstride, ARG_DOUBLE);
 }
 
 /* The AVX2 batch: eight weights a step, the last group through masked loads and
@@ -320,15 +465,30 @@ gaussian_store8(float *dst, __m256i m, bool whole, __m256 g)
 /* gaussian_offsets16's loop in AVX2, eight positions a step (one group). */
 __attribute__((always_inline, FILTER_AVX2)) static inline void
 gaussian_offsets8(const Filter *f, const float *pos, int n, int R, float *w, size_t plane,
-                  size_t bstride, bool float_arg)
+                  size_t bstride, int mode)
 {
     float ni = gauss_factor(f);
+    bool float_arg = mode == ARG_FLOAT;
     const __m256 one = _mm256_set1_ps(1.0f);
     const __m256d half = _mm256_set1_pd(0.5), dr = _mm256_set1_pd((double)R);
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
     for (int i = 0; i < n; i += 8) {
         __m256i m = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - i), lane);
         __m256 p = n - i >= 8 ? _mm256_loadu_ps(pos + i) : _mm256_maskload_ps(pos + i, m);
+        if (mode == ARG_STEPS) {
+            V8f g[5];
+            steps8((V8f)p, R, ni, f->gauss_e1, f->gauss_e4, g);
+            float *dst = w + (size_t)(i / 8) * bstride;
+            bool whole = n - i >= 8;
+            gaussian_store8(dst, m, whole, (__m256)g[0]);
+            gaussian_store8(dst + plane, m, whole, (__m256)g[1]);
+            gaussian_store8(dst + 2 * plane, m, whole, (__m256)g[2]);
+            if (R == 2) {
+                gaussian_store8(dst + 3 * plane, m, whole, (__m256)g[3]);
+                gaussian_store8(dst + 4 * plane, m, whole, (__m256)g[4]);
+            }
+            continue;
+        }
         __m256 c = _mm256_set1_ps(-(float)R - 0.5f); /* k - R - 0.5, exact */
         __m256d b0 = _mm256_setzero_pd(), b1 = b0;
         if (!float_arg) {
@@ -369,10 +529,14 @@ __attribute__((FILTER_AVX2)) static void gaussian_offsets_avx2(const Filter *f,
                                                                const float *pos, int n,
                                                                int R, float *w, size_t plane)
 {
-    if (R <= FILTER_FLOAT_ARG_R)
-        gaussian_offsets8(f, pos, n, R, w, plane, 8, true);
+    if (gaussian_steps_ok(f, R) && R == 1) /* R a constant in the loop: unrolled */
+        gaussian_offsets8(f, pos, n, 1, w, plane, 8, ARG_STEPS);
+    else if (gaussian_steps_ok(f, R))
+        gaussian_offsets8(f, pos, n, 2, w, plane, 8, ARG_STEPS);
+    else if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets8(f, pos, n, R, w, plane, 8, ARG_FLOAT);
     else
-        gaussian_offsets8(f, pos, n, R, w, plane, 8, false);
+        gaussian_offsets8(f, pos, n, R, w, plane, 8, ARG_DOUBLE);
 }
 
 /* filter_weights_1d_blocks for the Gaussian with AVX2: one group a step. */
@@ -381,10 +545,14 @@ __attribute__((FILTER_AVX2)) static void gaussian_blocks_avx2(const Filter *f,
                                                               int R, float *w, size_t plane,
                                                               size_t bstride)
 {
-    if (R <= FILTER_FLOAT_ARG_R)
-        gaussian_offsets8(f, pos, 8 * nblk, R, w, plane, bstride, true);
+    if (gaussian_steps_ok(f, R) && R == 1) /* R a constant in the loop: unrolled */
+        gaussian_offsets8(f, pos, 8 * nblk, 1, w, plane, bstride, ARG_STEPS);
+    else if (gaussian_steps_ok(f, R))
+        gaussian_offsets8(f, pos, 8 * nblk, 2, w, plane, bstride, ARG_STEPS);
+    else if (R <= FILTER_FLOAT_ARG_R)
+        gaussian_offsets8(f, pos, 8 * nblk, R, w, plane, bstride, ARG_FLOAT);
     else
-        gaussian_offsets8(f, pos, 8 * nblk, R, w, plane, bstride, false);
+        gaussian_offsets8(f, pos, 8 * nblk, R, w, plane, bstride, ARG_DOUBLE);
 }
 #define HAVE_AVX2_BATCH 1
 #endif
@@ -559,6 +727,12 @@ bool filter_init(Filter *f, const FilterOps *ops, float r, char *why, size_t why
      * support radius"; box 2.3 reaches 2 pixels, not 3). */
     double R = ceil(ops->extent(f) - 0.5);
     f->support = R > 0.0 ? (int)R : 0;
+    if (ops == &gaussian_ops) {
+        double s = (double)r;
+        f->gauss_ni = (float)(-1.0 / (2.0 * s * s));
+        f->gauss_e1 = (float)exp((double)f->gauss_ni);
+        f->gauss_e4 = (float)exp(4.0 * (double)f->gauss_ni);
+    }
     return true;
 }
 

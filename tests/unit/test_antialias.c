@@ -372,13 +372,27 @@ static void test_gaussian_paths(void)
     }
 }
 
+/* Distance of a from b in units in the last place of b (float), |b| >= 2^-126. */
+static double ulps_from(double a, double b)
+{
+    int e;
+    frexp(b, &e);
+    return fabs(a - b) / ldexp(1.0, e - 24);
+}
+
 /* filter_weights_1d_offsets (the film's weights of a row of sample positions towards
  * the 2R+1 pixels around) against filter_weights_1d on the arguments made one by one
  * as its contract says, (position - 0.5) - R + k in double rounded to float once, bit
  * for bit: the separable filters at several radii, every vector path of the Gaussian,
  * every length up to 40 (partial vector groups) and a long row, positions with full
  * mantissas (a rounding of the argument in float, or of the difference before k is
- * added, gives other floats for many of them). */
+ * added, gives other floats for many of them). The Gaussian at R = 1 and 2 makes the
+ * weights of positions in [0, 1] by its steps (test_gaussian_steps, which measures
+ * their accuracy): there the centre plane is the same bits (the same float argument and
+ * exp) and the others the same weights to 1e-5 (each within a few ulps of the exact
+ * ones, up to 28 for the arguments' exps at sigma 0.26: the right planes, in order);
+ * positions outside (a few here, NaN and infinities too) take the arguments, bit for
+ * bit. */
 static void test_weights_offsets(void)
 {
     char why[160];
@@ -394,10 +408,16 @@ static void test_weights_offsets(void)
     }
     pos[0] = 0.0f;
     pos[1] = nextafterf(1.0f, 0.0f);
+    static const float outside[] = {-0.75f, 1.5f, -0x1p-20f, 1.0f + 0x1p-23f, 3e5f,
+                                    -1e30f, INFINITY, -INFINITY, NAN};
+    for (int j = 0; j < 9; j++)
+        pos[7 + 5 * j] = outside[j];
+    pos[60] = 1.0f; /* inside */
     for (size_t k = 0; k < sizeof filters / sizeof filters[0]; k++) {
         Filter f;
         CHECK(filter_init(&f, filter_find(filters[k].name), filters[k].r, why, sizeof why));
         int R = f.support, side = 2 * R + 1;
+        bool steps = strcmp(filters[k].name, "gaussian") == 0 && (R == 1 || R == 2);
         CHECK(side <= SIDE_MAX);
         for (int cap = 0; cap <= 2; cap++) {
             filter_gaussian_path_set(cap);
@@ -412,11 +432,81 @@ static void test_weights_offsets(void)
                     for (int i = 0; i < n; i++)
                         arg[i] = (float)((double)pos[o + i] - 0.5 - (double)R + (double)t);
                     filter_weights_1d(&f, arg, ref, n);
-                    bad += memcmp(w + (size_t)t * (size_t)n, ref, (size_t)n * sizeof ref[0]) != 0;
+                    const float *wt = w + (size_t)t * (size_t)n;
+                    if (!steps) {
+                        bad += memcmp(wt, ref, (size_t)n * sizeof ref[0]) != 0;
+                        continue;
+                    }
+                    int off = 0;
+                    for (int i = 0; i < n; i++) {
+                        float p = pos[o + i];
+                        if (t == R || !(p >= 0.0f && p <= 1.0f))
+                            off += memcmp(&wt[i], &ref[i], sizeof ref[i]) != 0;
+                        else /* the plane's offset, to the accuracy of either */
+                            off += !(fabs((double)wt[i] - (double)ref[i]) <= 1e-5 * (double)ref[i]);
+                    }
+                    bad += off != 0;
                 }
                 CHECK_MSG(bad == 0, "%s %g path %d, %d positions: %d of %d planes differ",
                           filters[k].name, (double)f.r, cap, n, bad, side);
             }
+        }
+        filter_gaussian_path_set(2);
+    }
+}
+
+/* The Gaussian's weights towards the 2R+1 pixels around at R = 1 and 2, made from the
+ * position by steps (filter.c, FILTER_STEPS: exp(ni u^2) and E = exp(-2 ni u) with u =
+ * p - 0.5 in float, the others by the factors exp(ni), exp(4 ni) and E^j), against
+ * the exact exp(ni x^2) in double at the offsets x = u - R + k, ni the float factor
+ * every path rounds -1/(2 sigma^2) to: over a dense scan of [0, 1] (every 2^-16, 1
+ * included) and random full-mantissa positions below 1/4 (where p - 0.5 rounds), sigmas
+ * from just above 1/4 (R = 1, the steepest) to 1.25 (R = 2), the worst error within 8
+ * ulps, the mean within 0.9 and within 1.0 towards the pixels 2 away (measured
+ * 2026-11-29: worst 7.7 at sigma 0.26, means at most 0.89 and 0.75; the exps of the
+ * rounded arguments before, against the same exact weights at their arguments: up to
+ * 28 ulps and a mean of 2.0 at sigma 0.26). Every vector path gives the plain build's
+ * bits. Fails with exp(ni) or exp(4 ni) an ulp off either way (means 0.99 to 1.6). */
+static void test_gaussian_steps(void)
+{
+    char why[160];
+    static const float sigmas[] = {0.26f, 0.3f, 0.4f, 0.6f, 0.75f, 0.76f, 1.0f, 1.25f};
+    enum { DENSE = (1 << 16) + 1, N = DENSE + 4096, SIDE = 5 };
+    static float pos[N], w0[SIDE * N], w[SIDE * N];
+    for (int i = 0; i < DENSE; i++)
+        pos[i] = (float)i * 0x1p-16f;
+    uint64_t h = 0x853c49e6748fea9bu;
+    for (int i = DENSE; i < N; i++) {
+        h ^= h << 13, h ^= h >> 7, h ^= h << 17;
+        pos[i] = (float)(h >> 40) * 0x1p-26f; /* [0, 1/4), 24 random bits */
+    }
+    for (size_t q = 0; q < sizeof sigmas / sizeof sigmas[0]; q++) {
+        Filter f;
+        CHECK(filter_init(&f, filter_find("gaussian"), sigmas[q], why, sizeof why));
+        int R = f.support;
+        CHECK(R == 1 || R == 2);
+        double s = (double)f.r, ni = (double)(float)(-1.0 / (2.0 * s * s));
+        filter_gaussian_path_set(0);
+        filter_weights_1d_offsets(&f, pos, N, R, w0, N);
+        double worst = 0.0, sum = 0.0, outer = 0.0;
+        for (int k = 0; k <= 2 * R; k++)
+            for (int i = 0; i < N; i++) {
+                double x = (double)(pos[i] - 0.5f) - R + k;
+                double e = ulps_from((double)w0[(size_t)k * N + i], exp(ni * x * x));
+                worst = e > worst ? e : worst;
+                sum += e;
+                outer += abs(k - R) == 2 ? e : 0.0;
+            }
+        double mean = sum / (double)((2 * R + 1) * N), mean2 = outer / (2.0 * N);
+        CHECK_MSG(worst <= 8.0 && mean <= 0.9 && mean2 <= 1.0,
+                  "sigma %g (R %d): worst %.2f ulps, mean %.3f, at +-2 pixels %.3f",
+                  (double)f.r, R, worst, mean, mean2);
+        for (int cap = 1; cap <= 2; cap++) {
+            filter_gaussian_path_set(cap);
+            filter_weights_1d_offsets(&f, pos, N, R, w, N);
+            CHECK_MSG(memcmp(w, w0, (size_t)(2 * R + 1) * N * sizeof w[0]) == 0,
+                      "sigma %g path %d: weights differ from the plain build's", (double)f.r,
+                      cap);
         }
         filter_gaussian_path_set(2);
     }
@@ -1409,6 +1499,8 @@ static const TestCase tests[] = {
     {"filters: every vector path of the Gaussian gives the plain build's bits", test_gaussian_paths},
     {"filters: a row's weights towards 2R+1 pixels == one argument at a time",
      test_weights_offsets},
+    {"filters: the Gaussian's steps (R = 1, 2) within 8 ulps of the exact weights",
+     test_gaussian_steps},
     {"filters: a row's weights on every path: tiny positions, every run length",
      test_weights_offsets_boundaries},
     {"filters: groups of eight positions, weights in planes of their own == offsets",
