@@ -113,6 +113,12 @@ static int *film_count(const Film *f, int x, int y)
     return f->count + film_row(f, y) * (size_t)f->fw + (size_t)(x - f->sx0);
 }
 
+/* Column x of film row y's moment plane p. */
+static inline float *film_mom(const Film *f, int x, int y, int p)
+{
+    return f->mom + film_row(f, y) * f->ms + (size_t)p * (size_t)f->pw + (size_t)(x - f->sx0);
+}
+
 /* Rays waiting to be traced as one packet, and the sample each belongs to: channel c
  * of the sample at dest + c * cs (cs = 1: a tile's scratch, one sample's channels
  * side by side; cs = fw: the film's planes). */
@@ -637,7 +643,7 @@ _Static_assert(TILE == 8, "film_copy_row8 copies rows of eight pixels");
  * same lanes and packets as film_queue_pixel's, so the same bits. Returns the tile's
  * queued pixels (bit dy * TILE + dx); the stream is empty on return. */
 static uint64_t film_tile_quads(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by,
-                                int y0, int y1, float *scratch)
+                                int y0, int y1, float *scratch, bool sums0)
 {
     const FilmConfig *c = f->cfg;
     const Sampler *s = c->sampler;
@@ -685,6 +691,26 @@ static uint64_t film_tile_quads(const Film *f, RenderCtx *ctx, Stream *st, int x
                                   st->rays);
         raytracer_trace_packet(f->rt, ctx, st->rays, n, f->tmin, colors, hits);
         film_finite_colors(colors, n);
+        if (sums0) {
+            /* The box 0.5's moments straight from the colours: each pixel's sums of its
+             * samples in order, weight 1 each (film_moments_cfg), the operations of
+             * film_tile_moments' lanes; the samples go nowhere else. */
+            for (int i = 0; i < np; i++) {
+                const Vec3 *cl = colors + 16 * i;
+                float sr = 0.0f, sg = 0.0f, sb = 0.0f, sw = 0.0f;
+                for (int k = 0; k < 16; k++) {
+                    sr += cl[k].x * 1.0f;
+                    sg += cl[k].y * 1.0f;
+                    sb += cl[k].z * 1.0f;
+                    sw += 1.0f;
+                }
+                *film_mom(f, px[i], py[i], 0) = sr;
+                *film_mom(f, px[i], py[i], 1) = sg;
+                *film_mom(f, px[i], py[i], 2) = sb;
+                *film_mom(f, px[i], py[i], 3) = sw;
+            }
+            continue;
+        }
         for (int i = 0; i < np; i++)
             film_put_block(dst[i], xy[i], colors + 16 * i);
     }
@@ -767,19 +793,14 @@ FILM_MOMENTS_N(film_moments_n_avx2, target("avx2"))
 #define FILM_HAVE_MOMENTS_AVX2 1
 #endif
 
-/* Column x of film row y's moment plane p. */
-static inline float *film_mom(const Film *f, int x, int y, int p)
-{
-    return f->mom + film_row(f, y) * f->ms + (size_t)p * (size_t)f->pw + (size_t)(x - f->sx0);
-}
-
 /* The samples of a tile row (bits `row` of the tile's columns, their channels side by
- * side from src) into the film's planes: only for the samples picture with moments. */
+ * side from src) into the film (planes, or pixel by pixel with R = 0): only for the
+ * samples picture with moments. */
 static void film_row_to_planes(const Film *f, const float *src, int x0, int y, unsigned row)
 {
     size_t per_px = (size_t)f->slots * 5, cs = f->cs;
 #ifdef FILM_HAVE_COPY_ROW8
-    if (f->avx2 && row == 0xffu) {
+    if (f->avx2 && f->planes && row == 0xffu) {
         film_copy_row8(src, per_px, f->slots * 5, film_sample(f, x0, y, 0), f->ss, cs, NULL,
                        false);
         return;
@@ -835,7 +856,11 @@ static void film_tile_moments(const Film *f, int x0, int by, uint64_t queued,
                         col[40 * s + 8 * ch + dx] = in ? p[ch] : 0.0f;
                 }
             }
-        filter_weights_1d_blocks(c->filter, pos, 2 * n, R, wl, 8, (size_t)side * 8);
+        if (R > 0)
+            filter_weights_1d_blocks(c->filter, pos, 2 * n, R, wl, 8, (size_t)side * 8);
+        else /* the box 0.5's weight of every own sample (film_moments_cfg) */
+            for (int k = 0; k < 16 * n; k++)
+                wl[k] = 1.0f;
 #ifdef FILM_HAVE_MOMENTS_AVX2
         if (f->avx2) {
             if (side == 3)
@@ -879,9 +904,13 @@ static void film_tile(const Film *f, RenderCtx *ctx, Stream *st, int x0, int by,
     st->cs = scratch ? 1 : f->cs;
 #ifdef FILM_HAVE_RUNS
     if (!refine && c->sampler->count == 16 && f->avx512 && st->cs == 1 &&
-        (scratch ? (size_t)f->stride : f->ss) == 5)
-        queued = film_tile_quads(f, ctx, st, x0, by, y0, y1, scratch);
-    else
+        (scratch ? (size_t)f->stride : f->ss) == 5) {
+        /* R = 0 moments (the box 0.5) summed there, nothing left to do here */
+        bool sums0 = f->mom && f->R == 0 && !c->samples;
+        queued = film_tile_quads(f, ctx, st, x0, by, y0, y1, scratch, sums0);
+        if (sums0)
+            return;
+    } else
 #endif
         for (int k = 0; k < TILE * TILE; k++) {
             int dx, dy;
@@ -991,15 +1020,16 @@ static void film_band(void *user, RenderCtx *ctx, int band)
     uint64_t rays0 = ctx->stats.nonshadow_rays + ctx->stats.shadow_rays;
     Stream st;
     st.n = 0;
-    /* The tile's scratch, for planes only (NULL: the samples go to the film directly),
-     * and behind it, with row weights, the positions of a tile row (film_tile: 2 slots
-     * groups of eight, or a pixel's x y pairs) from which film_tile makes the weights. */
+    /* The tile's scratch, for planes and moments only (NULL: the samples go to the film
+     * directly), and behind it, with row weights, the positions of a tile row (film_tile:
+     * 2 slots groups of eight, or a pixel's x y pairs) from which film_tile makes the
+     * weights, or film_tile_moments' planes. */
     size_t tile_floats = (size_t)TILE * TILE * (size_t)f->slots * (size_t)f->stride;
     size_t side = 2 * (size_t)f->R + 1, work = f->row_weights ? (size_t)16 * (size_t)f->slots : 0;
     if (f->mom) /* film_tile_moments' planes: positions, colours, weights, sums */
         work = (56 + 16 * side) * (size_t)f->slots + 32 * side * side;
-    float *scratch = f->planes ? malloc((tile_floats + work) * sizeof *scratch) : NULL;
-    float *pos = scratch && f->row_weights ? scratch + tile_floats : NULL;
+    float *scratch = f->planes || f->mom ? malloc((tile_floats + work) * sizeof *scratch) : NULL;
+    float *pos = scratch && (f->row_weights || f->mom) ? scratch + tile_floats : NULL;
     if (f->mom && !scratch) {
         /* The moments are made from the scratch only: the render fails (out of memory). */
         __atomic_store_n(f->failed, 1, __ATOMIC_RELAXED);
@@ -2406,26 +2436,32 @@ static bool film_check(const FilmConfig *c)
            (!c->refine || c->refine->count >= 1) && (!c->samples || c->samples_zoom >= 1);
 }
 
-/* Whether cfg's film sums by moments (Film.moments): random or jittered positions, not
- * refined, with a separable filter that reaches the pixels around (R > 0) and has no
- * negative lobes, whose weight towards a pixel's own samples cannot be 0. Every output
- * pixel then has weight from its own samples, so film_put_unweighted (which reads the
- * samples themselves, not kept with moments) is never needed. A pixel's own samples lie
- * within 0.5 of its centre on each axis, and these filters (box, Gaussian) do not
- * grow with the distance, so their least weight there is at +-0.5; the margin keeps a
- * product of two weights a normal float by far. */
+/* Whether cfg's film sums by moments (Film.moments), never with adaptive refinement:
+ * random or jittered positions with a separable filter that reaches the pixels around
+ * (R > 0) and has no negative lobes, whose weight towards a pixel's own samples cannot
+ * be 0; or, with any sampler, the box 0.5 (R = 0), which weighs every sample of its
+ * pixel 1 (|position - 0.5| <= 0.5 on each axis), so a pixel's one moment is the plain
+ * sum of its samples in order, the bits film_filter_own8 and the table's loop give.
+ * Every output pixel then has weight from its own samples, so film_put_unweighted
+ * (which reads the samples themselves, not kept with moments) is never needed. A
+ * pixel's own samples lie within 0.5 of its centre on each axis, and these filters
+ * (box, Gaussian) do not grow with the distance, so their least weight there is at
+ * +-0.5; the margin keeps a product of two weights a normal float by far. */
 static bool film_moments_cfg(const FilmConfig *cfg)
 {
     const Filter *flt = cfg->filter;
-    if (cfg->sampler->ops->fixed || cfg->refine || flt->support <= 0 ||
-        !flt->ops->weight_1d || filter_has_negative_lobes(flt))
+    if (cfg->refine)
+        return false;
+    if (flt->support == 0)
+        return filter_is_box(flt) && flt->r >= 0.5f;
+    if (cfg->sampler->ops->fixed || !flt->ops->weight_1d || filter_has_negative_lobes(flt))
         return false;
     float a = flt->ops->weight_1d(flt, -0.5f), b = flt->ops->weight_1d(flt, 0.5f);
     return a >= 1e-15f && b >= 1e-15f;
 }
 
-/* ... and keeps them in planes (colour only: with depth or normals the general loop
- * sums in the same order from the samples). */
+/* ... and keeps only them (colour only: with depth or normals the general loop sums in
+ * the same order from the samples). */
 static bool film_moment_planes_cfg(const FilmConfig *cfg)
 {
     return film_moments_cfg(cfg) && !film_wants(cfg, FILM_DEPTH) &&
@@ -2518,10 +2554,10 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
                (f.per || f.table);
     f.row_weights = f.per && f.planes;
     f.moments = film_moments_cfg(cfg);
-    /* Moments in planes: the samples and their weights stay in the tile's scratch
-     * (film_tile_moments); the samples reach the film's planes only for the samples
-     * picture. */
-    bool mom = f.moments && f.planes;
+    /* Moments kept (colour only; with R > 0 exactly where the data would be in planes):
+     * the samples and their weights stay in the tile's scratch (film_tile_moments); the
+     * samples reach the film only for the samples picture. */
+    bool mom = f.moments && f.off_depth < 0 && f.off_normal < 0;
     /* Filter jobs of two rows where their spans share loads (film_span_sums2_avx512,
      * film_span_sums2_avx2). */
     f.pairs = f.row_weights && (f.avx512 || f.avx2) && !mom;

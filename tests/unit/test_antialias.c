@@ -1422,9 +1422,11 @@ static void test_film_unweighted_pixels(void)
 }
 
 /* A film of random or jittered samples whose separable filter has no negative lobes
- * (the Gaussian, a box wider than a pixel) keeps, per pixel, only its weighted sums
- * towards the (2R+1)^2 pixels around (red, green, blue, weight: 4 (2R+1)^2 floats), made
- * as each tile is traced, instead of its samples and their separable weights: a 40 x 20
+ * (the Gaussian, a box wider than a pixel), or of any samples with the box 0.5 (R = 0:
+ * with 16 samples and AVX-512 summed as each packet is traced), keeps, per pixel, only
+ * its weighted sums towards the (2R+1)^2 pixels around (red, green, blue, weight: 4
+ * (2R+1)^2 floats), made as each tile is traced, instead of its samples and their
+ * separable weights: a 40 x 20
  * render holds whole rows of 40 pixels of those floats and a count (at least 2R + 1).
  * The colour is the same to the bit with the depth image asked too (the general loop,
  * which keeps the samples and adds each pixel's own sums first, as the moments do), on
@@ -1436,16 +1438,20 @@ static void test_film_moments(void)
     Fixture fx;
     if (!fixture_open_text(&fx, AA_SPHERE_SCENE("0.9 0.9 0.9", "0.2 0.2 0.2", "1 0.5 0.1")))
         return;
-    Sampler jit, rnd;
+    Sampler jit, rnd, uni, jit9;
     make_sampler(&jit, "jittered", 16, 5);
     make_sampler(&rnd, "random", 7, 6);
-    Filter g4, g9, box1;
+    make_sampler(&uni, "uniform", 16, 0);
+    make_sampler(&jit9, "jittered", 9, 7);
+    Filter g4, g9, box1, box5;
     char why[160];
     CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
     CHECK(filter_init(&g9, filter_find("gaussian"), 0.9f, why, sizeof why));
     CHECK(filter_init(&box1, filter_find("box"), 1.0f, why, sizeof why));
+    filter_init_default(&box5); /* the box 0.5 (R = 0): one moment, any sampler */
     struct { const Sampler *s; const Filter *f; int R; } cases[] = {
-        {&jit, &g4, 1}, {&jit, &g9, 2}, {&rnd, &box1, 1}, {&rnd, &g4, 1}};
+        {&jit, &g4, 1}, {&jit, &g9, 2}, {&rnd, &box1, 1}, {&rnd, &g4, 1},
+        {&jit, &box5, 0}, {&uni, &box5, 0}, {&jit9, &box5, 0}};
     const int W = 40, H = 20;
     for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
         int side = 2 * cases[c].R + 1;
