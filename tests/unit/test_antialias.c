@@ -1426,32 +1426,39 @@ static void test_film_unweighted_pixels(void)
  * with 16 samples and AVX-512 summed as each packet is traced), keeps, per pixel, only
  * its weighted sums towards the (2R+1)^2 pixels around (red, green, blue, weight: 4
  * (2R+1)^2 floats), made as each tile is traced, instead of its samples and their
- * separable weights: a 40 x 20
- * render holds whole rows of 40 pixels of those floats and a count (at least 2R + 1).
- * The colour is the same to the bit with the depth image asked too (the general loop,
- * which keeps the samples and adds each pixel's own sums first, as the moments do), on
- * every path of the film and on 1 and 2 threads. Fails when the film holds samples
- * (16 of 5 floats and 6 weights a pixel with the Gaussian 0.4: 176 floats), or when the
- * moments and the general loop add in different orders. */
+ * separable weights, where those sums are at most a third of the floats they replace:
+ * a 40 x 20 render holds whole rows of 40 pixels of those floats (or of the samples and
+ * weights) and a count, at least 2R + 1 rows. The colour is the same to the bit with
+ * the depth image asked too (the general loop, which keeps the samples and adds each
+ * pixel's own sums first where the moments do), on every path of the film and on 1 and
+ * 2 threads. Fails when the film holds samples where it should hold moments (16 of 5
+ * floats and 6 weights a pixel with the Gaussian 0.4: 176 floats) or the other way
+ * round, or when the colour-only film and the general loop add in different orders. */
 static void test_film_moments(void)
 {
     Fixture fx;
     if (!fixture_open_text(&fx, AA_SPHERE_SCENE("0.9 0.9 0.9", "0.2 0.2 0.2", "1 0.5 0.1")))
         return;
-    Sampler jit, rnd, uni, jit9;
+    Sampler jit, rnd, uni, jit9, jit36, jit4;
     make_sampler(&jit, "jittered", 16, 5);
-    make_sampler(&rnd, "random", 7, 6);
+    make_sampler(&rnd, "random", 12, 6);
     make_sampler(&uni, "uniform", 16, 0);
     make_sampler(&jit9, "jittered", 9, 7);
+    make_sampler(&jit36, "jittered", 36, 8);
+    make_sampler(&jit4, "jittered", 4, 9);
     Filter g4, g9, box1, box5;
     char why[160];
     CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
     CHECK(filter_init(&g9, filter_find("gaussian"), 0.9f, why, sizeof why));
     CHECK(filter_init(&box1, filter_find("box"), 1.0f, why, sizeof why));
     filter_init_default(&box5); /* the box 0.5 (R = 0): one moment, any sampler */
-    struct { const Sampler *s; const Filter *f; int R; } cases[] = {
-        {&jit, &g4, 1}, {&jit, &g9, 2}, {&rnd, &box1, 1}, {&rnd, &g4, 1},
-        {&jit, &box5, 0}, {&uni, &box5, 0}, {&jit9, &box5, 0}};
+    /* moments: whether the film keeps them (film_moments_cfg: at most a third of the
+     * floats of the samples and their weights; jittered 4 and 16 with the Gaussian 0.4
+     * and 0.9 keep their samples) */
+    struct { const Sampler *s; const Filter *f; int R; bool moments; } cases[] = {
+        {&jit, &g4, 1, true}, {&jit36, &g9, 2, true}, {&rnd, &box1, 1, true},
+        {&rnd, &g4, 1, true}, {&jit, &box5, 0, true}, {&uni, &box5, 0, true},
+        {&jit9, &box5, 0, true}, {&jit4, &g4, 1, false}, {&jit, &g9, 2, false}};
     const int W = 40, H = 20;
     for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
         int side = 2 * cases[c].R + 1;
@@ -1477,13 +1484,17 @@ static void test_film_moments(void)
             film_path_set(cap);
             CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, threads, NULL, NULL));
             film_path_set(2);
-            size_t row = (size_t)W * ((size_t)(4 * side * side) * sizeof(float) + sizeof(int));
+            int n = cases[c].s->count;
+            size_t floats = cases[c].moments ? (size_t)(4 * side * side)
+                                             : (size_t)n * (size_t)(5 + 2 * side);
+            size_t row = (size_t)W * (floats * sizeof(float) + sizeof(int));
             size_t rows = fc.held / row;
             CHECK_MSG(fc.held % row == 0 && rows >= (size_t)side && rows <= (size_t)H,
-                      "case %d, %d threads: the film held %zu bytes, not rows of 40 pixels of %d "
-                      "sums and a count (%zu bytes)", c, threads, fc.held, 4 * side * side, row);
+                      "case %d, %d threads: the film held %zu bytes, not rows of 40 pixels of %zu "
+                      "floats (%s) and a count (%zu bytes)", c, threads, fc.held, floats,
+                      cases[c].moments ? "moments" : "samples and weights", row);
             CHECK_MSG(same_pixels(&img, &ref, 0, 0),
-                      "case %d, path %d, %d threads: the moments' colour differs from the general "
+                      "case %d, path %d, %d threads: the colour-only film differs from the general "
                       "loop's", c, cap, threads);
             image_free(&img);
         }
