@@ -1210,52 +1210,74 @@ static void test_film_vector_filter(void)
 }
 
 /* The samples picture of a film whose separable weights come from the tile's scratch
- * (the Gaussian: the positions then reach the planes only for this picture) is the
- * picture of the same samples under the box 0.5 (no planes): same sampler, same
- * positions and colours, on every path of the film, 1 and 2 threads, a width that cuts
- * the last tile (the per-pixel weights). Fails when the scratch path drops the
- * positions though the picture is asked for. */
+ * (the Gaussian: the positions then reach the planes only for this picture), or that
+ * keeps moments instead of samples (the Gaussian with 16 samples, the box 0.5: the
+ * samples then reach the film only for this picture), is the picture of the same
+ * samples kept by the general loop (the box 0.5 with the depth image asked too: no
+ * moments, every sample stored): same sampler, same positions and colours, on every
+ * path of the film, 1 and 2 threads, a width that cuts the last tile (the per-pixel
+ * weights and copies). Fails when the scratch or the moments drop the positions though
+ * the picture is asked for. */
 static void test_film_samples_with_weights(void)
 {
     Fixture fx;
     if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
         return;
-    Sampler jit;
-    make_sampler(&jit, "jittered", 9, 4);
+    Sampler jit9, jit16;
+    make_sampler(&jit9, "jittered", 9, 4);
+    make_sampler(&jit16, "jittered", 16, 4);
+    const Sampler *samplers[2] = {&jit9, &jit16};
     Filter g4, box;
     char why[160];
     CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
     filter_init_default(&box);
     const int W = 21, H = 11, Z = 5;
-    Image ref;
-    CHECK(image_init(&ref, W * Z, H * Z));
-    for (int c = 0; c < 2 * 3; c++) {
-        const Filter *flt = c == 0 ? &box : &g4;
-        int cap = c < 3 ? c : c - 3, threads = c < 3 ? 1 : 2;
-        Image color, pic;
-        CHECK(image_init(&color, W, H) && image_init(&pic, W * Z, H * Z));
+    for (int k = 0; k < 2; k++) {
+        Image ref, ref_color, ref_depth;
+        CHECK(image_init(&ref, W * Z, H * Z) && image_init(&ref_color, W, H) &&
+              image_init(&ref_depth, W, H));
         FilmConfig fc;
         memset(&fc, 0, sizeof fc);
-        fc.sampler = &jit;
-        fc.filter = flt;
+        fc.sampler = samplers[k];
+        fc.filter = &box;
         fc.full_width = W;
         fc.full_height = H;
         fc.width = W;
         fc.height = H;
-        fc.color = &color;
-        fc.samples = c == 0 ? &ref : &pic;
+        fc.color = &ref_color;
+        fc.depth = &ref_depth;
+        fc.depth_min = 5;
+        fc.depth_max = 15;
+        fc.samples = &ref;
         fc.samples_zoom = Z;
-        film_path_set(cap);
-        CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, threads, NULL, NULL));
-        film_path_set(2);
-        if (c > 0)
+        CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, 1, NULL, NULL));
+        for (int c = 0; c < 2 * 2 * 3; c++) {
+            const Filter *flt = c % 2 == 0 ? &box : &g4;
+            int cap = c / 2 % 3, threads = 1 + c / 6;
+            Image color, pic;
+            CHECK(image_init(&color, W, H) && image_init(&pic, W * Z, H * Z));
+            fc.filter = flt;
+            fc.color = &color;
+            fc.depth = NULL;
+            fc.samples = &pic;
+            film_path_set(cap);
+            CHECK(film_render(&fx.rt, &fx.scene->camera, &fc, threads, NULL, NULL));
+            film_path_set(2);
             CHECK_MSG(same_pixels(&pic, &ref, 0, 0),
-                      "Gaussian, film path %d, %d threads: the samples picture differs from "
-                      "the box's", cap, threads);
-        image_free(&color);
-        image_free(&pic);
+                      "%d samples, %s, film path %d, %d threads: the samples picture differs "
+                      "from the general loop's", samplers[k]->count, c % 2 ? "Gaussian" : "box",
+                      cap, threads);
+            if (c % 2 == 0)
+                CHECK_MSG(same_pixels(&color, &ref_color, 0, 0),
+                          "%d samples, box, film path %d, %d threads: the colour differs from "
+                          "the general loop's", samplers[k]->count, cap, threads);
+            image_free(&color);
+            image_free(&pic);
+        }
+        image_free(&ref);
+        image_free(&ref_color);
+        image_free(&ref_depth);
     }
-    image_free(&ref);
     fixture_close(&fx);
 }
 
@@ -1532,7 +1554,7 @@ static const TestCase tests[] = {
     {"film: one worker, R = 0: a strip per band == one strip", test_film_band_strips},
     {"film: one centred sample + box 0.5 == the image loop", test_film_default_is_image_loop},
     {"film: progress counts every traced pixel once", test_film_progress},
-    {"film: samples picture with weights from the scratch == the box's",
+    {"film: samples picture with weights or moments from the scratch == the general loop's",
      test_film_samples_with_weights},
     {"film: infinite and NaN sample colours make no NaN pixels", test_film_nonfinite_samples},
     {"film: a pixel no weight reaches takes its nearest sample, on every path",
