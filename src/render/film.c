@@ -377,14 +377,20 @@ typedef int32_t FilmV4i __attribute__((vector_size(16)));
 
 static void film_sample_weights(const Film *f, int x, int y, int n, const float *xy)
 {
-    enum { CHUNK = 64, SIDE_MAX = 2 * (int)FILTER_MAX_RADIUS + 1 };
+    /* w holds 2R+1 weights of up to CHUNK samples: fewer samples a batch where the
+     * filter reaches further. R is not bounded by FILTER_MAX_RADIUS: the Gaussian's
+     * reach is 2 sigma, so sigma 16 has R = 32 (65 weights a position); with a buffer
+     * sized for R <= 16 the weights of sigma above 8.25 were left unwritten. Batches
+     * of any length give the same bits (filter_weights_1d_offsets). */
+    enum { CHUNK = 64, WBUF = 33 * CHUNK };
     int R = f->R, side = 2 * R + 1;
-    float pos[CHUNK], w[SIDE_MAX * CHUNK];
-    if (n <= 0 || f->per <= 0 || side > SIDE_MAX) /* (never: samples, weights, R <= 16) */
+    float pos[CHUNK], w[WBUF];
+    int chunk = WBUF / side < CHUNK ? WBUF / side : CHUNK;
+    if (n <= 0 || f->per <= 0 || chunk < 1) /* (never: samples, weights, R <= 1055) */
         return;
     size_t ws = f->ws;
-    for (int i0 = 0; i0 < n; i0 += CHUNK) {
-        int m = n - i0 < CHUNK ? n - i0 : CHUNK;
+    for (int i0 = 0; i0 < n; i0 += chunk) {
+        int m = n - i0 < chunk ? n - i0 : chunk;
         for (int axis = 0; axis < 2; axis++) {
             for (int i = 0; i < m; i++)
                 pos[i] = xy[2 * (i0 + i) + axis];

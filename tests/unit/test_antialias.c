@@ -1526,6 +1526,58 @@ static void test_film_moments(void)
     fixture_close(&fx);
 }
 
+
+/* Filters reaching further than 16 pixels: the Gaussian's reach is 2 sigma, so sigma
+ * 8.3 has R = 17 and sigma 16 (the largest) R = 32, though every radius is at most
+ * FILTER_MAX_RADIUS. Weights made pixel by pixel (film_sample_weights: the general
+ * loop with a depth image, a tile row cut by the image's or a rectangle's edge, the
+ * plain build's copy) must be those of the whole tile rows (filter_weights_1d_blocks):
+ * the colour the same bytes with the depth image, on every vector path, and a
+ * rectangle cutting tile rows the crop of the full render. Fails when
+ * film_sample_weights holds weights for R <= 16 only and leaves the others unwritten
+ * (the pixels then had no weight and took their nearest sample). */
+static void test_film_wide_support(void)
+{
+    Fixture fx;
+    if (!fixture_open_text(&fx, AA_SPHERE_SCENE("0.9 0.9 0.9", "0.2 0.2 0.2", "1 0.5 0.1")))
+        return;
+    Sampler jit;
+    make_sampler(&jit, "jittered", 4, 11);
+    Filter g[2];
+    char why[160];
+    CHECK(filter_init(&g[0], filter_find("gaussian"), 8.3f, why, sizeof why));
+    CHECK(filter_init(&g[1], filter_find("gaussian"), 16.0f, why, sizeof why));
+    CHECK(g[0].support == 17 && g[1].support == 32);
+    /* W = 40: whole tile rows; the rectangle cuts them (sigma 8.3: traced from column 4) */
+    const int W = 40, H = 9;
+    for (int c = 0; c < 2; c++) {
+        Image plain, with_d, depth;
+        render_rect(&fx, &jit, &g[c], NULL, W, H, 0, 0, W, H, 0, 2, &plain, NULL);
+        render_rect(&fx, &jit, &g[c], NULL, W, H, 0, 0, W, H, 0, 1, &with_d, &depth);
+        CHECK_MSG(same_pixels(&with_d, &plain, 0, 0),
+                  "sigma %g: the colour with the depth image differs", (double)g[c].r);
+        for (int cap = 0; cap <= 1; cap++) {
+            Image narrow;
+            film_path_set(cap);
+            render_rect(&fx, &jit, &g[c], NULL, W, H, 0, 0, W, H, 0, 2, &narrow, NULL);
+            film_path_set(2);
+            CHECK_MSG(same_pixels(&narrow, &plain, 0, 0),
+                      "sigma %g: the film's path %d differs from its widest", (double)g[c].r,
+                      cap);
+            image_free(&narrow);
+        }
+        Image part;
+        render_rect(&fx, &jit, &g[c], NULL, W, H, 21, 2, 5, 5, 0, 1, &part, NULL);
+        CHECK_MSG(same_pixels(&part, &plain, 21, 2),
+                  "sigma %g: the rectangle differs from the crop", (double)g[c].r);
+        image_free(&part);
+        image_free(&plain);
+        image_free(&with_d);
+        image_free(&depth);
+    }
+    fixture_close(&fx);
+}
+
 static const TestCase tests[] = {
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
@@ -1560,6 +1612,7 @@ static const TestCase tests[] = {
     {"film: a pixel no weight reaches takes its nearest sample, on every path",
      test_film_unweighted_pixels},
     {"film: moments: (2R+1)^2 sums a pixel held, the general loop's bits", test_film_moments},
+    {"film: filters reaching 17-32 pixels get their weights on every path", test_film_wide_support},
 };
 
 RT_TEST_MAIN(tests)
