@@ -59,6 +59,10 @@ check render_point_lights "$bin" -input scenes/feat_attenuation.txt -size 64 48 
 # bands, shared by the render threads.
 check render_antialiased "$bin" -input scenes/showcase.txt -size 64 48 -output "$out/d.tga" \
     -jittered_samples 4 -gaussian_filter 0.4 -shadows -grid auto -threads 2
+# 16 samples: the film keeps each pixel's moments, made by the band that traced it and
+# read by the filter jobs of both threads.
+check render_moments "$bin" -input scenes/showcase.txt -size 64 48 -output "$out/m.tga" \
+    -jittered_samples 16 -gaussian_filter 0.4 -shadows -grid auto -threads 2
 # The blend lanes (Marble over two flat Phong materials, every light directional: the
 # packet shades them inline): a render thread's first blend packet reads the copy of
 # blend_begin's eight-lane run that blend_choose picks once. Read before the thread's

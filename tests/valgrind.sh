@@ -42,6 +42,16 @@ check refraction_packets 0 "$bin" -input scenes/feat_refraction.txt -size 24 24 
     -output "$out/p.tga" -shadows -shade_back -bounces 5 -grid 8 8 8 -threads 2
 check point_lights 0 "$bin" -input scenes/feat_attenuation.txt -size 24 24 \
     -output "$out/q.tga" -shadows -bounces 2 -grid 8 8 8
+# Antialiasing: moments (jittered 16 + Gaussian; the box 0.5 with uniform 9), the samples
+# picture beside them, and a film that keeps its samples (random 4 + Gaussian 1.0) with
+# the depth image. valgrind's CPU has no AVX-512: the AVX2 paths run.
+check antialias_moments 0 "$bin" -input scenes/showcase.txt -size 21 13 -output "$out/s.tga" \
+    -jittered_samples 16 -gaussian_filter 0.4 -render_samples "$out/sp.tga" 3 -shadows \
+    -grid auto -threads 2
+check antialias_box 0 "$bin" -input scenes/showcase.txt -size 21 13 -output "$out/u.tga" \
+    -uniform_samples 9 -shadows
+check antialias_samples 0 "$bin" -input scenes/showcase.txt -size 21 13 -output "$out/w.tga" \
+    -random_samples 4 -gaussian_filter 1.0 -depth 5 20 "$out/wd.tga" -grid auto
 check bad_scene 1 "$bin" -input tests/bad/missing_brace.txt -output "$out/x.tga"
 check bad_obj 1 "$bin" -input tests/bad/obj_bad_index.txt -output "$out/x.tga"
 check usage 2 "$bin" -input scenes/showcase.txt -grid 0 0 0

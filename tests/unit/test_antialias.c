@@ -701,7 +701,8 @@ static void render_rect(Fixture *fx, const Sampler *s, const Filter *f, const Sa
 }
 
 /* A rectangle (also at the borders, where the margin is cut) is exactly the crop of
- * the full render; so is the full render made strip by strip in a tiny budget. */
+ * the full render; so is the full render made strip by strip in a tiny budget. With
+ * the depth image (the general loop), and colour only where the film keeps moments. */
 static void test_film_region_and_budget(void)
 {
     Fixture fx;
@@ -749,6 +750,37 @@ static void test_film_region_and_budget(void)
         image_free(&full);
         image_free(&full_d);
     }
+    /* Colour only, where the film keeps moments (jittered 16: the Gaussian 0.4, and the
+     * box 0.5 summed from the packets): rectangles and tiny budgets as above. */
+    Sampler jit16;
+    make_sampler(&jit16, "jittered", 16, 3);
+    Filter g4, box;
+    CHECK(filter_init(&g4, filter_find("gaussian"), 0.4f, why, sizeof why));
+    filter_init_default(&box);
+    for (int c = 0; c < 2; c++) {
+        const Filter *flt = c ? &box : &g4;
+        Image full;
+        render_rect(&fx, &jit16, flt, NULL, W, H, 0, 0, W, H, 0, 2, &full, NULL);
+        static const int rects[][4] = {{0, 0, 10, 7}, {20, 13, 17, 9}, {50, 40, 11, 7},
+                                       {0, 30, 61, 1}, {60, 0, 1, 47}};
+        for (int r = 0; r < 5; r++) {
+            Image part;
+            render_rect(&fx, &jit16, flt, NULL, W, H, rects[r][0], rects[r][1], rects[r][2],
+                        rects[r][3], 0, 1, &part, NULL);
+            CHECK_MSG(same_pixels(&part, &full, rects[r][0], rects[r][1]),
+                      "moments %d: rectangle %d differs from the crop of the full render", c, r);
+            image_free(&part);
+        }
+        for (int b = 0; b < 2; b++) {
+            Image strip;
+            render_rect(&fx, &jit16, flt, NULL, W, H, 0, 0, W, H,
+                        b == 0 ? 1 : (size_t)W * 40 * 4 * 9, 2, &strip, NULL);
+            CHECK_MSG(same_pixels(&strip, &full, 0, 0),
+                      "moments %d: the strip-by-strip render (budget %d) differs", c, b);
+            image_free(&strip);
+        }
+        image_free(&full);
+    }
     fixture_close(&fx);
 }
 
@@ -758,7 +790,8 @@ static void test_film_region_and_budget(void)
  * samples, the Gaussian 1.0: 294 MB against a budget of 8). Here strip_limit 1 and
  * budget 1 force chunks of 16 columns (16 R, R = 1: the Gaussian 0.4) against 2R + 1
  * rows of the whole width: the bytes are those of the one-piece render
- * (colour and depth; the whole image and a rectangle, whose chunks land at their
+ * (colour and depth, and colour only where the film keeps moments: jittered 16; the
+ * whole image and a rectangle, whose chunks land at their
  * column of the outputs), on 1 and 2 threads, adaptive too; the storage held is that
  * of a chunk's strip (under half the one piece's here); the rays are more by the chunks'
  * margins; the progress total (film_traced_pixels) is what was traced. */
@@ -767,8 +800,9 @@ static void test_film_column_chunks(void)
     Fixture fx;
     if (!fixture_open(&fx, "scene7_03_marble_vase.txt", true))
         return;
-    Sampler jit, ada;
+    Sampler jit, ada, jit16;
     make_sampler(&jit, "jittered", 9, 0);
+    make_sampler(&jit16, "jittered", 16, 0);
     make_sampler(&ada, "jittered", 16, 0);
     ada.stream = 1;
     Filter gauss;
@@ -778,7 +812,7 @@ static void test_film_column_chunks(void)
     const int W = 61, H = 47;
     static const int rects[][4] = {{0, 0, 61, 47}, {13, 5, 40, 30}};
     for (int r = 0; r < 2 && sink; r++)
-        for (int a = 0; a < 2; a++)
+        for (int a = 0; a < 3; a++) /* 2: colour only, moments (jittered 16) */
             for (int threads = 1; threads <= 2; threads++) {
                 Image img[2][2];
                 RtStats st[2];
@@ -789,9 +823,9 @@ static void test_film_column_chunks(void)
                     CHECK(image_init(&img[chunked][1], rects[r][2], rects[r][3]));
                     FilmConfig fc;
                     memset(&fc, 0, sizeof fc);
-                    fc.sampler = &jit;
+                    fc.sampler = a == 2 ? &jit16 : &jit;
                     fc.filter = &gauss;
-                    fc.refine = a ? &ada : NULL;
+                    fc.refine = a == 1 ? &ada : NULL;
                     fc.threshold = 0.05f;
                     fc.full_width = W;
                     fc.full_height = H;
@@ -800,7 +834,7 @@ static void test_film_column_chunks(void)
                     fc.width = rects[r][2];
                     fc.height = rects[r][3];
                     fc.color = &img[chunked][0];
-                    fc.depth = &img[chunked][1];
+                    fc.depth = a == 2 ? NULL : &img[chunked][1];
                     fc.depth_min = 5;
                     fc.depth_max = 15;
                     /* the smallest strips both ways: 2R + 1 rows, of the whole width
@@ -820,7 +854,7 @@ static void test_film_column_chunks(void)
                     held[chunked] = fc.held;
                 }
                 CHECK_MSG(same_pixels(&img[1][0], &img[0][0], 0, 0) &&
-                              same_pixels(&img[1][1], &img[0][1], 0, 0),
+                              (a == 2 || same_pixels(&img[1][1], &img[0][1], 0, 0)),
                           "rect %d adaptive %d threads %d: the chunked render differs", r, a,
                           threads);
                 CHECK_MSG(held[1] > 0 && held[1] * 2 < held[0],
@@ -893,6 +927,8 @@ static void test_film_rows_strip_by_strip(void)
     make_sampler(&jit, "jittered", 4, 3);
     make_sampler(&uni, "uniform", 4, 0);
     make_sampler(&ada, "jittered", 16, 3);
+    Sampler jit16; /* colour only with 16 samples: the film keeps moments */
+    make_sampler(&jit16, "jittered", 16, 3);
     ada.stream = 1;
     Filter gauss, tent;
     char why[160];
@@ -902,10 +938,10 @@ static void test_film_rows_strip_by_strip(void)
         cases[] = {{&jit, &gauss, NULL, FILM_COLOR},
                    {&uni, &tent, NULL, FILM_COLOR | FILM_DEPTH | FILM_NORMALS},
                    {&jit, &tent, &ada, FILM_COLOR | FILM_NORMALS},
-                   {&jit, &gauss, NULL, FILM_DEPTH}};
+                   {&jit, &gauss, NULL, FILM_DEPTH}, {&jit16, &gauss, NULL, FILM_COLOR}};
     const int W = 61, H = 47;
     static const int rects[][4] = {{0, 0, 61, 47}, {13, 5, 40, 30}};
-    for (int c = 0; c < 4; c++)
+    for (int c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++)
         for (int r = 0; r < 2; r++)
             for (int v = 0; v < 3; v++) {
                 int x0 = rects[r][0], y0 = rects[r][1], w = rects[r][2], h = rects[r][3];
