@@ -53,8 +53,9 @@ typedef struct Film {
     /* Moments (film_moments_cfg): each output pixel is the sum, over the pixels of its
      * support (columns outer, rows inner), of that pixel's own weighted sums towards it
      * (its samples in order, from zero), over the sum of the same weights. mom: those
-     * sums, made as a tile is traced (film_tile_moments) where the data are in planes:
-     * film row y's plane p = 4 (kx side + ky) + c (c: red, green, blue, weight; kx, ky:
+     * sums where only the colour is wanted, made as a tile is traced (film_tile_moments;
+     * the box 0.5 with 16 samples in film_tile_quads): film row y's plane
+     * p = 4 (kx side + ky) + c (c: red, green, blue, weight; kx, ky:
      * towards column x - kx + R and row y - ky + R) at mom + film_row(y) ms + p pw, one
      * float per column. 4 (2R+1)^2 floats a pixel instead of its samples and their
      * weights (36 against 176 for 16 samples and the Gaussian 0.4). */
@@ -2477,7 +2478,7 @@ static bool film_moments_cfg(const FilmConfig *cfg)
 
 /* ... and keeps only them (colour only: with depth or normals the general loop sums in
  * the same order from the samples). */
-static bool film_moment_planes_cfg(const FilmConfig *cfg)
+static bool film_moments_kept_cfg(const FilmConfig *cfg)
 {
     return film_moments_cfg(cfg) && !film_wants(cfg, FILM_DEPTH) &&
            !film_wants(cfg, FILM_NORMALS);
@@ -2764,7 +2765,7 @@ static size_t film_column_bytes(const FilmConfig *cfg)
                     (film_wants(cfg, FILM_NORMALS) ? 3 : 0);
     bool fixed = cfg->sampler->ops->fixed && !cfg->refine;
     size_t per = !fixed && cfg->filter->ops->weight_1d && R > 0 ? 2 * (2 * (size_t)R + 1) : 0;
-    if (film_moment_planes_cfg(cfg)) /* film_render_rect's moments, and samples for the picture */
+    if (film_moments_kept_cfg(cfg)) /* film_render_rect's moments, and samples for the picture */
         return (4 * (size_t)(2 * R + 1) * (size_t)(2 * R + 1) + (cfg->samples ? slots * stride : 0)) *
                    sizeof(float) + sizeof(int);
     return slots * (stride + per) * sizeof(float) + sizeof(int);
