@@ -300,6 +300,18 @@ static void film_finite_colors(Vec3 *c, int n)
             v[i] = v[i] != v[i] ? 0.0f : v[i] > 0.0f ? FLT_MAX : -FLT_MAX;
 }
 
+/* A pixel's moment sum (Film.moments) made finite as film_finite_colors makes a
+ * sample's colour: +-inf becomes +-FLT_MAX (its terms are finite, so it is never NaN).
+ * The filter adds the sums of a support's pixels, and one pixel's sum overflowing to
+ * +inf with a neighbour's to -inf (colours of +-1e30 side by side) made a NaN output
+ * pixel, which the quantiser writes as 0; the samples' one running sum, before the
+ * moments, could reach +-inf but never meet the other infinity. Clamped, the sums of
+ * the moments cannot either. Finite sums keep their bits. */
+static inline float film_finite_sum(float v)
+{
+    return v > FLT_MAX ? FLT_MAX : v < -FLT_MAX ? -FLT_MAX : v;
+}
+
 static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
 {
     if (st->n == 0)
@@ -711,9 +723,9 @@ static uint64_t film_tile_quads(const Film *f, RenderCtx *ctx, Stream *st, int x
                     sb += cl[k].z * 1.0f;
                     sw += 1.0f;
                 }
-                *film_mom(f, px[i], py[i], 0) = sr;
-                *film_mom(f, px[i], py[i], 1) = sg;
-                *film_mom(f, px[i], py[i], 2) = sb;
+                *film_mom(f, px[i], py[i], 0) = film_finite_sum(sr);
+                *film_mom(f, px[i], py[i], 1) = film_finite_sum(sg);
+                *film_mom(f, px[i], py[i], 2) = film_finite_sum(sb);
                 *film_mom(f, px[i], py[i], 3) = sw;
             }
             continue;
@@ -800,6 +812,43 @@ FILM_MOMENTS_N(film_moments_n_avx2, target("avx2"))
 #define FILM_HAVE_MOMENTS_AVX2 1
 #endif
 
+/* film_finite_sum on a tile row's colour sums (res: groups of four planes of eight
+ * lanes, red, green, blue and the weight, which is finite), by min and max: the same
+ * floats (the sums are never NaN). Callgrind, 17a 120 x 120, jittered 16 + Gaussian
+ * 0.4, one thread, AVX2: +0.09% instructions (a float at a time with branches, +1.8%). */
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target("avx2"))) static void film_finite_sums8_avx2(float *res, int planes)
+{
+    const __m256 hi = _mm256_set1_ps(FLT_MAX), lo = _mm256_set1_ps(-FLT_MAX);
+    for (float *q = res, *end = res + 8 * planes; q < end; q += 32) {
+        _mm256_storeu_ps(q, _mm256_min_ps(_mm256_max_ps(_mm256_loadu_ps(q), lo), hi));
+        _mm256_storeu_ps(q + 8, _mm256_min_ps(_mm256_max_ps(_mm256_loadu_ps(q + 8), lo), hi));
+        _mm256_storeu_ps(q + 16, _mm256_min_ps(_mm256_max_ps(_mm256_loadu_ps(q + 16), lo), hi));
+    }
+}
+#endif
+
+static void film_finite_sums8(const Film *f, float *res, int planes)
+{
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+    if (f->avx2) {
+        film_finite_sums8_avx2(res, planes);
+        return;
+    }
+    const __m128 hi = _mm_set1_ps(FLT_MAX), lo = _mm_set1_ps(-FLT_MAX);
+    for (int p = 0; p < planes; p += 4)
+        for (int k = 0; k < 24; k += 4) {
+            float *q = res + 8 * p + k;
+            _mm_storeu_ps(q, _mm_min_ps(_mm_max_ps(_mm_loadu_ps(q), lo), hi));
+        }
+#else
+    (void)f;
+    for (int p = 0; p < planes; p += 4)
+        for (int k = 0; k < 24; k++)
+            res[8 * p + k] = film_finite_sum(res[8 * p + k]);
+#endif
+}
+
 /* The samples of a tile row (bits `row` of the tile's columns, their channels side by
  * side from src) into the film (planes, or pixel by pixel with R = 0): only for the
  * samples picture with moments. */
@@ -883,6 +932,7 @@ static void film_tile_moments(const Film *f, int x0, int by, uint64_t queued,
                 film_moments_n(col, wl, n, side, res);
         }
         int planes = 4 * side * side;
+        film_finite_sums8(f, res, planes);
         if (row == 0xffu) {
             for (int p = 0; p < planes; p++)
                 memcpy(film_mom(f, x0, y, p), res + 8 * p, 8 * sizeof *res);
@@ -2281,6 +2331,7 @@ static void film_filter_line(const Film *f, int j, bool span)
                     *WS += w;
                 }
                 if (f->moments) {
+                    ps = v3(film_finite_sum(ps.x), film_finite_sum(ps.y), film_finite_sum(ps.z));
                     sum = v3_add(sum, ps);
                     sum_d = v3_add(sum_d, pd);
                     sum_n = v3_add(sum_n, pn);

@@ -1352,25 +1352,45 @@ static bool fixture_open_text(Fixture *fx, const char *text)
  * must not turn the sphere or its surroundings into NaN, which the image writes as
  * black: no output channel may be NaN, and the first sphere's centre stays
  * saturated red (above 1), as its one-sample image has it. Every vector path of the
- * film (film_path_set), one and two threads. Fails without film_finite_colors. */
+ * film (film_path_set), one and two threads. Fails without film_finite_colors. The
+ * third scene's spheres, +inf and -inf red side by side, with films that keep
+ * moments (random 20 + Gaussian 1.0, jittered 16 + Gaussian 0.4, random 20 + box 1):
+ * a pixel's own sums overflow to +inf on one sphere and -inf on the other, and the
+ * filter adding both made NaN pixels where they meet (26 of the 400 with random 20 and
+ * the Gaussian 1.0); fails without film_finite_sum. */
 static void test_film_nonfinite_samples(void)
 {
-    static const char *const scenes[2] = {
+    /* the third: a sphere of +inf red and one of -inf red side by side */
+    static const char *const scenes[3] = {
         AA_SPHERE_SCENE("1e30 1e30 1e30", "0 0 0", "1e30 0 0"),
-        AA_SPHERE_SCENE("-1e30 -1e30 -1e30", "1e30 1e30 1e30", "1e30 0 0")};
-    Sampler uni, jit;
+        AA_SPHERE_SCENE("-1e30 -1e30 -1e30", "1e30 1e30 1e30", "1e30 0 0"),
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1e30 1e30 1e30 } }\n"
+        "Background { color 0.2 0.6 1 ambientLight 0 0 0 }\n"
+        "Materials { numMaterials 2 PhongMaterial { diffuseColor 1e30 0 0 }\n"
+        "    PhongMaterial { diffuseColor -1e30 0 0 } }\n"
+        "Group { numObjects 2 MaterialIndex 0 Sphere { center -1 0 0 radius 1 }\n"
+        "    MaterialIndex 1 Sphere { center 1 0 0 radius 1 } }\n"};
+    Sampler uni, jit, rnd20, jit16;
     make_sampler(&uni, "uniform", 4, 0);
     make_sampler(&jit, "jittered", 4, 0);
-    Filter tent, box, mitchell, gauss;
+    /* films that keep moments (test_film_moments): each pixel's own sums may overflow,
+     * to +inf on one sphere and -inf on the other */
+    make_sampler(&rnd20, "random", 20, 0);
+    make_sampler(&jit16, "jittered", 16, 0);
+    Filter tent, box, mitchell, gauss, gauss1, gauss4;
     char why[160];
     CHECK(filter_init(&tent, filter_find("tent"), 1.5f, why, sizeof why));
     CHECK(filter_init(&box, filter_find("box"), 1.0f, why, sizeof why));
     CHECK(filter_init(&mitchell, filter_find("mitchell"), 2.0f, why, sizeof why));
     CHECK(filter_init(&gauss, filter_find("gaussian"), 0.5f, why, sizeof why));
+    CHECK(filter_init(&gauss1, filter_find("gaussian"), 1.0f, why, sizeof why));
+    CHECK(filter_init(&gauss4, filter_find("gaussian"), 0.4f, why, sizeof why));
     struct { const Sampler *s; const Filter *f; } cases[] = {
-        {&uni, &tent}, {&uni, &box}, {&jit, &mitchell}, {&jit, &tent}, {&uni, &gauss}};
+        {&uni, &tent}, {&uni, &box}, {&jit, &mitchell}, {&jit, &tent}, {&uni, &gauss},
+        {&rnd20, &gauss1}, {&jit16, &gauss4}, {&rnd20, &box}};
     const int W = 20, H = 20;
-    for (int sc = 0; sc < 2; sc++) {
+    for (int sc = 0; sc < 3; sc++) {
         Fixture fx;
         if (!fixture_open_text(&fx, scenes[sc]))
             return;
