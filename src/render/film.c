@@ -384,7 +384,6 @@ static void stream_flush(const Film *f, RenderCtx *ctx, Stream *st)
  * their planes: the bits film_row_weights and film_tile's blocks give the same
  * positions (the Gaussian at R = 1 and 2 makes them from the position itself, not from
  * arguments rounded one by one). */
-typedef double FilmV4d __attribute__((vector_size(32)));
 typedef float FilmV4f __attribute__((vector_size(16)));
 typedef int32_t FilmV4i __attribute__((vector_size(16)));
 
@@ -2535,6 +2534,27 @@ static bool film_moments_kept_cfg(const FilmConfig *cfg)
            !film_wants(cfg, FILM_NORMALS);
 }
 
+/* The floats a traced column of cfg's film holds per row, as film_render_rect lays
+ * them out: its samples' (position, colour, depth grey and |normal| when wanted; with
+ * kept moments only for the samples picture), their separable weights (2(2R+1) a
+ * sample, not with kept moments), and the moments (4 (2R+1)^2 where kept). */
+static void film_column_floats(const FilmConfig *cfg, size_t *data, size_t *weights,
+                               size_t *mom)
+{
+    int R = cfg->filter->support;
+    size_t side = 2 * (size_t)R + 1, slots = (size_t)cfg->sampler->count;
+    if (cfg->refine && (size_t)cfg->refine->count > slots)
+        slots = (size_t)cfg->refine->count;
+    size_t stride = 5 + (film_wants(cfg, FILM_DEPTH) ? 3 : 0) +
+                    (film_wants(cfg, FILM_NORMALS) ? 3 : 0);
+    bool fixed = cfg->sampler->ops->fixed && !cfg->refine;
+    size_t per = !fixed && cfg->filter->ops->weight_1d && R > 0 ? 2 * side : 0;
+    bool kept = film_moments_kept_cfg(cfg);
+    *data = kept && !cfg->samples ? 0 : slots * stride;
+    *weights = kept ? 0 : slots * per;
+    *mom = kept ? 4 * side * side : 0;
+}
+
 /* film_path_set's cap: read once per render, written only between renders. */
 static int film_path_cap = 2;
 
@@ -2624,7 +2644,7 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     /* Moments kept (colour only; with R > 0 exactly where the data would be in planes):
      * the samples and their weights stay in the tile's scratch (film_tile_moments); the
      * samples reach the film only for the samples picture. */
-    bool mom = f.moments && f.off_depth < 0 && f.off_normal < 0;
+    bool mom = film_moments_kept_cfg(cfg);
     /* Filter jobs of two rows where their spans share loads (film_span_sums2_avx512,
      * film_span_sums2_avx2). */
     f.pairs = f.row_weights && (f.avx512 || f.avx2) && !mom;
@@ -2654,12 +2674,9 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     }
     f.ws = (size_t)f.per * (size_t)f.pw;
 
-    /* Floats a film row holds per column: the samples (with moments only for the
-     * samples picture), their weights (not with moments), the moments. */
-    int side = 2 * R + 1;
-    size_t data_floats = mom && !cfg->samples ? 0 : (size_t)f.slots * (size_t)f.stride;
-    size_t weight_floats = mom ? 0 : (size_t)f.slots * (size_t)f.per;
-    size_t mom_floats = mom ? 4 * (size_t)side * (size_t)side : 0;
+    /* Floats a film row holds per column (the layout above) */
+    size_t data_floats, weight_floats, mom_floats;
+    film_column_floats(cfg, &data_floats, &weight_floats, &mom_floats);
     size_t col_floats = data_floats + weight_floats + mom_floats;
     f.ms = mom_floats * (size_t)f.pw;
 
@@ -2803,23 +2820,13 @@ static bool film_render_rect(const RayTracer *rt, const Camera *camera, FilmConf
     return ok;
 }
 
-/* Bytes a traced column of cfg's strips holds per row: each sample's floats (its
- * position, colour, depth and normal, and its separable weights) and the pixel's count,
- * as film_render_rect lays them out (without the plane rows' padding). */
+/* Bytes a traced column of cfg's strips holds per row (film_column_floats' floats and
+ * the pixel's count), without the plane rows' padding. */
 static size_t film_column_bytes(const FilmConfig *cfg)
 {
-    int R = cfg->filter->support;
-    size_t slots = (size_t)cfg->sampler->count;
-    if (cfg->refine && (size_t)cfg->refine->count > slots)
-        slots = (size_t)cfg->refine->count;
-    size_t stride = 5 + (film_wants(cfg, FILM_DEPTH) ? 3 : 0) +
-                    (film_wants(cfg, FILM_NORMALS) ? 3 : 0);
-    bool fixed = cfg->sampler->ops->fixed && !cfg->refine;
-    size_t per = !fixed && cfg->filter->ops->weight_1d && R > 0 ? 2 * (2 * (size_t)R + 1) : 0;
-    if (film_moments_kept_cfg(cfg)) /* film_render_rect's moments, and samples for the picture */
-        return (4 * (size_t)(2 * R + 1) * (size_t)(2 * R + 1) + (cfg->samples ? slots * stride : 0)) *
-                   sizeof(float) + sizeof(int);
-    return slots * (stride + per) * sizeof(float) + sizeof(int);
+    size_t data, weights, mom;
+    film_column_floats(cfg, &data, &weights, &mom);
+    return (data + weights + mom) * sizeof(float) + sizeof(int);
 }
 
 /* The width of cfg's column chunks (a multiple of TILE, counted from the image's left
