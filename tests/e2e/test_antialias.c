@@ -3,8 +3,9 @@
  * (plain renders, uniform sampling, filter pictures, uniform sample pictures) must
  * match pixel for pixel within 8/255; random and jittered lines cannot (the course's
  * random numbers), so their filtered images must be statistically close (mean absolute
- * difference within a bound) and identical where the picture is smooth, and their
- * sample pictures must show the same number and layout of dots. Plus the properties:
+ * difference within a bound, and README.txt's table of section 9 must show that
+ * difference) and identical where the picture is smooth, and their sample pictures
+ * must show the same number and layout of dots. Plus the properties:
  * default == one centred sample + box 0.5 == today's bytes, constant scenes stay
  * constant under every sampler and filter, 1 and N threads and grid or not give the
  * same bytes, the seed, -stats, and the usage errors. */
@@ -166,6 +167,95 @@ typedef struct RandLine {
     int radius;        /* filter support R (smooth-area test window) */
 } RandLine;
 
+/* README.txt's table of section 9 ("line  sampler, filter  ours  a faithful seeded
+ * render") gives, for some of these lines, the mean difference this test measures
+ * ("ours") and the oracle's (mad_ref). A row names one line ("02h") or several of one
+ * scene ("03b/c/d": 03b, 03c, 03d), and its two number columns hold as many values
+ * separated by " / ". Columns are separated by two or more blanks. Finds id's two
+ * values; false when no row names it. */
+static bool readme_table_values(const char *readme, const char *id, double *ours,
+                                double *oracle)
+{
+    const char *head = strstr(readme, "\n  line      sampler, filter");
+    if (!head)
+        return false;
+    for (const char *line = strchr(head + 1, '\n'); line && line[1] == ' ';
+         line = strchr(line + 1, '\n')) {
+        const char *p = line + 1;
+        while (*p == ' ')
+            p++;
+        char col[4][96];
+        int ncol = 0;
+        while (ncol < 4 && *p && *p != '\n') {
+            size_t n = 0;
+            /* a column ends at two blanks or the line's end */
+            while (p[n] && p[n] != '\n' && !(p[n] == ' ' && p[n + 1] == ' '))
+                n++;
+            snprintf(col[ncol++], sizeof col[0], "%.*s", (int)n, p);
+            p += n;
+            while (*p == ' ')
+                p++;
+        }
+        if (ncol < 4)
+            continue;
+        /* the row's ids: the first whole, then each "/x" replaces its last letter */
+        char key[96];
+        snprintf(key, sizeof key, "%s", col[0]);
+        size_t base = strcspn(key, "/");
+        int which = -1, k = 0;
+        for (const char *q = key; which < 0 && *q; k++) {
+            size_t n = strcspn(q, "/");
+            char name[192];
+            if (k == 0)
+                snprintf(name, sizeof name, "%.*s", (int)n, q);
+            else
+                snprintf(name, sizeof name, "%.*s%.*s", (int)(base - n), key, (int)n, q);
+            if (!strcmp(name, id))
+                which = k;
+            q += n + (q[n] == '/');
+        }
+        if (which < 0)
+            continue;
+        const char *a = col[2], *b = col[3];
+        for (int s = 0; s < which && a && b; s++) {
+            a = strchr(a, '/');
+            b = strchr(b, '/');
+            a = a ? a + 1 : NULL;
+            b = b ? b + 1 : NULL;
+        }
+        if (!a || !b)
+            return false;
+        *ours = strtod(a, NULL);
+        *oracle = strtod(b, NULL);
+        return true;
+    }
+    return false;
+}
+
+/* The table must show what this test measures, to its two decimals (a value on the
+ * rounding boundary may show either neighbour). */
+static void check_readme_table(const RandLine *l, double mad)
+{
+    char path[PATH_MAX];
+    e2e_join(path, sizeof path, harness_root(), "README.txt");
+    char *readme = e2e_read_file(path, NULL);
+    CHECK_MSG(readme != NULL, "cannot read %s", path);
+    if (!readme)
+        return;
+    CHECK_MSG(strstr(readme, "\n  line      sampler, filter") != NULL,
+              "README.txt has no table of the random and jittered lines' differences");
+    double ours = 0, oracle = 0;
+    if (readme_table_values(readme, l->id, &ours, &oracle)) {
+        CHECK_MSG(fabs(ours - mad) <= 0.005 + 1e-9,
+                  "README.txt's table says %s's mean difference is %.2f, this render's is "
+                  "%.4f (write %.2f)", l->id, ours, mad, mad);
+        CHECK_MSG(fabs(oracle - l->mad_ref) <= 0.005 + 1e-9,
+                  "README.txt's table says %s's oracle is %.2f, this test's is %.2f", l->id,
+                  oracle, l->mad_ref);
+    }
+    free(readme);
+}
+
 /* Smooth pixels: where the unantialiased official render is constant over the
  * (2R+5) x (2R+5) window (one pixel beyond every support pixel's neighbours), the
  * samples of the support all see the same flat surface, so the filtered pixel must
@@ -223,6 +313,8 @@ static void check_random_line(const char *a7, const char *dir, const RandLine *l
            "of them %ld off by > 2/255", l->id, names[0], d.mean_abs, bound, l->mad_ref,
            100.0 * (double)smooth / (double)(W * H), smooth_bad);
     CHECK_MSG(d.same_size, "%s: wrong size", names[0]);
+    if (d.same_size)
+        check_readme_table(l, d.mean_abs);
     CHECK_MSG(d.mean_abs <= bound, "%s: mean difference %.3f > %.2f", names[0], d.mean_abs,
               bound);
     /* A handful of "smooth" pixels may still hold a thin feature between the centres. */
