@@ -382,6 +382,124 @@ static void check_man_groups(const char *man)
     e2e_run_free(&r);
 }
 
+/* True when text[0, len) holds num as a whole number: not part of a longer one ("16" is
+ * not found in "160" nor in "1.16"). */
+static bool has_number(const char *text, size_t len, const char *num)
+{
+    size_t n = strlen(num);
+    for (size_t i = 0; i + n <= len; i++) {
+        if (strncmp(text + i, num, n))
+            continue;
+        bool before = i > 0 && ((text[i - 1] >= '0' && text[i - 1] <= '9') ||
+                                text[i - 1] == '.');
+        char c = i + n < len ? text[i + n] : ' ';
+        char c2 = i + n + 1 < len ? text[i + n + 1] : ' ';
+        bool after = (c >= '0' && c <= '9') || (c == '.' && c2 >= '0' && c2 <= '9');
+        if (!before && !after)
+            return true;
+    }
+    return false;
+}
+
+/* The man page's entry of option name (its text up to the next entry, subsection or
+ * section); *len its length, NULL when there is none. */
+static const char *man_entry_text(const char *options, const char *name, size_t *len)
+{
+    const char *at = man_entry(options, name);
+    if (!at)
+        return NULL;
+    const char *end = strchr(at + 1, '\n');
+    while (end) {
+        const char *l = end + 1;
+        size_t blanks = strspn(l, " ");
+        if (l[blanks] != '\n' && l[blanks] != '\0' && (blanks < 7 || (blanks == 7 && l[7] == '-')))
+            break;
+        end = strchr(l, '\n');
+    }
+    *len = end ? (size_t)(end - at) : strlen(at);
+    return at;
+}
+
+/* Every range and default -h gives for an option's values (a parenthesis of its
+ * description holding "..", "<=" or "default": "(0 < r <= 16)", "(1..100)",
+ * "(default 20 10)") is given in the man page's entry of that option too: each number
+ * of it appears there (the man page once gave no range for the filters' radii, nor
+ * -render_filter's zoom). man is man -l's text. */
+static void check_man_ranges(const char *man)
+{
+    const char *options = strstr(man, "\nOPTIONS\n");
+    if (!options)
+        return; /* check_man_groups says so */
+    const char *args[] = {"-h", NULL};
+    E2eRun r;
+    if (!e2e_run_bin(harness_bin(), args, &r) || r.status != 0) {
+        CHECK_MSG(false, "raytracer -h failed");
+        e2e_run_free(&r);
+        return;
+    }
+    int checked = 0;
+    for (const char *line = r.out; line && *line;) {
+        const char *eol = strchr(line, '\n');
+        if (strncmp(line, "  -", 3)) {
+            line = eol ? eol + 1 : NULL;
+            continue;
+        }
+        char name[64];
+        size_t nl = strcspn(line + 2, " ,\n");
+        snprintf(name, sizeof name, "%.*s", (int)nl, line + 2);
+        /* the entry's description: its first line and the continuation lines (27
+         * blanks), joined by blanks */
+        char desc[1024];
+        size_t dl = 0;
+        const char *d = line + 2 + nl;
+        for (;;) {
+            const char *e = strchr(d, '\n');
+            size_t n = e ? (size_t)(e - d) : strlen(d);
+            if (dl + n + 2 < sizeof desc) {
+                memcpy(desc + dl, d, n);
+                dl += n;
+                desc[dl++] = ' ';
+            }
+            if (!e || strncmp(e + 1, "                           ", 27))
+                break;
+            d = e + 1;
+        }
+        desc[dl] = '\0';
+        line = eol ? eol + 1 : NULL;
+        size_t elen = 0;
+        const char *entry = man_entry_text(options, name, &elen);
+        if (!entry)
+            continue; /* check_man_groups says so */
+        for (const char *p = strchr(desc, '('); p; p = strchr(p + 1, '(')) {
+            const char *q = strchr(p, ')');
+            if (!q)
+                break;
+            char paren[256];
+            snprintf(paren, sizeof paren, "%.*s", (int)(q - p - 1), p + 1);
+            if (!strstr(paren, "..") && !strstr(paren, "<=") && !strstr(paren, "default"))
+                continue;
+            for (const char *s = paren; *s;) {
+                if (!(*s >= '0' && *s <= '9')) {
+                    s++;
+                    continue;
+                }
+                size_t n = strspn(s, "0123456789");
+                if (s[n] == '.' && s[n + 1] >= '0' && s[n + 1] <= '9')
+                    n += 1 + strspn(s + n + 1, "0123456789");
+                char num[32];
+                snprintf(num, sizeof num, "%.*s", (int)n, s);
+                CHECK_MSG(has_number(entry, elen, num),
+                          "the manual page's entry of %s does not give the %s of -h's "
+                          "\"(%s)\"", name, num, paren);
+                checked++;
+                s += n;
+            }
+        }
+    }
+    CHECK_MSG(checked >= 20, "only %d numbers of -h's ranges and defaults were found", checked);
+    e2e_run_free(&r);
+}
+
 static void test_man_page(void)
 {
     char man[PATH_MAX], groff[PATH_MAX];
@@ -423,6 +541,7 @@ static void test_man_page(void)
         free(names[i]);
     }
     check_man_groups(r.out);
+    check_man_ranges(r.out);
     /* and every exit status */
     for (const char *s = "0\0" "1\0" "2\0" "130\0"; *s; s += strlen(s) + 1) {
         char line[32];

@@ -551,6 +551,111 @@ static void test_usage_examples_match(void)
     free(text);
 }
 
+/* The name of a group heading: up to " (" or the line's end ("Antialiasing (section
+ * 9)" and -h's "Antialiasing (one centred sample ...)" are both "Antialiasing"). */
+static size_t group_name_len(const char *h)
+{
+    size_t len = strcspn(h, "\n");
+    const char *paren = strstr(h, " (");
+    return paren && (size_t)(paren - h) < len ? (size_t)(paren - h) : len;
+}
+
+/* Where section 3 (from sec to end) gives option name its entry: a line that starts
+ * with two blanks and the name, or names it in a list of options at a line's start
+ * ("  -uniform_samples N, -jittered_samples N,", "  raytracer -merge OUT"); else its
+ * first mention as a whole word. NULL when there is none. */
+static const char *options_entry(const char *sec, const char *end, const char *name)
+{
+    size_t n = strlen(name);
+    for (const char *l = sec; l && l < end; l = strchr(l + 1, '\n')) {
+        const char *p = l + 1;
+        if (strncmp(p, "  -", 3) && strncmp(p, "  raytracer -", 13))
+            continue;
+        p += 2;
+        if (!strncmp(p, "raytracer ", 10))
+            p += 10;
+        for (;;) {
+            if (!strncmp(p, name, n) && (p[n] == ' ' || p[n] == ',' || p[n] == '\n'))
+                return p;
+            /* the next name of a list: after the name and its values, ", -" */
+            const char *eol = strchr(p, '\n');
+            const char *comma = strstr(p, ", -");
+            const char *gap = strstr(p, "  ");
+            if (!comma || (eol && comma > eol) || (gap && gap < comma))
+                break;
+            p = comma + 2;
+        }
+    }
+    for (const char *p = strstr(sec, name); p && p < end; p = strstr(p + 1, name)) {
+        char before = p[-1], after = p[n];
+        if (before != '-' && before != '_' && !isalnum((unsigned char)before) &&
+            after != '_' && !isalnum((unsigned char)after))
+            return p;
+    }
+    return NULL;
+}
+
+/* Section 3 lists every option of raytracer -h under a group heading of the same name
+ * as -h's ("Speed" once held -h's "Acceleration", and -noise_cutoff stood under
+ * Antialiasing there and under Shading in -h and the man page). A heading is a line at
+ * the margin followed by an option's line. */
+static void test_options_grouped_as_help(void)
+{
+    char *text = readme_text();
+    if (!text)
+        return;
+    const char *sec = strstr(text, "\n3. Options\n-");
+    const char *end = sec ? strstr(sec, "\n4. ") : NULL;
+    CHECK_MSG(sec && end, "README.txt has no section 3, Options, before section 4");
+    const char *args[] = {"-h", NULL};
+    E2eRun r;
+    if (!sec || !end || !e2e_run_bin(harness_bin(), args, &r)) {
+        free(text);
+        return;
+    }
+    CHECK_INT(r.status, 0);
+    const char *group = NULL; /* -h's group of the lines that follow */
+    int checked = 0;
+    for (const char *line = r.out; line && *line;) {
+        const char *eol = strchr(line, '\n');
+        if (!strncmp(line, "Exit status", 11))
+            break;
+        if (line[0] != ' ' && line[0] != '\n' && strncmp(line, "usage:", 6)) {
+            group = line;
+        } else if (group && !strncmp(line, "  -", 3)) {
+            /* each name of the line ("  -h, --help" has two) */
+            for (const char *p = line + 2; *p == '-';) {
+                char name[64];
+                size_t nl = strcspn(p, " ,\n");
+                snprintf(name, sizeof name, "%.*s", (int)nl, p);
+                const char *at = options_entry(sec, end, name);
+                CHECK_MSG(at != NULL, "README.txt section 3 does not list %s", name);
+                /* the heading above it: the last margin line followed by "  -" */
+                const char *heading = NULL;
+                for (const char *h = sec; at && h && h < at; h = strchr(h + 1, '\n')) {
+                    const char *next = strchr(h + 1, '\n');
+                    if (h[1] != ' ' && h[1] != '\n' && next && next < at &&
+                        (!strncmp(next + 1, "  -", 3) || !strncmp(next + 1, "  raytracer -", 13)))
+                        heading = h + 1;
+                }
+                size_t gl = group_name_len(group), hl = heading ? group_name_len(heading) : 0;
+                CHECK_MSG(!at || (heading && gl == hl && !strncmp(group, heading, gl)),
+                          "README.txt section 3 lists %s under '%.*s', raytracer -h under "
+                          "'%.*s'", name, (int)hl, heading ? heading : "", (int)gl, group);
+                checked++;
+                p += nl;
+                if (strncmp(p, ", ", 2))
+                    break;
+                p += 2;
+            }
+        }
+        line = eol ? eol + 1 : NULL;
+    }
+    CHECK_MSG(checked > 40, "only %d options of -h were looked up", checked);
+    e2e_run_free(&r);
+    free(text);
+}
+
 static const TestCase tests[] = {
     {"readme_command_extraction", test_extraction},
     {"readme_commands_run", test_commands_run},
@@ -560,6 +665,7 @@ static const TestCase tests[] = {
     {"readme_stats_example_matches", test_stats_example_matches},
     {"readme_docs_listed", test_docs_listed},
     {"readme_usage_examples_match", test_usage_examples_match},
+    {"readme_options_grouped_as_help", test_options_grouped_as_help},
 };
 
 RT_TEST_MAIN(tests)
