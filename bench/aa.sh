@@ -5,7 +5,7 @@
 # which has no neighbours to weigh: the Gaussian's whole cost is the difference). Figures
 # are the render phase's CPU time from -timings (the calling thread, which does all the
 # work with -threads 1: the machine may be shared); the settings are interleaved round by
-# round, so a burst of load hits them alike. trace/filter: the film's two phases; the
+# round, in an order that turns each round, so a burst of load hits them alike. trace/filter: the film's two phases; the
 # separable weights of a random sample are computed as it is queued, so they count in
 # trace, and the gauss-box column is the filter's full cost (weights, wider stride,
 # filtering, the margin of traced pixels).
@@ -31,7 +31,11 @@ for line in 07 17a; do
     [ -f "${A[1]}" ] || { echo "   $line: scene not found, skipped"; continue; }
     declare -A R=() T=() F=()
     for ((k = 0; k < RUNS; k++)); do
-        for i in "${!SETS[@]}"; do
+        # Round k starts at setting k mod 4: each setting takes each place in the round
+        # as often (a run is ~1 ms faster in one place than another; same binary and
+        # setting twice in a row on this host, 15 rounds, 2026-11-29 lead34).
+        for j in "${!SETS[@]}"; do
+            i=$(( (j + k) % ${#SETS[@]} ))
             # shellcheck disable=SC2086
             "$BIN" "${A[@]}" -size 400 400 -output "$TMP/o.tga" -threads 1 -timings ${SETS[$i]} \
                 >/dev/null 2>"$TMP/err"

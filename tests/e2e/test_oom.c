@@ -385,6 +385,35 @@ static void test_plain_stream_address_limit(void) { plain_stream_address_limit(f
 /* The same with -depth and -normals: on 0816af8 exit 1 under the limit (fails). */
 static void test_plain_stream_aux_address_limit(void) { plain_stream_address_limit(true); }
 
+/* The widest film README promises an answer for: the Gaussian 16 (R = 32) with 1024
+ * jittered samples and a depth image keeps each sample's eight floats and 130 weights for
+ * strips of 72 rows of at least 576 columns (about 23 GB at 600 wide). Under an address
+ * limit of about 2 GB (ulimit -v 2000000) the render must stop before tracing with
+ * README's message, exit status 1, and write no image: neither a crash nor a half-written
+ * file. Not under the sanitizers (their shadow memory does not fit the limit). */
+static void test_wide_film_address_limit(void)
+{
+    if (E2E_SANITIZED)
+        harness_skip("the sanitizers' shadow memory does not fit under ulimit -v");
+    char dir[PATH_MAX], out[PATH_MAX], dep[PATH_MAX], planes[PATH_MAX], why[512];
+    snprintf(planes, sizeof planes, "%s/tests/repro/planes_only.txt", harness_root());
+    CHECK(e2e_tmpdir(dir, sizeof dir, "widefilm") != NULL);
+    e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(dep, sizeof dep, dir, "d.tga");
+    char *args[] = {"/bin/sh", "-c", "ulimit -v 2000000 && exec \"$0\" \"$@\"",
+                    (char *)harness_bin(), "-input", planes, "-output", out, "-size", "600",
+                    "100", "-jittered_samples", "1024", "-gaussian_filter", "16", "-depth", "9",
+                    "13", dep, "-threads", "2", NULL};
+    E2eRun r;
+    CHECK(e2e_run(args, &r));
+    CHECK_MSG(r.status == 1 && strstr(r.err, "could not start the render (out of memory?)"),
+              "the Gaussian 16 with 1024 samples under ulimit -v 2000000: %s",
+              e2e_describe(&r, why, sizeof why));
+    e2e_run_free(&r);
+    CHECK_INT(e2e_count_entries(dir), 0);
+    e2e_rmtree(dir);
+}
+
 /* Whether the files at a and b hold the same bytes (both readable). */
 static bool same_bytes(const char *a, const char *b)
 {
@@ -459,5 +488,6 @@ static const TestCase tests[] = {
     {"plain_stream_address_limit", test_plain_stream_address_limit},
     {"plain_stream_aux_address_limit", test_plain_stream_aux_address_limit},
     {"merge_address_limit", test_merge_address_limit},
+    {"wide_film_address_limit", test_wide_film_address_limit},
 };
 RT_TEST_MAIN(tests)
