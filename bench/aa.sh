@@ -5,10 +5,10 @@
 # which has no neighbours to weigh: the Gaussian's whole cost is the difference). Figures
 # are the render phase's CPU time from -timings (the calling thread, which does all the
 # work with -threads 1: the machine may be shared); the settings are interleaved round by
-# round, in an order that turns each round, so a burst of load hits them alike. trace/filter: the film's two phases; the
-# separable weights of a random sample are computed as it is queued, so they count in
-# trace, and the gauss-box column is the filter's full cost (weights, wider stride,
-# filtering, the margin of traced pixels).
+# round, in an order that turns each round, so a burst of load hits them alike.
+# trace/filter: the film's two phases; the separable weights of a random sample are
+# computed as it is queued, so they count in trace, and the gauss-box column is the
+# filter's full cost (weights, wider stride, filtering, the margin of traced pixels).
 # Usage: bash bench/aa.sh RAYTRACER COURSE_DIR [RUNS]
 set -u
 export LC_ALL=C
