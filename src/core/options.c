@@ -347,6 +347,29 @@ static bool take(Cursor *c, const char *flag, const char **out)
     return true;
 }
 
+/* How many whole numbers s holds when it is two or more of them joined by 'x', 'X',
+ * '*' or ',' ("200x150", "10,10,10"), with those numbers written apart by blanks into
+ * buf ("200 150"); 0 for anything else. */
+static int numbers_run_together(const char *s, char *buf, size_t size)
+{
+    int count = 0;
+    size_t n = 0;
+    buf[0] = '\0';
+    for (const char *p = s;;) {
+        size_t digits = strspn(p, "0123456789");
+        if (digits == 0 || digits > 10 || n + digits + 2 > size)
+            return 0;
+        n += (size_t)snprintf(buf + n, size - n, "%s%.*s", count ? " " : "", (int)digits, p);
+        count++;
+        p += digits;
+        if (*p == '\0')
+            return count > 1 ? count : 0;
+        if (!strchr("xX*,", *p))
+            return 0;
+        p++;
+    }
+}
+
 static bool take_int(Cursor *c, const char *flag, int lo, int hi, int *out)
 {
     const char *s = NULL;
@@ -357,8 +380,25 @@ static bool take_int(Cursor *c, const char *flag, int lo, int hi, int *out)
     char *end;
     errno = 0;
     long v = strtol(s, &end, 10);
-    if (end == s || *end != '\0' || errno == ERANGE)
+    if (end == s || *end != '\0' || errno == ERANGE) {
+        /* "-size 200x150" (how sizes are often written), "-grid 10,10,10": all of the
+         * option's values in its first argument. Say how to write them. */
+        char synopsis[128], apart[64];
+        option_synopsis(flag, synopsis, sizeof synopsis);
+        int values = -1; /* the synopsis' words after the option's name */
+        for (const char *p = synopsis; *p; values++) {
+            p += strcspn(p, " ");
+            p += strspn(p, " ");
+        }
+        if (c->i - c->opt == 1 && values > 1 &&
+            numbers_run_together(s, apart, sizeof apart) == values) {
+            c->hinted = true;
+            return usage_error(c, "option %s: %s expects an integer, got '%s' (the %d values "
+                               "are separate arguments: %s %s)", flag, name, s, values, flag,
+                               apart);
+        }
         return usage_error(c, "option %s: %s expects an integer, got '%s'", flag, name, s);
+    }
     if (v < lo || v > hi)
         return usage_error(c, "option %s: %s = %ld is out of range %d..%d", flag, name, v, lo,
                            hi);

@@ -532,6 +532,7 @@ static void test_usage_examples_match(void)
         {"-input", "s.txt", "-output", "a.tga", "-shadow", NULL},
         {"-input", "s.txt", "-output", "a.tga", "-size", "200", "200", "300", NULL},
         {"-input", "s.txt", "-output", "a.tga", "-size", "200", "0", NULL},
+        {"-input", "s.txt", "-output", "a.tga", "-size", "200x150", NULL},
         {"-input", "s.txt", "-output", "-size", "200", "200", NULL},
         {"-input", "s.txt", "shadows", "-output", "a.tga", NULL},
     };

@@ -270,6 +270,16 @@ static void test_usage_suggestions(void)
     expect_run(a4, 2, "nothing to write: give -output FILE");
     const char *a5[] = {"-input", p.scene, "-output", p.out, "-sha", NULL};
     expect_run(a5, 2, "(did you mean -shadows or -shade_back?)");
+    /* A size written as one argument, as it often is elsewhere: the message shows the
+     * values apart (it only said "w expects an integer"); only when the numbers are as
+     * many as the option's values. */
+    const char *a6[] = {"-input", p.scene, "-output", p.out, "-size", "200x150", NULL};
+    expect_run(a6, 2, "option -size: w expects an integer, got '200x150' (the 2 values are "
+               "separate arguments: -size 200 150)\n");
+    const char *a7[] = {"-input", p.scene, "-output", p.out, "-grid", "10,10,10", NULL};
+    expect_run(a7, 2, "(the 3 values are separate arguments: -grid 10 10 10)\n");
+    const char *a8[] = {"-input", p.scene, "-output", p.out, "-grid", "10x10", NULL};
+    expect_run(a8, 2, "got '10x10' (raytracer -h for help)\n");
     CHECK(!e2e_exists(p.out));
     e2e_rmtree(p.dir);
 }
