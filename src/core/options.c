@@ -702,15 +702,27 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         } else if (!strcmp(a, "-format")) {
             if (!take(&c, a, &o->format))
                 return false;
-            const ImageCodec *codec = image_codec_find(o->format);
+            /* A name in any case, as an extension is (-output X.PNG is a PNG): the
+             * codec's own name is kept, so everything after sees "png". */
+            const ImageCodec *codec = NULL, *k;
+            for (int i = 0; !codec && (k = image_codec_at(i)) != NULL; i++)
+                if (!strcasecmp(k->name, o->format))
+                    codec = k;
             if (codec && !codec->encode)
                 return format_not_built_in(&c, a, o->format, codec);
             if (!codec) {
+                /* the names -format takes (tga, ppm), not the extensions (.tga) */
                 char list[128];
-                image_format_list(list, sizeof list);
+                size_t n = 0;
+                list[0] = '\0';
+                for (int i = 0; (k = image_codec_at(i)) != NULL; i++)
+                    if (k->encode && n + strlen(k->name) + 3 < sizeof list)
+                        n += (size_t)snprintf(list + n, sizeof list - n, "%s%s",
+                                              n ? ", " : "", k->name);
                 return usage_error(&c, "option -format: unknown format '%s' (this build "
                                    "writes %s)", o->format, list);
             }
+            o->format = codec->name;
         } else if (!strcmp(a, "-size")) {
             if (!take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->width) ||
                 !take_int(&c, a, 1, MAX_IMAGE_SIDE, &o->height))

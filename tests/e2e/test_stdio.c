@@ -108,6 +108,8 @@ static void test_output_stdout_ppm_png(void)
     Env e;
     CHECK(env_init(&e));
     check_format(&e, "ppm", "ppm");
+    /* a name in any case, as an extension is (-output X.PPM is a PPM) */
+    check_format(&e, "PPM", "ppm");
     if (image_format_supported("png"))
         check_format(&e, "png", "png");
     else
@@ -146,7 +148,12 @@ static void test_format_errors(void)
     e2e_run_free(&r);
     CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -output - -format jpg > x", e.bin, e.scenes));
     CHECK_INT(r.status, 2);
-    CHECK_CONTAINS(r.err, "option -format: unknown format 'jpg'");
+    /* and it names the formats as -format takes them, without the extensions' dots */
+    CHECK_CONTAINS(r.err, "option -format: unknown format 'jpg' (this build writes tga, ppm");
+    e2e_run_free(&r);
+    CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -output a.ppm -format TGA", e.bin, e.scenes));
+    CHECK_INT(r.status, 2);
+    CHECK_CONTAINS(r.err, "-format tga, but -output a.ppm is ppm");
     e2e_run_free(&r);
     /* The preview prints on stdout (its c key): no image there too. */
     CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -gui -output - > x", e.bin, e.scenes));
