@@ -591,6 +591,18 @@ static bool format_not_built_in(Cursor *c, const char *flag, const char *value,
                        list);
 }
 
+/* The names -format takes for the formats this build writes ("tga, ppm, png"; not
+ * their extensions, ".tga"), into buf. */
+static void format_names(char *buf, size_t size)
+{
+    const ImageCodec *k;
+    size_t n = 0;
+    buf[0] = '\0';
+    for (int i = 0; (k = image_codec_at(i)) != NULL; i++)
+        if (k->encode && n + strlen(k->name) + 3 < size)
+            n += (size_t)snprintf(buf + n, size - n, "%s%s", n ? ", " : "", k->name);
+}
+
 /* An image file's name must end in a format's extension (the file's format) that this
  * build writes: a name that does not is refused here, as a usage error before any
  * work, naming the extensions this build writes. "-" (standard output, -format's) and
@@ -606,8 +618,22 @@ static bool check_image_name(Cursor *c, const char *flag, const char *path)
         (stat(path, &st) == 0 && S_ISDIR(st.st_mode)))
         return true;
     char list[128];
-    image_format_list(list, sizeof list);
     c->hinted = true;
+    /* -output /dev/stdout (or /dev/fd/1, a named pipe): asked to add an extension, a
+     * user wrote /dev/stdout.tga, a new file in /dev. Standard output is "-". A name
+     * in /dev or /proc counts whatever it leads to (/dev/stdout can be a file). */
+    if (!strncmp(path, "/dev/", 5) || !strncmp(path, "/proc/", 6) ||
+        (stat(path, &st) == 0 &&
+         (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode)))) {
+        bool merge = !strcmp(flag, "-merge");
+        format_names(list, sizeof list);
+        return usage_error(c, "option %s: unknown image format '%s': a device or a pipe has "
+                           "no extension to give one; for standard output give - as the file "
+                           "name%s%s%s",
+                           flag, path, merge ? "" : ", and -format for its format (",
+                           merge ? "" : list, merge ? "" : ")");
+    }
+    image_format_list(list, sizeof list);
     return usage_error(c, "option %s: unknown image format '%s': the file name must end in "
                        "one of %s", flag, path, list);
 }
@@ -711,14 +737,8 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             if (codec && !codec->encode)
                 return format_not_built_in(&c, a, o->format, codec);
             if (!codec) {
-                /* the names -format takes (tga, ppm), not the extensions (.tga) */
                 char list[128];
-                size_t n = 0;
-                list[0] = '\0';
-                for (int i = 0; (k = image_codec_at(i)) != NULL; i++)
-                    if (k->encode && n + strlen(k->name) + 3 < sizeof list)
-                        n += (size_t)snprintf(list + n, sizeof list - n, "%s%s",
-                                              n ? ", " : "", k->name);
+                format_names(list, sizeof list);
                 return usage_error(&c, "option -format: unknown format '%s' (this build "
                                    "writes %s)", o->format, list);
             }

@@ -155,6 +155,20 @@ static void test_format_errors(void)
     CHECK_INT(r.status, 2);
     CHECK_CONTAINS(r.err, "-format tga, but -output a.ppm is ppm");
     e2e_run_free(&r);
+    /* A device or a pipe named for standard output: "-" is said, not "must end in .tga"
+     * (which led to -output /dev/stdout.tga, a new file in /dev), whether /dev/stdout
+     * leads to a file, as here, or a pipe */
+    CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -output /dev/stdout > x", e.bin, e.scenes));
+    CHECK_INT(r.status, 2);
+    CHECK_CONTAINS(r.err, "option -output: unknown image format '/dev/stdout': a device or a "
+                   "pipe has no extension to give one; for standard output give - as the "
+                   "file name, and -format for its format (tga, ppm");
+    e2e_run_free(&r);
+    CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -normals /dev/fd/1 | cat", e.bin, e.scenes));
+    CHECK_CONTAINS(r.err, "option -normals: unknown image format '/dev/fd/1': a device or a "
+                   "pipe");
+    CHECK_MSG(r.out_len == 0, "%zu bytes written into the pipe", r.out_len);
+    e2e_run_free(&r);
     /* The preview prints on stdout (its c key): no image there too. */
     CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -gui -output - > x", e.bin, e.scenes));
     CHECK_INT(r.status, 2);
