@@ -287,6 +287,9 @@ bool image_format_supported(const char *name);
 /* The extensions this build writes, for messages: ".tga, .ppm, .png". Always
  * NUL-terminated; when size is too small, only the entries that fit whole. */
 void image_format_list(char *buf, size_t size);
+/* The names of the formats this build writes, as -format takes them: "tga, ppm, png".
+ * Always NUL-terminated; when size is too small, only the names that fit whole. */
+void image_format_names(char *buf, size_t size);
 
 /* raytracer -merge: reads the headers of the n part images (each with a region
  * record), checks that they are parts of one full size and render, do not overlap and

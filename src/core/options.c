@@ -591,18 +591,6 @@ static bool format_not_built_in(Cursor *c, const char *flag, const char *value,
                        list);
 }
 
-/* The names -format takes for the formats this build writes ("tga, ppm, png"; not
- * their extensions, ".tga"), into buf. */
-static void format_names(char *buf, size_t size)
-{
-    const ImageCodec *k;
-    size_t n = 0;
-    buf[0] = '\0';
-    for (int i = 0; (k = image_codec_at(i)) != NULL; i++)
-        if (k->encode && n + strlen(k->name) + 3 < size)
-            n += (size_t)snprintf(buf + n, size - n, "%s%s", n ? ", " : "", k->name);
-}
-
 /* An image file's name must end in a format's extension (the file's format) that this
  * build writes: a name that does not is refused here, as a usage error before any
  * work, naming the extensions this build writes. "-" (standard output, -format's) and
@@ -626,7 +614,7 @@ static bool check_image_name(Cursor *c, const char *flag, const char *path)
         (stat(path, &st) == 0 &&
          (S_ISCHR(st.st_mode) || S_ISFIFO(st.st_mode) || S_ISSOCK(st.st_mode)))) {
         bool merge = !strcmp(flag, "-merge");
-        format_names(list, sizeof list);
+        image_format_names(list, sizeof list);
         return usage_error(c, "option %s: unknown image format '%s': a device or a pipe has "
                            "no extension to give one; for standard output give - as the file "
                            "name%s%s%s",
@@ -738,7 +726,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 return format_not_built_in(&c, a, o->format, codec);
             if (!codec) {
                 char list[128];
-                format_names(list, sizeof list);
+                image_format_names(list, sizeof list);
                 return usage_error(&c, "option -format: unknown format '%s' (this build "
                                    "writes %s)", o->format, list);
             }

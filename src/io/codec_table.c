@@ -81,3 +81,14 @@ void image_format_list(char *buf, size_t size)
         }
     }
 }
+
+void image_format_names(char *buf, size_t size)
+{
+    size_t n = 0;
+    if (size == 0)
+        return;
+    buf[0] = '\0';
+    for (int i = 0; i < NUM_CODECS; i++)
+        if (codecs[i]->encode && n + strlen(codecs[i]->name) + 3 < size)
+            n += (size_t)snprintf(buf + n, size - n, "%s%s", n ? ", " : "", codecs[i]->name);
+}
