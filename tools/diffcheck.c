@@ -834,9 +834,11 @@ static void gen_shading(Shading *s, bool quick)
         }
     } else if (chance(0.08)) {
         s->antialiased = true;
+        /* a = 4: one first sample never differs from itself, so a = 1 refined no
+         * pixel (and is now a usage error) */
         add(&s->opts, "-adaptive_samples");
-        add(&s->opts, "1");
         add(&s->opts, "4");
+        add(&s->opts, "9");
         add(&s->opts, "0.05");
     }
     if (chance(0.25)) {

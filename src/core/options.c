@@ -104,7 +104,7 @@ static const char usage_text[] =
         "  -poisson_samples n       n samples kept apart (best candidate of 8; n <= 256)\n"
         "  -adaptive_samples a b t  a = k*k jittered samples; pixels whose samples\n"
         "                           differ by more than t (0..1, any channel) get\n"
-        "                           b = m*m instead (counts 1..1024, b > a)\n"
+        "                           b = m*m instead (a 4..1024, b > a)\n"
         "  -box_filter r            box filter of half-width r pixels (0 < r <= 16)\n"
         "  -tent_filter r           tent (cone) filter of radius r (0 < r <= 16)\n"
         "  -gaussian_filter s       Gaussian filter, standard deviation s (0 < s <= 16)\n"
@@ -839,6 +839,13 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
                 !sampler_init(&probe, sampler_find("jittered"), o->adaptive_max, 0, why,
                               sizeof why))
                 return usage_error(&c, "option %s: %s", a, why);
+            /* The refinement is decided by the spread of a pixel's first samples: one
+             * sample has none, so no pixel would ever get b and the render would be
+             * -jittered_samples 1 in silence. */
+            if (o->adaptive_min == 1)
+                return usage_error(&c, "option %s: a = 1: one first sample cannot differ "
+                                   "from itself, so no pixel would get b; a must be 4 or "
+                                   "more (2 x 2)", a);
             if (o->adaptive_max <= o->adaptive_min)
                 return usage_error(&c, "option %s: the second count (%d) must be larger than "
                                    "the first (%d)", a, o->adaptive_max, o->adaptive_min);

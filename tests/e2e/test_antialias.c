@@ -861,6 +861,8 @@ static void test_usage_errors(void)
         {"-render_samples", "s.tga", "0"}, {"-render_filter", "f.tga", "-2"},
         {"-adaptive_samples", "4", "2", "0.1"}, {"-adaptive_samples", "4", "15", "0.1"},
         {"-adaptive_samples", "4", "16", "-1"}, {"-seed", "-1"},
+        /* one first sample has no spread: no pixel would ever be refined */
+        {"-adaptive_samples", "1", "16", "0"},
         {"-render_samples", "s.tga", "100"}, {"-uniform_samples"}};
     char dir[PATH_MAX], out[PATH_MAX], scene[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "a7bad") != NULL);

@@ -135,6 +135,9 @@ static void test_usage_errors(void)
         {"-input s.txt -output o.tga -adaptive_samples 4 16 1.5",
          "option -adaptive_samples: t = 1.5 is out of range 0..1"},
         {"-input s.txt -output o.tga -adaptive_samples 4 16 -0.1", "t = -0.1 is out of range"},
+        /* one first sample cannot differ from itself: b would never be used */
+        {"-input s.txt -output o.tga -adaptive_samples 1 16 0",
+         "option -adaptive_samples: a = 1: one first sample cannot differ from itself"},
         {"-input s.txt -region 0 0 4 4 -tile 0 2 -output o.tga",
          "-region and -tile both choose the rectangle"},
         {"-input s.txt -tile 1 2 -region 0 0 4 4 -output o.tga",
