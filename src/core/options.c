@@ -113,7 +113,7 @@ static const char usage_text[] =
         "  -render_samples file z   also write the sample positions, zoomed z times\n"
         "                           (1..100)\n"
         "  -render_filter file z    also write the filter weights, zoomed z times\n"
-        "                           (1..100); alone, it needs no -input (not read)\n"
+        "                           (2..100); alone, it needs no -input (not read)\n"
         "  -seed n                  seed of the random samplers (default 0)\n"
         "Splitting a render (README.txt, 8)\n"
         "  -region x y w h          render only the w x h rectangle at (x, y) (top-left)\n"
@@ -875,6 +875,13 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         } else if (!strcmp(a, "-render_filter")) {
             if (!take(&c, a, &o->filter_file) || !take_int(&c, a, 1, MAX_ZOOM, &o->filter_zoom))
                 return false;
+            /* The picture's grid lines are every z-th row and column, drawn over the
+             * weights (the course's rule): with z = 1 they cover every pixel, and the
+             * file was one blue rectangle showing no weight at all. */
+            if (o->filter_zoom == 1)
+                return usage_error(&c, "option -render_filter: z = 1 draws only the pixel "
+                                   "grid (its lines cover every pixel of the picture); z "
+                                   "must be 2 or more");
         } else if (!strcmp(a, "-seed")) {
             const char *v = NULL;
             if (!take(&c, a, &v))

@@ -863,6 +863,8 @@ static void test_usage_errors(void)
         {"-adaptive_samples", "4", "16", "-1"}, {"-seed", "-1"},
         /* one first sample has no spread: no pixel would ever be refined */
         {"-adaptive_samples", "1", "16", "0"},
+        /* the filter picture's grid lines would cover every pixel */
+        {"-render_filter", "f.tga", "1"},
         {"-render_samples", "s.tga", "100"}, {"-uniform_samples"}};
     char dir[PATH_MAX], out[PATH_MAX], scene[PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "a7bad") != NULL);

@@ -138,6 +138,9 @@ static void test_usage_errors(void)
         /* one first sample cannot differ from itself: b would never be used */
         {"-input s.txt -output o.tga -adaptive_samples 1 16 0",
          "option -adaptive_samples: a = 1: one first sample cannot differ from itself"},
+        /* zoom 1: the filter picture's grid lines cover every pixel, no weight shows */
+        {"-size 9 9 -render_filter f.tga 1", "option -render_filter: z = 1 draws only the pixel "
+                                            "grid"},
         {"-input s.txt -region 0 0 4 4 -tile 0 2 -output o.tga",
          "-region and -tile both choose the rectangle"},
         {"-input s.txt -tile 1 2 -region 0 0 4 4 -output o.tga",
