@@ -309,6 +309,9 @@ static bool read_face(ObjReader *r, const char *f_at)
         SrcLoc l; /* made only for a message (objfile_loc walks the line) */
         long idx, ignored;
         bool ok = read_index(r, &idx);
+        /* read_index saturates long runs of digits, so a message quotes the index as
+         * written rather than the saturated value (which is in no file). */
+        const char *idx_end = r->p;
         /* v, v/vt, v/vt/vn, v//vn: only the vertex index matters here. */
         if (ok && *r->p == '/') {
             r->p++;
@@ -337,7 +340,8 @@ static bool read_face(ObjReader *r, const char *f_at)
             if (idx == 0)
                 diag_error(r->diag, &l, "vertex index 0 out of range (indices start at 1)");
             else
-                diag_error(r->diag, &l, "vertex index %ld out of range (%d vertices)", idx, nv);
+                diag_error(r->diag, &l, "vertex index %.*s out of range (%d vertices)",
+                           (int)(idx_end - at), at, nv);
             return false;
         }
         int vi = (int)resolved;

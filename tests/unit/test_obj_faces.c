@@ -68,6 +68,12 @@ static void test_quick_path_errors(void)
     same_error(VERTS "f 0 2 3\n", "m.obj:5:3: error: vertex index 0 out of range (indices start at 1)");
     same_error(VERTS "f 1 2 99999999999\n",
                "m.obj:5:7: error: vertex index 99999999999 out of range (4 vertices)");
+    /* Past 12 digits the reader saturates the value: the message quotes the index as
+     * written, not the saturated number (it said 999999999999 for this one). */
+    same_error(VERTS "f 1 2 99999999999999999999\n",
+               "m.obj:5:7: error: vertex index 99999999999999999999 out of range (4 vertices)");
+    same_error(VERTS "f 1 -0000000000000000000005 3\n",
+               "m.obj:5:5: error: vertex index -0000000000000000000005 out of range (4 vertices)");
     same_error(VERTS "f 1 2\n", "m.obj:5:1: error: face with 2 vertices (at least 3 needed)");
     same_error(VERTS "f 1 2 3x\n", "m.obj:5:7: error: malformed face vertex '3x'");
     same_error("v 0 0 0\nf 1 2 3\n", "m.obj:2:5: error: vertex index 2 out of range (1 vertices)");
