@@ -1018,7 +1018,11 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
     for (int i = 0; i < 6; i++)
         if (!check_image_name(&c, names[i], files[i]))
             return false;
-    if (o->format && o->output && strcmp(o->output, IMAGE_STDOUT) != 0) {
+    /* -format names the format of the image on standard output. With none there, a
+     * -format that disagrees with -output's extension is a mistaken hope of converting;
+     * with -depth - or -normals - next to -output FILE it is that image's format, and
+     * the file keeps its extension's (refusing it left no way to pick that format). */
+    if (o->format && !to_stdout && o->output) {
         const ImageCodec *codec = image_codec_for_path(o->output);
         if (codec != image_codec_find(o->format))
             return usage_error(&c, "-format %s, but -output %s is %s: -format is for "

@@ -146,6 +146,20 @@ static void test_format_errors(void)
     CHECK_INT(r.status, 2);
     CHECK_CONTAINS(r.err, "-format tga, but -output a.ppm is ppm");
     e2e_run_free(&r);
+    /* -format is the format of the image on standard output, here -normals': the
+     * file keeps its extension's (this was refused as "-format ppm, but -output a.tga
+     * is tga"). The piped normals are those written to a .ppm file. */
+    CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -normals n.ppm", e.bin, e.scenes));
+    CHECK_INT(r.status, 0);
+    e2e_run_free(&r);
+    CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -output a.tga -normals - -format ppm > np.ppm",
+             e.bin, e.scenes));
+    CHECK_INT(r.status, 0);
+    e2e_run_free(&r);
+    CHECK_MSG(same_file_bytes(&e, "n.ppm", "np.ppm"), "-normals - -format ppm: not the PPM");
+    CHECK(sh(&e, &r, "head -c 2 a.tga | od -An -tx1"));
+    CHECK_STR(r.out, " 00 00\n"); /* a TGA's empty ID and colour map, not "P6" */
+    e2e_run_free(&r);
     CHECK(sh(&e, &r, "'%s' " RENDER_ARGS " -output - -format jpg > x", e.bin, e.scenes));
     CHECK_INT(r.status, 2);
     /* and it names the formats as -format takes them, without the extensions' dots */
