@@ -16,6 +16,7 @@
 #include "rt/grid.h"
 #include "rt/accel.h"
 #include "rt/bigmem.h"
+#include "rt/file.h"
 #include "rt/twolevel.h"
 #include "rt/image.h"
 #include "rt/cpu.h"
@@ -53,7 +54,11 @@ static void on_stop_signal(int sig)
 {
     g_cancel = sig; /* first: render_and_write's reset of g_render_stop relies on it */
     g_render_stop = sig;
-    if (image_write_abort()) {
+    /* Reading a scene or OBJ file from a pipe, a FIFO or a terminal: the read may wait
+     * for bytes for ever, and it restarts after this handler (SA_RESTART), so only
+     * ending here ends it. No image or cache file exists yet (they come after the
+     * reading), so there is nothing to remove. */
+    if (image_write_abort() || file_input_waiting()) {
         static const char msg[] = ": interrupted; no image written\n";
         const char *name = diag_program();
         ssize_t w = write(STDERR_FILENO, name, strlen(name));

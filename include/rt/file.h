@@ -28,6 +28,11 @@
  * read, and every parallel chunk), which the caller does not report. These reads
  * and the next two all look at it. */
 bool file_read_all(const char *path, char **out, size_t *len);
+/* Whether one of the reads above is at work on a pipe, a FIFO or a terminal (its open
+ * included), where it may wait for input for ever. Async-signal-safe: the stop-signal
+ * handler ends the run at once then (nothing has been written yet), since a signal does
+ * not cut such a wait under SA_RESTART. */
+bool file_input_waiting(void);
 /* The same into an arena buffer (rt/arena.h; arena_buffer_free), which
  * objfile_build_group can reuse for the triangles. */
 bool file_read_reusable(const char *path, char **out, size_t *len);

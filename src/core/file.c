@@ -157,6 +157,24 @@ bool file_identity_settled(const FileIdentity *id)
 static bool read_all_id(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok,
                         FileIdentity *id, bool *stable);
 
+/* Reads in progress from something other than a regular file (a pipe, a FIFO, a
+ * terminal): those can wait for ever, in the open of a FIFO without a writer or in a
+ * read with no bytes coming, and under SA_RESTART a stop signal does not cut that wait,
+ * so the loop's look at the stop flag came only when input came (Ctrl-C at a terminal
+ * waiting for "-input -" did nothing). The signal handler asks file_input_waiting. */
+static atomic_int g_waiting_reads;
+
+bool file_input_waiting(void) { return atomic_load(&g_waiting_reads) > 0; }
+
+/* Whether path (or standard input, for "-") is anything but a regular file or a folder;
+ * a path that cannot be looked up is left to fopen to report. */
+static bool may_wait(const char *path, bool is_stdin)
+{
+    struct stat st;
+    int r = is_stdin ? fstat(STDIN_FILENO, &st) : stat(path, &st);
+    return r == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+}
+
 /* A read that failed after its buffer was made: buf freed, f closed, errno = err. */
 static bool read_failed(FILE *f, char *buf, bool reusable, int err)
 {
@@ -172,8 +190,23 @@ static bool read_all(const char *path, char **out, size_t *len, bool reusable, b
 }
 
 /* read_all, and with id the identity before the read and whether it held (stable). */
+static bool read_all_id_now(const char *path, char **out, size_t *len, bool reusable,
+                            bool stdin_ok, FileIdentity *id, bool *stable);
+
 static bool read_all_id(const char *path, char **out, size_t *len, bool reusable, bool stdin_ok,
                         FileIdentity *id, bool *stable)
+{
+    bool wait = may_wait(path, stdin_ok && strcmp(path, "-") == 0);
+    if (wait)
+        atomic_fetch_add(&g_waiting_reads, 1);
+    bool ok = read_all_id_now(path, out, len, reusable, stdin_ok, id, stable);
+    if (wait)
+        atomic_fetch_sub(&g_waiting_reads, 1);
+    return ok;
+}
+
+static bool read_all_id_now(const char *path, char **out, size_t *len, bool reusable,
+                            bool stdin_ok, FileIdentity *id, bool *stable)
 {
     if (stable)
         *stable = false;

@@ -6,6 +6,7 @@
 #define _POSIX_C_SOURCE 200809L
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -455,6 +456,62 @@ static void test_sigterm_during_obj_read(void)
     }
     e2e_rmtree(dir);
 }
+
+/* A stop signal while the run waits for input that does not come: the scene is a FIFO
+ * whose writer (this test) has sent part of the scene and keeps it open, as a terminal
+ * waiting for "-input -" does or a slow pipe. Once the FIFO holds no unread bytes
+ * (FIONREAD), the run has taken them and waits in its read for more; the signal must end
+ * it there. Before the fix the read restarted after the handler (SA_RESTART) and the
+ * flag was looked at only when more input or the end came: the run was still waiting
+ * 20 s after the signal (Ctrl-C at a terminal did nothing until Ctrl-D). The writer
+ * stays open until the run has ended or the guard has passed. SIGINT and SIGTERM. */
+static void signal_while_waiting_for_input(int sig)
+{
+    char dir[PATH_MAX], fifo[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigwait") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    CHECK(mkfifo(fifo, 0600) == 0);
+    if (harness_failures)
+        return;
+    const char *args[] = {harness_bin(), "-input", fifo, "-size", "8", "8", "-output", out,
+                          NULL};
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    alarm(120); /* should the open below never return */
+    int fd = open(fifo, O_WRONLY);
+    CHECK(fd >= 0);
+    static const char part[] = "OrthographicCamera { center 0 0 10 ";
+    CHECK(fd >= 0 && write(fd, part, sizeof part - 1) == (ssize_t)(sizeof part - 1));
+    int unread = 1;
+    for (int i = 0; i < 2000 && fd >= 0 && unread > 0; i++) { /* 20 s at most */
+        if (ioctl(fd, FIONREAD, &unread) != 0)
+            break;
+        if (unread > 0)
+            nanosleep(&(struct timespec){0, 10 * 1000 * 1000}, NULL);
+    }
+    CHECK_INT(unread, 0);
+    kill(pid, sig);
+    int st = 0;
+    bool ended = e2e_wait_or_kill(pid, 20, &st);
+    if (fd >= 0)
+        close(fd);
+    alarm(0);
+    char err[4096];
+    e2e_read_close(errfd, err, sizeof err);
+    CHECK_MSG(ended, "still waiting for input 20 s after signal %d", sig);
+    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
+              "status %#x, expected exit %d: %s", st, 128 + sig, err);
+    CHECK_CONTAINS(err, "interrupted; no image written");
+    CHECK_MSG(!e2e_exists(out), "an image was written");
+    e2e_rmtree(dir);
+}
+
+static void test_sigterm_waiting_for_input(void) { signal_while_waiting_for_input(SIGTERM); }
+static void test_sigint_waiting_for_input(void) { signal_while_waiting_for_input(SIGINT); }
 
 static void test_sigterm_while_streaming(void) { signal_while_streaming_as(SIGTERM, false); }
 static void test_sigint_while_streaming(void) { signal_while_streaming_as(SIGINT, false); }
@@ -1010,6 +1067,8 @@ static const TestCase tests[] = {
     {"sigterm_during_setup", test_sigterm_during_setup},
     {"sigterm_during_obj_parse", test_sigterm_during_obj_parse},
     {"sigterm_during_obj_read", test_sigterm_during_obj_read},
+    {"sigterm_waiting_for_input", test_sigterm_waiting_for_input},
+    {"sigint_waiting_for_input", test_sigint_waiting_for_input},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"file_size_limit", test_file_size_limit},
     {"write_error_stops_render", test_write_error_stops_render},
