@@ -123,7 +123,11 @@ static void identity_of(const struct stat *st, FileIdentity *id)
 
 bool file_identity(const char *path, FileIdentity *id)
 {
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    /* O_NONBLOCK: only the identity is wanted, so a FIFO's open must not wait for a
+     * writer (it did, and no stop signal cut that wait: obj_file naming a FIFO with
+     * -cache); a FIFO or a device is no regular file and is refused below. The open of
+     * a regular file does not change. */
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (fd < 0)
         return false;
     struct stat st;

@@ -513,6 +513,63 @@ static void signal_while_waiting_for_input(int sig)
 static void test_sigterm_waiting_for_input(void) { signal_while_waiting_for_input(SIGTERM); }
 static void test_sigint_waiting_for_input(void) { signal_while_waiting_for_input(SIGINT); }
 
+/* The same while the run waits to open an OBJ file that is a FIFO no one writes, with
+ * -cache: the cache's look at the OBJ file's identity opened it too, and that open
+ * waited for a writer where the stop flag was never looked at (the run was still
+ * there 20 s after SIGTERM). The signal comes once the run waits in an open of the
+ * FIFO (/proc/PID/wchan wait_for_partner; where that cannot be read, after 2 s). */
+static void test_sigterm_waiting_for_obj(void)
+{
+    char dir[PATH_MAX], fifo[PATH_MAX], out[PATH_MAX], scene[PATH_MAX], cache[PATH_MAX];
+    char wchan_path[64], wchan[64];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "sigwaitobj") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "mesh.obj");
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    e2e_join(cache, sizeof cache, dir, "set.cache");
+    CHECK(mkfifo(fifo, 0600) == 0);
+    CHECK(e2e_write_file(
+        scene, "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+               "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+               "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mesh.obj } }\n"));
+    if (harness_failures)
+        return;
+    const char *args[] = {harness_bin(), "-input", scene, "-size", "8", "8", "-output", out,
+                          "-cache", cache, NULL};
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    snprintf(wchan_path, sizeof wchan_path, "/proc/%d/wchan", (int)pid);
+    bool waiting = false, readable = true;
+    for (int i = 0; i < 2000 && !waiting && readable; i++) { /* 20 s at most */
+        FILE *f = fopen(wchan_path, "r");
+        size_t n = f ? fread(wchan, 1, sizeof wchan - 1, f) : 0;
+        if (f)
+            fclose(f);
+        wchan[n] = '\0';
+        readable = n > 0 && strcmp(wchan, "0") != 0;
+        waiting = readable && strstr(wchan, "wait_for_partner") != NULL;
+        if (!waiting)
+            nanosleep(&(struct timespec){0, 10 * 1000 * 1000}, NULL);
+    }
+    if (!readable)
+        nanosleep(&(struct timespec){2, 0}, NULL);
+    kill(pid, SIGTERM);
+    int st = 0;
+    bool ended = e2e_wait_or_kill(pid, 20, &st);
+    char err[4096];
+    e2e_read_close(errfd, err, sizeof err);
+    CHECK_MSG(ended, "still waiting for the OBJ file 20 s after SIGTERM");
+    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
+              "status %#x, expected exit %d: %s", st, 128 + SIGTERM, err);
+    CHECK_CONTAINS(err, "interrupted; no image written");
+    CHECK_MSG(!e2e_exists(out), "an image was written");
+    CHECK_MSG(!e2e_exists(cache), "a set-up cache was written");
+    e2e_rmtree(dir);
+}
+
 static void test_sigterm_while_streaming(void) { signal_while_streaming_as(SIGTERM, false); }
 static void test_sigint_while_streaming(void) { signal_while_streaming_as(SIGINT, false); }
 static void test_sigterm_while_streaming_film(void) { signal_while_streaming_as(SIGTERM, true); }
@@ -1069,6 +1126,7 @@ static const TestCase tests[] = {
     {"sigterm_during_obj_read", test_sigterm_during_obj_read},
     {"sigterm_waiting_for_input", test_sigterm_waiting_for_input},
     {"sigint_waiting_for_input", test_sigint_waiting_for_input},
+    {"sigterm_waiting_for_obj", test_sigterm_waiting_for_obj},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"file_size_limit", test_file_size_limit},
     {"write_error_stops_render", test_write_error_stops_render},
