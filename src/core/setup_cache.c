@@ -204,7 +204,10 @@ SetupCache *setup_cache_open(const char *path)
         free(c);
         return NULL;
     }
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    /* O_NONBLOCK: a FIFO named as the cache is opened without waiting for a writer
+     * (the run hung there for good, deaf to SIGTERM) and refused below as no regular
+     * file; the open and reads of a regular file do not change. */
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
     if (fd < 0) {
         if (errno != ENOENT)
             snprintf(c->rejected, sizeof c->rejected, "cannot be read: %s", strerror(errno));

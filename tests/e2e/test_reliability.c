@@ -570,6 +570,43 @@ static void test_sigterm_waiting_for_obj(void)
     e2e_rmtree(dir);
 }
 
+/* -cache naming a FIFO: no set-up cache (not a regular file, a warning) and the render
+ * goes on. The cache's open waited for a writer for good, and ignored SIGTERM there
+ * (the run was still there 20 s later). */
+static void test_cache_is_fifo(void)
+{
+    char dir[PATH_MAX], fifo[PATH_MAX], out[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "cachefifo") != NULL);
+    e2e_join(fifo, sizeof fifo, dir, "set.cache");
+    e2e_join(scene, sizeof scene, dir, "scene.txt");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    CHECK(mkfifo(fifo, 0600) == 0);
+    CHECK(e2e_write_file(
+        scene, "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+               "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 0 0 } }\n"
+               "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n"));
+    if (harness_failures)
+        return;
+    const char *args[] = {harness_bin(), "-input", scene, "-size", "8", "8", "-grid", "2",
+                          "2", "2", "-output", out, "-cache", fifo, NULL};
+    int errfd = -1;
+    pid_t pid = e2e_spawn(args, &errfd);
+    CHECK(pid > 0);
+    if (pid <= 0)
+        return;
+    int st = 0;
+    bool ended = e2e_wait_or_kill(pid, 20, &st);
+    char err[4096];
+    e2e_read_close(errfd, err, sizeof err);
+    CHECK_MSG(ended, "still running 20 s after its start (waiting on the FIFO)");
+    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 0, "status %#x: %s", st, err);
+    CHECK_CONTAINS(err, "not a regular file");
+    CHECK_MSG(e2e_exists(out), "no image written");
+    struct stat sb;
+    CHECK(stat(fifo, &sb) == 0 && S_ISFIFO(sb.st_mode)); /* left as it is */
+    e2e_rmtree(dir);
+}
+
 static void test_sigterm_while_streaming(void) { signal_while_streaming_as(SIGTERM, false); }
 static void test_sigint_while_streaming(void) { signal_while_streaming_as(SIGINT, false); }
 static void test_sigterm_while_streaming_film(void) { signal_while_streaming_as(SIGTERM, true); }
@@ -1127,6 +1164,7 @@ static const TestCase tests[] = {
     {"sigterm_waiting_for_input", test_sigterm_waiting_for_input},
     {"sigint_waiting_for_input", test_sigint_waiting_for_input},
     {"sigterm_waiting_for_obj", test_sigterm_waiting_for_obj},
+    {"cache_is_fifo", test_cache_is_fifo},
     {"outputs_all_or_nothing", test_outputs_all_or_nothing},
     {"file_size_limit", test_file_size_limit},
     {"write_error_stops_render", test_write_error_stops_render},
