@@ -1026,7 +1026,8 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         const ImageCodec *codec = image_codec_for_path(o->output);
         if (codec != image_codec_find(o->format))
             return usage_error(&c, "-format %s, but -output %s is %s: -format is for "
-                               "-output - (a file's extension gives its format)", o->format,
+                               "an image on standard output (-output -, -depth ... -, "
+                               "-normals -); a file's extension gives its format", o->format,
                                o->output, codec ? codec->name : "no known format");
     }
     if (o->region) {

@@ -313,19 +313,26 @@ static const char *man_entry(const char *options, const char *name)
 /* Every option of raytracer -h is documented in the man page's subsection of the same
  * name as its -h group (the man page once listed the preview's options under
  * "Splitting a render", with no heading of their own). man is man -l's text. */
+/* raytracer -h into r (freed by the caller); false, said, when it fails. */
+static bool run_help(E2eRun *r)
+{
+    const char *args[] = {"-h", NULL};
+    if (e2e_run_bin(harness_bin(), args, r) && r->status == 0)
+        return true;
+    CHECK_MSG(false, "raytracer -h failed");
+    e2e_run_free(r);
+    return false;
+}
+
 static void check_man_groups(const char *man)
 {
     const char *options = strstr(man, "\nOPTIONS\n");
     CHECK_MSG(options != NULL, "the manual page has no OPTIONS section");
     if (!options)
         return;
-    const char *args[] = {"-h", NULL};
     E2eRun r;
-    if (!e2e_run_bin(harness_bin(), args, &r) || r.status != 0) {
-        CHECK_MSG(false, "raytracer -h failed");
-        e2e_run_free(&r);
+    if (!run_help(&r))
         return;
-    }
     const char *heading = NULL; /* the -h group of the lines that follow */
     int checked = 0;
     for (const char *line = r.out; *line;) {
@@ -430,13 +437,9 @@ static void check_man_ranges(const char *man)
     const char *options = strstr(man, "\nOPTIONS\n");
     if (!options)
         return; /* check_man_groups says so */
-    const char *args[] = {"-h", NULL};
     E2eRun r;
-    if (!e2e_run_bin(harness_bin(), args, &r) || r.status != 0) {
-        CHECK_MSG(false, "raytracer -h failed");
-        e2e_run_free(&r);
+    if (!run_help(&r))
         return;
-    }
     int checked = 0;
     for (const char *line = r.out; line && *line;) {
         const char *eol = strchr(line, '\n');

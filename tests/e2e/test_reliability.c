@@ -457,6 +457,16 @@ static void test_sigterm_during_obj_read(void)
     e2e_rmtree(dir);
 }
 
+/* A run stopped by signal sig before writing (it ended, with status st and stderr
+ * err): exit 128 + sig, the message, and no image at out. */
+static void check_interrupted(bool ended, int st, int sig, const char *err, const char *out)
+{
+    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
+              "status %#x, expected exit %d: %s", st, 128 + sig, err);
+    CHECK_CONTAINS(err, "interrupted; no image written");
+    CHECK_MSG(!e2e_exists(out), "an image was written");
+}
+
 /* A stop signal while the run waits for input that does not come: the scene is a FIFO
  * whose writer (this test) has sent part of the scene and keeps it open, as a terminal
  * waiting for "-input -" does or a slow pipe. Once the FIFO holds no unread bytes
@@ -503,10 +513,7 @@ static void signal_while_waiting_for_input(int sig)
     char err[4096];
     e2e_read_close(errfd, err, sizeof err);
     CHECK_MSG(ended, "still waiting for input 20 s after signal %d", sig);
-    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + sig,
-              "status %#x, expected exit %d: %s", st, 128 + sig, err);
-    CHECK_CONTAINS(err, "interrupted; no image written");
-    CHECK_MSG(!e2e_exists(out), "an image was written");
+    check_interrupted(ended, st, sig, err, out);
     e2e_rmtree(dir);
 }
 
@@ -562,10 +569,7 @@ static void test_sigterm_waiting_for_obj(void)
     char err[4096];
     e2e_read_close(errfd, err, sizeof err);
     CHECK_MSG(ended, "still waiting for the OBJ file 20 s after SIGTERM");
-    CHECK_MSG(ended && WIFEXITED(st) && WEXITSTATUS(st) == 128 + SIGTERM,
-              "status %#x, expected exit %d: %s", st, 128 + SIGTERM, err);
-    CHECK_CONTAINS(err, "interrupted; no image written");
-    CHECK_MSG(!e2e_exists(out), "an image was written");
+    check_interrupted(ended, st, SIGTERM, err, out);
     CHECK_MSG(!e2e_exists(cache), "a set-up cache was written");
     e2e_rmtree(dir);
 }
