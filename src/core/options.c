@@ -1041,6 +1041,12 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         if (o->samples_file)
             return usage_error(&c, "-region and -tile: -render_samples draws the whole "
                                "image; render it without them");
+        /* The filter picture is drawn from the filter alone, never in parts: with no
+         * image of the scene to cut, the part asked for would be silently ignored. */
+        if (o->filter_file && !o->output && !o->depth_file && !o->normals_file)
+            return usage_error(&c, "-region and -tile cut an image of the scene (-output, "
+                               "-depth, -normals); -render_filter alone draws the whole "
+                               "filter picture");
     }
     /* A run that writes and shows nothing would render for nothing. Every option that
      * produces a result belongs in this test. */

@@ -888,8 +888,59 @@ static void test_usage_errors(void)
     e2e_rmtree(dir);
 }
 
+/* -tile and -region cut an image of the scene: with only the filter picture to write
+ * (or with the samples picture, always whole) the part asked for cannot be made, and a
+ * run that drew the whole picture anyway would ignore the option. A usage error: one
+ * line, exit 2, nothing written. */
+static void test_parts_of_pictures(void)
+{
+    char dir[PATH_MAX], pic[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "a7part") != NULL);
+    e2e_join(pic, sizeof pic, dir, "f.tga");
+    e2e_join(scene, sizeof scene, dir, "missing.txt");
+    static const char *const cut[][5] = {{"-tile", "0", "2"}, {"-region", "0", "0", "4", "4"}};
+    for (int k = 0; k < TEST_LIST_COUNT(cut); k++)
+        for (int which = 0; which < 2; which++) {
+            const char *args[20] = {"-size", "9", "9", "-gaussian_filter", "0.4"};
+            int n = 5;
+            if (which == 0) {
+                args[n++] = "-render_filter";
+            } else {
+                args[n++] = "-input";
+                args[n++] = scene;
+                args[n++] = "-render_samples";
+            }
+            args[n++] = pic;
+            args[n++] = "20";
+            for (int j = 0; j < 5 && cut[k][j]; j++)
+                args[n++] = cut[k][j];
+            args[n] = NULL;
+            E2eRun run;
+            CHECK(e2e_run_bin(harness_bin(), args, &run));
+            const char *nl = strchr(run.err, '\n');
+            CHECK_MSG(run.status == 2, "%s with %s: exit %d (want 2); stderr: %s",
+                      which ? "-render_samples" : "-render_filter", cut[k][0], run.status,
+                      run.err);
+            CHECK_MSG(nl && nl[1] == '\0' && strstr(run.err, cut[k][0]),
+                      "%s: not one line naming the option: %s", cut[k][0], run.err);
+            CHECK_MSG(e2e_count_entries(dir) == 0, "%s: something was written", cut[k][0]);
+            e2e_run_free(&run);
+        }
+    /* The same filter picture without a part is drawn (the refusal is the part's). */
+    const char *ok[] = {"-size", "9", "9", "-gaussian_filter", "0.4", "-render_filter", pic,
+                        "20", NULL};
+    E2eRun run;
+    CHECK(e2e_run_bin(harness_bin(), ok, &run));
+    CHECK_MSG(run.status == 0, "whole filter picture: exit %d; stderr: %s", run.status,
+              run.err);
+    CHECK(e2e_count_entries(dir) == 1);
+    e2e_run_free(&run);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"a7 plain renders", test_plain_renders},
+    {"-tile/-region with only the pictures: usage error", test_parts_of_pictures},
     {"-noise_cutoff: calmer distant noise, same bytes elsewhere", test_noise_cutoff},
     {"a7 filter pictures (bit-exact)", test_filter_pictures},
     {"a7 uniform samples: pictures and outputs", test_uniform_lines},
