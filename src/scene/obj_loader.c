@@ -162,7 +162,9 @@ static void skip_blanks(ObjReader *r)
 }
 
 static bool at_eol(const ObjReader *r) { return *r->p == '\n' || *r->p == '\0'; }
-static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p); }
+/* A number or index ends at a blank, the line's end or a comment: "f 1 2 3#c" is the
+ * face 1 2 3, as "f 1 2 3 #c" is. */
+static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p) || *r->p == '#'; }
 
 static bool grow(void **arr, int *cap, int need, size_t elem)
 {
@@ -217,8 +219,8 @@ static inline bool simple_float(const char **pp, float *out)
 }
 
 /* The common vertex record "v x y z": single spaces, numbers of simple_float's form,
- * each followed by a separator (a blank or the line's end: what follows the third is
- * skipped by parse_lines, as after read_vertex), and room in the array. Read without
+ * the line's end right after the third (anything there, even blanks, is read_vertex's
+ * to check), and room in the array. Read without
  * read_vertex's machinery (its locations for messages, blank runs, the general number
  * reader): the same vertex. Anything else returns false with r untouched, and
  * read_vertex takes the line from the start, so messages do not change. */
@@ -232,7 +234,7 @@ static bool read_vertex_simple(ObjReader *r)
         if (*p != ' ')
             return false;
         p++;
-        if (!simple_float(&p, &c[k]) || !(is_blank(*p) || *p == '\n' || *p == '\0'))
+        if (!simple_float(&p, &c[k]) || !(k < 2 ? *p == ' ' : *p == '\n' || *p == '\0'))
             return false;
     }
     r->m->verts[r->m->nverts++] = v3(c[0], c[1], c[2]);
@@ -247,7 +249,7 @@ static bool read_vertex(ObjReader *r)
         skip_blanks(r);
         const char *at = r->p;
         SrcLoc l;
-        if (at_eol(r)) {
+        if (at_eol(r) || *r->p == '#') {
             l = objfile_loc(r, at);
             diag_error(r->diag, &l, "vertex needs 3 coordinates, found %d", i);
             return false;
@@ -266,7 +268,32 @@ static bool read_vertex(ObjReader *r)
             return false;
         }
     }
-    /* A fourth (w) coordinate or vertex colours may follow: ignored. */
+    /* A fourth (w) coordinate or vertex colours (r g b, r g b a) may follow: at most
+     * four numbers, ignored. Anything else is an error rather than skipped: a word
+     * there is most often the next record run into this line ("v 1 2 3 v 4 5 6" from
+     * a lost line break), whose vertex would otherwise vanish without a word. */
+    for (int extra = 0;; extra++) {
+        skip_blanks(r);
+        if (at_eol(r) || *r->p == '#')
+            break;
+        const char *at = r->p;
+        float ignored;
+        if (extra == 4 || !objfile_parse_float(&r->p, r->end, &ignored) || !at_sep(r)) {
+            const char *e = at;
+            while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
+                e++;
+            SrcLoc l = objfile_loc(r, at);
+            /* A file of lone CRs (classic Mac OS line ends) is one long line here. */
+            bool lone_cr = at[-1] == '\r';
+            diag_error(r->diag, &l,
+                       "unexpected '%.*s' after the vertex's coordinates (%s)", (int)(e - at),
+                       at,
+                       lone_cr ? "a lone CR ends no line: give the file LF or CR LF line ends"
+                               : "a vertex is 'v x y z', then at most a w or a colour's 3 or "
+                                 "4 numbers");
+            return false;
+        }
+    }
     if (r->m->nverts >= r->cap_v &&
         (r->m->nverts == INT_MAX || r->fixed ||
          !grow((void **)&r->m->verts, &r->cap_v, r->m->nverts + 1, sizeof(Vec3)))) {

@@ -116,6 +116,19 @@ static void test_errors(void)
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 x\n", "m.obj:2:7: error: malformed number 'x'");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 1.5.3\n", "m.obj:2:7: error: malformed number '1.5.3'");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0\nv 1 1 1\n", "m.obj:2:6: error: vertex needs 3 coordinates, found 2");
+    EXPECT_OBJ_ERROR("v 0 0 #1\n", "m.obj:1:7: error: vertex needs 3 coordinates, found 2");
+    /* After the coordinates only a w or a colour (at most four numbers) or a comment:
+     * a word there is an error, not skipped (a lost line break would drop a vertex). */
+    EXPECT_OBJ_ERROR("v 0 0 0 garbage\n",
+                     "m.obj:1:9: error: unexpected 'garbage' after the vertex's coordinates");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0 v 0 1 0\n",
+                     "m.obj:2:9: error: unexpected 'v' after the vertex's coordinates");
+    EXPECT_OBJ_ERROR("v 0 0 0 1 2 3 4 5\n",
+                     "m.obj:1:17: error: unexpected '5' after the vertex's coordinates");
+    EXPECT_OBJ_ERROR("v 0 0 0 1x\n", "m.obj:1:9: error: unexpected '1x' after the vertex's");
+    EXPECT_OBJ_ERROR("v 0 0 0\rv 1 0 0\rv 0 1 0\r",
+                     "m.obj:1:9: error: unexpected 'v' after the vertex's coordinates (a lone "
+                     "CR ends no line");
     EXPECT_OBJ_ERROR("v 1 1 1e999\n", "m.obj:1:7: error: number out of range: '1e999'");
     EXPECT_OBJ_ERROR("v 1 1 nan\n", "m.obj:1:7: error: number out of range: 'nan'");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2\n",
@@ -215,7 +228,8 @@ static void test_vertex_lines_match_strtof(void)
                                 "-0.0", "999999999", "0.99999999", "4294967297",
                                 "4294967.297", "-42949.67297"};
     static const char *seps[] = {" ", " ", " ", " ", "\t", "  "};
-    static const char *ends[] = {"\n", "\n", "\n", "\r\n", " 1\n", " # c\n", "\t\n"};
+    static const char *ends[] = {"\n", "\n", "\n", "\r\n", " 1\n", " # c\n", "\t\n", "#c\n",
+                                 " 1 0.5 0.5 0.5\n"};
     size_t cap = (size_t)LINES * 96, len = 0;
     char *text = malloc(cap);
     float(*want)[3] = malloc(LINES * sizeof *want);

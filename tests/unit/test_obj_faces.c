@@ -56,6 +56,8 @@ static void test_quick_matches_general(void)
     same_faces(VERTS "f 0000000001 2 3\n", VERTS "f\t1 2 3\n"); /* 10 digits: general */
     same_faces(VERTS "f 1 2 3 \n", VERTS "f\t1 2 3\n");     /* trailing blank */
     same_faces(VERTS "f 1 2 3 # c\n", VERTS "f\t1 2 3\n");  /* comment */
+    same_faces(VERTS "f 1 2 3# c\n", VERTS "f\t1 2 3\n");   /* ... glued to the index */
+    same_faces(VERTS "f 1/1 2/2 3/3#c\n", VERTS "f\t1 2 3\n");
     same_faces(VERTS "f 1/1 2/2 3/3\n", VERTS "f\t1 2 3\n");
     same_faces(VERTS "f -4 -3 -2\n", VERTS "f\t1 2 3\n");
     same_faces(VERTS "f 1 2 3 4\n", VERTS "f\t1 2 3\nf\t1 3 4\n");

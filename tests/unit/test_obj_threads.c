@@ -132,7 +132,7 @@ static void gen_obj(Text *t, size_t bytes, const GenOpts *o, int *nv_out)
             if (pick(12) == 0)
                 put(t, " \t ");
             if (o->crlf == 2 && pick(40) == 0)
-                put(t, "\rignored after a lone CR");
+                put(t, "\r# after a lone CR, which ends no line");
             put(t, "%s", line_end(crlf));
             nv++;
         } else if (r < 24) {
@@ -312,8 +312,11 @@ static void test_placed_lines(void)
         {"vx 1 2 3", 1},                /* unknown keyword */
         {"F 1 2 3", 1},
         {"f 1 2 3 # 4 5", 1},
-        {"f 1 2 3#4", 0},
-        {"v 1 2 3#4", 0},
+        {"f 1 2 3#4", 1},               /* a comment glued to the last number */
+        {"v 1 2 3#4", 1},
+        {"v 1 2 3 1 0.5 0.5 0.5", 1},   /* w and a colour: at most four more numbers */
+        {"v 1 2 3 1 0.5 0.5 0.5 1", 0},
+        {"v 1 2 3 x", 0},               /* a word after the coordinates */
     };
     GenOpts o = {2, false, false};
     Text base = {0};
@@ -434,7 +437,9 @@ static void test_degenerate(void)
     t.len = 0;
     while (t.len < BIG)
         put(&t, "v 1 2 3\r");
-    check_case(&t, 1, "lone CRs only: one line");
+    /* One line (a lone CR ends none): an error at its second record, where the first
+     * vertex's line went on, read serially or in pieces alike. */
+    check_case(&t, 0, "lone CRs only: one line");
     t.len = 0;
     put(&t, "#");
     put_repeat(&t, 'x', BIG);
