@@ -4,6 +4,7 @@
 
 #include <ctype.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -78,18 +79,32 @@ void preview_view_rotate(PreviewView *v, float dx, float dy)
         v->camera = c;
 }
 
+/* Moves the eye to center. The perspective camera's rays aim at its screen
+ * (lower_left, placed from the eye when the basis is made), so the screen must move
+ * with the eye: moving only the centre left r and t tracing from the new eye towards
+ * the old screen (one unit of dolly put the eye in the old screen's plane, and r drew
+ * only background). A move that would take the camera out of float range is ignored,
+ * as a rotation that would make the basis degenerate is. */
+static void move_center(PreviewView *v, Vec3 center)
+{
+    Camera c = v->camera;
+    c.center = center;
+    if (v3_isfinite(center) && camera_rebasis(&c) && v3_isfinite(c.lower_left))
+        v->camera = c;
+}
+
 void preview_view_truck(PreviewView *v, float dx, float dy)
 {
     /* truckCamera((oldX - x) * 0.05, (y - oldY) * 0.05): the scene follows the mouse. */
-    Camera *c = &v->camera;
-    c->center = v3_madd(c->center, c->horizontal, -TRUCK_PER_PIXEL * dx);
-    c->center = v3_madd(c->center, c->up, TRUCK_PER_PIXEL * dy);
+    const Camera *c = &v->camera;
+    Vec3 center = v3_madd(c->center, c->horizontal, -TRUCK_PER_PIXEL * dx);
+    move_center(v, v3_madd(center, c->up, TRUCK_PER_PIXEL * dy));
 }
 
 void preview_view_dolly(PreviewView *v, float dx)
 {
-    Camera *c = &v->camera;
-    c->center = v3_madd(c->center, c->direction, DOLLY_PER_PIXEL * dx);
+    const Camera *c = &v->camera;
+    move_center(v, v3_madd(c->center, c->direction, DOLLY_PER_PIXEL * dx));
 }
 
 bool preview_view_trace(PreviewView *v, int i, int j, int w, int h)
@@ -157,7 +172,9 @@ static bool parse_pair(const char *text, float *a, float *b, bool want_two)
     char *end;
     errno = 0;
     double x = strtod(text, &end);
-    if (end == text || errno || !isfinite(x))
+    /* The drags are floats: a value beyond float range (dolly:1e300) would become
+     * infinite there, so it is refused like one beyond double range. */
+    if (end == text || errno || !(fabs(x) <= (double)FLT_MAX))
         return false;
     *a = (float)x;
     if (!want_two)
@@ -166,7 +183,7 @@ static bool parse_pair(const char *text, float *a, float *b, bool want_two)
         return false;
     const char *p = end + 1;
     double y = strtod(p, &end);
-    if (end == p || errno || !isfinite(y) || *end != '\0')
+    if (end == p || errno || !(fabs(y) <= (double)FLT_MAX) || *end != '\0')
         return false;
     *b = (float)y;
     return true;

@@ -58,7 +58,7 @@ static void test_keys_parse_rejects_bad_words(void)
 {
     const char *bad[] = {"x", "t:1", "t:1,", "t:-1,2", "t:1,2,3", "rot:1", "rot:a,b",
                          "rot:1,2x", "dolly:1,2", "dolly:", "shot:", "truck:1,nan",
-                         "r rr", "rot:1e99999,0", "qq"};
+                         "r rr", "rot:1e99999,0", "qq", "dolly:1e300", "truck:0,-3.5e38"};
     for (int k = 0; k < TEST_LIST_COUNT(bad); k++) {
         Diag d;
         diag_init(&d, NULL);
@@ -177,6 +177,55 @@ static void test_truck_and_dolly_units(void)
     preview_view_truck(&f.view, 10.0f, 20.0f); /* the scene follows the mouse */
     CHECK_NEAR(f.view.camera.center.x, -0.5, 1e-5);
     CHECK_NEAR(f.view.camera.center.y, 1.0, 1e-5);
+    fixture_free(&f);
+}
+
+/* A perspective camera straight down -z: its basis is exact, so a moved camera can be
+ * compared with one made afresh at the moved centre to the bit. */
+static const char *PERSP_SPHERES =
+    "PerspectiveCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 angle 30 }\n"
+    "Lights { numLights 1 DirectionalLight { direction -1 -1 -1 color 1 1 1 } }\n"
+    "Background { color 0.1 0.2 0.3 ambientLight 0.2 0.2 0.2 }\n"
+    "Materials { numMaterials 2 PhongMaterial { diffuseColor 0.8 0.2 0.2 }\n"
+    "    PhongMaterial { diffuseColor 0.2 0.8 0.2 } }\n"
+    "Group { numObjects 2 MaterialIndex 0 Sphere { center 0 0 0 radius 1.5 }\n"
+    "    MaterialIndex 1 Sphere { center 2 1 -1 radius 0.7 } }\n";
+
+static bool v3_same(Vec3 a, Vec3 b)
+{
+    return a.x == b.x && a.y == b.y && a.z == b.z;
+}
+
+/* truck and dolly move the perspective screen with the eye: before, only the centre
+ * moved, and every ray of r and t aimed from the new eye at the old screen (after
+ * dolly 20 the eye lay in the old screen's plane and the centre ray ran sideways). */
+static void test_truck_and_dolly_move_the_screen(void)
+{
+    Fixture f;
+    CHECK(fixture_init(&f, PERSP_SPHERES));
+    if (!f.scene)
+        return;
+    preview_view_dolly(&f.view, 20.0f);
+    preview_view_truck(&f.view, 20.0f, -10.0f);
+    const Camera *c = &f.view.camera;
+    Camera want;
+    CHECK(camera_init_perspective(&want, v3(-1.0f, -0.5f, 9.0f), v3(0, 0, -1), v3(0, 1, 0),
+                                  f.scene->camera.angle));
+    CHECK(v3_same(c->center, want.center));
+    CHECK_MSG(v3_same(c->lower_left, want.lower_left),
+              "screen corner %g %g %g, wanted %g %g %g", (double)c->lower_left.x,
+              (double)c->lower_left.y, (double)c->lower_left.z, (double)want.lower_left.x,
+              (double)want.lower_left.y, (double)want.lower_left.z);
+    Ray r = camera_generate_ray(c, 0.5f, 0.5f);
+    CHECK_MSG(v3_same(r.dir, v3(0, 0, -1)), "centre ray %g %g %g", (double)r.dir.x,
+              (double)r.dir.y, (double)r.dir.z);
+    /* A move out of float range leaves the camera where it was (finite), as a rotation
+     * that would make the basis degenerate does. */
+    Camera before = f.view.camera;
+    for (int k = 0; k < 40; k++)
+        preview_view_dolly(&f.view, 3.0e38f);
+    CHECK(v3_isfinite(f.view.camera.center) && v3_isfinite(f.view.camera.lower_left));
+    CHECK(f.view.camera.center.z < before.center.z);
     fixture_free(&f);
 }
 
@@ -566,12 +615,54 @@ static void test_grid_view_snapshot(void)
     e2e_rmtree(dir);
 }
 
+/* r after truck and dolly renders what the command line renders from the moved camera
+ * (the scene with that centre): the same bytes. Before, the screen stayed behind and the
+ * moved render was mostly background. */
+static void test_snapshot_render_after_truck_dolly(void)
+{
+    need_snapshot();
+    char dir[PATH_MAX], scene[PATH_MAX], moved[PATH_MAX], snap[PATH_MAX], a[PATH_MAX],
+        b[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "pvmove") != NULL);
+    e2e_join(scene, sizeof scene, dir, "s.txt");
+    e2e_join(moved, sizeof moved, dir, "moved.txt");
+    e2e_join(snap, sizeof snap, dir, "snap.tga");
+    e2e_join(a, sizeof a, dir, "r.tga");
+    e2e_join(b, sizeof b, dir, "cli.tga");
+    char text[1024];
+    snprintf(text, sizeof text, "%s", PERSP_SPHERES);
+    CHECK(e2e_write_file(scene, text));
+    /* dolly 20 = 1 unit along -z, truck 20,-10 = 1 unit left and 0.5 down. */
+    char *at = strstr(text, "center 0 0 10");
+    CHECK(at != NULL);
+    if (at) {
+        char rest[1024];
+        snprintf(rest, sizeof rest, "%s", at + strlen("center 0 0 10"));
+        snprintf(at, sizeof text - (size_t)(at - text), "center -1 -0.5 9%s", rest);
+    }
+    CHECK(e2e_write_file(moved, text));
+    const char *a1[] = {"-input", scene, "-size", "40", "40", "-shadows", "-output", a,
+                        "-gui_snapshot", snap, "-gui_keys", "dolly:20 truck:20,-10 r", NULL};
+    const char *a2[] = {"-input", moved, "-size", "40", "40", "-shadows", "-output", b, NULL};
+    if (run_ok(a1) && run_ok(a2)) {
+        size_t na = 0, nb = 0;
+        char *da = e2e_read_file(a, &na), *db = e2e_read_file(b, &nb);
+        CHECK(da && db);
+        CHECK_MSG(da && db && na == nb && memcmp(da, db, na) == 0,
+                  "r after the moves differs from the render of the moved camera");
+        free(da);
+        free(db);
+    }
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"keys_parse_all_commands", test_keys_parse_all_commands},
     {"keys_parse_rejects_bad_words", test_keys_parse_rejects_bad_words},
     {"keys_check_pixel_in_image", test_keys_check_pixel_in_image},
     {"rotate_keeps_distance_and_aim", test_rotate_keeps_distance_and_aim},
     {"truck_and_dolly_units", test_truck_and_dolly_units},
+    {"truck_and_dolly_move_the_screen", test_truck_and_dolly_move_the_screen},
     {"trace_records_main_and_shadow", test_trace_records_main_and_shadow},
     {"trace_deep_tree_is_cut", test_trace_deep_tree_is_cut},
     {"snapshot_course_01", test_snapshot_course_01},
@@ -581,6 +672,7 @@ static const TestCase tests[] = {
     {"snapshot_ray_tree_lines", test_snapshot_ray_tree_lines},
     {"snapshot_bad_script_writes_nothing", test_snapshot_bad_script_writes_nothing},
     {"grid_view_snapshot", test_grid_view_snapshot},
+    {"snapshot_render_after_truck_dolly", test_snapshot_render_after_truck_dolly},
 };
 
 RT_TEST_MAIN(tests)
