@@ -1134,14 +1134,8 @@ static int run(App *app)
     prepare_output(app);
     Scene *s = app->scene;
     SrcLoc file = {s->path, 0, 0};
-    if (!s->has_camera) {
-        diag_error(&app->diag, &file, "the scene has no camera (OrthographicCamera or PerspectiveCamera)");
+    if (!scene_check_renderable(s, &app->diag))
         return EXIT_INPUT;
-    }
-    if (!s->root) {
-        diag_error(&app->diag, &file, "the scene has no Group of objects");
-        return EXIT_INPUT;
-    }
     if (s->no_lights)
         diag_warning(&app->diag, &file, "no lights specified: ambient light set to (1, 1, 1)");
 

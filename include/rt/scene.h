@@ -31,6 +31,8 @@ typedef struct Scene {
     Arena arena;                /* owns everything below */
     const char *path;           /* the file as given */
     bool has_camera;
+    int end_line, end_col;      /* where the text ends: a missing camera or Group is
+                                   reported there (0: not parsed) */
     Camera camera;
     Vec3 background;            /* default (0.5, 0.5, 0.5) */
     Vec3 ambient;               /* default 0; (1,1,1) when there are no lights */
@@ -76,6 +78,12 @@ Scene *scene_load_string(const char *text, const char *name, const char *base_di
 Scene *scene_load_buffer(const char *buf, size_t len, const char *name, const char *base_dir,
                          Diag *diag);
 void scene_free(Scene *s);
+
+/* Whether s can be rendered: it has a camera and a Group. A scene may parse without
+ * them (the parser's tests, -render_filter alone needs none), so the program asks
+ * this before it renders; false after reporting what is missing at the place where
+ * the text ends. */
+bool scene_check_renderable(const Scene *s, Diag *diag);
 
 /* scene_load reading every file through files (NULL: the disk, as scene_load). */
 Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag);

@@ -1324,8 +1324,11 @@ bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
             ok = false;
             break;
         }
-        if (lex_eof(&t))
+        if (lex_eof(&t)) {
+            s->end_line = t.loc.line;
+            s->end_col = t.loc.col;
             break;
+        }
         note_top_block(&p, &t);
         if (lex_is(&t, "OrthographicCamera"))
             ok = parse_camera(&p, false);

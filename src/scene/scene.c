@@ -38,6 +38,23 @@ void scene_free(Scene *s)
     free(s);
 }
 
+bool scene_check_renderable(const Scene *s, Diag *diag)
+{
+    /* What the whole file lacks is reported where it ends, as a compiler reports a
+     * missing closing brace: the place to add it. */
+    SrcLoc end = {s->path, s->end_line, s->end_col};
+    if (!s->has_camera) {
+        diag_error(diag, &end,
+                   "the scene ends without a camera (OrthographicCamera or PerspectiveCamera)");
+        return false;
+    }
+    if (!s->root) {
+        diag_error(diag, &end, "the scene ends without a Group of objects");
+        return false;
+    }
+    return true;
+}
+
 bool scene_leaf_loc(const Scene *s, uint32_t id, SrcLoc *loc)
 {
     loc->file = s->path;

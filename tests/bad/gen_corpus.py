@@ -4,7 +4,10 @@ loading a malformed NAME*.obj) and NAME.expect (exit status, then the expected m
 INCLUDING its location). The location is not typed by hand: '@@' in a case marks where
 the error must be reported and is removed from the file. Run from anywhere:
     python3 tests/bad/gen_corpus.py
-Messages start with 'bad/NAME.txt:' so they match however the path is prefixed."""
+Messages start with 'bad/NAME.txt:' so they match however the path is prefixed. The
+test checks that the expected message is part of what the program says. Cases added by
+hand (a NAME.txt and NAME.expect with no entry here) are left as they are: this script
+only writes its own cases' files."""
 import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -46,7 +49,8 @@ def case(name, text, msg, files=None, at_file=None):
 
 
 # --- misspelled keywords at every level -------------------------------------------
-case("unknown_toplevel", "@@Camera {\n}\n" + HEAD, "unknown top-level block 'Camera'")
+case("unknown_toplevel", "@@Camera {\n}\n" + HEAD, "unknown top-level block 'Camera' (expected one of OrthographicCamera, "
+     "PerspectiveCamera, Background, Lights, Materials or Group)")
 case("misspelled_center", "OrthographicCamera {\n    @@centre 0 0 10\n", "expected 'center', found 'centre'")
 case("misspelled_direction", CAM.replace("    direction", "    @@dirction") + LIGHTS,
      "expected 'direction', found 'dirction'")
@@ -71,9 +75,11 @@ case("misspelled_attenuation",
      "expected 'attenuation' or '}', found 'attenuate'")
 case("misspelled_nummaterials", "Materials {\n    @@nummaterials 1\n}\n",
      "expected 'numMaterials', found 'nummaterials'")
-case("unknown_material", mats("    @@Lambert { }\n", 1), "unknown material 'Lambert'")
+case("unknown_material", mats("    @@Lambert { }\n", 1), "unknown material 'Lambert' (expected one of "
+     "PhongMaterial, Material, Checkerboard, Noise, Marble or Wood)")
 case("phong_unknown_field", mats("    PhongMaterial {\n        @@shininess 20\n    }\n", 1),
-     "unknown PhongMaterial field 'shininess'")
+     "unknown PhongMaterial field 'shininess' (expected one of diffuseColor, specularColor, "
+     "exponent, reflectiveColor, transparentColor or indexOfRefraction)")
 case("checkerboard_capital_index",
      mats(PH + PH + "    Checkerboard {\n        @@MaterialIndex 0\n        materialIndex 1\n    }\n", 3),
      "expected 'materialIndex', found 'MaterialIndex'")
@@ -98,7 +104,7 @@ case("misspelled_vertex2", HEAD + group("    Triangle {\n        vertex0 0 0 0\n
 case("misspelled_obj_file", HEAD + group("    TriangleMesh {\n        @@file cube.obj\n    }\n"),
      "expected 'obj_file', found 'file'")
 case("unknown_transformation", HEAD + group("    Transform {\n        @@Shear 1 2 3\n" + SPHERE + "    }\n"),
-     "unknown object 'Shear'")
+     "unknown transformation or object 'Shear'")
 case("lowercase_keyword", HEAD + "@@group {\n    numObjects 0\n}\n", "unknown top-level block 'group'")
 
 case("misspelled_background_block", "@@BackGround {\n    color 0 0 0\n}\n", "unknown top-level block 'BackGround'")
@@ -148,7 +154,8 @@ case("missing_close_in_sphere", HEAD + group("    Sphere {\n        center 0 0 0
 case("bad_number_word", HEAD + group("    Sphere {\n        center 0 0 0\n        radius @@one\n    }\n"),
      "expected a number, found 'one'")
 case("bad_number_comma", HEAD + group("    Sphere {\n        center @@0,5 0 0\n        radius 1\n    }\n"),
-     "expected a number, found '0,5'")
+     "expected a number, found '0,5' (numbers are separated by white space, and their "
+     "decimal point is '.')")
 case("bad_number_two_dots", "Background {\n    color 0.5 @@0.5.5 0\n}\n", "expected a number, found '0.5.5'")
 case("nan_value", HEAD + group("    Sphere {\n        center 0 0 0\n        radius @@nan\n    }\n"),
      "number out of range: 'nan'")
@@ -230,6 +237,13 @@ case("truncated_after_keyword", HEAD + "Group {\n    numObjects 1\n    MaterialI
      "unexpected end of file, expected '{'")
 case("truncated_mid_vec3", HEAD + "Group {\n    numObjects 1\n    MaterialIndex 0\n    Sphere {\n        center 0 0\n@@",
      "unexpected end of file, expected a number")
+# What the whole scene lacks is reported where it ends.
+case("no_camera", LIGHTS + MATS + group(SPHERE) + "@@",
+     "the scene ends without a camera (OrthographicCamera or PerspectiveCamera)")
+case("no_group", HEAD + "\n@@", "the scene ends without a Group of objects")
+case("empty_file", "@@", "the scene ends without a camera (OrthographicCamera or PerspectiveCamera)")
+case("blanks_only", "\n  \n\t\n  @@", "the scene ends without a camera (OrthographicCamera or "
+     "PerspectiveCamera)")
 case("truncated_in_camera", "OrthographicCamera {\n    center 0 0 10\n    direction@@",
      "unexpected end of file, expected a number")
 case("truncated_camera_fields", "PerspectiveCamera {\n    center 0 0 10\n    direction 0 0 -1\n@@",
@@ -305,8 +319,8 @@ for i in range(100):
 deep += SPHERE + "}\n" * 100
 case("deep_nesting", deep, "objects nested deeper than 64 levels")
 case("long_token", "@@" + "A" * 5000 + "\n", "token too long (5000 characters, the limit is 4096)")
-case("hash_comment", "@@# a comment: the course format has none\n" + HEAD, "unknown top-level block '#'")
-case("slash_comment", HEAD + "@@// trailing comment\n", "unknown top-level block '//'")
+case("hash_comment", "@@# a comment: the course format has none\n" + HEAD, "unknown top-level block '#' (scene files have no comments)")
+case("slash_comment", HEAD + "@@// trailing comment\n", "unknown top-level block '//' (scene files have no comments)")
 case("binary_garbage", b"@@\x7fELF\x02\x01\x01\x00\x00garbage \xff\xfe\n",
      "control byte \\x7f in the scene")
 # A keyword followed by NUL bytes once made the keyword comparison read past the end of
@@ -367,9 +381,6 @@ def as_bytes(x):
 
 
 def main():
-    for f in os.listdir(HERE):
-        if f.endswith((".txt", ".expect", ".obj", ".bin")) and os.path.isfile(os.path.join(HERE, f)):
-            os.remove(os.path.join(HERE, f))
     d = os.path.join(HERE, "obj_dir.obj")
     os.makedirs(d, exist_ok=True)
     with open(os.path.join(d, "README"), "w") as fh:
