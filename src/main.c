@@ -1095,6 +1095,23 @@ static int run(App *app)
         if (status)
             return status == 2 ? EXIT_USAGE : EXIT_INPUT;
     }
+    /* -gui_snapshot draws one frame; the images and statistics asked for come only from
+     * the script's r (in the window the user may still press it). Without r they were
+     * left out in silence, with exit status 0. */
+    if (o->gui_snapshot && !preview_keys_render(o->gui_keys)) {
+        const char *names[] = {"-output", "-depth", "-normals", "-stats", "-render_samples",
+                               "-render_filter"};
+        bool given[] = {o->output != NULL, o->depth_file != NULL, o->normals_file != NULL,
+                        o->stats, o->samples_file != NULL, o->filter_file != NULL};
+        char list[160] = "";
+        for (size_t i = 0; i < sizeof names / sizeof names[0]; i++)
+            if (given[i])
+                snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s",
+                         list[0] ? ", " : "", names[i]);
+        if (list[0] && dist_is_root())
+            fprintf(stderr, "%s: warning: nothing is rendered for %s: with -gui_snapshot "
+                    "only an r in -gui_keys renders (-gui_keys r)\n", diag_program(), list);
+    }
     /* A filter picture alone depends on the filter options, -size and the zoom only:
      * the scene (a big mesh's file and grid take seconds; a scene that is missing or
      * broken failed the run) is not read, and render_and_write traces nothing. */

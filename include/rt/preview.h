@@ -46,5 +46,8 @@ int preview_snapshot(const PreviewConfig *cfg, Diag *diag);
  * error, "-gui_keys: ..." reported) for a bad command or a shot:FILE without a known
  * image extension; 1 for a shot:FILE that cannot be written (a missing folder). */
 int preview_keys_validate(const char *keys, Diag *diag);
+/* Whether the -gui_keys script (NULL: none) is well formed and has an r command: with
+ * -gui_snapshot only r renders the images and the statistics asked for. */
+bool preview_keys_render(const char *keys);
 
 #endif

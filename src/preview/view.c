@@ -356,6 +356,20 @@ int preview_keys_validate(const char *keys, Diag *diag)
     return status;
 }
 
+bool preview_keys_render(const char *keys)
+{
+    Diag quiet;
+    diag_init(&quiet, NULL);
+    KeyScript s;
+    if (!preview_keys_parse(keys, &s, &quiet))
+        return false;
+    bool render = false;
+    for (int k = 0; k < s.count; k++)
+        render = render || s.cmds[k].kind == KEYCMD_RENDER;
+    preview_keys_free(&s);
+    return render;
+}
+
 void preview_keys_free(KeyScript *s)
 {
     for (int k = 0; k < s->count; k++)

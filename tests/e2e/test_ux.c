@@ -616,6 +616,42 @@ static void test_preview_keys_print(void)
     e2e_rmtree(p.dir);
 }
 
+/* -gui_snapshot renders the images and statistics asked for only through an r in
+ * -gui_keys: without one it now says so (before, -output, -stats and the others were
+ * left out in silence, exit 0); with r nothing is said and the image is written. */
+static void test_snapshot_without_r_warns(void)
+{
+    if (!preview_snapshot_built())
+        harness_skip("-gui_snapshot not built (apt-get install libosmesa6-dev; rebuild)");
+    Paths p;
+    paths_init(&p);
+    char shot[PATH_MAX];
+    e2e_join(shot, sizeof shot, p.dir, "shot.tga");
+    static const char *const keys[] = {NULL, "rot:10,0 t", "rot:10,0 r"};
+    for (int k = 0; k < 3; k++) {
+        const char *args[] = {"-input", p.scene, "-size", "16", "12", "-output", p.out,
+                              "-stats", "-gui_snapshot", shot,
+                              keys[k] ? "-gui_keys" : NULL, keys[k], NULL};
+        E2eRun r;
+        char why[512];
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        CHECK_MSG(r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
+        const char *warning = "warning: nothing is rendered for -output, -stats: with "
+                              "-gui_snapshot only an r in -gui_keys renders (-gui_keys r)";
+        if (k < 2) {
+            CHECK_MSG(strstr(r.err, warning) != NULL, "keys %s: stderr '%s'",
+                      keys[k] ? keys[k] : "(none)", r.err);
+            CHECK(!e2e_exists(p.out));
+        } else {
+            CHECK_MSG(strstr(r.err, "warning") == NULL, "with r: stderr '%s'", r.err);
+            CHECK(e2e_exists(p.out));
+            CHECK_CONTAINS(r.out, "RAY TRACING STATISTICS");
+        }
+        e2e_run_free(&r);
+    }
+    e2e_rmtree(p.dir);
+}
+
 /* Runs the binary with args, its standard input and standard error on a new
  * pseudo-terminal (stdout to /dev/null), types feed into the terminal followed by the
  * end-of-file character (Ctrl-D), and returns what the terminal showed (malloc'd: the
@@ -742,6 +778,8 @@ static const TestCase tests[] = {
     {"ux: the preview's options are checked before the scene is read",
      test_preview_checked_first},
     {"ux: a -gui_snapshot wider than OpenGL draws is refused", test_snapshot_wider_than_gl},
+    {"ux: -gui_snapshot without r in -gui_keys warns that nothing is rendered",
+     test_snapshot_without_r_warns},
     {"ux: outputs are checked before the scene is read", test_outputs_checked_first},
     {"ux: progress line on a terminal, erased at the end", test_progress_on_terminal},
     {"ux: progress line while antialiasing", test_progress_antialiased},
