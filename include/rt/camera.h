@@ -23,7 +23,19 @@ typedef struct Camera {
      * its bottom-left corner and its two edges (2 tan_half long). A ray aims at
      * lower_left + u x_axis + v y_axis. */
     Vec3 lower_left, x_axis, y_axis;
+    /* Perspective with an eye far from the origin (a coordinate of magnitude
+     * CAMERA_FAR_EYE or more): the world-space screen point has lost the bits that
+     * tell neighbouring rays apart (ulp(|eye|), 2 at 2^24, where every ray came out
+     * sideways and the image empty), so the rays aim at screen_offset + u x_axis +
+     * v y_axis, the screen relative to the eye (d - t up - t h), instead. */
+    bool far_eye;
+    Vec3 screen_offset;
 } Camera;
+
+/* The eye coordinate from which a perspective camera aims relative to the eye: at 128
+ * the world-space screen point is rounded to 2^-16, under a pixel of a 32768-wide
+ * image at 30 degrees; every course and project scene's eye is nearer (at most 95). */
+#define CAMERA_FAR_EYE 128.0f
 
 /* Build the basis the course's way: direction and up normalised, horizontal =
  * normalize(direction x up), screen up = horizontal x direction; then the perspective
@@ -39,7 +51,9 @@ bool camera_rebasis(Camera *c);
  * direction. Perspective: origin the eye, direction normalize(screen point - eye), the
  * screen point lower_left + u x_axis + v y_axis computed in world space (in float, in
  * that order), as the course's camera does: its rounding decides colours on grazing
- * floors, where the official images are matched only this way. */
+ * floors, where the official images are matched only this way. With far_eye the
+ * direction is normalize(screen_offset + u x_axis + v y_axis) instead (the same rays,
+ * without the loss). */
 Ray camera_generate_ray(const Camera *c, float u, float v);
 /* The pixel-centre rays of a block of pixels: rays[j * nx + i] (or rays[slot[j * nx +
  * i]] when slot is not NULL: the renderer's lanes) is the ray of pixel (x0 + i, y0 + j)

@@ -49,6 +49,9 @@ bool camera_rebasis(Camera *c)
     c->lower_left = v3_sub(v3_sub(v3_add(c->center, d), v3_scale(up, t)), v3_scale(h, t));
     c->x_axis = v3_scale(v3_scale(h, 2.0f), t);
     c->y_axis = v3_scale(v3_scale(up, 2.0f), t);
+    c->screen_offset = v3_sub(v3_sub(d, v3_scale(up, t)), v3_scale(h, t));
+    float far = fmaxf(fabsf(c->center.x), fmaxf(fabsf(c->center.y), fabsf(c->center.z)));
+    c->far_eye = c->kind == CAMERA_PERSPECTIVE && far >= CAMERA_FAR_EYE;
     return true;
 }
 
@@ -86,6 +89,12 @@ Ray camera_generate_ray(const Camera *c, float u, float v)
         r.origin = v3_add(c->center, v3_add(v3_scale(c->horizontal, (u - 0.5f) * c->size),
                                             v3_scale(c->up, (v - 0.5f) * c->size)));
         r.dir = c->direction;
+    } else if (c->far_eye) {
+        /* The screen relative to the eye: world space would round the directions of
+         * neighbouring pixels to the same few values (rt/camera.h). */
+        Vec3 p = v3_add(v3_add(c->screen_offset, v3_scale(c->x_axis, u)), v3_scale(c->y_axis, v));
+        r.origin = c->center;
+        r.dir = unit_by_division(p);
     } else {
         /* The screen point in world space minus the eye (not d + offsets): the
          * course's rounding, which the official images need (rt/camera.h). */
@@ -264,6 +273,17 @@ void camera_pixel_rays(const Camera *c, int x0, int y0, int nx, int ny, int widt
             }
         return;
     }
+    if (c->far_eye) {
+        /* camera_generate_ray's own form, one ray at a time: the lanes below aim in
+         * world space. */
+        for (int j = 0; j < ny; j++)
+            for (int i = 0; i < nx; i++) {
+                float u, v;
+                camera_pixel_to_screen(x0 + i, y0 + j, width, height, &u, &v);
+                *block_ray(rays, slot, nx, i, j) = camera_generate_ray(c, u, v);
+            }
+        return;
+    }
     Vec3 e = c->center;
     int done = 0;
 #if defined(__SSE2__)
@@ -302,7 +322,7 @@ void camera_block8_rays(const Camera *c, int x0, int y0, int width, int height,
 {
 #ifdef HAVE_ROWS_AVX2
     /* Asked on every call (a load), as camera_pixel_rays does. */
-    if (c->kind != CAMERA_ORTHOGRAPHIC && !g_block8_plain && cpu_has_avx2()) {
+    if (c->kind != CAMERA_ORTHOGRAPHIC && !c->far_eye && !g_block8_plain && cpu_has_avx2()) {
         Vec3 col[8], row[8];
         block_terms(c, x0, y0, 8, 8, width, height, col, row);
         lanes_avx2(c->center, col, row, lane, rays);
@@ -639,7 +659,7 @@ void camera_sample_rays_pixels(const Camera *c, int npx, const int *x, const int
 {
 #ifdef HAVE_SAMPLE_RAYS_AVX512
     int isa = sample_isa >= 0 ? sample_isa : cpu_has_avx512() ? 2 : 0;
-    if (c->kind == CAMERA_PERSPECTIVE && isa == 2) {
+    if (c->kind == CAMERA_PERSPECTIVE && !c->far_eye && isa == 2) {
         sample_rays_pixels_avx512(c, npx, x, y, xy, width, height, rays);
         return;
     }
@@ -651,6 +671,16 @@ void camera_sample_rays_pixels(const Camera *c, int npx, const int *x, const int
 void camera_sample_rays(const Camera *c, int x, int y, const float *xy, int n, int width,
                         int height, Ray *rays)
 {
+    if (c->far_eye) {
+        /* camera_generate_ray's own form, one ray at a time: the lanes below aim in
+         * world space (rt/camera.h). */
+        for (int k = 0; k < n; k++) {
+            float u, v;
+            camera_sample_to_screen(x, y, xy[2 * k], xy[2 * k + 1], width, height, &u, &v);
+            rays[k] = camera_generate_ray(c, u, v);
+        }
+        return;
+    }
     int k = 0;
     /* Asked on every call (a load), as camera_pixel_rays does. */
     int isa = sample_isa >= 0 ? sample_isa : cpu_has_avx512() ? 2 : cpu_has_avx2() ? 1 : 0;
@@ -723,7 +753,7 @@ void camera_sample_rays_put(const Camera *c, int x, int y, const float *xy, int 
      * for the other path): the caller asks for this only where it would otherwise
      * take them through camera_sample_rays. */
     int isa = sample_isa >= 0 ? sample_isa : cpu_has_avx2() ? 1 : 0;
-    if (c->kind == CAMERA_PERSPECTIVE && n >= 8 && isa >= 1)
+    if (c->kind == CAMERA_PERSPECTIVE && !c->far_eye && n >= 8 && isa >= 1)
         k = sample_rays_put_avx2(c, x, y, xy, n, width, height, rays, pos, stride, dest);
 #endif
     if (k < n)

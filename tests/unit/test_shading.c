@@ -10,6 +10,7 @@
 #include "../../src/render/phong_packet.h"
 
 #include <float.h>
+#include <math.h>
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -48,9 +49,66 @@ static void test_cameras(void)
     CHECK(!camera_init_orthographic(&c, v3(0, 0, 0), v3(0, 0, 1), v3(0, 1, 0), 0));
 }
 
+/* A perspective eye far from the origin aims as precisely as a near one. The screen
+ * point in world space was rounded to ulp(|eye|): at 1e5 every ray of a 30-degree view
+ * was off by up to 0.005 radians (the image came out blocky at 200 x 200), and from 2^24
+ * on (3e7 here) the rays went sideways and the image was empty. Each ray of a 4096-wide
+ * image (pixels 1.3e-4 radians apart) against the textbook direction
+ * normalize(d + (2u - 1) t h + (2v - 1) t up) in double, from the camera's own basis:
+ * within 1e-6 radians, and neighbouring pixels' rays distinct; eyes at 200 (just past
+ * CAMERA_FAR_EYE), 1e5 and 3e7, and one at 20 (the course's range, aiming in world
+ * space: within 1e-5) for comparison. */
+static void test_far_eye_rays(void)
+{
+    static const float eyes[4] = {20.0f, 200.0f, 1e5f, 3e7f};
+    for (int e = 0; e < 4; e++) {
+        Camera c;
+        float k = eyes[e];
+        CHECK(camera_init_perspective(&c, v3(k, -0.7f * k, 0.4f * k), v3(-1, 0.7f, -0.4f),
+                                      v3(0, 0, 1), 30.0f * 3.14159265f / 180.0f));
+        double worst = 0.0;
+        int same = 0;
+        Ray prev = {{0, 0, 0}, {0, 0, 0}};
+        for (int j = 0; j < 4096; j += 273)
+            for (int i = 0; i < 4096; i += (i % 2 ? 511 : 1)) {
+                float u, v;
+                camera_pixel_to_screen(i, j, 4096, 4096, &u, &v);
+                Ray r = camera_generate_ray(&c, u, v);
+                double a = 2.0 * (double)u - 1.0, b = 2.0 * (double)v - 1.0;
+                double t = (double)c.tan_half;
+                const float *d = &c.direction.x, *h = &c.horizontal.x, *up = &c.up.x;
+                const float *got = &r.dir.x;
+                double w[3], n = 0.0, err = 0.0;
+                for (int q = 0; q < 3; q++) {
+                    w[q] = (double)d[q] + a * t * (double)h[q] + b * t * (double)up[q];
+                    n += w[q] * w[q];
+                }
+                for (int q = 0; q < 3; q++) {
+                    double diff = (double)got[q] - w[q] / sqrt(n);
+                    err += diff * diff;
+                }
+                err = sqrt(err);
+                worst = err > worst ? err : worst;
+                if (i % 2 == 1 && memcmp(&prev.dir, &r.dir, sizeof r.dir) == 0)
+                    same++;
+                prev = r;
+            }
+        /* The world-space form at 20: about 2e-6 (ulp(20) = 2e-6), the course's rounding. */
+        double bound = k >= CAMERA_FAR_EYE ? 1e-6 : 1e-5;
+        if (worst > bound || same)
+            fprintf(stderr, "  eye at %g: rays off by up to %g radians, %d pixels share their "
+                            "neighbour's ray\n", (double)k, worst, same);
+        CHECK(worst <= bound);
+        CHECK_INT(same, 0);
+        CHECK(c.far_eye == (k >= CAMERA_FAR_EYE));
+    }
+}
+
 /* The cameras and image sizes the ray-generation tests compare over: course line 07's
- * perspective view, an oblique perspective with a tilted up vector, and an orthographic
- * camera looking slightly sideways; a square, a wide and an odd-sized cropped image. */
+ * perspective view, an oblique perspective with a tilted up vector, an orthographic
+ * camera looking slightly sideways and a perspective eye far from the origin (aiming
+ * relative to the eye, rt/camera.h); a square, a wide and an odd-sized cropped image. */
+enum { RAY_TEST_CAMERAS = 4 };
 static const int ray_test_sizes[3][2] = {{200, 200}, {1920, 1080}, {333, 517}};
 
 /* n floats in [0, 1) from the LCG state *st (24-bit steps): sample positions. */
@@ -62,13 +120,15 @@ static void ray_test_unit_floats(uint32_t *st, float *out, int n)
     }
 }
 
-static void ray_test_cameras(Camera cams[3])
+static void ray_test_cameras(Camera cams[RAY_TEST_CAMERAS])
 {
     CHECK(camera_init_perspective(&cams[0], v3(-0.084519f, 0.313242f, 0.855356f),
                                   v3(0.049361f, -0.139598f, -0.988977f), v3(0, 1, 0),
                                   26.0f * 3.14159265f / 180.0f));
     CHECK(camera_init_perspective(&cams[1], v3(1, 2, 3), v3(-1, -0.5f, -2), v3(0.1f, 1, 0), 1.9f));
     CHECK(camera_init_orthographic(&cams[2], v3(0, 0, 10), v3(0.2f, 0.1f, -2), v3(0, 3, 0.5f), 4));
+    CHECK(camera_init_perspective(&cams[3], v3(3e5f, -2e5f, 1e5f), v3(-3, 2, -1.1f), v3(0, 0, 1), 0.6f));
+    CHECK(cams[3].far_eye && !cams[0].far_eye && !cams[1].far_eye && !cams[2].far_eye);
 }
 
 /* camera_pixel_rays gives each pixel camera_generate_ray(camera_pixel_to_screen) to
@@ -76,11 +136,11 @@ static void ray_test_cameras(Camera cams[3])
  * places and of every size up to the maximum. */
 static void test_pixel_rays_block(void)
 {
-    Camera cams[3];
+    Camera cams[RAY_TEST_CAMERAS];
     ray_test_cameras(cams);
     const int (*sizes)[2] = ray_test_sizes;
     int differ = 0, checked = 0;
-    for (int c = 0; c < 3; c++)
+    for (int c = 0; c < RAY_TEST_CAMERAS; c++)
         for (int s = 0; s < 3; s++)
             for (int b = 0; b < 6; b++) {
                 int W = sizes[s][0], H = sizes[s][1];
@@ -116,14 +176,14 @@ static void test_pixel_rays_block(void)
  * table) each. */
 static void test_block8_rays(void)
 {
-    Camera cams[3];
+    Camera cams[RAY_TEST_CAMERAS];
     ray_test_cameras(cams);
     const int (*sizes)[2] = ray_test_sizes;
     uint32_t st = 2024;
     int differ = 0, checked = 0;
     for (int plain = 0; plain < 2; plain++) {
         camera_block8_rays_plain(plain != 0);
-        for (int c = 0; c < 3; c++)
+        for (int c = 0; c < RAY_TEST_CAMERAS; c++)
             for (int s = 0; s < 3; s++)
                 for (int b = 0; b < 4; b++) {
                     int W = sizes[s][0], H = sizes[s][1];
@@ -154,7 +214,7 @@ static void test_block8_rays(void)
     }
     camera_block8_rays_plain(false);
     CHECK_INT(differ, 0);
-    CHECK_INT(checked, 2 * 3 * 3 * 4 * 64);
+    CHECK_INT(checked, 2 * RAY_TEST_CAMERAS * 3 * 4 * 64);
 }
 
 /* camera_sample_rays gives each sample camera_generate_ray(camera_sample_to_screen) to
@@ -163,12 +223,12 @@ static void test_block8_rays(void)
  * each copy of the lanes this CPU runs. */
 static void test_sample_rays_with(const char *isa)
 {
-    Camera cams[3];
+    Camera cams[RAY_TEST_CAMERAS];
     ray_test_cameras(cams);
     const int (*sizes)[2] = ray_test_sizes;
     uint32_t st = 12345;
     int differ = 0, checked = 0;
-    for (int c = 0; c < 3; c++)
+    for (int c = 0; c < RAY_TEST_CAMERAS; c++)
         for (int s = 0; s < 3; s++)
             for (int n = 1; n <= 37; n += 4) {
                 int W = sizes[s][0], H = sizes[s][1];
@@ -200,12 +260,12 @@ static void test_sample_rays_with(const char *isa)
  * runs. */
 static void test_sample_rays_put_with(const char *isa)
 {
-    Camera cams[3];
+    Camera cams[RAY_TEST_CAMERAS];
     ray_test_cameras(cams);
     const int (*sizes)[2] = ray_test_sizes;
     uint32_t st = 54321;
     int differ = 0, checked = 0;
-    for (int c = 0; c < 3; c++)
+    for (int c = 0; c < RAY_TEST_CAMERAS; c++)
         for (int s = 0; s < 3; s++)
             for (int n = 1; n <= 37; n += 4)
                 for (size_t stride = 5; stride <= 7; stride += 2) {
@@ -248,12 +308,12 @@ static void test_sample_rays_put_with(const char *isa)
  * the bit, in its own 16 slots; with each copy of the lanes this CPU runs. */
 static void test_sample_rays_pixels_with(const char *isa)
 {
-    Camera cams[3];
+    Camera cams[RAY_TEST_CAMERAS];
     ray_test_cameras(cams);
     const int (*sizes)[2] = ray_test_sizes;
     uint32_t st = 777;
     int differ = 0, checked = 0;
-    for (int c = 0; c < 3; c++)
+    for (int c = 0; c < RAY_TEST_CAMERAS; c++)
         for (int s = 0; s < 3; s++)
             for (int npx = 1; npx <= 5; npx++) {
                 int W = sizes[s][0], H = sizes[s][1];
@@ -283,7 +343,7 @@ static void test_sample_rays_pixels_with(const char *isa)
         fprintf(stderr, "  camera_sample_rays_pixels, %s lanes: %d of %d rays differ\n", isa,
                 differ, checked);
     CHECK_INT(differ, 0);
-    CHECK_INT(checked, 3 * 3 * 15 * 16);
+    CHECK_INT(checked, RAY_TEST_CAMERAS * 3 * 15 * 16);
 }
 
 static void test_sample_rays(void)
@@ -1524,6 +1584,7 @@ static const TestCase tests[] = {
     {"render: -depth and -normals images", test_depth_and_normals_images},
     {"shading: pixel centres and cropping", test_pixel_mapping},
     {"shading: camera bases and rays", test_cameras},
+    {"shading: a far perspective eye aims as precisely as a near one", test_far_eye_rays},
     {"shading: a block of pixel rays, to the bit", test_pixel_rays_block},
     {"shading: an 8 x 8 block of pixel rays in lane order, to the bit", test_block8_rays},
     {"shading: a pixel's sample rays, to the bit", test_sample_rays},
