@@ -524,7 +524,7 @@ void preview_draw_frame(const GlApi *gl, const PreviewView *v, int w, int h,
                         const PreviewTraced *traced)
 {
     const Scene *s = v->cfg->scene;
-    const Grid *grid = grid_of_accel(v->cfg->tracer->accel);
+    const Grid *grid = preview_view_grid(v);
     gl->Viewport(0, 0, w, h);
     gl->ClearColor(s->background.x, s->background.y, s->background.z, 1.0f);
     gl->Clear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);

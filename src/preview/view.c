@@ -11,6 +11,7 @@
 #include "rt/diag.h"
 #include "rt/matrix.h"
 #include "rt/grid.h"
+#include "rt/twolevel.h"
 #include "rt/image.h"
 #include "rt/raytracer.h"
 #include "rt/scene.h"
@@ -40,7 +41,7 @@ bool preview_view_init(PreviewView *v, const PreviewConfig *cfg, Diag *diag)
         v->pivot = v3_scale(v3_add(b->min, b->max), 0.5f);
     else
         v->pivot = v3_madd(v->camera.center, v->camera.direction, 10.0f);
-    v->mode = (cfg->visualize_grid && grid_of_accel(cfg->tracer->accel)) ? PREVIEW_GRID : PREVIEW_OBJECTS;
+    v->mode = (cfg->visualize_grid && preview_view_grid(v)) ? PREVIEW_GRID : PREVIEW_OBJECTS;
     v->tree = malloc(sizeof *v->tree);
     if (!v->tree) {
         diag_error(diag, NULL, "out of memory for the preview's ray tree");
@@ -48,6 +49,19 @@ bool preview_view_init(PreviewView *v, const PreviewConfig *cfg, Diag *diag)
     }
     ray_tree_clear(v->tree);
     return true;
+}
+
+/* The two-level grid's top level is a course Grid: what -visualize_grid draws where
+ * -grid auto builds the two-level grid, and the cells its walk records in the ray tree.
+ * Only the uniform grid was looked for, so with -grid auto on an uneven scene (the
+ * showcase) g said "no grid to show: run with -grid nx ny nz" and -visualize_grid
+ * started in the object view. */
+const Grid *preview_view_grid(const PreviewView *v)
+{
+    const Accel *a = v->cfg->tracer->accel;
+    const Grid *g = grid_of_accel(a);
+    const TwoLevelGrid *t = g ? NULL : twolevel_of_accel(a);
+    return t ? twolevel_top(t) : g;
 }
 
 void preview_view_free(PreviewView *v)
@@ -127,7 +141,7 @@ bool preview_view_trace(PreviewView *v, int i, int j, int w, int h)
 
 void preview_view_cycle_grid(PreviewView *v, FILE *out)
 {
-    if (!grid_of_accel(v->cfg->tracer->accel)) {
+    if (!preview_view_grid(v)) {
         if (out)
             fprintf(out, "no grid to show: run with -grid nx ny nz\n");
         v->mode = PREVIEW_OBJECTS;

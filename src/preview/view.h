@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include "rt/camera.h"
 #include "rt/diag.h"
+#include "rt/grid.h"
 #include "rt/preview.h"
 #include "rt/ray_tree.h"
 
@@ -31,6 +32,9 @@ typedef struct PreviewView {
 /* False (reported to diag) when out of memory. */
 bool preview_view_init(PreviewView *v, const PreviewConfig *cfg, Diag *diag);
 void preview_view_free(PreviewView *v);
+/* The grid g and -visualize_grid show: the uniform grid, or the two-level grid's top
+ * level; NULL without either. */
+const Grid *preview_view_grid(const PreviewView *v);
 
 /* Mouse drags in window pixels (dx right, dy DOWN, like the mouse), as the course GLCanvas:
  * rotate 0.005 rad/pixel about the pivot (tilt kept away from the poles), truck 0.05

@@ -656,6 +656,33 @@ static void test_snapshot_render_after_truck_dolly(void)
     e2e_rmtree(dir);
 }
 
+/* -grid auto builds the two-level grid for the showcase (a dense part in a big box):
+ * its top level is the grid -visualize_grid and g show. Before, the preview looked for a
+ * uniform grid only: -visualize_grid started in the object view and g said "no grid to
+ * show: run with -grid nx ny nz". */
+static void test_snapshot_grid_view_of_twolevel(void)
+{
+    need_snapshot();
+    char dir[PATH_MAX], shot[PATH_MAX], rel[PATH_MAX], scene[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "pvtl") != NULL);
+    e2e_join(shot, sizeof shot, dir, "shot.tga");
+    e2e_join(rel, sizeof rel, harness_root(), "scenes/showcase.txt");
+    CHECK(e2e_abspath(rel, scene, sizeof scene));
+    const char *args[] = {"-input", scene, "-size", "40", "30", "-grid", "auto",
+                          "-visualize_grid", "-timings", "-gui_snapshot", shot,
+                          "-gui_keys", "t g", NULL};
+    E2eRun r;
+    char why[512];
+    CHECK(e2e_run_bin(harness_bin(), args, &r));
+    CHECK_MSG(r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
+    CHECK_CONTAINS(r.err, "grid auto: two-level"); /* the premise: the two-level grid */
+    /* Started in the grid view: the first g goes on to the ray's cells. */
+    CHECK_CONTAINS(r.out, "grid view: the cells the last traced ray visited");
+    CHECK_MSG(strstr(r.out, "no grid to show") == NULL, "stdout '%s'", r.out);
+    e2e_run_free(&r);
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"keys_parse_all_commands", test_keys_parse_all_commands},
     {"keys_parse_rejects_bad_words", test_keys_parse_rejects_bad_words},
@@ -673,6 +700,7 @@ static const TestCase tests[] = {
     {"snapshot_bad_script_writes_nothing", test_snapshot_bad_script_writes_nothing},
     {"grid_view_snapshot", test_grid_view_snapshot},
     {"snapshot_render_after_truck_dolly", test_snapshot_render_after_truck_dolly},
+    {"snapshot_grid_view_of_twolevel", test_snapshot_grid_view_of_twolevel},
 };
 
 RT_TEST_MAIN(tests)
