@@ -59,7 +59,11 @@ static bool is_space(unsigned char c)
 static bool lex_scan(Lexer *lx, Token *t)
 {
     while (lx->pos < lx->len && is_space((unsigned char)lx->buf[lx->pos])) {
-        if (lx->buf[lx->pos] == '\n') {
+        /* A CR not followed by LF (classic Mac OS line ends) ends a line too, as an
+         * editor shows it: otherwise such a file is all line 1 in every message. */
+        char c = lx->buf[lx->pos];
+        if (c == '\n' ||
+            (c == '\r' && (lx->pos + 1 >= lx->len || lx->buf[lx->pos + 1] != '\n'))) {
             lx->line++;
             lx->col = 1;
         } else {

@@ -712,6 +712,12 @@ static void test_errors_located(void)
     EXPECT_ERROR("\n\n  Foo {", "t.txt:3:3: error: unknown top-level block 'Foo'");
     EXPECT_ERROR("# comment", "t.txt:1:1: error: unknown top-level block '#'");
     EXPECT_ERROR("Background {\n color 1 1 1\n", "t.txt:3:1: error: unexpected end of file, expected '}'");
+    /* Line ends as an editor counts them: LF, CR LF, and a lone CR (classic Mac OS),
+     * which was a column, so such a file was line 1 in every message. */
+    EXPECT_ERROR("Background {\r\n color 1 1 1\r\n colour", "t.txt:3:2: error: unknown Background field");
+    EXPECT_ERROR("Background {\r color 1 1 1\r colour", "t.txt:3:2: error: unknown Background field");
+    EXPECT_ERROR("Background {\r\r\n\n colour", "t.txt:4:2: error: unknown Background field");
+    EXPECT_ERROR("Background {\r color 1 1 1\r", "t.txt:3:1: error: unexpected end of file, expected '}'");
     EXPECT_ERROR("Background {\tcolour 1 1 1 }", "t.txt:1:14: error: unknown Background field 'colour'");
     EXPECT_ERROR("Background { color 1 1 }", "t.txt:1:24: error: expected a number, found '}'");
     EXPECT_ERROR("Background { color 1 1 nan }", "t.txt:1:24: error: number out of range: 'nan'");
