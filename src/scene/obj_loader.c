@@ -259,7 +259,14 @@ static bool read_vertex(ObjReader *r)
             while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
                 e++;
             l = objfile_loc(r, at);
-            diag_error(r->diag, &l, "malformed number '%.*s'", (int)(e - at), at);
+            /* "1,5": a decimal comma, as a tool set to a European locale writes it.
+             * Said as the scene parser says it (a number of digits with a comma). */
+            const char *d = at + (*at == '+' || *at == '-');
+            bool comma = is_digit(*d) && memchr(at, ',', (size_t)(e - at)) != NULL;
+            diag_error(r->diag, &l, "malformed number '%.*s'%s", (int)(e - at), at,
+                       comma ? " (numbers are separated by white space, and their decimal "
+                               "point is '.')"
+                             : "");
             return false;
         }
         if (!isfinite(c[i])) {

@@ -115,6 +115,12 @@ static void test_errors(void)
                      "m.obj:3:7: error: vertex index 3 out of range (2 vertices)");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 x\n", "m.obj:2:7: error: malformed number 'x'");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 1.5.3\n", "m.obj:2:7: error: malformed number '1.5.3'");
+    /* A decimal comma (an exporter in a European locale) is named as such. */
+    EXPECT_OBJ_ERROR("v 1,5 0 0\n", "m.obj:1:3: error: malformed number '1,5' (numbers are "
+                     "separated by white space, and their decimal point is '.')");
+    EXPECT_OBJ_ERROR("v 0 0 -0,25\n", "malformed number '-0,25' (numbers are separated");
+    EXPECT_OBJ_ERROR("v 0 0 x,1\n", "malformed number 'x,1'");
+    CHECK(strstr(g_diag.last, "decimal") == NULL);
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0\nv 1 1 1\n", "m.obj:2:6: error: vertex needs 3 coordinates, found 2");
     EXPECT_OBJ_ERROR("v 0 0 #1\n", "m.obj:1:7: error: vertex needs 3 coordinates, found 2");
     /* After the coordinates only a w or a colour (at most four numbers) or a comment:
