@@ -1283,6 +1283,13 @@ static int run(App *app)
         return EXIT_USAGE;
     }
     if (o->gui || o->gui_snapshot) {
+        /* r traces the preview's own picture (the window's, the snapshot's frame)
+         * before render_and_write sets the pixel cone for the files: without it here
+         * the first r drew its picture with no -noise_cutoff at all, the later ones
+         * with it. The cone depends on the angle or size and -size only, which no move
+         * of the preview's camera changes. */
+        if (o->noise_cutoff)
+            raytracer_set_pixel_cone(&app->rt, &s->camera, o->width, o->height);
         PreviewConfig cfg;
         memset(&cfg, 0, sizeof cfg);
         cfg.scene = s;
