@@ -862,6 +862,14 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             const FilterOps *ops = filter_find(name);
             if (!take_float(&c, a, &o->filter_param))
                 return false;
+            /* The range as the other options word it, with the value as typed: the
+             * float it became printed "sigma 16 is out of range (0, 16]" for 16.000001. */
+            if (ops && !(o->filter_param > 0.0f && o->filter_param <= FILTER_MAX_RADIUS)) {
+                char vname[32];
+                value_name(&c, a, vname, sizeof vname);
+                return usage_error(&c, "option %s: %s = %s is out of range (0, %g]", a, vname,
+                                   c.argv[c.i], (double)FILTER_MAX_RADIUS);
+            }
             Filter probe;
             char why[160];
             if (!ops || !filter_init(&probe, ops, o->filter_param, why, sizeof why))

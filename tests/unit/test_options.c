@@ -107,6 +107,11 @@ static void test_usage_errors(void)
         {"-input s.txt -gaussian_filter 1e-40",
          "option -gaussian_filter: s = 1e-40 is too close to 0 for a float"},
         {"-input s.txt -weight 1e-300", "option -weight: w = 1e-300 is too close to 0"},
+        /* a filter's range names the value as typed (it printed the float: "sigma 16 is out
+         * of range (0, 16]" for 16.000001) */
+        {"-input s.txt -gaussian_filter 16.000001",
+         "option -gaussian_filter: s = 16.000001 is out of range (0, 16]"},
+        {"-input s.txt -mitchell_filter -0", "option -mitchell_filter: r = -0 is out of range (0, 16]"},
         /* nor an overflow; an infinity is still not a finite number */
         {"-input s.txt -weight 1e40", "option -weight: w = 1e40 is too large in size for a float"},
         {"-input s.txt -weight -inf", "option -weight: w expects a finite number, got '-inf'"},
