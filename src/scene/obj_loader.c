@@ -447,12 +447,24 @@ static bool read_face_simple(ObjReader *r)
     return true;
 }
 
+/* A UTF-8 byte-order mark at the start of a line is no part of its record: it is where
+ * files were joined (cat a.obj b.obj) of which the later began with one, as Windows
+ * tools write them. Taken as the record's name, "\xEF\xBB\xBFv" was an unknown record,
+ * skipped: the vertex vanished, and the faces after it took the wrong vertices or none.
+ * It still counts as a column (objfile_loc walks the line), as an editor shows it. */
+static const char *skip_line_bom(const char *p)
+{
+    /* Byte by byte: the text ends in a NUL, which stops the test before the end. */
+    return p[0] == '\xEF' && p[1] == '\xBB' && p[2] == '\xBF' ? p + 3 : p;
+}
+
 /* The records of r->p .. r->end, line by line; false after reporting an error, or
  * with nothing reported when a stop was requested (rt/par.h). */
 static bool parse_lines(ObjReader *r)
 {
     while (r->p < r->end) {
         r->line_start = r->p;
+        r->p = skip_line_bom(r->p);
         skip_blanks(r);
         const char *kw = r->p;
         while (*r->p && !is_blank(*r->p) && *r->p != '\n')
@@ -490,6 +502,7 @@ static void count_records(const char *p, const char *end, long *nverts, long *nf
 {
     long nv = 0, nf = 0;
     while (p < end) {
+        p = skip_line_bom(p);
         while (is_blank(*p))
             p++;
         if ((*p == 'v' || *p == 'f') && (is_blank(p[1]) || p[1] == '\n' || p[1] == '\0')) {

@@ -155,6 +155,23 @@ static void test_errors(void)
         CHECK_INT(m.nverts, 3);
         objfile_mesh_free(&m);
     }
+    /* Two files joined with cat, the second with its own BOM: a BOM at the start of a
+     * line is skipped too (the second file's first vertex was an unknown record, and
+     * its face took the wrong vertices); it counts as a column, as an editor shows it. */
+    {
+        static const char joined[] = "\xEF\xBB\xBF" "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n"
+                                     "\xEF\xBB\xBF" "v 0 0 1\r\nv 1 0 1\r\nv 0 1 1\r\nf -3 -2 -1\r\n"
+                                     "\xEF\xBB\xBF" "f 4 5 6\r\n";
+        CHECK_MSG(objfile_parse(joined, sizeof joined - 1, "m.obj", &m, &g_diag), "%s",
+                  g_diag.last);
+        CHECK_INT(m.nverts, 6);
+        CHECK_INT(m.ntris, 3);
+        check_tri(&m, 1, 3, 4, 5);
+        check_tri(&m, 2, 3, 4, 5);
+        CHECK_NEAR(m.verts[3].z, 1, 0);
+        objfile_mesh_free(&m);
+    }
+    EXPECT_OBJ_ERROR("v 0 0 0\n\xEF\xBB\xBF" "v 1 0 x\n", "m.obj:2:8: error: malformed number 'x'");
     CHECK(!objfile_parse("v 0 0 0\nv 1\0 0 0\n", 17, "m.obj", &m, &g_diag));
     CHECK_CONTAINS(g_diag.last, "m.obj:2:4: error: NUL byte: not a text OBJ file");
     /* Columns count characters: "é" and "→" in a comment are 2 and 3 bytes but one

@@ -440,6 +440,18 @@ static void test_degenerate(void)
     /* One line (a lone CR ends none): an error at its second record, where the first
      * vertex's line went on, read serially or in pieces alike. */
     check_case(&t, 0, "lone CRs only: one line");
+    /* Files joined with cat, each beginning with a BOM (a BOM at a line start is
+     * skipped): every piece counts and reads the same records as the serial read. */
+    t.len = 0;
+    int blocks = 0;
+    for (; t.len < BIG; blocks++)
+        put(&t, "\xEF\xBB\xBFv 0 0 %d\r\nv 1 0 0\r\nv 0 1 0\r\nf -3 -2 -1\r\n", blocks);
+    check_case(&t, 1, "joined files, each with a BOM");
+    Outcome joined;
+    parse_with(0, t.s, t.len, &joined);
+    CHECK_INT(joined.m.nverts, 3 * blocks);
+    CHECK_INT(joined.m.ntris, blocks);
+    objfile_mesh_free(&joined.m);
     t.len = 0;
     put(&t, "#");
     put_repeat(&t, 'x', BIG);
