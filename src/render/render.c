@@ -58,6 +58,11 @@ Vec3 render_depth_color(const Hit *hit, float depth_min, float depth_max)
     /* Near = white, far = black, linear between dmin and dmax (A1). */
     float d = hit->t < depth_min ? depth_min : hit->t > depth_max ? depth_max : hit->t;
     float g = (depth_max - d) / (depth_max - depth_min);
+    /* A range wider than the largest float (-depth -3e38 3e38) made the divisor
+     * infinite and every hit black: the same ratio of halves, which cannot overflow.
+     * Any finite range keeps the division above, bit for bit. */
+    if (!isfinite(depth_max - depth_min))
+        g = (depth_max * 0.5f - d * 0.5f) / (depth_max * 0.5f - depth_min * 0.5f);
     return v3(g, g, g);
 }
 

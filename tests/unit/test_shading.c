@@ -104,6 +104,29 @@ static void test_far_eye_rays(void)
     }
 }
 
+/* The depth grey of a range wider than the largest float: -depth -3e38 3e38 divided by
+ * dmax - dmin = inf and drew every hit black; a hit in the middle is mid grey, the ends
+ * white and black, and a finite range gives the plain ratio to the bit. */
+static void test_depth_color_huge_range(void)
+{
+    Arena a;
+    arena_init(&a);
+    PhongParams pp = phong_defaults();
+    Hit h = hit_none();
+    h.material = phong_new(&a, &pp);
+    h.t = 9.0f;
+    CHECK_NEAR(render_depth_color(&h, -3e38f, 3e38f).x, 0.5, 1e-6);
+    CHECK_NEAR(render_depth_color(&h, -FLT_MAX, FLT_MAX).y, 0.5, 1e-6);
+    h.t = -FLT_MAX;
+    CHECK(render_depth_color(&h, -3e38f, 3e38f).z == 1.0f);
+    h.t = FLT_MAX;
+    CHECK(render_depth_color(&h, -3e38f, 3e38f).x == 0.0f);
+    h.t = 9.5f;
+    float g = render_depth_color(&h, 8.0f, 12.0f).x;
+    CHECK(g == (12.0f - 9.5f) / (12.0f - 8.0f));
+    arena_free(&a);
+}
+
 /* The cameras and image sizes the ray-generation tests compare over: course line 07's
  * perspective view, an oblique perspective with a tilted up vector, an orthographic
  * camera looking slightly sideways and a perspective eye far from the origin (aiming
@@ -1585,6 +1608,7 @@ static const TestCase tests[] = {
     {"shading: pixel centres and cropping", test_pixel_mapping},
     {"shading: camera bases and rays", test_cameras},
     {"shading: a far perspective eye aims as precisely as a near one", test_far_eye_rays},
+    {"shading: the depth grey of a range wider than the largest float", test_depth_color_huge_range},
     {"shading: a block of pixel rays, to the bit", test_pixel_rays_block},
     {"shading: an 8 x 8 block of pixel rays in lane order, to the bit", test_block8_rays},
     {"shading: a pixel's sample rays, to the bit", test_sample_rays},
