@@ -250,7 +250,9 @@ static bool stdout_ok(Diag *d, const char *what)
     return false;
 }
 
-/* True when an image goes to standard output (an output file "-"). */
+/* True when an image goes to standard output (an output file "-", or the preview's
+ * shot:- in -gui_keys): then it carries the image alone, and the -stats block and the
+ * preview's lines go to stderr. */
 static bool image_to_stdout(const Options *o)
 {
     const char *files[] = {o->output, o->depth_file, o->normals_file, o->samples_file,
@@ -258,7 +260,7 @@ static bool image_to_stdout(const Options *o)
     for (size_t i = 0; i < sizeof files / sizeof files[0]; i++)
         if (files[i] && strcmp(files[i], IMAGE_STDOUT) == 0)
             return true;
-    return false;
+    return (o->gui || o->gui_snapshot) && preview_keys_shot_stdout(o->gui_keys);
 }
 
 /* The format of an image written to path: -format for standard output, else NULL (the
@@ -1306,6 +1308,10 @@ static int run(App *app)
         cfg.snapshot_path = o->gui_snapshot;
         cfg.keys = o->gui_keys;
         cfg.stop = &g_cancel;
+        /* The c, t, g and r lines were printed on stdout also when it carried the
+         * image (-gui_snapshot -, shot:-, -output - written by r): text inside the
+         * image's bytes. */
+        cfg.messages = image_to_stdout(o) ? stderr : stdout;
         if (!o->gui_snapshot)
             return preview_run_window(&cfg, &app->diag);
         int status = preview_snapshot(&cfg, &app->diag);

@@ -5,6 +5,7 @@
 #define RT_PREVIEW_H
 
 #include <stdbool.h>
+#include <stdio.h>
 #include "rt/raytracer.h"
 
 /* Full render of the requested files with the (possibly moved) camera: the `r` key.
@@ -29,6 +30,11 @@ typedef struct PreviewConfig {
      * SIGHUP), or NULL. Once set, the window closes and the snapshot writes nothing
      * more; either prints why on stderr and returns 128 + the signal. */
     volatile int *stop;
+    /* Where the keys' lines go (the c key's camera block, t's and g's lines, r's
+     * "Rendering scene..."): stdout, or stderr when an image goes to standard output
+     * (-gui_snapshot -, -output -, shot:-), which then carries the image alone, as it
+     * does the -stats block. NULL: stdout. */
+    FILE *messages;
 } PreviewConfig;
 
 bool preview_window_built(void);
@@ -49,5 +55,9 @@ int preview_keys_validate(const char *keys, Diag *diag);
 /* Whether the -gui_keys script (NULL: none) is well formed and has an r command: with
  * -gui_snapshot only r renders the images and the statistics asked for. */
 bool preview_keys_render(const char *keys);
+/* Whether the script has a shot:- (the frame to standard output). */
+bool preview_keys_shot_stdout(const char *keys);
+/* cfg->messages, or stdout when it is NULL. */
+FILE *preview_messages(const PreviewConfig *cfg);
 
 #endif

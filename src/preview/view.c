@@ -370,18 +370,36 @@ int preview_keys_validate(const char *keys, Diag *diag)
     return status;
 }
 
-bool preview_keys_render(const char *keys)
+/* Whether the script (NULL: none; false when it is not well formed) has a command of
+ * kind; for shot, one naming standard output when to_stdout. */
+static bool keys_have(const char *keys, KeyCmdKind kind, bool to_stdout)
 {
     Diag quiet;
     diag_init(&quiet, NULL);
     KeyScript s;
     if (!preview_keys_parse(keys, &s, &quiet))
         return false;
-    bool render = false;
+    bool found = false;
     for (int k = 0; k < s.count; k++)
-        render = render || s.cmds[k].kind == KEYCMD_RENDER;
+        found = found || (s.cmds[k].kind == kind &&
+                          (!to_stdout || strcmp(s.cmds[k].path, IMAGE_STDOUT) == 0));
     preview_keys_free(&s);
-    return render;
+    return found;
+}
+
+FILE *preview_messages(const PreviewConfig *cfg)
+{
+    return cfg->messages ? cfg->messages : stdout;
+}
+
+bool preview_keys_render(const char *keys)
+{
+    return keys_have(keys, KEYCMD_RENDER, false);
+}
+
+bool preview_keys_shot_stdout(const char *keys)
+{
+    return keys_have(keys, KEYCMD_SHOT, true);
 }
 
 void preview_keys_free(KeyScript *s)
@@ -402,10 +420,11 @@ bool preview_view_apply(PreviewView *v, const KeyCmd *cmd, int w, int h, bool *o
         *ok = preview_view_trace(v, i, j, w, h);
         if (*ok) {
             const RayTree *t = v->tree;
-            printf("ray tree of pixel (%d, %d): %d segment%s, %d grid cell%s\n", i, j,
-                   t->num_segments, t->num_segments == 1 ? "" : "s", t->num_cells,
-                   t->num_cells == 1 ? "" : "s");
-            fflush(stdout);
+            FILE *out = preview_messages(v->cfg);
+            fprintf(out, "ray tree of pixel (%d, %d): %d segment%s, %d grid cell%s\n", i, j,
+                    t->num_segments, t->num_segments == 1 ? "" : "s", t->num_cells,
+                    t->num_cells == 1 ? "" : "s");
+            fflush(out);
             if (ray_tree_full(t)) {
                 char more[64] = "";
                 if (t->dropped > 0)
@@ -419,10 +438,10 @@ bool preview_view_apply(PreviewView *v, const KeyCmd *cmd, int w, int h, bool *o
         return true;
     }
     case KEYCMD_GRID:
-        preview_view_cycle_grid(v, stdout);
+        preview_view_cycle_grid(v, preview_messages(v->cfg));
         return true;
     case KEYCMD_CAMERA:
-        preview_view_print_camera(v, stdout);
+        preview_view_print_camera(v, preview_messages(v->cfg));
         return true;
     case KEYCMD_ROTATE:
         preview_view_rotate(v, cmd->a, cmd->b);

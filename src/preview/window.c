@@ -103,8 +103,9 @@ static void join_render(void)
     int status = atomic_load(&W.thread_status);
     if (status && !W.status)
         W.status = status;
-    printf(W.cancel ? "Rendering stopped.\n" : "Rendering done.\n");
-    fflush(stdout);
+    FILE *out = preview_messages(W.cfg);
+    fputs(W.cancel ? "Rendering stopped.\n" : "Rendering done.\n", out);
+    fflush(out);
 }
 
 /* Stops a running render and forgets the traced picture (the view changed). */
@@ -141,7 +142,7 @@ static void poll_render(int value)
 static void start_render(void)
 {
     if (W.thread_running) {
-        printf("still rendering the previous view\n");
+        fprintf(preview_messages(W.cfg), "still rendering the previous view\n");
         return;
     }
     drop_traced();
@@ -160,10 +161,10 @@ static void start_render(void)
     atomic_store(&W.thread_status, 0);
     W.rows_shown = 0;
     /* A line of its own: the -stats block (printed by the render) starts on the next. */
-    printf("Rendering scene...\n");
-    fflush(stdout);
+    fprintf(preview_messages(W.cfg), "Rendering scene...\n");
+    fflush(preview_messages(W.cfg));
     if (pthread_create(&W.thread, NULL, render_thread, NULL) != 0) {
-        printf("could not start a thread\n");
+        fprintf(preview_messages(W.cfg), "could not start a thread\n");
         drop_traced();
         return;
     }
@@ -290,8 +291,8 @@ static void keyboard(unsigned char key, int x, int y)
         quit();
         return;
     default:
-        printf("UNKNOWN KEYBOARD INPUT  '%c'\n", key);
-        fflush(stdout);
+        fprintf(preview_messages(W.cfg), "UNKNOWN KEYBOARD INPUT  '%c'\n", key);
+        fflush(preview_messages(W.cfg));
         return;
     }
     if (cmd.kind != KEYCMD_CAMERA)

@@ -713,6 +713,55 @@ static void test_snapshot_first_r_noise_cutoff(void)
     e2e_rmtree(dir);
 }
 
+/* An image on standard output (-gui_snapshot -, shot:-) is all that goes there: the
+ * lines of c, t, g (and the -stats block of r) go to stderr. Before, c's camera block,
+ * t's and g's lines were printed into the image's bytes. */
+static void test_snapshot_to_stdout_alone(void)
+{
+    need_snapshot();
+    char dir[PATH_MAX], scene[PATH_MAX], file[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "pvout") != NULL);
+    e2e_join(scene, sizeof scene, dir, "s.txt");
+    e2e_join(file, sizeof file, dir, "shot.tga");
+    e2e_join(out, sizeof out, dir, "out.tga");
+    CHECK(e2e_write_file(scene, PERSP_SPHERES));
+    for (int k = 0; k < 2; k++) {
+        /* k 0: the snapshot itself to stdout; k 1: shot:- beside a shot of the same
+         * frame into a file. */
+        const char *a0[] = {"-input", scene, "-size", "20", "16", "-output", out, "-stats",
+                            "-gui_snapshot", "-", "-gui_keys", "c t g r", NULL};
+        const char *a1[] = {"-input", scene, "-size", "20", "16", "-gui_snapshot", out,
+                            "-gui_keys", "c t:3,4 shot:- g", NULL};
+        E2eRun r;
+        char why[512];
+        CHECK(e2e_run_bin(harness_bin(), k ? a1 : a0, &r));
+        CHECK_MSG(r.status == 0, "%s", e2e_describe(&r, why, sizeof why));
+        CHECK_CONTAINS(r.err, "PerspectiveCamera {");
+        CHECK_CONTAINS(r.err, "ray tree of pixel");
+        CHECK_CONTAINS(r.err, "no grid to show"); /* g without a grid */
+        if (!k)
+            CHECK_CONTAINS(r.err, "RAY TRACING STATISTICS");
+        /* The frame alone: the bytes of the same frame written to a file. */
+        const char *b0[] = {"-input", scene, "-size", "20", "16", "-gui_snapshot", file,
+                            "-gui_keys", "c t g r", NULL};
+        const char *b1[] = {"-input", scene, "-size", "20", "16", "-gui_snapshot", out,
+                            "-gui_keys", "c t:3,4 shot:", NULL};
+        char shot_word[PATH_MAX + 32];
+        snprintf(shot_word, sizeof shot_word, "c t:3,4 shot:%s", file);
+        b1[8] = shot_word;
+        if (run_ok(k ? b1 : b0)) {
+            size_t n = 0;
+            char *want = e2e_read_file(file, &n);
+            CHECK(want != NULL);
+            CHECK_MSG(want && r.out_len == n && memcmp(r.out, want, n) == 0,
+                      "case %d: stdout holds %zu bytes, the frame %zu", k, r.out_len, n);
+            free(want);
+        }
+        e2e_run_free(&r);
+    }
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
     {"keys_parse_all_commands", test_keys_parse_all_commands},
     {"keys_parse_rejects_bad_words", test_keys_parse_rejects_bad_words},
@@ -732,6 +781,7 @@ static const TestCase tests[] = {
     {"snapshot_render_after_truck_dolly", test_snapshot_render_after_truck_dolly},
     {"snapshot_grid_view_of_twolevel", test_snapshot_grid_view_of_twolevel},
     {"snapshot_first_r_noise_cutoff", test_snapshot_first_r_noise_cutoff},
+    {"snapshot_to_stdout_alone", test_snapshot_to_stdout_alone},
 };
 
 RT_TEST_MAIN(tests)
