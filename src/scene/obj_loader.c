@@ -166,6 +166,16 @@ static bool at_eol(const ObjReader *r) { return *r->p == '\n' || *r->p == '\0'; 
  * face 1 2 3, as "f 1 2 3 #c" is. */
 static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p) || *r->p == '#'; }
 
+/* How much of the word at `at` a message quotes: up to the next blank or the line's
+ * end, at most 60 characters. */
+static int word_len(const char *at)
+{
+    const char *e = at;
+    while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
+        e++;
+    return (int)(e - at);
+}
+
 static bool grow(void **arr, int *cap, int need, size_t elem)
 {
     if (need <= *cap)
@@ -255,15 +265,13 @@ static bool read_vertex(ObjReader *r)
             return false;
         }
         if (!objfile_parse_float(&r->p, r->end, &c[i]) || !at_sep(r)) {
-            const char *e = at;
-            while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
-                e++;
+            int shown = word_len(at);
             l = objfile_loc(r, at);
             /* "1,5": a decimal comma, as a tool set to a European locale writes it.
              * Said as the scene parser says it (a number of digits with a comma). */
             const char *d = at + (*at == '+' || *at == '-');
-            bool comma = is_digit(*d) && memchr(at, ',', (size_t)(e - at)) != NULL;
-            diag_error(r->diag, &l, "malformed number '%.*s'%s", (int)(e - at), at,
+            bool comma = is_digit(*d) && memchr(at, ',', (size_t)shown) != NULL;
+            diag_error(r->diag, &l, "malformed number '%.*s'%s", shown, at,
                        comma ? " (numbers are separated by white space, and their decimal "
                                "point is '.')"
                              : "");
@@ -286,15 +294,12 @@ static bool read_vertex(ObjReader *r)
         const char *at = r->p;
         float ignored;
         if (extra == 4 || !objfile_parse_float(&r->p, r->end, &ignored) || !at_sep(r)) {
-            const char *e = at;
-            while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
-                e++;
+            int shown = word_len(at);
             SrcLoc l = objfile_loc(r, at);
             /* A file of lone CRs (classic Mac OS line ends) is one long line here. */
             bool lone_cr = at[-1] == '\r';
             diag_error(r->diag, &l,
-                       "unexpected '%.*s' after the vertex's coordinates (%s)", (int)(e - at),
-                       at,
+                       "unexpected '%.*s' after the vertex's coordinates (%s)", shown, at,
                        lone_cr ? "a lone CR ends no line: give the file LF or CR LF line ends"
                                : "a vertex is 'v x y z', then at most a w or a colour's 3 or "
                                  "4 numbers");
@@ -357,11 +362,9 @@ static bool read_face(ObjReader *r, const char *f_at)
             }
         }
         if (!ok || !at_sep(r)) {
-            const char *e = at;
-            while (*e && !is_blank(*e) && *e != '\n' && e - at < 60)
-                e++;
+            int shown = word_len(at);
             l = objfile_loc(r, at);
-            diag_error(r->diag, &l, "malformed face vertex '%.*s'", (int)(e - at), at);
+            diag_error(r->diag, &l, "malformed face vertex '%.*s'", shown, at);
             return false;
         }
         int nv = r->m->nverts;
