@@ -371,7 +371,8 @@ int preview_keys_validate(const char *keys, Diag *diag)
 }
 
 /* Whether the script (NULL: none; false when it is not well formed) has a command of
- * kind; for shot, one naming standard output when to_stdout. */
+ * kind before its first q (the window and the snapshot run nothing after a q); for
+ * shot, one naming standard output when to_stdout. */
 static bool keys_have(const char *keys, KeyCmdKind kind, bool to_stdout)
 {
     Diag quiet;
@@ -380,7 +381,7 @@ static bool keys_have(const char *keys, KeyCmdKind kind, bool to_stdout)
     if (!preview_keys_parse(keys, &s, &quiet))
         return false;
     bool found = false;
-    for (int k = 0; k < s.count; k++)
+    for (int k = 0; k < s.count && s.cmds[k].kind != KEYCMD_QUIT; k++)
         found = found || (s.cmds[k].kind == kind &&
                           (!to_stdout || strcmp(s.cmds[k].path, IMAGE_STDOUT) == 0));
     preview_keys_free(&s);
