@@ -753,8 +753,22 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
         return fail_expected(p, &name, "an OBJ file name");
     if (memchr(name.text, '\0', name.len))
         return fail(p, &name.loc, "invalid OBJ file name (contains a NUL byte)");
-    if (!expect(p, "}", NULL))
+    Token close;
+    if (!next(p, &close))
         return false;
+    if (!lex_is(&close, "}")) {
+        /* "obj_file my model.obj": the name ended at the space, and its rest stands
+         * where the '}' goes. Said so unless the token explains itself (a brace glued
+         * to a word, a comment). */
+        char shown[256], hint[160];
+        if (lex_eof(&close))
+            return fail_expected(p, &close, "'}'");
+        lex_show(&close, shown, sizeof shown);
+        token_hint(hint, sizeof hint, shown, NULL);
+        return fail(p, &close.loc, "expected '}', found '%s'%s", shown,
+                    hint[0] ? hint
+                            : " (an OBJ file name is one word: it cannot contain white space)");
+    }
 
     char file[LEX_MAX_TOKEN + 1];
     memcpy(file, name.text, name.len);
@@ -808,18 +822,22 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
     } else if (used < 0) {
         char shown[256];
         lex_show(&name, shown, sizeof shown);
+        /* Other formats quote file names; this one takes the quotes as part of it. */
+        const char *quoted = file[0] == '"' || file[0] == '\''
+                                 ? " (file names are written without quotes)"
+                                 : "";
         if (ntried == 2)
-            fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s', '%s'): %s", shown,
-                 tried[0], tried[1], strerror(first_errno));
+            fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s', '%s'): %s%s", shown,
+                 tried[0], tried[1], strerror(first_errno), quoted);
         else if (file[0] != '/' && name.loc.file && strcmp(name.loc.file, "<stdin>") == 0)
             /* A scene piped in has no folder of its own: its relative names are taken
              * from the working folder, which surprises a scene written for its folder. */
             fail(p, &name.loc, "cannot open OBJ file '%s' in the working folder (a scene "
-                 "read from standard input has no folder of its own): %s", shown,
-                 strerror(first_errno));
+                 "read from standard input has no folder of its own): %s%s", shown,
+                 strerror(first_errno), quoted);
         else
-            fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s'): %s", shown, tried[0],
-                 strerror(first_errno));
+            fail(p, &name.loc, "cannot open OBJ file '%s' (tried '%s'): %s%s", shown, tried[0],
+                 strerror(first_errno), quoted);
         ok = false;
     } else {
         bool cached = known;

@@ -665,6 +665,31 @@ static void test_obj_file_resolution(void)
                           "str.txt", NULL, &d);
     CHECK(s == NULL);
     CHECK_CONTAINS(d.last, "cannot open OBJ file 'nope.obj' (tried 'nope.obj')");
+    CHECK(strstr(d.last, "quotes") == NULL);
+    /* A quoted name (other formats quote them) and a name with a space (cut at it):
+     * each message says what to write instead. */
+    diag_init(&d, NULL);
+    s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
+                          "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file \"a.obj\" } }",
+                          "str.txt", "some/dir", &d);
+    CHECK(s == NULL);
+    CHECK_CONTAINS(d.last, "str.txt:2:62: error: cannot open OBJ file '\"a.obj\"' (tried "
+                           "'some/dir/\"a.obj\"', '\"a.obj\"'): No such file or directory (file "
+                           "names are written without quotes)");
+    diag_init(&d, NULL);
+    s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
+                          "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file my model.obj } }",
+                          "str.txt", NULL, &d);
+    CHECK(s == NULL);
+    CHECK_CONTAINS(d.last, "str.txt:2:65: error: expected '}', found 'model.obj' (an OBJ file "
+                           "name is one word: it cannot contain white space)");
+    diag_init(&d, NULL);
+    s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
+                          "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file a.obj #c } }",
+                          "str.txt", NULL, &d);
+    CHECK(s == NULL);
+    CHECK_CONTAINS(d.last, "str.txt:2:68: error: expected '}', found '#c' (scene files have no "
+                           "comments)");
     /* Errors inside the OBJ file are located in it. */
     snprintf(obj, sizeof obj, "%s/bad.obj", sub);
     write_file(obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\nf 1 2 3\nf 1 2 7\n");
