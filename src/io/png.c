@@ -204,6 +204,18 @@ static bool chunks_fit(const uint8_t *data, size_t len)
     return true; /* a file cut inside a chunk header: libpng reports it */
 }
 
+/* The sizes read, as for PPM: 1..65535 each way (a TGA's 16-bit fields; -size and
+ * -merge stay far below). */
+static bool sizes_fit(png_uint_32 w, png_uint_32 h, char *err, size_t errlen)
+{
+    if (w >= 1 && h >= 1 && w <= 65535 && h <= 65535)
+        return true;
+    if (err && errlen)
+        snprintf(err, errlen, "unsupported PNG size %lux%lu (at most 65535x65535)",
+                 (unsigned long)w, (unsigned long)h);
+    return false;
+}
+
 static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, size_t errlen)
 {
     PngSrc src = {data, len, 0};
@@ -237,10 +249,16 @@ static bool png_decode(const uint8_t *data, size_t len, Image *img, char *err, s
         return false;
     }
     png_set_read_fn(png, &src, src_read);
-    /* Refuse absurd sizes before any pixel memory is allocated. */
-    png_set_user_limits(png, 65535, 65535);
+    /* libpng's own limits as wide as the format's: png_read_info allocates no pixel
+     * memory, and sizes_fit below refuses what we do not read with a message saying so
+     * (a limit of 65535 here made libpng's error 'corrupt or truncated PNG file'). */
+    png_set_user_limits(png, PNG_UINT_31_MAX, PNG_UINT_31_MAX);
     png_read_info(png, info);
     png_uint_32 w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+    if (!sizes_fit(w, h, err, errlen)) {
+        png_destroy_read_struct(&png, &info, NULL);
+        return false;
+    }
     /* Our region record, if any (a tEXt chunk before the pixels). */
     volatile bool has_region = false;
     ImageRegion region;
@@ -386,10 +404,14 @@ PngRows *png_rows_open(int fd, size_t len, ImageRowLayout *lay, bool *interlaced
         return NULL;
     }
     png_set_read_fn(r->png, r, file_read);
-    png_set_user_limits(r->png, 65535, 65535);
+    png_set_user_limits(r->png, PNG_UINT_31_MAX, PNG_UINT_31_MAX); /* as png_decode */
     png_read_info(r->png, r->info);
     png_uint_32 w = png_get_image_width(r->png, r->info);
     png_uint_32 h = png_get_image_height(r->png, r->info);
+    if (!sizes_fit(w, h, err, errlen)) {
+        png_rows_free(r);
+        return NULL;
+    }
     png_textp texts = NULL;
     int ntexts = 0;
     png_get_text(r->png, r->info, &texts, &ntexts);

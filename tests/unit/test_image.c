@@ -386,6 +386,29 @@ static void test_png_round_trip(void)
     image_free(&img);
 }
 
+/* A PNG wider than 65535 (what PPM and TGA hold, and the -merge parts' limit) is
+ * refused by its size, as a PPM is: libpng's own limit of 65535 said "corrupt or
+ * truncated PNG file" for a valid 65536 x 1 header. The file: the signature, IHDR
+ * (65536 x 1, 8-bit RGB), an empty IDAT and IEND, each with its CRC; the size is
+ * refused before any pixel is read. */
+static void test_png_too_wide(void)
+{
+    const ImageCodec *png = codec("png");
+    if (!png->decode) {
+        harness_skip("built without libpng (PNG=0 or libpng-dev missing)");
+        return;
+    }
+    static const uint8_t file[] = {
+        0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a, 0x00, 0x00, 0x00, 0x0d, 0x49, 0x48, 0x44,
+        0x52, 0x00, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x08, 0x02, 0x00, 0x00, 0x00, 0xe4,
+        0x10, 0x74, 0x8f, 0x00, 0x00, 0x00, 0x00, 0x49, 0x44, 0x41, 0x54, 0x35, 0xaf, 0x06, 0x1e,
+        0x00, 0x00, 0x00, 0x00, 0x49, 0x45, 0x4e, 0x44, 0xae, 0x42, 0x60, 0x82};
+    Image back;
+    char err[256] = "";
+    CHECK(!png->decode(file, sizeof file, &back, err, sizeof err));
+    CHECK_CONTAINS(err, "unsupported PNG size 65536x1 (at most 65535x65535)");
+}
+
 static void test_write_read_by_extension(void)
 {
     char *dir = make_tmpdir();
@@ -1533,6 +1556,7 @@ static const TestCase tests[] = {
     {"image: PPM round trip and header", test_ppm_round_trip_and_header},
     {"image: PPM comments, truncation, bad headers", test_ppm_comments_and_rejects},
     {"image: PNG round trip", test_png_round_trip},
+    {"image: a PNG wider than 65535 is refused by its size", test_png_too_wide},
     {"image: write/read by extension", test_write_read_by_extension},
     {"image: replacing a file keeps its permissions", test_write_keeps_permissions},
     {"image: failed write leaves nothing", test_write_failure_leaves_nothing},
