@@ -1155,8 +1155,7 @@ static int run(App *app)
     SrcLoc file = {s->path, 0, 0};
     if (!scene_check_renderable(s, &app->diag))
         return EXIT_INPUT;
-    if (s->no_lights)
-        diag_warning(&app->diag, &file, "no lights specified: ambient light set to (1, 1, 1)");
+    scene_warn_no_lights(s, &app->diag);
 
     app->rt.scene = s;
     app->rt.shadows = o->shadows;

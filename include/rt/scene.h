@@ -33,6 +33,7 @@ typedef struct Scene {
     bool has_camera;
     int end_line, end_col;      /* where the text ends: a missing camera or Group is
                                    reported there (0: not parsed) */
+    int lights_line, lights_col; /* the Lights keyword (0: none in the file) */
     Camera camera;
     Vec3 background;            /* default (0.5, 0.5, 0.5) */
     Vec3 ambient;               /* default 0; (1,1,1) when there are no lights */
@@ -43,7 +44,7 @@ typedef struct Scene {
     Object3D *root;             /* the Group; NULL when the file has none */
     uint32_t num_primitives;    /* leaves, ids 0..n-1 (group_assign_ids) */
     BBox bounds;                /* root's box; empty when nothing is bounded */
-    bool no_lights;             /* the zero-lights rule fired (WARNING printed by main) */
+    bool no_lights;             /* the zero-lights rule fired (scene_warn_no_lights) */
     SceneFiles *files;          /* while loading: where files come from (NULL: the disk) */
     SetupCache *cache;          /* while loading: meshes from and for -cache (NULL: none) */
     bool identify;              /* while loading: key the inputs even without a cache */
@@ -84,6 +85,10 @@ void scene_free(Scene *s);
  * this before it renders; false after reporting what is missing at the place where
  * the text ends. */
 bool scene_check_renderable(const Scene *s, Diag *diag);
+
+/* With the course's zero-lights rule in force (s->no_lights), the warning that says so,
+ * at the Lights block (numLights 0) or, without one, where the text ends. */
+void scene_warn_no_lights(const Scene *s, Diag *diag);
 
 /* scene_load reading every file through files (NULL: the disk, as scene_load). */
 Scene *scene_load_from(const char *path, SceneFiles *files, Diag *diag);

@@ -1354,8 +1354,11 @@ bool scene_parse(Scene *s, const char *buf, size_t len, const char *name,
             ok = parse_camera(&p, true);
         else if (lex_is(&t, "Background"))
             ok = parse_background(&p);
-        else if (lex_is(&t, "Lights"))
+        else if (lex_is(&t, "Lights")) {
+            s->lights_line = t.loc.line; /* a second block replaces the first */
+            s->lights_col = t.loc.col;
             ok = parse_lights(&p);
+        }
         else if (lex_is(&t, "Materials"))
             ok = parse_materials(&p);
         else if (lex_is(&t, "Group")) {

@@ -38,6 +38,15 @@ void scene_free(Scene *s)
     free(s);
 }
 
+void scene_warn_no_lights(const Scene *s, Diag *diag)
+{
+    if (!s->no_lights)
+        return;
+    SrcLoc at = {s->path, s->lights_line ? s->lights_line : s->end_line,
+                 s->lights_line ? s->lights_col : s->end_col};
+    diag_warning(diag, &at, "no lights specified: ambient light set to (1, 1, 1)");
+}
+
 bool scene_check_renderable(const Scene *s, Diag *diag)
 {
     /* What the whole file lacks is reported where it ends, as a compiler reports a

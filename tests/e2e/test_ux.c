@@ -774,7 +774,42 @@ static void test_stdin_terminal_hint(void)
     e2e_rmtree(p.dir);
 }
 
+/* The course's zero-lights rule warns where the lights would go: at the Lights block
+ * that declares none, or without one at the end of the text (like the errors, a
+ * file:line:col a user can jump to). */
+static void test_no_lights_warning_located(void)
+{
+    char dir[PATH_MAX], zero[PATH_MAX], none[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "uxlights") != NULL);
+    e2e_join(zero, sizeof zero, dir, "zero.txt");
+    e2e_join(none, sizeof none, dir, "none.txt");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    static const char cam[] =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 3 }\n";
+    static const char rest[] =
+        "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 1 1 } }\n"
+        "Group { numObjects 1 MaterialIndex 0 Sphere { center 0 0 0 radius 1 } }\n";
+    char text[1024];
+    snprintf(text, sizeof text, "%s\n  Lights {\n    numLights 0\n  }\n%s", cam, rest);
+    CHECK(e2e_write_file(zero, text));
+    snprintf(text, sizeof text, "%s%s\n", cam, rest);
+    CHECK(e2e_write_file(none, text));
+    const char *want[2] = {"zero.txt:3:3: warning: no lights specified",
+                           "none.txt:5:1: warning: no lights specified"};
+    const char *scene[2] = {zero, none};
+    for (int k = 0; k < 2; k++) {
+        const char *args[] = {"-input", scene[k], "-size", "8", "8", "-output", out, NULL};
+        E2eRun r;
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        CHECK_INT(r.status, 0);
+        CHECK_CONTAINS(r.err, want[k]);
+        e2e_run_free(&r);
+    }
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
+    {"ux: the no-lights warning is located", test_no_lights_warning_located},
     {"ux: the preview's g prints its view", test_preview_keys_print},
     {"ux: the preview's options are checked before the scene is read",
      test_preview_checked_first},
