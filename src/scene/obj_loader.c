@@ -166,6 +166,10 @@ static bool at_eol(const ObjReader *r) { return *r->p == '\n' || *r->p == '\0'; 
  * face 1 2 3, as "f 1 2 3 #c" is. */
 static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p) || *r->p == '#'; }
 
+/* Said where a record runs on after a CR that ends no line: a file of lone CRs (classic
+ * Mac OS line ends) is one long line to this reader. */
+#define LONE_CR_HINT "a lone CR ends no line: give the file LF or CR LF line ends"
+
 /* How much of the word at `at` a message quotes: up to the next blank or the line's
  * end, at most 60 characters. */
 static int word_len(const char *at)
@@ -229,8 +233,9 @@ static inline bool simple_float(const char **pp, float *out)
 }
 
 /* The common vertex record "v x y z": single spaces, numbers of simple_float's form,
- * the line's end right after the third (anything there, even blanks, is read_vertex's
- * to check), and room in the array. Read without
+ * the line's end (LF, CR LF, the text's end) right after the third (anything else
+ * there, even blanks, is read_vertex's to check: CR LF files, as Windows tools write
+ * them, went all through read_vertex), and room in the array. Read without
  * read_vertex's machinery (its locations for messages, blank runs, the general number
  * reader): the same vertex. Anything else returns false with r untouched, and
  * read_vertex takes the line from the start, so messages do not change. */
@@ -244,7 +249,8 @@ static bool read_vertex_simple(ObjReader *r)
         if (*p != ' ')
             return false;
         p++;
-        if (!simple_float(&p, &c[k]) || !(k < 2 ? *p == ' ' : *p == '\n' || *p == '\0'))
+        if (!simple_float(&p, &c[k]) ||
+            !(k < 2 ? *p == ' ' : *p == '\n' || *p == '\0' || (*p == '\r' && (p[1] == '\n' || p[1] == '\0'))))
             return false;
     }
     r->m->verts[r->m->nverts++] = v3(c[0], c[1], c[2]);
@@ -296,13 +302,11 @@ static bool read_vertex(ObjReader *r)
         if (extra == 4 || !objfile_parse_float(&r->p, r->end, &ignored) || !at_sep(r)) {
             int shown = word_len(at);
             SrcLoc l = objfile_loc(r, at);
-            /* A file of lone CRs (classic Mac OS line ends) is one long line here. */
-            bool lone_cr = at[-1] == '\r';
             diag_error(r->diag, &l,
                        "unexpected '%.*s' after the vertex's coordinates (%s)", shown, at,
-                       lone_cr ? "a lone CR ends no line: give the file LF or CR LF line ends"
-                               : "a vertex is 'v x y z', then at most a w or a colour's 3 or "
-                                 "4 numbers");
+                       at[-1] == '\r' ? LONE_CR_HINT
+                                       : "a vertex is 'v x y z', then at most a w or a "
+                                         "colour's 3 or 4 numbers");
             return false;
         }
     }
@@ -364,7 +368,10 @@ static bool read_face(ObjReader *r, const char *f_at)
         if (!ok || !at_sep(r)) {
             int shown = word_len(at);
             l = objfile_loc(r, at);
-            diag_error(r->diag, &l, "malformed face vertex '%.*s'", shown, at);
+            /* "f 1 2 3\rf 4 5 6": the next face run into this one after a lone CR, as
+             * a vertex's is (a file whose lone CRs start after its faces begin). */
+            diag_error(r->diag, &l, "malformed face vertex '%.*s'%s", shown, at,
+                       at[-1] == '\r' ? " (" LONE_CR_HINT ")" : "");
             return false;
         }
         int nv = r->m->nverts;
@@ -690,6 +697,14 @@ bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, 
         return false;
     }
     return true;
+}
+
+bool objfile_has_lone_cr(const char *buf, size_t len)
+{
+    for (const char *p = buf, *end = buf + len; (p = memchr(p, '\r', (size_t)(end - p)));)
+        if (++p < end && *p != '\n')
+            return true;
+    return false;
 }
 
 Object3D *objfile_build_group(Arena *a, const ObjMesh *mesh, const Material *m, void *block)

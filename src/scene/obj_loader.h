@@ -25,6 +25,10 @@ typedef struct ObjMesh {
  * looked at every so many lines); nothing is left allocated either way. */
 bool objfile_parse(const char *buf, size_t len, const char *name, ObjMesh *out, Diag *diag);
 void objfile_mesh_free(ObjMesh *m);
+/* Whether the text has a CR followed by anything but LF (classic Mac OS line ends),
+ * which ends no line for objfile_parse: a file of them that begins with a comment
+ * reads as that one comment, with no faces. */
+bool objfile_has_lone_cr(const char *buf, size_t len);
 /* For tests: how many files objfile_parse has read in parallel pieces so far (the
  * others went through the serial reader). */
 unsigned long objfile_pieces_read(void);

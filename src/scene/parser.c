@@ -863,7 +863,12 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
             mesh_to_cache(p->s->cache, key, &mesh);
         if (ok && mesh.ntris == 0) {
             char shown[256];
-            fail(p, &name.loc, "OBJ file '%s' has no faces", lex_show(&name, shown, sizeof shown));
+            /* Not a word on why, when a file of lone CRs began with a comment (as
+             * exporters begin theirs): the whole file was that comment. */
+            bool lone_cr = !cached && objfile_has_lone_cr(buf, len);
+            fail(p, &name.loc, "OBJ file '%s' has no faces%s",
+                 lex_show(&name, shown, sizeof shown),
+                 lone_cr ? " (a lone CR ends no line: give the file LF or CR LF line ends)" : "");
             ok = false;
         }
         /* A stop (Ctrl-C) after the parse: the triangles are not made (a tenth of a

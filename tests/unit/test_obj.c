@@ -135,6 +135,11 @@ static void test_errors(void)
     EXPECT_OBJ_ERROR("v 0 0 0\rv 1 0 0\rv 0 1 0\r",
                      "m.obj:1:9: error: unexpected 'v' after the vertex's coordinates (a lone "
                      "CR ends no line");
+    /* Lone CRs that begin after the faces do: the face's message says so too. */
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\rf 1 2 3\r",
+                     "m.obj:4:9: error: malformed face vertex 'f' (a lone CR ends no line");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 f\n", "malformed face vertex 'f'");
+    CHECK(strstr(g_diag.last, "lone CR") == NULL);
     EXPECT_OBJ_ERROR("v 1 1 1e999\n", "m.obj:1:7: error: number out of range: '1e999'");
     EXPECT_OBJ_ERROR("v 1 1 nan\n", "m.obj:1:7: error: number out of range: 'nan'");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2\n",

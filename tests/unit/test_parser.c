@@ -699,6 +699,26 @@ static void test_obj_file_resolution(void)
                           "str.txt", sub, &d);
     CHECK(s == NULL);
     CHECK_CONTAINS(d.last, "/sc/bad.obj:5:7: error: vertex index 7 out of range (3 vertices)");
+    /* A file of lone CRs (classic Mac OS line ends) that begins with a comment, as
+     * exporters begin theirs, is that one comment to the OBJ reader: 'has no faces'
+     * says why. A file of LF lines with a CR at its very end gets no such word. */
+    snprintf(obj, sizeof obj, "%s/mac.obj", sub);
+    write_file(obj, "# exported\rv 0 0 0\rv 1 0 0\rv 1 1 0\rf 1 2 3\r");
+    diag_init(&d, NULL);
+    s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
+                          "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mac.obj } }",
+                          "str.txt", sub, &d);
+    CHECK(s == NULL);
+    CHECK_CONTAINS(d.last, "str.txt:2:62: error: OBJ file 'mac.obj' has no faces (a lone CR ends "
+                           "no line: give the file LF or CR LF line ends)");
+    write_file(obj, "v 0 0 0\nv 1 0 0\nv 1 1 0\n# no face\r");
+    diag_init(&d, NULL);
+    s = scene_load_string("Materials { numMaterials 1 PhongMaterial { } }\n"
+                          "Group { numObjects 1 MaterialIndex 0 TriangleMesh { obj_file mac.obj } }",
+                          "str.txt", sub, &d);
+    CHECK(s == NULL);
+    CHECK_CONTAINS(d.last, "str.txt:2:62: error: OBJ file 'mac.obj' has no faces");
+    CHECK(strstr(d.last, "lone CR") == NULL);
     /* Columns count characters: a file name of 2-, 3- and 4-byte characters (6 bytes
      * more than characters) before the error's token on its line shifts it by none. */
     snprintf(obj, sizeof obj, "%s/caf\xC3\xA9\xE2\x86\x92\xF0\x9F\x98\x80.obj", sub);
