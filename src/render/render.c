@@ -55,8 +55,13 @@ Vec3 render_depth_color(const Hit *hit, float depth_min, float depth_max)
 {
     if (!(hit->material != NULL && isfinite(hit->t)))
         return v3(0, 0, 0);
-    /* Near = white, far = black, linear between dmin and dmax (A1). */
-    float d = hit->t < depth_min ? depth_min : hit->t > depth_max ? depth_max : hit->t;
+    /* dmin white, dmax black, linear between them (A1: near white, far black). t is
+     * clamped to the range between the two, whichever is larger: with dmin > dmax the
+     * same line read the other way (near black, far white); clamped to dmin first and
+     * then to dmax, every t came out at one end or the other, a hard step at dmin. */
+    float lo = depth_min < depth_max ? depth_min : depth_max;
+    float hi = depth_min < depth_max ? depth_max : depth_min;
+    float d = hit->t < lo ? lo : hit->t > hi ? hi : hit->t;
     float g = (depth_max - d) / (depth_max - depth_min);
     /* A range wider than the largest float (-depth -3e38 3e38) made the divisor
      * infinite and every hit black: the same ratio of halves, which cannot overflow.

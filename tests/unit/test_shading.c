@@ -127,6 +127,30 @@ static void test_depth_color_huge_range(void)
     arena_free(&a);
 }
 
+/* dmin above dmax (-depth 12 8): the same line read the other way, dmin white and dmax
+ * black with a gradient between, as the formula g = (dmax - t) / (dmax - dmin) gives;
+ * t was clamped to dmin, then to dmax, which made a hard step at dmin (every nearer
+ * hit white, every farther one black). */
+static void test_depth_color_reversed_range(void)
+{
+    Arena a;
+    arena_init(&a);
+    PhongParams pp = phong_defaults();
+    Hit h = hit_none();
+    h.material = phong_new(&a, &pp);
+    const float ts[] = {5.0f, 8.0f, 9.0f, 10.0f, 11.5f, 12.0f, 20.0f};
+    const float want[] = {0.0f, 0.0f, 0.25f, 0.5f, 0.875f, 1.0f, 1.0f};
+    for (int k = 0; k < (int)(sizeof ts / sizeof ts[0]); k++) {
+        h.t = ts[k];
+        float g = render_depth_color(&h, 12.0f, 8.0f).x;
+        CHECK_MSG(g == want[k], "t %g: grey %g, want %g", (double)ts[k], (double)g,
+                  (double)want[k]);
+        /* the ordinary range, mirrored: 1 - g to the bit at these values */
+        CHECK(render_depth_color(&h, 8.0f, 12.0f).x == 1.0f - want[k]);
+    }
+    arena_free(&a);
+}
+
 /* The cameras and image sizes the ray-generation tests compare over: course line 07's
  * perspective view, an oblique perspective with a tilted up vector, an orthographic
  * camera looking slightly sideways and a perspective eye far from the origin (aiming
@@ -1609,6 +1633,8 @@ static const TestCase tests[] = {
     {"shading: camera bases and rays", test_cameras},
     {"shading: a far perspective eye aims as precisely as a near one", test_far_eye_rays},
     {"shading: the depth grey of a range wider than the largest float", test_depth_color_huge_range},
+    {"shading: the depth grey with dmin above dmax is a reversed gradient",
+     test_depth_color_reversed_range},
     {"shading: a block of pixel rays, to the bit", test_pixel_rays_block},
     {"shading: an 8 x 8 block of pixel rays in lane order, to the bit", test_block8_rays},
     {"shading: a pixel's sample rays, to the bit", test_sample_rays},
