@@ -168,7 +168,6 @@ static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p) || 
 
 /* Said where a record runs on after a CR that ends no line: a file of lone CRs (classic
  * Mac OS line ends) is one long line to this reader. */
-#define LONE_CR_HINT "a lone CR ends no line: give the file LF or CR LF line ends"
 
 /* How much of the word at `at` a message quotes: up to the next blank or the line's
  * end, at most 60 characters. */
@@ -232,6 +231,12 @@ static inline bool simple_float(const char **pp, float *out)
     return true;
 }
 
+/* Whether p is at its line's end: LF, CR LF or the text's end (a NUL). */
+static inline bool ends_line(const char *p)
+{
+    return *p == '\n' || *p == '\0' || (*p == '\r' && (p[1] == '\n' || p[1] == '\0'));
+}
+
 /* The common vertex record "v x y z": single spaces, numbers of simple_float's form,
  * the line's end (LF, CR LF, the text's end) right after the third (anything else
  * there, even blanks, is read_vertex's to check: CR LF files, as Windows tools write
@@ -249,8 +254,7 @@ static bool read_vertex_simple(ObjReader *r)
         if (*p != ' ')
             return false;
         p++;
-        if (!simple_float(&p, &c[k]) ||
-            !(k < 2 ? *p == ' ' : *p == '\n' || *p == '\0' || (*p == '\r' && (p[1] == '\n' || p[1] == '\0'))))
+        if (!simple_float(&p, &c[k]) || !(k < 2 ? *p == ' ' : ends_line(p)))
             return false;
     }
     r->m->verts[r->m->nverts++] = v3(c[0], c[1], c[2]);
@@ -304,7 +308,7 @@ static bool read_vertex(ObjReader *r)
             SrcLoc l = objfile_loc(r, at);
             diag_error(r->diag, &l,
                        "unexpected '%.*s' after the vertex's coordinates (%s)", shown, at,
-                       at[-1] == '\r' ? LONE_CR_HINT
+                       at[-1] == '\r' ? OBJ_LONE_CR_HINT
                                        : "a vertex is 'v x y z', then at most a w or a "
                                          "colour's 3 or 4 numbers");
             return false;
@@ -371,7 +375,7 @@ static bool read_face(ObjReader *r, const char *f_at)
             /* "f 1 2 3\rf 4 5 6": the next face run into this one after a lone CR, as
              * a vertex's is (a file whose lone CRs start after its faces begin). */
             diag_error(r->diag, &l, "malformed face vertex '%.*s'%s", shown, at,
-                       at[-1] == '\r' ? " (" LONE_CR_HINT ")" : "");
+                       at[-1] == '\r' ? " (" OBJ_LONE_CR_HINT ")" : "");
             return false;
         }
         int nv = r->m->nverts;
@@ -443,7 +447,7 @@ static bool read_face_simple(ObjReader *r)
         }
         idx[k] = v - 1;
     }
-    if (!(*p == '\n' || *p == '\0' || (*p == '\r' && (p[1] == '\n' || p[1] == '\0'))))
+    if (!ends_line(p))
         return false;
     if (r->m->ntris >= r->cap_t &&
         (r->m->ntris == INT_MAX || r->fixed ||

@@ -29,6 +29,8 @@ void objfile_mesh_free(ObjMesh *m);
  * which ends no line for objfile_parse: a file of them that begins with a comment
  * reads as that one comment, with no faces. */
 bool objfile_has_lone_cr(const char *buf, size_t len);
+/* Said where a record runs on after such a CR, and when such a file has no faces. */
+#define OBJ_LONE_CR_HINT "a lone CR ends no line: give the file LF or CR LF line ends"
 /* For tests: how many files objfile_parse has read in parallel pieces so far (the
  * others went through the serial reader). */
 unsigned long objfile_pieces_read(void);

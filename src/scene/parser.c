@@ -868,7 +868,7 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
             bool lone_cr = !cached && objfile_has_lone_cr(buf, len);
             fail(p, &name.loc, "OBJ file '%s' has no faces%s",
                  lex_show(&name, shown, sizeof shown),
-                 lone_cr ? " (a lone CR ends no line: give the file LF or CR LF line ends)" : "");
+                 lone_cr ? " (" OBJ_LONE_CR_HINT ")" : "");
             ok = false;
         }
         /* A stop (Ctrl-C) after the parse: the triangles are not made (a tenth of a
