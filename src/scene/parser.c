@@ -641,6 +641,12 @@ static bool parse_sphere(Parser *p, const Token *kw, Object3D **out)
         return false;
     if (r < 0.0f)
         return fail(p, &at, "Sphere radius must not be negative, found %g", (double)r);
+    /* Meaningful but almost surely a slip (or a radius under the float range, 1e-50): a
+     * ray meets a point only tangentially, so the sphere draws nothing. Kept, so that a
+     * scene that grows it later still reads. */
+    if (r == 0.0f)
+        diag_warning(p->diag, &at, "this Sphere's radius is 0 (in single precision): no ray "
+                                   "hits it, so it draws nothing");
     *out = sphere_new(&p->s->arena, c, r, p->current);
     if (!*out)
         return out_of_memory(p, &kw->loc);

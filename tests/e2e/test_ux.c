@@ -808,7 +808,41 @@ static void test_no_lights_warning_located(void)
     e2e_rmtree(dir);
 }
 
+/* A Sphere of radius 0 (typed, or under the float range) is read but warned about at
+ * its radius: no ray hits a point, so it silently drew nothing. A small radius draws and
+ * says nothing. */
+static void test_zero_radius_warning(void)
+{
+    char dir[PATH_MAX], scene[PATH_MAX], out[PATH_MAX];
+    CHECK(e2e_tmpdir(dir, sizeof dir, "uxradius") != NULL);
+    e2e_join(scene, sizeof scene, dir, "s.txt");
+    e2e_join(out, sizeof out, dir, "o.tga");
+    const char *radius[3] = {"0", "1e-50", "1e-30"};
+    for (int k = 0; k < 3; k++) {
+        char text[1024];
+        snprintf(text, sizeof text,
+                 "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 3 }\n"
+                 "Lights { numLights 1 DirectionalLight { direction 0 0 -1 color 1 1 1 } }\n"
+                 "Materials { numMaterials 1 PhongMaterial { diffuseColor 1 1 1 } }\n"
+                 "Group { numObjects 1 MaterialIndex 0\n"
+                 "  Sphere { center 0 0 0 radius %s } }\n",
+                 radius[k]);
+        CHECK(e2e_write_file(scene, text));
+        const char *args[] = {"-input", scene, "-size", "8", "8", "-output", out, NULL};
+        E2eRun r;
+        CHECK(e2e_run_bin(harness_bin(), args, &r));
+        CHECK_INT(r.status, 0);
+        if (k < 2)
+            CHECK_CONTAINS(r.err, "s.txt:5:25: warning: this Sphere's radius is 0");
+        else
+            CHECK_MSG(r.err[0] == '\0', "radius %s: stderr '%s'", radius[k], r.err);
+        e2e_run_free(&r);
+    }
+    e2e_rmtree(dir);
+}
+
 static const TestCase tests[] = {
+    {"ux: a Sphere of radius 0 is warned about", test_zero_radius_warning},
     {"ux: the no-lights warning is located", test_no_lights_warning_located},
     {"ux: the preview's g prints its view", test_preview_keys_print},
     {"ux: the preview's options are checked before the scene is read",
