@@ -141,9 +141,12 @@ bool preview_view_trace(PreviewView *v, int i, int j, int w, int h)
 
 void preview_view_cycle_grid(PreviewView *v, FILE *out)
 {
+    /* Only -accel none (chosen, or the default without -grid) has no grid to draw; the
+     * hint names both ways to one, since -grid with -accel none is a usage error. */
     if (!preview_view_grid(v)) {
         if (out)
-            fprintf(out, "no grid to show: run with -grid nx ny nz\n");
+            fprintf(out, "no grid to show: run with -grid nx ny nz or -grid auto (and "
+                         "without -accel none)\n");
         v->mode = PREVIEW_OBJECTS;
         return;
     }
