@@ -489,6 +489,16 @@ static bool parse_lines(ObjReader *r)
             ok = read_vertex_simple(r) || read_vertex(r);
         else if (kl == 1 && kw[0] == 'f')
             ok = read_face_simple(r) || read_face(r, kw);
+        else if (kl == 1 && (kw[0] == 'V' || kw[0] == 'F')) {
+            /* OBJ keywords are lower case, and no tool writes these; skipped as unknown
+             * records, a hand-written file in capitals lost every vertex or face
+             * silently ("has no faces", or indices out of range at the first face). */
+            SrcLoc l = objfile_loc(r, kw);
+            diag_error(r->diag, &l, "'%c' is not an OBJ record (keywords are lower case: "
+                                    "did you mean '%c'?)",
+                       kw[0], kw[0] == 'V' ? 'v' : 'f');
+            return false;
+        }
         /* Anything else (#, vn, vt, g, o, s, usemtl, mtllib, l, ...) is skipped. */
         if (!ok)
             return false;

@@ -140,6 +140,13 @@ static void test_errors(void)
                      "m.obj:4:9: error: malformed face vertex 'f' (a lone CR ends no line");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3 f\n", "malformed face vertex 'f'");
     CHECK(strstr(g_diag.last, "lone CR") == NULL);
+    /* Capital V and F (a file typed by hand) are errors, not unknown records skipped. */
+    EXPECT_OBJ_ERROR("V 0 0 0\nV 1 0 0\nV 0 1 0\nF 1 2 3\n",
+                     "m.obj:1:1: error: 'V' is not an OBJ record (keywords are lower case: "
+                     "did you mean 'v'?)");
+    EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\n  F 1 2 3\n",
+                     "m.obj:4:3: error: 'F' is not an OBJ record (keywords are lower case: "
+                     "did you mean 'f'?)");
     EXPECT_OBJ_ERROR("v 1 1 1e999\n", "m.obj:1:7: error: number out of range: '1e999'");
     EXPECT_OBJ_ERROR("v 1 1 nan\n", "m.obj:1:7: error: number out of range: 'nan'");
     EXPECT_OBJ_ERROR("v 0 0 0\nv 1 0 0\nv 0 1 0\n  f 1 2\n",

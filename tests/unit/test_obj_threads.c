@@ -310,7 +310,7 @@ static void test_placed_lines(void)
         {"v", 0},
         {"f", 0},
         {"vx 1 2 3", 1},                /* unknown keyword */
-        {"F 1 2 3", 1},
+        {"F 1 2 3", 0},                 /* capitals: not skipped, an error */
         {"f 1 2 3 # 4 5", 1},
         {"f 1 2 3#4", 1},               /* a comment glued to the last number */
         {"v 1 2 3#4", 1},
