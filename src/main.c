@@ -160,8 +160,8 @@ static SetupKey key_text(SetupKey k, const char *s)
  * preview's options, and the region itself (the record says where the part sits).
  * Options are taken as the renderer uses them, so that equal renders spelt
  * differently agree: -seed only for the samplers that draw random numbers, the count
- * only of the sampler in use, -weight only with -bounces above 0, and no filter as
- * the box of radius 0.5 it stands for. */
+ * only of the sampler in use, -weight only with -bounces above 0, no filter as the box
+ * of radius 0.5 it stands for, and -uniform_samples 1 as the centre sample it is. */
 static uint64_t render_identity(const Scene *s, const Options *o, int kind)
 {
     static const char version[] = RT_VERSION;
@@ -179,8 +179,12 @@ static uint64_t render_identity(const Scene *s, const Options *o, int kind)
         k = key_float(k, o->depth_min);
         k = key_float(k, o->depth_max);
     }
-    k = key_text(k, o->sampler);
-    if (o->sampler)
+    /* One uniform sample is the centre sample, the default's (the same pixels). */
+    const char *sampler = o->sampler;
+    if (sampler && !o->adaptive && o->samples == 1 && strcmp(sampler, "uniform") == 0)
+        sampler = NULL;
+    k = key_text(k, sampler);
+    if (sampler)
         k = setup_hash_u64(k, (uint64_t)(uint32_t)o->samples);
     if (o->adaptive) {
         k = setup_hash_u64(k, (uint64_t)(uint32_t)o->adaptive_min << 32 |
@@ -189,7 +193,7 @@ static uint64_t render_identity(const Scene *s, const Options *o, int kind)
     }
     k = key_text(k, o->filter ? o->filter : "box");
     k = key_float(k, o->filter ? o->filter_param : 0.5f);
-    if (o->adaptive || (o->sampler && strcmp(o->sampler, "uniform") != 0))
+    if (o->adaptive || (sampler && strcmp(sampler, "uniform") != 0))
         k = setup_hash_u64(k, o->seed);
     if (o->visualize_grid || o->visualize_grid_count) {
         k = setup_hash_u64(k, (uint64_t)o->grid | (uint64_t)o->grid_auto << 1 |

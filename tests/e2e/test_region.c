@@ -586,7 +586,7 @@ static bool strip_identity(const char *from, const char *to)
 static void test_render_identity(void)
 {
     char dir[PATH_MAX], scene[PATH_MAX], obj[PATH_MAX], whole[PATH_MAX], merged[PATH_MAX];
-    char top[PATH_MAX], bottom[PATH_MAX], p[16][PATH_MAX];
+    char top[PATH_MAX], bottom[PATH_MAX], p[17][PATH_MAX];
     CHECK(e2e_tmpdir(dir, sizeof dir, "identity") != NULL);
     e2e_join(scene, sizeof scene, dir, "scene.txt");
     e2e_join(obj, sizeof obj, dir, "tri.obj");
@@ -594,7 +594,7 @@ static void test_render_identity(void)
     e2e_join(merged, sizeof merged, dir, "merged.tga");
     e2e_join(top, sizeof top, dir, "top.tga");
     e2e_join(bottom, sizeof bottom, dir, "bottom.tga");
-    for (int i = 0; i < 16; i++) {
+    for (int i = 0; i < 17; i++) {
         char name[32];
         snprintf(name, sizeof name, "p%d.%s", i, i == 3 ? "png" : i == 4 ? "ppm" : "tga");
         e2e_join(p[i], sizeof p[i], dir, name);
@@ -628,6 +628,8 @@ static void test_render_identity(void)
     identity_part(scene, 0, (const char *[]){"-uniform_samples", "4", "-seed", "1", NULL}, p[13]);
     identity_part(scene, 1, (const char *[]){"-uniform_samples", "4", "-seed", "2", NULL}, p[14]);
     identity_part(scene, 1, (const char *[]){"-bounces", "1", "-weight", "0.3", NULL}, p[15]);
+    /* one uniform sample is the default's centre sample (the same pixels) */
+    identity_part(scene, 1, (const char *[]){"-uniform_samples", "1", NULL}, p[16]);
     char j0[PATH_MAX], b0[PATH_MAX];
     e2e_join(j0, sizeof j0, dir, "j0.tga");
     identity_part(scene, 0, (const char *[]){"-jittered_samples", "4", NULL}, j0);
@@ -657,6 +659,8 @@ static void test_render_identity(void)
     for (int i = 5; i < 8; i++)
         expect_merge(dir, top, p[i], 1, "part of another render than");
     expect_merge(dir, top, p[12], 0, NULL);
+    CHECK(same_file(merged, whole));
+    expect_merge(dir, top, p[16], 0, NULL);
     CHECK(same_file(merged, whole));
     expect_merge(dir, p[13], p[14], 0, NULL);
     expect_merge(dir, p[13], p[6], 1, "part of another render than"); /* uniform, jittered */
