@@ -39,7 +39,7 @@ typedef struct Geo {
     size_t nsph, cap_sph;
     PlaneW *pl;
     size_t npl, cap_pl;
-    size_t skipped;     /* spheres under non-similarity transforms */
+    size_t skipped;     /* spheres under non-similarity transforms, OBJ_OTHER leaves */
 } Geo;
 
 static void *grow(void *p, size_t *cap, size_t need, size_t elem)
@@ -134,6 +134,9 @@ static void collect(const Object3D *o, const Mat4 *m, Geo *g)
         g->npl++;
         break;
     }
+    default: /* a leaf Embree is not given (OBJ_OTHER): counted like the spheres above */
+        g->skipped++;
+        break;
     }
 }
 

@@ -1,4 +1,4 @@
-# Dynamic checks beyond `make asan` (docs/testing.md):
+# Dynamic checks beyond `make asan` (docs/tests-and-ci.md):
 #   make valgrind   the optimised build's binary under valgrind (memcheck, every leak kind
 #                   an error, still-reachable blocks included) on a subset of scenes and
 #                   options that fits CI, and the parser's unit tests

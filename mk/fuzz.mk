@@ -1,4 +1,4 @@
-# Fuzz targets (tests/fuzz/, docs/testing.md).
+# Fuzz targets (tests/fuzz/, docs/tests-and-ci.md).
 #   make fuzz     build every tests/fuzz/fuzz_NAME.c with clang's libFuzzer and
 #                 ASan+UBSan into build-fuzz/ and run each for FUZZ_SECONDS (default 30);
 #                 fails on any crash, leak, timeout (> 2 s per input) or out-of-memory

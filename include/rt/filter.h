@@ -49,7 +49,9 @@ struct Filter {
     float gauss_ni, gauss_e1, gauss_e4;
 };
 
-/* The filter whose option is -<name>_filter; NULL when unknown. */
+/* The filter whose option is -<name>_filter; NULL when unknown. The options parser
+ * takes -<name>_filter for every filter of the table (filter.c, all_filters); the -h
+ * text, README.txt and the manual page list them by hand. */
 const FilterOps *filter_find(const char *name);
 /* Sets up a filter; false with a one-line reason in why unless 0 < r <= FILTER_MAX_RADIUS. */
 bool filter_init(Filter *f, const FilterOps *ops, float r, char *why, size_t whylen);
@@ -68,7 +70,8 @@ bool filter_is_box(const Filter *f);
 
 /* Whether f has negative lobes (Mitchell): a pixel's weight sum may then come out small
  * or negative with few samples, which the film guards against (film.c,
- * film_fix_lobes). */
+ * film_fix_lobes). It names Mitchell's ops: a new filter with negative lobes (Lanczos)
+ * must be added there, or the film trusts every one of its pixels. */
 bool filter_has_negative_lobes(const Filter *f);
 
 /* w[i] = the separable weight_1d at x[i] for i < n (ops->weights_1d when the filter

@@ -239,7 +239,10 @@ typedef struct ImageCodec {
     bool (*sniff)(const uint8_t *data, size_t len);
     /* Encodes into a buffer of rt/bigmem.h (the caller frees *out with bigmem_free: a
      * 1080p TGA is 6 MB, which huge pages fault in 2 MB at a time); false only when out
-     * of memory. */
+     * of memory. img may be a byte image (pixels NULL: what a render writes), so read its
+     * rows with image_row_bytes, never image_get. When img->has_region (a -tile or
+     * -region part) the file must carry the record (image_region_format, the tag
+     * IMAGE_REGION_TAG) and decode must give it back, or -merge cannot use the part. */
     bool (*encode)(const Image *img, uint8_t **out, size_t *out_len);
     /* NULL, or for formats of uncompressed rows, top row first: allocates the file of
      * img (rt/bigmem.h) with its header written, its rows left for the caller: *top is

@@ -107,7 +107,13 @@ Material *marble_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
 Material *wood_new(Arena *a, const Mat4 *texture_xf, const Material *m1,
                    const Material *m2, int octaves, float frequency, float amplitude);
 
-/* For the packet tracer, which shades procedural hits without the ops (the same bits):
+/* A material type of its own (a new texture) needs nothing below: the packet tracer
+ * shades every hit on a material it does not recognise through the ops, with the same
+ * bits as the single-ray tracer. It recognises PhongMaterial (phong_params_of),
+ * Checkerboard by its ops table, and a blend of two PhongMaterials made by
+ * procedural_blend_new with a weights function (src/shade/procedural.h), whose lanes
+ * it computes itself.
+ * For the packet tracer, which shades procedural hits without the ops (the same bits):
  * mat_checker_child: the child a Checkerboard delegates every question about world
  * point p to (the same for shade, diffuse, reflective, transparent and ior); NULL when
  * m is not a Checkerboard.

@@ -12,12 +12,19 @@
 typedef struct Arena Arena;
 typedef struct PrimXform PrimXform;
 
+/* What a type is, for the few places that tell types apart instead of calling the ops:
+ * the walks of the tree (Group and Transform: prim_table.c, group.c's ids, the preview),
+ * and leaves some code takes by kind for speed or drawing (the grid's triangle and sphere
+ * records and packed triangles, the packets' planes, the GL preview). A new leaf type
+ * that needs none of them is OBJ_OTHER: everything then goes through its ops
+ * (docs/architecture.md, "A new primitive"). */
 typedef enum ObjKind {
     OBJ_GROUP,
     OBJ_SPHERE,
     OBJ_PLANE,
     OBJ_TRIANGLE,
-    OBJ_TRANSFORM
+    OBJ_TRANSFORM,
+    OBJ_OTHER
 } ObjKind;
 
 /* Maximum nesting of Groups/Transforms the parser accepts (and the grid flattens). */
@@ -62,6 +69,9 @@ typedef struct Object3DOps {
                          const double hi[3]);
 } Object3DOps;
 
+/* A leaf's constructor (sphere_new) allocates it from the arena and sets every field:
+ * ops, material, bbox and bounded (what the parent Group's and Transform's boxes are made
+ * from), and id = RT_NO_ID (group_assign_ids numbers the leaves once the tree is whole). */
 struct Object3D {
     const Object3DOps *ops;      /* always the first member */
     const Material *material;    /* leaves only; borrowed, the Scene owns it */

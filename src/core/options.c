@@ -687,6 +687,20 @@ static bool *switch_of(Options *o, const char *a)
     return NULL;
 }
 
+/* The filter the option a names when a is -NAME_filter for a NAME of the filter table
+ * (filter_find), else NULL: every filter there is an option without a line here. */
+static const FilterOps *filter_option(const char *a)
+{
+    static const char suffix[] = "_filter";
+    size_t n = strlen(a), k = sizeof suffix - 1;
+    char name[32];
+    if (a[0] != '-' || n <= k + 1 || n - k - 1 >= sizeof name || strcmp(a + n - k, suffix) != 0)
+        return NULL;
+    memcpy(name, a + 1, n - k - 1);
+    name[n - k - 1] = '\0';
+    return filter_find(name);
+}
+
 bool options_parse(Options *o, int argc, char **argv, FILE *err)
 {
     Cursor c = {argc, 1, argv, err, 0, 0, false};
@@ -855,16 +869,13 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             o->adaptive = true;
             o->sampler = NULL;
             replaced_by(&o->sampler_flag, &o->sampler_replaced, a);
-        } else if (!strcmp(a, "-box_filter") || !strcmp(a, "-tent_filter") ||
-                   !strcmp(a, "-gaussian_filter") || !strcmp(a, "-mitchell_filter")) {
-            char name[16];
-            snprintf(name, sizeof name, "%.*s", (int)(strchr(a, '_') - a - 1), a + 1);
-            const FilterOps *ops = filter_find(name);
+        } else if (filter_option(a)) {
+            const FilterOps *ops = filter_option(a);
             if (!take_float(&c, a, &o->filter_param))
                 return false;
             /* The range as the other options word it, with the value as typed: the
              * float it became printed "sigma 16 is out of range (0, 16]" for 16.000001. */
-            if (ops && !(o->filter_param > 0.0f && o->filter_param <= FILTER_MAX_RADIUS)) {
+            if (!(o->filter_param > 0.0f && o->filter_param <= FILTER_MAX_RADIUS)) {
                 char vname[32];
                 value_name(&c, a, vname, sizeof vname);
                 return usage_error(&c, "option %s: %s = %s is out of range (0, %g]", a, vname,
@@ -872,7 +883,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             }
             Filter probe;
             char why[160];
-            if (!ops || !filter_init(&probe, ops, o->filter_param, why, sizeof why))
+            if (!filter_init(&probe, ops, o->filter_param, why, sizeof why))
                 return usage_error(&c, "option %s: %s", a, why);
             o->filter = ops->name;
             replaced_by(&o->filter_flag, &o->filter_replaced, a);

@@ -190,6 +190,10 @@ static void draw_object(DrawCtx *d, const Object3D *o, bool *in_tris)
         gl->PopMatrix();
         break;
     }
+    default:
+        /* A kind the preview has not been taught to draw (OBJ_OTHER) is left out of it:
+         * the ray tracer still renders it (docs/architecture.md). */
+        break;
     }
 }
 

@@ -68,14 +68,35 @@ static bool fail(Parser *p, const SrcLoc *loc, const char *fmt, ...)
 
 /* The keywords that may stand where each kind of fail_unknown is reported; a misspelt
  * one is answered with the nearest of its own kind (rt/suggest.h). */
-static const char *const k_objects[] = {"Group", "Sphere", "Plane", "Triangle", "TriangleMesh",
-                                        "Transform", "MaterialIndex", NULL};
+/* The object keywords with their parsers, the procedural materials with their
+ * numbers and constructors (parse_procedural), and the transformation keywords: each
+ * list is written once, here, and the keyword tests (is_object, is_material,
+ * is_transformation), the dispatch and the names the messages offer are made from it,
+ * so a new kind of object or texture is one row (docs/architecture.md). */
+#define OBJECT_KEYWORDS(X)                                                                 \
+    X("Group", parse_group)                                                                \
+    X("Sphere", parse_sphere)                                                              \
+    X("Plane", parse_plane)                                                                \
+    X("Triangle", parse_triangle)                                                          \
+    X("TriangleMesh", parse_mesh)                                                          \
+    X("Transform", parse_transform)
+/* numbers: 0 none, 1 octaves, 3 octaves frequency amplitude (docs/textures.md). */
+#define PROCEDURAL_KEYWORDS(X)                                                             \
+    X("Checkerboard", 0, make_checkerboard)                                                \
+    X("Noise", 1, make_noise)                                                              \
+    X("Marble", 3, marble_new)                                                             \
+    X("Wood", 3, wood_new)
+#define TRANSFORMATION_KEYWORDS(X)                                                         \
+    X("Scale") X("UniformScale") X("Translate") X("XRotate") X("YRotate") X("ZRotate")     \
+    X("Rotate") X("Matrix")
+#define KEYWORD_NAME(name, ...) name,
+#define TRANSFORMATION_NAME(name) name,
+
+static const char *const k_objects[] = {OBJECT_KEYWORDS(KEYWORD_NAME) "MaterialIndex", NULL};
 static const char *const k_lights[] = {"DirectionalLight", "PointLight", NULL};
-static const char *const k_materials[] = {"PhongMaterial", "Material", "Checkerboard", "Noise",
-                                          "Marble", "Wood", NULL};
-static const char *const k_transformations[] = {"Scale", "UniformScale", "Translate",
-                                                "XRotate", "YRotate", "ZRotate", "Rotate",
-                                                "Matrix", NULL};
+static const char *const k_materials[] = {"PhongMaterial", "Material",
+                                          PROCEDURAL_KEYWORDS(KEYWORD_NAME) NULL};
+static const char *const k_transformations[] = {TRANSFORMATION_KEYWORDS(TRANSFORMATION_NAME) NULL};
 static const char *const k_phong_fields[] = {"diffuseColor", "specularColor", "exponent",
                                              "reflectiveColor", "transparentColor",
                                              "indexOfRefraction", NULL};
@@ -84,10 +105,8 @@ static const char *const k_top_level[] = {"OrthographicCamera", "PerspectiveCame
                                           "Background", "Lights", "Materials", "Group", NULL};
 /* What may stand in a Transform before its object: a transformation or an object (no
  * MaterialIndex: only a Group takes one). */
-static const char *const k_transform_items[] = {"Scale", "UniformScale", "Translate", "XRotate",
-                                                "YRotate", "ZRotate", "Rotate", "Matrix",
-                                                "Group", "Sphere", "Plane", "Triangle",
-                                                "TriangleMesh", "Transform", NULL};
+static const char *const k_transform_items[] = {TRANSFORMATION_KEYWORDS(TRANSFORMATION_NAME)
+                                                OBJECT_KEYWORDS(KEYWORD_NAME) NULL};
 
 static size_t name_count(const char *const *names)
 {
@@ -358,15 +377,18 @@ static bool out_of_memory(Parser *p, const SrcLoc *loc)
 
 /* ---- transformations (8) ------------------------------------------------------------ */
 
-static bool is_transformation(const Token *t)
+/* Whether t is one of names (NULL-terminated; the first `skip_last` names before the
+ * NULL are left out). */
+static bool is_among(const Token *t, const char *const *names, size_t skip_last)
 {
-    static const char *const kws[] = {"Scale", "UniformScale", "Translate", "XRotate",
-                                      "YRotate", "ZRotate", "Rotate", "Matrix"};
-    for (size_t i = 0; i < sizeof kws / sizeof kws[0]; i++)
-        if (lex_is(t, kws[i]))
+    size_t n = name_count(names) - skip_last;
+    for (size_t i = 0; i < n; i++)
+        if (lex_is(t, names[i]))
             return true;
     return false;
 }
+
+static bool is_transformation(const Token *t) { return is_among(t, k_transformations, 0); }
 
 /* Applies one transformation keyword t (already read) to *m in the course's order:
  * M <- M * T for all but Matrix, M <- T * M for Matrix (8, "Composition order"). */
@@ -481,11 +503,9 @@ static bool linear_part_singular(const Mat4 *m, double *lo, double *hi)
     return !(fabs(det) > 1e-6);
 }
 
-static bool is_object(const Token *t)
-{
-    return lex_is(t, "Group") || lex_is(t, "Sphere") || lex_is(t, "Plane") ||
-           lex_is(t, "Triangle") || lex_is(t, "TriangleMesh") || lex_is(t, "Transform");
-}
+/* k_objects without its last name, MaterialIndex (not an object: it sets the next
+ * ones' material). */
+static bool is_object(const Token *t) { return is_among(t, k_objects, 1); }
 
 static bool enter(Parser *p, const Token *kw)
 {
@@ -904,18 +924,15 @@ static bool parse_mesh(Parser *p, const Token *kw, Object3D **out)
 
 static bool parse_object(Parser *p, const Token *kw, Object3D **out)
 {
-    if (lex_is(kw, "Group"))
-        return parse_group(p, kw, out);
-    if (lex_is(kw, "Sphere"))
-        return parse_sphere(p, kw, out);
-    if (lex_is(kw, "Plane"))
-        return parse_plane(p, kw, out);
-    if (lex_is(kw, "Triangle"))
-        return parse_triangle(p, kw, out);
-    if (lex_is(kw, "TriangleMesh"))
-        return parse_mesh(p, kw, out);
-    if (lex_is(kw, "Transform"))
-        return parse_transform(p, kw, out);
+#define OBJECT_ROW(name, parse) {name, parse},
+    static const struct {
+        const char *name;
+        bool (*parse)(Parser *p, const Token *kw, Object3D **out);
+    } objects[] = {OBJECT_KEYWORDS(OBJECT_ROW)};
+#undef OBJECT_ROW
+    for (size_t i = 0; i < sizeof objects / sizeof objects[0]; i++)
+        if (lex_is(kw, objects[i].name))
+            return objects[i].parse(p, kw, out);
     return fail_unknown(p, kw, "object", "an object");
 }
 
@@ -1151,9 +1168,39 @@ static bool read_mat_ref(Parser *p, const MatList *ml, int self, const Material 
     return true;
 }
 
+/* The constructors of PROCEDURAL_KEYWORDS, in one shape (those without the numbers
+ * ignore them). */
+static Material *make_checkerboard(Arena *a, const Mat4 *xf, const Material *m1,
+                                   const Material *m2, int octaves, float freq, float amp)
+{
+    (void)octaves, (void)freq, (void)amp;
+    return checkerboard_new(a, xf, m1, m2);
+}
+static Material *make_noise(Arena *a, const Mat4 *xf, const Material *m1, const Material *m2,
+                            int octaves, float freq, float amp)
+{
+    (void)freq, (void)amp;
+    return noise_new(a, xf, m1, m2, octaves);
+}
+
+/* A procedural material: [Transform { ... }], two earlier materials, then its numbers. */
 static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int self,
                              Material **out, int *depth)
 {
+#define PROCEDURAL_ROW(name, numbers, make) {name, numbers, make},
+    static const struct ProceduralKind {
+        const char *name;
+        int numbers;
+        Material *(*make)(Arena *a, const Mat4 *xf, const Material *m1, const Material *m2,
+                          int octaves, float freq, float amp);
+    } kinds[] = {PROCEDURAL_KEYWORDS(PROCEDURAL_ROW)};
+#undef PROCEDURAL_ROW
+    const struct ProceduralKind *kind = NULL;
+    for (size_t i = 0; i < sizeof kinds / sizeof kinds[0] && !kind; i++)
+        if (lex_is(kw, kinds[i].name))
+            kind = &kinds[i];
+    if (!kind)
+        return fail_unknown(p, kw, "material", "a material");
     if (!expect(p, "{", NULL))
         return false;
     Token t;
@@ -1190,42 +1237,26 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
     if (*depth > RT_MAX_NESTING)
         return fail(p, &kw->loc, "procedural materials nested deeper than %d levels",
                     RT_MAX_NESTING);
-    Arena *a = &p->s->arena;
-    if (lex_is(kw, "Checkerboard")) {
-        if (!expect(p, "}", NULL))
-            return false;
-        *out = checkerboard_new(a, xf, m1, m2);
-        return *out || out_of_memory(p, &kw->loc);
-    }
-    int octaves;
+    int octaves = 0;
+    float freq = 0.0f, amp = 0.0f;
     Token num;
-    if (!field_int(p, "octaves", &octaves, &num))
-        return false;
-    if (octaves < 0 || octaves > MAX_OCTAVES)
-        return fail(p, &num.loc, "octaves must be between 0 and %d, found %d", MAX_OCTAVES,
-                    octaves);
-    if (lex_is(kw, "Noise")) {
-        if (!expect(p, "}", NULL))
+    if (kind->numbers >= 1) {
+        if (!field_int(p, "octaves", &octaves, &num))
             return false;
-        *out = noise_new(a, xf, m1, m2, octaves);
-        return *out || out_of_memory(p, &kw->loc);
+        if (octaves < 0 || octaves > MAX_OCTAVES)
+            return fail(p, &num.loc, "octaves must be between 0 and %d, found %d", MAX_OCTAVES,
+                        octaves);
     }
-    float freq, amp;
-    if (!field_float(p, "frequency", &freq, NULL) || !field_float(p, "amplitude", &amp, NULL) ||
-        !expect(p, "}", NULL))
+    if (kind->numbers >= 3 &&
+        (!field_float(p, "frequency", &freq, NULL) || !field_float(p, "amplitude", &amp, NULL)))
         return false;
-    if (lex_is(kw, "Marble"))
-        *out = marble_new(a, xf, m1, m2, octaves, freq, amp);
-    else
-        *out = wood_new(a, xf, m1, m2, octaves, freq, amp);
+    if (!expect(p, "}", NULL))
+        return false;
+    *out = kind->make(&p->s->arena, xf, m1, m2, octaves, freq, amp);
     return *out || out_of_memory(p, &kw->loc);
 }
 
-static bool is_material(const Token *t)
-{
-    return lex_is(t, "PhongMaterial") || lex_is(t, "Material") || lex_is(t, "Checkerboard") ||
-           lex_is(t, "Noise") || lex_is(t, "Marble") || lex_is(t, "Wood");
-}
+static bool is_material(const Token *t) { return is_among(t, k_materials, 0); }
 
 static bool parse_materials(Parser *p)
 {

@@ -53,7 +53,9 @@ typedef void (*ProceduralWeightsFn)(const ProceduralBlend *b, const Vec3 *p, int
 #define PROCEDURAL_MAX_OCTAVES 64
 
 /* Allocates a ProceduralBlend-sized object from the arena with the given ops; NULL
- * when out of memory or a child is NULL. */
+ * when out of memory or a child is NULL. A material that picks one child per point
+ * (Checkerboard) is made with this alone: no weights, so the packet tracer shades it
+ * through its ops. */
 ProceduralBlend *procedural_alloc(Arena *a, const MaterialOps *ops, const Mat4 *texture_xf,
                                   const Material *m1, const Material *m2);
 
@@ -87,7 +89,9 @@ static inline double procedural_footprint(const ProceduralBlend *b)
     return (double)mat_footprint() * (double)b->xf_scale;
 }
 
-/* The GL preview shows the first child's material, recursively. */
+/* The GL preview shows the first child's material, recursively. Only for materials made
+ * by procedural_alloc or procedural_blend_new: procedural.c (phong_blend) takes a
+ * material whose preview_material is this function for a ProceduralBlend. */
 const Material *procedural_preview(const Material *self);
 
 /* Shading and accessors of a blend with weight t on m1: the

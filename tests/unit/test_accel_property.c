@@ -51,9 +51,9 @@ static Vec3 direction(void)
     }
 }
 
-/* A primitive no accelerator knows (a kind past the last one), as a new primitive would
- * be: an axis-aligned cube given by centre and half size, with only intersect and
- * bounds. Accelerators must bin it by its bounds and still agree with "none". */
+/* A primitive no accelerator knows (OBJ_OTHER), as a new primitive would be: an
+ * axis-aligned cube given by centre and half size, with only intersect and bounds.
+ * Accelerators must bin it by its bounds and still agree with "none". */
 typedef struct Cube {
     Object3D base;
     Vec3 c;
@@ -87,7 +87,7 @@ static BBox cube_bounds(const Object3D *self, const Mat4 *to_world)
     return to_world ? bbox_transform(&self->bbox, to_world) : self->bbox;
 }
 
-static const Object3DOps cube_ops = {.type_name = "Cube", .kind = (ObjKind)(OBJ_TRANSFORM + 1),
+static const Object3DOps cube_ops = {.type_name = "Cube", .kind = OBJ_OTHER,
                                      .intersect = cube_intersect,
                                      .occluded = obj_occluded_by_intersect,
                                      .bounds = cube_bounds};
