@@ -3,6 +3,7 @@
 #ifndef RT_VEC_H
 #define RT_VEC_H
 
+#include <float.h>
 #include <math.h>
 #include <stdbool.h>
 
@@ -29,6 +30,39 @@ static inline Vec3 v3_normalize(Vec3 a)
 {
     float l = v3_length(a);
     return l > 0.0f ? v3_scale(a, 1.0f / l) : a;
+}
+/* The unit vector of a normal made once per primitive (a Triangle's e1 x e2, a
+ * Plane's normal as given), whose squared length may leave float's range: beyond
+ * about 1.8e19 it overflowed and normalize gave a zero normal (a floor Triangle with
+ * vertices at 1e10 was lit by no light); below about 1e-19 its bits were lost. Where
+ * the squared length is a normal float, v3_normalize's bits; else the squares, the
+ * sums and the length in double, whose range holds them, rounded to float once. A
+ * zero vector stays zero. */
+static inline Vec3 v3_unit_wide(double x, double y, double z)
+{
+    double l = sqrt(x * x + y * y + z * z);
+    if (!(l > 0.0) || !isfinite(l))
+        return v3(0.0f, 0.0f, 0.0f);
+    return v3((float)(x / l), (float)(y / l), (float)(z / l));
+}
+static inline Vec3 v3_normalize_wide(Vec3 a)
+{
+    float l2 = v3_dot(a, a);
+    if (l2 >= FLT_MIN && l2 <= FLT_MAX)
+        return v3_normalize(a);
+    return v3_unit_wide((double)a.x, (double)a.y, (double)a.z);
+}
+/* normalize(a x b) so: where float's squared length fails, the cross product too in
+ * double (its products of floats are exact there). */
+static inline Vec3 v3_unit_cross(Vec3 a, Vec3 b)
+{
+    Vec3 c = v3_cross(a, b);
+    float l2 = v3_dot(c, c);
+    if (l2 >= FLT_MIN && l2 <= FLT_MAX)
+        return v3_normalize(c);
+    double ax = (double)a.x, ay = (double)a.y, az = (double)a.z;
+    double bx = (double)b.x, by = (double)b.y, bz = (double)b.z;
+    return v3_unit_wide(ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx);
 }
 static inline bool v3_is_zero(Vec3 a) { return a.x == 0.0f && a.y == 0.0f && a.z == 0.0f; }
 static inline Vec3 v3_lerp(Vec3 a, Vec3 b, float t) /* t*a + (1-t)*b: weight on the FIRST */

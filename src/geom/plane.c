@@ -59,7 +59,7 @@ Object3D *plane_new(Arena *a, Vec3 normal, float offset, const Material *m)
     p->base.bbox = bbox_empty();
     p->base.id = RT_NO_ID;
     p->normal = normal;
-    p->unit_normal = v3_normalize(normal);
+    p->unit_normal = v3_normalize_wide(normal);
     p->offset = offset;
     return &p->base;
 }

@@ -3,6 +3,8 @@
 #include "rt/prim.h"
 #include "rt/arena.h"
 
+#include <float.h>
+
 typedef struct Sphere {
     Object3D base;
     Vec3 center;
@@ -28,11 +30,22 @@ static inline bool sphere_root(const Sphere *s, const Ray *ray, float tmin, floa
     float b = v3_dot(ray->dir, oc);
     Vec3 f = v3_sub(oc, v3_scale(ray->dir, b / a));
     float r2 = s->radius * s->radius;
-    float disc = a * (r2 - v3_dot(f, f));
-    if (disc < 0.0f)
+    float h = r2 - v3_dot(f, f);
+    float disc = a * h;
+    /* The sign of h, not of disc: under a Transform a is the squared length of the
+     * object-space direction (1e-24 under UniformScale 1e12), and a * h of a ray
+     * missing the sphere by up to some 18 radii underflowed to -0, which passed
+     * disc < 0 (UniformScale 1e12 of a radius 2e-12: every ray of the picture "hit"
+     * it). */
+    if (h < 0.0f)
         return false;
+    /* sqrt(a h) as sqrt(a) sqrt(h) where the product is not a normal float: it
+     * overflowed (UniformScale 1e-10 of a radius 2e10: a 1e20, h 4e20, so the roots
+     * were infinite and the sphere a flat disc) or lost bits below FLT_MIN. Elsewhere
+     * sqrtf(disc) as before, so such images keep their bytes. */
+    float sd = disc >= FLT_MIN && disc <= FLT_MAX ? sqrtf(disc) : sqrtf(a) * sqrtf(h);
     float c = v3_dot(oc, oc) - r2;
-    float q = -(b + copysignf(sqrtf(disc), b));
+    float q = -(b + copysignf(sd, b));
     float t0 = q / a, t1 = q != 0.0f ? c / q : -t0;
     if (t0 > t1) {
         float tmp = t0;

@@ -8,7 +8,7 @@
 typedef struct Triangle {
     Object3D base;
     Vec3 v0, e1, e2;   /* v1 = v0 + e1, v2 = v0 + e2 */
-    Vec3 normal;       /* normalize(e1 x e2) */
+    Vec3 normal;       /* normalize(e1 x e2) (v3_unit_cross) */
     Vec3 v1, v2;
 } Triangle;
 
@@ -33,7 +33,7 @@ static inline void triangle_init(Triangle *t, Vec3 v0, Vec3 v1, Vec3 v2, const M
     t->v2 = v2;
     t->e1 = v3_sub(v1, v0);
     t->e2 = v3_sub(v2, v0);
-    t->normal = v3_normalize(v3_cross(t->e1, t->e2));
+    t->normal = v3_unit_cross(t->e1, t->e2);
 }
 
 #endif

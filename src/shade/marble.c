@@ -9,12 +9,23 @@
 #include "procedural.h"
 #include "rt/cpu.h"
 
+/* The sine's argument f x + a N, 0 where it is not finite: a texture point beyond
+ * float's range (a texture Transform "UniformScale 1e38" at x = 10) is infinite, and
+ * sin(inf) or 0 * inf is NaN, which made the material's every colour NaN (written as
+ * black, also in a mirror's reflection of it). The pattern means nothing out there;
+ * sin 0 = 0 gives the even mix, t = 1/2. */
+static inline double marble_arg(const ProceduralBlend *b, double x, double n)
+{
+    double arg = (double)b->frequency * x + (double)b->amplitude * n;
+    return isfinite(arg) ? arg : 0.0;
+}
+
 /* t = (sin(f x + a N(x,y,z)) + 1) / 2 on m1; already in [0,1]. The (M+1)/2 mapping is
  * what reproduces the official scene6_15 (clamping M or |M| does not). Double precision
  * like the noise itself. */
 static inline float marble_t(const ProceduralBlend *b, double x, double n)
 {
-    double m = sin((double)b->frequency * x + (double)b->amplitude * n);
+    double m = sin(marble_arg(b, x, n));
     return (float)((m + 1.0) * 0.5);
 }
 
@@ -147,7 +158,7 @@ static void marble_weights(const ProceduralBlend *b, const Vec3 *p, int n, float
     procedural_octaves_at(b, p, n, false, x, y, z, nz);
     double a[PROCEDURAL_WEIGHTS_MAX];
     for (int i = 0; i < n; i++)
-        a[i] = (double)b->frequency * x[i] + (double)b->amplitude * nz[i];
+        a[i] = marble_arg(b, x[i], nz[i]);
     marble_sine_weights(a, n, t);
 }
 

@@ -13,7 +13,9 @@ static inline float wood_t(const ProceduralBlend *b, double x, double y, double 
 {
     double theta = (double)b->frequency * (sqrt(x * x + z * z) + 0.05 * y) +
                    (double)b->amplitude * n;
-    double v = sin(theta) + 0.5;
+    /* Not finite only for a texture point beyond float's range (inf, or 0 * inf):
+     * sin 0 there, as Marble does, instead of a NaN weight (t = 1/4). */
+    double v = sin(isfinite(theta) ? theta : 0.0) + 0.5;
     v = v <= 0.0 ? 0.0 : v >= 1.0 ? 1.0 : v;
     return (float)(v * v);
 }

@@ -419,6 +419,92 @@ static void test_adopt_frees_small_buffer(void)
     arena_free(&a);
 }
 
+/* A unit-size sphere made of a sphere of radius 2/s under UniformScale s, for the
+ * scales the parser accepts (up to 1e12 either way): in the sphere's space the ray
+ * direction's squared length a is 1/s^2, and a times the root's term h left float's
+ * range. At s = 1e12 a * h of rays missing the sphere underflowed to -0 and passed as
+ * hits (every ray of a picture "hit"); at s = 1e-10 it overflowed, the roots were
+ * infinite and the sphere came out a flat disc; at 1e11 it was denormal (bits lost).
+ * Each must give what s = 1 gives: the hit at t = 28 with normal +z, the ray 2.5 off
+ * the axis missing, one 1.2 off hitting at t = 30 - sqrt(4 - 1.44) with the normal
+ * (0, 0.6, 0.8), both under the tree's Transform and the grid's flattened path. */
+static void test_sphere_extreme_scales(void)
+{
+    setup();
+    const float scales[] = {1, 1e12f, 1e11f, 1e-10f, 1e-11f, 1e-12f * 1.5f};
+    for (size_t k = 0; k < sizeof scales / sizeof scales[0]; k++) {
+        float sc = scales[k];
+        RenderCtx ctx = {0};
+        Object3D *s = sphere_new(&arena, v3(0, 0, 0), 2.0f / sc, mat);
+        Mat4 m = mat4_scale(v3(sc, sc, sc));
+        Object3D *x = transform_new(&arena, &m, s);
+        CHECK(x != NULL);
+        if (!x)
+            continue;
+        group_assign_ids(x);
+        XformPath path = {{x}, 1};
+        for (int via = 0; via < 2; via++) {
+            Hit h = hit_none();
+            Ray r = ray(v3(0, 0, 30), v3(0, 0, -1));
+            bool hit = via ? transform_path_intersect(&path, s, &r, &h, 0, &ctx)
+                           : obj_intersect(x, &r, &h, 0, &ctx);
+            CHECK_MSG(hit, "scale %g: the axis ray misses", (double)sc);
+            CHECK_MSG(fabsf(h.t - 28) < 1e-4f && fabsf(h.normal.z - 1) < 1e-5f,
+                      "scale %g: t %g, normal z %g", (double)sc, (double)h.t,
+                      (double)h.normal.z);
+            Hit h2 = hit_none();
+            Ray off = ray(v3(0, 2.5f, 30), v3(0, 0, -1));
+            hit = via ? transform_path_intersect(&path, s, &off, &h2, 0, &ctx)
+                      : obj_intersect(x, &off, &h2, 0, &ctx);
+            CHECK_MSG(!hit, "scale %g: a ray 2.5 off the axis hits at t %g", (double)sc,
+                      (double)h2.t);
+            Hit h3 = hit_none();
+            Ray side = ray(v3(0, 1.2f, 30), v3(0, 0, -1));
+            hit = via ? transform_path_intersect(&path, s, &side, &h3, 0, &ctx)
+                      : obj_intersect(x, &side, &h3, 0, &ctx);
+            CHECK_MSG(hit && fabsf(h3.t - (30 - 1.6f)) < 1e-4f &&
+                          fabsf(h3.normal.y - 0.6f) < 1e-5f && fabsf(h3.normal.z - 0.8f) < 1e-5f,
+                      "scale %g: off-axis hit %d at t %g, normal (%g, %g, %g)", (double)sc, hit,
+                      (double)h3.t, (double)h3.normal.x, (double)h3.normal.y,
+                      (double)h3.normal.z);
+            CHECK(!obj_occluded(x, &off, 0, INFINITY, &ctx));
+            CHECK(obj_occluded(x, &side, 0, INFINITY, &ctx));
+        }
+    }
+}
+
+/* The normals made once per primitive, where float's squared length overflows or
+ * underflows: a floor Triangle with vertices at 1e10 (e1 x e2 of length 4e20, squared
+ * 1.6e41) had the normal 0 and was lit by no light; one with edges of 1e-12 (squared
+ * length 1e-48, 0 in float) kept the tiny vector as its "unit" normal; a Plane's
+ * normal as given likewise (0 1e20 0, 0 1e-25 0). Each must be the unit vector, and an
+ * ordinary triangle's must keep its bits (the float path). */
+static void test_normals_of_huge_and_tiny(void)
+{
+    setup();
+    const float sizes[] = {1e10f, 1e15f, 1e-12f, 1e-20f};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        float e = sizes[k];
+        Object3D *t = triangle_new(&arena, v3(-e, -1, e), v3(e, -1, e), v3(0, -1, -e), mat);
+        Vec3 n = triangle_normal(t);
+        CHECK_MSG(n.x == 0 && n.y == 1 && n.z == 0, "triangle of size %g: normal (%g, %g, %g)",
+                  (double)e, (double)n.x, (double)n.y, (double)n.z);
+    }
+    Object3D *t = triangle_new(&arena, v3(0.1f, 0.2f, 0.3f), v3(1.7f, -0.4f, 0.9f),
+                               v3(-0.3f, 1.1f, 2.3f), mat);
+    Vec3 want = v3_normalize(v3_cross(v3_sub(v3(1.7f, -0.4f, 0.9f), v3(0.1f, 0.2f, 0.3f)),
+                                      v3_sub(v3(-0.3f, 1.1f, 2.3f), v3(0.1f, 0.2f, 0.3f))));
+    Vec3 got = triangle_normal(t);
+    CHECK(memcmp(&want, &got, sizeof want) == 0);
+    const float lens[] = {1e20f, 1e-25f};
+    for (size_t k = 0; k < 2; k++) {
+        Object3D *p = plane_new(&arena, v3(0, lens[k], 0), 0, mat);
+        Vec3 u = plane_unit_normal(p);
+        CHECK_MSG(u.x == 0 && u.y == 1 && u.z == 0, "plane normal 0 %g 0: unit (%g, %g, %g)",
+                  (double)lens[k], (double)u.x, (double)u.y, (double)u.z);
+    }
+}
+
 static const TestCase tests[] = {
     {"geom: arena: a mapped buffer too small to adopt is freed, its mapping reused", test_adopt_frees_small_buffer},
     {"geom: arena: a block filled by one request goes behind the head", test_arena_big_block_behind_head},
@@ -427,6 +513,8 @@ static const TestCase tests[] = {
     {"geom: plane", test_plane},
     {"geom: triangle hit, miss, edge, parallel", test_triangle},
     {"geom: transform with non-uniform scale", test_transform_nonuniform},
+    {"geom: sphere under UniformScale 1e12 .. 1e-12", test_sphere_extreme_scales},
+    {"geom: normals of huge and tiny triangles and planes", test_normals_of_huge_and_tiny},
     {"geom: transform: tmin is a distance in the primitive's space", test_transform_tmin_object_space},
     {"geom: flattened path == nested transforms", test_path_matches_tree},
     {"geom: group nearest hit, tie-break, counting", test_group_and_ties},

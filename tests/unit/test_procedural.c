@@ -639,6 +639,56 @@ static void test_octaves_at_points(void)
     arena_free(&a);
 }
 
+/* A texture point beyond float's range: a texture Transform's UniformScale 1e38 takes
+ * x = 10 to infinity, and rows of 1e38 and -1e38 take (10, 10, 0) to inf - inf = NaN.
+ * Marble's and Wood's sine then had a NaN argument (sin inf, 0 * inf) and the weight
+ * was NaN, so every colour of the material was NaN (black in the picture). Now the
+ * argument counts as 0 there: Marble t = 1/2, Wood t = (0 + 1/2)^2 = 1/4; Noise's
+ * noise is 0 (t = 1/2) and Checkerboard picks material 1, as before. The same on the
+ * one-point path and the batched one (the packet tracer's), with and without noise
+ * octaves and for frequency 0. */
+static void test_texture_point_overflow(void)
+{
+    Arena a;
+    arena_init(&a);
+    init_children();
+    Mat4 big = mat4_scale(v3(1e38f, 1e38f, 1e38f));
+    float rows[16] = {1e38f, 1e38f, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    Mat4 mixed = mat4_from_rows(rows);
+    Vec3 pts[2] = {v3(10, 0.5f, 0.25f), v3(10, -10, 0.25f)};
+    const Mat4 *xfs[2] = {&big, &mixed};
+    for (int k = 0; k < 2; k++) {
+        const Procedural *pr =
+            (const Procedural *)marble_new(&a, xfs[k], &A.base, &B.base, 1, 1, 1);
+        Vec3 q = procedural_texture_point(pr, pts[k]);
+        CHECK_MSG(k == 0 ? isinf(q.x) : isnan(q.x), "case %d: q.x = %g", k, (double)q.x);
+        for (int octaves = 0; octaves <= 3; octaves += 3) {
+            for (int f = 0; f <= 2; f += 2) {
+                const Material *ms[4] = {
+                    marble_new(&a, xfs[k], &A.base, &B.base, octaves, (float)f, 1.5f),
+                    wood_new(&a, xfs[k], &A.base, &B.base, octaves, (float)f, 1.5f),
+                    noise_new(&a, xfs[k], &A.base, &B.base, octaves),
+                    checkerboard_new(&a, xfs[k], &A.base, &B.base)};
+                const double want[4] = {0.5, 0.25, 0.5, 1.0};
+                for (int m = 0; m < 4; m++) {
+                    Vec3 d = mat_diffuse_at(ms[m], pts[k]);
+                    CHECK_MSG(d.x == (float)want[m] && d.y == (float)(1.0 - want[m]),
+                              "case %d, material %d, octaves %d, frequency %d: diffuse "
+                              "(%g, %g), want t = %g", k, m, octaves, f, (double)d.x,
+                              (double)d.y, want[m]);
+                    if (m == 3)
+                        continue;
+                    float t = -1.0f;
+                    mat_blend_weights(ms[m], &pts[k], 1, &t);
+                    CHECK_MSG(t == (float)want[m], "case %d, material %d: batched weight %g",
+                              k, m, (double)t);
+                }
+            }
+        }
+    }
+    arena_free(&a);
+}
+
 static const TestCase tests[] = {
     {"checkerboard: parity incl. negative cells", test_checker_parity},
     {"checkerboard: exact cell borders (floor)", test_checker_borders},
@@ -651,6 +701,8 @@ static const TestCase tests[] = {
     {"marble: the batched weights' sine rounds like libm's", test_marble_sine_weight},
     {"procedural: the batched texture points, on every path", test_octaves_at_points},
     {"wood: weights", test_wood_weight},
+    {"marble, wood: a texture point beyond float's range gives a finite weight",
+     test_texture_point_overflow},
     {"blend: every accessor interpolates", test_blend_accessors},
     {"procedural: nesting", test_nesting},
     {"procedural: preview material", test_preview},
