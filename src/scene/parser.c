@@ -426,6 +426,19 @@ static bool parse_transformation(Parser *p, const Token *t, Mat4 *m)
             return false;
         if (v3_is_zero(axis))
             return fail(p, &at.loc, "Rotate axis is zero");
+        /* The course's Rodrigues matrix takes the axis as written (so do we: the same
+         * picture), but an axis of another length stretches the object along it and
+         * across it as well as turning it, which nobody writing "Rotate { 1 1 0 35 }"
+         * means. Said once here, where it can be fixed. In double: squares of large
+         * components would overflow a float. */
+        double ax = (double)axis.x, ay = (double)axis.y, az = (double)axis.z;
+        double len = sqrt(ax * ax + ay * ay + az * az);
+        if (fabs(len - 1.0) > 1e-3)
+            diag_warning(p->diag, &at.loc,
+                         "Rotate axis %g %g %g has length %g, not 1: it is used as given "
+                         "(the course's rule), which stretches the object as well as "
+                         "turning it; for a pure rotation write the unit axis %g %g %g",
+                         ax, ay, az, len, ax / len, ay / len, az / len);
         x = mat4_rotate_axis(axis, deg);
     } else if (lex_is(t, "Matrix")) {
         float v[16];

@@ -535,6 +535,48 @@ static void test_repeated_blocks_warn(void)
     CHECK_INT(g_diag.warnings, 0);
 }
 
+/* Rotate's axis is used as written, like the course's Rodrigues matrix (an axis of
+ * length 2 doubles the object along it: not normalised), and an axis that is not of
+ * length 1 (beyond 1e-3) gets a located warning naming the unit axis, in an object's
+ * Transform and in a texture's alike; unit axes, written to 6 digits or exactly, get
+ * none. */
+static void test_rotate_axis_as_given(void)
+{
+    static const char text[] =
+        "OrthographicCamera { center 0 0 10 direction 0 0 -1 up 0 1 0 size 5 }\n"
+        "Materials { numMaterials 3 PhongMaterial { } PhongMaterial { }\n"
+        "  Checkerboard { Transform { Rotate { 3 0 0 10 } } materialIndex 0 materialIndex 1 } }\n"
+        "Group { numObjects 3 MaterialIndex 0\n"
+        "  Transform { Rotate { 0 0 2 90 } Sphere { center 0 0 0 radius 1 } }\n"
+        "  Transform { Rotate { 0.707107 0.707107 0 35 } Sphere { center 0 0 0 radius 1 } }\n"
+        "  Transform { Rotate { 0 1 0 30 } Sphere { center 0 0 0 radius 1 } } }\n";
+    char out[2048] = "";
+    FILE *f = fmemopen(out, sizeof out - 1, "w");
+    CHECK(f != NULL);
+    if (!f)
+        return;
+    Diag d;
+    diag_init(&d, f);
+    Scene *s = scene_load_string(text, "t.txt", NULL, &d);
+    fclose(f);
+    CHECK(s != NULL);
+    if (s) {
+        /* cos 90 = 0, sin 90 = 1: (1 0 0) -> (0 2 0), and the axis (0 0 1) -> (0 0 4). */
+        const Mat4 *m = transform_matrix(group_child(s->root, 0));
+        Vec3 x = mat4_point(m, v3(1, 0, 0)), z = mat4_point(m, v3(0, 0, 1));
+        CHECK_NEAR(x.x, 0, 1e-6);
+        CHECK_NEAR(x.y, 2, 1e-6);
+        CHECK_NEAR(z.z, 4, 1e-6);
+    }
+    scene_free(s);
+    CHECK_INT(d.errors, 0);
+    CHECK_INT(d.warnings, 2);
+    CHECK_CONTAINS(out, "t.txt:3:39: warning: Rotate axis 3 0 0 has length 3, not 1: it is "
+                        "used as given (the course's rule), which stretches the object as "
+                        "well as turning it; for a pure rotation write the unit axis 1 0 0\n");
+    CHECK_CONTAINS(out, "t.txt:5:24: warning: Rotate axis 0 0 2 has length 2, not 1");
+}
+
 static void test_primitives_values(void)
 {
     Scene *s = load("Materials { numMaterials 1 PhongMaterial { } }\n"
@@ -1062,6 +1104,7 @@ static const TestCase tests[] = {
     {"procedural_materials", test_procedural_materials},
     {"repeated_blocks_replace", test_repeated_blocks_replace},
     {"repeated_blocks_warn", test_repeated_blocks_warn},
+    {"rotate_axis_as_given", test_rotate_axis_as_given},
     {"primitives_values", test_primitives_values},
     {"obj_file_resolution", test_obj_file_resolution},
     {"errors_located", test_errors_located},
