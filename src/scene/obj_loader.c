@@ -231,16 +231,25 @@ static inline bool simple_float(const char **pp, float *out)
     return true;
 }
 
-/* Whether p is at its line's end: LF, CR LF or the text's end (a NUL). */
-static inline bool ends_line(const char *p)
+/* Whether the record ends at p as read_vertex and read_face end one after its last
+ * number: blanks (CR among them), then the line's end (LF or the text's end) or a
+ * comment ('#', glued or not). A CR LF line, a comment after the record, trailing
+ * blanks. (CR LF files, as Windows tools write them, went all through read_vertex once,
+ * and so did every vertex with a comment after b502bad: 21% more instructions for the
+ * 40k bunny with one on every line; regress37, bench/REPORT.txt.) */
+static inline bool ends_record(const char *p)
 {
-    return *p == '\n' || *p == '\0' || (*p == '\r' && (p[1] == '\n' || p[1] == '\0'));
+    if (*p == '\n' || (*p == '\r' && p[1] == '\n'))
+        return true; /* the common cases, LF and CR LF, first */
+    while (is_blank(*p))
+        p++;
+    return *p == '\n' || *p == '\0' || *p == '#';
 }
 
 /* The common vertex record "v x y z": single spaces, numbers of simple_float's form,
- * the line's end (LF, CR LF, the text's end) right after the third (anything else
- * there, even blanks, is read_vertex's to check: CR LF files, as Windows tools write
- * them, went all through read_vertex), and room in the array. Read without
+ * the record's end right after the third (ends_record: what follows is only blanks and
+ * a comment; more numbers, a w or a colour, are read_vertex's to check), and room in
+ * the array. Read without
  * read_vertex's machinery (its locations for messages, blank runs, the general number
  * reader): the same vertex. Anything else returns false with r untouched, and
  * read_vertex takes the line from the start, so messages do not change. */
@@ -254,7 +263,7 @@ static bool read_vertex_simple(ObjReader *r)
         if (*p != ' ')
             return false;
         p++;
-        if (!simple_float(&p, &c[k]) || !(k < 2 ? *p == ' ' : ends_line(p)))
+        if (!simple_float(&p, &c[k]) || !(k < 2 ? *p == ' ' : ends_record(p)))
             return false;
     }
     r->m->verts[r->m->nverts++] = v3(c[0], c[1], c[2]);
@@ -420,9 +429,9 @@ static bool read_face(ObjReader *r, const char *f_at)
 }
 
 /* The common face record "f a b c": single spaces, plain positive in-range indices, the
- * line ending right after. Read without the general machinery of read_face (same
- * triangle); anything else returns false with r untouched, and read_face takes the
- * line from the start, so messages do not change. */
+ * record ending right after (ends_record). Read without the general machinery of
+ * read_face (same triangle); anything else returns false with r untouched, and
+ * read_face takes the line from the start, so messages do not change. */
 static bool read_face_simple(ObjReader *r)
 {
     const char *p = r->p;
@@ -447,7 +456,7 @@ static bool read_face_simple(ObjReader *r)
         }
         idx[k] = v - 1;
     }
-    if (!ends_line(p))
+    if (!ends_record(p))
         return false;
     if (r->m->ntris >= r->cap_t &&
         (r->m->ntris == INT_MAX || r->fixed ||
@@ -474,6 +483,15 @@ static const char *skip_line_bom(const char *p)
 
 /* The records of r->p .. r->end, line by line; false after reporting an error, or
  * with nothing reported when a stop was requested (rt/par.h). */
+static atomic_ulong g_general_records; /* objfile_general_records */
+
+unsigned long objfile_general_records(void) { return atomic_load(&g_general_records); }
+
+static void general_record(void)
+{
+    atomic_fetch_add_explicit(&g_general_records, 1, memory_order_relaxed);
+}
+
 static bool parse_lines(ObjReader *r)
 {
     while (r->p < r->end) {
@@ -486,9 +504,9 @@ static bool parse_lines(ObjReader *r)
         size_t kl = (size_t)(r->p - kw);
         bool ok = true;
         if (kl == 1 && kw[0] == 'v')
-            ok = read_vertex_simple(r) || read_vertex(r);
+            ok = read_vertex_simple(r) || (general_record(), read_vertex(r));
         else if (kl == 1 && kw[0] == 'f')
-            ok = read_face_simple(r) || read_face(r, kw);
+            ok = read_face_simple(r) || (general_record(), read_face(r, kw));
         else if (kl == 1 && (kw[0] == 'V' || kw[0] == 'F')) {
             /* OBJ keywords are lower case, and no tool writes these; skipped as unknown
              * records, a hand-written file in capitals lost every vertex or face

@@ -34,6 +34,10 @@ bool objfile_has_lone_cr(const char *buf, size_t len);
 /* For tests: how many files objfile_parse has read in parallel pieces so far (the
  * others went through the serial reader). */
 unsigned long objfile_pieces_read(void);
+/* For tests: how many v and f records the general readers (read_vertex, read_face) have
+ * taken so far; the common forms go through the quick ones (read_vertex_simple,
+ * read_face_simple), about half the instructions a record. */
+unsigned long objfile_general_records(void);
 
 /* A Group of one Triangle per face, all with material m, from arena a. block: NULL, or
  * the file's arena buffer (file_read_reusable), no longer needed, which is taken over
