@@ -762,8 +762,9 @@ static inline __attribute__((always_inline)) bool band_reaches(const Grid *g, co
 {
     float d = a == 0 ? ray->dir.x : a == 1 ? ray->dir.y : ray->dir.z;
     float reach = tm + g->band[a] * fabsf(1.0f / d); /* as lean_next_band holds it */
-    float other = a == 0 ? fminf(m->tn1, m->tn2) : a == 1 ? fminf(m->tn0, m->tn2)
-                                                          : fminf(m->tn0, m->tn1);
+    float other = a == 0   ? min_nan_last(m->tn1, m->tn2)
+                  : a == 1 ? min_nan_last(m->tn0, m->tn2)
+                           : min_nan_last(m->tn0, m->tn1);
     return other <= reach && other <= limit;
 }
 
@@ -1234,9 +1235,9 @@ static bool tl_tree_leaf_band(const TwoLevelGrid *t, const SubGrid *sg, const Ma
         return false;
     const float d[3] = {ray->dir.x, ray->dir.y, ray->dir.z};
     float reach = tm + g->band[a] * fabsf(1.0f / d[a]);
-    float other = a == 0 ? fminf(sm.t_next[1], sm.t_next[2])
-                  : a == 1 ? fminf(sm.t_next[0], sm.t_next[2])
-                           : fminf(sm.t_next[0], sm.t_next[1]);
+    float other = a == 0 ? min_nan_last(sm.t_next[1], sm.t_next[2])
+                  : a == 1 ? min_nan_last(sm.t_next[0], sm.t_next[2])
+                           : min_nan_last(sm.t_next[0], sm.t_next[1]);
     if (!(other <= reach && other <= hit->t))
         return false;
     for (int k = 0; k < 3; k++)

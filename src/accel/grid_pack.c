@@ -63,11 +63,6 @@ static void move_prims(Grid *g, uint32_t *newix)
     }
 }
 
-/* fminf and fmaxf without the libm call (at -O2 for plain x86-64 they are calls: 240,000
- * of them per 40k triangles): a NaN operand yields the other one, as with fminf. */
-static inline float min_nan_last(float a, float b) { return (a < b || b != b) ? a : b; }
-static inline float max_nan_last(float a, float b) { return (a > b || b != b) ? a : b; }
-
 /* The packed copy of *gp (and what a hit on it records), or id RT_NO_ID when it is not
  * an untransformed triangle. */
 

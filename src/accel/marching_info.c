@@ -3,16 +3,26 @@
 #include "rt/marching_info.h"
 #include "rt/geom.h"
 
-float march_band_width(const BBox *box, float pad)
+/* march_band_width before its cap: the tolerance's reach beyond the box, the same for
+ * every axis. Plain compares for fmaxf (a libm call at -O2; the box is finite, so no
+ * NaN reaches them, and fabsf's +0 and the +0 start leave no signed zero to tell). */
+static inline float band_reach(const BBox *box)
 {
     float ext = 0.0f, mag = 0.0f;
     const float lo[3] = {box->min.x, box->min.y, box->min.z};
     const float hi[3] = {box->max.x, box->max.y, box->max.z};
     for (int a = 0; a < 3; a++) {
         ext += hi[a] - lo[a];
-        mag = fmaxf(mag, fmaxf(fabsf(lo[a]), fabsf(hi[a])));
+        float m = fabsf(lo[a]), h = fabsf(hi[a]);
+        m = h > m ? h : m;
+        mag = m > mag ? m : mag;
     }
-    float w = 2.0f * (RT_TRI_EDGE_TOL + RT_TRI_FAR_TOL) * ext + 1e-5f * mag;
+    return 2.0f * (RT_TRI_EDGE_TOL + RT_TRI_FAR_TOL) * ext + 1e-5f * mag;
+}
+
+float march_band_width(const BBox *box, float pad)
+{
+    float w = band_reach(box);
     return w < pad ? w : pad;
 }
 
@@ -27,19 +37,22 @@ bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float p
     bool parallel[3];
     float t_enter = -INFINITY, t_exit = INFINITY;
     int enter_axis = -1;
+    /* band_reach(box) for band_t, made once, for a ray that meets the box, on an axis
+     * with a pad: it depends on the box alone, and with pad 0 (-visualize_grid's march)
+     * the band is 0 whatever it is. Made per axis and ray it cost -visualize_grid lines
+     * up to 70% more instructions (regress37, bench/REPORT.txt). */
+    float reach = -1.0f;
 
     /* Slab test against the padded box (Kay & Kajiya). */
     for (int a = 0; a < 3; a++) {
         inv[a] = 1.0f / d[a];
         parallel[a] = d[a] == 0.0f || !isfinite(inv[a]);
         float plo = lo[a] - pad[a], phi = hi[a] + pad[a];
-        mi->band_t[a] = 0.0f;
         if (parallel[a]) {
             if (!(o[a] >= plo && o[a] <= phi))
                 return false;
             continue;
         }
-        mi->band_t[a] = march_band_width(box, pad[a]) * fabsf(inv[a]);
         march_slab_axis(plo, phi, o[a], inv[a], a, &t_enter, &t_exit, &enter_axis);
     }
     mi->held = 0;
@@ -61,11 +74,17 @@ bool march_init(MarchingInfo *mi, const BBox *box, const int n[3], const float p
         } else {
             mi->cell[a] = march_cell_of(o[a] + mi->t * d[a], lo[a], inv_size, n[a]);
         }
+        mi->band_t[a] = 0.0f;
         if (parallel[a]) {
             mi->base[a] = 0.0f;
             mi->dt[a] = 0.0f;
             mi->t_next[a] = INFINITY;
         } else {
+            if (pad[a] > 0.0f) {
+                if (reach < 0.0f)
+                    reach = band_reach(box);
+                mi->band_t[a] = (reach < pad[a] ? reach : pad[a]) * fabsf(inv[a]);
+            }
             float size = (hi[a] - lo[a]) / (float)n[a];
             mi->base[a] = (lo[a] - o[a]) * inv[a];
             mi->dt[a] = size * inv[a];
