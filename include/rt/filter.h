@@ -35,6 +35,11 @@ typedef struct FilterOps {
                                size_t plane);
     /* Half-width beyond which the weight is negligible or zero: r, or 2 sigma. */
     double (*extent)(const Filter *f);
+    /* The weight is negative somewhere in the support (Mitchell's lobes): the film then
+     * guards against weight sums near or below zero (filter_has_negative_lobes). A
+     * filter that is never negative leaves it false; test_antialias checks every filter
+     * of filter_registry against its own weights. */
+    bool negative_lobes;
 } FilterOps;
 
 struct Filter {
@@ -49,9 +54,11 @@ struct Filter {
     float gauss_ni, gauss_e1, gauss_e4;
 };
 
+/* The filters, in the order -h lists them; NULL-terminated. */
+extern const FilterOps *const filter_registry[];
 /* The filter whose option is -<name>_filter; NULL when unknown. The options parser
- * takes -<name>_filter for every filter of the table (filter.c, all_filters); the -h
- * text, README.txt and the manual page list them by hand. */
+ * takes -<name>_filter for every filter of filter_registry; the -h text, README.txt and
+ * the manual page list them by hand. */
 const FilterOps *filter_find(const char *name);
 /* Sets up a filter; false with a one-line reason in why unless 0 < r <= FILTER_MAX_RADIUS. */
 bool filter_init(Filter *f, const FilterOps *ops, float r, char *why, size_t whylen);
@@ -68,10 +75,9 @@ static inline float filter_weight(const Filter *f, float x, float y)
  * else 0): the film sums a pixel's own samples without a call per weight. */
 bool filter_is_box(const Filter *f);
 
-/* Whether f has negative lobes (Mitchell): a pixel's weight sum may then come out small
- * or negative with few samples, which the film guards against (film.c,
- * film_fix_lobes). It names Mitchell's ops: a new filter with negative lobes (Lanczos)
- * must be added there, or the film trusts every one of its pixels. */
+/* Whether f has negative lobes (Mitchell; FilterOps.negative_lobes): a pixel's weight
+ * sum may then come out small or negative with few samples, which the film guards
+ * against (film.c, film_fix_lobes). */
 bool filter_has_negative_lobes(const Filter *f);
 
 /* w[i] = the separable weight_1d at x[i] for i < n (ops->weights_1d when the filter

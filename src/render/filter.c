@@ -635,15 +635,23 @@ static float mitchell_weight(const Filter *f, float x, float y)
                    mitchell_1d(2.0 * (double)y / (double)f->r));
 }
 
-static const FilterOps box_ops = {"box", "radius", box_weight, box_weight_1d, NULL, NULL,
-                                  radius_extent};
-static const FilterOps tent_ops = {"tent", "radius", tent_weight, NULL, NULL, NULL,
-                                   radius_extent};
-static const FilterOps gaussian_ops = {"gaussian", "sigma", gaussian_weight,
-                                       gaussian_weight_1d, gaussian_weights_1d,
-                                       gaussian_weights_1d_offsets, gaussian_extent};
-static const FilterOps mitchell_ops = {"mitchell", "radius", mitchell_weight,
-                                       mitchell_weight_1d, NULL, NULL, radius_extent};
+static const FilterOps box_ops = {.name = "box", .param = "radius", .weight = box_weight,
+                                  .weight_1d = box_weight_1d, .extent = radius_extent};
+static const FilterOps tent_ops = {.name = "tent", .param = "radius", .weight = tent_weight,
+                                   .extent = radius_extent};
+static const FilterOps gaussian_ops = {.name = "gaussian",
+                                       .param = "sigma",
+                                       .weight = gaussian_weight,
+                                       .weight_1d = gaussian_weight_1d,
+                                       .weights_1d = gaussian_weights_1d,
+                                       .weights_1d_offsets = gaussian_weights_1d_offsets,
+                                       .extent = gaussian_extent};
+static const FilterOps mitchell_ops = {.name = "mitchell",
+                                       .param = "radius",
+                                       .weight = mitchell_weight,
+                                       .weight_1d = mitchell_weight_1d,
+                                       .extent = radius_extent,
+                                       .negative_lobes = true};
 
 void filter_weights_1d(const Filter *f, const float *x, float *w, int n)
 {
@@ -699,16 +707,16 @@ void filter_weights_1d_blocks(const Filter *f, const float *pos, int nblk, int R
 
 bool filter_is_box(const Filter *f) { return f->ops == &box_ops; }
 
-bool filter_has_negative_lobes(const Filter *f) { return f->ops == &mitchell_ops; }
+bool filter_has_negative_lobes(const Filter *f) { return f->ops->negative_lobes; }
 
-static const FilterOps *const all_filters[] = {&box_ops, &tent_ops, &gaussian_ops,
-                                               &mitchell_ops};
+const FilterOps *const filter_registry[] = {&box_ops, &tent_ops, &gaussian_ops, &mitchell_ops,
+                                            NULL};
 
 const FilterOps *filter_find(const char *name)
 {
-    for (size_t i = 0; i < sizeof all_filters / sizeof all_filters[0]; i++)
-        if (strcmp(all_filters[i]->name, name) == 0)
-            return all_filters[i];
+    for (size_t i = 0; filter_registry[i]; i++)
+        if (strcmp(filter_registry[i]->name, name) == 0)
+            return filter_registry[i];
     return NULL;
 }
 

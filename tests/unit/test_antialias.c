@@ -275,6 +275,35 @@ static void test_filter_symmetry_and_support(void)
     CHECK(filter_find("") == NULL);
 }
 
+/* Every filter of the registry says whether it has negative lobes, and says it right:
+ * the film's guard for weight sums near zero (film_fix_lobes) is on exactly for those,
+ * so a new filter with lobes (Lanczos) that left the flag false would go unguarded.
+ * Its weights are probed over the support on a fine lattice at radii 0.5 to 3. */
+static void test_filter_lobes_flag(void)
+{
+    static const float params[] = {0.5f, 1.0f, 1.5f, 2.0f, 3.0f};
+    char why[160];
+    int n = 0;
+    for (size_t k = 0; filter_registry[k]; k++, n++) {
+        const FilterOps *ops = filter_registry[k];
+        CHECK(filter_find(ops->name) == ops);
+        bool negative = false;
+        for (size_t p = 0; p < sizeof params / sizeof params[0]; p++) {
+            Filter f;
+            CHECK(filter_init(&f, ops, params[p], why, sizeof why));
+            float reach = (float)f.support + 0.5f;
+            for (float x = -reach; x <= reach; x += 0.03125f)
+                for (float y = -reach; y <= reach; y += 0.0625f)
+                    negative |= filter_weight(&f, x, y) < 0.0f;
+            CHECK(filter_has_negative_lobes(&f) == ops->negative_lobes);
+        }
+        CHECK_MSG(negative == ops->negative_lobes, "%s: negative weights %d, negative_lobes %d",
+                  ops->name, negative, ops->negative_lobes);
+    }
+    CHECK(n >= 4); /* box, tent, gaussian, mitchell, and any added since */
+    CHECK(filter_find("mitchell")->negative_lobes);
+}
+
 /* The separable Gaussian's own float exp against libm's, rounded to float: at most one
  * ulp apart (where the result is normal; at most one unit of the smallest subnormal
  * below 2^-126), equal nearly always, over every float t from 0 down past the
@@ -1638,6 +1667,7 @@ static void test_film_wide_support(void)
 }
 
 static const TestCase tests[] = {
+    {"filters: the negative-lobes flag matches each filter's weights", test_filter_lobes_flag},
     {"samplers: range, strata, lattice, n-rooks", test_sampler_ranges_and_strata},
     {"samplers: deterministic per pixel, index, seed", test_sampler_determinism},
     {"samplers: jittered placement's lanes == the rule at stratum edges", test_jittered_place},
