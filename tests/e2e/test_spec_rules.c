@@ -2,11 +2,12 @@
  * smallest scene that shows it, rendered by the binary and checked against the formula
  * to the byte (one step of float rounding allowed): the -weight cutoff keeps a ray whose
  * weight equals it, along a path of products; the normal image takes |n| of every
- * component; a reflected ray that meets a back face brings black; a transparent object
- * casts a whole shadow; a point light is shadowed only by what lies before it; a ray
- * leaving glass at a steep angle is totally reflected and adds nothing; -visualize_grid
- * with -shadows shades cells by cells. Planar scenes, so the expected colours come
- * straight from the formulas (README.txt, 3 and 4). */
+ * component, also of back faces, which keep their depth; a reflected ray that meets a
+ * back face brings black; a transparent object casts a whole shadow; a point light is
+ * shadowed only by what lies before it; a ray leaving glass at a steep angle is totally
+ * reflected and adds nothing; -visualize_grid with -shadows shades cells by cells.
+ * Planar scenes, so the expected colours come straight from the formulas (README.txt,
+ * 3 and 4). */
 #define _POSIX_C_SOURCE 200809L
 #include "../harness.h"
 #include "e2e_util.h"
@@ -86,8 +87,9 @@ static void expect_color(const char *what, const char *name, int i, int j, doubl
         return;
     int want[3] = {to_byte(r), to_byte(g), to_byte(b)};
     for (int k = 0; k < 3; k++)
-        CHECK_MSG(abs(px[k] - want[k]) <= 1, "%s: pixel (%d, %d) is %d %d %d, expected %d %d %d",
-                  what, i, j, px[0], px[1], px[2], want[0], want[1], want[2]);
+        CHECK_MSG(abs(px[k] - want[k]) <= 1,
+                  "%s: pixel (%d, %d) is %d %d %d, expected %d %d %d", what, i, j, px[0],
+                  px[1], px[2], want[0], want[1], want[2]);
 }
 
 /* A mirror's reflected ray is traced when its weight equals -weight (at least, not
@@ -147,7 +149,8 @@ static void test_weight_cutoff_at_least(void)
 }
 
 /* -normals writes |nx| |ny| |nz|: the lower-left part of a sphere, whose normals point
- * to -x and -y, is as bright there as the upper right. */
+ * to -x and -y, is as bright there as the upper right. A back face keeps its depth and
+ * normal. */
 static void test_normals_absolute(void)
 {
     setup_dir();
@@ -162,6 +165,22 @@ static void test_normals_absolute(void)
         double x = -0.6, y = -0.6, z = sqrt(1.0 - x * x - y * y);
         expect_color("normal to -x -y", "n", 2, 2, -x, -y, z);
         expect_color("normal to +x +y", "n", 8, 8, -x, -y, z);
+    }
+    /* A back face without -shade_back: black in the colour image, but its depth and
+     * normal are written as any face's (docs/images.md). A clockwise triangle at z = 1:
+     * t = 4, grey (5 - 4) / (5 - 3), normal -z. */
+    static const char back[] =
+        "OrthographicCamera { center 0 0 5 direction 0 0 -1 up 0 1 0 size 2 }\n"
+        "Materials { numMaterials 1 PhongMaterial { } }\n"
+        "Group { numObjects 1 MaterialIndex 0\n"
+        "  Triangle { vertex0 -5 -5 1 vertex1 -5 5 1 vertex2 5 -5 1 } }\n";
+    char dfile[PATH_MAX];
+    const char *opts2[] = {"-normals", nfile, "-depth", "3", "5",
+                           e2e_join(dfile, sizeof dfile, g_dir, "d.tga"), NULL};
+    if (render("b", back, 3, 3, opts2)) {
+        expect_color("back face colour", "b", 1, 1, 0, 0, 0);
+        expect_color("back face depth", "d", 1, 1, 0.5, 0.5, 0.5);
+        expect_color("back face normal", "n", 1, 1, 0, 0, 1);
     }
     e2e_rmtree(g_dir);
 }
