@@ -29,6 +29,21 @@ static Scene *load(const char *text)
     return scene_load_string(text, "t.txt", NULL, &g_diag);
 }
 
+/* Parses text as "t.txt" with its messages captured in out (size bytes, kept
+ * NUL-terminated) and counted in *d. */
+static Scene *load_capture(const char *text, Diag *d, char *out, size_t size)
+{
+    out[0] = '\0';
+    FILE *f = fmemopen(out, size - 1, "w");
+    CHECK(f != NULL);
+    diag_init(d, f);
+    if (!f)
+        return NULL;
+    Scene *s = scene_load_string(text, "t.txt", NULL, d);
+    fclose(f);
+    return s;
+}
+
 /* The text must fail with a message containing msg (location included). */
 #define EXPECT_ERROR(text, msg) \
     do { \
@@ -499,15 +514,9 @@ static void test_repeated_blocks_warn(void)
         "Lights { numLights 0 }\n"
         "Materials { numMaterials 1 PhongMaterial { } }\n"
         "Group { numObjects 0 } Group { numObjects 0 }\n";
-    char out[2048] = "";
-    FILE *f = fmemopen(out, sizeof out - 1, "w");
-    CHECK(f != NULL);
-    if (!f)
-        return;
+    char out[2048];
     Diag d;
-    diag_init(&d, f);
-    Scene *sc = scene_load_string(text, "t.txt", NULL, &d);
-    fclose(f);
+    Scene *sc = load_capture(text, &d, out, sizeof out);
     CHECK(sc != NULL);
     CHECK(sc && sc->camera.kind == CAMERA_PERSPECTIVE);
     scene_free(sc);
@@ -550,15 +559,9 @@ static void test_rotate_axis_as_given(void)
         "  Transform { Rotate { 0 0 2 90 } Sphere { center 0 0 0 radius 1 } }\n"
         "  Transform { Rotate { 0.707107 0.707107 0 35 } Sphere { center 0 0 0 radius 1 } }\n"
         "  Transform { Rotate { 0 1 0 30 } Sphere { center 0 0 0 radius 1 } } }\n";
-    char out[2048] = "";
-    FILE *f = fmemopen(out, sizeof out - 1, "w");
-    CHECK(f != NULL);
-    if (!f)
-        return;
+    char out[2048];
     Diag d;
-    diag_init(&d, f);
-    Scene *s = scene_load_string(text, "t.txt", NULL, &d);
-    fclose(f);
+    Scene *s = load_capture(text, &d, out, sizeof out);
     CHECK(s != NULL);
     if (s) {
         /* cos 90 = 0, sin 90 = 1: (1 0 0) -> (0 2 0), and the axis (0 0 1) -> (0 0 4). */
