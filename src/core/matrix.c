@@ -49,11 +49,21 @@ bool mat4_inverse(const Mat4 *m, Mat4 *out)
             a[i][j] = (double)m->m[i][j];
             a[i][j + 4] = (i == j) ? 1.0 : 0.0;
         }
+    /* The pivots are judged against the largest entry of the linear part and of the
+     * last row (0 0 0 1 for an affine matrix), not of the translation: a translation
+     * cannot make a matrix singular, yet "Translate 2e12 0 0" was refused, its pivots
+     * of 1 being below 1e-12 of 2e12 (while a Sphere at x = 2e12 is fine). The scale
+     * is the old one or smaller, so every matrix accepted before is inverted by the
+     * same operations (the same bits) and only such ones are accepted anew. */
     double scale = 0.0;
+    bool finite = true;
     for (int i = 0; i < 4; i++)
-        for (int j = 0; j < 4; j++)
-            scale = fmax(scale, fabs(a[i][j]));
-    if (!(scale > 0.0) || !isfinite(scale))
+        for (int j = 0; j < 4; j++) {
+            finite = finite && isfinite(a[i][j]);
+            if (j < 3 || i == 3)
+                scale = fmax(scale, fabs(a[i][j]));
+        }
+    if (!(scale > 0.0) || !finite)
         return false;
     for (int col = 0; col < 4; col++) {
         int piv = col;

@@ -653,9 +653,19 @@ static bool parse_transform(Parser *p, const Token *kw, Object3D **out)
             double lo, hi;
             if (linear_part_singular(&m, &lo, &hi))
                 return fail(p, &kw->loc, "singular transformation (the matrix has no inverse)");
+            /* mat4_inverse judges the pivots against the largest entry of the linear
+             * part and of the row 0 0 0 1: each factor must exceed 1e-12 of the
+             * largest and of 1, and 1 must exceed 1e-12 of the largest. When the
+             * linear part passes, the inverse's translation overflowed float. */
+            Mat4 lin = m, lin_inv;
+            lin.m[0][3] = lin.m[1][3] = lin.m[2][3] = 0.0f;
+            if (mat4_inverse(&lin, &lin_inv))
+                return fail(p, &kw->loc, "transformation too extreme to invert in float "
+                            "precision: undoing its translation overflows float (scale "
+                            "factors %.3g..%.3g)", lo, hi);
             return fail(p, &kw->loc, "transformation too extreme to invert in float precision: "
-                        "its scale factors span %.3g..%.3g (keep them within 1e-12..1e12)",
-                        lo, hi);
+                        "its scale factors span %.3g..%.3g (keep them within 1e-12..1e12, the "
+                        "smallest more than 1e-12 times the largest)", lo, hi);
         }
         return out_of_memory(p, &kw->loc);
     }

@@ -50,6 +50,31 @@ static void test_inverse(void)
     CHECK(!mat4_inverse(&flat, &inv));
 }
 
+/* A translation cannot make a matrix singular, so it must not count in the inverse's
+ * relative pivot test: Translate 2e12 (pivots 1 against 2e12) and a rotation moved by
+ * 1e15 invert, exactly enough to take the moved origin back to 0; zero and flattened
+ * scales, and factors 1e13 apart, are still refused. */
+static void test_inverse_far_translation(void)
+{
+    Mat4 r = mat4_rotate_y(30), t = mat4_translate(v3(2e12f, -3e12f, 1e15f));
+    Mat4 moves[2] = {mat4_translate(v3(2e12f, 0, 0)), mat4_mul(&t, &r)};
+    for (int k = 0; k < 2; k++) {
+        Mat4 inv;
+        CHECK_MSG(mat4_inverse(&moves[k], &inv), "case %d refused", k);
+        Vec3 o = mat4_point(&moves[k], v3(0, 0, 0));
+        Vec3 back = mat4_point(&inv, o);
+        CHECK_MSG(fabsf(back.x) + fabsf(back.y) + fabsf(back.z) <= 1e15f * 1e-6f,
+                  "case %d: the origin comes back at (%g, %g, %g)", k, (double)back.x,
+                  (double)back.y, (double)back.z);
+        Vec3 d = mat4_dir(&inv, v3(1, 0, 0));
+        CHECK_NEAR(v3_length(d), 1, 1e-6);
+    }
+    Mat4 inv, flat = mat4_scale(v3(1, 0, 1)), apart = mat4_scale(v3(1e-7f, 1e6f, 1));
+    Mat4 far_flat = mat4_mul(&moves[0], &flat);
+    CHECK(!mat4_inverse(&far_flat, &inv));
+    CHECK(!mat4_inverse(&apart, &inv));
+}
+
 static void test_from_rows_and_transpose(void)
 {
     float v[16] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 0, 0, 0, 1};
@@ -87,6 +112,7 @@ static const TestCase tests[] = {
     {"math: rotations are right-handed", test_rotations_right_handed},
     {"math: composition order T*S", test_composition_order},
     {"math: inverse and singular matrices", test_inverse},
+    {"math: inverse: a far translation is not singular", test_inverse_far_translation},
     {"math: Matrix rows and transpose", test_from_rows_and_transpose},
     {"math: bounding boxes and slabs", test_bbox},
 };

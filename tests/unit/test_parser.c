@@ -922,6 +922,52 @@ static void test_errors_located(void)
     CHECK_NO_LEAKS();
 }
 
+/* Transforms at the parser's limits. A translation never makes a matrix singular: it
+ * used to count in mat4_inverse's relative pivot test, so "Translate 2e12 0 0" was
+ * refused ("too extreme to invert: its scale factors span 1..1", while a Sphere at
+ * x = 2e12 is fine); now it parses and the sphere is there. Scale factors too far
+ * apart, or too large, are still refused with a message that says the rule (1e-7
+ * and 1e6 were both "within 1e-12..1e12" of the old message), and an inverse whose
+ * translation overflows float says so. */
+static void test_transform_limits(void)
+{
+    static const char *const far[] = {"Translate 2e12 0 0", "Translate 1e13 0 0 UniformScale 1e3",
+                                      "YRotate 30 Translate 0 0 -1e15"};
+    for (int i = 0; i < 3; i++) {
+        char text[512];
+        snprintf(text, sizeof text,
+                 "Materials { numMaterials 1 PhongMaterial { } }\n"
+                 "Group { numObjects 1 MaterialIndex 0\n"
+                 "Transform { %s Sphere { center 0 0 0 radius 1 } } }", far[i]);
+        Scene *s = load(text);
+        CHECK_MSG(s != NULL, "'%s': %s", far[i], g_diag.last);
+        CHECK(!s || s->root != NULL);
+        scene_free(s);
+    }
+    Scene *s = load("Materials { numMaterials 1 PhongMaterial { } }\n"
+                    "Group { numObjects 1 MaterialIndex 0\n"
+                    "Transform { Translate 2e12 0 0 Sphere { center 0 0 0 radius 1 } } }");
+    CHECK(s && fabsf(s->root->bbox.min.x - 2e12f) <= 2e12f * 1e-6f);
+    scene_free(s);
+    EXPECT_ERROR("Materials { numMaterials 1 PhongMaterial { } }\n"
+                 "Group { numObjects 1 MaterialIndex 0\n"
+                 "Transform { Scale 1e-7 1e6 1 Sphere { center 0 0 0 radius 1 } } }",
+                 "t.txt:3:1: error: transformation too extreme to invert in float precision: "
+                 "its scale factors span 1e-07..1e+06 (keep them within 1e-12..1e12, the "
+                 "smallest more than 1e-12 times the largest)");
+    EXPECT_ERROR("Materials { numMaterials 1 PhongMaterial { } }\n"
+                 "Group { numObjects 1 MaterialIndex 0\n"
+                 "Transform { UniformScale 2e12 Sphere { center 0 0 0 radius 1 } } }",
+                 "t.txt:3:1: error: transformation too extreme to invert in float precision: "
+                 "its scale factors span 2e+12..2e+12");
+    EXPECT_ERROR("Materials { numMaterials 1 PhongMaterial { } }\n"
+                 "Group { numObjects 1 MaterialIndex 0\n"
+                 "Transform { Translate 3e38 0 0 UniformScale 0.5 Sphere { center 0 0 0 radius 1 } } }",
+                 "t.txt:3:1: error: transformation too extreme to invert in float precision: "
+                 "undoing its translation overflows float (scale factors 0.5..0.5)");
+    CHECK_NO_LEAKS();
+}
+
 static void test_errors_limits(void)
 {
     /* Nesting: RT_MAX_NESTING groups are fine, one more is not. */
@@ -1112,6 +1158,7 @@ static const TestCase tests[] = {
     {"obj_file_resolution", test_obj_file_resolution},
     {"errors_located", test_errors_located},
     {"errors_limits", test_errors_limits},
+    {"transform_limits", test_transform_limits},
     {"truncations_never_crash", test_truncations_never_crash},
     {"mutations_never_crash", test_mutations_never_crash},
 };
