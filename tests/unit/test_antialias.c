@@ -233,13 +233,15 @@ static void test_poisson_sampler(void)
 
 static void test_filter_symmetry_and_support(void)
 {
-    static const char *names[] = {"box", "tent", "gaussian", "mitchell"};
     static const float params[] = {0.5f, 1.5f, 1.7f, 2.3f, 0.4f, 1.0f};
     char why[160];
-    for (int k = 0; k < 4; k++)
+    /* Every filter of the table, a new one too. Only the Gaussian has weight beyond
+     * its support (the course's pictures keep its small corner weights). */
+    for (int k = 0; filter_registry[k]; k++)
         for (int p = 0; p < 6; p++) {
             Filter f;
-            CHECK(filter_init(&f, filter_find(names[k]), params[p], why, sizeof why));
+            bool reaches = strcmp(filter_registry[k]->name, "gaussian") == 0;
+            CHECK(filter_init(&f, filter_registry[k], params[p], why, sizeof why));
             for (float x = -3.0f; x <= 3.0f; x += 0.37f)
                 for (float y = -3.0f; y <= 3.0f; y += 0.29f) {
                     float w = filter_weight(&f, x, y);
@@ -248,7 +250,7 @@ static void test_filter_symmetry_and_support(void)
                     CHECK(w == filter_weight(&f, y, x));
                     /* nothing beyond the support: a sample of pixel i+R+1 lies at least
                      * R + 0.5 away */
-                    if (fabsf(x) > (float)f.support + 0.5f && k != 2)
+                    if (fabsf(x) > (float)f.support + 0.5f && !reaches)
                         CHECK(w == 0.0f);
                 }
             CHECK(filter_weight(&f, 0, 0) > 0.99f);
