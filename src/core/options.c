@@ -709,6 +709,7 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
         c.prev = c.opt;
         c.opt = c.i;
         const char *a = argv[c.i];
+        const FilterOps *filter_ops = NULL; /* -NAME_filter: the filter it names */
         bool *flag = switch_of(o, a);
         if (flag) {
             *flag = true;
@@ -869,8 +870,8 @@ bool options_parse(Options *o, int argc, char **argv, FILE *err)
             o->adaptive = true;
             o->sampler = NULL;
             replaced_by(&o->sampler_flag, &o->sampler_replaced, a);
-        } else if (filter_option(a)) {
-            const FilterOps *ops = filter_option(a);
+        } else if ((filter_ops = filter_option(a)) != NULL) {
+            const FilterOps *ops = filter_ops;
             if (!take_float(&c, a, &o->filter_param))
                 return false;
             /* The range as the other options word it, with the value as typed: the

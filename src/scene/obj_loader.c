@@ -166,9 +166,6 @@ static bool at_eol(const ObjReader *r) { return *r->p == '\n' || *r->p == '\0'; 
  * face 1 2 3, as "f 1 2 3 #c" is. */
 static bool at_sep(const ObjReader *r) { return at_eol(r) || is_blank(*r->p) || *r->p == '#'; }
 
-/* Said where a record runs on after a CR that ends no line: a file of lone CRs (classic
- * Mac OS line ends) is one long line to this reader. */
-
 /* How much of the word at `at` a message quotes: up to the next blank or the line's
  * end, at most 60 characters. */
 static int word_len(const char *at)
@@ -481,8 +478,6 @@ static const char *skip_line_bom(const char *p)
     return p[0] == '\xEF' && p[1] == '\xBB' && p[2] == '\xBF' ? p + 3 : p;
 }
 
-/* The records of r->p .. r->end, line by line; false after reporting an error, or
- * with nothing reported when a stop was requested (rt/par.h). */
 static atomic_ulong g_general_records; /* objfile_general_records */
 
 unsigned long objfile_general_records(void) { return atomic_load(&g_general_records); }
@@ -492,6 +487,8 @@ static void general_record(void)
     atomic_fetch_add_explicit(&g_general_records, 1, memory_order_relaxed);
 }
 
+/* The records of r->p .. r->end, line by line; false after reporting an error, or
+ * with nothing reported when a stop was requested (rt/par.h). */
 static bool parse_lines(ObjReader *r)
 {
     while (r->p < r->end) {

@@ -377,18 +377,16 @@ static bool out_of_memory(Parser *p, const SrcLoc *loc)
 
 /* ---- transformations (8) ------------------------------------------------------------ */
 
-/* Whether t is one of names (NULL-terminated; the first `skip_last` names before the
- * NULL are left out). */
-static bool is_among(const Token *t, const char *const *names, size_t skip_last)
+/* Whether t is one of names (NULL-terminated). */
+static bool is_among(const Token *t, const char *const *names)
 {
-    size_t n = name_count(names) - skip_last;
-    for (size_t i = 0; i < n; i++)
+    for (size_t i = 0; names[i]; i++)
         if (lex_is(t, names[i]))
             return true;
     return false;
 }
 
-static bool is_transformation(const Token *t) { return is_among(t, k_transformations, 0); }
+static bool is_transformation(const Token *t) { return is_among(t, k_transformations); }
 
 /* Applies one transformation keyword t (already read) to *m in the course's order:
  * M <- M * T for all but Matrix, M <- T * M for Matrix (8, "Composition order"). */
@@ -516,9 +514,11 @@ static bool linear_part_singular(const Mat4 *m, double *lo, double *hi)
     return !(fabs(det) > 1e-6);
 }
 
-/* k_objects without its last name, MaterialIndex (not an object: it sets the next
- * ones' material). */
-static bool is_object(const Token *t) { return is_among(t, k_objects, 1); }
+/* The rows of OBJECT_KEYWORDS (k_objects also offers MaterialIndex, which is no object:
+ * it sets the next ones' material). */
+#define OBJECT_IS(name, parse) lex_is(t, name) ||
+static bool is_object(const Token *t) { return OBJECT_KEYWORDS(OBJECT_IS) false; }
+#undef OBJECT_IS
 
 static bool enter(Parser *p, const Token *kw)
 {
@@ -1279,7 +1279,7 @@ static bool parse_procedural(Parser *p, const Token *kw, const MatList *ml, int 
     return *out || out_of_memory(p, &kw->loc);
 }
 
-static bool is_material(const Token *t) { return is_among(t, k_materials, 0); }
+static bool is_material(const Token *t) { return is_among(t, k_materials); }
 
 static bool parse_materials(Parser *p)
 {
